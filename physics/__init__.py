@@ -1,0 +1,50 @@
+"""Linkage Lab physics: planar n-bar chains and closed loops, three derivations, generated code, simulation.
+
+Pure Python (numpy, scipy, sympy, numba, pydantic); it never imports the GUI. The public names are
+re-exported here; see docs/architecture.md for conventions and shapes.
+"""
+
+from .codegen import CompiledSystem, load_compiled
+from .errors import LinkageError
+from .evaluate import accelerations
+from .kinematics import energies, joint_positions
+from .model import (
+    FORMULATION_NAMES,
+    INTEGRATOR_NAMES,
+    METHOD_NAMES,
+    Bar,
+    Chain,
+    Settings,
+    TracePoint,
+    apply_overrides,
+    make_chain,
+    parameter_names,
+)
+from .presets import Preset, get_preset, preset_names
+from .simulate import Trajectory, simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Bar",
+    "Chain",
+    "CompiledSystem",
+    "FORMULATION_NAMES",
+    "INTEGRATOR_NAMES",
+    "LinkageError",
+    "METHOD_NAMES",
+    "Preset",
+    "Settings",
+    "TracePoint",
+    "Trajectory",
+    "accelerations",
+    "apply_overrides",
+    "energies",
+    "get_preset",
+    "joint_positions",
+    "load_compiled",
+    "make_chain",
+    "parameter_names",
+    "preset_names",
+    "simulate",
+]

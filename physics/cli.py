@@ -1,0 +1,319 @@
+"""``python -m physics``: arguments -> models -> run -> CSV/JSON. Any error -> one line on stderr, non-zero exit.
+
+Subcommands: ``simulate``, ``accelerations``, ``presets``, ``warm`` (fill the derivation cache), and the
+benchmark and chaos-map commands (``bench``, ``chaos-map``) where installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import sys
+
+import numpy as np
+
+from .errors import LinkageError
+
+EXIT_BAD_INPUT = 2
+EXIT_RUN_FAILED = 3
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad argument as one line, like every other error here."""
+
+    def error(self, message):  # noqa: D401 - argparse hook
+        raise LinkageError(f"{self.prog}: {message}")
+
+
+def _parse_set(items) -> dict:
+    overrides = {}
+    for item in items or []:
+        if "=" not in item:
+            raise LinkageError(f"--set {item!r}: expected NAME=VALUE, e.g. --set L3=2")
+        name, value = item.split("=", 1)
+        overrides[name.strip()] = value.strip()
+    return overrides
+
+
+def _parse_floats(text: str, field: str, count: int | None = None) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise LinkageError(f"{field} = {text!r}: expected comma-separated numbers") from None
+    if count is not None and len(values) != count:
+        raise LinkageError(f"{field} = {text!r}: expected {count} comma-separated numbers, got {len(values)}")
+    bad = [v for v in values if not math.isfinite(v)]
+    if bad:
+        raise LinkageError(f"{field} = {text!r}: every entry must be a finite number")
+    return values
+
+
+def _build_setup(args):
+    """Preset + overrides + pin -> (chain, theta0, omega0, preset). Closed chains stay assembled."""
+    from .model import apply_overrides
+    from .presets import get_preset
+
+    preset = get_preset(args.preset, args.links)
+    overrides = _parse_set(getattr(args, "set", None))
+    chain, theta, omega = apply_overrides(preset.chain, preset.theta0, preset.omega0, overrides)
+    if chain.pinned:
+        chain, theta, omega = _close_loop(chain, theta, omega, args, overrides)
+    return chain, theta, omega, preset
+
+
+def _close_loop(chain, theta, omega, args, overrides):
+    """The pin is where the tip starts, unless ``--pin`` puts it elsewhere; then the last two angles are
+    assembled from the driving ones. Start velocities are projected onto the loop's velocity constraint."""
+    from .assembly import assemble, project_velocity
+    from .kinematics import joint_positions
+
+    n = chain.n
+    if getattr(args, "pin", None):
+        pin = tuple(_parse_floats(args.pin, "--pin", 2))
+        chain = chain.with_pin(pin)
+        theta = assemble(chain.array("L"), np.array(pin), theta[: n - 2], theta_prev=theta)
+    else:
+        tip = joint_positions(chain.array("L"), theta)[-1]
+        chain = chain.with_pin((float(tip[0]), float(tip[1])))
+    omega = project_velocity(chain.array("L"), theta, omega)
+    return chain, np.asarray(theta, float), np.asarray(omega, float)
+
+
+def _settings(args, chain):
+    from .model import Settings, TracePoint, validated
+
+    trace = None
+    if args.trace:
+        values = _parse_floats(args.trace, "--trace")
+        if len(values) not in (2, 3) or values[0] != int(values[0]):
+            raise LinkageError(f"--trace {args.trace!r}: expected BAR,ALONG[,ACROSS], e.g. --trace 2,0.5,0.1")
+        trace = validated(TracePoint, bar=int(values[0]), along=values[1], across=values[2] if len(values) > 2 else 0.0)
+        if trace.bar > chain.n:
+            raise LinkageError(f"--trace bar = {trace.bar}: allowed range 1 <= bar <= {chain.n}")
+    fields = dict(
+        method=args.method,
+        integrator=args.integrator,
+        backend=args.backend,
+        rtol=args.rtol,
+        atol=args.atol,
+        t_end=args.t_end,
+        samples=args.samples,
+        stabilization=args.stabilization,
+        damping=args.damping,
+        trace=trace,
+    )
+    if args.step is not None:
+        fields["step"] = args.step
+    return validated(Settings, **fields)
+
+
+def _write_table(columns: dict, fmt: str, out: str | None) -> None:
+    if fmt == "json":
+        text = json.dumps({k: [float(v) for v in arr] for k, arr in columns.items()})
+    else:
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(columns.keys())
+        for row in zip(*columns.values()):
+            writer.writerow([repr(float(v)) for v in row])
+        text = buffer.getvalue()
+    if out:
+        with open(out, "w") as handle:
+            handle.write(text if text.endswith("\n") else text + "\n")
+    else:
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+
+
+def cmd_simulate(args) -> int:
+    from .simulate import simulate
+
+    chain, theta, omega, preset = _build_setup(args)
+    if args.t_end is None:
+        args.t_end = preset.t_end
+    settings = _settings(args, chain)
+    trajectory = simulate(chain, theta, omega, settings)
+    fmt = args.format or ("json" if args.out and args.out.endswith(".json") else "csv")
+    _write_table(trajectory.columns(), fmt, args.out)
+    if not trajectory.success:
+        print(f"error: {trajectory.message}", file=sys.stderr)
+        return EXIT_RUN_FAILED
+    return 0
+
+
+def _case_chain(case: dict, pinned_default: bool, index: int):
+    from .model import make_chain
+
+    if not isinstance(case, dict):
+        raise LinkageError(f"case {index}: expected an object with links, params, theta, omega")
+    try:
+        n = int(case["links"])
+        params = case["params"]
+        theta = case["theta"]
+        omega = case.get("omega", [0.0] * n)
+    except (KeyError, TypeError, ValueError) as error:
+        raise LinkageError(f"case {index}: missing or invalid field {error}") from None
+    try:
+        L, d, m, I = ([params[f"{f}{i}"] for i in range(1, n + 1)] for f in "LdmI")
+        g = params.get("g", 1.0)
+    except KeyError as error:
+        raise LinkageError(f"case {index}: params lacks {error.args[0]}") from None
+    unknown = set(params) - {f"{f}{i}" for f in "LdmI" for i in range(1, n + 1)} - {"g"}
+    if unknown:
+        raise LinkageError(f"case {index}: unknown parameter(s) {sorted(unknown)}")
+    pin = case.get("pin")
+    if pin is None and pinned_default:
+        from .kinematics import joint_positions
+
+        tip = joint_positions(np.asarray(L, float), np.asarray(theta, float))[-1]
+        pin = (float(tip[0]), float(tip[1]))
+    try:
+        chain = make_chain(L, d, m, I, g=g, pin=tuple(pin) if pin is not None else None)
+    except LinkageError as error:
+        raise LinkageError(f"case {index}: {error}") from None
+    return chain, theta, omega
+
+
+def _with_grashof(result: dict, chain) -> dict:
+    if chain.pinned and chain.n == 3:
+        from .assembly import grashof
+
+        info = grashof(chain.array("L"), np.asarray(chain.pin))
+        result["grashof"] = info if isinstance(info, dict) else getattr(info, "__dict__", str(info))
+    return result
+
+
+def cmd_accelerations(args) -> int:
+    from .evaluate import accelerations
+    from .presets import get_preset
+
+    if args.input:
+        try:
+            with open(args.input) as handle:
+                cases = json.load(handle)
+        except (OSError, json.JSONDecodeError) as error:
+            raise LinkageError(f"--input {args.input}: {error}") from None
+        if not isinstance(cases, list):
+            raise LinkageError(f"--input {args.input}: expected a JSON list of cases")
+        pinned_default = get_preset(args.preset, args.links).chain.pinned if args.preset else False
+        results = []
+        for index, case in enumerate(cases):
+            chain, theta, omega = _case_chain(case, pinned_default, index)
+            try:
+                result = accelerations(chain, theta, omega, args.method)
+            except LinkageError as error:
+                raise LinkageError(f"case {index}: {error}") from None
+            results.append(_with_grashof(result, chain))
+        print(json.dumps(results))
+        return 0
+    chain, theta, omega, _ = _build_setup(args)
+    if args.state:
+        values = _parse_floats(args.state, "--state", 2 * chain.n)
+        theta, omega = np.array(values[: chain.n]), np.array(values[chain.n :])
+    print(json.dumps(_with_grashof(accelerations(chain, theta, omega, args.method), chain)))
+    return 0
+
+
+def cmd_presets(args) -> int:
+    from .presets import get_preset, preset_names
+
+    print(json.dumps([get_preset(name).summary() for name in preset_names()], indent=2))
+    return 0
+
+
+def cmd_warm(args) -> int:
+    """Fill the derivation cache (and numba's) for the given link counts, so the app starts warm."""
+    import time
+
+    from .codegen import load_compiled
+    from .model import Settings
+    from .presets import get_preset
+    from .simulate import simulate
+
+    for links in _parse_floats(args.links, "--links"):
+        for pinned in (False, True) if int(links) == 3 else (False,):
+            for method in ("newton_euler", "lagrange", "dae"):
+                start = time.perf_counter()
+                compiled = load_compiled(method, int(links), pinned)
+                preset = get_preset("four-bar") if pinned else get_preset("chain", int(links))
+                for integrator in ("RK45", "DOP853"):
+                    simulate(preset.chain, preset.theta0, preset.omega0,
+                             Settings(method=method, integrator=integrator, t_end=0.1, samples=3))
+                print(f"{method} n={int(links)} {'pinned' if pinned else 'open'}: "
+                      f"{time.perf_counter() - start:.2f} s ({'cached' if compiled.from_cache else 'derived'})")
+    return 0
+
+
+def _common(parser, method_required=False):
+    from .presets import preset_names
+
+    parser.add_argument("--preset", default="triple-a", choices=preset_names())
+    parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain (1..12)")
+    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae", "reduced"))
+    parser.add_argument("--set", action="append", metavar="NAME=VALUE",
+                        help="override a parameter or start value: L1..Ln d1..dn m1..mn I1..In g theta1.. omega1..")
+    parser.add_argument("--pin", default=None, metavar="X,Y", help="pin the tip of a closed chain at this point")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m physics", description="Linkage Lab physics: derive, simulate, compare.")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+
+    sim = sub.add_parser("simulate", help="integrate a preset and print or write the trajectory")
+    _common(sim)
+    sim.add_argument("--integrator", default="DOP853", choices=("RK45", "DOP853", "Radau", "LSODA", "midpoint"))
+    sim.add_argument("--backend", default="compiled", choices=("compiled", "scipy"))
+    sim.add_argument("--rtol", type=float, default=1e-10)
+    sim.add_argument("--atol", type=float, default=1e-10)
+    sim.add_argument("--step", type=float, default=None, help="fixed step for --integrator midpoint")
+    sim.add_argument("--t-end", type=float, default=None, help="seconds to simulate (default: the preset's)")
+    sim.add_argument("--samples", type=int, default=201)
+    sim.add_argument("--stabilization", default="projection", choices=("none", "baumgarte", "projection"))
+    sim.add_argument("--damping", type=float, default=0.0, help="viscous joint damping (torque per rad/s)")
+    sim.add_argument("--trace", default=None, metavar="BAR,ALONG[,ACROSS]", help="point to trace")
+    sim.add_argument("--out", default=None, help="write to this file (CSV, or JSON if it ends in .json)")
+    sim.add_argument("--format", default=None, choices=("csv", "json"))
+    sim.set_defaults(func=cmd_simulate)
+
+    acc = sub.add_parser("accelerations", help="print the accelerations (and reactions) at one state as JSON")
+    _common(acc)
+    acc.add_argument("--state", default=None, metavar="TH1,..,THN,W1,..,WN")
+    acc.add_argument("--input", default=None, metavar="cases.json", help="evaluate a JSON list of cases")
+    acc.set_defaults(func=cmd_accelerations)
+
+    pre = sub.add_parser("presets", help="list the presets with their parameters (JSON)")
+    pre.set_defaults(func=cmd_presets)
+
+    warm = sub.add_parser("warm", help="derive and compile ahead of time (fills the cache)")
+    warm.add_argument("--links", default="1,2,3", metavar="N,N,...")
+    warm.set_defaults(func=cmd_warm)
+    return parser
+
+
+_EXTERNAL = {"bench": ("physics.bench", "main"), "chaos-map": ("physics.chaos", "main")}
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        if argv and argv[0] in _EXTERNAL:
+            import importlib
+
+            module_name, func = _EXTERNAL[argv[0]]
+            return int(getattr(importlib.import_module(module_name), func)(argv[1:]) or 0)
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "command", None):
+            parser.print_help()
+            return EXIT_BAD_INPUT
+        return int(args.func(args) or 0)
+    except LinkageError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0

@@ -1,0 +1,181 @@
+"""LinearSystem -> Python source of a numba module (common subexpressions hoisted, no sympy at run time).
+
+The generated module fills ``A`` and ``b`` entry by entry from the state and the parameter vector, applies
+Baumgarte terms to the tip rows when asked, and solves with a small LU factorisation with partial pivoting
+whose pivot ratio doubles as a cheap singularity detector. The integrator kernels
+(``physics/simulate/kernels.py``) are appended to the same file, so numba compiles the whole right-hand side
+and the integration loop together and caches them beside the file.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from ..derive.formulation import LinearSystem
+
+
+class _Printer(PythonCodePrinter):
+    """Prints ``math.sin`` etc. with the module's ``import math``; powers of 2 as products (cheaper in numba)."""
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.as_base_exp()
+        if exp == 2:
+            return f"({self._print(base)})*({self._print(base)})"
+        if exp == -1:
+            return f"1.0/({self._print(base)})"
+        return super()._print_Pow(expr, rational=rational)
+
+
+def _index_literal(values) -> str:
+    return "[" + ", ".join(str(int(v)) for v in values) + "]"
+
+
+def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
+    """Source text of the generated module for ``system`` (see docs/architecture.md for its API)."""
+    s = system.symbols
+    n = system.n
+    k = len(system.unknowns)
+    printer = _Printer({"standard": "python3"})
+
+    entries = []  # (target, expression)
+    for i in range(k):
+        for j in range(k):
+            if system.A[i, j] != 0:
+                entries.append((f"A[{i}, {j}]", system.A[i, j]))
+    for i in range(k):
+        entries.append((f"b[{i}]", system.b[i]))
+    replacements, reduced = sp.cse([e for _, e in entries], symbols=sp.numbered_symbols("_t"), order="none")
+
+    lines = []
+    lines.append(header.rstrip() + "\n")
+    lines.append("import math\n\nimport numpy as np\nfrom numba import njit\n")
+    lines.append(f"N_LINKS = {n}")
+    lines.append(f"N_UNKNOWNS = {k}")
+    lines.append(f"PINNED = {bool(system.pinned)}")
+    lines.append(f"THETA_DDOT_INDEX = np.array({_index_literal(system.theta_ddot_index)}, dtype=np.int64)")
+    flat = [v for pair in system.reaction_index for v in pair]
+    lines.append(f"REACTION_INDEX = np.array({_index_literal(flat)}, dtype=np.int64).reshape(-1, 2)")
+    tip_reaction = system.tip_reaction_index or ()
+    lines.append(f"TIP_REACTION_INDEX = np.array({_index_literal(tip_reaction)}, dtype=np.int64)")
+    tip_rows = system.tip_rows or ()
+    lines.append(f"TIP_ROWS = np.array({_index_literal(tip_rows)}, dtype=np.int64)")
+    lines.append("")
+    lines.append("")
+    lines.append("@njit(cache=True)")
+    lines.append("def assemble(theta, omega, params, A, b):")
+    lines.append('    """Fill A (k, k) and b (k,) of A x = b at one state; entries not written are zero."""')
+    for i in range(n):
+        lines.append(f"    {s.theta[i]} = theta[{i}]")
+        lines.append(f"    {s.omega[i]} = omega[{i}]")
+    for idx, sym in enumerate(s.params):
+        lines.append(f"    {sym} = params[{idx}]")
+    lines.append("    A[:, :] = 0.0")
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {printer.doprint(expr)}")
+    for (target, _), expr in zip(entries, reduced):
+        lines.append(f"    {target} = {printer.doprint(expr)}")
+    lines.append("")
+    lines.append(_SOLVE_SOURCE)
+    lines.append(kernels_source)
+    return "\n".join(lines) + "\n"
+
+
+_SOLVE_SOURCE = '''
+@njit(cache=True)
+def lu_solve(A, b, x):
+    """Solve A x = b in place by Gaussian elimination with partial pivoting.
+
+    Returns the ratio of the largest to the smallest pivot magnitude: a cheap estimate of the condition
+    number, infinite when a pivot vanishes (the configuration is singular).
+    """
+    k = A.shape[0]
+    largest = 0.0
+    smallest = np.inf
+    for col in range(k):
+        pivot_row = col
+        pivot_abs = abs(A[col, col])
+        for row in range(col + 1, k):
+            value = abs(A[row, col])
+            if value > pivot_abs:
+                pivot_abs = value
+                pivot_row = row
+        if pivot_abs == 0.0 or not np.isfinite(pivot_abs):
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        if pivot_row != col:
+            for j in range(col, k):
+                tmp = A[col, j]
+                A[col, j] = A[pivot_row, j]
+                A[pivot_row, j] = tmp
+            tmp = b[col]
+            b[col] = b[pivot_row]
+            b[pivot_row] = tmp
+        largest = max(largest, pivot_abs)
+        smallest = min(smallest, pivot_abs)
+        inv = 1.0 / A[col, col]
+        for row in range(col + 1, k):
+            factor = A[row, col] * inv
+            if factor != 0.0:
+                for j in range(col + 1, k):
+                    A[row, j] -= factor * A[col, j]
+                b[row] -= factor * b[col]
+    for i in range(k - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, k):
+            acc -= A[i, j] * x[j]
+        x[i] = acc / A[i, i]
+    return largest / smallest
+
+
+@njit(cache=True)
+def solve_full(theta, omega, params, alpha, beta, x):
+    """All unknowns x (k,) at one state; Baumgarte gains alpha, beta act on the tip rows of a pinned chain.
+
+    Returns the pivot-ratio condition estimate (inf when singular).
+    """
+    A = np.empty((N_UNKNOWNS, N_UNKNOWNS))
+    b = np.empty(N_UNKNOWNS)
+    assemble(theta, omega, params, A, b)
+    if PINNED and (alpha != 0.0 or beta != 0.0):
+        n = N_LINKS
+        tip_x = 0.0
+        tip_y = 0.0
+        vel_x = 0.0
+        vel_y = 0.0
+        for i in range(n):
+            s = math.sin(theta[i])
+            c = math.cos(theta[i])
+            tip_x += params[i] * s
+            tip_y -= params[i] * c
+            vel_x += params[i] * c * omega[i]
+            vel_y += params[i] * s * omega[i]
+        b[TIP_ROWS[0]] -= 2.0 * alpha * vel_x + beta * beta * (tip_x - params[4 * n + 1])
+        b[TIP_ROWS[1]] -= 2.0 * alpha * vel_y + beta * beta * (tip_y - params[4 * n + 2])
+    return lu_solve(A, b, x)
+
+
+@njit(cache=True)
+def accel(theta, omega, params, alpha, beta, theta_ddot):
+    """Angular accelerations (n,) at one state; returns the condition estimate."""
+    x = np.empty(N_UNKNOWNS)
+    cond = solve_full(theta, omega, params, alpha, beta, x)
+    for i in range(N_LINKS):
+        theta_ddot[i] = x[THETA_DDOT_INDEX[i]]
+    return cond
+
+
+@njit(cache=True)
+def accel_batch(theta, omega, params, alpha, beta, theta_ddot):
+    """accel over a batch: theta, omega, theta_ddot of shape (K, n); params (P,) shared by all."""
+    for row in range(theta.shape[0]):
+        accel(theta[row], omega[row], params, alpha, beta, theta_ddot[row])
+
+
+@njit(cache=True)
+def solve_full_batch(theta, omega, params, alpha, beta, x, cond):
+    """solve_full over a batch: x (K, k), cond (K,)."""
+    for row in range(theta.shape[0]):
+        cond[row] = solve_full(theta[row], omega[row], params, alpha, beta, x[row])
+'''

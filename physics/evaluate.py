@@ -1,0 +1,39 @@
+"""``accelerations``: the equations of motion evaluated at one state, in the CLI's JSON shape."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .codegen import load_compiled
+from .errors import LinkageError
+from .model import Chain, check_state
+from .simulate.run import SINGULAR_CONDITION
+
+
+def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0) -> dict:
+    """``{"method", "links", "theta_ddot", ["joint_reactions"], ["tip_reaction"], "condition"}``.
+
+    ``joint_reactions`` (dae only): entry k is the force ON bar k+1 BY the ground (k = 0) or by bar k.
+    ``tip_reaction`` (pinned chains, every method): the force ON the last bar BY the ground at the tip.
+    Raises LinkageError at a singular configuration instead of returning meaningless numbers.
+    """
+    theta, omega = check_state(chain.n, theta, omega)
+    compiled = load_compiled(method, chain.n, chain.pinned)
+    x, cond = compiled.solve_full(theta, omega, chain.params(damping=damping))
+    if not cond <= SINGULAR_CONDITION or not np.all(np.isfinite(x)):
+        raise LinkageError(
+            f"singular configuration at theta = {np.round(theta, 6).tolist()}: the {method} system has condition "
+            f"estimate {cond:.3g} (limit {SINGULAR_CONDITION:.0e}); the links are lined up (a dead-centre or "
+            f"change-point position) or a bar has no inertia"
+        )
+    result = {
+        "method": method,
+        "links": chain.n,
+        "theta_ddot": [float(v) for v in x[compiled.theta_ddot_index]],
+    }
+    if compiled.reaction_index.size:
+        result["joint_reactions"] = [[float(x[i]), float(x[j])] for i, j in compiled.reaction_index]
+    if compiled.tip_reaction_index.size:
+        result["tip_reaction"] = [float(v) for v in x[compiled.tip_reaction_index]]
+    result["condition"] = float(cond)
+    return result

@@ -1,0 +1,316 @@
+"""The boundary: pydantic models that own every bound, and their one-line error messages.
+
+Everything user-supplied (command-line ``--set``, JSON cases, app sliders) enters through
+:func:`make_chain`, :class:`Settings` or :func:`apply_overrides`; past this module the code
+works on plain float arrays (``Chain.params()``) and never re-checks.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .errors import LinkageError
+
+MAX_LINKS = 12
+FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
+METHOD_NAMES = FORMULATION_NAMES + ("reduced",)
+INTEGRATOR_NAMES = ("RK45", "DOP853", "Radau", "LSODA", "midpoint")
+COMPILED_INTEGRATORS = ("RK45", "DOP853", "midpoint")
+STABILIZATIONS = ("none", "baumgarte", "projection")
+
+# Baumgarte gains: critically damped constraint error, time constant 1/alpha ~ 0.1 s, an order of
+# magnitude faster than the seed four-bar's motion (period ~ 10 s) yet far slower than the integrator's
+# step, so the added terms neither distort the dynamics nor make the system stiff (docs/physics.md).
+BAUMGARTE_ALPHA = 10.0
+BAUMGARTE_BETA = 10.0
+
+# Relative size of the smallest mass-matrix eigenvalue below which a chain is rejected as singular.
+SINGULAR_MASS_RTOL = 1e-12
+
+
+def _finite(name: str, value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError(f"{name} = {value}: must be a finite number")
+    return value
+
+
+class Bar(BaseModel):
+    """One rigid bar: length ``L``, centre-of-mass distance ``d`` from its proximal joint, mass ``m``,
+    centroidal moment of inertia ``I``."""
+
+    model_config = ConfigDict(frozen=True)
+
+    L: float = Field(1.0, ge=0.0, description="length")
+    d: float = Field(0.5, ge=0.0, description="centre-of-mass distance from the proximal joint")
+    m: float = Field(1.0, ge=0.0, description="mass")
+    I: float = Field(0.1, ge=0.0, description="centroidal moment of inertia")
+
+    @field_validator("L", "d", "m", "I")
+    @classmethod
+    def _check_finite(cls, value: float, info) -> float:
+        return _finite(info.field_name, value)
+
+    @model_validator(mode="after")
+    def _check_d_within_bar(self) -> "Bar":
+        if self.d > self.L:
+            raise ValueError(f"d = {self.d} exceeds L = {self.L}: allowed range 0 <= d <= L")
+        return self
+
+
+class TracePoint(BaseModel):
+    """A point fixed on bar ``bar`` (1-based): ``along`` the bar from its proximal joint, ``across`` it
+    (counter-clockwise side positive). The tip is ``TracePoint(bar=n, along=L_n)``."""
+
+    model_config = ConfigDict(frozen=True)
+
+    bar: int = Field(ge=1, le=MAX_LINKS)
+    along: float
+    across: float = 0.0
+
+    @field_validator("along", "across")
+    @classmethod
+    def _check_finite(cls, value: float, info) -> float:
+        return _finite(info.field_name, value)
+
+
+class Chain(BaseModel):
+    """A planar chain of bars hinged end to end from the fixed origin O; optionally its tip pinned at ``pin``."""
+
+    model_config = ConfigDict(frozen=True)
+
+    bars: list[Bar] = Field(min_length=1, max_length=MAX_LINKS)
+    g: float = Field(1.0, ge=0.0, description="gravity")
+    pin: Optional[tuple[float, float]] = None
+
+    @field_validator("g")
+    @classmethod
+    def _check_g(cls, value: float) -> float:
+        return _finite("g", value)
+
+    @field_validator("pin")
+    @classmethod
+    def _check_pin(cls, value):
+        if value is not None:
+            for name, v in zip(("pin_x", "pin_y"), value):
+                _finite(name, v)
+        return value
+
+    @property
+    def n(self) -> int:
+        return len(self.bars)
+
+    @property
+    def pinned(self) -> bool:
+        return self.pin is not None
+
+    def array(self, field: str) -> np.ndarray:
+        return np.array([getattr(bar, field) for bar in self.bars], dtype=float)
+
+    def params(self, damping: float = 0.0) -> np.ndarray:
+        """``[L_1..L_n, d_1..d_n, m_1..m_n, I_1..I_n, g, pin_x, pin_y, damping]`` (docs/architecture.md)."""
+        pin = self.pin if self.pin is not None else (0.0, 0.0)
+        return np.concatenate(
+            [self.array("L"), self.array("d"), self.array("m"), self.array("I"), [self.g, pin[0], pin[1], damping]]
+        )
+
+    def with_pin(self, pin: Optional[tuple[float, float]]) -> "Chain":
+        return Chain(bars=self.bars, g=self.g, pin=pin)
+
+
+class Settings(BaseModel):
+    """How to integrate: formulation, integrator, tolerances, horizon, stabilisation of closed loops."""
+
+    model_config = ConfigDict(frozen=True)
+
+    method: Literal["newton_euler", "lagrange", "dae", "reduced"] = "lagrange"
+    integrator: Literal["RK45", "DOP853", "Radau", "LSODA", "midpoint"] = "DOP853"
+    backend: Literal["compiled", "scipy"] = "compiled"
+    rtol: float = Field(1e-10, gt=0.0, le=0.1)
+    atol: float = Field(1e-10, gt=0.0, le=0.1)
+    t_end: float = Field(20.0, gt=0.0, le=1e6)
+    samples: int = Field(201, ge=2, le=10_000_000)
+    stabilization: Literal["none", "baumgarte", "projection"] = "projection"
+    baumgarte_alpha: float = Field(BAUMGARTE_ALPHA, ge=0.0, le=1e4)
+    baumgarte_beta: float = Field(BAUMGARTE_BETA, ge=0.0, le=1e4)
+    damping: float = Field(0.0, ge=0.0, le=1e3, description="viscous damping torque per unit relative joint speed")
+    step: float = Field(1e-3, gt=0.0, le=1.0, description="fixed step of the midpoint integrator")
+    trace: Optional[TracePoint] = None
+    max_steps: int = Field(10_000_000, ge=1)
+
+    @field_validator("rtol", "atol", "t_end", "step", "baumgarte_alpha", "baumgarte_beta", "damping")
+    @classmethod
+    def _check_finite(cls, value: float, info) -> float:
+        return _finite(info.field_name, value)
+
+    @model_validator(mode="after")
+    def _check_backend(self) -> "Settings":
+        if self.backend == "compiled" and self.integrator not in COMPILED_INTEGRATORS:
+            # Radau and LSODA exist only in scipy; asking for them means asking for scipy.
+            object.__setattr__(self, "backend", "scipy")
+        if self.integrator == "midpoint" and self.backend == "scipy":
+            raise ValueError("integrator = midpoint: available with backend = compiled only")
+        return self
+
+
+# ---------------------------------------------------------------------------------------------
+# Turning pydantic's errors into one clear line that names the field as the user spells it.
+
+_FIELD_RANGE = {
+    "L": "L >= 0",
+    "d": "0 <= d <= L",
+    "m": "m >= 0",
+    "I": "I >= 0",
+    "g": "g >= 0",
+    "rtol": "0 < rtol <= 0.1",
+    "atol": "0 < atol <= 0.1",
+    "t_end": "0 < t_end <= 1e6",
+    "samples": "2 <= samples",
+    "step": "0 < step <= 1",
+}
+
+
+def _format_validation_error(error: ValidationError) -> str:
+    parts = []
+    for item in error.errors():
+        loc = list(item.get("loc", ()))
+        name = ""
+        if len(loc) >= 3 and loc[0] == "bars" and isinstance(loc[1], int):
+            field = str(loc[2])
+            name = f"{field}{loc[1] + 1}"
+        elif len(loc) == 2 and loc[0] == "bars" and isinstance(loc[1], int):
+            field = "d"
+            name = f"bar {loc[1] + 1}"
+        elif loc:
+            field = str(loc[-1]) if not isinstance(loc[-1], int) else str(loc[0])
+            name = ".".join(str(p) for p in loc)
+        else:
+            field = ""
+        msg = str(item.get("msg", "invalid"))
+        msg = msg.removeprefix("Value error, ")
+        value = item.get("input")
+        allowed = _FIELD_RANGE.get(field)
+        text = f"{name}: {msg}"
+        if not isinstance(value, (dict, list)) and value is not None and str(value) not in msg:
+            text = f"{name} = {value}: {msg}"
+        if allowed and allowed not in text:
+            text += f" (allowed range: {allowed})"
+        parts.append(text)
+    return "; ".join(parts)
+
+
+def validated(model_cls, **kwargs):
+    """Build a pydantic model, turning a ValidationError into a LinkageError with one readable line."""
+    try:
+        return model_cls(**kwargs)
+    except ValidationError as error:
+        raise LinkageError(_format_validation_error(error)) from None
+
+
+def make_chain(L, d, m, I, g=1.0, pin=None) -> Chain:
+    """Validated chain from per-bar sequences; also rejects a singular mass matrix, naming the bar."""
+    lengths = [len(L), len(d), len(m), len(I)]
+    if len(set(lengths)) != 1:
+        raise LinkageError(f"L, d, m, I must have one entry per bar; got lengths {lengths}")
+    n = lengths[0]
+    if not 1 <= n <= MAX_LINKS:
+        raise LinkageError(f"links = {n}: allowed range 1 <= links <= {MAX_LINKS}")
+    chain = validated(
+        Chain,
+        bars=[{"L": L[i], "d": d[i], "m": m[i], "I": I[i]} for i in range(n)],
+        g=g,
+        pin=pin,
+    )
+    check_mass_matrix(chain)
+    return chain
+
+
+def check_mass_matrix(chain: Chain) -> None:
+    """Reject a chain whose mass matrix is singular, naming the bar that carries no inertia and the fix.
+
+    Bar k's angular velocity moves its own mass (``m_k d_k^2 + I_k``) and every mass beyond it on the lever
+    ``L_k``; when all of that vanishes the angle has no inertia and its acceleration is undetermined.
+    """
+    n = chain.n
+    L, d, m, I = (chain.array(f) for f in "LdmI")
+    for k in range(n - 1, -1, -1):
+        beyond = m[k + 1 :].sum()
+        if m[k] * d[k] ** 2 + I[k] + L[k] ** 2 * beyond <= 0.0:
+            raise LinkageError(
+                f"bar {k + 1} has no inertia (m{k + 1}*d{k + 1}^2 + I{k + 1} + L{k + 1}^2 * mass beyond = 0): "
+                f"the mass matrix is singular; give bar {k + 1} a positive I{k + 1}, or m{k + 1} > 0 with d{k + 1} > 0"
+            )
+    from .kinematics import mass_matrix  # numeric, cheap
+
+    theta = np.linspace(0.3, 2.9, n) + 0.17 * np.arange(n) ** 2  # a generic configuration
+    M = mass_matrix(chain.params(), theta)
+    eig = np.linalg.eigvalsh(M)
+    if eig[0] <= SINGULAR_MASS_RTOL * max(eig[-1], 1e-300):
+        null = np.linalg.eigh(M)[1][:, 0]
+        k = int(np.flatnonzero(np.abs(null) > 1e-6)[-1])
+        raise LinkageError(
+            f"the mass matrix is singular (bar {k + 1} and the bars before it carry no independent inertia); "
+            f"give bar {k + 1} a positive I{k + 1}"
+        )
+
+
+PARAMETER_FIELDS = ("L", "d", "m", "I")
+
+
+def parameter_names(n: int) -> list[str]:
+    """The names accepted by ``--set`` and JSON cases for an n-bar chain."""
+    names = [f"{f}{i}" for f in PARAMETER_FIELDS for i in range(1, n + 1)]
+    return names + ["g"] + [f"theta{i}" for i in range(1, n + 1)] + [f"omega{i}" for i in range(1, n + 1)]
+
+
+def _parse_float(name: str, text) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise LinkageError(f"{name} = {text!r}: not a number") from None
+    if not math.isfinite(value):
+        raise LinkageError(f"{name} = {text}: must be a finite number")
+    return value
+
+
+def apply_overrides(chain: Chain, theta, omega, overrides: dict) -> tuple[Chain, np.ndarray, np.ndarray]:
+    """Apply ``{"L3": 2.0, "theta1": 0.3, ...}`` to a chain and start state; unknown names are an error."""
+    n = chain.n
+    values = {f: list(chain.array(f)) for f in PARAMETER_FIELDS}
+    g = chain.g
+    theta = np.array(theta, dtype=float)
+    omega = np.array(omega, dtype=float)
+    allowed = parameter_names(n)
+    for name, raw in overrides.items():
+        if name not in allowed:
+            raise LinkageError(
+                f"unknown parameter {name!r} for a {n}-link chain; allowed: L1..L{n}, d1..d{n}, m1..m{n}, "
+                f"I1..I{n}, g, theta1..theta{n}, omega1..omega{n}"
+            )
+        value = _parse_float(name, raw)
+        if name == "g":
+            g = value
+        elif name.startswith("theta"):
+            theta[int(name[5:]) - 1] = value
+        elif name.startswith("omega"):
+            omega[int(name[5:]) - 1] = value
+        else:
+            values[name[0]][int(name[1:]) - 1] = value
+    new_chain = make_chain(values["L"], values["d"], values["m"], values["I"], g=g, pin=chain.pin)
+    return new_chain, theta, omega
+
+
+def check_state(n: int, theta, omega) -> tuple[np.ndarray, np.ndarray]:
+    """Plain float arrays of shape (n,), finite, or a LinkageError naming the entry."""
+    theta = np.asarray(theta, dtype=float).reshape(-1)
+    omega = np.asarray(omega, dtype=float).reshape(-1)
+    for name, arr in (("theta", theta), ("omega", omega)):
+        if arr.shape != (n,):
+            raise LinkageError(f"{name} must have {n} entries (one per bar), got {arr.shape[0]}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise LinkageError(f"{name}{bad[0] + 1} = {arr[bad[0]]}: must be a finite number")
+    return theta, omega

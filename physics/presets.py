@@ -1,0 +1,172 @@
+"""The seed report's cases as data, plus ``chain(n)``.
+
+Seed values: L = 1, d = 0.5, m = 1, I = 0.2 / 0.3 / 0.4, g = 1, started at rest. ``single`` and ``double``
+are the first one or two bars of the same with the first angles of case A. The four-bar is the seed's
+triple pendulum with L3 = 2 and its tip pinned where it starts. ``change-point`` is a parallelogram four-bar
+(s + l = p + q) released next to the position where all four links line up.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import LinkageError
+from .model import MAX_LINKS, Chain, TracePoint, make_chain
+
+SEED_L = (1.0, 1.0, 1.0)
+SEED_D = (0.5, 0.5, 0.5)
+SEED_M = (1.0, 1.0, 1.0)
+SEED_I = (0.2, 0.3, 0.4)
+SEED_G = 1.0
+CHAIN_DEFAULT_LINKS = 5
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    description: str
+    chain: Chain
+    theta0: np.ndarray
+    omega0: np.ndarray
+    trace: TracePoint
+    t_end: float = 20.0
+    extra: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """JSON-able description, as printed by ``python -m physics presets``."""
+        params = {}
+        for i, bar in enumerate(self.chain.bars, start=1):
+            params.update({f"L{i}": bar.L, f"d{i}": bar.d, f"m{i}": bar.m, f"I{i}": bar.I})
+        params["g"] = self.chain.g
+        out = {
+            "name": self.name,
+            "description": self.description,
+            "links": self.chain.n,
+            "params": params,
+            "theta": [float(v) for v in self.theta0],
+            "omega": [float(v) for v in self.omega0],
+            "pin": list(self.chain.pin) if self.chain.pin is not None else None,
+            "trace": {"bar": self.trace.bar, "along": self.trace.along, "across": self.trace.across},
+            "t_end": self.t_end,
+        }
+        out.update(self.extra)
+        return out
+
+
+def _tip(L, theta) -> tuple[float, float]:
+    return (
+        float(np.sum(np.asarray(L) * np.sin(theta))),
+        float(-np.sum(np.asarray(L) * np.cos(theta))),
+    )
+
+
+def _seed_triple(name: str, theta, description: str) -> Preset:
+    chain = make_chain(SEED_L, SEED_D, SEED_M, SEED_I, g=SEED_G)
+    return Preset(name, description, chain, np.array(theta, float), np.zeros(3), TracePoint(bar=3, along=1.0))
+
+
+def _seed_prefix(name: str, links: int) -> Preset:
+    theta = (math.pi / 2, math.pi, math.pi)[:links]
+    chain = make_chain(SEED_L[:links], SEED_D[:links], SEED_M[:links], SEED_I[:links], g=SEED_G)
+    what = "single bar (compound pendulum)" if links == 1 else "double pendulum"
+    return Preset(
+        name,
+        f"Seed {what}: the first {links} bar(s) of the triple pendulum, started at case A's angles.",
+        chain,
+        np.array(theta, float),
+        np.zeros(links),
+        TracePoint(bar=links, along=SEED_L[links - 1]),
+    )
+
+
+def _four_bar_extra(chain: Chain) -> dict:
+    from .assembly import grashof  # numeric, light
+
+    info = grashof(chain.array("L"), np.array(chain.pin))
+    return {"grashof": info if isinstance(info, dict) else getattr(info, "__dict__", str(info))}
+
+
+def four_bar() -> Preset:
+    L = (1.0, 1.0, 2.0)
+    theta = np.array([math.pi - math.pi / 30, math.pi / 2, 0.0])
+    chain = make_chain(L, SEED_D, SEED_M, SEED_I, g=SEED_G, pin=_tip(L, theta))
+    return Preset(
+        "four-bar",
+        "Seed four-bar linkage: the triple pendulum with L3 = 2 and its tip H pinned where it starts; 100 s.",
+        chain,
+        theta,
+        np.zeros(3),
+        TracePoint(bar=2, along=0.5, across=0.5),
+        t_end=100.0,
+        extra=_four_bar_extra(chain),
+    )
+
+
+def change_point() -> Preset:
+    """Parallelogram: crank 1, coupler 2, rocker 1, ground 2, so s + l = p + q. All four links line up when
+    the crank is horizontal (theta1 = +-pi/2); released at rest 0.05 rad short of it, it swings to the same
+    distance on the other side, so every period passes close to the singular position."""
+    L = (1.0, 2.0, 1.0)
+    d = (0.5, 1.0, 0.5)
+    m = (1.0, 1.0, 1.0)
+    I = tuple(mi * Li**2 / 12 for mi, Li in zip(m, L))
+    theta1 = math.pi / 2 - 0.05
+    theta = np.array([theta1, math.pi / 2, theta1 + math.pi])
+    chain = make_chain(L, d, m, I, g=SEED_G, pin=(2.0, 0.0))
+    return Preset(
+        "change-point",
+        "Change-point (parallelogram) four-bar, released 0.05 rad from the position where all links are collinear.",
+        chain,
+        theta,
+        np.zeros(3),
+        TracePoint(bar=2, along=1.0, across=0.3),
+        t_end=20.0,
+        extra=_four_bar_extra(chain),
+    )
+
+
+def chain_preset(links: int = CHAIN_DEFAULT_LINKS) -> Preset:
+    """``links`` uniform rods (L = 1, d = 0.5, m = 1, I = 1/12), released at rest lying horizontal
+    (every theta = pi/2): the classic falling-chain start."""
+    if not 1 <= int(links) <= MAX_LINKS:
+        raise LinkageError(f"links = {links}: allowed range 1 <= links <= {MAX_LINKS}")
+    n = int(links)
+    chain = make_chain([1.0] * n, [0.5] * n, [1.0] * n, [1.0 / 12] * n, g=SEED_G)
+    return Preset(
+        "chain",
+        f"{n} uniform rods (L = 1, d = 0.5, m = 1, I = 1/12) released at rest lying horizontal.",
+        chain,
+        np.full(n, math.pi / 2),
+        np.zeros(n),
+        TracePoint(bar=n, along=1.0),
+    )
+
+
+_FACTORIES = {
+    "single": lambda: _seed_prefix("single", 1),
+    "double": lambda: _seed_prefix("double", 2),
+    "triple-a": lambda: _seed_triple("triple-a", (math.pi / 2, math.pi, math.pi), "Seed case A: theta = (pi/2, pi, pi), at rest."),
+    "triple-b": lambda: _seed_triple("triple-b", (math.pi / 4, math.pi / 2, 3 * math.pi / 4), "Seed case B: theta = (pi/4, pi/2, 3pi/4), at rest."),
+    "triple-c": lambda: _seed_triple("triple-c", (math.pi, math.pi / 3, math.pi / 3), "Seed case C: theta = (pi, pi/3, pi/3), at rest."),
+    "four-bar": four_bar,
+    "change-point": change_point,
+    "chain": chain_preset,
+}
+
+
+def preset_names() -> tuple[str, ...]:
+    return tuple(_FACTORIES)
+
+
+def get_preset(name: str, links: int | None = None) -> Preset:
+    """A preset by name; ``links`` applies to ``chain`` only."""
+    if name not in _FACTORIES:
+        raise LinkageError(f"preset = {name!r}: allowed {', '.join(_FACTORIES)}")
+    if name == "chain":
+        return chain_preset(CHAIN_DEFAULT_LINKS if links is None else links)
+    if links is not None and links != _FACTORIES[name]().chain.n:
+        raise LinkageError(f"links = {links}: --links applies to preset 'chain' only (preset {name!r} is fixed)")
+    return _FACTORIES[name]()
