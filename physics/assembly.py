@@ -32,8 +32,10 @@ CLOSURE_RTOL = 1e-12
 CHANGE_POINT_RTOL = 1e-9
 
 # Reciprocal condition below which a 2 x 2 dependent Jacobian counts as singular when velocities are
-# solved from it (a driving speed imposed exactly at a dead centre has no consistent completion).
-VELOCITY_RCOND = 1e-12
+# solved from it: a driving speed imposed at a dead centre has no consistent completion, and one located in
+# closed form is only found to ~sqrt(machine epsilon) ~ 1e-8 in angle, where the solved speeds would be
+# ~1e8 times the driving speed: noise, not an answer.
+VELOCITY_RCOND = 1e-6
 
 GRASHOF_CLASSES = (
     "Grashof (crank-rocker)",

@@ -32,10 +32,17 @@ BAUMGARTE_BETA = 10.0
 SINGULAR_MASS_RTOL = 1e-12
 
 
-def _finite(name: str, value: float) -> float:
-    if not math.isfinite(value):
+def _finite(name: str, value) -> float:
+    """Checked before the range checks, so NaN is reported as "not finite" rather than "not >= 0"."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name} = {value}: must be a number")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: must be a number") from None
+    if not math.isfinite(number):
         raise ValueError(f"{name} = {value}: must be a finite number")
-    return value
+    return number
 
 
 class Bar(BaseModel):
@@ -49,7 +56,7 @@ class Bar(BaseModel):
     m: float = Field(1.0, ge=0.0, description="mass")
     I: float = Field(0.1, ge=0.0, description="centroidal moment of inertia")
 
-    @field_validator("L", "d", "m", "I")
+    @field_validator("L", "d", "m", "I", mode="before")
     @classmethod
     def _check_finite(cls, value: float, info) -> float:
         return _finite(info.field_name, value)
@@ -71,7 +78,7 @@ class TracePoint(BaseModel):
     along: float
     across: float = 0.0
 
-    @field_validator("along", "across")
+    @field_validator("along", "across", mode="before")
     @classmethod
     def _check_finite(cls, value: float, info) -> float:
         return _finite(info.field_name, value)
@@ -86,7 +93,7 @@ class Chain(BaseModel):
     g: float = Field(1.0, ge=0.0, description="gravity")
     pin: Optional[tuple[float, float]] = None
 
-    @field_validator("g")
+    @field_validator("g", mode="before")
     @classmethod
     def _check_g(cls, value: float) -> float:
         return _finite("g", value)
@@ -141,7 +148,7 @@ class Settings(BaseModel):
     trace: Optional[TracePoint] = None
     max_steps: int = Field(10_000_000, ge=1)
 
-    @field_validator("rtol", "atol", "t_end", "step", "baumgarte_alpha", "baumgarte_beta", "damping")
+    @field_validator("rtol", "atol", "t_end", "step", "baumgarte_alpha", "baumgarte_beta", "damping", mode="before")
     @classmethod
     def _check_finite(cls, value: float, info) -> float:
         return _finite(info.field_name, value)
@@ -183,7 +190,7 @@ def _format_validation_error(error: ValidationError) -> str:
             name = f"{field}{loc[1] + 1}"
         elif len(loc) == 2 and loc[0] == "bars" and isinstance(loc[1], int):
             field = "d"
-            name = f"bar {loc[1] + 1}"
+            name = f"d{loc[1] + 1}"
         elif loc:
             field = str(loc[-1]) if not isinstance(loc[-1], int) else str(loc[0])
             name = ".".join(str(p) for p in loc)
