@@ -251,7 +251,7 @@ def _common(parser, method_required=False):
 
     parser.add_argument("--preset", default="triple-a", choices=preset_names())
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain (1..12)")
-    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae", "reduced"))
+    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae", "reduced", "reduced_fixed"))
     parser.add_argument("--set", action="append", metavar="NAME=VALUE",
                         help="override a parameter or start value: L1..Ln d1..dn m1..mn I1..In g theta1.. omega1..")
     parser.add_argument("--pin", default=None, metavar="X,Y", help="pin the tip of a closed chain at this point")

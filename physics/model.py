@@ -17,7 +17,7 @@ from .errors import LinkageError
 
 MAX_LINKS = 12
 FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
-METHOD_NAMES = FORMULATION_NAMES + ("reduced",)
+METHOD_NAMES = FORMULATION_NAMES + ("reduced", "reduced_fixed")
 INTEGRATOR_NAMES = ("RK45", "DOP853", "Radau", "LSODA", "midpoint")
 COMPILED_INTEGRATORS = ("RK45", "DOP853", "midpoint")
 STABILIZATIONS = ("none", "baumgarte", "projection")
@@ -133,7 +133,7 @@ class Settings(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    method: Literal["newton_euler", "lagrange", "dae", "reduced"] = "lagrange"
+    method: Literal["newton_euler", "lagrange", "dae", "reduced", "reduced_fixed"] = "lagrange"
     integrator: Literal["RK45", "DOP853", "Radau", "LSODA", "midpoint"] = "DOP853"
     backend: Literal["compiled", "scipy"] = "compiled"
     rtol: float = Field(1e-10, gt=0.0, le=0.1)

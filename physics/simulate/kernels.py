@@ -3,7 +3,7 @@
 The code generator writes one module per ``(formulation, n, pinned)`` that defines ``accel``, ``N_LINKS`` and
 ``PINNED`` (see docs/architecture.md) and then appends the whole text of this file. The functions below use those
 three names as module globals, which numba resolves when it compiles them; this file never defines them, so its
-functions cannot run on their own. Everything is ``@njit(cache=True)``: plain arrays and scalars, no Python objects.
+functions cannot run on their own. Everything is ``@njit(cache=True, error_model="numpy")``: plain arrays and scalars, no Python objects.
 
 The ODE is ``y = [theta, omega]`` (shape ``(2n,)``), ``y' = [omega, theta_ddot]`` with ``theta_ddot`` from ``accel``.
 
@@ -269,7 +269,7 @@ _DOP853_D[3, 15] = -0.14972683625798562581422125276e3
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _ode_rhs(y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     """Fill ``dydt = [omega, theta_ddot]`` at state ``y``; return ``(status, condition)``.
 
@@ -293,7 +293,7 @@ def _ode_rhs(y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     return STATUS_OK, condition
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sample_condition(y, params, alpha, beta, theta, omega, theta_ddot):
     """Condition estimate of accel at state ``y`` (the value stored in ``cond_out``)."""
     n = theta.shape[0]
@@ -303,7 +303,7 @@ def _sample_condition(y, params, alpha, beta, theta, omega, theta_ddot):
     return accel(theta, omega, params, alpha, beta, theta_ddot)  # noqa: F821 (generated-module global)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _all_finite(x):
     for i in range(x.shape[0]):
         if not np.isfinite(x[i]):
@@ -311,7 +311,7 @@ def _all_finite(x):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rms_norm(x):
     """Root-mean-square norm, scipy's ``common.norm``."""
     total = 0.0
@@ -320,7 +320,7 @@ def _rms_norm(x):
     return math.sqrt(total) / math.sqrt(x.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _check_shapes(y0, t_eval, params, y_out, cond_out):
     if y0.shape[0] != 2 * N_LINKS:  # noqa: F821 (generated-module global)
         raise ValueError("y0 must have shape (2 * N_LINKS,)")
@@ -337,7 +337,7 @@ def _check_shapes(y0, t_eval, params, y_out, cond_out):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _constraint_gram(theta, params):
     """Entries ``(a, b, c)`` of ``J J^T = [[a, b], [b, c]]`` with ``J[0, i] = L_i cos, J[1, i] = L_i sin``."""
     a = 0.0
@@ -352,7 +352,7 @@ def _constraint_gram(theta, params):
     return a, b, c
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def project_position(theta, params):
     """Move ``theta`` (n,) in place onto ``tip(theta) = pin`` by the least change (Gauss-Newton).
 
@@ -385,7 +385,7 @@ def project_position(theta, params):
     return residual
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def project_velocity(theta, omega, params):
     """Remove from ``omega`` (n,) in place its component that moves the tip: ``omega -= J^T (J J^T)^-1 J omega``.
 
@@ -408,7 +408,7 @@ def project_velocity(theta, omega, params):
     return math.sqrt(v_x * v_x + v_y * v_y)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _project_state(y, params, theta, omega):
     """Project ``y = [theta, omega]`` in place (positions, then velocities); False if the result is not finite."""
     n = theta.shape[0]
@@ -428,7 +428,7 @@ def _project_state(y, params, theta, omega):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rk_stages(t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
     """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop.
 
@@ -447,7 +447,7 @@ def _rk_stages(t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, ome
     return STATUS_OK, n_stages - 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rk45_sample(x, h, y_old, K, y_sample):
     """scipy's RkDenseOutput: ``y_old + h * (K^T P) [x, x^2, x^3, x^4]``."""
     n_state = y_old.shape[0]
@@ -468,7 +468,7 @@ def _rk45_sample(x, h, y_old, K, y_sample):
         y_sample[j] = h * (q0 * p0 + q1 * p1 + q2 * p2 + q3 * p3) + y_old[j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dop853_dense_coefficients(t_old, h, y_old, y_new, K, F, y_stage, params, alpha, beta, theta, omega, theta_ddot):
     """scipy's DOP853 ``_dense_output_impl``: three extra stages into K[13:16], then the 7 rows of ``F``.
 
@@ -501,7 +501,7 @@ def _dop853_dense_coefficients(t_old, h, y_old, y_new, K, F, y_stage, params, al
     return STATUS_OK, evaluations
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dop853_sample(x, y_old, F, y_sample):
     """scipy's Dop853DenseOutput: Horner-like product alternating factors ``x`` and ``1 - x``."""
     n_state = y_old.shape[0]
@@ -516,25 +516,28 @@ def _dop853_sample(x, y_old, F, y_sample):
         y_sample[j] = value + y_old[j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _integrate_explicit_rk(
-    use_dop853, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
+    A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
-    """Shared driver of integrate_rk45 and integrate_dop853: scipy's ``solve_ivp`` loop with ``t_eval``."""
+    """Shared driver of integrate_rk45 and integrate_dop853: scipy's ``solve_ivp`` loop with ``t_eval``.
+
+    The method is told by its tableau ``A`` (an argument, not a constant flag, so that numba compiles this
+    function once for both methods).
+    """
     _check_shapes(y0, t_eval, params, y_out, cond_out)
+    use_dop853 = A.shape[0] == _DOP853_N_STAGES_EXTENDED
     projecting = PINNED and project  # noqa: F821 (generated-module global)
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     n_samples = t_eval.shape[0]
     if use_dop853:
-        A = _DOP853_A
         B = _DOP853_B
         n_stages = _DOP853_N_STAGES
         n_rows = _DOP853_N_STAGES_EXTENDED
         error_exponent = -1.0 / (_DOP853_ERROR_ORDER + 1)
         initial_step_exponent = 1.0 / (_DOP853_ERROR_ORDER + 1)
     else:
-        A = _RK45_A
         B = _RK45_B
         n_stages = _RK45_N_STAGES
         n_rows = _RK45_N_STAGES + 1
@@ -730,7 +733,7 @@ def _integrate_explicit_rk(
     return status, n_steps, n_rhs, t, i_sample
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_rk45(y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out):
     """Dormand-Prince 5(4) exactly as scipy's ``solve_ivp(method="RK45")``, samples at ``t_eval``.
 
@@ -740,15 +743,15 @@ def integrate_rk45(y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, proje
     Returns ``(status, n_steps, n_rhs, t_reached, n_filled)`` (see the module docstring).
     """
     return _integrate_explicit_rk(
-        False, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
+        _RK45_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_dop853(y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out):
     """Dormand-Prince 8(5,3) exactly as scipy's ``solve_ivp(method="DOP853")``; arguments as integrate_rk45."""
     return _integrate_explicit_rk(
-        True, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
+        _DOP853_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
     )
 
 
@@ -757,7 +760,7 @@ def integrate_dop853(y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, pro
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu_factor(M, pivots):
     """In-place LU factorisation with partial pivoting; False if a pivot is exactly zero."""
     size = M.shape[0]
@@ -783,7 +786,7 @@ def _lu_factor(M, pivots):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu_solve(M, pivots, rhs):
     """Solve with the factors of _lu_factor, overwriting ``rhs`` with the solution."""
     size = M.shape[0]
@@ -805,7 +808,7 @@ def _lu_solve(M, pivots, rhs):
         rhs[i] = total / M[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
     """Cubic Hermite interpolant at fraction ``s`` of a step of length ``h``."""
     s2 = s * s
@@ -818,7 +821,7 @@ def _hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
         y_sample[j] = h00 * y_old[j] + h10 * h * f_old[j] + h01 * y_new[j] + h11 * h * f_new[j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
     """Fixed-step implicit midpoint rule ``y1 = y0 + h f((y0 + y1) / 2)``: symmetric, symplectic, order 2.
 
@@ -955,7 +958,7 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rk4_batch_step(theta, omega, params, h, alpha, beta, work, cond_out):
     """Advance K states by one classical RK4 step of size ``h``, in place.
 

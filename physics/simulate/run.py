@@ -85,7 +85,7 @@ def simulate(chain: Chain, theta0, omega0, settings: Settings | None = None, t_s
     if not math.isfinite(t_start):
         raise LinkageError(f"t_start = {t_start}: must be a finite number")
     check_assembled(chain, theta0)
-    if settings.method == "reduced":
+    if settings.method in ("reduced", "reduced_fixed"):
         from .reduced_adapter import simulate_reduced_trajectory
 
         return simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start)
@@ -205,6 +205,17 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
     return y_out, cond, status, n_steps, counter["rhs"], t_now, detail
 
 
+def system_condition(compiled, theta, omega, params) -> np.ndarray:
+    """2-norm condition number of the formulation's matrix A at each sampled state (T,)."""
+    k = compiled.n_unknowns
+    A = np.empty((len(theta), k, k))
+    b = np.empty(k)
+    for i in range(len(theta)):
+        compiled.module.assemble(np.ascontiguousarray(theta[i]), np.ascontiguousarray(omega[i]), params, A[i], b)
+    with np.errstate(all="ignore"):
+        return np.linalg.cond(A)
+
+
 def build_trajectory(chain, settings, compiled, params, t, y, cond, alpha=0.0, beta=0.0) -> Trajectory:
     """Everything a trajectory reports, computed from the sampled states (vectorised)."""
     n = chain.n
@@ -230,6 +241,10 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond, alpha=0.0, b
     if chain.pinned:
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
         constraint_velocity = tip_velocity(L, theta, omega)
+        if samples:
+            # Near a singular position the pivot ratio understates the trouble: report the true 2-norm
+            # condition number of the system actually solved.
+            cond = system_condition(compiled, theta, omega, params)
     return Trajectory(
         method=settings.method,
         integrator=settings.integrator,
