@@ -181,7 +181,7 @@ def _with_grashof(result: dict, chain) -> dict:
         from .assembly import grashof
 
         info = grashof(chain.array("L"), np.asarray(chain.pin))
-        result["grashof"] = info if isinstance(info, dict) else getattr(info, "__dict__", str(info))
+        result["grashof"] = info.as_dict()
     return result
 
 

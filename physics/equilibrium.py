@@ -101,7 +101,9 @@ def static_equilibrium(L, d, m, g, pin, theta_guess) -> Equilibrium:
         start,
         jac=gradient,
         method="SLSQP",
-        constraints=[{"type": "eq", "fun": lambda th: loop_residual(L, th, pin), "jac": lambda th: loop_jacobian(L, th)}],
+        constraints=[
+            {"type": "eq", "fun": lambda th: loop_residual(L, th, pin), "jac": lambda th: loop_jacobian(L, th)}
+        ],
         options={"ftol": 1e-15, "maxiter": 500},
     )
     theta = np.array(result.x, dtype=float)
@@ -157,7 +159,10 @@ def stationary_point(L, d, m, g, pin, theta_near, note: str = "") -> Equilibrium
     projected = Z.T @ gradient(theta)
     eigenvalues = np.linalg.eigvalsh(Z.T @ _lagrangian_hessian(L, weight, theta, lam) @ Z)
     is_minimum = bool(np.all(eigenvalues > MINIMUM_RTOL * scale))
-    kind = "a minimum (stable)" if is_minimum else "not a strict minimum (a maximum, saddle or neutral direction: not stable)"
+    if is_minimum:
+        kind = "a minimum (stable)"
+    else:
+        kind = "not a strict minimum (a maximum, saddle or neutral direction: not stable)"
     return Equilibrium(
         theta=theta,
         potential=float(potential_energy(L, d, m, g, theta)),

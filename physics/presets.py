@@ -86,7 +86,7 @@ def _four_bar_extra(chain: Chain) -> dict:
     from .assembly import grashof  # numeric, light
 
     info = grashof(chain.array("L"), np.array(chain.pin))
-    return {"grashof": info if isinstance(info, dict) else getattr(info, "__dict__", str(info))}
+    return {"grashof": info.as_dict()}
 
 
 def four_bar() -> Preset:

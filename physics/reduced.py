@@ -30,7 +30,6 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .assembly import (
-    direction_angle,
     elbow_of,
     loop_jacobian,
     loop_residual,
@@ -252,7 +251,9 @@ def _check_inputs(L, d, m, I, pin, theta0, omega0):
     for name, value in (("L", L), ("d", d), ("m", m), ("I", I), ("theta0", theta0), ("omega0", omega0)):
         arr = np.asarray(value, dtype=float).reshape(-1)
         if arr.shape != (3,):
-            raise LinkageError(f"{name}: the reduced model is for a four-bar (3 bars), expected 3 entries, got {arr.size}")
+            raise LinkageError(
+                f"{name}: the reduced model is for a four-bar (3 bars), expected 3 entries, got {arr.size}"
+            )
         if not np.all(np.isfinite(arr)):
             raise LinkageError(f"{name} = {arr.tolist()}: entries must be finite numbers")
         arrays[name] = arr
@@ -341,7 +342,8 @@ def simulate_reduced(
     if independent_index is None:
         independent_index = best_independent(theta0) if switching else 0
     theta = theta0.copy()
-    partition = _Partition(L, pin, params, independent_index, elbow_of(*theta[list(dependent_pair(independent_index))]), mass_and_forcing)
+    elbow = elbow_of(*theta[list(dependent_pair(independent_index))])
+    partition = _Partition(L, pin, params, independent_index, elbow, mass_and_forcing)
     theta = partition.configuration(theta[independent_index], theta0)  # exact closure from the start
     omega = partition.null_vector(theta) * _independent_speed(L, theta, omega0, independent_index)
 

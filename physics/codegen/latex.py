@@ -1,0 +1,73 @@
+"""The derived equations as LaTeX, for the app's equations panel and the docs (sympy: never on a hot path).
+
+Each row of ``A x = b`` is printed as ``sum_j A_ij x_j = b_i`` after a light ``trigsimp`` per entry, with
+the row's label (which balance or constraint it is). Results are cached beside the generated code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+from .cache import _write_atomically, cache_dir, generator_digest
+
+MAX_TERMS_SIMPLIFIED = 60  # entries larger than this are printed as derived, without trigsimp
+
+
+def equations_latex(formulation: str, n: int, pinned: bool = False) -> dict:
+    """``{"title", "unknowns": [latex], "rows": [{"label", "latex"}], "shape": [k, k]}`` for the system."""
+    path = cache_dir() / f"latex-{formulation}-n{n}-{'pinned' if pinned else 'open'}-{generator_digest()}.json"
+    if path.exists():
+        try:
+            stored = json.loads(path.read_text())
+            body = json.dumps(stored["data"], sort_keys=True)
+            if hashlib.sha256(body.encode()).hexdigest() == stored["sha256"]:
+                return stored["data"]
+        except (OSError, ValueError, KeyError):
+            pass
+    data = _derive_latex(formulation, n, pinned)
+    body = json.dumps(data, sort_keys=True)
+    _write_atomically(path, json.dumps({"data": data, "sha256": hashlib.sha256(body.encode()).hexdigest()}))
+    return data
+
+
+def _derive_latex(formulation: str, n: int, pinned: bool) -> dict:
+    import sympy as sp
+
+    from ..derive import FORMULATIONS
+
+    cls = FORMULATIONS[formulation]
+    system = cls().derive(n, pinned)
+    undamped = {system.symbols.damping: 0}  # joint damping is a test/teaching option: show the conservative system
+
+    def tidy(expr):
+        expr = expr.xreplace(undamped)
+        if sp.count_ops(expr) <= MAX_TERMS_SIMPLIFIED:
+            return sp.trigsimp(sp.expand(expr))
+        return expr
+
+    names = {}
+    for u in system.unknowns:
+        text = str(u)
+        if text.startswith("theta_ddot_"):
+            names[u] = sp.Symbol(r"\ddot{\theta}_{%s}" % text.split("_")[-1])
+        elif text.startswith("a_x") or text.startswith("a_y"):
+            names[u] = sp.Symbol(r"\ddot{%s}_{G%s}" % (text[2], text[3:]))
+        else:
+            names[u] = u
+    rows = []
+    k = len(system.unknowns)
+    for i in range(k):
+        lhs = sum((tidy(system.A[i, j]) * names[system.unknowns[j]] for j in range(k) if system.A[i, j].xreplace(undamped) != 0),
+                  sp.Integer(0))
+        rhs = tidy(system.b[i])
+        rows.append({"label": system.equation_names[i], "latex": f"{sp.latex(lhs)} = {sp.latex(rhs)}"})
+    return {
+        "title": cls.title,
+        "formulation": formulation,
+        "links": n,
+        "pinned": pinned,
+        "shape": [k, k],
+        "unknowns": [sp.latex(names[u]) for u in system.unknowns],
+        "rows": rows,
+    }
