@@ -25,6 +25,12 @@ from .simulate import Trajectory, simulate
 
 __version__ = "0.1.0"
 
+
+def reduced_available(chain: Chain) -> bool:
+    """The reduced one-coordinate model exists for one-degree-of-freedom loops: a pinned 3-bar chain."""
+    return chain.pinned and chain.n == 3
+
+
 __all__ = [
     "Bar",
     "Chain",
@@ -46,5 +52,6 @@ __all__ = [
     "make_chain",
     "parameter_names",
     "preset_names",
+    "reduced_available",
     "simulate",
 ]
