@@ -3,7 +3,8 @@
 The code generator writes one module per ``(formulation, n, pinned)`` that defines ``accel``, ``N_LINKS`` and
 ``PINNED`` (see docs/architecture.md) and then appends the whole text of this file. The functions below use those
 three names as module globals, which numba resolves when it compiles them; this file never defines them, so its
-functions cannot run on their own. Everything is ``@njit(cache=True, error_model="numpy")``: plain arrays and scalars, no Python objects.
+functions cannot run on their own. Everything is ``@njit(cache=True)``, plain arrays and scalars, with numba's
+``error_model="numpy"`` (a division by zero gives inf or NaN, which the status reports, never an exception).
 
 The ODE is ``y = [theta, omega]`` (shape ``(2n,)``), ``y' = [omega, theta_ddot]`` with ``theta_ddot`` from ``accel``.
 
@@ -23,6 +24,9 @@ The three integrators return ``(status, n_steps, n_rhs, t_reached, n_filled)``:
 * ``t_reached``: time of the last accepted (and, when projecting, projected) state; ``t_end`` on success;
 * ``n_filled``: samples written, always ``count(t_eval <= t_reached)``; rows ``n_filled:`` of ``y_out`` and
   entries of ``cond_out`` stay NaN.
+
+A failing run never raises. Only programming errors do (``ValueError``): arrays of the wrong shape, ``t_end < t0``
+(the kernels integrate forward only) or a midpoint step ``h`` that is not positive.
 """
 
 import math
@@ -321,7 +325,10 @@ def _rms_norm(x):
 
 
 @njit(cache=True, error_model="numpy")
-def _check_shapes(y0, t_eval, params, y_out, cond_out):
+def _check_arguments(y0, t0, t_end, t_eval, params, y_out, cond_out):
+    """Programming errors only (the caller validates user input): wrong shapes or a backward interval."""
+    if not (t_end >= t0):
+        raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
     if y0.shape[0] != 2 * N_LINKS:  # noqa: F821 (generated-module global)
         raise ValueError("y0 must have shape (2 * N_LINKS,)")
     if params.shape[0] < 4 * N_LINKS + 3:  # noqa: F821
@@ -525,7 +532,7 @@ def _integrate_explicit_rk(
     The method is told by its tableau ``A`` (an argument, not a constant flag, so that numba compiles this
     function once for both methods).
     """
-    _check_shapes(y0, t_eval, params, y_out, cond_out)
+    _check_arguments(y0, t0, t_end, t_eval, params, y_out, cond_out)
     use_dop853 = A.shape[0] == _DOP853_N_STAGES_EXTENDED
     projecting = PINNED and project  # noqa: F821 (generated-module global)
     n = y0.shape[0] // 2
@@ -831,7 +838,9 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
     interpolant between steps. Arguments and return value as integrate_rk45 (STATUS_NO_CONVERGENCE if Newton
     fails; n_rhs includes the Jacobian's evaluations).
     """
-    _check_shapes(y0, t_eval, params, y_out, cond_out)
+    _check_arguments(y0, t0, t_end, t_eval, params, y_out, cond_out)
+    if not (h > 0.0 and h < np.inf):
+        raise ValueError("h must be positive and finite")
     projecting = PINNED and project  # noqa: F821 (generated-module global)
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
@@ -867,7 +876,7 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
         y_out[i_sample, :] = y
         cond_out[i_sample] = condition
         i_sample += 1
-    if not (h > 0.0) or not (t_end > t0):
+    if t_end == t0:
         return STATUS_OK, n_steps, n_rhs, t, i_sample
     n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))
     step = (t_end - t0) / n_total

@@ -103,7 +103,7 @@ def simulate(
         y_out, cond, status, n_steps, n_rhs, t_reached = _integrate_compiled(
             compiled, y0, t_eval, params, settings, alpha, beta, project
         )
-        detail = ""
+        detail = _compiled_detail(settings, status)
     else:
         y_out, cond, status, n_steps, n_rhs, t_reached, detail = _integrate_scipy(
             compiled, y0, t_eval, params, settings, alpha, beta, project
@@ -138,6 +138,12 @@ def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, pro
         )
     status, n_steps, n_rhs, t_reached = result[:4]
     return y_out, cond, int(status), n_steps, n_rhs, float(t_reached)
+
+
+def _compiled_detail(settings, status: int) -> str:
+    if status == STATUS_INTEGRATOR_FAILED and settings.integrator == "midpoint":
+        return "the implicit midpoint Newton iteration did not converge; reduce the step (--step)"
+    return ""
 
 
 class _Singular(Exception):
