@@ -7,7 +7,7 @@ import numpy as np
 from .codegen import load_compiled
 from .errors import LinkageError
 from .model import Chain, check_state
-from .simulate.run import SINGULAR_CONDITION
+from .simulate.run import SINGULAR_PIVOT_RATIO
 
 
 def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0) -> dict:
@@ -20,10 +20,10 @@ def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0)
     theta, omega = check_state(chain.n, theta, omega)
     compiled = load_compiled(method, chain.n, chain.pinned)
     x, cond = compiled.solve_full(theta, omega, chain.params(damping=damping))
-    if not cond <= SINGULAR_CONDITION or not np.all(np.isfinite(x)):
+    if not cond <= SINGULAR_PIVOT_RATIO or not np.all(np.isfinite(x)):
         raise LinkageError(
-            f"singular configuration at theta = {np.round(theta, 6).tolist()}: the {method} system has condition "
-            f"estimate {cond:.3g} (limit {SINGULAR_CONDITION:.0e}); the links are lined up (a dead-centre or "
+            f"singular configuration at theta = {np.round(theta, 6).tolist()}: the {method} system has pivot ratio "
+            f"{cond:.3g} (limit {SINGULAR_PIVOT_RATIO:.0e}, condition number near its square); the links are lined up (a dead-centre or "
             f"change-point position) or a bar has no inertia"
         )
     result = {

@@ -37,7 +37,7 @@ from numba import njit
 # accel, N_LINKS and PINNED are globals of the generated module this text is appended to.
 
 STATUS_OK = 0
-STATUS_SINGULAR = -1  # accel reported a condition estimate above SINGULAR_CONDITION (or inf)
+STATUS_SINGULAR = -1  # accel reported a pivot ratio above SINGULAR_PIVOT_RATIO (or inf)
 STATUS_NOT_FINITE = -2  # a state, an acceleration or an error estimate turned NaN or infinite
 STATUS_STEP_TOO_SMALL = -3  # the adaptive step fell below 10 ulp of t, as in scipy
 STATUS_MAX_STEPS = -4  # more than max_steps accepted steps were needed
@@ -45,6 +45,10 @@ STATUS_NO_CONVERGENCE = -5  # implicit midpoint: the Newton iteration did not co
 
 # Beyond this the linear solve in accel has lost about 12 of its 16 digits: the answer is noise.
 SINGULAR_CONDITION = 1e12
+# The pivot ratio returned by accel grows like 1/delta at a distance delta from a loop singularity, while
+# the 2-norm condition number grows like 1/delta^2: a ratio of 1e6 means a condition near 1e12, about 12 of
+# 16 digits lost. Past it the accelerations are not worth integrating. (Same value as physics.simulate.run.)
+SINGULAR_PIVOT_RATIO = 1e6
 
 # scipy.integrate._ivp.rk: step-size controller constants.
 SAFETY = 0.9  # multiply steps computed from asymptotic behaviour of errors by this
@@ -290,7 +294,7 @@ def _ode_rhs(y, params, alpha, beta, theta, omega, theta_ddot, dydt):
         dydt[n + i] = theta_ddot[i]
         if not np.isfinite(theta_ddot[i]):
             finite = False
-    if condition > SINGULAR_CONDITION:
+    if condition > SINGULAR_PIVOT_RATIO:
         return STATUS_SINGULAR, condition
     if not finite:
         return STATUS_NOT_FINITE, condition

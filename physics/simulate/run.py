@@ -27,15 +27,17 @@ from .trajectory import (
     Trajectory,
 )
 
-# A system whose pivot ratio exceeds this is treated as singular: past it, the accelerations have lost
-# more than 12 of their 16 significant digits and are not worth integrating.
-SINGULAR_CONDITION = 1e12
+# A system whose LU pivot ratio (the cheap estimate every right-hand-side call returns) exceeds this is
+# treated as singular. Near a loop singularity at distance delta the pivot ratio grows like 1/delta while the
+# 2-norm condition number grows like 1/delta^2, so 1e6 here means a condition number near 1e12: about 12 of
+# the 16 significant digits of the accelerations lost. The kernels use the same value.
+SINGULAR_PIVOT_RATIO = 1e6
 # The start of a closed chain must close the loop to this distance (a user typing angles by hand will not;
 # presets and the app assemble them with physics.assembly).
 ASSEMBLY_TOLERANCE = 1e-8
 
 _STATUS_TEXT = {
-    STATUS_SINGULAR: "the system became singular (condition estimate above {limit:.0e}) at t = {t:.6g} s: the "
+    STATUS_SINGULAR: "the system became singular (pivot ratio above {limit:.0e}, condition number near its square) at t = {t:.6g} s: the "
     "linkage reached a singular position (links lined up) or its parameters give a bar no inertia",
     STATUS_NONFINITE: "the state became non-finite at t = {t:.6g} s",
     STATUS_STEP_TOO_SMALL: "the step size fell below the smallest allowed at t = {t:.6g} s (the problem is too "
@@ -49,7 +51,7 @@ def status_message(status: int, t: float, detail: str = "") -> str:
     if status == STATUS_OK:
         return "ok"
     return _STATUS_TEXT.get(status, "failed at t = {t:.6g} s: {detail}").format(
-        t=t, limit=SINGULAR_CONDITION, detail=detail
+        t=t, limit=SINGULAR_PIVOT_RATIO, detail=detail
     )
 
 
@@ -165,7 +167,7 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
     def rhs(t, y):
         counter["rhs"] += 1
         c = module.accel(y[:n], y[n:], params, alpha, beta, theta_ddot)
-        if not c <= SINGULAR_CONDITION:
+        if not c <= SINGULAR_PIVOT_RATIO:
             raise _Singular(t)
         return np.concatenate([y[n:], theta_ddot])
 
@@ -239,10 +241,11 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond, alpha=0.0, b
     trace_xy = point_on_bar(L, theta, trace.bar, trace.along, trace.across)
     kinetic, potential, energy = energies(params, theta, omega)
     samples = len(t)
-    reactions = np.zeros((samples, 0, 2))
-    tip_reaction = np.zeros((samples, 0))
-    constraint_xy = np.zeros((samples, 0))
-    constraint_velocity = np.zeros((samples, 0))
+    # Sized from the layout, not the samples, so a run that fails at once still has every column.
+    reactions = np.zeros((samples, len(compiled.reaction_index), 2))
+    tip_reaction = np.zeros((samples, len(compiled.tip_reaction_index)))
+    constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
+    constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
     if samples and (compiled.reaction_index.size or compiled.tip_reaction_index.size):
         x, _ = compiled.solve_full_batch(theta, omega, params, alpha, beta)
         if compiled.reaction_index.size:

@@ -1,0 +1,335 @@
+"""Chaos maps: the plane of initial angles (theta1, theta2), each pixel coloured by the time until a link
+first flips over (passes the upward vertical), computed with the ensemble path in tiles.
+
+``python -m physics chaos-map --preset double --resolution 400 --out map.png [--scheduler tcp://host:8786]
+[--workers N]``
+
+Why tiles through a ``concurrent.futures.Executor``: every pixel is an independent run, so the map splits
+into row bands that any executor can run: the calling process (``--workers 1``), local processes
+(``ProcessPoolExecutor``, the default), or a Dask cluster (``--scheduler``: ``Client.get_executor()``),
+because a 4000 x 4000 map outgrows one machine. Each pixel's arithmetic is the same whichever tile or
+machine computes it (the batched RK4 advances each state on its own), so every executor gives the same map,
+bit for bit.
+
+Physics: the chain starts at rest at ``theta1 = x``, ``theta2 = y`` (other angles 0), both in (-pi, pi);
+a link flips when its unwrapped angle leaves [-pi, pi]. Pixels whose energy cannot lift any link over the
+top are settled without integrating (exact bound from the potential energy); pixels that do not flip
+within ``t_max`` are "not within t_max". Colour: log of the flip time, from ``step`` to ``t_max``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LinkageError
+
+DEFAULT_T_MAX = 30.0
+DEFAULT_STEP = 0.01
+DEFAULT_RESOLUTION = 400
+MAX_RESOLUTION = 20000
+PIXELS_PER_TILE = 4096  # tile = a band of rows holding about this many pixels
+COMPACT_EVERY = 8  # steps between removals of finished pixels from the batch
+FORBIDDEN_RGB = (110, 110, 110)  # energy too low for any flip
+NOT_FLIPPED_RGB = (0, 0, 0)  # allowed, but no flip within t_max
+FORBIDDEN = -1.0  # value in the flip-time array for energetically forbidden pixels (NaN: not within t_max)
+
+
+@dataclass(frozen=True)
+class TileTask:
+    """Everything a worker needs for one band of rows (plain data, cheap to pickle)."""
+
+    method: str
+    n: int
+    params: tuple
+    theta1: tuple  # column angles (x axis)
+    theta2: tuple  # this band's row angles (y axis)
+    row_start: int
+    t_max: float
+    step: float
+
+
+def grid(resolution: int, lo: float = -math.pi, hi: float = math.pi) -> np.ndarray:
+    """Pixel-centre angles, increasing: ``lo + (i + 1/2) (hi - lo) / resolution``."""
+    return lo + (np.arange(resolution) + 0.5) * (hi - lo) / resolution
+
+
+def flip_energy(params: np.ndarray, n: int) -> float:
+    """The least total energy with which some link can stand upright (theta_k = pi): below it, no flip.
+
+    The potential is ``sum_j c_j cos(theta_j)`` with ``c_j = -g (m_j d_j + L_j * mass beyond bar j) <= 0``;
+    with ``theta_k = pi`` and every other angle free, its minimum is ``-c_k + sum_{j != k} c_j``.
+    """
+    L, d, m, g = params[:n], params[n : 2 * n], params[2 * n : 3 * n], params[4 * n]
+    beyond = np.concatenate([np.cumsum(m[::-1])[::-1][1:], [0.0]])
+    c = -g * (m * d + L * beyond)
+    return float(min(-c[k] + (c.sum() - c[k]) for k in range(n)))
+
+
+def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
+    """Flip times of one band: shape ``(len(theta2), len(theta1))``; NaN = not within t_max, FORBIDDEN = no
+    flip possible. Runs in whichever process the executor picks."""
+    from .codegen import load_compiled
+    from .kinematics import energies
+
+    module = load_compiled(task.method, task.n, False).module
+    params = np.asarray(task.params, dtype=float)
+    n = task.n
+    columns, rows = len(task.theta1), len(task.theta2)
+    theta = np.zeros((rows * columns, n))
+    theta[:, 0] = np.tile(np.asarray(task.theta1), rows)
+    theta[:, 1] = np.repeat(np.asarray(task.theta2), columns)
+    omega = np.zeros_like(theta)
+    times = np.full(rows * columns, np.nan)
+    energy = energies(params, theta, omega)[2]
+    allowed = energy >= flip_energy(params, n)
+    times[~allowed] = FORBIDDEN
+    active = np.flatnonzero(allowed)
+    theta = np.ascontiguousarray(theta[active])
+    omega = np.ascontiguousarray(omega[active])
+    work = np.empty((7, n))
+    condition = np.empty(len(active))
+    steps = int(math.ceil(task.t_max / task.step - 1e-9))
+    flipped_any = np.zeros(len(active), dtype=bool)
+    for k in range(1, steps + 1):
+        if len(active) == 0:
+            break
+        module.rk4_batch_step(theta, omega, params, task.step, 0.0, 0.0, work, condition)
+        over = np.abs(theta) > math.pi
+        flipped = over.any(axis=1) | ~np.isfinite(theta).all(axis=1)
+        if flipped.any():
+            newly = flipped & ~flipped_any
+            times[active[newly]] = k * task.step
+            flipped_any |= flipped
+        if k % COMPACT_EVERY == 0 and flipped_any.any():
+            keep = ~flipped_any
+            active, theta, omega = active[keep], np.ascontiguousarray(theta[keep]), np.ascontiguousarray(omega[keep])
+            condition = np.empty(len(active))
+            flipped_any = np.zeros(len(active), dtype=bool)
+    return task.row_start, times.reshape(rows, columns)
+
+
+def tiles(chain, method: str, resolution: int, t_max: float, step: float) -> list[TileTask]:
+    """Row bands of about PIXELS_PER_TILE pixels covering the map."""
+    angles = grid(resolution)
+    band = max(1, PIXELS_PER_TILE // resolution)
+    params = tuple(float(v) for v in chain.params())
+    return [
+        TileTask(method, chain.n, params, tuple(angles), tuple(angles[start : start + band]), start, t_max, step)
+        for start in range(0, resolution, band)
+    ]
+
+
+def compute_map(chain, method: str = "lagrange", resolution: int = DEFAULT_RESOLUTION, t_max: float = DEFAULT_T_MAX,
+                step: float = DEFAULT_STEP, executor: Executor | None = None, progress: bool = False) -> np.ndarray:
+    """Flip-time map, shape ``(resolution, resolution)``: row i is theta2 = grid[i] (increasing), column j is
+    theta1 = grid[j]. ``executor=None`` runs every tile in this process."""
+    check_map_arguments(chain, method, resolution, t_max, step)
+    tasks = tiles(chain, method, resolution, t_max, step)
+    result = np.empty((resolution, resolution))
+    bar = None
+    if progress:
+        from .bench import Progress
+
+        bar = Progress(len(tasks), "chaos-map", True)
+    try:
+        if executor is None:
+            for task in tasks:
+                start, band = compute_tile(task)
+                result[start : start + band.shape[0]] = band
+                if bar:
+                    bar.step(f"rows {start}")
+        else:
+            futures = [executor.submit(compute_tile, task) for task in tasks]
+            for future in as_completed(futures):
+                start, band = future.result()
+                result[start : start + band.shape[0]] = band
+                if bar:
+                    bar.step(f"rows {start}")
+    finally:
+        if bar:
+            bar.close()
+    return result
+
+
+def check_map_arguments(chain, method, resolution, t_max, step) -> None:
+    from .model import FORMULATION_NAMES
+
+    if chain.pinned:
+        raise LinkageError("chaos maps are for open chains (the tip must be free); choose preset double or a triple")
+    if chain.n < 2:
+        raise LinkageError(f"links = {chain.n}: a chaos map needs at least 2 bars (theta1 and theta2 span the map)")
+    if method not in FORMULATION_NAMES:
+        raise LinkageError(f"method = {method!r}: allowed {', '.join(FORMULATION_NAMES)}")
+    if not (isinstance(resolution, (int, np.integer)) and 1 <= resolution <= MAX_RESOLUTION):
+        raise LinkageError(f"resolution = {resolution}: allowed range 1 <= resolution <= {MAX_RESOLUTION}")
+    if not (math.isfinite(t_max) and 0.0 < t_max <= 1e5):
+        raise LinkageError(f"t_max = {t_max}: allowed range 0 < t_max <= 1e5 s")
+    if not (math.isfinite(step) and 0.0 < step <= min(0.1, t_max)):
+        raise LinkageError(f"step = {step}: allowed range 0 < step <= min(0.1, t_max) s")
+
+
+def to_rgb(times: np.ndarray, t_max: float, step: float) -> np.ndarray:
+    """Image rows top to bottom = theta2 from +pi down to -pi; colour = log flip time from step to t_max."""
+    from .charts import colormap
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        value = np.log(np.clip(times, step, t_max) / step) / math.log(t_max / step)
+    value = np.where(times > 0, value, np.nan)
+    rgb = colormap(value, missing_rgb=NOT_FLIPPED_RGB)
+    rgb[times == FORBIDDEN] = FORBIDDEN_RGB
+    return rgb[::-1]
+
+
+def summary(times: np.ndarray) -> dict:
+    total = times.size
+    forbidden = int(np.count_nonzero(times == FORBIDDEN))
+    flipped = int(np.count_nonzero(times > 0))
+    return {"pixels": total, "forbidden": forbidden, "flipped": flipped,
+            "not_within_t_max": total - forbidden - flipped,
+            "median_flip_time": float(np.median(times[times > 0])) if flipped else None}
+
+
+# ------------------------------------------------------------------------------------------------
+# Executors
+
+
+def make_executor(workers: int | None, scheduler: str | None):
+    """``(executor or None, close)``: None = this process; ProcessPoolExecutor for workers > 1; a Dask
+    distributed executor for a scheduler address (dask imported only then)."""
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise LinkageError(
+                "--scheduler needs Dask: pip install 'dask[distributed]' (the 'dask' extra of linkage-lab)"
+            ) from None
+        try:
+            client = Client(scheduler, timeout="10s")
+        except Exception as error:  # noqa: BLE001 - any connection failure becomes one clear line
+            raise LinkageError(f"--scheduler {scheduler}: cannot connect ({type(error).__name__}: {error})") from None
+        return client.get_executor(), client.close
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if workers <= 1:
+        return None, lambda: None
+    pool = ProcessPoolExecutor(max_workers=workers)
+    return pool, pool.shutdown
+
+
+def build_parser():
+    from .cli import _Parser
+    from .presets import preset_names
+
+    parser = _Parser(prog="python -m physics chaos-map", description="time-to-first-flip map of initial angles")
+    parser.add_argument("--preset", default="double", choices=preset_names())
+    parser.add_argument("--links", type=int, default=None, help="bars for --preset chain")
+    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae"))
+    parser.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION, help="pixels per side")
+    parser.add_argument("--t-max", type=float, default=DEFAULT_T_MAX, help="longest time followed (s)")
+    parser.add_argument("--step", type=float, default=DEFAULT_STEP, help="RK4 step (s)")
+    parser.add_argument("--out", default="chaos-map.png", help="PNG file to write")
+    parser.add_argument("--data", default=None, help="also save the flip times (.npy)")
+    parser.add_argument("--workers", type=int, default=None, help="local processes (default: all cores; 1 = here)")
+    parser.add_argument("--scheduler", default=None, metavar="tcp://host:8786", help="Dask scheduler address")
+    parser.add_argument("--no-progress", action="store_true")
+    return parser
+
+
+def main(argv=None) -> int:
+    from .presets import get_preset
+
+    args = build_parser().parse_args(argv)
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        raise LinkageError(f"--workers = {args.workers}: allowed range 1 <= workers <= 1024")
+    preset = get_preset(args.preset, args.links)
+    check_map_arguments(preset.chain, args.method, args.resolution, args.t_max, args.step)
+    executor, close = make_executor(args.workers, args.scheduler)
+    start = time.perf_counter()
+    try:
+        times = compute_map(preset.chain, args.method, args.resolution, args.t_max, args.step, executor,
+                            progress=not args.no_progress)
+    finally:
+        close()
+    elapsed = time.perf_counter() - start
+    from .charts import write_png
+
+    try:
+        write_png(args.out, to_rgb(times, args.t_max, args.step))
+        if args.data:
+            np.save(args.data, times)
+    except OSError as error:
+        raise LinkageError(f"--out {args.out}: cannot write ({error.strerror or error})") from None
+    info = summary(times)
+    info.update(seconds=elapsed, pixels_per_second=times.size / elapsed, out=args.out, preset=args.preset,
+                t_max=args.t_max, step=args.step)
+    print(json.dumps(info))
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------
+# Benchmark (``python -m physics bench --suite chaos``)
+
+
+def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Path]:
+    """Pixels per second in this process, then with 1 and 2 local worker processes (same map)."""
+    from .bench import Progress, machine_note
+    from .presets import get_preset
+
+    chain = get_preset("double").chain
+    resolution = 48 if quick else 160
+    t_max = 10.0 if quick else DEFAULT_T_MAX
+    bar = Progress(3, "chaos", progress)
+    compute_map(chain, resolution=8, t_max=0.1)  # load the compiled code in this process
+    rows = []
+    reference = None
+    for label, workers in (("in-process", 1), ("1 worker process", "pool1"), ("2 worker processes", 2)):
+        if workers == "pool1":
+            pool = ProcessPoolExecutor(max_workers=1)
+            executor, close = pool, pool.shutdown
+        else:
+            executor, close = make_executor(workers, None)
+        if executor is not None:  # start the workers and load the code there, untimed
+            list(executor.map(compute_tile, tiles(chain, "lagrange", 4, 0.1, DEFAULT_STEP)))
+        start = time.perf_counter()
+        times = compute_map(chain, resolution=resolution, t_max=t_max, executor=executor)
+        elapsed = time.perf_counter() - start
+        close()
+        if reference is None:
+            reference = times
+        identical = bool(np.array_equal(np.nan_to_num(times, nan=-2.0), np.nan_to_num(reference, nan=-2.0)))
+        rows.append({"executor": label, "seconds": elapsed, "pixels_per_second": times.size / elapsed,
+                     "identical_to_in_process": identical})
+        bar.step(label)
+    bar.close()
+    document = {"kind": "chaos-map", "machine": machine_note(), "preset": "double", "resolution": resolution,
+                "t_max": t_max, "step": DEFAULT_STEP, "summary": summary(reference), "runs": rows,
+                "scaling_1_to_2_workers": rows[1]["seconds"] / rows[2]["seconds"]}
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "chaos.json"
+    path.write_text(json.dumps(document, indent=1))
+    lines = [f"double pendulum, {resolution} x {resolution} pixels, t_max = {t_max:g} s, RK4 step {DEFAULT_STEP:g} s",
+             "", "| executor | seconds | pixels / s | same map |", "| --- | --- | --- | --- |"]
+    for row in rows:
+        lines.append(f"| {row['executor']} | {row['seconds']:.2f} | {row['pixels_per_second']:.0f} | "
+                     f"{'yes' if row['identical_to_in_process'] else 'NO'} |")
+    lines.append("")
+    lines.append(f"Scaling 1 -> 2 workers: {document['scaling_1_to_2_workers']:.2f}x; machine "
+                 f"{document['machine']['cpus']} CPUs, load average {document['machine']['load_average_1_5_15']}.")
+    md = out / "chaos.md"
+    md.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    png = out / "chaos-map-bench.png"
+    from .charts import write_png
+
+    write_png(png, to_rgb(reference, t_max, DEFAULT_STEP))
+    return [path, md, png]
