@@ -281,6 +281,7 @@ def simulate_reduced(
     omega0=None,
     independent_index: int | None = None,
     damping: float = 0.0,
+    t_offset: float = 0.0,
 ) -> ReducedTrajectory:
     """Integrate a four-bar in one independent angle with scipy's DOP853, switching coordinates as needed.
 
@@ -299,6 +300,7 @@ def simulate_reduced(
         default :func:`open_chain_mass_and_forcing`. ``params`` is ``[L, d, m, I, g, pin_x, pin_y, damping]``
         (docs/architecture.md); any generalized force in ``f`` (joint damping, say) is projected correctly.
     omega0 : (3,) start velocities, projected onto ``J omega = 0`` (default: rest).
+    t_offset : added to every time quoted in ``message`` (a run continuing an earlier one at ``t_offset``).
     independent_index : 0-based angle to start with (and keep, without switching); default: the best
         conditioned one with switching, theta1 without.
     damping : written into ``params`` for a ``mass_and_forcing`` that models joint damping; the default
@@ -354,7 +356,7 @@ def simulate_reduced(
     while True:
         i = partition.independent
         if partition.conditioning(theta) < DEAD_CENTRE_RCOND:
-            status, message = _dead_centre_failure(partition, theta, t0, switching)
+            status, message = _dead_centre_failure(partition, theta, t0 + t_offset, switching)
             out.add(partition, t0, theta, omega)
             break
         events = [_dead_centre_event(partition)]
@@ -368,7 +370,7 @@ def simulate_reduced(
         except (_OutOfRange, ZeroDivisionError) as error:  # a dead centre slipped between two steps
             status = -1 if not switching else -3
             message = (
-                f"the reduced model lost theta{i + 1} as a coordinate after t = {t0:.6g} s "
+                f"the reduced model lost theta{i + 1} as a coordinate after t = {t0 + t_offset:.6g} s "
                 f"({type(error).__name__}); a dead centre was passed between two steps; tighten rtol"
             )
             break
@@ -376,18 +378,18 @@ def simulate_reduced(
         _collect(out, partition, sol, theta, t_eval, include_start=first)
         first = False
         if sol.status == -1:
-            status, message = -3, f"integrator failed at t = {sol.t[-1]:.6g} s: {sol.message}"
+            status, message = -3, f"integrator failed at t = {sol.t[-1] + t_offset:.6g} s: {sol.message}"
             break
         if sol.status == 0:
             break
         t_event = float(sol.t[-1])
         theta, omega = out.end_theta.copy(), out.end_omega.copy()
         if sol.t_events[0].size:  # conditioning below DEAD_CENTRE_RCOND
-            status, message = _dead_centre_failure(partition, theta, t_event, switching)
+            status, message = _dead_centre_failure(partition, theta, t_event + t_offset, switching)
             break
         new_index = best_independent(theta)
         if len(switch_times) >= MAX_SWITCHES:
-            status, message = -3, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event:.6g} s"
+            status, message = -3, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event + t_offset:.6g} s"
             break
         switch_times.append(t_event)
         pair = list(dependent_pair(new_index))
@@ -436,7 +438,7 @@ def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[in
         f"theta{i + 1} stopped being a valid coordinate at t = {t:.6g} s: bars {a + 1} and {b + 1} became "
         f"collinear (a dead centre: the conditioning of theta{i + 1} fell to {partition.conditioning(theta):.2g}, "
         f"limit {DEAD_CENTRE_RCOND:g}); the fixed-coordinate reduced model cannot continue past it, "
-        f"use switching=True (coordinate partitioning)"
+        f"choose method 'reduced', which switches coordinates (generalized coordinate partitioning)"
     )
 
 

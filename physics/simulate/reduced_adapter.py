@@ -45,7 +45,7 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
         chain.array("L"), chain.array("d"), chain.array("m"), chain.array("I"), chain.g, np.asarray(chain.pin),
         theta0, settings.t_end, t_eval=t_eval, rtol=settings.rtol, atol=settings.atol,
         switching=settings.method == "reduced", mass_and_forcing=_mass_and_forcing_from(open_chain),
-        omega0=omega0, damping=settings.damping,
+        omega0=omega0, damping=settings.damping, t_offset=t_start,
     )
     samples = len(result.t)
     y = np.concatenate([result.theta, result.omega], axis=1)
