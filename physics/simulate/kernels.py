@@ -339,8 +339,8 @@ def _check_arguments(y0, t0, t_end, t_eval, params, y_out, cond_out):
         raise ValueError("params must have at least 4 * N_LINKS + 3 entries")
     if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
         raise ValueError("y_out must have shape (len(t_eval), 2 * N_LINKS)")
-    if cond_out.shape[0] != t_eval.shape[0]:
-        raise ValueError("cond_out must have shape (len(t_eval),)")
+    if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:
+        raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -584,7 +584,8 @@ def _integrate_explicit_rk(
     i_sample = 0
     while i_sample < n_samples and t_eval[i_sample] <= t0:
         y_out[i_sample, :] = y
-        cond_out[i_sample] = condition
+        if cond_out.shape[0]:
+            cond_out[i_sample] = condition
         i_sample += 1
     interval_length = abs(t_end - t0)
     if interval_length == 0.0:
@@ -731,7 +732,8 @@ def _integrate_explicit_rk(
                 if projecting:
                     _project_state(y_stage, params, theta, omega)
                 y_out[i_sample, :] = y_stage
-                cond_out[i_sample] = _sample_condition(y_stage, params, alpha, beta, theta, omega, theta_ddot)
+                if cond_out.shape[0]:  # (0,) = the caller computes it with the reactions, once
+                    cond_out[i_sample] = _sample_condition(y_stage, params, alpha, beta, theta, omega, theta_ddot)
                 i_sample += 1
 
         for j in range(n_state):
@@ -878,7 +880,8 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
     i_sample = 0
     while i_sample < n_samples and t_eval[i_sample] <= t0:
         y_out[i_sample, :] = y
-        cond_out[i_sample] = condition
+        if cond_out.shape[0]:
+            cond_out[i_sample] = condition
         i_sample += 1
     if t_end == t0:
         return STATUS_OK, n_steps, n_rhs, t, i_sample
@@ -956,7 +959,8 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
             if projecting:
                 _project_state(y_probe, params, theta, omega)
             y_out[i_sample, :] = y_probe
-            cond_out[i_sample] = _sample_condition(y_probe, params, alpha, beta, theta, omega, theta_ddot)
+            if cond_out.shape[0]:
+                cond_out[i_sample] = _sample_condition(y_probe, params, alpha, beta, theta, omega, theta_ddot)
             i_sample += 1
         for i in range(n_state):
             y[i] = y_next[i]

@@ -47,12 +47,10 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
         switching=settings.method == "reduced", mass_and_forcing=_mass_and_forcing_from(open_chain),
         omega0=omega0, damping=settings.damping, t_offset=t_start,
     )
-    samples = len(result.t)
     y = np.concatenate([result.theta, result.omega], axis=1)
     pinned = load_compiled("lagrange", 3, True)
     params = chain.params(damping=settings.damping)
-    _, cond = pinned.solve_full_batch(result.theta, result.omega, params) if samples else (None, np.zeros(0))
-    trajectory = build_trajectory(chain, settings, pinned, params, result.t + t_start, y, cond)
+    trajectory = build_trajectory(chain, settings, pinned, params, result.t + t_start, y)
     trajectory.status = STATUS_OK if result.status == 0 else (
         STATUS_SINGULAR if result.status in (-1, -2) else STATUS_INTEGRATOR_FAILED
     )

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..codegen import load_compiled
 from ..errors import LinkageError
-from ..kinematics import energies, joint_positions, point_on_bar, tip_velocity
+from ..kinematics import joint_positions
 from ..model import Chain, Settings, TracePoint, check_state
 from .trajectory import (
     STATUS_INTEGRATOR_FAILED,
@@ -114,7 +114,8 @@ def simulate(
     if status == STATUS_OK and filled < len(t_eval):
         status = STATUS_NONFINITE
     trajectory = build_trajectory(
-        chain, settings, compiled, params, t_eval[:filled], y_out[:filled], cond[:filled], alpha, beta
+        chain, settings, compiled, params, t_eval[:filled], y_out[:filled], cond[:filled] if cond.size else None,
+        alpha, beta,
     )
     trajectory.status = status
     trajectory.message = status_message(status, t_reached, detail)
@@ -126,7 +127,7 @@ def simulate(
 def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, project):
     module = compiled.module
     y_out = np.full((len(t_eval), y0.size), np.nan)
-    cond = np.full(len(t_eval), np.nan)
+    cond = np.empty(0)  # computed with the reactions in build_trajectory, once per sample
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     if settings.integrator == "midpoint":
         result = module.integrate_midpoint(
@@ -172,7 +173,6 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
         return np.concatenate([y[n:], theta_ddot])
 
     y_out = np.full((len(t_eval), y0.size), np.nan)
-    cond = np.full(len(t_eval), np.nan)
     solver_cls = METHODS[settings.integrator]
     y = y0.copy()
     t_now = float(t_eval[0])
@@ -213,9 +213,7 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
     except _Singular as stop:
         status, t_now = STATUS_SINGULAR, float(stop.args[0])
     y_out[next_sample:] = np.nan
-    for i in range(next_sample):
-        cond[i] = module.accel(y_out[i, :n].copy(), y_out[i, n:].copy(), params, alpha, beta, theta_ddot)
-    return y_out, cond, status, n_steps, counter["rhs"], t_now, detail
+    return y_out, np.empty(0), status, n_steps, counter["rhs"], t_now, detail
 
 
 def system_condition(compiled, theta, omega, params) -> np.ndarray:
@@ -229,32 +227,57 @@ def system_condition(compiled, theta, omega, params) -> np.ndarray:
         return np.linalg.cond(A)
 
 
-def build_trajectory(chain, settings, compiled, params, t, y, cond, alpha=0.0, beta=0.0) -> Trajectory:
-    """Everything a trajectory reports, computed from the sampled states (vectorised)."""
+def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0.0, beta=0.0) -> Trajectory:
+    """Everything a trajectory reports, computed from the sampled states in one vectorised pass.
+
+    The generated system is solved once per sample here (one batched call): it gives the reactions and the
+    condition estimate together, so the integrator need not evaluate either at the samples.
+    """
     n = chain.n
     theta, omega = y[:, :n], y[:, n:]
-    L = chain.array("L")
-    joints = joint_positions(L, theta)
+    L, d, m, I = (chain.array(f) for f in "LdmI")
+    samples = len(t)
+    sin, cos = np.sin(theta), np.cos(theta)
+    joints = np.zeros((samples, n + 1, 2))
+    joints[:, 1:, 0] = np.cumsum(L * sin, axis=1)
+    joints[:, 1:, 1] = np.cumsum(-L * cos, axis=1)
     trace = settings.trace or TracePoint(bar=n, along=float(L[-1]))
     if trace.bar > n:
         raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {n}")
-    trace_xy = point_on_bar(L, theta, trace.bar, trace.along, trace.across)
-    kinetic, potential, energy = energies(params, theta, omega)
-    samples = len(t)
-    # Sized from the layout, not the samples, so a run that fails at once still has every column.
+    k = trace.bar - 1
+    trace_xy = np.stack(
+        [
+            joints[:, k, 0] + trace.along * sin[:, k] - trace.across * -cos[:, k],
+            joints[:, k, 1] - trace.along * cos[:, k] + trace.across * sin[:, k],
+        ],
+        axis=-1,
+    )
+    # centre-of-mass heights and velocities: the proximal joint plus d along the bar
+    com_y = joints[:, :-1, 1] - d * cos
+    lever_x, lever_y = L * cos * omega, L * sin * omega
+    com_vx = np.cumsum(lever_x, axis=1) - lever_x + d * cos * omega
+    com_vy = np.cumsum(lever_y, axis=1) - lever_y + d * sin * omega
+    kinetic = 0.5 * np.sum(m * (com_vx**2 + com_vy**2) + I * omega**2, axis=1)
+    potential = np.sum(m * chain.g * com_y, axis=1)
+    energy = kinetic + potential
+
     reactions = np.zeros((samples, len(compiled.reaction_index), 2))
     tip_reaction = np.zeros((samples, len(compiled.tip_reaction_index)))
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
-    if samples and (compiled.reaction_index.size or compiled.tip_reaction_index.size):
-        x, _ = compiled.solve_full_batch(theta, omega, params, alpha, beta)
+    if samples:
+        x, batch_cond = compiled.solve_full_batch(theta, omega, params, alpha, beta)
+        if cond is None or len(cond) != samples:
+            cond = batch_cond
         if compiled.reaction_index.size:
             reactions = x[:, compiled.reaction_index]
         if compiled.tip_reaction_index.size:
             tip_reaction = x[:, compiled.tip_reaction_index]
+    else:
+        cond = np.zeros(0)
     if chain.pinned:
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = tip_velocity(L, theta, omega)
+        constraint_velocity = np.stack([np.sum(lever_x, axis=1), np.sum(lever_y, axis=1)], axis=-1)
         if samples:
             # Near a singular position the pivot ratio understates the trouble: report the true 2-norm
             # condition number of the system actually solved.
