@@ -1,0 +1,87 @@
+"""``python -m app`` (console script ``linkage-lab``): serve the app; ``python -m app snapshot ...``: render a PNG.
+
+Bad flags print one line and exit non-zero; the URL printed is the one really served.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from physics import METHOD_NAMES, LinkageError, preset_names
+
+from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, is_loopback
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse that reports a bad flag in one line (no usage dump) and exits with status 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        print(f"linkage-lab: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _OneLineParser(
+        prog="linkage-lab",
+        description="Serve Linkage Lab: animate planar linkages live in the browser. "
+        "'linkage-lab snapshot --help' renders pictures instead.",
+    )
+    parser.add_argument("--host", default=DEFAULT_HOST, help=f"address to listen on (default {DEFAULT_HOST}; "
+                        "anything else exposes the app to the network)")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT,
+                        help=f"port (default {DEFAULT_PORT}; 0 picks a free one; a busy port moves to the next)")
+    parser.add_argument("--preset", default=DEFAULT_PRESET, choices=preset_names(), metavar="NAME",
+                        help="mechanism every new session starts with: " + ", ".join(preset_names()))
+    parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain")
+    parser.add_argument("--method", default=None, choices=METHOD_NAMES, metavar="METHOD",
+                        help="formulation to start with: " + ", ".join(METHOD_NAMES))
+    parser.add_argument("--max-sessions", type=int, default=DEFAULT_MAX_SESSIONS,
+                        help="most browsers served at once, each with its own simulation "
+                        f"(default {DEFAULT_MAX_SESSIONS})")
+    parser.add_argument("--shared", action="store_true",
+                        help="one simulation that every browser watches and drives (lecture mode)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "snapshot":
+        from . import snapshot
+
+        return snapshot.main(argv[1:]) or 0
+    args = build_parser().parse_args(argv)
+    try:
+        from . import warm
+        from .parameters import SessionParameters
+
+        SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
+        warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser is imported
+        from .server import LabServer
+
+        server = LabServer(
+            host=args.host,
+            port=args.port,
+            preset=args.preset,
+            links=args.links,
+            method=args.method,
+            max_sessions=args.max_sessions,
+            shared=args.shared,
+            warm=False,  # started above
+        )
+    except LinkageError as error:
+        print(f"linkage-lab: error: {error}", file=sys.stderr)
+        return 2
+    if not is_loopback(args.host):
+        print(f"linkage-lab: warning: listening on {args.host}, not loopback: anyone who can reach this "
+              "machine can open the app", file=sys.stderr)
+    if args.port not in (0, server.port):
+        print(f"linkage-lab: port {args.port} is busy; using {server.port}", file=sys.stderr)
+    mode = "one shared session" if args.shared else f"up to {args.max_sessions} sessions"
+    print(f"Linkage Lab serving at {server.url}  ({mode}; Ctrl+C to stop)", flush=True)
+    server.serve_forever()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

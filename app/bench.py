@@ -1,0 +1,320 @@
+"""Measurements of the app behind BENCHMARKS.md: start-up, slider-to-motion latency, CPU, load.
+
+``python -m app.bench all`` prints one JSON object; ``start``, ``latency``, ``cpu`` and ``load`` run one part.
+Browsers are stood in for by websocket clients speaking viser's protocol (:mod:`app.wsclient`), which count
+the pose updates they receive. Nothing here is a test: tests/app assert, this measures.
+
+* start: ``python -m app --port 0`` as a subprocess, from launch to the printed URL, to the start pose a client
+  receives (drawn before any simulation) and to the first simulated pose (animation running); with the
+  derivation cache warm (the current one) and cold (an empty temporary one).
+* latency: in-process server, one client, session paused; an initial-angle slider is set on the server
+  (``handle.value = ...``, the browser's path) and the time to (a) the first pose of the new start queued by
+  the server and (b) that pose arriving at the client is recorded; also (a) for a mass slider while playing.
+* cpu: the server as a subprocess animating the triple pendulum for one client; CPU time of that process
+  over wall time (1.00 = one core), and the frames per second the client received.
+* load: in-process server, N clients in a subprocess (``python -m app.wsclient``) for S seconds, some leaving
+  early; server CPU (this process), resident memory over time, sessions left, frames per second per client.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _rss_mb(pid: int | None = None) -> float:
+    path = f"/proc/{pid or os.getpid()}/status"
+    with open(path) as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    ticks = os.sysconf("SC_CLK_TCK")
+    return (int(fields[11]) + int(fields[12])) / ticks  # utime + stime
+
+
+def _own_cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _start_server(extra: list[str], env: dict) -> tuple[subprocess.Popen, str, float]:
+    started = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--port", "0", *extra],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    match = re.search(r"(http://\S+)", line)
+    if not match:
+        proc.kill()
+        raise RuntimeError(f"the server did not print its URL: {line!r} {proc.stderr.read() if proc.stderr else ''}")
+    return proc, match.group(1), time.perf_counter() - started
+
+
+def measure_start(cold: bool) -> dict:
+    from .wsclient import BackgroundClient
+
+    env = dict(os.environ)
+    tmp = None
+    if cold:
+        tmp = tempfile.TemporaryDirectory(prefix="linkage-lab-cold-")
+        env["LINKAGE_LAB_CACHE"] = tmp.name
+    launched = time.perf_counter()
+    proc, url, url_seconds = _start_server([], env)
+    client = BackgroundClient(url)
+    try:
+        # the page first shows the mechanism at rest at its start (drawn from kinematics, before any
+        # simulation); animation has begun when bar 1 has been moved a second time
+        ok = client.wait_for(lambda c: c.bar_updates() >= 2, timeout=900)
+        watched = list(client.counts.watched)
+        positions = [(t, m) for t, m in watched if m.get("type") == "SetPositionMessage"]
+        return {
+            "cache": "cold" if cold else "warm",
+            "url_printed_s": round(url_seconds, 3),
+            "start_pose_s": round(positions[0][0] - launched, 3) if positions else None,
+            "first_pose_s": round(positions[1][0] - launched, 3) if ok and len(positions) > 1 else None,
+        }
+    finally:
+        client.close()
+        proc.terminate()
+        proc.wait(10)
+        if tmp is not None:
+            tmp.cleanup()
+
+
+def measure_latency(samples: int = 40) -> dict:
+    """Median and worst slider-to-pose latencies, in milliseconds."""
+    from .server import LabServer
+    from .wsclient import BackgroundClient
+
+    server = LabServer(port=0)
+    client = BackgroundClient(server.url)
+    try:
+        session = server.wait_for_sessions(1, timeout=600)[0]
+        session.player.wait_idle(600)
+        angle = session.controls._angle_handles[0]
+        mass = session.controls._bar_handles[0]["m"]
+        queued, received = [], []
+        session.pause()
+        time.sleep(0.3)
+        for i in range(samples):
+            seen = len(client.counts.watched)
+            t0 = time.perf_counter()
+            angle.value = 80.0 + (i % 2) * 20.0  # a new start: the first pose differs from the last one
+            if not client.wait_for(lambda c: len(c.watched) > seen, timeout=10):
+                continue
+            arrival = next(t for t, _ in list(client.counts.watched)[seen:] if t >= t0)
+            queued.append(session.player.last_restart_shown - t0)
+            received.append(arrival - t0)
+            time.sleep(0.05)
+        session.play()
+        time.sleep(0.5)
+        playing = []
+        for i in range(samples):
+            shown_before = session.player.last_restart_shown
+            t0 = time.perf_counter()
+            mass.value = 1.0 + 0.5 * (i % 2)  # the motion goes on from the displayed state with the new mass
+            deadline = time.perf_counter() + 10
+            while session.player.last_restart_shown == shown_before and time.perf_counter() < deadline:
+                time.sleep(0.0005)
+            if session.player.last_restart_shown != shown_before:
+                playing.append(session.player.last_restart_shown - t0 + 1.0 / 60.0)  # + the next frame
+            time.sleep(0.1)
+
+        def stats(values):
+            values = [1e3 * v for v in values]
+            return {
+                "median_ms": round(statistics.median(values), 2) if values else None,
+                "p90_ms": round(sorted(values)[int(0.9 * (len(values) - 1))], 2) if values else None,
+                "max_ms": round(max(values), 2) if values else None,
+                "n": len(values),
+            }
+
+        return {
+            "angle_slider_to_pose_queued": stats(queued),
+            "angle_slider_to_pose_received": stats(received),
+            "mass_slider_to_first_new_frame_queued": stats(playing),
+        }
+    finally:
+        client.close()
+        server.stop()
+
+
+def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
+    from .wsclient import BackgroundClient
+
+    proc, url, _ = _start_server(["--preset", preset], dict(os.environ))
+    client = BackgroundClient(url)
+    try:
+        client.wait_for(lambda c: c.bar_updates() >= 30, timeout=600)
+        time.sleep(1.0)
+        frames0 = client.counts.bar_updates()
+        cpu0, wall0 = _cpu_seconds(proc.pid), time.perf_counter()
+        time.sleep(seconds)
+        cpu1, wall1 = _cpu_seconds(proc.pid), time.perf_counter()
+        frames1 = client.counts.bar_updates()
+        return {
+            "preset": preset,
+            "seconds": seconds,
+            "server_cpu_cores": round((cpu1 - cpu0) / (wall1 - wall0), 3),
+            "client_fps": round((frames1 - frames0) / (wall1 - wall0), 1),
+            "server_rss_mb": round(_rss_mb(proc.pid), 1),
+        }
+    finally:
+        client.close()
+        proc.terminate()
+        proc.wait(10)
+
+
+def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early_seconds: float = 20.0,
+                 shared: bool = False) -> dict:
+    """Server in this process, ``clients`` websocket clients in a subprocess; see the module docstring."""
+    from .server import LabServer
+
+    server = LabServer(port=0, max_sessions=clients + 5, shared=shared)
+    samples = []
+    try:
+        server._warm_thread.join(600)
+        rss_before = _rss_mb()
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "app.wsclient", server.url, "--clients", str(clients), "--seconds", str(seconds),
+             "--early", str(early), "--early-seconds", str(early_seconds)],
+            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )
+        started = time.perf_counter()
+        cpu0 = _own_cpu_seconds()
+        stop = threading.Event()
+
+        def sample() -> None:
+            while not stop.wait(1.0):
+                sessions = list(server.sessions.values())
+                if server.shared_session is not None:
+                    sessions.append(server.shared_session)
+                ring_bytes = sum(run.ring.nbytes for s in sessions for run in s.player.runs)
+                samples.append({
+                    "t": round(time.perf_counter() - started, 1),
+                    "ring_mb": round(ring_bytes / 1e6, 1),
+                    "rss_mb": round(_rss_mb(), 1),
+                    "sessions": len(server.sessions),
+                    "cpu_s": round(_own_cpu_seconds() - cpu0, 2),
+                    "frames_rendered": {s.id: s.frames_sent for s in sessions},
+                })
+
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+        children0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        out, err = proc.communicate(timeout=seconds + 300)
+        wall = time.perf_counter() - started
+        cpu = _own_cpu_seconds() - cpu0
+        children1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        client_cpu = (children1.ru_utime + children1.ru_stime) - (children0.ru_utime + children0.ru_stime)
+        stop.set()
+        sampler.join(2)
+        time.sleep(1.0)
+        if proc.returncode != 0:
+            raise RuntimeError(f"load clients failed: {err[-2000:]}")
+        result = json.loads(out)
+        per_client = result["per_client"]
+        # frames received per second while receiving (first to last pose: excludes connecting)
+        fps = [c["bar_updates"] / c["pose_span"] if c["pose_span"] > 0 else 0.0 for c in per_client]
+        full = [c for c in per_client if c["duration"] == seconds]
+        after_early = [s for s in samples if early_seconds + 3 <= s["t"] <= seconds - 3]
+        # frames the server rendered per session per second, over the steady middle of the run
+        steady = [s for s in samples if 10 <= s["t"] <= seconds - 2]
+        render_fps = []
+        if len(steady) >= 2:
+            a, b = steady[0], steady[-1]
+            for sid in set(a["frames_rendered"]) & set(b["frames_rendered"]):
+                render_fps.append((b["frames_rendered"][sid] - a["frames_rendered"][sid]) / (b["t"] - a["t"]))
+        warm = [s for s in samples if 10 <= s["t"] <= seconds]
+        return {
+            "clients": clients,
+            "shared": shared,
+            "seconds": seconds,
+            "early_leavers": early,
+            "server_cpu_cores": round(cpu / wall, 3),
+            "client_process_cpu_cores": round(client_cpu / wall, 3),
+            "fps_per_client": {
+                "min": round(min(fps), 1),
+                "median": round(statistics.median(fps), 1),
+                "max": round(max(fps), 1),
+            },
+            "server_frames_per_session_per_s": {
+                "min": round(min(render_fps), 1) if render_fps else None,
+                "median": round(statistics.median(render_fps), 1) if render_fps else None,
+            },
+            "pose_span_min_s": round(min(c["pose_span"] for c in full), 2) if full else None,
+            "rss_mb": {
+                "before": round(rss_before, 1),
+                "at_10s": warm[0]["rss_mb"] if warm else None,
+                "peak": max(s["rss_mb"] for s in samples) if samples else None,
+                "end": samples[-1]["rss_mb"] if samples else None,
+                "ring_buffers_peak": max(s["ring_mb"] for s in samples) if samples else None,
+            },
+            "sessions_after_early_leave": min(s["sessions"] for s in after_early) if after_early else None,
+            "sessions_peak": max(s["sessions"] for s in samples) if samples else None,
+            "sessions_at_end": len(server.sessions),
+            "shared_session": server.shared_session is not None,
+            "per_client": per_client,
+            "samples": samples,
+        }
+    finally:
+        server.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("part", choices=["all", "start", "latency", "cpu", "load"], nargs="?", default="all")
+    parser.add_argument("--clients", type=int, default=30)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--shared", action="store_true")
+    parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
+    args = parser.parse_args(argv)
+    out: dict = {}
+    if args.part in ("all", "start"):
+        runs = [measure_start(cold=False) for _ in range(3)]
+        out["start_warm"] = {
+            "runs": runs,
+            "median_first_pose_s": statistics.median(r["first_pose_s"] for r in runs if r["first_pose_s"]),
+        }
+        if not args.no_cold:
+            out["start_cold"] = measure_start(cold=True)
+    if args.part in ("all", "latency"):
+        out["latency"] = measure_latency()
+    if args.part in ("all", "cpu"):
+        out["cpu"] = measure_cpu()
+    if args.part in ("all", "load"):
+        load = measure_load(args.clients, args.seconds, shared=args.shared)
+        load.pop("per_client")
+        load.pop("samples")
+        out["load"] = load
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

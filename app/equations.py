@@ -1,0 +1,115 @@
+"""The equations of motion as derived, rendered as MathML for the Equations panel.
+
+viser's markdown has no TeX renderer, but its HTML element shows raw HTML and browsers draw MathML natively,
+so each row of the derived linear system ``A x = b`` is printed with sympy's presentation-MathML printer,
+next to the name the derivation gave it (e.g. "AMB bar 2 about its centre of mass"). sympy is imported here
+only, lazily, in a worker thread; results are cached per (formulation, n, pinned).
+"""
+
+from __future__ import annotations
+
+import functools
+import html
+
+from .parameters import METHOD_LABELS
+
+MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
+SIMPLIFY_MAX_LINKS = 4  # trig-simplify entries for display up to this many bars (seconds of sympy at n = 4)
+
+
+def _display_names(system):
+    """Symbols renamed for display: theta_ddot_i -> θ̈_i (sympy prints theta_i, omega_i, L_i as Greek/subscripts)."""
+    import sympy as sp
+
+    mapping = {}
+    for i, symbol in enumerate(system.symbols.theta_ddot, start=1):
+        mapping[symbol] = sp.Symbol(f"\u03b8\u0308_{i}", real=True)
+    mapping[system.symbols.damping] = sp.Symbol("c", real=True)
+    return mapping
+
+
+def _math(expr) -> str:
+    from sympy.printing.mathml import mathml
+
+    return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
+
+
+@functools.lru_cache(maxsize=32)
+def equations_html(formulation: str, n: int, pinned: bool) -> str:
+    """HTML (with MathML) of the system ``A x = b`` that the simulation integrates."""
+    import sympy as sp
+
+    if formulation.startswith("reduced"):
+        return (
+            "<p>The <b>reduced</b> model integrates the closed loop in its one free coordinate and recovers "
+            "the other angles by position analysis (physics.assembly). It has no symbolic system of its own "
+            "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
+        )
+    from physics.derive import FORMULATIONS
+
+    system = FORMULATIONS[formulation]().derive(n, pinned)
+    names = _display_names(system)
+    unknowns = [names.get(u, u) for u in system.unknowns]
+    label = METHOD_LABELS.get(formulation, formulation)
+    closure = "closed loop (tip pinned)" if pinned else "open chain"
+    parts = [
+        f"<p><b>{html.escape(label)}</b>, {n} bars, {closure}: {len(unknowns)} equations, linear in the unknowns "
+        f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side.</p>",
+        "<p>Unknowns <i>x</i>:</p>",
+        _math(sp.Matrix(unknowns).T),
+    ]
+    def tidy(expr):
+        # display only: products of sines and cosines become sin/cos of angle differences
+        return sp.trigsimp(sp.expand(expr)) if n <= SIMPLIFY_MAX_LINKS else expr
+
+    parts.append('<div style="overflow-x:auto">')
+    for i, row_name in enumerate(system.equation_names):
+        lhs = sp.Add(*[tidy(system.A[i, j]) * unknowns[j] for j in range(len(unknowns)) if system.A[i, j] != 0],
+                     evaluate=False)
+        rhs = tidy(system.b[i])
+        equation = sp.Eq(lhs.xreplace(names), rhs.xreplace(names), evaluate=False)
+        text = _math(equation)
+        if len(text) > MAX_ROW_CHARACTERS:
+            text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
+        parts.append(f"<p><b>{i + 1}. {html.escape(row_name)}</b></p>{text}")
+    parts.append("</div>")
+    parts.append(
+        "<p>Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "
+        "θ̈ its angular acceleration; L length, d centre-of-mass distance from the proximal joint, m mass, "
+        "I centroidal inertia, g gravity, c joint damping; R reactions, a centre-of-mass accelerations.</p>"
+    )
+    return "".join(parts)
+
+
+def _tex_text(text: str) -> str:
+    """Plain text for LaTeX's text mode."""
+    for char in "\\&%$#_{}":
+        text = text.replace(char, "\\" + char)
+    return text
+
+
+def equations_tex(formulation: str, n: int, pinned: bool) -> str:
+    """A LaTeX document of the same system, from physics.codegen.equations_latex (cached beside the code)."""
+    if formulation.startswith("reduced"):
+        raise ValueError("the reduced model has no symbolic system of its own; choose a formulation")
+    from physics.codegen.latex import equations_latex
+
+    data = equations_latex(formulation, n, pinned)
+    label = METHOD_LABELS.get(formulation, formulation)
+    closure = "closed loop (tip pinned)" if pinned else "open chain"
+    lines = [
+        r"\documentclass{article}",
+        r"\usepackage{amsmath}",
+        r"\usepackage[margin=1.5cm,landscape]{geometry}",
+        r"\begin{document}",
+        rf"\section*{{{label}, {n} bars, {closure}}}",
+        _tex_text(str(data.get("title", ""))),
+        "",
+        r"Unknowns: $x = \left(" + ", ".join(data["unknowns"]) + r"\right)$.",
+        r"\begin{enumerate}",
+    ]
+    for row in data["rows"]:
+        lines.append(r"\item " + _tex_text(row["label"]))
+        lines.append(r"\begin{multline*}" + row["latex"] + r"\end{multline*}")
+    lines += [r"\end{enumerate}", r"\end{document}", ""]
+    return "\n".join(lines)

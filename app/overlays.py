@@ -1,0 +1,214 @@
+"""What is drawn on top of the mechanism: trace, plots, reaction arrows and the status line.
+
+Each overlay is made once and then fed arrays; none of them computes physics. Plots use uPlot (``gui.add_uplot``)
+with simulated seconds on the x axis (``time: False``, so uPlot does not print dates).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene import to_world
+
+TRACE_COLOR = (200, 30, 140)
+TRACE_FADED = (245, 235, 242)  # the oldest end of the trace, close to the white background
+REACTION_COLOR = (220, 60, 20)
+METHOD_COLORS = {
+    "newton_euler": (31, 119, 180),
+    "lagrange": (255, 127, 14),
+    "dae": (44, 160, 44),
+    "reduced": (148, 103, 189),
+}
+PLOT_POINTS = 300  # points per plotted series (downsampled), enough for a 300 px wide panel
+DIVERGENCE_FLOOR = 1e-16  # log-scale plots cannot show zero
+
+
+def _rgb(color) -> str:
+    return "rgb({}, {}, {})".format(*color)
+
+
+class TraceLine:
+    """The traced point's path over the last N seconds, drawn as line segments fading towards the past."""
+
+    def __init__(self, scene_api, name: str, color=TRACE_COLOR, thickness: float = 0.012) -> None:
+        self.color = np.array(color, dtype=float)
+        self.faded = np.array(TRACE_FADED, dtype=float)
+        self.handle = scene_api.add_line_segments(
+            name, points=np.zeros((1, 2, 3), np.float32), colors=np.zeros((1, 2, 3), np.uint8), thickness=thickness
+        )
+        self.handle.visible = False
+        self.points_shown = 0
+        self._colors: np.ndarray | None = None
+
+    @property
+    def name(self) -> str:
+        return self.handle.name
+
+    def update(self, xy: np.ndarray) -> None:
+        """``xy`` (m, 2): the traced point's positions, oldest first."""
+        m = len(xy)
+        if m < 2:
+            if self.handle.visible:
+                self.handle.visible = False
+            self.points_shown = 0
+            return
+        segments = np.zeros((m - 1, 2, 3), np.float32)
+        segments[:, 0, 0], segments[:, 0, 2] = xy[:-1, 0], xy[:-1, 1]  # world (x, 0, y), see scene.to_world
+        segments[:, 1, 0], segments[:, 1, 2] = xy[1:, 0], xy[1:, 1]
+        self.handle.points = segments
+        if self._colors is None or len(self._colors) != m - 1:  # the fade depends on the length only
+            age = np.linspace(0.0, 1.0, m)  # 0 = oldest, 1 = newest
+            shade = self.faded[None, :] + age[:, None] ** 1.5 * (self.color - self.faded)[None, :]
+            self._colors = np.stack([shade[:-1], shade[1:]], axis=1).round().astype(np.uint8)
+            self.handle.colors = self._colors
+        if not self.handle.visible:
+            self.handle.visible = True
+        self.points_shown = m
+
+    def set_thickness(self, thickness: float) -> None:
+        self.handle.thickness = float(thickness)
+
+    def remove(self) -> None:
+        try:
+            self.handle.remove()
+        except Exception:
+            pass
+
+
+class ReactionArrows:
+    """Joint reaction forces of the dae formulation as arrows at the joints, scaled to lengths."""
+
+    def __init__(self, scene_api, name: str) -> None:
+        self.scene_api = scene_api
+        self.name = name
+        self.handle = None
+        self.count = 0
+
+    def update(self, joints_xy: np.ndarray, forces: np.ndarray, scale: float, radius: float) -> None:
+        """``joints_xy`` (k, 2) points of application, ``forces`` (k, 2); arrow length = scale * |force|."""
+        if len(forces) == 0:
+            self.hide()
+            return
+        start = to_world(joints_xy)
+        end = to_world(joints_xy + scale * forces)
+        points = np.stack([start, end], axis=1).astype(np.float32)
+        colors = np.tile(np.array(REACTION_COLOR, np.uint8), (len(forces), 1))
+        if self.handle is None or self.count != len(forces):
+            if self.handle is not None:
+                self.handle.remove()
+            self.handle = self.scene_api.add_arrows(
+                self.name, points=points, colors=colors, shaft_radius=radius, head_radius=2.5 * radius,
+                head_length=6 * radius,
+            )
+            self.count = len(forces)
+        else:
+            self.handle.points = points
+            if not self.handle.visible:
+                self.handle.visible = True
+
+    def hide(self) -> None:
+        if self.handle is not None and self.handle.visible:
+            self.handle.visible = False
+
+    def remove(self) -> None:
+        if self.handle is not None:
+            try:
+                self.handle.remove()
+            except Exception:
+                pass
+            self.handle = None
+
+
+def _downsample(*arrays: np.ndarray, points: int = PLOT_POINTS):
+    m = len(arrays[0])
+    if m <= points:
+        return arrays
+    idx = np.linspace(0, m - 1, points).round().astype(int)
+    return tuple(a[idx] for a in arrays)
+
+
+def _x_axis(label: str = "simulated time (s)") -> dict:
+    return {"label": label, "size": 36}
+
+
+class Plot:
+    """One uPlot chart: x = simulated seconds, one or more series.
+
+    ``log``: the series are drawn as log10 of their absolute value on a linear axis (uPlot's own log axis
+    labels tiny values as "0", and its tick formatters are functions, which viser cannot send).
+    """
+
+    def __init__(self, gui, title: str, labels: list[str], colors: list, *, log: bool = False, height: int = 160,
+                 y_label: str = "") -> None:
+        self.log = log
+        self.labels = labels
+        if log:
+            labels = [f"log10 {label}" for label in labels]
+        series = [{"label": "t (s)"}] + [
+            {"label": label, "stroke": _rgb(color), "width": 1.5} for label, color in zip(labels, colors)
+        ]
+        data = tuple(np.zeros(2) for _ in range(len(labels) + 1))
+        self.handle = gui.add_uplot(
+            data=data,
+            series=tuple(series),
+            title=title,
+            scales={"x": {"time": False, "auto": True}, "y": {"auto": True}},
+            axes=(_x_axis(), {"label": ("log10 " + y_label).strip() if log else y_label, "size": 50}),
+            legend={"show": True, "live": False},
+            height=height,
+            aspect=2.0,
+        )
+        self.points_shown = 0
+
+    def update(self, t: np.ndarray, *ys: np.ndarray) -> None:
+        if len(t) < 2:
+            return
+        arrays = _downsample(t, *ys)
+        if self.log:
+            arrays = (arrays[0],) + tuple(np.log10(np.maximum(np.abs(a), DIVERGENCE_FLOOR)) for a in arrays[1:])
+        arrays = tuple(np.nan_to_num(np.asarray(a, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0) for a in arrays)
+        self.handle.data = arrays
+        self.points_shown = len(arrays[0])
+
+    def set_visible(self, visible: bool) -> None:
+        if self.handle.visible != visible:
+            self.handle.visible = visible
+
+    def remove(self) -> None:
+        try:
+            self.handle.remove()
+        except Exception:
+            pass
+
+
+def relative_drift(energy: np.ndarray, reference: float, scale: float) -> np.ndarray:
+    """(E - E_ref) / max(|E_ref|, scale): relative, and still defined when E_ref = 0."""
+    return (energy - reference) / max(abs(reference), scale, 1e-300)
+
+
+def energy_scale(m, L, g) -> float:
+    """A characteristic energy of the mechanism, total weight times reach: the drift's floor denominator."""
+    return float(np.sum(m) * g * np.sum(L)) or 1.0
+
+
+def status_markdown(
+    t: float,
+    playing: bool,
+    rtf: float,
+    method_label: str,
+    drift: float | None,
+    constraint: float | None,
+    notice: str | None,
+) -> str:
+    state = "playing" if playing else "paused"
+    parts = [f"**t = {t:8.3f} s** ({state})", f"real-time factor {rtf:4.2f}×", method_label]
+    if drift is not None and math.isfinite(drift):
+        parts.append(f"energy error {drift:.2e}")
+    if constraint is not None and math.isfinite(constraint):
+        parts.append(f"constraint error {constraint:.2e}")
+    text = " · ".join(parts)
+    if notice:
+        text += f"\n\n⚠ {notice}"
+    return text

@@ -1,0 +1,552 @@
+"""Simulation ahead of the display, and the frame clock that shows it.
+
+One :class:`Player` per session owns one background thread. The thread keeps every run's samples about a
+second ahead of the displayed time by calling :func:`physics.simulate` in short chunks (each continuing from
+the last stored sample with ``t_start``), and 60 times a second hands the frame at the displayed time to the
+session's ``on_frame`` callback, which moves the scene. A change of parameters replaces the runs and wakes
+the thread at once: the first chunk after a restart is short and shown as soon as it is computed, so the new
+motion appears within a few milliseconds of the change (measured in ``latencies``).
+
+The player knows nothing of viser; it sees runs (one normally, three in compare mode) and samples.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .buffers import TrajectoryRing
+
+SAMPLE_RATE = 60.0  # samples per simulated second; also the display's frames per wall-clock second
+SAMPLE_DT = 1.0 / SAMPLE_RATE
+HISTORY_SECONDS = 120.0  # what a session keeps for plots and export; bounds its memory
+LOOKAHEAD_SECONDS = 1.0  # simulated time kept ready ahead of the display (times the playback speed)
+FIRST_CHUNK_SECONDS = 0.25  # short first chunk after a restart, so the first new pose comes quickly
+MAX_CHUNK_SECONDS = 2.0
+CHUNK_BUDGET_SECONDS = 0.008  # aim for chunks that take about half a frame to compute
+MAX_SPEED = 8.0
+
+
+@dataclass
+class RunSpec:
+    """What one run simulates: a validated chain, settings (``t_end``/``samples`` are set per chunk), a label."""
+
+    label: str
+    chain: object  # physics.Chain
+    settings: object  # physics.Settings
+
+    @property
+    def n(self) -> int:
+        return self.chain.n
+
+    @property
+    def pinned(self) -> bool:
+        return self.chain.pinned
+
+
+@dataclass
+class Run:
+    spec: RunSpec
+    ring: TrajectoryRing
+    com_ratio: np.ndarray  # d / L per bar (0 where L = 0): centre of mass between its joints
+    failed: str | None = None  # message of a failed chunk: no samples will follow the last stored one
+    chunk_seconds: float = FIRST_CHUNK_SECONDS
+    compute_seconds: float = 0.0  # CPU time spent simulating (for the status line)
+    simulated_seconds: float = 0.0
+
+
+@dataclass
+class RunFrame:
+    label: str
+    index: int  # logical ring index of the sample at or before the displayed time
+    joints: np.ndarray  # (n+1, 2), interpolated to the displayed time
+    com: np.ndarray  # (n, 2)
+
+
+@dataclass
+class Frame:
+    t: float
+    runs: list[RunFrame]
+    restarted: bool = False  # first frame after a restart (the latency probe)
+    request_time: float | None = None
+    counter: int = 0
+
+
+@dataclass
+class _Restart:
+    specs: list[RunSpec]
+    t0: float
+    starts: list[tuple[np.ndarray, np.ndarray]]
+    keep_history: bool
+    requested_at: float
+    play: bool | None = None
+
+
+def _com_ratio(chain) -> np.ndarray:
+    L = np.array([b.L for b in chain.bars], dtype=float)
+    d = np.array([b.d for b in chain.bars], dtype=float)
+    return np.divide(d, L, out=np.zeros_like(d), where=L > 0)
+
+
+def _chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
+    """The ring's fields from a physics Trajectory (reactions only for dae; zeros elsewhere)."""
+    out = {
+        "t": traj.t,
+        "theta": traj.theta,
+        "omega": traj.omega,
+        "joints": traj.joints,
+        "trace_xy": traj.trace_xy,
+        "kinetic": traj.kinetic,
+        "potential": traj.potential,
+        "energy": traj.energy,
+    }
+    if traj.reactions.shape[1:] == (n, 2):
+        out["reactions"] = traj.reactions
+    if pinned:
+        if traj.constraint_xy.shape[1:] == (2,):
+            out["constraint_xy"] = traj.constraint_xy
+        if traj.tip_reaction.shape[1:] == (2,):
+            out["tip_reaction"] = traj.tip_reaction
+    return out
+
+
+def _kinematic_sample(spec: RunSpec, t0: float, theta0: np.ndarray, omega0: np.ndarray) -> dict[str, np.ndarray]:
+    """One sample from positions and velocities alone (no dynamics): what a failed start looks like."""
+    from physics import energies, joint_positions
+    from physics.kinematics import point_on_bar
+
+    chain = spec.chain
+    L = np.array([b.L for b in chain.bars], dtype=float)
+    theta = np.where(np.isfinite(theta0), theta0, 0.0)
+    omega = np.where(np.isfinite(omega0), omega0, 0.0)
+    kinetic, potential, total = energies(chain.params(), theta, omega)
+    trace = spec.settings.trace
+    if trace is not None:
+        trace_xy = point_on_bar(L, theta, trace.bar, trace.along, trace.across)
+    else:
+        trace_xy = joint_positions(L, theta)[-1]
+    return {
+        "t": np.array([t0]),
+        "theta": theta[None, :],
+        "omega": omega[None, :],
+        "joints": joint_positions(L, theta)[None],
+        "trace_xy": np.asarray(trace_xy)[None, :],
+        "kinetic": np.array([kinetic]),
+        "potential": np.array([potential]),
+        "energy": np.array([total]),
+    }
+
+
+def _finite_prefix(chunk: dict[str, np.ndarray]) -> int:
+    """Number of leading samples whose state is finite."""
+    ok = np.all(np.isfinite(chunk["theta"]), axis=1) & np.all(np.isfinite(chunk["omega"]), axis=1)
+    bad = np.flatnonzero(~ok)
+    return int(bad[0]) if bad.size else len(ok)
+
+
+class Player:
+    """Background simulation and frame clock of one session.
+
+    ``simulate(chain, theta0, omega0, settings, t_start)`` is physics.simulate (injected, so tests can
+    count calls); ``make_settings(settings, t_end, samples)`` returns a copy with the chunk's horizon;
+    ``on_frame(frame)`` moves the scene (called on the player thread, under the player's lock);
+    ``on_failure(message)`` reports a run that stopped; ``prepare(spec, theta0, omega0)`` runs before a run's
+    first chunk
+    (loads compiled code, possibly slowly, with a notice). Chunks after the first continue a run and are
+    passed ``continuing=True``: a closed loop's drift belongs to the run and is not re-checked at each chunk.
+    """
+
+    def __init__(
+        self,
+        simulate: Callable,
+        make_settings: Callable,
+        on_frame: Callable[[Frame], None],
+        on_failure: Callable[[str], None],
+        prepare: Callable[[RunSpec, np.ndarray, np.ndarray], None] | None = None,
+        name: str = "player",
+    ) -> None:
+        self._simulate = simulate
+        self._make_settings = make_settings
+        self._on_frame = on_frame
+        self._on_failure = on_failure
+        self._prepare = prepare or (lambda spec, theta0, omega0: None)
+        self.lock = threading.RLock()
+        self._wake = threading.Event()
+        self._stop = False
+        self._pending: _Restart | None = None
+        self._restarting = False
+        self._installing: _Restart | None = None  # the restart being installed (popped from _pending)
+        self._failure_reported = False
+        self.runs: list[Run] = []
+        self.generation = 0  # bumped at every restart; chunks of an older generation are dropped
+        self.display_time = 0.0
+        self.playing = False
+        self.speed = 1.0
+        self.frame_counter = 0
+        self.frame_interval = SAMPLE_DT  # wall seconds between frames; the server widens it under load
+        self.latencies: collections.deque[float] = collections.deque(maxlen=256)  # seconds, restart -> pose
+        self.last_restart_shown = 0.0  # perf_counter() when the first frame of the latest restart was sent
+        self._restart_time: float | None = None
+        self._seek_target: float | None = None
+        self._seek_done = threading.Event()
+        self._last_frame_wall = time.monotonic()
+        self._dirty = True  # something to show although the displayed time did not move
+        self._last_shown_time: float | None = None
+        self._idle_ticks = 0
+        self._rate_window: collections.deque[tuple[float, float]] = collections.deque(maxlen=120)
+        self.error: str | None = None
+        self._thread = threading.Thread(target=self._loop, name=name, daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ commands (any thread)
+    def restart(
+        self,
+        specs: list[RunSpec],
+        t0: float,
+        starts: list[tuple[np.ndarray, np.ndarray]],
+        *,
+        keep_history: bool,
+        play: bool | None = None,
+    ) -> None:
+        """Replace the runs, starting each from ``starts[i]`` at time ``t0``.
+
+        ``keep_history``: keep the stored samples up to ``t0`` (a parameter change mid-run); otherwise the
+        runs start afresh (reset, new mechanism). Applied by the player thread as soon as it wakes.
+        """
+        with self.lock:
+            self._pending = _Restart(list(specs), float(t0), list(starts), keep_history, time.perf_counter(), play)
+        self._wake.set()
+
+    def play(self) -> None:
+        with self.lock:
+            self.playing = True
+            self._last_frame_wall = time.monotonic()
+        self._wake.set()
+
+    def pause(self) -> None:
+        with self.lock:
+            self.playing = False
+        self._wake.set()
+
+    def touch(self) -> None:
+        """Redraw the current frame (an overlay was switched on or off while paused)."""
+        with self.lock:
+            self._dirty = True
+        self._wake.set()
+
+    def set_speed(self, speed: float) -> None:
+        with self.lock:
+            self.speed = float(min(max(speed, 0.01), MAX_SPEED))
+
+    def step(self, frames: int = 1) -> None:
+        """Advance the paused display by ``frames`` samples (waits for them to be simulated)."""
+        with self.lock:
+            self.playing = False
+            if self.runs:
+                self._seek_target = self.display_time + frames * SAMPLE_DT
+        self._wake.set()
+
+    def seek(self, t: float, timeout: float = 60.0) -> bool:
+        """Pause and show time ``t`` (simulating up to it first); blocks until shown or ``timeout``."""
+        with self.lock:
+            self.playing = False
+            self._seek_target = float(t)
+            self._seek_done.clear()
+        self._wake.set()
+        return self._seek_done.wait(timeout)
+
+    def wait_idle(self, timeout: float = 10.0) -> bool:
+        """Wait until no restart is pending (the last requested one has been shown)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self.lock:
+                if self._pending is None and not self._restarting and self._restart_time is None:
+                    return True
+            time.sleep(0.002)
+        return False
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self._stop = True
+        self._wake.set()
+        if threading.current_thread() is not self._thread:
+            self._thread.join(timeout)
+
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
+    # ------------------------------------------------------------------ state (any thread)
+    def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """``(t, theta, omega)`` of the first run at the sample at or before the displayed time."""
+        with self.lock:
+            request = self._pending or self._installing
+            if request is not None:  # a restart not shown yet: its start is the state to go on from
+                theta, omega = request.starts[0]
+                return request.t0, np.array(theta, dtype=float), np.array(omega, dtype=float)
+            if not self.runs or len(self.runs[0].ring) == 0:
+                return None
+            ring = self.runs[0].ring
+            i = ring.index_at(self.display_time)
+            return ring.t_first + i * ring.dt, ring.get("theta", i).copy(), ring.get("omega", i).copy()
+
+    def real_time_factor(self) -> float:
+        """Simulated seconds shown per wall-clock second over the last two seconds."""
+        with self.lock:
+            if len(self._rate_window) < 2:
+                return 0.0
+            (w0, s0), (w1, s1) = self._rate_window[0], self._rate_window[-1]
+        return (s1 - s0) / (w1 - w0) if w1 > w0 else 0.0
+
+    # ------------------------------------------------------------------ the thread
+    def _loop(self) -> None:
+        next_frame = time.monotonic()
+        while not self._stop:
+            try:
+                self._apply_restart()
+                produced = self._produce_one()
+                now = time.monotonic()
+                interval = self.frame_interval
+                if self._restart_time is not None and self._ready_to_show():
+                    self._render(now, restarted=True)
+                    next_frame = now + interval
+                elif self._seek_target is not None and self._seek_ready():
+                    self._render(now)
+                    next_frame = now + interval
+                elif now >= next_frame:
+                    self._render(now)
+                    next_frame += interval
+                    if next_frame < now:  # fell behind (slow integrator): skip frames, do not burst
+                        next_frame = now + interval
+                if produced and time.monotonic() < next_frame - 0.002:
+                    continue  # more to compute and time left before the next frame
+                self._wake.wait(max(0.0, next_frame - time.monotonic()))
+                self._wake.clear()
+            except Exception as error:  # never let one session's error kill its thread silently
+                traceback.print_exc()
+                with self.lock:
+                    self.playing = False
+                    self.error = f"{type(error).__name__}: {error}"
+                    self._restart_time = None
+                    self._pending = None
+                    self._seek_target = None
+                    self._seek_done.set()
+                try:
+                    self._on_failure(f"internal error in the player: {self.error}")
+                except Exception:
+                    traceback.print_exc()
+                self._wake.wait(0.5)
+                self._wake.clear()
+
+    def _apply_restart(self) -> None:
+        with self.lock:
+            pending, self._pending = self._pending, None
+            if pending is not None:
+                self._restarting = True
+                self._installing = pending
+        if pending is None:
+            return
+        try:
+            self._install(pending)
+        finally:
+            with self.lock:
+                self._restarting = False
+                self._installing = None
+
+    def _install(self, pending: _Restart) -> None:
+        """Replace the runs by ``pending``'s; the slow parts (loading code, the first sample) run unlocked."""
+        for spec, (theta0, omega0) in zip(pending.specs, pending.starts):
+            self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
+        seeds = [self._seed(spec, pending.t0, *start) for spec, start in zip(pending.specs, pending.starts)]
+        with self.lock:
+            if self._pending is not None:  # a newer request arrived meanwhile: it wins
+                return
+            old = {run.spec.label: run for run in self.runs}
+            runs = []
+            for spec, (sample, failed) in zip(pending.specs, seeds):
+                capacity = int((HISTORY_SECONDS + LOOKAHEAD_SECONDS * MAX_SPEED + MAX_CHUNK_SECONDS) * SAMPLE_RATE)
+                prev = old.get(spec.label)
+                if (
+                    pending.keep_history
+                    and prev is not None
+                    and prev.spec.n == spec.n
+                    and prev.spec.pinned == spec.pinned
+                    and len(prev.ring)
+                ):
+                    ring = prev.ring
+                    ring.truncate_after(ring.index_at(pending.t0))
+                    # the start state replaces the stored sample at t0 (e.g. a re-assembled loop)
+                    ring.truncate_after(len(ring) - 2)
+                else:
+                    ring = TrajectoryRing(spec.n, spec.pinned, capacity, SAMPLE_DT)
+                ring.append(sample)
+                runs.append(Run(spec=spec, ring=ring, com_ratio=_com_ratio(spec.chain), failed=failed))
+            self.runs = runs
+            self._failure_reported = False
+            self.generation += 1
+            self.display_time = pending.t0
+            self._restart_time = pending.requested_at
+            self._rate_window.clear()
+            if pending.play is not None:
+                self.playing = pending.play
+            self._last_frame_wall = time.monotonic()
+
+    def _seed(self, spec: RunSpec, t0: float, theta0: np.ndarray, omega0: np.ndarray) -> tuple[dict, str | None]:
+        """The start state as a run's first sample, and the failure message if it cannot move.
+
+        A one-sample-interval simulation gives every field. If the start cannot be integrated at all (a
+        singular position), the sample is built from kinematics alone, so the scene still shows where the
+        mechanism stands."""
+        try:
+            traj = self._simulate_chunk(spec, t0, theta0, omega0, 0)
+        except ValueError as error:  # LinkageError: e.g. a start that does not close the loop
+            traj, message = None, str(error)
+        else:
+            message = traj.message
+        if traj is not None and len(traj.t) > 0:
+            chunk = {k: v[:1] for k, v in _chunk_dict(traj, spec.n, spec.pinned).items()}
+            if _finite_prefix(chunk) == 1:
+                failed = message if (traj.status < 0 and len(traj.t) < 2) else None
+                return chunk, failed
+        return _kinematic_sample(spec, t0, theta0, omega0), message or "the start state could not be evaluated"
+
+    def _simulate_chunk(self, spec: RunSpec, t0: float, theta0, omega0, steps: int, continuing: bool = False):
+        """Simulate ``steps`` sample intervals from ``t0``; ``steps = 0`` evaluates the start state only."""
+        horizon = max(steps, 1) * SAMPLE_DT
+        settings = self._make_settings(spec.settings, horizon, max(steps, 1) + 1)
+        if continuing:
+            return self._simulate(spec.chain, theta0, omega0, settings, t_start=t0, continuing=True)
+        return self._simulate(spec.chain, theta0, omega0, settings, t_start=t0)
+
+    def _needs_more(self, run: Run) -> bool:
+        if run.failed is not None or len(run.ring) == 0:
+            return False
+        ahead = LOOKAHEAD_SECONDS * max(self.speed, 1.0)
+        target = self.display_time + ahead
+        if self._seek_target is not None:
+            target = max(target, self._seek_target + SAMPLE_DT)
+        return run.ring.t_last < target
+
+    def _produce_one(self) -> bool:
+        """Simulate one chunk for the run that is furthest behind; True if something was computed."""
+        with self.lock:
+            candidates = [run for run in self.runs if self._needs_more(run)]
+            if not candidates:
+                return False
+            run = min(candidates, key=lambda r: r.ring.t_last)
+            generation = self.generation
+            i = len(run.ring) - 1
+            t0 = run.ring.t_last
+            theta0 = run.ring.get("theta", i).copy()
+            omega0 = run.ring.get("omega", i).copy()
+            seconds = run.chunk_seconds
+            spec = run.spec
+        steps = max(1, int(round(seconds * SAMPLE_RATE)))
+        started = time.perf_counter()
+        try:
+            traj = self._simulate_chunk(spec, t0, theta0, omega0, steps, continuing=True)
+        except ValueError as error:  # LinkageError for this start: the run stops here, with its message
+            with self.lock:
+                if generation == self.generation and run in self.runs:
+                    run.failed = str(error)
+            return True
+        elapsed = time.perf_counter() - started
+        with self.lock:
+            if generation != self.generation or run not in self.runs:
+                return True  # a restart happened meanwhile: this chunk belongs to the past
+            run.compute_seconds += elapsed
+            chunk = _chunk_dict(traj, spec.n, spec.pinned)
+            chunk = {k: v[1:] for k, v in chunk.items()}  # the first sample is the stored start
+            good = _finite_prefix(chunk)
+            run.ring.append({k: v[:good] for k, v in chunk.items()})
+            run.simulated_seconds += good * SAMPLE_DT
+            if traj.status < 0:
+                run.failed = traj.message or f"simulation failed (status {traj.status})"
+            elif good < len(chunk["t"]):
+                run.failed = f"the state became non-finite at t = {t0 + (good + 1) * SAMPLE_DT:.4g} s"
+            elif len(chunk["t"]) < steps:
+                run.failed = traj.message or "the simulation stopped early"
+            # adapt the chunk length to the compute time (slow integrators get short chunks)
+            if elapsed > CHUNK_BUDGET_SECONDS and run.chunk_seconds > 2 * SAMPLE_DT:
+                run.chunk_seconds = max(2 * SAMPLE_DT, run.chunk_seconds / 2)
+            elif elapsed < CHUNK_BUDGET_SECONDS / 4:
+                run.chunk_seconds = min(MAX_CHUNK_SECONDS, run.chunk_seconds * 2)
+        return True
+
+    def _available_until(self) -> float:
+        """The latest time every run can show (the slowest run's newest sample)."""
+        return min(run.ring.t_last for run in self.runs) if self.runs else 0.0
+
+    def _ready_to_show(self) -> bool:
+        with self.lock:
+            if self._pending is not None:
+                return False
+            return all(len(run.ring) > 1 or run.failed is not None for run in self.runs)
+
+    def _seek_ready(self) -> bool:
+        with self.lock:
+            if self._seek_target is None:
+                return False
+            if self._available_until() >= self._seek_target - 1e-9:
+                return True
+            return any(run.failed is not None for run in self.runs)  # cannot get there
+
+    def _render(self, now: float, restarted: bool = False) -> None:
+        with self.lock:
+            wall_dt = now - self._last_frame_wall
+            self._last_frame_wall = now
+            if not self.runs:
+                return
+            limit = self._available_until()
+            failed = [run.failed for run in self.runs if run.failed is not None]
+            if self._seek_target is not None:
+                self.display_time = min(self._seek_target, limit)
+                if self._seek_target <= limit + 1e-9 or failed:
+                    self._seek_target = None
+                    self._seek_done.set()
+            elif self.playing and not restarted:
+                self.display_time = min(self.display_time + self.speed * min(wall_dt, 0.1), limit)
+            self._rate_window.append((now, self.display_time))
+            moved = self.display_time != self._last_shown_time
+            if not (restarted or moved or self._dirty):
+                # paused and unchanged: only refresh the status line now and then (4 Hz)
+                self._idle_ticks += 1
+                if self._idle_ticks % 15:
+                    return
+            self._dirty = False
+            self._last_shown_time = self.display_time
+            frames = []
+            for run in self.runs:
+                ring = run.ring
+                if len(ring) == 0:
+                    continue
+                i = ring.index_at(self.display_time)
+                joints = ring.get("joints", i)
+                if i + 1 < len(ring):
+                    frac = (self.display_time - (ring.t_first + i * ring.dt)) / ring.dt
+                    frac = min(max(frac, 0.0), 1.0)
+                    joints = joints + frac * (ring.get("joints", i + 1) - joints)
+                joints = np.array(joints)
+                com = joints[:-1] + run.com_ratio[:, None] * (joints[1:] - joints[:-1])
+                frames.append(RunFrame(run.spec.label, i, joints, com))
+            self.frame_counter += 1
+            frame = Frame(self.display_time, frames, restarted, self._restart_time, self.frame_counter)
+            self._on_frame(frame)
+            if restarted and self._restart_time is not None:
+                self.last_restart_shown = time.perf_counter()
+                self.latencies.append(self.last_restart_shown - self._restart_time)
+                self._restart_time = None
+            at_end = failed and self.display_time >= limit - 1e-9
+            if at_end and not self._failure_reported:  # once per restart, however the display got there
+                self._failure_reported = True
+                self.playing = False
+                message = failed[0]
+            else:
+                message = None
+        if message is not None:
+            self._on_failure(message)

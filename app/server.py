@@ -1,0 +1,225 @@
+"""The running app: one viser server on 127.0.0.1, a session per browser (or one shared), a cap on sessions.
+
+:class:`LabServer` is what ``python -m app`` starts and what tests start in-process on a free port. Each
+browser that connects gets its own :class:`~app.session.Session` on its client handle; closing the tab
+closes the session (player thread stopped, buffers dropped). Past ``max_sessions`` a browser is turned away
+with a message in its page. With ``shared``, one session lives on the server's shared scene and GUI and every
+browser watches (and drives) it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import ipaddress
+import socket
+import threading
+import time
+
+from physics import LinkageError
+
+from . import warm as warm_up
+from .parameters import SessionParameters
+from .session import Session
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8080
+DEFAULT_PRESET = "triple-a"
+DEFAULT_MAX_SESSIONS = 32
+# Frames per second the server renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
+# beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core the server may use is not
+# spent on frames that viser would drop before sending (measured: python -m app.bench load).
+FRAME_BUDGET = 900.0
+FULL_RATE_SESSIONS = 15
+MIN_SESSION_FPS = 15.0
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def check_bindable(host: str) -> None:
+    """Fail early, with the host named, if this machine cannot listen on ``host``."""
+    try:
+        infos = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)
+    except OSError as error:
+        raise LinkageError(f"--host {host}: cannot resolve ({error.strerror or error})") from None
+    family, _, _, _, address = infos[0]
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((address[0], 0))
+        except OSError as error:
+            raise LinkageError(f"--host {host}: cannot listen on this address ({error.strerror or error})") from None
+
+
+class LabServer:
+    """A viser server with Linkage Lab sessions. ``stop()`` closes every session and frees the port."""
+
+    def __init__(
+        self,
+        host: str = DEFAULT_HOST,
+        port: int = DEFAULT_PORT,
+        *,
+        preset: str = DEFAULT_PRESET,
+        links: int | None = None,
+        method: str | None = None,
+        max_sessions: int = DEFAULT_MAX_SESSIONS,
+        shared: bool = False,
+        warm: bool = True,
+    ) -> None:
+        if not 0 <= int(port) <= 65535:
+            raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
+        if int(max_sessions) < 1:
+            raise LinkageError(f"--max-sessions {max_sessions}: must be at least 1")
+        # validate the start mechanism once, before anything listens (raises LinkageError naming the field)
+        SessionParameters.from_preset(preset, links=links, method=method)
+        check_bindable(host)
+        # start loading the compiled equations now, in parallel with the server's start (see app/warm.py)
+        self._warm_thread = warm_up.start_warm_up(preset, links, method) if warm else None
+        import viser
+
+        self.host = host
+        self.requested_port = int(port)
+        self.preset, self.links, self.method = preset, links, method
+        self.max_sessions = int(max_sessions)
+        self.shared = shared
+        self.started = time.time()
+        with contextlib.redirect_stdout(io.StringIO()):  # viser's banner; we print the real URL ourselves
+            self.viser = viser.ViserServer(host=host, port=int(port), label="Linkage Lab", verbose=False)
+        self.viser.scene.set_up_direction("+z")
+        self.viser.gui.configure_theme(control_width="large", show_share_button=False)
+        self._lock = threading.Lock()
+        self.sessions: dict[int, Session] = {}
+        self.turned_away: set[int] = set()
+        self._reserved = 0
+        self.shared_session: Session | None = None
+        self.closed_sessions = 0
+        if shared:
+            self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
+        self.viser.on_client_connect(self._connect)
+        self.viser.on_client_disconnect(self._disconnect)
+
+    # ------------------------------------------------------------------ address
+    @property
+    def port(self) -> int:
+        """The port really served (viser moves to the next free one when the requested one is busy)."""
+        return self.viser.get_port()
+
+    @property
+    def url(self) -> str:
+        host = self.host if ":" not in self.host else f"[{self.host}]"
+        return f"http://{host}:{self.port}"
+
+    # ------------------------------------------------------------------ sessions
+    def _connect(self, client) -> None:
+        if self.shared_session is not None:
+            self.shared_session.frame_camera(client=client)  # the newcomer only; the others keep their view
+            return
+        with self._lock:
+            if len(self.sessions) + self._reserved >= self.max_sessions:
+                self.turned_away.add(client.client_id)
+                full = True
+            else:
+                self._reserved += 1
+                full = False
+        if full:
+            self._turn_away(client)
+            return
+        session = None
+        try:
+            session = Session(client, preset=self.preset, links=self.links, method=self.method)
+        except Exception as error:  # never let one browser's start take the server down
+            import traceback
+
+            traceback.print_exc()
+            try:
+                client.add_notification("Could not start a session", f"{type(error).__name__}: {error}", color="red")
+            except Exception:
+                pass
+        finally:
+            with self._lock:
+                self._reserved -= 1
+                if session is not None:
+                    if client.client_id in self.viser.get_clients():
+                        self.sessions[client.client_id] = session
+                        session = None
+            if session is not None:  # the browser left while its session was being built
+                session.close()
+                with self._lock:
+                    self.closed_sessions += 1
+            self._rebalance()
+
+    def _rebalance(self) -> None:
+        """Share the frame budget among the sessions (see FRAME_BUDGET)."""
+        with self._lock:
+            sessions = list(self.sessions.values())
+        count = max(len(sessions), 1)
+        fps = 60.0 if count <= FULL_RATE_SESSIONS else max(MIN_SESSION_FPS, min(60.0, FRAME_BUDGET / count))
+        for session in sessions:
+            session.player.frame_interval = 1.0 / fps
+
+    def _turn_away(self, client) -> None:
+        text = (
+            "## Linkage Lab is full\n\n"
+            f"This server runs at most **{self.max_sessions}** simulations at once, and all are in use. "
+            "Close another tab, or try again in a moment (reload this page)."
+        )
+        try:
+            client.gui.add_markdown(text)
+            client.add_notification("Server full", f"At most {self.max_sessions} sessions; reload later.",
+                                    color="red", auto_close_seconds=None)
+        except Exception:
+            pass
+
+    def _disconnect(self, client) -> None:
+        with self._lock:
+            session = self.sessions.pop(client.client_id, None)
+            self.turned_away.discard(client.client_id)
+        if session is not None:
+            session.close()
+            with self._lock:
+                self.closed_sessions += 1
+        self._rebalance()
+
+    def session_for(self, client_id: int) -> Session | None:
+        with self._lock:
+            return self.sessions.get(client_id)
+
+    def wait_for_sessions(self, count: int, timeout: float = 30.0) -> list[Session]:
+        """Block until ``count`` sessions exist (tests); returns them."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self._lock:
+                if len(self.sessions) >= count:
+                    return list(self.sessions.values())
+            time.sleep(0.01)
+        raise TimeoutError(f"expected {count} sessions, have {len(self.sessions)} after {timeout} s")
+
+    # ------------------------------------------------------------------ lifetime
+    def stop(self) -> None:
+        with self._lock:
+            sessions = list(self.sessions.values())
+            self.sessions.clear()
+        for session in sessions:
+            session.close()
+        if self.shared_session is not None:
+            self.shared_session.close()
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.viser.stop()
+        from .replay import stop_recorder
+
+        stop_recorder()
+
+    def serve_forever(self) -> None:
+        try:
+            while True:
+                time.sleep(3600)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.stop()

@@ -1,0 +1,98 @@
+"""Loading compiled equations once per process, and warming up before the first browser arrives.
+
+``physics.load_compiled`` returns ready code from the disk cache (or derives and compiles it on a miss); the
+first simulation in a process also loads numba's cached machine code. Both take a noticeable fraction of a
+second warm and tens of seconds cold, so the server starts them in a background thread at launch, before
+it even imports viser, and sessions that need the same system wait for that load instead of repeating it.
+Imports only physics (no viser), so ``python -m app`` can start warming first.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+
+import physics
+
+_loaded: set[tuple[str, int, bool]] = set()
+_locks: dict[tuple[str, int, bool], threading.Lock] = {}
+_guard = threading.Lock()
+
+
+def is_loaded(method: str, n: int, pinned: bool) -> bool:
+    with _guard:
+        return (method, n, pinned) in _loaded
+
+
+def ensure_loaded(method: str, n: int, pinned: bool) -> None:
+    """Load (or derive) one compiled system once; concurrent callers for the same system wait for it."""
+    key = (method, n, pinned)
+    with _guard:
+        if key in _loaded:
+            return
+        lock = _locks.setdefault(key, threading.Lock())
+    with lock:
+        with _guard:
+            if key in _loaded:
+                return
+        physics.load_compiled(method, n, pinned)
+        with _guard:
+            _loaded.add(key)
+
+
+def _systems(method: str, n: int, pinned: bool) -> list[tuple[str, int, bool]]:
+    """The compiled systems a method runs on (the reduced models use the Lagrange code of both chains)."""
+    if method in physics.FORMULATION_NAMES:
+        return [(method, n, pinned)]
+    return [("lagrange", n, False), ("lagrange", n, True)]
+
+
+_ready: set[tuple] = set()
+
+
+def _ready_key(chain, settings) -> tuple:
+    return (settings.method, chain.n, chain.pinned, settings.integrator, settings.backend)
+
+
+def is_ready(chain, settings) -> bool:
+    with _guard:
+        return _ready_key(chain, settings) in _ready
+
+
+def ensure_ready(chain, settings, theta0, omega0) -> None:
+    """Loaded code *and* one short simulation done with this method and integrator in this process: numba
+    compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part."""
+    key = _ready_key(chain, settings)
+    with _guard:
+        if key in _ready:
+            return
+        lock = _locks.setdefault(key, threading.Lock())
+    with lock:
+        with _guard:
+            if key in _ready:
+                return
+        for system in _systems(settings.method, chain.n, chain.pinned):
+            ensure_loaded(*system)
+        try:
+            physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
+        except ValueError:  # an invalid start: the run itself reports it
+            pass
+        with _guard:
+            _ready.add(key)
+
+
+def warm_up(preset: str, links: int | None, method: str | None) -> None:
+    """Load the start mechanism's code and run one tiny simulation (numba loads its cached integrators)."""
+    from .parameters import SessionParameters
+
+    try:
+        params = SessionParameters.from_preset(preset, links=links, method=method)
+        ensure_ready(params.chain(), params.settings(), params.theta0, params.omega0)
+    except Exception as error:  # an optimisation only: a session reports real problems itself
+        print(f"linkage-lab: warm-up skipped: {error}", file=sys.stderr)
+
+
+def start_warm_up(preset: str, links: int | None, method: str | None) -> threading.Thread:
+    thread = threading.Thread(target=warm_up, args=(preset, links, method), name="warm-up", daemon=True)
+    thread.start()
+    return thread

@@ -1,0 +1,203 @@
+"""A minimal viser websocket client, speaking the same protocol as the browser, for tests and the load test.
+
+viser's wire format (viser/infra/_infra.py, 1.1.1): the client connects with subprotocol
+``viser-v<version>`` and sends msgpack dicts with a ``type`` key; the server is said to be connected once it
+receives the first ``ViewerCameraMessage``. Each server frame is
+``[8 B inner length][8 B compressed length][zstd(msgpack {"messages": [...], ...})][aligned binary buffers]``.
+This client decodes the msgpack part only (binary buffers hold arrays it does not need) and counts messages,
+in particular the pose updates of scene nodes.
+
+Run as a module it is the load generator: ``python -m app.wsclient URL --clients 30 --seconds 60`` prints
+one JSON object with per-client counts. (Used by ``python -m app.bench`` and tests/app; not by the served app.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import collections
+import json
+import sys
+import threading
+import time
+
+import msgspec
+import viser
+import websockets
+import zstandard
+
+POSE_TYPES = ("SetPositionMessage", "SetOrientationMessage")
+
+
+def camera_message() -> bytes:
+    return msgspec.msgpack.encode(
+        {
+            "type": "ViewerCameraMessage",
+            "wxyz": (1.0, 0.0, 0.0, 0.0),
+            "position": (0.0, -6.0, 1.0),
+            "fov": 1.3,
+            "near": 0.01,
+            "far": 1000.0,
+            "image_height": 720,
+            "image_width": 1280,
+            "look_at": (0.0, 0.0, 0.0),
+            "up_direction": (0.0, 0.0, 1.0),
+        }
+    )
+
+
+def decode_frame(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
+    inner_length = int.from_bytes(raw[0:8], "little")
+    compressed_length = int.from_bytes(raw[8:16], "little")
+    inner = decompressor.decompress(raw[16 : 16 + compressed_length], max_output_size=inner_length)
+    return msgspec.msgpack.decode(inner)["messages"]
+
+
+class Counts:
+    """What one client received."""
+
+    def __init__(self) -> None:
+        self.frames = 0
+        self.messages = 0
+        self.by_type: collections.Counter = collections.Counter()
+        self.pose_updates: collections.Counter = collections.Counter()  # node name -> count (position + orientation)
+        self.position_updates: collections.Counter = collections.Counter()  # node name -> position updates
+        self.first_pose_time: float | None = None
+        self.last_pose_time: float | None = None
+        self.bytes = 0
+        self.notifications: list[tuple[float, str]] = []  # (perf_counter, title) of notifications shown
+        self.watch = "/linkage/bar_1"
+        self.watched: collections.deque = collections.deque(maxlen=4096)  # (perf_counter, message) of ``watch``
+
+    def add(self, messages: list[dict], nbytes: int) -> None:
+        self.frames += 1
+        self.bytes += nbytes
+        for message in messages:
+            kind = message.get("type", "?")
+            self.messages += 1
+            self.by_type[kind] += 1
+            if kind == "NotificationShowMessage":
+                props = message.get("props") or {}
+                self.notifications.append((time.perf_counter(), str(props.get("title", ""))))
+            if kind in POSE_TYPES:
+                name = message.get("name", "?")
+                self.pose_updates[name] += 1
+                if kind == "SetPositionMessage":
+                    self.position_updates[name] += 1
+                now = time.perf_counter()
+                if name == self.watch:
+                    self.watched.append((now, message))
+                if self.first_pose_time is None:
+                    self.first_pose_time = now
+                self.last_pose_time = now
+
+    def bar_updates(self, name: str = "/linkage/bar_1") -> int:
+        """Position updates of one bar received: one per displayed frame in which it moved."""
+        return self.position_updates.get(name, 0)
+
+
+async def run_client(url: str, seconds: float, counts: Counts, stop: asyncio.Event | None = None) -> None:
+    ws_url = url.replace("http://", "ws://")
+    protocol = f"viser-v{viser.__version__}"
+    decompressor = zstandard.ZstdDecompressor()
+    async with websockets.connect(
+        ws_url, subprotocols=[protocol], max_size=None, compression=None, open_timeout=60
+    ) as ws:
+        await ws.send(camera_message())
+        deadline = time.perf_counter() + seconds
+        while time.perf_counter() < deadline and not (stop is not None and stop.is_set()):
+            try:
+                raw = await asyncio.wait_for(ws.recv(), timeout=min(0.2, max(0.01, deadline - time.perf_counter())))
+            except asyncio.TimeoutError:
+                continue
+            if isinstance(raw, bytes):
+                counts.add(decode_frame(raw, decompressor), len(raw))
+
+
+async def _load(url: str, clients: int, seconds: float, early: int, early_seconds: float) -> dict:
+    counts = [Counts() for _ in range(clients)]
+    tasks = []
+    for i in range(clients):
+        duration = early_seconds if i < early else seconds
+        tasks.append(asyncio.create_task(run_client(url, duration, counts[i])))
+        await asyncio.sleep(0.05)  # browsers do not all arrive in the same millisecond
+    started = time.perf_counter()
+    await asyncio.gather(*tasks)
+    return {
+        "clients": clients,
+        "seconds": seconds,
+        "elapsed": time.perf_counter() - started,
+        "per_client": [
+            {
+                "frames": c.frames,
+                "messages": c.messages,
+                "bytes": c.bytes,
+                "bar_updates": c.bar_updates(),
+                "pose_span": (c.last_pose_time - c.first_pose_time) if c.first_pose_time is not None else 0.0,
+                "duration": early_seconds if i < early else seconds,
+            }
+            for i, c in enumerate(counts)
+        ],
+    }
+
+
+class BackgroundClient:
+    """One websocket client in its own thread and event loop, open until :meth:`close` (a browser stand-in)."""
+
+    def __init__(self, url: str) -> None:
+        self.url = url
+        self.counts = Counts()
+        self._ready = threading.Event()
+        self._loop = asyncio.new_event_loop()
+        self._stop: asyncio.Event | None = None
+        self.error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, daemon=True, name="ws-client")
+        self._thread.start()
+        self._ready.wait(5)
+
+    def _run(self) -> None:
+        asyncio.set_event_loop(self._loop)
+
+        async def main():
+            self._stop = asyncio.Event()
+            self._ready.set()
+            await run_client(self.url, 1e9, self.counts, self._stop)
+
+        try:
+            self._loop.run_until_complete(main())
+        except BaseException as error:  # looked at by whoever owns the client
+            self.error = error
+            self._ready.set()
+
+    def close(self) -> None:
+        if self._stop is not None:
+            try:
+                self._loop.call_soon_threadsafe(self._stop.set)
+            except RuntimeError:  # loop already finished
+                pass
+        self._thread.join(5)
+
+    def wait_for(self, predicate, timeout: float = 120.0) -> bool:
+        deadline = time.perf_counter() + timeout
+        while time.perf_counter() < deadline:
+            if predicate(self.counts):
+                return True
+            time.sleep(0.005)
+        return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("url")
+    parser.add_argument("--clients", type=int, default=30)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--early", type=int, default=0, help="this many clients disconnect after --early-seconds")
+    parser.add_argument("--early-seconds", type=float, default=10.0)
+    args = parser.parse_args(argv)
+    result = asyncio.run(_load(args.url, args.clients, args.seconds, args.early, args.early_seconds))
+    json.dump(result, sys.stdout)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

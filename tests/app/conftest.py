@@ -1,0 +1,70 @@
+"""Fixtures for the app tests: an in-process server on a free loopback port, and websocket stand-ins for browsers.
+
+A stand-in speaks viser's protocol (app/wsclient.py): it connects, sends the camera message a
+browser sends, and counts what the server pushes. Each stand-in gets its own session, found by the client
+id that appeared when it connected.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+os.environ.setdefault("LINKAGE_LAB_CACHE", tempfile.mkdtemp(prefix="linkage-lab-app-tests-"))
+
+from app.wsclient import BackgroundClient  # noqa: E402
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "load: the 60 s load test with 30 websocket clients (deselect with -m 'not load')"
+    )
+
+
+class BrowserStandIn(BackgroundClient):
+    """A websocket client standing in for a browser (app/wsclient.py)."""
+
+
+def wait_until(predicate, timeout: float = 120.0, interval: float = 0.02) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(interval)
+    return False
+
+
+@pytest.fixture(scope="module")
+def lab():
+    from app.server import LabServer
+
+    server = LabServer(port=0, warm=False)
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def connect(lab):
+    """``connect()`` -> (stand-in, session): a new browser and the session the server made for it."""
+    opened: list[BrowserStandIn] = []
+
+    def _connect(server=None):
+        server = server or lab
+        before = set(server.sessions)
+        client = BrowserStandIn(server.url)
+        opened.append(client)
+        assert wait_until(lambda: set(server.sessions) - before, timeout=30), "no session was created"
+        (client_id,) = set(server.sessions) - before
+        session = server.sessions[client_id]
+        assert session.player.wait_idle(60), "the first start was not shown"
+        return client, session
+
+    yield _connect
+    for client in opened:
+        client.close()

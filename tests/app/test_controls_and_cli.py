@@ -1,0 +1,188 @@
+"""Slider ranges agree with the models; the command line serves or fails in one line; smaller controls."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import wait_until
+
+import physics
+from app import controls
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _inside(spec, low, high):
+    lo, lo_open, hi, hi_open = spec.bounds()
+    assert (low > lo) if lo_open else (low >= lo), (spec.field, low, lo)
+    assert (high < hi) if hi_open else (high <= hi), (spec.field, high, hi)
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [*controls.BAR_SLIDERS.values(), controls.GRAVITY_SLIDER, controls.DAMPING_SLIDER, controls.ALPHA_SLIDER,
+     controls.BETA_SLIDER],
+    ids=lambda s: f"{s.model.__name__}.{s.field}",
+)
+def test_slider_ranges_sit_inside_the_model_bounds(spec):
+    low, high = spec.range()
+    assert low < high
+    _inside(spec, low, high)
+    # a preset value beyond the useful range widens the slider, never past the model's bound
+    low, high = spec.range(1e9)
+    _inside(spec, low, high)
+
+
+def test_log_and_millisecond_sliders_map_inside_the_settings_bounds():
+    rtol = physics.Settings.model_fields["rtol"].metadata
+    lo_exp, hi_exp, _ = controls.TOLERANCE_LOG10
+    gt = next(m.gt for m in rtol if hasattr(m, "gt"))
+    le = next(m.le for m in rtol if hasattr(m, "le"))
+    assert gt < 10.0**lo_exp and 10.0**hi_exp <= le
+    step = physics.Settings.model_fields["step"].metadata
+    gt = next(m.gt for m in step if hasattr(m, "gt"))
+    le = next(m.le for m in step if hasattr(m, "le"))
+    lo_ms, hi_ms, _ = controls.STEP_MS
+    assert gt < lo_ms * 1e-3 and hi_ms * 1e-3 <= le
+
+
+def test_dropdowns_offer_the_model_literals():
+    assert controls.INTEGRATOR_OPTIONS == tuple(physics.INTEGRATOR_NAMES)
+    assert set(controls.STABILIZATION_OPTIONS) == {"none", "baumgarte", "projection"}
+
+
+def test_a_value_outside_the_model_is_refused_with_its_name(connect):
+    _, session = connect()
+    before = list(session.params.L)
+    session.guard(lambda: session.set_bar(2, "L", -1.0))
+    assert session.params.L == before
+    assert session.notice is not None and "L2" in session.notice and "-1" in session.notice
+    session.guard(lambda: session.set_value("nonsense", 3))
+    assert "unknown parameter" in session.notice
+
+
+def test_chain_links_slider_rebuilds_bars_and_scene(connect):
+    _, session = connect()
+    session.controls.mechanism.value = "chain"
+    assert session.params.preset == "chain" and session.controls.links.visible
+    session.controls.links.value = 4
+    assert session.params.n == 4
+    assert len(session.controls._bar_handles) == 4 and len(session.controls._angle_handles) == 4
+    assert session.player.wait_idle(300)
+    names = session.snapshot()["scene"]["names"]
+    assert "/linkage/bar_4" in names and "/linkage/bar_5" not in names and "/linkage/joint_4" in names
+
+
+def test_reaction_arrows_follow_the_dae_reactions(connect):
+    _, session = connect()
+    session.controls.method.value = "DAE"
+    session.controls.reactions.value = True
+    session.play()
+    assert wait_until(lambda: session.arrows.handle is not None and session.arrows.handle.visible)
+    assert session.arrows.count == session.params.n  # one per joint of an open chain
+    session.controls.reactions.value = False
+    assert not session.arrows.handle.visible
+
+
+def test_trace_and_plots_are_fed(connect):
+    _, session = connect()
+    session.play()
+    assert wait_until(lambda: session.snapshot()["time"] > 1.0)
+    assert session.trace.points_shown > 30
+    assert session.controls.energy_plot.points_shown > 30
+    t, total, kinetic, potential = session.controls.energy_plot.handle.data
+    assert np.all(np.diff(t) > 0) and t[-1] > 0.7  # plots are refreshed 5 times a second
+    assert np.allclose(total, kinetic + potential, rtol=1e-9, atol=1e-9)
+
+
+def test_python_m_app_prints_the_url_it_serves_and_serves_the_client():
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--port", "0"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        match = re.search(r"http://127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        with urllib.request.urlopen(match.group(0), timeout=30) as response:
+            assert response.status == 200 and b"<html" in response.read(2000).lower()
+    finally:
+        proc.terminate()
+        proc.wait(20)
+
+
+def test_a_busy_port_moves_and_the_printed_url_follows(lab):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--port", str(lab.port)], cwd=ROOT, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        port = int(re.search(r":(\d+)", line.split("http://")[1]).group(1))
+        assert port != lab.port
+    finally:
+        proc.terminate()
+        _, err = proc.communicate(timeout=20)
+    assert f"port {lab.port} is busy" in err
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--port", "70000"], "--port 70000"),
+        (["--preset", "pentagon"], "--preset"),
+        (["--method", "euler"], "--method"),
+        (["--max-sessions", "0"], "--max-sessions"),
+        (["--links", "5"], "links"),
+        (["--host", "203.0.113.7"], "--host 203.0.113.7"),
+        (["--bogus"], "unrecognized arguments"),
+    ],
+)
+def test_bad_flags_fail_in_one_line(args, fragment):
+    result = subprocess.run([sys.executable, "-m", "app", *args], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("linkage-lab: error:") and fragment in lines[0], result.stderr
+    assert "Traceback" not in result.stderr and result.stdout == ""
+
+
+def test_loopback_detection():
+    from app.server import is_loopback
+
+    assert is_loopback("127.0.0.1") and is_loopback("localhost") and is_loopback("::1")
+    assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.10")
+
+
+def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tmp_path):
+    """Empty derivation cache: the page is never blank; it says it is deriving, then the motion starts."""
+    import os
+
+    from app.wsclient import BackgroundClient
+
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(tmp_path / "cold-cache"))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--port", "0", "--preset", "single"], cwd=ROOT, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    client = None
+    try:
+        url = re.search(r"http://\S+", proc.stdout.readline()).group(0)
+        client = BackgroundClient(url)
+        assert client.wait_for(lambda c: c.bar_updates() >= 1, timeout=60)  # the start pose, before any physics
+        assert client.wait_for(lambda c: any("Deriving" in title for _, title in c.notifications), timeout=60)
+        assert client.wait_for(lambda c: c.bar_updates() >= 5, timeout=600)  # then it animates
+        first_notice = min(t for t, title in client.counts.notifications if "Deriving" in title)
+        positions = [t for t, m in client.counts.watched if m.get("type") == "SetPositionMessage"]
+        assert positions[0] <= first_notice < positions[1]
+    finally:
+        if client is not None:
+            client.close()
+        proc.terminate()
+        proc.wait(20)
