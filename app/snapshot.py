@@ -250,9 +250,22 @@ def project_world_points(page: Any, frame_node: str, points: Sequence[Sequence[f
 
 
 def hide_overlays(page: Any) -> None:
-    """Hide what floats over the canvas (viser's control panel, notifications) so a picture shows the
-    scene alone. The layout does not change: the panel floats, the canvas keeps its size."""
-    page.add_style_tag(content=f"{CONTROL_PANEL}, {NOTIFICATIONS} {{ visibility: hidden !important; }}")
+    """Hide everything drawn over the canvas (viser's control panel, wherever its layout puts it, the
+    notifications, the logo) so a picture shows the scene alone. Only visibility changes: the layout,
+    and so the canvas and its camera, stay as they are."""
+    page.add_style_tag(content=f"{NOTIFICATIONS} {{ visibility: hidden !important; }}")
+    page.evaluate(
+        """(selector) => {
+            let node = document.querySelector(selector);
+            while (node !== null && node !== document.body) {
+                for (const sibling of node.parentElement.children) {
+                    if (sibling !== node) sibling.style.setProperty("visibility", "hidden", "important");
+                }
+                node = node.parentElement;
+            }
+        }""",
+        SCENE_CANVAS,
+    )
 
 
 def settled_screenshot(page: Any, clip: dict | None = None, attempts: int = SETTLE_ATTEMPTS) -> bytes:

@@ -6,7 +6,7 @@ here (median of repeats, stated with the machine's load) and recorded in BENCHMA
 only check that the command runs and that its numbers are sane.
 
 Error: the distance between the tip and the reference tip at the horizon ``T`` (and, for robustness, the
-largest distance over 11 samples in [0, T]). The reference is DOP853 (compiled) at rtol = atol = 1e-14 with
+largest distance over 11 samples in [0, T]); for the four-bar, whose tip is pinned, the coupler point. The reference is DOP853 (compiled) at rtol = atol = 1e-14 with
 the Lagrange formulation, cross-checked against DOP853 at the same tolerance with Newton-Euler (another
 derivation) and against DOP853 at 1e-13: the largest difference is the reference's uncertainty, stated in
 the output. Horizons are shorter than each case's predictability horizon (docs/stability.md, case 5): 5 s
@@ -20,6 +20,7 @@ Suites: ``work-precision`` (default), ``ensemble`` (pendulum-steps per second, p
 from __future__ import annotations
 
 import argparse
+import html
 import json
 import math
 import os
@@ -57,6 +58,7 @@ QUICK = dict(
     baseline_formulations=("lagrange",),
     baseline_tolerances=(1e-3, 1e-5, 1e-7, 1e-9),
     repeats=3,
+    budget=0.3,
 )
 FULL = dict(
     cases=ALL_CASES,
@@ -67,6 +69,7 @@ FULL = dict(
     baseline_formulations=("lagrange", "dae"),
     baseline_tolerances=TOLERANCES,
     repeats=5,
+    budget=TIME_BUDGET,
 )
 
 
@@ -112,19 +115,23 @@ class Progress:
 # Timing
 
 
+MIN_TIMED = 0.2  # fast runs are repeated until this many seconds are spent, for a steadier median
+
+
 def timed(run, repeats: int, budget: float = TIME_BUDGET):
-    """Run once untimed (warm-up: caches, JIT), then up to ``repeats`` timed runs within ``budget`` seconds;
-    return ``(result, median seconds, runs timed)``."""
+    """Run once untimed (warm-up: caches, JIT), then at least ``repeats`` timed runs unless ``budget`` seconds
+    run out first, and more (up to 20 x repeats) while less than MIN_TIMED seconds were spent; return
+    ``(result, median seconds, runs timed)``."""
     result = run()
     times = []
     spent = 0.0
-    for _ in range(max(1, repeats)):
+    while len(times) < 20 * max(1, repeats):
         start = time.perf_counter()
         run()
         elapsed = time.perf_counter() - start
         times.append(elapsed)
         spent += elapsed
-        if spent > budget:
+        if spent > budget or (len(times) >= repeats and spent > MIN_TIMED):
             break
     return result, statistics.median(times), len(times)
 
@@ -173,15 +180,22 @@ def _case_setup(name: str):
     from .presets import get_preset
 
     preset = get_preset(name)
-    return preset.chain, preset.theta0, preset.omega0
+    return preset.chain, preset.theta0, preset.omega0, preset.trace
 
 
-def _settings(chain, horizon, method, integrator, tolerance=None, step=None):
+def _probe(trajectory) -> np.ndarray:
+    """The point whose error is measured: the tip of an open chain; the traced coupler point of a closed
+    one (its tip is pinned, so its error says nothing)."""
+    return trajectory.trace_xy if trajectory.constraint_xy.shape[1] == 2 else trajectory.tip_xy
+
+
+def _settings(chain, horizon, method, integrator, tolerance=None, step=None, trace=None):
     from .model import Settings
 
     fields = dict(method=method, integrator=integrator, t_end=horizon, samples=SAMPLES)
     if chain.pinned:
         fields["stabilization"] = "projection"
+        fields["trace"] = trace
     if integrator in ("Radau", "LSODA"):
         fields["backend"] = "scipy"
     if tolerance is not None:
@@ -192,23 +206,28 @@ def _settings(chain, horizon, method, integrator, tolerance=None, step=None):
 
 
 def reference(name: str) -> dict:
-    """The reference tip path of a case and its uncertainty (largest difference to two cross-checks)."""
+    """The reference tip path of a named case and its uncertainty."""
+    chain, theta0, omega0, trace = _case_setup(name)
+    return reference_for(chain, theta0, omega0, trace, HORIZON[name], name)
+
+
+def reference_for(chain, theta0, omega0, trace, horizon: float, name: str = "this case") -> dict:
+    """The reference probe path (tip, or coupler point of a closed chain) and its uncertainty: the largest
+    difference to two cross-checks (another derivation, and a 10x looser tolerance)."""
     from .simulate import simulate
 
-    chain, theta0, omega0 = _case_setup(name)
-    horizon = HORIZON[name]
     runs = {}
     for key, method, tol in (
         ("reference", "lagrange", REFERENCE_TOLERANCE),
         ("other_formulation", "newton_euler", REFERENCE_TOLERANCE),
         ("looser", "lagrange", CHECK_TOLERANCE),
     ):
-        trajectory = simulate(chain, theta0, omega0, _settings(chain, horizon, method, "DOP853", tol))
+        trajectory = simulate(chain, theta0, omega0, _settings(chain, horizon, method, "DOP853", tol, trace=trace))
         if not trajectory.success:
-            raise LinkageError(f"reference for {name} failed: {trajectory.message}")
+            raise LinkageError(f"the reference run for {name} failed: {trajectory.message}")
         runs[key] = trajectory
-    tip = runs["reference"].tip_xy
-    checks = {key: float(np.max(_tip_distance(runs[key].tip_xy, tip))) for key in ("other_formulation", "looser")}
+    tip = _probe(runs["reference"])
+    checks = {key: float(np.max(_tip_distance(_probe(runs[key]), tip))) for key in ("other_formulation", "looser")}
     return {
         "tip": tip,
         "t": runs["reference"].t,
@@ -230,8 +249,9 @@ def _point(trajectory, ref_tip, seconds, runs, knob_value, knob) -> dict:
         "status": int(trajectory.status),
         "message": trajectory.message,
     }
-    if trajectory.success and len(trajectory.tip_xy) == len(ref_tip):
-        distance = _tip_distance(trajectory.tip_xy, ref_tip)
+    probe = _probe(trajectory) if hasattr(trajectory, "constraint_xy") else trajectory.tip_xy
+    if trajectory.success and len(probe) == len(ref_tip):
+        distance = _tip_distance(probe, ref_tip)
         point["error"] = float(distance[-1])
         point["error_max"] = float(np.max(distance))
     else:
@@ -241,9 +261,12 @@ def _point(trajectory, ref_tip, seconds, runs, knob_value, knob) -> dict:
 
 
 def _our_curves(name, formulations, integrators, tolerances, midpoint_steps):
-    """(curve, knob values, settings factory) for every configuration of ours that applies to the case."""
-    chain, _, _ = _case_setup(name)
-    horizon = HORIZON[name]
+    chain, _, _, trace = _case_setup(name)
+    return curves_for(chain, trace, HORIZON[name], formulations, integrators, tolerances, midpoint_steps)
+
+
+def curves_for(chain, trace, horizon, formulations, integrators, tolerances, midpoint_steps):
+    """(curve, knob values, settings factory) for every configuration of ours that applies to the chain."""
     methods = list(formulations)
     if chain.pinned and chain.n == 3:
         methods.append("reduced")
@@ -254,15 +277,17 @@ def _our_curves(name, formulations, integrators, tolerances, midpoint_steps):
                 if integrator != "DOP853":
                     continue  # the reduced model integrates with scipy's DOP853 only
                 curve = Curve("reduced / DOP853 (scipy)", method, integrator, "scipy", "tolerance")
-                plan.append((curve, tolerances, lambda tol, m=method: _settings(chain, horizon, m, "DOP853", tol)))
+                plan.append((curve, tolerances, lambda tol, m=method: _settings(chain, horizon, m, "DOP853", tol, trace=trace)))
                 continue
             if integrator == "midpoint":
                 curve = Curve(f"{method} / midpoint (fixed step)", method, integrator, "compiled", "step")
-                plan.append((curve, midpoint_steps, lambda h, m=method: _settings(chain, horizon, m, "midpoint", step=h)))
+                plan.append((curve, midpoint_steps,
+                             lambda h, m=method: _settings(chain, horizon, m, "midpoint", step=h, trace=trace)))
                 continue
             backend = "scipy" if integrator in ("Radau", "LSODA") else "compiled"
             curve = Curve(f"{method} / {integrator} ({backend})", method, integrator, backend, "tolerance")
-            plan.append((curve, tolerances, lambda tol, m=method, i=integrator: _settings(chain, horizon, m, i, tol)))
+            plan.append((curve, tolerances,
+                         lambda tol, m=method, i=integrator: _settings(chain, horizon, m, i, tol, trace=trace)))
     return plan
 
 
@@ -327,17 +352,17 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
     document = {
         "kind": "work-precision",
         "machine": machine_note(),
-        "error_definition": "distance between tip and reference tip at t = horizon (error); largest over "
-        f"{SAMPLES} samples in [0, horizon] (error_max)",
-        "time_definition": "median wall time of repeated complete simulate() calls (first call untimed), "
-        f"at most {TIME_BUDGET:g} s of repeats per point",
+        "error_definition": "distance between the tip (four-bar: the coupler point, as its tip is pinned) and "
+        f"the reference's at t = horizon (error); largest over {SAMPLES} samples in [0, horizon] (error_max)",
+        "time_definition": "median wall time of repeated complete simulate() calls (first call untimed; at least "
+        f"{options['repeats']} repeats, more for fast runs, fewer past {options['budget']:g} s per point)",
         "repeats": options["repeats"],
         "cases": {},
     }
     started = time.perf_counter()
     try:
         for name in cases:
-            chain, theta0, omega0 = _case_setup(name)
+            chain, theta0, omega0, _ = _case_setup(name)
             ref = reference(name)
             progress.step(f"{name} reference")
             curves = []
@@ -346,7 +371,7 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
                 for value in knobs:
                     settings = make(value)
                     trajectory, seconds, runs = timed(
-                        lambda s=settings: simulate(chain, theta0, omega0, s), options["repeats"]
+                        lambda s=settings: simulate(chain, theta0, omega0, s), options["repeats"], options["budget"]
                     )
                     curve.points.append(_point(trajectory, ref["tip"], seconds, runs, value, curve.knob))
                     progress.step(f"{name} {curve.label} {value:g}")
@@ -354,12 +379,13 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
             baseline_curves = []
             for curve, knobs, run_factory in baseline:
                 for value in knobs:
-                    result, seconds, runs = timed(run_factory(value), options["repeats"])
+                    result, seconds, runs = timed(run_factory(value), options["repeats"], options["budget"])
                     curve.points.append(_point(result, ref["tip"], seconds, runs, value, curve.knob))
                     progress.step(f"{name} baseline {value:g}")
                 baseline_curves.append(curve)
             document["cases"][name] = {
                 "horizon": HORIZON[name],
+                "probe": "coupler point" if chain.pinned else "tip",
                 "reference": {k: v for k, v in ref.items() if k not in ("tip", "t")},
                 "reference_tip_at_horizon": [float(v) for v in ref["tip"][-1]],
                 "curves": [c.as_dict() for c in curves],
@@ -372,6 +398,37 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
         document["headline"] = headline(document["cases"][HEADLINE_CASE])
     document["elapsed_seconds"] = time.perf_counter() - started
     return document
+
+
+def work_precision_chain(chain, theta0, omega0, trace=None, horizon: float = 5.0, formulations=("lagrange",),
+                         integrators=("RK45", "DOP853", "midpoint"), tolerances=(1e-3, 1e-5, 1e-7, 1e-9),
+                         midpoint_steps=(0.05, 0.01, 2e-3), repeats: int = 1, budget: float = 0.2,
+                         title: str = "current parameters") -> tuple[dict, str]:
+    """A small work-precision sweep for any chain and start (what the app shows for its current parameters):
+    returns the case document (as in the JSON) and its SVG chart. A few seconds for a triple pendulum."""
+    from .model import check_state
+    from .simulate import simulate
+
+    if not (math.isfinite(horizon) and 0.0 < horizon <= 100.0):
+        raise LinkageError(f"horizon = {horizon}: allowed range 0 < horizon <= 100 s")
+    theta0, omega0 = check_state(chain.n, theta0, omega0)
+    ref = reference_for(chain, theta0, omega0, trace, horizon, title)
+    curves = []
+    for curve, knobs, make in curves_for(chain, trace, horizon, formulations, integrators, tolerances, midpoint_steps):
+        for value in knobs:
+            settings = make(value)
+            trajectory, seconds, runs = timed(lambda s=settings: simulate(chain, theta0, omega0, s), repeats, budget)
+            curve.points.append(_point(trajectory, ref["tip"], seconds, runs, value, curve.knob))
+        curves.append(curve)
+    case = {
+        "horizon": horizon,
+        "probe": "coupler point" if chain.pinned else "tip",
+        "reference": {k: v for k, v in ref.items() if k not in ("tip", "t")},
+        "curves": [c.as_dict() for c in curves],
+        "baseline": [],
+        "winners": winners(curves, HEADLINE_ACCURACIES, ref["uncertainty"]),
+    }
+    return case, chart(title, case)
 
 
 def _reaching(curves, accuracy: float, resolvable: float):
@@ -397,7 +454,8 @@ def winners(curves, accuracies, uncertainty) -> list:
     for accuracy in accuracies:
         best = _reaching(curves, accuracy, 10.0 * uncertainty)
         if best is None:
-            rows.append({"accuracy": accuracy, "winner": None})
+            reason = "below 10x the reference uncertainty" if accuracy < 10.0 * uncertainty else "not reached"
+            rows.append({"accuracy": accuracy, "winner": None, "reason": reason})
             continue
         runner_up = None
         for curve in curves:
@@ -448,6 +506,10 @@ _INTEGRATOR_COLOURS = {"RK45": 0, "DOP853": 1, "Radau": 2, "LSODA": 3, "midpoint
 _FORMULATION_DASH = {"newton_euler": 1, "lagrange": 0, "dae": 2, "reduced": 3}
 
 
+def _probe_name(case: dict) -> str:
+    return case.get("probe", "tip")
+
+
 def chart(case_name: str, case: dict) -> str:
     from .charts import DASHES, MARKERS, PALETTE, Series, line_chart
 
@@ -468,9 +530,9 @@ def chart(case_name: str, case: dict) -> str:
     uncertainty = case["reference"]["uncertainty"]
     return line_chart(
         series,
-        title=f"Work-precision: {case_name}, tip error at t = {case['horizon']:g} s",
+        title=f"Work-precision: {case_name}, {_probe_name(case)} error at t = {case['horizon']:g} s",
         x_label="wall time per run (s), median",
-        y_label="tip position error",
+        y_label=f"{_probe_name(case)} position error",
         log_x=True,
         log_y=True,
         width=980,
@@ -490,18 +552,19 @@ def markdown_summary(document: dict) -> str:
     """The tables BENCHMARKS.md quotes: winners per case and the headline."""
     lines = []
     machine = document["machine"]
-    lines.append(f"Machine: {machine['cpus']} CPUs, load average {machine['load_average_1_5_15']}, Python "
+    lines.append(f"`{document.get('command', 'python -m physics bench')}`; machine: {machine['cpus']} CPUs, load "
+                 f"average {machine['load_average_1_5_15']}, Python "
                  f"{machine['python']}; {document['time_definition']}.")
     for name, case in document["cases"].items():
         lines.append("")
-        lines.append(f"**{name}** (tip error at t = {case['horizon']:g} s; reference uncertainty "
+        lines.append(f"**{name}** ({_probe_name(case)} error at t = {case['horizon']:g} s; reference uncertainty "
                      f"{case['reference']['uncertainty']:.1e})")
         lines.append("")
         lines.append("| accuracy | fastest configuration | setting | time | runner-up | its time |")
         lines.append("| --- | --- | --- | --- | --- | --- |")
         for row in case["winners"]:
             if row["winner"] is None:
-                lines.append(f"| {row['accuracy']:.0e} | not reached | | | | |")
+                lines.append(f"| {row['accuracy']:.0e} | {row.get('reason', 'not reached')} | | | | |")
                 continue
             lines.append(
                 f"| {row['accuracy']:.0e} | {row['winner']} | {row['knob']:g} | {_fmt_seconds(row['seconds'])} | "
@@ -545,7 +608,7 @@ def _html(document: dict, charts: dict) -> str:
         sections.append((f"Headline: {HEADLINE_CASE}, ours vs the seed-style baseline",
                          html_table(["accuracy", "ours (fastest)", "time", "baseline (fastest)", "time", "speed-up"], rows)))
     for name, case in document["cases"].items():
-        rows = [[f"{r['accuracy']:.0e}", r["winner"] or "not reached", _fmt_seconds(r.get("seconds")),
+        rows = [[f"{r['accuracy']:.0e}", r["winner"] or r.get("reason", "not reached"), _fmt_seconds(r.get("seconds")),
                  r.get("runner_up") or "-", _fmt_seconds(r.get("runner_up_seconds"))] for r in case["winners"]]
         text = (f"<p>Reference: {case['reference']['description']}; uncertainty "
                 f"{case['reference']['uncertainty']:.2e}. Horizon {case['horizon']:g} s.</p>")
@@ -554,7 +617,8 @@ def _html(document: dict, charts: dict) -> str:
     machine = document["machine"]
     intro = (f"Error: {document['error_definition']}. Time: {document['time_definition']}. Machine: "
              f"{machine['cpus']} CPUs, load average {machine['load_average_1_5_15']}. "
-             f"Made by <code>python -m physics bench</code> in {document['elapsed_seconds']:.0f} s.")
+             f"Made by <code>{html.escape(document.get('command', 'python -m physics bench'))}</code> in "
+             f"{document['elapsed_seconds']:.0f} s.")
     return html_page("Linkage Lab: work-precision", sections, intro)
 
 
@@ -649,6 +713,7 @@ def main(argv=None) -> int:
             if args.no_baseline:
                 options["baseline_formulations"] = ()
             document = work_precision(options, progress)
+            document["command"] = " ".join(["python -m physics bench", *(sys.argv[2:] if argv is None else argv)])
             written = write_outputs(document, out)
             print(markdown_summary(document))
         elif suite == "ensemble":

@@ -149,7 +149,8 @@ def line_chart(
 ) -> str:
     """An SVG line chart with axes, grid, ticks, a legend to the right, and optional horizontal reference
     lines ``(y, label)``. Returns the SVG text (UTF-8, no external resources)."""
-    legend_width = 230 if series else 0
+    longest = max((len(s.label) for s in series), default=0)
+    legend_width = int(min(380, 50 + 6.3 * longest)) if series else 0
     left, right, top, bottom = 78, width - legend_width - 16, 40, height - 58
     xs = [float(v) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
     ys = [float(w) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
@@ -160,8 +161,7 @@ def line_chart(
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
         f'viewBox="0 0 {width} {height}" font-family="Helvetica, Arial, sans-serif" font-size="12">',
         f'<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>',
-        f'<text x="{(left + right) / 2:.1f}" y="22" text-anchor="middle" font-size="15" font-weight="bold">'
-        f"{_esc(title)}</text>",
+        f'<text x="12" y="22" font-size="15" font-weight="bold">{_esc(title)}</text>',
     ]
     # Grid and ticks.
     for tick in x_axis.ticks:

@@ -1,0 +1,125 @@
+"""Chaos maps (physics.chaos): the flip-time physics, tiling through executors, Dask, the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics import Settings, get_preset, simulate
+from physics.chaos import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
+from physics.kinematics import energies
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _same(a, b) -> bool:
+    """Equal bit for bit, NaN (no flip within t_max) included."""
+    return a.shape == b.shape and np.array_equal(np.isnan(a), np.isnan(b)) and np.array_equal(
+        np.nan_to_num(a, nan=0.0), np.nan_to_num(b, nan=0.0))
+
+
+@pytest.mark.parametrize("name", ["double", "triple-a"])
+def test_flip_energy_is_the_least_energy_with_a_link_upright(name, rng):
+    chain = get_preset(name).chain
+    params, n = chain.params(), chain.n
+    bound = flip_energy(params, n)
+    lowest = np.inf
+    for k in range(n):  # brute force: link k upright, the others anywhere, at rest
+        theta = rng.uniform(-math.pi, math.pi, (20000, n))
+        theta[:, k] = math.pi
+        theta[:20, :] = np.where(np.arange(n) == k, math.pi, 0.0)  # include the exact minimiser
+        lowest = min(lowest, float(energies(params, theta, np.zeros_like(theta))[2].min()))
+    assert bound <= lowest + 1e-12
+    assert lowest - bound < 1e-9
+
+
+def test_tile_flip_times_match_an_adaptive_run_and_forbidden_pixels_cannot_flip():
+    chain = get_preset("double").chain
+    params = chain.params()
+    angles = grid(6)
+    task = tiles(chain, "lagrange", 6, 8.0, 0.01)[0]
+    start, band = compute_tile(task)
+    assert start == 0 and band.shape == (6, 6)
+    forbidden = band == FORBIDDEN
+    theta = np.stack(np.meshgrid(angles, angles), axis=-1).reshape(-1, 2)  # row i: theta2; column j: theta1
+    energy = energies(params, theta, np.zeros_like(theta))[2].reshape(6, 6)
+    assert forbidden.any() and np.all(energy[forbidden] < flip_energy(params, 2))
+    checked = 0
+    for i, j in zip(*np.nonzero(band > 0)):
+        if band[i, j] > 3.0:
+            continue  # early flips only: later ones are already chaotic
+        trajectory = simulate(chain, [angles[j], angles[i]], [0.0, 0.0],
+                              Settings(integrator="DOP853", rtol=1e-10, atol=1e-10, t_end=band[i, j] + 0.5,
+                                       samples=int((band[i, j] + 0.5) / 0.001) + 1))
+        over = np.flatnonzero(np.any(np.abs(trajectory.theta) > math.pi, axis=1))
+        assert over.size and abs(trajectory.t[over[0]] - band[i, j]) <= 0.011
+        checked += 1
+        if checked == 3:
+            break
+    assert checked >= 2
+
+
+def test_local_processes_give_the_same_map_as_one_process():
+    chain = get_preset("double").chain
+    single = compute_map(chain, resolution=20, t_max=4.0)
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        pooled = compute_map(chain, resolution=20, t_max=4.0, executor=pool)
+    assert _same(single, pooled)
+    assert np.count_nonzero(single > 0) > 0 and np.count_nonzero(single == FORBIDDEN) > 0
+
+
+def test_a_local_dask_cluster_gives_the_same_map_as_one_process():
+    distributed = pytest.importorskip(
+        "distributed", reason="dask[distributed] is not installed (pip install 'dask[distributed]'; CI installs it)")
+    chain = get_preset("double").chain
+    single = compute_map(chain, resolution=16, t_max=3.0)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        mapped = compute_map(chain, resolution=16, t_max=3.0, executor=client.get_executor())
+    assert _same(single, mapped)
+
+
+def _cli(*args, timeout=120):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "physics", "chaos-map", *args], capture_output=True, text=True,
+                          cwd=ROOT, env=env, timeout=timeout)
+
+
+def test_cli_writes_the_png_and_reports_throughput(tmp_path):
+    from PIL import Image
+
+    out = tmp_path / "map.png"
+    data = tmp_path / "map.npy"
+    result = _cli("--resolution", "12", "--t-max", "2", "--workers", "1", "--out", str(out), "--data", str(data),
+                  "--no-progress")
+    assert result.returncode == 0, result.stderr
+    info = json.loads(result.stdout)
+    assert info["pixels"] == 144 and info["pixels_per_second"] > 0
+    assert info["forbidden"] + info["flipped"] + info["not_within_t_max"] == 144
+    image = Image.open(out)
+    assert image.size == (12, 12) and image.mode == "RGB"
+    times = np.load(data)
+    assert times.shape == (12, 12)
+    # The image is drawn with theta2 increasing upwards: its bottom row is the map's first row.
+    pixels = np.asarray(image)
+    assert np.array_equal(np.all(pixels[-1] == 110, axis=-1), times[0] == FORBIDDEN)
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [(["--resolution", "0"], "resolution"), (["--preset", "four-bar"], "open chains"),
+     (["--preset", "single"], "at least 2 bars"), (["--t-max", "-1"], "t_max"), (["--workers", "0"], "workers")],
+)
+def test_cli_bad_arguments_fail_with_one_line(tmp_path, args, needle):
+    result = _cli(*args, "--out", str(tmp_path / "x.png"), "--no-progress", timeout=60)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0] and "Traceback" not in result.stderr

@@ -1,0 +1,117 @@
+"""The stability study (physics.stability): each case runs, on shorter horizons than docs/stability.md, and
+shows what the docs say it shows."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics import stability
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _curves(svg: str) -> int:
+    return svg.count('<path d="M')
+
+
+def test_case1_projection_holds_the_pin_and_no_stabilisation_drifts():
+    result = stability.closed_loop_drift(t_end=20.0, samples=401, methods=("lagrange", "dae"))
+    runs = {(r["stabilization"], r["method"]): r for r in result["runs"]}
+    assert all(r["status"] == 0 for r in runs.values())
+    for method in ("lagrange", "dae"):
+        none, baumgarte, projection = (runs[(s, method)] for s in ("none", "baumgarte", "projection"))
+        assert projection["max_distance"] < 1e-12
+        distance = np.asarray(none["distance"])
+        t = np.asarray(none["t"])
+        assert distance[t >= 10.0].max() > 5 * distance[t <= 1.0].max()  # grows: drift, not noise
+        assert none["final_distance"] > 1e3 * projection["max_distance"]
+        assert baumgarte["final_distance"] < none["final_distance"]
+    svg = stability.figure_drift(result)
+    assert svg.startswith("<svg") and _curves(svg) == 6 and "baumgarte, dae" in svg
+
+
+def test_binned_maximum_tells_bounded_from_drifting():
+    t = np.linspace(0.0, 1000.0, 100001)
+    bounded = np.abs(np.sin(3.0 * t)) * 1e-4
+    drifting = 1e-7 * t * (1.0 + 0.5 * np.sin(t))
+    for values, low, high in ((bounded, -0.05, 0.05), (drifting, 0.9, 1.1)):
+        centres, maxima = stability.binned_maximum(t, values)
+        fit = centres >= 10.0
+        slope = np.polyfit(np.log10(centres[fit]), np.log10(maxima[fit]), 1)[0]
+        assert low < slope < high
+
+
+def test_case2_midpoint_energy_error_stays_bounded_while_rk45_drifts():
+    result = stability.energy_drift("single", t_end=300.0, samples=3001, tolerance=1e-6, step=0.02,
+                                    integrators=("RK45", "midpoint"))
+    runs = {r["integrator"]: r for r in result["runs"]}
+    assert all(r["status"] == 0 for r in runs.values())
+    assert runs["RK45"]["slope"] > 0.8 and runs["RK45"]["growth"] > 3.0
+    assert abs(runs["midpoint"]["slope"]) < 0.1 and runs["midpoint"]["growth"] < 1.5
+    svg = stability.figure_energy(result)
+    assert _curves(svg) == 2
+
+
+def test_case3_condition_peaks_near_the_change_point_and_failure_is_reported():
+    result = stability.singular_approach(distances=(0.05, 1e-6), t_end=4.0, samples=401)
+    near = [r for r in result["runs"] if r["distance"] == 0.05]
+    at = [r for r in result["runs"] if r["distance"] == 1e-6]
+    assert {r["method"] for r in near} == {"newton_euler", "lagrange", "dae", "reduced"}
+    for run in near:
+        assert run["status"] == 0 and 1e2 < run["peak_condition"] < 1e5
+    for run in at:
+        assert run["status"] < 0 and "singular" in run["message"] and run["t_reached"] == 0.0
+    labels = [c["method"] for c in result["curves"]]
+    assert labels[-1].startswith("loop Jacobian") and len(labels) == 5
+    assert _curves(stability.figure_condition(result)) == 5
+    assert stability.figure_peak_condition(result).startswith("<svg")
+
+
+def test_case4_every_cell_either_runs_to_the_end_or_says_where_it_failed():
+    scenarios = [s for s in stability.SCENARIOS if s[0].startswith(("seed", "bar 3 without", "light base"))]
+    result = stability.degenerate(scenarios=scenarios, methods=("lagrange", "dae"), integrators=("DOP853", "midpoint"),
+                                  t_end=2.0)
+    rows = {row["scenario"].split(":")[0]: row for row in result["rows"]}
+    rejected = rows["bar 3 without inertia"]["rejected"]
+    assert rejected and "bar 3" in rejected and "I3" in rejected
+    assert all(c["status"] == 0 and c["energy_drift"] < 1e-6 for c in rows["seed values (control)"]["cells"])
+    failures = 0
+    for row in result["rows"]:
+        for cell in row["cells"]:
+            if cell["status"] == 0:
+                assert math.isclose(cell["t_reached"], 2.0)
+            else:
+                failures += 1
+                assert cell["t_reached"] < 2.0 and "t = " in cell["message"]
+            text, colour = stability.cell_outcome(cell)
+            assert (cell["status"] < 0) == text.startswith(("singular", "non-finite", "step", "max", "failed"))
+    assert failures >= 1  # the heavy tip on a light base breaks something, and says so
+    svg = stability.figure_degenerate(result)
+    assert "rejected" in svg and "lagrange" in svg
+
+
+def test_case5_tighter_tolerance_predicts_further_and_formulations_agree_early():
+    result = stability.chaos_divergence(presets=("triple-c",), tolerances=(1e-4, 1e-8), integrators=("DOP853",),
+                                        t_end=30.0, samples=301)
+    case = result["cases"]["triple-c"]
+    loose, tight = case["horizons"]["DOP853"]
+    assert loose["horizon"] is not None and 5.0 < loose["horizon"] < 20.0
+    assert tight["horizon"] is None or tight["horizon"] > loose["horizon"] + 5.0
+    t = np.asarray(case["t"])
+    for method in ("newton_euler", "dae"):
+        assert np.asarray(case["methods"][method]["distance"])[t <= 5.0].max() < 1e-10
+    assert _curves(stability.figure_divergence(result)) == 4
+    assert stability.figure_horizon(result).startswith("<svg")
+
+
+def test_cli_rejects_a_bad_case_with_one_line(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "physics.stability", "--case", "9", "--out", str(tmp_path)],
+                            capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1 and "case" in result.stderr
