@@ -108,7 +108,8 @@ class Ensemble:
             return
         first = int(np.flatnonzero(bad)[0])
         if self.alive.all():
-            kind = "became singular" if np.isfinite(self.condition[first]) else "became non-finite"
+            # an infinite condition is a singular matrix; NaN means the state itself stopped being finite
+            kind = "became non-finite" if np.isnan(self.condition[first]) else "became singular"
             self.message = (f"copy {first} {kind} at t = {self.time:.6g} s (condition {self.condition[first]:.3g}); "
                             f"failed copies are left out of alive (their states are not to be trusted)")
         self.alive &= ~bad

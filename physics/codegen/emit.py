@@ -82,14 +82,55 @@ def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
 
 
 _SOLVE_SOURCE = '''
+# Entries below this fraction of the largest are rounding noise (about 500 units in the last place).
+RELATIVE_NOISE = 1e-13
+
 @njit(cache=True)
 def lu_solve(A, b, x):
-    """Solve A x = b in place by Gaussian elimination with partial pivoting.
+    """Solve A x = b in place: equilibrate rows and columns, then Gaussian elimination with partial pivoting.
 
-    Returns the ratio of the largest to the smallest pivot magnitude: a cheap estimate of the condition
-    number, infinite when a pivot vanishes (the configuration is singular).
+    Returns the ratio of the largest to the smallest pivot magnitude of the equilibrated matrix: a cheap
+    estimate of the condition number, infinite when a pivot vanishes (the configuration is singular).
+    Equilibrating first keeps mere differences of scale (a very light tip, stiff mass ratios) from
+    looking like a singular position.
     """
     k = A.shape[0]
+    col_scale = np.empty(k)
+    overall = 0.0
+    for row in range(k):
+        for j in range(k):
+            overall = max(overall, abs(A[row, j]))
+    if not (overall > 0.0 and np.isfinite(overall)):
+        for i in range(k):
+            x[i] = np.nan
+        return np.inf
+    # A row or column that is rounding noise next to the rest of the matrix (cos(pi/2) = 6e-17 in a loop
+    # constraint) is a zero row: scaling it up would hide a singular position behind a solvable matrix.
+    noise = RELATIVE_NOISE * overall
+    for row in range(k):
+        biggest = 0.0
+        for j in range(k):
+            biggest = max(biggest, abs(A[row, j]))
+        if biggest <= noise:
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        if np.isfinite(biggest):
+            inv = 1.0 / biggest
+            for j in range(k):
+                A[row, j] *= inv
+            b[row] *= inv
+    for j in range(k):
+        biggest = 0.0
+        for row in range(k):
+            biggest = max(biggest, abs(A[row, j]))
+        if biggest <= RELATIVE_NOISE:  # rows are now of size 1
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        col_scale[j] = 1.0 / biggest if np.isfinite(biggest) else 1.0
+        for row in range(k):
+            A[row, j] *= col_scale[j]
     largest = 0.0
     smallest = np.inf
     for col in range(k):
@@ -126,6 +167,8 @@ def lu_solve(A, b, x):
         for j in range(i + 1, k):
             acc -= A[i, j] * x[j]
         x[i] = acc / A[i, i]
+    for i in range(k):
+        x[i] *= col_scale[i]
     return largest / smallest
 
 
@@ -153,7 +196,32 @@ def solve_full(theta, omega, params, alpha, beta, x):
             vel_y += params[i] * s * omega[i]
         b[TIP_ROWS[0]] -= 2.0 * alpha * vel_x + beta * beta * (tip_x - params[4 * n + 1])
         b[TIP_ROWS[1]] -= 2.0 * alpha * vel_y + beta * beta * (tip_y - params[4 * n + 2])
-    return lu_solve(A, b, x)
+    ratio = lu_solve(A, b, x)
+    if PINNED:
+        # Equilibration hides nothing physical, but the loop's own geometry can still be singular: report the
+        # larger of the pivot ratio and the loop Jacobian's singular-value ratio (all links lined up -> inf).
+        ratio = max(ratio, loop_ratio(theta, params))
+    return ratio
+
+
+@njit(cache=True)
+def loop_ratio(theta, params):
+    """sigma_max / sigma_min of the 2 x n loop Jacobian d(tip)/d(theta); inf when it loses rank."""
+    jxx = 0.0
+    jyy = 0.0
+    jxy = 0.0
+    for i in range(N_LINKS):
+        cx = params[i] * math.cos(theta[i])
+        sy = params[i] * math.sin(theta[i])
+        jxx += cx * cx
+        jyy += sy * sy
+        jxy += cx * sy
+    half_trace = 0.5 * (jxx + jyy)
+    gap = math.sqrt(max(0.0, half_trace * half_trace - (jxx * jyy - jxy * jxy)))
+    smallest = half_trace - gap
+    if not smallest > 0.0:
+        return np.inf
+    return math.sqrt((half_trace + gap) / smallest)
 
 
 @njit(cache=True)
