@@ -84,9 +84,57 @@ def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
 _SOLVE_SOURCE = '''
 # Entries below this fraction of the largest are rounding noise (about 500 units in the last place).
 RELATIVE_NOISE = 1e-13
+# Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
+RESCALE_ABOVE = 1e4
 
 @njit(cache=True)
 def lu_solve(A, b, x):
+    """Solve A x = b in place by Gaussian elimination with partial pivoting (the fast path).
+
+    Returns the ratio of the largest to the smallest pivot magnitude, infinite when a pivot vanishes.
+    """
+    k = A.shape[0]
+    largest = 0.0
+    smallest = np.inf
+    for col in range(k):
+        pivot_row = col
+        pivot_abs = abs(A[col, col])
+        for row in range(col + 1, k):
+            value = abs(A[row, col])
+            if value > pivot_abs:
+                pivot_abs = value
+                pivot_row = row
+        if pivot_abs == 0.0 or not np.isfinite(pivot_abs):
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        if pivot_row != col:
+            for j in range(col, k):
+                tmp = A[col, j]
+                A[col, j] = A[pivot_row, j]
+                A[pivot_row, j] = tmp
+            tmp = b[col]
+            b[col] = b[pivot_row]
+            b[pivot_row] = tmp
+        largest = max(largest, pivot_abs)
+        smallest = min(smallest, pivot_abs)
+        inv = 1.0 / A[col, col]
+        for row in range(col + 1, k):
+            factor = A[row, col] * inv
+            if factor != 0.0:
+                for j in range(col + 1, k):
+                    A[row, j] -= factor * A[col, j]
+                b[row] -= factor * b[col]
+    for i in range(k - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, k):
+            acc -= A[i, j] * x[j]
+        x[i] = acc / A[i, i]
+    return largest / smallest
+
+
+@njit(cache=True)
+def lu_solve_equilibrated(A, b, x):
     """Solve A x = b in place: equilibrate rows and columns, then Gaussian elimination with partial pivoting.
 
     Returns the ratio of the largest to the smallest pivot magnitude of the equilibrated matrix: a cheap
@@ -173,13 +221,8 @@ def lu_solve(A, b, x):
 
 
 @njit(cache=True)
-def solve_full(theta, omega, params, alpha, beta, x):
-    """All unknowns x (k,) at one state; Baumgarte gains alpha, beta act on the tip rows of a pinned chain.
-
-    Returns the pivot-ratio condition estimate (inf when singular).
-    """
-    A = np.empty((N_UNKNOWNS, N_UNKNOWNS))
-    b = np.empty(N_UNKNOWNS)
+def _system(theta, omega, params, alpha, beta, A, b):
+    """A and b at one state, with Baumgarte terms on the tip rows of a pinned chain."""
     assemble(theta, omega, params, A, b)
     if PINNED and (alpha != 0.0 or beta != 0.0):
         n = N_LINKS
@@ -196,10 +239,25 @@ def solve_full(theta, omega, params, alpha, beta, x):
             vel_y += params[i] * s * omega[i]
         b[TIP_ROWS[0]] -= 2.0 * alpha * vel_x + beta * beta * (tip_x - params[4 * n + 1])
         b[TIP_ROWS[1]] -= 2.0 * alpha * vel_y + beta * beta * (tip_y - params[4 * n + 2])
+
+
+@njit(cache=True)
+def solve_full(theta, omega, params, alpha, beta, x):
+    """All unknowns x (k,) at one state; Baumgarte with gains alpha, beta on the tip rows of a pinned chain.
+
+    Returns the condition estimate (inf when singular). The fast path is a plain pivoted LU; only when its
+    pivot ratio looks singular is the system rebuilt and solved again equilibrated, so that a mere difference
+    of scale (a very light tip, a stiff mass ratio) is not mistaken for a singular position. A closed chain's
+    geometric singularity (all links lined up) is judged on the loop Jacobian itself.
+    """
+    A = np.empty((N_UNKNOWNS, N_UNKNOWNS))
+    b = np.empty(N_UNKNOWNS)
+    _system(theta, omega, params, alpha, beta, A, b)
     ratio = lu_solve(A, b, x)
+    if not ratio <= RESCALE_ABOVE:
+        _system(theta, omega, params, alpha, beta, A, b)
+        ratio = lu_solve_equilibrated(A, b, x)
     if PINNED:
-        # Equilibration hides nothing physical, but the loop's own geometry can still be singular: report the
-        # larger of the pivot ratio and the loop Jacobian's singular-value ratio (all links lined up -> inf).
         ratio = max(ratio, loop_ratio(theta, params))
     return ratio
 

@@ -27,10 +27,10 @@ from .trajectory import (
     Trajectory,
 )
 
-# A system whose LU pivot ratio (the cheap estimate every right-hand-side call returns) exceeds this is
-# treated as singular. Near a loop singularity at distance delta the pivot ratio grows like 1/delta while the
-# 2-norm condition number grows like 1/delta^2, so 1e6 here means a condition number near 1e12: about 12 of
-# the 16 significant digits of the accelerations lost. The kernels use the same value.
+# A system whose condition estimate (the equilibrated LU pivot ratio, raised for a closed chain to the loop
+# Jacobian's singular-value ratio) exceeds this is treated as singular. Near a loop singularity at distance
+# delta that estimate grows like 1/delta while the unscaled condition number grows like 1/delta^2, so 1e6 here
+# means about 12 of the 16 significant digits lost. The kernels use the same value.
 SINGULAR_PIVOT_RATIO = 1e6
 # The start of a closed chain must close the loop to this distance (a user typing angles by hand will not;
 # presets and the app assemble them with physics.assembly).
