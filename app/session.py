@@ -26,6 +26,7 @@ import physics
 from physics import LinkageError, TracePoint, assembly
 
 from . import export, warm
+from .analysis import Analysis
 from .controls import Controls
 from .overlays import (
     METHOD_COLORS,
@@ -110,6 +111,7 @@ class Session:
         self.compare_traces: dict[str, TraceLine] = {}
 
         self.controls = Controls(self)
+        self.analysis = Analysis(self)
         self.player = Player(
             simulate=simulate or physics.simulate,
             make_settings=_settings_for_chunk,
@@ -384,6 +386,7 @@ class Session:
                 self.target.flush()
             except Exception:
                 pass
+        self.analysis.on_frame(frame.t, frame.restarted)
         if frame.restarted or frame.counter % PLOT_EVERY == 0:
             self._update_plots(frame, runs)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
@@ -535,6 +538,18 @@ class Session:
             if self.player.display_time >= t_last - 1e-9:
                 raise LinkageError("the simulation stopped here; press Reset (or change a parameter) to go on")
         self.player.play()
+
+    def work_precision_chart(self) -> None:
+        """Compute the work-precision chart for the current parameters in a worker; shown in the Analysis tab."""
+        self.analysis.work_precision_chart()
+
+    def chaos_map(self) -> None:
+        """Compute a small chaos map of the double pendulum in a worker; shown in the Analysis tab."""
+        self.analysis.chaos_map()
+
+    def set_ensemble(self, on: bool, count: int | None = None) -> None:
+        """Draw (or stop drawing) ``count`` copies whose initial angles differ by 1e-9 rad."""
+        self.analysis.set_ensemble(on, count)
 
     def pause(self) -> None:
         self._user_paused = True
@@ -923,6 +938,7 @@ class Session:
             return
         self.closed = True
         self.player.stop()
+        self.analysis.remove()
         if self.shared:  # the server's scene outlives this session: clean it
             with self.player.lock:
                 for scene in [self.scene, *self.compare_scenes.values()]:

@@ -1,0 +1,262 @@
+"""The "Analysis" tab of one session: a work-precision chart and a chaos map for the current parameters, and an
+ensemble of perturbed copies drawn over the mechanism (issue 7).
+
+Why background threads: both computations take seconds (and an ensemble's first use may compile its batched
+code), so GUI callbacks only start a worker and return; results and errors reach the panel as the worker ends.
+The ensemble is advanced by the session's frame callback (player thread) by the displayed time's increment.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import threading
+
+import numpy as np
+
+import physics
+from physics import LinkageError
+
+from .scene import to_world
+
+ENSEMBLE_COUNTS = ("100", "1000")
+ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
+ENSEMBLE_NODE = "/ensemble/links"
+MAX_FRAME_DT = 0.1  # s of simulated time advanced per frame at most (a pause or a jump restarts instead)
+CHAOS_RESOLUTION = 64
+CHAOS_T_MAX = 10.0  # s: a small map, a few seconds to compute
+CHAOS_STEP = 0.01
+
+
+def _copy_colors(count: int, n: int) -> np.ndarray:
+    """One hue per copy, repeated for its n segments and both ends: shape (count * n, 2, 3), uint8."""
+    hues = np.arange(count) / max(count, 1)
+    rgb = np.array([colorsys.hsv_to_rgb(h, 0.75, 0.85) for h in hues]) * 255.0
+    return np.repeat(rgb[:, None, :], n * 2, axis=1).reshape(count * n, 2, 3).astype(np.uint8)
+
+
+def segments(joints: np.ndarray) -> np.ndarray:
+    """Joint positions (N, n + 1, 2) -> line segments (N * n, 2, 3) in the world (the mechanism's x-z plane)."""
+    ends = np.stack([joints[:, :-1], joints[:, 1:]], axis=2)  # (N, n, 2, 2)
+    return to_world(ends.reshape(-1, 2, 2)).astype(np.float32)
+
+
+class Analysis:
+    """The Analysis tab's widgets and jobs, and the ensemble drawn in the session's scene."""
+
+    def __init__(self, session) -> None:
+        self.session = session
+        self.chart_handle = None
+        self.image_handle = None
+        self.ensemble = None  # physics.ensemble.Ensemble once built
+        self.ensemble_node = None
+        self.ensemble_on = False
+        self.ensemble_count = int(ENSEMBLE_COUNTS[0])
+        self._ensemble_t: float | None = None
+        self._ensemble_generation = 0
+        self._lock = threading.Lock()
+        self._jobs: dict[str, threading.Thread] = {}
+        self._build()
+
+    # ------------------------------------------------------------------ widgets
+    def _build(self) -> None:
+        s = self.session
+        controls = s.controls
+        gui = controls.gui
+        self.tab = controls.tabs.add_tab("Analysis")
+        with self.tab:
+            self.chart_button = gui.add_button("Work-precision chart (current parameters)")
+            controls._on(self.chart_button, lambda value, event: s.work_precision_chart())
+            self.chart_status = gui.add_markdown("Error against wall time for a few integrators and tolerances "
+                                                 "(a few seconds).")
+            self.chaos_button = gui.add_button(f"Chaos map (double pendulum, {CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})")
+            controls._on(self.chaos_button, lambda value, event: s.chaos_map())
+            self.chaos_status = gui.add_markdown(f"Initial-angle plane (theta1 across, theta2 up) coloured by the "
+                                                 f"time until a link first flips (log scale, up to {CHAOS_T_MAX:g} s).")
+            self.ensemble_box = gui.add_checkbox("Ensemble", initial_value=False,
+                                                 hint="Copies of the mechanism whose initial angles differ by 1e-9 rad")
+            controls._on(self.ensemble_box, lambda value, event: s.set_ensemble(value))
+            self.count_dropdown = gui.add_dropdown("Ensemble copies", ENSEMBLE_COUNTS,
+                                                   initial_value=str(self.ensemble_count))
+            controls._on(self.count_dropdown, lambda value, event: s.set_ensemble(self.ensemble_on, int(value)))
+            self.ensemble_status = gui.add_markdown("")
+
+    def _start(self, name: str, work) -> bool:
+        job = self._jobs.get(name)
+        if job is not None and job.is_alive():
+            return False
+        job = threading.Thread(target=work, name=f"analysis-{name}-{self.session.id}", daemon=True)
+        self._jobs[name] = job
+        job.start()
+        return True
+
+    def wait(self, name: str, timeout: float = 120.0) -> None:
+        """Wait for a job (tests)."""
+        job = self._jobs.get(name)
+        if job is not None:
+            job.join(timeout)
+
+    # ------------------------------------------------------------------ work-precision chart
+    def work_precision_chart(self) -> None:
+        from physics import bench
+
+        p = self.session.params
+        chain = p.chain()
+        theta0, omega0, trace = p.theta0.copy(), p.omega0.copy(), p.trace
+        formulations = (p.method,) if p.method in physics.FORMULATION_NAMES else ("lagrange",)
+
+        def work() -> None:
+            try:
+                _, svg = bench.work_precision_chain(chain, theta0, omega0, trace=trace, formulations=formulations)
+            except Exception as error:
+                self.chart_status.content = "Work-precision chart failed."
+                self.session.show_notice("Work-precision chart failed", f"{type(error).__name__}: {error}",
+                                         color="red")
+                return
+            html = f'<div style="width:100%;overflow-x:auto">{svg}</div>'
+            if self.chart_handle is None:
+                with self.tab:
+                    self.chart_handle = self.session.controls.gui.add_html(html, order=self.chart_status.order + 0.1)
+            else:
+                self.chart_handle.content = html
+            self.chart_status.content = f"Work-precision chart: {p.n} bars, {formulations[0]}, horizon 5 s."
+
+        if self._start("chart", work):
+            self.chart_status.content = "**Computing** the work-precision chart..."
+            self.session.show_notice("Computing", "work-precision chart for the current parameters (a few seconds)",
+                                     color="blue")
+
+    # ------------------------------------------------------------------ chaos map
+    def chaos_map(self) -> None:
+        from physics import chaos
+        from physics.presets import get_preset
+
+        chain = get_preset("double").chain
+
+        def work() -> None:
+            try:
+                times = chaos.compute_map(chain, "lagrange", CHAOS_RESOLUTION, CHAOS_T_MAX, CHAOS_STEP)
+                rgb = np.ascontiguousarray(chaos.to_rgb(times, CHAOS_T_MAX, CHAOS_STEP), dtype=np.uint8)
+            except Exception as error:
+                self.chaos_status.content = "Chaos map failed."
+                self.session.show_notice("Chaos map failed", f"{type(error).__name__}: {error}", color="red")
+                return
+            if self.image_handle is None:
+                with self.tab:
+                    self.image_handle = self.session.controls.gui.add_image(
+                        rgb, label="Chaos map (double pendulum)", format="png", order=self.chaos_status.order + 0.1)
+            else:
+                self.image_handle.image = rgb
+            self.chaos_status.content = (f"Chaos map: {CHAOS_RESOLUTION} x {CHAOS_RESOLUTION}, "
+                                         f"theta1, theta2 in [-pi, pi], flip time up to {CHAOS_T_MAX:g} s.")
+
+        if self._start("chaos", work):
+            self.chaos_status.content = "**Computing** the chaos map..."
+            self.session.show_notice("Computing", "chaos map of the double pendulum (a few seconds)", color="blue")
+
+    # ------------------------------------------------------------------ ensemble
+    def set_ensemble(self, on: bool, count: int | None = None) -> None:
+        if count is not None:
+            if str(int(count)) not in ENSEMBLE_COUNTS:
+                raise LinkageError(f"ensemble count = {count}: allowed {', '.join(ENSEMBLE_COUNTS)}")
+            self.ensemble_count = int(count)
+        self.ensemble_on = bool(on)
+        if not self.ensemble_on:
+            self._drop_ensemble()
+            self.ensemble_status.content = ""
+            return
+        self.restart_ensemble()
+
+    def restart_ensemble(self) -> None:
+        """Build a new ensemble from the displayed state (in a worker: the first build may compile)."""
+        s = self.session
+        p = s.params
+        state = s.player.current_state()
+        if state is None or len(state[1]) != p.n:
+            t, theta, omega = 0.0, p.theta0.copy(), p.omega0.copy()
+        else:
+            t, theta, omega = state
+        chain = p.chain()
+        method = p.method if p.method in physics.FORMULATION_NAMES else "lagrange"
+        count, damping = self.ensemble_count, p.damping
+        with self._lock:
+            self._ensemble_generation += 1
+            generation = self._ensemble_generation
+        self.ensemble_status.content = f"**Preparing** {count} copies..."
+
+        def work() -> None:
+            from physics.ensemble import Ensemble
+
+            try:
+                ensemble = Ensemble(chain, theta, omega, method, count, ENSEMBLE_SPREAD, damping=damping)
+                points = segments(ensemble.joints())
+            except Exception as error:
+                self.ensemble_status.content = f"Ensemble failed: {type(error).__name__}: {error}"
+                self.session.show_notice("Ensemble failed", f"{type(error).__name__}: {error}", color="red")
+                return
+            with self._lock:
+                if generation != self._ensemble_generation or not self.ensemble_on or self.session.closed:
+                    return
+                self._remove_node()
+                self.ensemble_node = self.session.target.scene.add_line_segments(
+                    ENSEMBLE_NODE, points, _copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
+                self.ensemble = ensemble
+                self._ensemble_t = t
+            self.ensemble_status.content = f"{count} copies, {method}, RK4 step {ensemble.step * 1e3:.3g} ms."
+
+        threading.Thread(target=work, name=f"ensemble-{s.id}", daemon=True).start()
+
+    def on_frame(self, t: float, restarted: bool) -> None:
+        """Advance and redraw the ensemble to the displayed time ``t`` (player thread); an error switches the
+        ensemble off with a notice, the session goes on."""
+        if not self.ensemble_on:
+            return
+        try:
+            self._advance(t, restarted)
+        except Exception as error:
+            self.ensemble_on = False
+            self._drop_ensemble()
+            self.ensemble_status.content = f"Ensemble stopped: {type(error).__name__}: {error}"
+            self.session.show_notice("Ensemble stopped", f"{type(error).__name__}: {error}", color="red")
+
+    def _advance(self, t: float, restarted: bool) -> None:
+        if restarted:
+            self.restart_ensemble()
+            return
+        with self._lock:
+            ensemble, node, last = self.ensemble, self.ensemble_node, self._ensemble_t
+            if ensemble is None or node is None or last is None:
+                return
+            dt = t - last
+            if dt < 0.0 or dt > MAX_FRAME_DT:  # a jump back or far ahead: go on from the displayed state
+                self._ensemble_t = None
+            else:
+                self._ensemble_t = t
+        if dt < 0.0 or dt > MAX_FRAME_DT:
+            self.restart_ensemble()
+            return
+        if dt == 0.0:
+            return
+        ensemble.advance(dt)
+        node.points = segments(ensemble.joints())
+        if not ensemble.alive.all():
+            self.ensemble_status.content = f"{int(ensemble.alive.sum())} of {ensemble.count} copies alive: " \
+                                           f"{ensemble.message}"
+
+    def _remove_node(self) -> None:
+        if self.ensemble_node is not None:
+            try:
+                self.ensemble_node.remove()
+            except Exception:
+                pass
+        self.ensemble_node = None
+
+    def _drop_ensemble(self) -> None:
+        with self._lock:
+            self._ensemble_generation += 1
+            self._remove_node()
+            self.ensemble = None
+            self._ensemble_t = None
+
+    def remove(self) -> None:
+        self.ensemble_on = False
+        self._drop_ensemble()

@@ -1,0 +1,58 @@
+"""The Analysis tab (issue 7): work-precision chart, chaos map and ensemble, driven through the session methods
+the tab's callbacks call. The heavy work runs in worker threads; these tests wait for them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conftest import wait_until
+
+
+
+def test_work_precision_chart_appears_in_the_panel(connect):
+    _, session = connect()
+    session.pause()
+    session.guard(session.work_precision_chart)
+    assert "Computing" in session.analysis.chart_status.content
+    session.analysis.wait("chart", timeout=180)
+    handle = session.analysis.chart_handle
+    assert handle is not None, session.notice
+    assert "<svg" in handle.content and "</svg>" in handle.content
+
+
+def test_chaos_map_image_appears(connect):
+    _, session = connect()
+    session.pause()
+    session.guard(session.chaos_map)
+    session.analysis.wait("chaos", timeout=180)
+    handle = session.analysis.image_handle
+    assert handle is not None, session.notice
+    image = np.asarray(handle.image)
+    assert image.shape == (64, 64, 3)
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 4  # a picture, not a flat fill
+
+
+def test_ensemble_node_exists_moves_and_goes_away(connect):
+    _, session = connect()
+    analysis = session.analysis
+    session.guard(lambda: session.set_ensemble(True, 100))
+    assert wait_until(lambda: analysis.ensemble_node is not None, timeout=180), analysis.ensemble_status.content
+    node = analysis.ensemble_node
+    n = session.params.n
+    first = np.array(node.points)
+    assert first.shape == (100 * n, 2, 3)
+    assert np.all(first[:, :, 1] == 0.0)  # in the mechanism's x-z plane
+    session.play()
+    assert wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 0.3, timeout=30)
+    assert analysis.ensemble_node is not None
+    assert not np.allclose(np.array(analysis.ensemble_node.points), first)  # it moves
+    assert analysis.ensemble.alive.all()
+    session.guard(lambda: session.set_ensemble(False))
+    assert analysis.ensemble_node is None and analysis.ensemble is None
+
+
+def test_bad_ensemble_count_is_a_notice(connect):
+    _, session = connect()
+    session.guard(lambda: session.set_ensemble(True, 7))
+    assert session.notice is not None and "ensemble count" in session.notice
+    assert session.analysis.ensemble_node is None
