@@ -179,45 +179,10 @@ def lu_solve_equilibrated(A, b, x):
         col_scale[j] = 1.0 / biggest if np.isfinite(biggest) else 1.0
         for row in range(k):
             A[row, j] *= col_scale[j]
-    largest = 0.0
-    smallest = np.inf
-    for col in range(k):
-        pivot_row = col
-        pivot_abs = abs(A[col, col])
-        for row in range(col + 1, k):
-            value = abs(A[row, col])
-            if value > pivot_abs:
-                pivot_abs = value
-                pivot_row = row
-        if pivot_abs == 0.0 or not np.isfinite(pivot_abs):
-            for i in range(k):
-                x[i] = np.nan
-            return np.inf
-        if pivot_row != col:
-            for j in range(col, k):
-                tmp = A[col, j]
-                A[col, j] = A[pivot_row, j]
-                A[pivot_row, j] = tmp
-            tmp = b[col]
-            b[col] = b[pivot_row]
-            b[pivot_row] = tmp
-        largest = max(largest, pivot_abs)
-        smallest = min(smallest, pivot_abs)
-        inv = 1.0 / A[col, col]
-        for row in range(col + 1, k):
-            factor = A[row, col] * inv
-            if factor != 0.0:
-                for j in range(col + 1, k):
-                    A[row, j] -= factor * A[col, j]
-                b[row] -= factor * b[col]
-    for i in range(k - 1, -1, -1):
-        acc = b[i]
-        for j in range(i + 1, k):
-            acc -= A[i, j] * x[j]
-        x[i] = acc / A[i, i]
+    ratio = lu_solve(A, b, x)
     for i in range(k):
         x[i] *= col_scale[i]
-    return largest / smallest
+    return ratio
 
 
 @njit(cache=True)
