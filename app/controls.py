@@ -19,6 +19,7 @@ import annotated_types
 
 import physics
 from physics import Bar, Chain, Settings
+from physics.model import FIXED_STEP_INTEGRATORS
 
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, driving_count, method_label, methods_for
@@ -78,7 +79,7 @@ ALPHA_SLIDER = SliderSpec(Settings, "baumgarte_alpha", "Baumgarte alpha", 0.0, 5
 BETA_SLIDER = SliderSpec(Settings, "baumgarte_beta", "Baumgarte beta", 0.0, 50.0, 0.5)
 # tolerance and step are set on log / millisecond scales; their model bounds are checked in the tests
 TOLERANCE_LOG10 = (-12.0, -3.0, 0.5)  # rtol = atol = 10 ** slider
-STEP_MS = (0.1, 20.0, 0.1)  # midpoint step in milliseconds
+STEP_MS = (0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
 ANGLE_DEG = (-180.0, 180.0, 0.5)
 PIN_RANGE = (-5.0, 5.0, 0.01)
 SPEED = (0.1, 4.0, 0.05)
@@ -205,7 +206,7 @@ class Controls:
                                             hint="rtol = atol = 10^value (adaptive integrators)")
             self._on(self.tolerance, lambda value, event: s.set_tolerance(10.0 ** value))
             lo, hi, step = STEP_MS
-            self.step = gui.add_slider("Step (ms, midpoint)", min=lo, max=hi, step=step,
+            self.step = gui.add_slider("Step (ms, fixed-step)", min=lo, max=hi, step=step,
                                        initial_value=min(max(p.step * 1e3, lo), hi))
             self._on(self.step, lambda value, event: s.set_step(value * 1e-3))
             self.stabilization = gui.add_dropdown("Stabilisation (loops)", STABILIZATION_OPTIONS,
@@ -355,8 +356,8 @@ class Controls:
     def sync_integrator(self) -> None:
         p = self.session.params
         self._set(self.integrator, p.integrator)
-        self.step.visible = p.integrator == "midpoint"
-        self.tolerance.visible = p.integrator != "midpoint"
+        self.step.visible = p.integrator in FIXED_STEP_INTEGRATORS
+        self.tolerance.visible = p.integrator not in FIXED_STEP_INTEGRATORS
         self.stabilization.visible = p.pinned
         self._set(self.stabilization, p.stabilization)
         baumgarte = p.pinned and p.stabilization == "baumgarte"

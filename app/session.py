@@ -46,6 +46,13 @@ STATUS_EVERY = 15  # frames between status-line updates (4 Hz)
 PLOT_SECONDS = 30.0  # simulated seconds shown by the plots
 MAX_TRACE_SECONDS = 30.0
 COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)
+
+
+def _check_compare_integrator(integrator: str) -> None:
+    """Compare mode runs every formulation with one integrator; the variational one exists for Lagrange only."""
+    if integrator == "variational":
+        raise LinkageError("compare mode with integrator = variational: it runs on the Lagrange method only; "
+                           "choose RK45, DOP853, Radau, LSODA or midpoint to compare all three methods")
 NOTICE_SECONDS = 8.0
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
 # under a second, a cold one derives for tens of seconds.
@@ -140,6 +147,7 @@ class Session:
             return action()
         except LinkageError as error:
             self.show_notice("Not applied", str(error), color="yellow")
+            self._resync_controls()
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
             traceback.print_exc()
             try:
@@ -152,6 +160,14 @@ class Session:
                 color="red",
             )
         return None
+
+    def _resync_controls(self) -> None:
+        """Put the controls back on the values in force (a refused value must not stay on its widget)."""
+        try:
+            self.controls.sync_all()
+            self.controls.sync_compare()
+        except Exception:  # a half-built panel: the next successful change syncs it
+            pass
 
     # ================================================================== notices
     def _clients(self) -> list:
@@ -775,7 +791,10 @@ class Session:
 
     def set_integrator(self, integrator: str) -> None:
         with self._lock:
-            self._commit(self.params.changed(integrator=integrator), keep_state=True)
+            new = self.params.changed(integrator=integrator)
+            if self.compare:
+                _check_compare_integrator(new.integrator)
+            self._commit(new, keep_state=True)
             self.controls.sync_integrator()
 
     def set_tolerance(self, tolerance: float) -> None:
@@ -803,6 +822,8 @@ class Session:
     def set_compare(self, on: bool) -> None:
         """Run all three formulations from the same start, drawn as three translucent mechanisms."""
         with self._lock:
+            if on:
+                _check_compare_integrator(self.params.integrator)
             self.compare = bool(on)
             self._build_scene()
             self.controls.sync_compare()

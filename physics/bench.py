@@ -43,6 +43,7 @@ CHECK_TOLERANCE = 1e-13
 TOLERANCES = tuple(10.0**-k for k in range(3, 13))
 MIDPOINT_STEPS = (0.1, 0.03, 0.01, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5)
 ADAPTIVE_INTEGRATORS = ("RK45", "DOP853", "Radau", "LSODA")
+FIXED_STEP = ("midpoint", "variational")
 FORMULATIONS = ("newton_euler", "lagrange", "dae")
 HEADLINE_CASE = "triple-c"
 HEADLINE_ACCURACIES = tuple(10.0**-k for k in range(3, 11))
@@ -52,7 +53,7 @@ TIME_BUDGET = 2.0  # seconds of repeats per point at most (after the first, unti
 QUICK = dict(
     cases=("triple-c",),
     formulations=("lagrange", "dae"),
-    integrators=("RK45", "DOP853", "Radau", "LSODA", "midpoint"),
+    integrators=("RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational"),
     tolerances=(1e-3, 1e-5, 1e-7, 1e-9),
     midpoint_steps=(0.05, 0.01, 2e-3),
     baseline_formulations=("lagrange",),
@@ -63,7 +64,7 @@ QUICK = dict(
 FULL = dict(
     cases=ALL_CASES,
     formulations=FORMULATIONS,
-    integrators=ADAPTIVE_INTEGRATORS + ("midpoint",),
+    integrators=ADAPTIVE_INTEGRATORS + FIXED_STEP,
     tolerances=TOLERANCES,
     midpoint_steps=MIDPOINT_STEPS,
     baseline_formulations=("lagrange", "dae"),
@@ -279,10 +280,12 @@ def curves_for(chain, trace, horizon, formulations, integrators, tolerances, mid
                 curve = Curve("reduced / DOP853 (scipy)", method, integrator, "scipy", "tolerance")
                 plan.append((curve, tolerances, lambda tol, m=method: _settings(chain, horizon, m, "DOP853", tol, trace=trace)))
                 continue
-            if integrator == "midpoint":
-                curve = Curve(f"{method} / midpoint (fixed step)", method, integrator, "compiled", "step")
+            if integrator in FIXED_STEP:
+                if integrator == "variational" and method != "lagrange":
+                    continue  # it discretises the Lagrangian: defined on the Lagrange formulation only
+                curve = Curve(f"{method} / {integrator} (fixed step)", method, integrator, "compiled", "step")
                 plan.append((curve, midpoint_steps,
-                             lambda h, m=method: _settings(chain, horizon, m, "midpoint", step=h, trace=trace)))
+                             lambda h, m=method, i=integrator: _settings(chain, horizon, m, i, step=h, trace=trace)))
                 continue
             backend = "scipy" if integrator in ("Radau", "LSODA") else "compiled"
             curve = Curve(f"{method} / {integrator} ({backend})", method, integrator, backend, "tolerance")
@@ -401,8 +404,8 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
 
 
 def work_precision_chain(chain, theta0, omega0, trace=None, horizon: float = 5.0, formulations=("lagrange",),
-                         integrators=("RK45", "DOP853", "midpoint"), tolerances=(1e-3, 1e-5, 1e-7, 1e-9),
-                         midpoint_steps=(0.05, 0.01, 2e-3), repeats: int = 1, budget: float = 0.2,
+                         integrators=("RK45", "DOP853", "midpoint", "variational"),
+                         tolerances=(1e-3, 1e-5, 1e-7, 1e-9), midpoint_steps=(0.05, 0.01, 2e-3), repeats: int = 1, budget: float = 0.2,
                          title: str = "current parameters") -> tuple[dict, str]:
     """A small work-precision sweep for any chain and start (what the app shows for its current parameters):
     returns the case document (as in the JSON) and its SVG chart. A few seconds for a triple pendulum."""
@@ -502,7 +505,7 @@ def headline(case: dict) -> list:
 # Output
 
 
-_INTEGRATOR_COLOURS = {"RK45": 0, "DOP853": 1, "Radau": 2, "LSODA": 3, "midpoint": 4}
+_INTEGRATOR_COLOURS = {"RK45": 0, "DOP853": 1, "Radau": 2, "LSODA": 3, "midpoint": 4, "variational": 5}
 _FORMULATION_DASH = {"newton_euler": 1, "lagrange": 0, "dae": 2, "reduced": 3}
 
 
@@ -702,7 +705,7 @@ def main(argv=None) -> int:
             if cases:
                 options["cases"] = cases
             options["formulations"] = _parse_list(args.formulations, FORMULATIONS, "--formulations") or options["formulations"]
-            options["integrators"] = (_parse_list(args.integrators, ADAPTIVE_INTEGRATORS + ("midpoint",), "--integrators")
+            options["integrators"] = (_parse_list(args.integrators, ADAPTIVE_INTEGRATORS + FIXED_STEP, "--integrators")
                                       or options["integrators"])
             tolerances = _parse_tolerances(args.tolerances)
             if tolerances:

@@ -258,16 +258,18 @@ def _common(parser, method_required=False):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .model import INTEGRATOR_NAMES
+
     parser = _Parser(prog="python -m physics", description="Linkage Lab physics: derive, simulate, compare.")
     sub = parser.add_subparsers(dest="command", parser_class=_Parser)
 
     sim = sub.add_parser("simulate", help="integrate a preset and print or write the trajectory")
     _common(sim)
-    sim.add_argument("--integrator", default="DOP853", choices=("RK45", "DOP853", "Radau", "LSODA", "midpoint"))
+    sim.add_argument("--integrator", default="DOP853", choices=INTEGRATOR_NAMES)
     sim.add_argument("--backend", default="compiled", choices=("compiled", "scipy"))
     sim.add_argument("--rtol", type=float, default=1e-10)
     sim.add_argument("--atol", type=float, default=1e-10)
-    sim.add_argument("--step", type=float, default=None, help="fixed step for --integrator midpoint")
+    sim.add_argument("--step", type=float, default=None, help="fixed step for --integrator midpoint or variational")
     sim.add_argument("--t-end", type=float, default=None, help="seconds to simulate (default: the preset's)")
     sim.add_argument("--samples", type=int, default=201)
     sim.add_argument("--stabilization", default="projection", choices=("none", "baumgarte", "projection"))

@@ -18,8 +18,9 @@ from .errors import LinkageError
 MAX_LINKS = 12
 FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
 METHOD_NAMES = FORMULATION_NAMES + ("reduced", "reduced_fixed")
-INTEGRATOR_NAMES = ("RK45", "DOP853", "Radau", "LSODA", "midpoint")
-COMPILED_INTEGRATORS = ("RK45", "DOP853", "midpoint")
+INTEGRATOR_NAMES = ("RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational")
+COMPILED_INTEGRATORS = ("RK45", "DOP853", "midpoint", "variational")
+FIXED_STEP_INTEGRATORS = ("midpoint", "variational")
 STABILIZATIONS = ("none", "baumgarte", "projection")
 
 # Baumgarte gains: critically damped constraint error (alpha = beta), time constant 1/alpha = 0.1 s, two
@@ -136,7 +137,7 @@ class Settings(BaseModel):
     model_config = ConfigDict(frozen=True)
 
     method: Literal["newton_euler", "lagrange", "dae", "reduced", "reduced_fixed"] = "lagrange"
-    integrator: Literal["RK45", "DOP853", "Radau", "LSODA", "midpoint"] = "DOP853"
+    integrator: Literal["RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational"] = "DOP853"
     backend: Literal["compiled", "scipy"] = "compiled"
     rtol: float = Field(1e-10, gt=0.0, le=0.1)
     atol: float = Field(1e-10, gt=0.0, le=0.1)
@@ -146,7 +147,7 @@ class Settings(BaseModel):
     baumgarte_alpha: float = Field(BAUMGARTE_ALPHA, ge=0.0, le=1e4)
     baumgarte_beta: float = Field(BAUMGARTE_BETA, ge=0.0, le=1e4)
     damping: float = Field(0.0, ge=0.0, le=1e3, description="viscous damping torque per unit relative joint speed")
-    step: float = Field(1e-3, gt=0.0, le=1.0, description="fixed step of the midpoint integrator")
+    step: float = Field(1e-3, gt=0.0, le=1.0, description="fixed step of the midpoint and variational integrators")
     trace: Optional[TracePoint] = None
     max_steps: int = Field(10_000_000, ge=1)
 
@@ -160,8 +161,11 @@ class Settings(BaseModel):
         if self.backend == "compiled" and self.integrator not in COMPILED_INTEGRATORS:
             # Radau and LSODA exist only in scipy; asking for them means asking for scipy.
             object.__setattr__(self, "backend", "scipy")
-        if self.integrator == "midpoint" and self.backend == "scipy":
-            raise ValueError("integrator = midpoint: available with backend = compiled only")
+        if self.integrator in FIXED_STEP_INTEGRATORS and self.backend == "scipy":
+            raise ValueError(f"integrator = {self.integrator}: available with backend = compiled only")
+        if self.integrator == "variational" and self.method != "lagrange":
+            # It discretises the Lagrangian T - V itself; only the Lagrange derivation has one.
+            raise ValueError(f"integrator = variational: needs method = lagrange (got {self.method})")
         return self
 
 

@@ -31,6 +31,23 @@ def _index_literal(values) -> str:
     return "[" + ", ".join(str(int(v)) for v in values) + "]"
 
 
+def _function(signature, doc, first_line, entries, s, printer) -> list:
+    """Lines of one ``@njit`` function that unpacks the state and parameters and writes ``entries``."""
+    replacements, reduced = sp.cse([e for _, e in entries], symbols=sp.numbered_symbols("_t"), order="none")
+    lines = ["", "@njit(cache=True)", f"def {signature}:", f'    """{doc}"""']
+    for i in range(len(s.theta)):
+        lines.append(f"    {s.theta[i]} = theta[{i}]")
+        lines.append(f"    {s.omega[i]} = omega[{i}]")
+    for idx, sym in enumerate(s.params):
+        lines.append(f"    {sym} = params[{idx}]")
+    lines.append(f"    {first_line}")
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {printer.doprint(expr)}")
+    for (target, _), expr in zip(entries, reduced):
+        lines.append(f"    {target} = {printer.doprint(expr)}")
+    return lines
+
+
 def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
     """Source text of the generated module for ``system`` (see docs/architecture.md for its API)."""
     s = system.symbols
@@ -45,7 +62,6 @@ def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
                 entries.append((f"A[{i}, {j}]", system.A[i, j]))
     for i in range(k):
         entries.append((f"b[{i}]", system.b[i]))
-    replacements, reduced = sp.cse([e for _, e in entries], symbols=sp.numbered_symbols("_t"), order="none")
 
     lines = []
     lines.append(header.rstrip() + "\n")
@@ -60,21 +76,32 @@ def emit_module(system: LinearSystem, header: str, kernels_source: str) -> str:
     lines.append(f"TIP_REACTION_INDEX = np.array({_index_literal(tip_reaction)}, dtype=np.int64)")
     tip_rows = system.tip_rows or ()
     lines.append(f"TIP_ROWS = np.array({_index_literal(tip_rows)}, dtype=np.int64)")
+    lines.append(f"HAS_LAGRANGIAN = {system.mass_matrix is not None}")
     lines.append("")
-    lines.append("")
-    lines.append("@njit(cache=True)")
-    lines.append("def assemble(theta, omega, params, A, b):")
-    lines.append('    """Fill A (k, k) and b (k,) of A x = b at one state; entries not written are zero."""')
-    for i in range(n):
-        lines.append(f"    {s.theta[i]} = theta[{i}]")
-        lines.append(f"    {s.omega[i]} = omega[{i}]")
-    for idx, sym in enumerate(s.params):
-        lines.append(f"    {sym} = params[{idx}]")
-    lines.append("    A[:, :] = 0.0")
-    for sym, expr in replacements:
-        lines.append(f"    {sym} = {printer.doprint(expr)}")
-    for (target, _), expr in zip(entries, reduced):
-        lines.append(f"    {target} = {printer.doprint(expr)}")
+    lines += _function(
+        "assemble(theta, omega, params, A, b)",
+        "Fill A (k, k) and b (k,) of A x = b at one state; entries not written are zero.",
+        "A[:, :] = 0.0", entries, s, printer,
+    )
+    if system.mass_matrix is not None:
+        pieces = [(f"M[{i}, {j}]", system.mass_matrix[i, j]) for i in range(n) for j in range(n)
+                  if system.mass_matrix[i, j] != 0]
+        pieces += [(f"force[{i}]", system.lagrangian_force[i]) for i in range(n)]
+        lines += _function(
+            "mass_and_force(theta, omega, params, M, force)",
+            "The Lagrangian's mass matrix d2T/domega2 (n, n) and force dL/dtheta + Q (n,), for the "
+            "variational integrator.",
+            "M[:, :] = 0.0", pieces, s, printer,
+        )
+    else:
+        lines += [
+            "",
+            "@njit(cache=True)",
+            "def mass_and_force(theta, omega, params, M, force):",
+            '    """Not available: this formulation has no Lagrangian (the variational integrator needs one)."""',
+            "    M[:, :] = np.nan",
+            "    force[:] = np.nan",
+        ]
     lines.append("")
     lines.append(_SOLVE_SOURCE)
     lines.append(kernels_source)

@@ -31,6 +31,10 @@ class LinearSystem:
     reaction_index: list = field(default_factory=list)  # (ix, iy) of joint reaction k = 0..n-1
     tip_reaction_index: tuple | None = None
     tip_rows: tuple | None = None  # rows whose (A x - b) is the tip's acceleration
+    # The Lagrangian's pieces, for the variational integrator (Lagrange only): the mass matrix d2T/d omega2
+    # (n, n) and the force dL/d theta + Q (n,) with Q the damping's generalized force (no loop reaction).
+    mass_matrix: sp.Matrix | None = None
+    lagrangian_force: sp.Matrix | None = None
 
 
 def linear_system(equations, unknowns):

@@ -74,6 +74,10 @@ class Lagrange(Formulation):
             unknowns += list(reaction_h)
             tip_reaction_index = (n, n + 1)
         A, b = linear_system(equations, unknowns)
+        mass_matrix = sp.Matrix(n, n, lambda i, j: sp.diff(kinetic, omega[i], omega[j]))
+        lagrangian_force = sp.Matrix(
+            [sp.diff(kinetic, theta[k]) - sp.diff(potential, theta[k]) - sp.diff(dissipation, omega[k]) for k in range(n)]
+        )
         return LinearSystem(
             formulation=self.name,
             n=n,
@@ -86,4 +90,6 @@ class Lagrange(Formulation):
             theta_ddot_index=list(range(n)),
             tip_reaction_index=tip_reaction_index,
             tip_rows=tip_rows,
+            mass_matrix=mass_matrix,
+            lagrangian_force=lagrangian_force,
         )

@@ -133,6 +133,8 @@ def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, pro
         result = module.integrate_midpoint(
             y0, t0, t1, settings.step, t_eval, params, alpha, beta, project, y_out, cond
         )
+    elif settings.integrator == "variational":
+        result = module.integrate_variational(y0, t0, t1, settings.step, t_eval, params, y_out, cond)
     else:
         integrate = module.integrate_rk45 if settings.integrator == "RK45" else module.integrate_dop853
         result = integrate(
@@ -144,8 +146,8 @@ def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, pro
 
 
 def _compiled_detail(settings, status: int) -> str:
-    if status == STATUS_INTEGRATOR_FAILED and settings.integrator == "midpoint":
-        return "the implicit midpoint Newton iteration did not converge; reduce the step (--step)"
+    if status == STATUS_INTEGRATOR_FAILED and settings.integrator in ("midpoint", "variational"):
+        return f"the {settings.integrator} integrator's Newton iteration did not converge; reduce the step (--step)"
     return ""
 
 

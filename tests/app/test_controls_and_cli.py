@@ -68,6 +68,24 @@ def test_a_value_outside_the_model_is_refused_with_its_name(connect):
     assert "unknown parameter" in session.notice
 
 
+def test_variational_integrator_runs_with_lagrange_and_is_refused_elsewhere(connect):
+    _, session = connect()
+    session.controls.integrator.value = "variational"
+    assert session.params.integrator == "variational" and session.notice is None
+    assert session.controls.step.visible and not session.controls.tolerance.visible
+    assert wait_until(lambda: session.snapshot()["time"] > 1.0)
+    # Compare mode needs one integrator for all three methods: refused, the checkbox goes back off.
+    session.controls.compare.value = True
+    assert not session.compare and session.notice is not None and "variational" in session.notice
+    assert session.controls.compare.value is False
+    # Another method with the variational integrator: refused, naming the fix; the dropdown shows the method
+    # in force again.
+    session.controls.method.value = "DAE"
+    assert session.params.method == "lagrange"
+    assert "method = lagrange" in session.notice
+    assert session.controls.method.value == "Lagrange"
+
+
 def test_chain_links_slider_rebuilds_bars_and_scene(connect):
     _, session = connect()
     session.controls.mechanism.value = "chain"

@@ -41,7 +41,7 @@ def test_quick_bench_writes_json_svg_html(quick_run):
     case = document["cases"]["triple-c"]
     assert case["horizon"] == 5.0 and case["reference"]["uncertainty"] < 1e-11
     labels = [c["label"] for c in case["curves"]]
-    for integrator in ("RK45", "DOP853", "Radau", "LSODA", "midpoint"):
+    for integrator in ("RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational"):
         assert any(integrator in label for label in labels)
     for curve in case["curves"] + case["baseline"]:
         points = curve["points"]

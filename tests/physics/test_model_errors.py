@@ -82,6 +82,8 @@ def test_unknown_override_lists_allowed_names():
         (dict(method="euler"), "method"),
         (dict(integrator="Euler"), "integrator"),
         (dict(integrator="midpoint", backend="scipy"), "midpoint"),
+        (dict(integrator="variational", backend="scipy"), "variational"),
+        (dict(integrator="variational", method="dae"), "method = lagrange"),
     ],
 )
 def test_settings_rules(fields, must_say):
@@ -101,6 +103,7 @@ def test_settings_rules(fields, must_say):
         (["accelerations", "--preset", "triple-a", "--state", "1,2"], "--state"),
         (["accelerations", "--preset", "four-bar", "--pin", "9,9"], "theta1"),
         (["simulate", "--preset", "triple-a", "--set", "d1=3"], "d"),
+        (["simulate", "--preset", "triple-a", "--method", "newton_euler", "--integrator", "variational"], "lagrange"),
     ],
 )
 def test_cli_bad_input_is_one_line_and_nonzero(argv, must_say):
