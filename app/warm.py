@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 import threading
+from typing import Callable
 
 import physics
 
@@ -24,20 +25,24 @@ def is_loaded(method: str, n: int, pinned: bool) -> bool:
         return (method, n, pinned) in _loaded
 
 
-def ensure_loaded(method: str, n: int, pinned: bool) -> None:
-    """Load (or derive) one compiled system once; concurrent callers for the same system wait for it."""
-    key = (method, n, pinned)
+def _once(done: set, key: tuple, action: Callable[[], object]) -> None:
+    """Run ``action`` once per ``key`` in this process; concurrent callers for the same key wait for it."""
     with _guard:
-        if key in _loaded:
+        if key in done:
             return
         lock = _locks.setdefault(key, threading.Lock())
     with lock:
         with _guard:
-            if key in _loaded:
+            if key in done:
                 return
-        physics.load_compiled(method, n, pinned)
+        action()
         with _guard:
-            _loaded.add(key)
+            done.add(key)
+
+
+def ensure_loaded(method: str, n: int, pinned: bool) -> None:
+    """Load (or derive) one compiled system once; concurrent callers for the same system wait for it."""
+    _once(_loaded, (method, n, pinned), lambda: physics.load_compiled(method, n, pinned))
 
 
 def _systems(method: str, n: int, pinned: bool) -> list[tuple[str, int, bool]]:
@@ -62,23 +67,16 @@ def is_ready(chain, settings) -> bool:
 def ensure_ready(chain, settings, theta0, omega0) -> None:
     """Loaded code *and* one short simulation done with this method and integrator in this process: numba
     compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part."""
-    key = _ready_key(chain, settings)
-    with _guard:
-        if key in _ready:
-            return
-        lock = _locks.setdefault(key, threading.Lock())
-    with lock:
-        with _guard:
-            if key in _ready:
-                return
+
+    def warm() -> None:
         for system in _systems(settings.method, chain.n, chain.pinned):
             ensure_loaded(*system)
         try:
             physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
         except ValueError:  # an invalid start: the run itself reports it
             pass
-        with _guard:
-            _ready.add(key)
+
+    _once(_ready, _ready_key(chain, settings), warm)
 
 
 def warm_up(preset: str, links: int | None, method: str | None) -> None:

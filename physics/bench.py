@@ -147,6 +147,17 @@ def machine_note() -> dict:
     }
 
 
+def write_report(out: Path, stem: str, document: dict, markdown: str) -> list[Path]:
+    """``<stem>.json`` and ``<stem>.md`` in ``out`` (created), and the table printed: what each suite leaves."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{stem}.json"
+    path.write_text(json.dumps(document, indent=1))
+    md = out / f"{stem}.md"
+    md.write_text(markdown)
+    print(markdown)
+    return [path, md]
+
+
 # ------------------------------------------------------------------------------------------------
 # Work-precision
 

@@ -13,7 +13,6 @@ steps as fit, carrying the remainder, so the trajectory never depends on the fra
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -224,7 +223,7 @@ def step_accuracy(preset_name: str, method: str, step: float, t_end: float = 20.
 
 
 def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Path]:
-    from .bench import Progress, machine_note
+    from .bench import Progress, machine_note, write_report
 
     counts = BENCH_COUNTS[:3] if quick else BENCH_COUNTS
     methods = ("lagrange",) if quick else FORMULATION_NAMES
@@ -244,13 +243,7 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
     bar.close()
     document = {"kind": "ensemble", "machine": machine_note(), "throughput": rows, "realtime_1000": frames,
                 "step_accuracy": accuracy}
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "ensemble.json"
-    path.write_text(json.dumps(document, indent=1))
-    md = out / "ensemble.md"
-    md.write_text(ensemble_markdown(document))
-    print(ensemble_markdown(document))
-    return [path, md]
+    return write_report(out, "ensemble", document, ensemble_markdown(document))
 
 
 def ensemble_markdown(document: dict) -> str:

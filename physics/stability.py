@@ -19,7 +19,6 @@ as arguments, so the tests run the same code on shorter horizons.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -514,7 +513,7 @@ def rhs_costs(batch: int = 1000) -> list[dict]:
 
 
 def model_benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Path]:
-    from .bench import Progress, machine_note
+    from .bench import Progress, machine_note, write_report
     from .ensemble import BENCH_COUNTS, DEFAULT_STEP, realtime_frame, throughput
 
     bar = Progress(3, "models", progress)
@@ -530,13 +529,7 @@ def model_benchmark(out: Path, quick: bool = False, progress: bool = True) -> li
     bar.close()
     document = {"kind": "models", "machine": machine_note(), "four_bar": four_bar, "rhs": costs,
                 "ensembles": ensembles}
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "models.json"
-    path.write_text(json.dumps(document, indent=1))
-    md = out / "models.md"
-    md.write_text(models_markdown(document))
-    print(models_markdown(document))
-    return [path, md]
+    return write_report(out, "models", document, models_markdown(document))
 
 
 def models_markdown(document: dict) -> str:

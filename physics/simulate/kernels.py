@@ -583,12 +583,7 @@ def _integrate_explicit_rk(
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
     # Samples at t0 are y0 itself: scipy's dense output of the first step returns y_old exactly there.
-    i_sample = 0
-    while i_sample < n_samples and t_eval[i_sample] <= t0:
-        y_out[i_sample, :] = y
-        if cond_out.shape[0]:
-            cond_out[i_sample] = condition
-        i_sample += 1
+    i_sample = _initial_samples(y, t0, t_eval, condition, y_out, cond_out)
     interval_length = abs(t_end - t0)
     if interval_length == 0.0:
         return STATUS_OK, n_steps, n_rhs, t, i_sample
@@ -837,6 +832,42 @@ def _hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
 
 
 @njit(cache=True, error_model="numpy")
+def _initial_samples(y, t0, t_eval, condition, y_out, cond_out):
+    """Write the start state into every sample at or before ``t0``; returns the next sample's index."""
+    i_sample = 0
+    while i_sample < t_eval.shape[0] and t_eval[i_sample] <= t0:
+        y_out[i_sample, :] = y
+        if cond_out.shape[0]:
+            cond_out[i_sample] = condition
+        i_sample += 1
+    return i_sample
+
+
+@njit(cache=True, error_model="numpy")
+def _fixed_steps(t0, t_end, h):
+    """``N = ceil((t_end - t0) / h)`` equal steps (so the step is at most ``h``): ``(N, step)``."""
+    n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))
+    return n_total, (t_end - t0) / n_total
+
+
+@njit(cache=True, error_model="numpy")
+def _hermite_samples(i_sample, t, t_new, y, f, y_next, f_next, t_eval, params, alpha, beta, project,
+                     y_sample, theta, omega, theta_ddot, y_out, cond_out):
+    """Fill the samples in ``(t, t_new]`` from the cubic Hermite interpolant of a fixed step (projected onto the
+    loop when ``project``); returns the next sample's index."""
+    while i_sample < t_eval.shape[0] and t_eval[i_sample] <= t_new:
+        s = (t_eval[i_sample] - t) / (t_new - t)
+        _hermite_sample(s, t_new - t, y, f, y_next, f_next, y_sample)
+        if project:
+            _project_state(y_sample, params, theta, omega)
+        y_out[i_sample, :] = y_sample
+        if cond_out.shape[0]:
+            cond_out[i_sample] = _sample_condition(y_sample, params, alpha, beta, theta, omega, theta_ddot)
+        i_sample += 1
+    return i_sample
+
+
+@njit(cache=True, error_model="numpy")
 def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
     """Fixed-step implicit midpoint rule ``y1 = y0 + h f((y0 + y1) / 2)``: symmetric, order 2.
 
@@ -855,7 +886,6 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
     projecting = PINNED and project  # noqa: F821 (generated-module global)
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
-    n_samples = t_eval.shape[0]
     theta = np.empty(n)
     omega = np.empty(n)
     theta_ddot = np.empty(n)
@@ -882,16 +912,10 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
-    i_sample = 0
-    while i_sample < n_samples and t_eval[i_sample] <= t0:
-        y_out[i_sample, :] = y
-        if cond_out.shape[0]:
-            cond_out[i_sample] = condition
-        i_sample += 1
+    i_sample = _initial_samples(y, t0, t_eval, condition, y_out, cond_out)
     if t_end == t0:
         return STATUS_OK, n_steps, n_rhs, t, i_sample
-    n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))
-    step = (t_end - t0) / n_total
+    n_total, step = _fixed_steps(t0, t_end, h)
 
     for k in range(n_total):
         t_new = t_end if k == n_total - 1 else t0 + (k + 1) * step
@@ -958,15 +982,8 @@ def integrate_midpoint(y0, t0, t_end, h, t_eval, params, alpha, beta, project, y
             break
         n_steps += 1
 
-        while i_sample < n_samples and t_eval[i_sample] <= t_new:
-            s = (t_eval[i_sample] - t) / (t_new - t)
-            _hermite_sample(s, t_new - t, y, f, y_next, f_next, y_probe)
-            if projecting:
-                _project_state(y_probe, params, theta, omega)
-            y_out[i_sample, :] = y_probe
-            if cond_out.shape[0]:
-                cond_out[i_sample] = _sample_condition(y_probe, params, alpha, beta, theta, omega, theta_ddot)
-            i_sample += 1
+        i_sample = _hermite_samples(i_sample, t, t_new, y, f, y_next, f_next, t_eval, params, alpha, beta,
+                                    projecting, y_probe, theta, omega, theta_ddot, y_out, cond_out)
         for i in range(n_state):
             y[i] = y_next[i]
             f[i] = f_next[i]
@@ -1086,7 +1103,6 @@ def integrate_variational(y0, t0, t_end, h, t_eval, params, y_out, cond_out):
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     size = n + (2 if PINNED else 0)  # noqa: F821
-    n_samples = t_eval.shape[0]
     theta = np.empty(n)
     omega = np.empty(n)
     theta_ddot = np.empty(n)
@@ -1130,16 +1146,10 @@ def integrate_variational(y0, t0, t_end, h, t_eval, params, y_out, cond_out):
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
-    i_sample = 0
-    while i_sample < n_samples and t_eval[i_sample] <= t0:
-        y_out[i_sample, :] = y
-        if cond_out.shape[0]:
-            cond_out[i_sample] = condition
-        i_sample += 1
+    i_sample = _initial_samples(y, t0, t_eval, condition, y_out, cond_out)
     if t_end == t0:
         return STATUS_OK, n_steps, n_rhs, t, i_sample
-    n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))
-    step = (t_end - t0) / n_total
+    n_total, step = _fixed_steps(t0, t_end, h)
 
     for k in range(n_total):
         t_new = t_end if k == n_total - 1 else t0 + (k + 1) * step
@@ -1205,15 +1215,8 @@ def integrate_variational(y0, t0, t_end, h, t_eval, params, y_out, cond_out):
             break
         n_steps += 1
 
-        while i_sample < n_samples and t_eval[i_sample] <= t_new:
-            s = (t_eval[i_sample] - t) / (t_new - t)
-            _hermite_sample(s, t_new - t, y, f, y_next, f_next, y_sample)
-            if PINNED:  # noqa: F821
-                _project_state(y_sample, params, theta, omega)
-            y_out[i_sample, :] = y_sample
-            if cond_out.shape[0]:
-                cond_out[i_sample] = _sample_condition(y_sample, params, 0.0, 0.0, theta, omega, theta_ddot)
-            i_sample += 1
+        i_sample = _hermite_samples(i_sample, t, t_new, y, f, y_next, f_next, t_eval, params, 0.0, 0.0,
+                                    PINNED, y_sample, theta, omega, theta_ddot, y_out, cond_out)  # noqa: F821
         for i in range(n_state):
             y[i] = y_next[i]
             f[i] = f_next[i]
