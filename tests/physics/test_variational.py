@@ -91,6 +91,19 @@ def _windows(t, error, t_end):
     return late / early
 
 
+def test_small_steps_keep_converging_on_the_loop():
+    """At small steps the increment, not the new angle, must be what Newton solves for: otherwise v = (q1 - q0)/h
+    inherits |q| eps / h of rounding and, near a turning point, Newton cannot meet a tolerance relative to q1."""
+    preset = get_preset("four-bar")
+    horizon = 20.0
+    reference = simulate(preset.chain, preset.theta0, preset.omega0,
+                         Settings(integrator="DOP853", rtol=1e-13, atol=1e-13, t_end=horizon, samples=3))
+    run = simulate(preset.chain, preset.theta0, preset.omega0,
+                   Settings(integrator="variational", step=1e-4, t_end=horizon, samples=3))
+    assert run.status == 0, run.message
+    assert np.max(np.abs(run.theta[-1] - reference.theta[-1])) < 1e-6
+
+
 def test_pinned_chain_keeps_its_tip_on_the_pin_and_its_energy():
     preset = get_preset("four-bar")
     run = simulate(preset.chain, preset.theta0, preset.omega0,
