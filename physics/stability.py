@@ -579,7 +579,12 @@ def run_cases(cases, out: Path, quick: bool = False, progress: bool = True) -> d
 
     out.mkdir(parents=True, exist_ok=True)
     bar = Progress(len(cases), "stability", progress)
-    summary = {}
+    # A partial run (--case 2) updates its cases and keeps the others' numbers.
+    existing = out / "stability.json"
+    try:
+        summary = json.loads(existing.read_text()) if existing.exists() else {}
+    except (OSError, ValueError):
+        summary = {}
     for case in cases:
         if case == 1:
             result = closed_loop_drift(t_end=20.0 if quick else 100.0)

@@ -3,6 +3,7 @@ shows what the docs say it shows."""
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -125,3 +126,14 @@ def test_cli_rejects_a_bad_case_with_one_line(tmp_path):
                             capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "case" in result.stderr
+
+
+def test_a_partial_run_keeps_the_other_cases_numbers(tmp_path, monkeypatch):
+    (tmp_path / "stability.json").write_text(json.dumps({"case3": {"kept": True}, "case1": {"old": True}}))
+    monkeypatch.setattr(stability, "closed_loop_drift", lambda t_end: {"case": 1, "new": True})
+    monkeypatch.setattr(stability, "figure_drift", lambda result: "<svg></svg>")
+    summary = stability.run_cases([1], tmp_path, quick=True, progress=False)
+    stored = json.loads((tmp_path / "stability.json").read_text())
+    assert stored == summary
+    assert stored["case3"] == {"kept": True} and stored["case1"] == {"case": 1, "new": True}
+    assert (tmp_path / "case1-drift.svg").read_text() == "<svg></svg>"
