@@ -21,10 +21,12 @@ from .scene import to_world
 ENSEMBLE_COUNTS = ("100", "1000")
 ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
 ENSEMBLE_NODE = "/ensemble/links"
-MAX_FRAME_DT = 0.1  # s of simulated time advanced per frame at most (a pause or a jump restarts instead)
+MAX_FRAME_DT = 0.5  # s of simulated time advanced per frame at most (a jump back or far ahead restarts instead);
+# 0.5 s covers the fastest playback (8x) at 16 frames per second
 CHAOS_RESOLUTION = 64
 CHAOS_T_MAX = 10.0  # s: a small map, a few seconds to compute
 CHAOS_STEP = 0.01
+CHAOS_DISPLAY_SCALE = 5  # each map pixel drawn as 5 x 5 screen pixels (the panel shows images at their own size)
 
 
 def _copy_colors(count: int, n: int) -> np.ndarray:
@@ -135,7 +137,9 @@ class Analysis:
         def work() -> None:
             try:
                 times = chaos.compute_map(chain, "lagrange", CHAOS_RESOLUTION, CHAOS_T_MAX, CHAOS_STEP)
-                rgb = np.ascontiguousarray(chaos.to_rgb(times, CHAOS_T_MAX, CHAOS_STEP), dtype=np.uint8)
+                rgb = chaos.to_rgb(times, CHAOS_T_MAX, CHAOS_STEP)
+                rgb = np.repeat(np.repeat(rgb, CHAOS_DISPLAY_SCALE, axis=0), CHAOS_DISPLAY_SCALE, axis=1)
+                rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
             except Exception as error:
                 self.chaos_status.content = "Chaos map failed."
                 self.session.show_notice("Chaos map failed", f"{type(error).__name__}: {error}", color="red")

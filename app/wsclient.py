@@ -144,9 +144,9 @@ async def _load(url: str, clients: int, seconds: float, early: int, early_second
 class BackgroundClient:
     """One websocket client in its own thread and event loop, open until :meth:`close` (a browser stand-in)."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, counts: Counts | None = None) -> None:
         self.url = url
-        self.counts = Counts()
+        self.counts = counts if counts is not None else Counts()
         self._ready = threading.Event()
         self._loop = asyncio.new_event_loop()
         self._stop: asyncio.Event | None = None

@@ -28,7 +28,13 @@ def test_chaos_map_image_appears(connect):
     handle = session.analysis.image_handle
     assert handle is not None, session.notice
     image = np.asarray(handle.image)
-    assert image.shape == (64, 64, 3)
+    from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION
+
+    side = CHAOS_RESOLUTION * CHAOS_DISPLAY_SCALE
+    assert image.shape == (side, side, 3)
+    # Each map pixel is a uniform block of the display scale.
+    blocks = image.reshape(CHAOS_RESOLUTION, CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, CHAOS_DISPLAY_SCALE, 3)
+    assert np.all(blocks == blocks[:, :1, :, :1, :])
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 4  # a picture, not a flat fill
 
 

@@ -1,0 +1,73 @@
+"""The Analysis tab in a real browser: the work-precision chart, the chaos map and the ensemble, clicked as a person
+would, and checked both on the server and in the picture the page shows."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import pictures
+from .conftest import save_failure, wait_until
+
+ANALYSIS_TIMEOUT_S = 240.0
+
+
+def test_chart_and_chaos_map_appear_in_the_page(start_lab):
+    lab = start_lab(preset="triple-a")
+    app = lab.open_page()
+    session = app.session
+    app.open_tab("Analysis")
+
+    app.page.get_by_role("button", name="Work-precision chart (current parameters)").click()
+    wait_until(lambda: session.analysis.chart_handle is not None, timeout_s=ANALYSIS_TIMEOUT_S,
+               message="the work-precision chart on the server")
+    chart = app.page.locator("svg", has_text="Work-precision").first
+    chart.wait_for(state="visible")
+    box = chart.bounding_box()
+    assert box is not None and box["width"] > 200 and box["height"] > 150, box
+    # One polyline per configuration (RK45, DOP853, midpoint, variational for Lagrange), each with points.
+    curves = chart.locator('path[d^="M"]').count()
+    assert curves >= 4, f"{curves} curves drawn"
+    assert "variational" in chart.text_content()
+
+    app.page.get_by_role("button", name="Chaos map (double pendulum, 64 x 64)").click()
+    wait_until(lambda: session.analysis.image_handle is not None, timeout_s=ANALYSIS_TIMEOUT_S,
+               message="the chaos map on the server")
+    image = app.page.locator('img[src^="blob:"]').first  # viser hands the PNG to the page as a blob
+    image.wait_for(state="visible")
+    image.scroll_into_view_if_needed()
+    shot = pictures.decode_png(image.screenshot())
+    colours = len(np.unique(shot.reshape(-1, 3) // 16, axis=0))
+    assert shot.shape[0] > 200 and shot.shape[1] > 200, shot.shape  # big enough to read
+    assert colours > 8, f"the chaos map shows only {colours} colours"
+
+
+def test_ensemble_fans_out_and_is_drawn(start_lab):
+    lab = start_lab(preset="triple-a")
+    app = lab.open_page()
+    session = app.session
+    app.open_tab("Analysis")
+    app.page.get_by_role("checkbox", name="Ensemble").check()
+    analysis = session.analysis
+    wait_until(lambda: analysis.ensemble_node is not None, timeout_s=ANALYSIS_TIMEOUT_S,
+               message="the ensemble's node on the server")
+    assert analysis.ensemble.count == 100
+    # Chaos takes the copies (1e-9 rad apart) visibly apart after some 20-30 s of simulated time: play fast.
+    session.set_speed(4.0)
+    session.play()
+    wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 30.0, timeout_s=ANALYSIS_TIMEOUT_S,
+               message="30 s of ensemble time")
+    session.pause()
+    joints = analysis.ensemble.joints()  # (copies, n + 1, 2)
+    spread = float(np.ptp(joints[:, -1, :], axis=0).max())
+    assert spread > 0.5, f"the copies' tips are only {spread:.3g} apart after 30 s"
+    app.wait_for_server_poses()
+    with_ensemble = app.picture("analysis-ensemble-on")
+
+    app.page.get_by_role("checkbox", name="Ensemble").uncheck()
+    wait_until(lambda: analysis.ensemble_node is None, message="the ensemble removed on the server")
+    without = app.picture("analysis-ensemble-off")
+    outside = ~pictures.box_mask(with_ensemble.shape, app.panel_box())
+    changed = float(pictures.differing(with_ensemble, without)[outside].mean())
+    if changed <= 5 * pictures.FRACTION_TOLERANCE:
+        save_failure("analysis-ensemble", with_ensemble, without)
+    assert changed > 5 * pictures.FRACTION_TOLERANCE, f"the ensemble barely shows ({changed:.4f} of the scene)"
