@@ -101,3 +101,34 @@ def test_presets_lists_every_preset_with_parameters():
         assert name in names
     four_bar = data[names.index("four-bar")]
     assert four_bar["params"]["L3"] == 2.0 and four_bar["pin"] is not None and "grashof" in four_bar
+
+
+def test_ensemble_fan_opens_as_json_csv_and_png(tmp_path):
+    document = json.loads(run_cli("ensemble", "--preset", "triple-a", "--count", "50", "--t-end", "30",
+                                  "--samples", "7").stdout)
+    assert document["count"] == 50 and document["spread"] == 1e-9 and document["method"] == "lagrange"
+    assert document["t"] == pytest.approx([0, 5, 10, 15, 20, 25, 30])
+    spread = document["tip_spread"]
+    assert spread[0] < 1e-6 and spread[-1] > 0.1  # chaos: 1e-9 rad apart at the start, visibly apart at 30 s
+    assert max(document["energy_drift"]) < 1e-6  # each copy keeps its energy (RK4 at 1/240 s)
+    assert document["alive"] == [50] * 7 and len(document["final_tips"]) == 50
+
+    table = tmp_path / "fan.csv"
+    run_cli("ensemble", "--preset", "double", "--count", "10", "--t-end", "2", "--samples", "5", "--out", str(table))
+    rows = list(csv.reader(table.open()))
+    assert rows[0] == ["t", "tip_spread", "alive", "energy_drift"] and len(rows) == 6
+
+    picture = tmp_path / "fan.png"
+    run_cli("ensemble", "--preset", "triple-a", "--count", "20", "--t-end", "30", "--samples", "2",
+            "--out", str(picture))
+    from PIL import Image
+
+    image = np.asarray(Image.open(picture).convert("RGB"))
+    coloured = (image.max(axis=2).astype(int) - image.min(axis=2)) > 60
+    assert coloured.mean() > 0.005  # the copies' links are drawn
+
+
+def test_ensemble_bad_count_is_one_line():
+    result = run_cli("ensemble", "--preset", "triple-a", "--count", "0", check=False)
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "count" in result.stderr and "1 <= count" in result.stderr
