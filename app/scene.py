@@ -261,16 +261,20 @@ class LinkageScene:
         return out
 
 
-def camera_pose(lengths: np.ndarray, pin, fov: float = math.radians(75.0)) -> tuple[np.ndarray, np.ndarray]:
+def camera_pose(lengths: np.ndarray, pin, fov: float = math.radians(75.0),
+                aspect: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at point (world) that frame the disc the mechanism can sweep.
 
-    Seen from -y, slightly from above, so the vertical plane of the motion faces the viewer.
+    Seen from -y, slightly from above, so the vertical plane of the motion faces the viewer. ``fov`` is the
+    vertical field of view; on a canvas narrower than it is tall (``aspect`` = width / height < 1, e.g. beside
+    the control panel in a small window) the camera backs off so the disc also fits across.
     """
     reach = mechanism_reach(lengths, pin)
     center_xy = np.zeros(2)
     if pin is not None:
         center_xy = 0.5 * np.array(pin, dtype=float)
     look_at = to_world(center_xy)
-    distance = 1.05 * reach / math.tan(0.5 * fov)
+    narrow = 1.0 / aspect if math.isfinite(aspect) and 0.05 < aspect < 1.0 else 1.0
+    distance = 1.05 * reach / math.tan(0.5 * fov) * narrow
     position = look_at + np.array([0.0, -distance, 0.12 * distance])
     return position, look_at

@@ -119,6 +119,8 @@ class Session:
 
         self.controls = Controls(self)
         self.analysis = Analysis(self)
+        self._canvas_watched: set[int] = set()
+        self._framed_aspect: dict[int, float] = {}
         self.player = Player(
             simulate=simulate or physics.simulate,
             make_settings=_settings_for_chunk,
@@ -267,13 +269,46 @@ class Session:
             self._framed_reach = reach
             cameras = [self.target.camera]
         for camera in cameras:
+            self._watch_canvas(camera)
             try:
-                with self.target.atomic():
-                    camera.up_direction = (0.0, 0.0, 1.0)
-                    camera.position = tuple(position)
-                    camera.look_at = tuple(look_at)
-            except Exception:  # no camera message from that browser yet (it sets its own on connect)
-                pass
+                aspect = float(camera.aspect)
+            except Exception:  # the browser has not reported its canvas yet: framed when it does
+                continue
+            self._frame_one(camera, aspect)
+
+    def _frame_one(self, camera, aspect: float) -> None:
+        p = self.params
+        self._framed_aspect[id(camera)] = aspect
+        try:
+            position, look_at = camera_pose(np.array(p.L), p.pin, aspect=aspect)
+            with self.target.atomic():
+                camera.up_direction = (0.0, 0.0, 1.0)
+                camera.position = tuple(position)
+                camera.look_at = tuple(look_at)
+        except Exception:  # the browser went away meanwhile
+            pass
+
+    def _watch_canvas(self, camera) -> None:
+        """Frame a browser's camera again when its canvas is first reported or changes shape by more than 5 %
+        (the layout settling beside the control panel, a window resized): a canvas narrower than it is tall
+        must still show the whole mechanism. Orbiting alone (same canvas) never re-frames."""
+        key = id(camera)
+        if key in self._canvas_watched:
+            return
+        self._canvas_watched.add(key)
+
+        def on_camera(reported) -> None:
+            if self.closed:
+                return
+            try:
+                aspect = float(reported.aspect)
+            except Exception:
+                return
+            framed = self._framed_aspect.get(key)
+            if framed is None or abs(aspect / framed - 1.0) > 0.05:
+                self._frame_one(reported, aspect)
+
+        camera.on_update(on_camera)
 
     # ================================================================== runs
     def _specs(self) -> list[RunSpec]:

@@ -204,3 +204,31 @@ def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tm
             client.close()
         proc.terminate()
         proc.wait(20)
+
+
+def test_camera_backs_off_on_a_canvas_narrower_than_tall():
+    from app.scene import camera_pose
+
+    lengths = np.array([1.0, 1.0, 1.0])
+    position, look_at = camera_pose(lengths, None, aspect=1.5)
+    wide = np.linalg.norm(position - look_at)
+    assert np.linalg.norm(np.subtract(*camera_pose(lengths, None, aspect=1.0))) == pytest.approx(wide)
+    assert np.linalg.norm(np.subtract(*camera_pose(lengths, None, aspect=0.5))) == pytest.approx(2.0 * wide)
+
+
+def test_a_browser_reporting_a_narrow_canvas_gets_its_camera_reframed(connect):
+    _, session = connect()
+    camera = session.target.camera
+    assert wait_until(lambda: id(camera) in session._framed_aspect)  # framed on the first report (1280 x 720)
+    wide = np.linalg.norm(np.asarray(camera.position) - np.asarray(camera.look_at))
+
+    class NarrowCanvas:  # what a portrait window reports; position etc. are written by the session
+        aspect = 0.5
+        position = look_at = up_direction = None
+
+    report = NarrowCanvas()
+    for callback in list(camera._state.camera_cb):  # viser's camera-update callbacks (internal list)
+        callback(report)
+    assert report.position is not None
+    narrow = np.linalg.norm(np.asarray(report.position) - np.asarray(report.look_at))
+    assert narrow == pytest.approx(2.0 * wide, rel=1e-9)
