@@ -17,6 +17,7 @@ import physics
 from physics import LinkageError
 
 from .scene import to_world
+from .text import markdown_literal
 
 ENSEMBLE_COUNTS = ("100", "1000")
 ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
@@ -194,7 +195,7 @@ class Analysis:
                 ensemble = Ensemble(chain, theta, omega, method, count, ENSEMBLE_SPREAD, damping=damping)
                 points = segments(ensemble.joints())
             except Exception as error:
-                self.ensemble_status.content = f"Ensemble failed: {type(error).__name__}: {error}"
+                self.ensemble_status.content = f"Ensemble failed: {markdown_literal(f'{type(error).__name__}: {error}')}"
                 self.session.show_notice("Ensemble failed", f"{type(error).__name__}: {error}", color="red")
                 return
             with self._lock:
@@ -219,7 +220,7 @@ class Analysis:
         except Exception as error:
             self.ensemble_on = False
             self._drop_ensemble()
-            self.ensemble_status.content = f"Ensemble stopped: {type(error).__name__}: {error}"
+            self.ensemble_status.content = f"Ensemble stopped: {markdown_literal(f'{type(error).__name__}: {error}')}"
             self.session.show_notice("Ensemble stopped", f"{type(error).__name__}: {error}", color="red")
 
     def _advance(self, t: float, restarted: bool) -> None:

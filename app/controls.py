@@ -23,6 +23,7 @@ from physics.model import FIXED_STEP_INTEGRATORS
 
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, driving_count, method_label, methods_for
+from .text import html_literal
 
 STATIC = Path(__file__).resolve().parent.parent / "static"
 
@@ -413,7 +414,7 @@ class Controls:
             try:
                 html = equations.equations_html(*key)
             except Exception as error:  # shown in the panel; the session goes on
-                html = f"<p>Could not render the equations: {type(error).__name__}: {error}</p>"
+                html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
             if (self.session.params.method, self.session.params.n, self.session.params.pinned) == key:
                 self.equations.content = html
 

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from .scene import to_world
+from .text import markdown_literal
 
 TRACE_COLOR = (200, 30, 140)
 TRACE_FADED = (245, 235, 242)  # the oldest end of the trace, close to the white background
@@ -210,5 +211,5 @@ def status_markdown(
         parts.append(f"constraint error {constraint:.2e}")
     text = " · ".join(parts)
     if notice:
-        text += f"\n\n⚠ {notice}"
+        text += f"\n\n⚠ {markdown_literal(notice)}"
     return text

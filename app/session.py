@@ -46,13 +46,6 @@ STATUS_EVERY = 15  # frames between status-line updates (4 Hz)
 PLOT_SECONDS = 30.0  # simulated seconds shown by the plots
 MAX_TRACE_SECONDS = 30.0
 COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)
-
-
-def _check_compare_integrator(integrator: str) -> None:
-    """Compare mode runs every formulation with one integrator; the variational one exists for Lagrange only."""
-    if integrator == "variational":
-        raise LinkageError("compare mode with integrator = variational: it runs on the Lagrange method only; "
-                           "choose RK45, DOP853, Radau, LSODA or midpoint to compare all three methods")
 NOTICE_SECONDS = 8.0
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
 # under a second, a cold one derives for tens of seconds.
@@ -311,6 +304,16 @@ class Session:
         camera.on_update(on_camera)
 
     # ================================================================== runs
+    @staticmethod
+    def _check_compare(params: SessionParameters) -> None:
+        """Compare mode runs every formulation with the same settings: all of them must accept those settings
+        (the variational integrator, for one, exists for Lagrange only). LinkageError names the one that does not."""
+        for method in COMPARE_METHODS:
+            try:
+                params.settings(method=method)
+            except LinkageError as error:
+                raise LinkageError(f"compare mode: {error}") from None
+
     def _specs(self) -> list[RunSpec]:
         p = self.params
         chain = p.chain()
@@ -828,7 +831,7 @@ class Session:
         with self._lock:
             new = self.params.changed(integrator=integrator)
             if self.compare:
-                _check_compare_integrator(new.integrator)
+                self._check_compare(new)
             self._commit(new, keep_state=True)
             self.controls.sync_integrator()
 
@@ -858,7 +861,7 @@ class Session:
         """Run all three formulations from the same start, drawn as three translucent mechanisms."""
         with self._lock:
             if on:
-                _check_compare_integrator(self.params.integrator)
+                self._check_compare(self.params)
             self.compare = bool(on)
             self._build_scene()
             self.controls.sync_compare()

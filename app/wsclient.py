@@ -186,6 +186,42 @@ class BackgroundClient:
         return False
 
 
+def gui_update_message(uuid: str, value) -> bytes:
+    """What a browser sends when a control changes; a test sends any value a hostile client could."""
+    return msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}})
+
+
+async def _send_values(url: str, updates: list[tuple[str, object]], pause: float) -> None:
+    ws_url = url.replace("http://", "ws://")
+    async with websockets.connect(
+        ws_url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None, compression=None, open_timeout=60
+    ) as ws:
+        await ws.send(camera_message())
+        for uuid, value in updates:
+            await ws.send(gui_update_message(uuid, value))
+            await asyncio.sleep(pause)
+        await asyncio.sleep(pause)
+
+
+def send_values(url: str, updates: list[tuple[str, object]], pause: float = 0.05) -> None:
+    """Connect as a client of its own, send ``(control uuid, value)`` pairs as GUI updates, disconnect.
+
+    Runs in a thread of its own, so that it works beside another event loop (playwright's, in tests)."""
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(_send_values(url, updates, pause))
+        except BaseException as error:  # handed to the caller below
+            errors.append(error)
+
+    thread = threading.Thread(target=run, name="ws-sender", daemon=True)
+    thread.start()
+    thread.join(120)
+    if errors:
+        raise errors[0]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("url")

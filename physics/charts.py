@@ -338,3 +338,24 @@ def write_png(path, rgb: np.ndarray) -> None:
     from PIL import Image
 
     Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(path, format="PNG")
+
+
+def fan_picture(joints: np.ndarray, alive: np.ndarray, size: int = 600) -> np.ndarray:
+    """``(size, size, 3)`` picture of every copy's links from joints ``(N, n + 1, 2)`` (one hue per copy; copies
+    not ``alive`` left out), the pivot in the middle: an ensemble's fan, for ``python -m physics ensemble``."""
+    import colorsys
+
+    reach = max(float(np.max(np.abs(joints))), 1e-9) * 1.05
+    image = np.full((size, size, 3), 255, dtype=np.uint8)
+    count = joints.shape[0]
+    samples = np.linspace(0.0, 1.0, 2 * size)[:, None]
+    for k in np.flatnonzero(alive):
+        colour = np.array(colorsys.hsv_to_rgb(k / max(count, 1), 0.8, 0.8)) * 255.0
+        for a, b in zip(joints[k, :-1], joints[k, 1:]):
+            points = a + samples * (b - a)
+            col = np.clip(((points[:, 0] / reach + 1.0) * 0.5 * (size - 1)).round().astype(int), 0, size - 1)
+            row = np.clip(((1.0 - (points[:, 1] / reach + 1.0) * 0.5) * (size - 1)).round().astype(int), 0, size - 1)
+            image[row, col] = colour.astype(np.uint8)
+    centre = size // 2
+    image[centre - 3:centre + 4, centre - 3:centre + 4] = 0
+    return image

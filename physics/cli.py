@@ -216,34 +216,12 @@ def cmd_accelerations(args) -> int:
     return 0
 
 
-def _fan_picture(joints: np.ndarray, alive: np.ndarray, size: int = 600) -> np.ndarray:
-    """RGB picture of every copy's links (one hue per copy; failed copies left out), the pivot in the middle."""
-    import colorsys
-
-    reach = max(float(np.max(np.abs(joints))), 1e-9) * 1.05
-    image = np.full((size, size, 3), 255, dtype=np.uint8)
-    count = joints.shape[0]
-    samples = np.linspace(0.0, 1.0, 2 * size)[:, None]
-    for k in np.flatnonzero(alive):
-        colour = np.array(colorsys.hsv_to_rgb(k / max(count, 1), 0.8, 0.8)) * 255.0
-        for a, b in zip(joints[k, :-1], joints[k, 1:]):
-            points = a + samples * (b - a)
-            col = np.clip(((points[:, 0] / reach + 1.0) * 0.5 * (size - 1)).round().astype(int), 0, size - 1)
-            row = np.clip(((1.0 - (points[:, 1] / reach + 1.0) * 0.5) * (size - 1)).round().astype(int), 0, size - 1)
-            image[row, col] = colour.astype(np.uint8)
-    centre = size // 2
-    image[centre - 3:centre + 4, centre - 3:centre + 4] = 0
-    return image
-
-
 def cmd_ensemble(args) -> int:
     """N copies whose initial angles differ by ``spread``, advanced together (physics.ensemble): how fast the fan
     opens. JSON (default), CSV (a ``.csv`` file) or a PNG of the copies at the end (a ``.png`` file)."""
     from .ensemble import DEFAULT_STEP, Ensemble
 
     chain, theta0, omega0, preset = _build_setup(args)
-    if args.method not in ("newton_euler", "lagrange", "dae"):
-        raise LinkageError(f"--method = {args.method}: ensembles use newton_euler, lagrange or dae")
     t_end = preset.t_end if args.t_end is None else args.t_end
     if not (math.isfinite(t_end) and 0.0 < t_end <= 1e5):
         raise LinkageError(f"--t-end = {t_end}: allowed range 0 < t_end <= 1e5 s")
@@ -265,9 +243,9 @@ def cmd_ensemble(args) -> int:
     columns = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
     out = args.out or ""
     if out.endswith(".png"):
-        from .charts import write_png
+        from .charts import fan_picture, write_png
 
-        write_png(out, _fan_picture(ensemble.joints(), ensemble.alive))
+        write_png(out, fan_picture(ensemble.joints(), ensemble.alive))
     elif out.endswith(".csv"):
         _write_table(columns, "csv", out)
     else:

@@ -1035,10 +1035,10 @@ def _del_residual(theta0, momentum0, unknowns, step, params, theta_mid, velocity
 
 
 @njit(cache=True, error_model="numpy")
-def _velocity_from_momentum(theta, momentum, params, M, force, pivots, omega):
+def _velocity_from_momentum(theta, momentum, params, M, force, pivots, loop_work, omega):
     """``omega = M(theta)^-1 p``; for a pinned chain then the velocity half of RATTLE, which removes the part of
-    ``p`` along ``G^T`` so that the tip stays still (``G omega = 0``). ``momentum`` is updated to match.
-    Returns False when the mass matrix is singular."""
+    ``p`` along ``G^T`` so that the tip stays still (``G omega = 0``). ``momentum`` is updated to match;
+    ``loop_work`` (2, n) is scratch. Returns False when the mass matrix is singular."""
     n = theta.shape[0]
     for i in range(n):
         omega[i] = 0.0
@@ -1050,8 +1050,8 @@ def _velocity_from_momentum(theta, momentum, params, M, force, pivots, omega):
     _lu_solve(M, pivots, omega)
     if PINNED:  # noqa: F821 (generated-module global)
         # W = M^-1 G^T (two columns), S = G W (2 x 2); mu = S^-1 G omega; omega -= W mu; p -= G^T mu.
-        w_x = np.empty(n)
-        w_y = np.empty(n)
+        w_x = loop_work[0]
+        w_y = loop_work[1]
         for i in range(n):
             w_x[i] = params[i] * math.cos(theta[i])
             w_y[i] = params[i] * math.sin(theta[i])
@@ -1114,6 +1114,7 @@ def integrate_variational(y0, t0, t_end, h, t_eval, params, y_out, cond_out):
     force = np.empty(n)
     M = np.empty((n, n))
     mass_pivots = np.empty(n, dtype=np.int64)
+    loop_work = np.empty((2, n))
     momentum = np.empty(n)
     momentum_next = np.empty(n)
     unknowns = np.zeros(size)
@@ -1215,7 +1216,7 @@ def integrate_variational(y0, t0, t_end, h, t_eval, params, y_out, cond_out):
                 total += M[i, j] * velocity[j]
             momentum_next[i] = total
             theta[i] = y[i] + unknowns[i]
-        if not _velocity_from_momentum(theta, momentum_next, params, M, force, mass_pivots, omega):
+        if not _velocity_from_momentum(theta, momentum_next, params, M, force, mass_pivots, loop_work, omega):
             status = STATUS_NOT_FINITE
             break
         n_rhs += 1

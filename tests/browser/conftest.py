@@ -78,6 +78,7 @@ class Lab:
     server: Any
     browser: Any
     pages: list = field(default_factory=list)
+    opened: list = field(default_factory=list)  # plain playwright pages a test opened itself
 
     @property
     def port(self) -> int:
@@ -108,6 +109,8 @@ class Lab:
     def close(self) -> None:
         for app_page in self.pages:
             app_page.close()
+        for page in self.opened:
+            page.context.close()
         self.server.stop()
 
 
