@@ -191,7 +191,6 @@ def bench_seed(repeats: int, fast_calls: int) -> list[dict]:
     for formulation in BASELINE_FORMULATIONS:
         derive_seconds = sb.derived(formulation).derive_seconds  # once, outside every timing
         compiled = physics.load_compiled(formulation, 3)
-        module = compiled.module
         for case in SEED_PRESETS:
             preset = _seed_setup(case)
             chain, theta0, omega0 = preset.chain, preset.theta0, preset.omega0
@@ -214,7 +213,7 @@ def bench_seed(repeats: int, fast_calls: int) -> list[dict]:
 
             def run_kernel():
                 # The compiled loop alone: what physics.simulate calls, without validation and post-processing.
-                return module.integrate_rk45(
+                return compiled.integrate_rk45(
                     y0, 0.0, sb.SEED_T_END, t_eval, params, sb.SEED_RTOL, sb.SEED_ATOL, 0.0, 0.0, False,
                     10_000_000, y_out, cond_out,
                 )
@@ -282,26 +281,30 @@ def _seed_line(row: dict) -> str:
 
 
 def _compiled_loop():
-    """A compiled loop that calls a generated ``accel`` (passed in) ``count`` times: its cost without the
-    Python-to-numba dispatch."""
+    """Compiled loops that call a mechanism's right-hand side (its generated ``assemble`` and the kernels'
+    solve, as the integrators do) ``count`` times: its cost without the Python-to-numba dispatch."""
     from numba import njit
 
+    from physics.kernels.system import assemble_into, make_system, solve_accel
+
     @njit
-    def loop(accel, theta, omega, params, theta_ddot, count):
+    def loop(assemble, layout, theta, omega, params, theta_ddot, count):
+        system = make_system(assemble, layout)
         total = 0.0
         for _ in range(count):
             theta[0] += 1e-12  # a changing input, so nothing is hoisted out of the loop
-            accel(theta, omega, params, 0.0, 0.0, theta_ddot)
+            solve_accel(system, theta, omega, params, 0.0, 0.0, theta_ddot)
             total += theta_ddot[0]
         return total
 
     @njit
-    def loop_assemble(assemble, theta, omega, params, A, b, count):
+    def loop_assemble(assemble, layout, theta, omega, params, count):
+        system = make_system(assemble, layout)
         total = 0.0
         for _ in range(count):
             theta[0] += 1e-12
-            assemble(theta, omega, params, A, b)
-            total += b[0]
+            assemble_into(system, theta, omega, params, 0.0, 0.0)
+            total += system[3][0]
         return total
 
     return loop, loop_assemble
@@ -322,27 +325,23 @@ def bench_rhs(repeats: int, batch: int = 1000) -> list[dict]:
     loop, loop_assemble = _compiled_loop()
     rows = []
     for formulation in physics.FORMULATION_NAMES:
-        module = physics.load_compiled(formulation, 3).module
+        compiled = physics.load_compiled(formulation, 3)
         theta_ddot = np.empty(3)
-        theta_ddot_batch = np.empty((batch, 3))
 
         def single():
-            module.accel(theta, omega, params, 0.0, 0.0, theta_ddot)
+            compiled.accel(theta, omega, params)
 
         def batched():
-            module.accel_batch(theta_batch, omega_batch, params, 0.0, 0.0, theta_ddot_batch)
+            compiled.accel_batch(theta_batch, omega_batch, params)
 
         inner_count = 20_000
         theta_loop = theta.copy()
 
         def in_compiled():
-            loop(module.accel, theta_loop, omega, params, theta_ddot, inner_count)
-
-        k = int(module.N_UNKNOWNS)
-        A, b = np.empty((k, k)), np.empty(k)
+            loop(compiled.assemble_function, compiled.layout, theta_loop, omega, params, theta_ddot, inner_count)
 
         def assemble_in_compiled():
-            loop_assemble(module.assemble, theta_loop, omega, params, A, b, inner_count)
+            loop_assemble(compiled.assemble_function, compiled.layout, theta_loop, omega, params, inner_count)
 
         single(), batched(), in_compiled(), assemble_in_compiled()  # compile / load
         single_s, batch_s, inner_s, assemble_s = [], [], [], []
@@ -353,7 +352,7 @@ def bench_rhs(repeats: int, batch: int = 1000) -> list[dict]:
             assemble_s.append(_time_once(assemble_in_compiled)[0] / inner_count)
         row = {
             "formulation": formulation,
-            "n_unknowns": int(module.N_UNKNOWNS),
+            "n_unknowns": compiled.n_unknowns,
             "accel_call_us": statistics.median(single_s) * 1e6,
             "accel_in_compiled_loop_us": statistics.median(inner_s) * 1e6,
             "assemble_in_compiled_loop_us": statistics.median(assemble_s) * 1e6,
@@ -393,8 +392,7 @@ formulation, n = sys.argv[1], int(sys.argv[2])
 compiled = load_compiled(formulation, n, False)
 loaded = time.perf_counter()
 params = np.concatenate([np.ones(n), 0.5 * np.ones(n), np.ones(n), 0.1 * np.ones(n), [1.0, 0.0, 0.0, 0.0]])
-theta_ddot = np.empty(n)
-compiled.module.accel(np.linspace(0.1, 0.5, n), np.zeros(n), params, 0.0, 0.0, theta_ddot)
+compiled.accel(np.linspace(0.1, 0.5, n), np.zeros(n), params)
 called = time.perf_counter()
 print(json.dumps({
     "import_s": imported - start,

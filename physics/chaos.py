@@ -81,7 +81,7 @@ def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     from .codegen import load_compiled
     from .kinematics import energies
 
-    module = load_compiled(task.method, task.n, False).module
+    compiled = load_compiled(task.method, task.n, False)
     params = np.asarray(task.params, dtype=float)
     n = task.n
     columns, rows = len(task.theta1), len(task.theta2)
@@ -103,7 +103,7 @@ def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     for k in range(1, steps + 1):
         if len(active) == 0:
             break
-        module.rk4_batch_step(theta, omega, params, task.step, 0.0, 0.0, work, condition)
+        compiled.rk4_batch_step(theta, omega, params, task.step, 0.0, 0.0, work, condition)
         over = np.abs(theta) > math.pi
         flipped = over.any(axis=1) | ~np.isfinite(theta).all(axis=1)
         if flipped.any():

@@ -51,6 +51,17 @@ def _parse_floats(text: str, field: str, count: int | None = None) -> list[float
     return values
 
 
+def _parse_integers(text: str, field: str, low: int, high: int) -> list[int]:
+    """Comma-separated whole numbers in ``low..high`` (``1.5`` is refused, not truncated)."""
+    values = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part.lstrip("+").isdigit() or not low <= int(part) <= high:
+            raise LinkageError(f"{field} = {text!r}: expected comma-separated whole numbers {low}..{high}")
+        values.append(int(part))
+    return values
+
+
 def _build_setup(args):
     """Preset + overrides + pin -> (chain, theta0, omega0, preset). Closed chains stay assembled."""
     from .model import apply_overrides
@@ -272,25 +283,50 @@ def cmd_presets(args) -> int:
 
 
 def cmd_warm(args) -> int:
-    """Fill the derivation cache (and numba's) for the given link counts, so the app starts warm."""
+    """Derive and compile ahead of time, so the app and the CLI start warm: every integrator kernel once, then
+    every mechanism the presets use (or the chains of ``--links``) for the three methods."""
     import time
 
     from .codegen import load_compiled
     from .model import Settings
-    from .presets import get_preset
+    from .presets import get_preset, preset_names
     from .simulate import simulate
 
-    for links in _parse_floats(args.links, "--links"):
-        for pinned in (False, True) if int(links) == 3 else (False,):
-            for method in ("newton_euler", "lagrange", "dae"):
-                start = time.perf_counter()
-                compiled = load_compiled(method, int(links), pinned)
-                preset = get_preset("four-bar") if pinned else get_preset("chain", int(links))
-                for integrator in ("RK45", "DOP853"):
-                    simulate(preset.chain, preset.theta0, preset.omega0,
-                             Settings(method=method, integrator=integrator, t_end=0.1, samples=3))
-                print(f"{method} n={int(links)} {'pinned' if pinned else 'open'}: "
-                      f"{time.perf_counter() - start:.2f} s ({'cached' if compiled.from_cache else 'derived'})")
+    if args.links is None:
+        targets = sorted({(get_preset(name).chain.n, get_preset(name).chain.pinned) for name in preset_names()})
+    else:
+        targets = [(int(n), False) for n in _parse_integers(args.links, "--links", 1, 12)]
+    integrators = [("RK45", None), ("DOP853", None), ("midpoint", 0.01)]
+    for n, pinned in targets:
+        preset = get_preset("four-bar") if pinned and n == 3 else get_preset("chain", links=n)
+        if pinned and n != 3:
+            continue
+        for method in ("newton_euler", "lagrange", "dae"):
+            start = time.perf_counter()
+            compiled = load_compiled(method, n, pinned)
+            runs = integrators + ([("variational", 0.01)] if method == "lagrange" else [])
+            for integrator, step in runs:
+                options = {"step": step} if step else {}
+                simulate(preset.chain, preset.theta0, preset.omega0,
+                         Settings(method=method, integrator=integrator, t_end=0.05, samples=3, **options))
+            compiled.rk4_batch_step(np.array([preset.theta0]), np.array([preset.omega0]), preset.chain.params(),
+                                    1e-3, 0.0, 0.0, np.empty((7, n)), np.empty(1))
+            print(f"{method} n={n} {'pinned' if pinned else 'open'}: {time.perf_counter() - start:.2f} s "
+                  f"({'cached' if compiled.from_cache else 'derived'})", flush=True)
+    return 0
+
+
+def cmd_cache(args) -> int:
+    """Where the cache is, what it holds and its size (``--info``, the default), or empty it (``--clear``)."""
+    from .codegen.inventory import cache_info, clear_cache, describe
+
+    if args.clear:
+        removed = clear_cache()
+        print(f"removed {removed['removed_mechanisms']} mechanisms and {removed['removed_bytes'] / 1024 / 1024:.2f} "
+              f"MiB from {removed['folder']}")
+        return 0
+    info = cache_info()
+    print(json.dumps(info, indent=2) if args.json else describe(info))
     return 0
 
 
@@ -347,9 +383,16 @@ def build_parser() -> argparse.ArgumentParser:
     ens.add_argument("--out", default=None, help="file: .json, .csv (time series) or .png (the fan at the end)")
     ens.set_defaults(func=cmd_ensemble)
 
-    warm = sub.add_parser("warm", help="derive and compile ahead of time (fills the cache)")
-    warm.add_argument("--links", default="1,2,3", metavar="N,N,...")
+    warm = sub.add_parser("warm", help="derive and compile ahead of time: every preset's mechanisms, or --links")
+    warm.add_argument("--links", default=None, metavar="N,N,...", help="open chains of these lengths instead")
     warm.set_defaults(func=cmd_warm)
+
+    cache = sub.add_parser("cache", help="show the code cache (where, what, how big) or empty it")
+    action = cache.add_mutually_exclusive_group()
+    action.add_argument("--info", action="store_true", help="where it is, what it holds and its size (default)")
+    action.add_argument("--clear", action="store_true", help="remove everything in it")
+    cache.add_argument("--json", action="store_true", help="--info as JSON")
+    cache.set_defaults(func=cmd_cache)
     return parser
 
 

@@ -66,7 +66,7 @@ class Ensemble:
         self.n = chain.n
         self.params = chain.params(damping=damping)
         self.lengths = chain.array("L")
-        self._module = load_compiled(method, chain.n, chain.pinned).module
+        self._compiled = load_compiled(method, chain.n, chain.pinned)
         self._alpha, self._beta = (BAUMGARTE_ALPHA, BAUMGARTE_BETA) if chain.pinned else (0.0, 0.0)
         self.theta, self.omega = initial_states(chain, theta0, omega0, self.count, self.spread)
         self._work = np.empty((RK4_WORK_ROWS, self.n))
@@ -93,7 +93,7 @@ class Ensemble:
 
     def run_steps(self, steps: int) -> None:
         """Take ``steps`` RK4 steps (the hot loop: one compiled call per step for the whole batch)."""
-        step_batch = self._module.rk4_batch_step
+        step_batch = self._compiled.rk4_batch_step
         for _ in range(steps):
             worst = step_batch(self.theta, self.omega, self.params, self.step, self._alpha, self._beta,
                                self._work, self.condition)

@@ -467,30 +467,26 @@ def rhs_costs(batch: int = 1000) -> list[dict]:
     rows = []
     for method in FORMULATION_NAMES:
         compiled = load_compiled(method, 3, False)
-        module = compiled.module
-        out = np.empty(3)
         k = compiled.n_unknowns
-        A, b = np.empty((k, k)), np.empty(k)
         index = compiled.theta_ddot_index
         loops = 2000
 
         def single():
             for _ in range(loops):
-                module.accel(theta, omega, params, 0.0, 0.0, out)
+                compiled.accel(theta, omega, params)
 
         def numpy_solve():
             for _ in range(loops // 10):
-                module.assemble(theta, omega, params, A, b)
+                A, b = compiled.matrix(theta, omega, params)
                 np.linalg.solve(A, b)[index]
 
         thetas = np.tile(theta, (batch, 1))
         omegas = np.tile(omega, (batch, 1))
-        outs = np.empty_like(thetas)
         rows.append({
             "method": method, "unknowns": k,
             "generated_accel_us": _median_time(single) / loops * 1e6,
             "generated_accel_batch_us_per_state": _median_time(
-                lambda: module.accel_batch(thetas, omegas, params, 0.0, 0.0, outs)) / batch * 1e6,
+                lambda: compiled.accel_batch(thetas, omegas, params)) / batch * 1e6,
             "generated_assemble_numpy_solve_us": _median_time(numpy_solve) / (loops // 10) * 1e6,
         })
     try:

@@ -1,11 +1,13 @@
 """``load_compiled``: generated numeric code, derived once and kept on disk, that callers never see being made.
 
-The cache folder is ``$LINKAGE_LAB_CACHE`` if set, else ``$XDG_CACHE_HOME/linkage-lab`` (default
-``~/.cache/linkage-lab``), created private to the user (mode 0700). One ``.py`` file per formulation, number
-of links and closure; its name carries a digest of everything that shapes it (package, generator sources,
-sympy, numba and Python versions), so a stale entry is never picked up. Files are written under a temporary
-name and renamed; the last line holds a SHA-256 of the rest, so a truncated or edited file is detected and
-rebuilt, never trusted. numba keeps its compiled machine code beside the file (``__pycache__``).
+One ``.py`` file per formulation, number of links and closure, in the private cache folder
+(:mod:`physics.cache_folder`); its name carries a digest of everything that shapes it (every source file of the
+derivations and of the code generator, the kernels' binary contract, and the sympy, numba, numpy and Python
+versions), computed from the files themselves, so a stale entry is never picked up. Files are written under a
+temporary name and renamed; the last line holds a SHA-256 of the rest, so a truncated or edited file is
+detected and rebuilt, never trusted. The file holds only the mechanism's straight-line arithmetic; numba
+compiles it as C-callable functions on first use (cached under ``<cache>/numba/generated``, checked by
+:mod:`physics.kernels.disk_cache`), and the once-compiled kernels of :mod:`physics.kernels` call it.
 sympy is imported only on a miss.
 """
 
@@ -14,49 +16,34 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
-import stat
 import sys
 import tempfile
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
+from numba import cfunc
 
+from ..cache_folder import cache_dir, warn
 from ..errors import LinkageError
+from ..kernels import batch, disk_cache, explicit_rk, midpoint, projection, system, variational
+from ..kernels.abi import ASSEMBLE_SIGNATURE, CFUNC_OPTIONS, MASS_AND_FORCE_SIGNATURE, make_layout
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
-_GENERATOR_SOURCES = (
-    "derive/symbols.py",
-    "derive/formulation.py",
-    "derive/newton_euler.py",
-    "derive/lagrange.py",
-    "derive/dae.py",
-    "codegen/emit.py",
-    "codegen/cache.py",
-    "simulate/kernels.py",
-)
+# Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
+_GENERATOR_FOLDERS = ("derive", "codegen")
+_GENERATOR_FILES = ("kernels/abi.py", "model.py")
 FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
+MAX_LINKS = 12
 _CHECKSUM_PREFIX = "# sha256: "
 
 
-def cache_dir() -> Path:
-    """The private cache folder, created with mode 0700 if missing."""
-    override = os.environ.get("LINKAGE_LAB_CACHE")
-    if override:
-        path = Path(override).expanduser()
-    else:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-        path = Path(base).expanduser() / "linkage-lab"
-    path.mkdir(parents=True, exist_ok=True, mode=0o700)
-    try:
-        if stat.S_IMODE(path.stat().st_mode) & 0o077:
-            path.chmod(0o700)
-    except OSError:
-        pass
-    return path
+def _generator_sources() -> list[Path]:
+    files = [path for folder in _GENERATOR_FOLDERS for path in sorted((_PACKAGE_ROOT / folder).glob("*.py"))]
+    return files + [_PACKAGE_ROOT / rel for rel in _GENERATOR_FILES]
 
 
 def _version(dist: str) -> str:
@@ -66,22 +53,34 @@ def _version(dist: str) -> str:
         return "none"
 
 
+_digest_memo: list[str] = []
+
+
 def generator_digest() -> str:
-    """Digest of every input that shapes the generated code."""
+    """Digest of every input that shapes the generated code, read from the files themselves."""
+    if _digest_memo:
+        return _digest_memo[0]
     h = hashlib.sha256()
-    for rel in _GENERATOR_SOURCES:
-        path = _PACKAGE_ROOT / rel
-        h.update(rel.encode())
+    for path in _generator_sources():
+        h.update(str(path.relative_to(_PACKAGE_ROOT)).encode())
         h.update(path.read_bytes() if path.exists() else b"<missing>")
-    for dist in ("linkage-lab", "sympy", "numba", "numpy"):
+    for dist in ("sympy", "numba", "numpy"):
         h.update(f"{dist}={_version(dist)}".encode())
     h.update(sys.version.encode())
-    return h.hexdigest()[:16]
+    _digest_memo.append(h.hexdigest()[:16])
+    return _digest_memo[0]
+
+
+def _c(array) -> np.ndarray:
+    return np.ascontiguousarray(array, dtype=np.float64)
 
 
 @dataclass
 class CompiledSystem:
-    """A generated module and its layout; what simulation, CLI, app and benchmarks hold."""
+    """A mechanism's generated functions and layout, and every numeric operation on them.
+
+    The generated functions are compiled on first use (``assemble``, and ``mass_and_force`` only when the
+    variational integrator asks); all loops run in the once-compiled kernels of :mod:`physics.kernels`."""
 
     formulation: str
     n: int
@@ -90,73 +89,148 @@ class CompiledSystem:
     path: Path
     from_cache: bool
     build_seconds: float
+    _functions: dict = field(default_factory=dict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
+    # ---------------------------------------------------------------- layout
     @property
     def n_unknowns(self) -> int:
         return int(self.module.N_UNKNOWNS)
 
     @property
     def theta_ddot_index(self) -> np.ndarray:
-        return self.module.THETA_DDOT_INDEX
+        return np.array(self.module.THETA_DDOT_INDEX, dtype=np.int64)
 
     @property
     def reaction_index(self) -> np.ndarray:
-        return self.module.REACTION_INDEX
+        return np.array(self.module.REACTION_INDEX, dtype=np.int64).reshape(-1, 2)
 
     @property
     def tip_reaction_index(self) -> np.ndarray:
-        return self.module.TIP_REACTION_INDEX
+        return np.array(self.module.TIP_REACTION_INDEX, dtype=np.int64)
+
+    @property
+    def has_lagrangian(self) -> bool:
+        return bool(self.module.HAS_LAGRANGIAN)
+
+    @property
+    def layout(self) -> np.ndarray:
+        if "layout" not in self._functions:
+            m = self.module
+            self._functions["layout"] = make_layout(
+                m.N_LINKS, m.N_UNKNOWNS, m.PINNED, m.TIP_ROWS, m.THETA_DDOT_INDEX, m.SYMMETRIC
+            )
+        return self._functions["layout"]
+
+    # ---------------------------------------------------------------- compiled functions (lazy)
+    def _compiled(self, name: str, signature):
+        with self._lock:
+            if name not in self._functions:
+                start = time.perf_counter()
+                folder = disk_cache.numba_folder() / "generated"
+                disk_cache.verify(folder, self.path.stem + ".")
+                self._functions[name] = cfunc(signature, **CFUNC_OPTIONS)(getattr(self.module, name))
+                disk_cache.seal(folder, self.path.stem + ".")
+                self.build_seconds += time.perf_counter() - start
+            return self._functions[name]
+
+    @property
+    def assemble_function(self):
+        """The generated ``assemble`` as a C-callable numba function (the kernels' first argument)."""
+        return self._compiled("assemble", ASSEMBLE_SIGNATURE)
+
+    @property
+    def mass_and_force_function(self):
+        if not self.has_lagrangian:
+            raise LinkageError(f"the variational integrator needs the Lagrange method, not {self.formulation}")
+        return self._compiled("mass_and_force", MASS_AND_FORCE_SIGNATURE)
+
+    # ---------------------------------------------------------------- one state, or a batch of states
+    def accel_batch(self, theta, omega, params, alpha=0.0, beta=0.0):
+        """Angular accelerations (K, n) and condition estimates (K,) for states (K, n)."""
+        theta = np.atleast_2d(_c(theta))
+        theta_ddot = np.empty_like(theta)
+        cond = np.empty(theta.shape[0])
+        system.accel_states(self.assemble_function, self.layout, theta, np.atleast_2d(_c(omega)), _c(params),
+                            float(alpha), float(beta), theta_ddot, cond)
+        return theta_ddot, cond
 
     def accel(self, theta, omega, params, alpha=0.0, beta=0.0):
         """Angular accelerations and the condition estimate at one state."""
-        theta_ddot = np.empty(self.n)
-        cond = self.module.accel(
-            np.ascontiguousarray(theta, dtype=float),
-            np.ascontiguousarray(omega, dtype=float),
-            np.ascontiguousarray(params, dtype=float),
-            float(alpha),
-            float(beta),
-            theta_ddot,
-        )
-        return theta_ddot, float(cond)
-
-    def solve_full(self, theta, omega, params, alpha=0.0, beta=0.0):
-        """All unknowns ``x`` and the condition estimate at one state."""
-        x = np.empty(self.n_unknowns)
-        cond = self.module.solve_full(
-            np.ascontiguousarray(theta, dtype=float),
-            np.ascontiguousarray(omega, dtype=float),
-            np.ascontiguousarray(params, dtype=float),
-            float(alpha),
-            float(beta),
-            x,
-        )
-        return x, float(cond)
+        theta_ddot, cond = self.accel_batch(theta, omega, params, alpha, beta)
+        return theta_ddot[0], float(cond[0])
 
     def solve_full_batch(self, theta, omega, params, alpha=0.0, beta=0.0):
         """``x`` of shape (K, k) and condition estimates (K,) for a batch of states (K, n)."""
-        theta = np.ascontiguousarray(theta, dtype=float)
+        theta = np.atleast_2d(_c(theta))
         x = np.empty((theta.shape[0], self.n_unknowns))
         cond = np.empty(theta.shape[0])
-        self.module.solve_full_batch(
-            theta, np.ascontiguousarray(omega, dtype=float), np.ascontiguousarray(params, dtype=float),
-            float(alpha), float(beta), x, cond,
-        )
+        system.solve_states(self.assemble_function, self.layout, theta, np.atleast_2d(_c(omega)), _c(params),
+                            float(alpha), float(beta), x, cond)
         return x, cond
 
-    def matrix(self, theta, omega, params):
-        """The numeric A and b at one state (for condition numbers and teaching)."""
+    def solve_full(self, theta, omega, params, alpha=0.0, beta=0.0):
+        """All unknowns ``x`` and the condition estimate at one state."""
+        x, cond = self.solve_full_batch(theta, omega, params, alpha, beta)
+        return x[0], float(cond[0])
+
+    def matrices(self, theta, omega, params):
+        """The numeric A (K, k, k) and b (K, k) at a batch of states (for condition numbers and teaching)."""
+        theta = np.atleast_2d(_c(theta))
         k = self.n_unknowns
-        A = np.empty((k, k))
-        b = np.empty(k)
-        self.module.assemble(
-            np.ascontiguousarray(theta, dtype=float),
-            np.ascontiguousarray(omega, dtype=float),
-            np.ascontiguousarray(params, dtype=float),
-            A,
-            b,
-        )
+        A = np.empty((theta.shape[0], k, k))
+        b = np.empty((theta.shape[0], k))
+        system.assemble_states(self.assemble_function, self.layout, theta, np.atleast_2d(_c(omega)), _c(params),
+                               A, b)
         return A, b
+
+    def matrix(self, theta, omega, params):
+        """The numeric A and b at one state."""
+        A, b = self.matrices(theta, omega, params)
+        return A[0], b[0]
+
+    def mass_and_force(self, theta, omega, params):
+        """The Lagrangian's mass matrix (n, n) and force (n,) at one state (Lagrange only)."""
+        theta = np.atleast_2d(_c(theta))
+        M = np.empty((theta.shape[0], self.n, self.n))
+        force = np.empty((theta.shape[0], self.n))
+        system.lagrangian_states(self.mass_and_force_function, theta, np.atleast_2d(_c(omega)), _c(params),
+                                 M, force)
+        return M[0], force[0]
+
+    # ---------------------------------------------------------------- integrators (physics.kernels)
+    def integrate_rk45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
+                       y_out, cond_out):
+        return explicit_rk.integrate_rk45(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval),
+                                          _c(params), rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
+
+    def integrate_dop853(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
+                         y_out, cond_out):
+        return explicit_rk.integrate_dop853(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval),
+                                            _c(params), rtol, atol, alpha, beta, project, max_steps, y_out,
+                                            cond_out)
+
+    def integrate_midpoint(self, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
+        return midpoint.integrate_midpoint(self.assemble_function, self.layout, _c(y0), t0, t_end, h, _c(t_eval),
+                                           _c(params), alpha, beta, project, y_out, cond_out)
+
+    def integrate_variational(self, y0, t0, t_end, h, t_eval, params, y_out, cond_out):
+        return variational.integrate_variational(
+            self.assemble_function, self.mass_and_force_function, self.layout, _c(y0), t0, t_end, h, _c(t_eval),
+            _c(params), y_out, cond_out,
+        )
+
+    def rk4_batch_step(self, theta, omega, params, h, alpha, beta, work, cond_out):
+        return batch.rk4_batch_step(self.assemble_function, self.layout, theta, omega, _c(params), h, alpha, beta,
+                                    work, cond_out)
+
+    @staticmethod
+    def project_position(theta, params):
+        return projection.project_position(theta, params)
+
+    @staticmethod
+    def project_velocity(theta, omega, params):
+        return projection.project_velocity(theta, omega, params)
 
 
 _loaded: dict = {}
@@ -203,8 +277,6 @@ def _build_source(formulation: str, n: int, pinned: bool, digest: str) -> str:
     from .emit import emit_module
 
     system = FORMULATIONS[formulation]().derive(n, pinned)
-    kernels_path = _PACKAGE_ROOT / "simulate" / "kernels.py"
-    kernels = kernels_path.read_text() if kernels_path.exists() else ""
     header = (
         f'"""Generated by Linkage Lab from the {formulation} derivation: n = {n}, '
         f'{"tip pinned" if pinned else "open chain"}.\n\n'
@@ -212,8 +284,19 @@ def _build_source(formulation: str, n: int, pinned: bool, digest: str) -> str:
         f"Generator digest {digest}. Do not edit: the file is checked and rebuilt when in doubt.\n"
         '"""'
     )
-    body = emit_module(system, header, kernels).rstrip("\n")
+    body = emit_module(system, header).rstrip("\n")
     return body + "\n" + _CHECKSUM_PREFIX + hashlib.sha256(body.encode()).hexdigest() + "\n"
+
+
+def _remove_stale(folder: Path, key: str, current: Path) -> None:
+    """Entries of the same mechanism from another generator version, and their compiled code."""
+    for stale in folder.glob(f"{key}-*.py"):
+        if stale != current:
+            for path in [stale, *(disk_cache.numba_folder() / "generated").glob(f"{stale.stem}.*")]:
+                try:
+                    path.unlink()
+                except OSError:
+                    pass
 
 
 def _import(path: Path, name: str):
@@ -233,8 +316,8 @@ def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSys
     """Ready numeric functions for a formulation; derived and generated only when the cache lacks them."""
     if formulation not in FORMULATION_NAMES:
         raise LinkageError(f"method = {formulation!r}: allowed {', '.join(FORMULATION_NAMES)}")
-    if not 1 <= int(n) <= 12:
-        raise LinkageError(f"links = {n}: allowed range 1 <= links <= 12")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= MAX_LINKS:
+        raise LinkageError(f"links = {n!r}: allowed an integer 1 <= links <= {MAX_LINKS}")
     key = _key(formulation, int(n), bool(pinned))
     with _lock:
         if key in _loaded:
@@ -245,18 +328,16 @@ def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSys
         path = folder / f"{key}-{digest}.py"
         text = _verified_text(path) if path.exists() else None
         from_cache = text is not None
+        if text is None and path.exists():
+            warn(f"generated file {path} is damaged (checksum differs); rebuilding it")
         if text is None:
             _write_atomically(path, _build_source(formulation, int(n), bool(pinned), digest))
-            for stale in folder.glob(f"{key}-*.py"):
-                if stale != path:
-                    try:
-                        stale.unlink()
-                    except OSError:
-                        pass
+            _remove_stale(folder, key, path)
         module_name = f"linkage_lab_generated_{key.replace('-', '_')}_{digest}"
         try:
             module = _import(path, module_name)
         except Exception:  # a file that passed its checksum but does not import: rebuild once
+            warn(f"generated file {path} did not import; rebuilding it")
             _write_atomically(path, _build_source(formulation, int(n), bool(pinned), digest))
             module = _import(path, module_name)
             from_cache = False

@@ -37,12 +37,47 @@ class LinearSystem:
     lagrangian_force: sp.Matrix | None = None
 
 
+def _split_linear(expr, unknowns: frozenset):
+    """``(coefficients, rest)`` with ``expr = sum(coefficients[u] * u) + rest`` for an ``expr`` linear in
+    ``unknowns``: one walk down the branches that hold an unknown, instead of one derivative per unknown
+    (sympy's Jacobian walks the whole equation n times, and differentiates every factor by the product rule)."""
+    if not (expr.free_symbols & unknowns):
+        return {}, expr
+    if expr in unknowns:
+        return {expr: sp.Integer(1)}, sp.Integer(0)
+    if expr.is_Add:
+        coefficients: dict = {}
+        rest = []
+        for term in expr.args:
+            term_coefficients, term_rest = _split_linear(term, unknowns)
+            for u, c in term_coefficients.items():
+                coefficients[u] = coefficients.get(u, sp.Integer(0)) + c
+            rest.append(term_rest)
+        return coefficients, sp.Add(*rest)
+    if expr.is_Mul:
+        holding = [factor for factor in expr.args if factor.free_symbols & unknowns]
+        if len(holding) == 1:
+            others = sp.Mul(*[factor for factor in expr.args if factor is not holding[0]])
+            coefficients, rest = _split_linear(holding[0], unknowns)
+            return {u: others * c for u, c in coefficients.items()}, others * rest
+    # anything else (an unknown inside a nonlinear function would break linearity): differentiate
+    coefficients = {u: sp.diff(expr, u) for u in unknowns if u in expr.free_symbols}
+    if any(c.free_symbols & unknowns for c in coefficients.values()):
+        raise ValueError(f"equation not linear in the unknowns: {expr}")
+    return coefficients, expr.xreplace({u: 0 for u in unknowns})
+
+
 def linear_system(equations, unknowns):
     """``A = d(equations)/d(unknowns)`` and ``b = -equations(unknowns = 0)`` for equations linear in unknowns."""
-    eqs = sp.Matrix(equations)
-    A = eqs.jacobian(list(unknowns))
-    zero = {u: 0 for u in unknowns}
-    b = -eqs.xreplace(zero)
+    unknowns = list(unknowns)
+    wanted = frozenset(unknowns)
+    A = sp.zeros(len(equations), len(unknowns))
+    b = sp.zeros(len(equations), 1)
+    for row, equation in enumerate(equations):
+        coefficients, rest = _split_linear(sp.sympify(equation), wanted)
+        for col, u in enumerate(unknowns):
+            A[row, col] = coefficients.get(u, sp.Integer(0))
+        b[row] = -rest
     return A, b
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from .formulation import Formulation, LinearSystem, linear_system
+from .formulation import Formulation, LinearSystem
 from .symbols import add, along, chain_symbols, scale
 
 
@@ -31,53 +31,80 @@ class Lagrange(Formulation):
         com = [add(joints[i], scale(s.d[i], along(s.theta[i]))) for i in range(n)]
 
         def time_derivative(expr):
-            return sum((sp.diff(expr, theta[k]) * omega[k] for k in range(n)), sp.Integer(0))
+            """d/dt of an expression in (theta, omega): the chain rule, with theta' = omega, omega' = theta''."""
+            total = sp.Integer(0)
+            for k in range(n):
+                total += sp.diff(expr, theta[k]) * omega[k] + sp.diff(expr, omega[k]) * theta_ddot[k]
+            return total
 
-        v_com = [(time_derivative(c[0]), time_derivative(c[1])) for c in com]
-        kinetic = sum(
-            (s.m[i] * (v_com[i][0] ** 2 + v_com[i][1] ** 2) / 2 + s.I[i] * omega[i] ** 2 / 2 for i in range(n)),
-            sp.Integer(0),
-        )
+        # Partial velocities e_ij = d(r_Gi)/d(theta_j) (functions of theta only), so v_i = sum_j e_ij omega_j and
+        # T = sum_i 1/2 m_i v_i . v_i + 1/2 I_i omega_i^2. Lagrange's terms follow from T by the chain rule through
+        # these small pieces instead of by sympy differentiating T (squares of long sums) once per variable:
+        #   dT/domega_k = sum_i m_i v_i . e_ik + I_k omega_k,   dT/dtheta_k = sum_i m_i v_i . dv_i/dtheta_k,
+        #   d/dt(dT/domega_k) = sum_i m_i (a_i . e_ik + v_i . de_ik/dt) + I_k theta''_k  with a_i = dv_i/dt.
+        partial = [[(sp.diff(com[i][0], theta[j]), sp.diff(com[i][1], theta[j])) for j in range(n)] for i in range(n)]
+        v_com = [
+            (sum((partial[i][j][0] * omega[j] for j in range(n)), sp.Integer(0)),
+             sum((partial[i][j][1] * omega[j] for j in range(n)), sp.Integer(0)))
+            for i in range(n)
+        ]
+        # a_i = dv_i/dt = sum_j e_ij theta''_j + (the rest): theta'' enters only through the first sum, so the
+        # equations' matrix is read off directly (no Jacobian of the assembled equations).
+        a_rest = [
+            (sum((time_derivative(partial[i][j][0]) * omega[j] for j in range(n)), sp.Integer(0)),
+             sum((time_derivative(partial[i][j][1]) * omega[j] for j in range(n)), sp.Integer(0)))
+            for i in range(n)
+        ]
         potential = sum((s.m[i] * s.g * com[i][1] for i in range(n)), sp.Integer(0))
         relative = [omega[0]] + [omega[k] - omega[k - 1] for k in range(1, n)]
         dissipation = sum((s.damping * w**2 / 2 for w in relative), sp.Integer(0))
 
-        reaction_h = (sp.Symbol("R_Hx", real=True), sp.Symbol("R_Hy", real=True))
-        equations, names = [], []
+        size = n + (2 if pinned else 0)
+        A = sp.zeros(size, size)
+        b = sp.zeros(size, 1)
+        names, lagrangian_force = [], []
         for k in range(n):
-            p_k = sp.diff(kinetic, omega[k])
-            dp_dt = sum(
-                (sp.diff(p_k, theta[j]) * omega[j] + sp.diff(p_k, omega[j]) * theta_ddot[j] for j in range(n)),
-                sp.Integer(0),
-            )
-            generalized_force = -sp.diff(dissipation, omega[k])
+            # d/dt(dT/domega_k) = sum_j M_kj theta''_j + rest, with M_kj = d2T/domega_k domega_j
+            #                   = sum_i m_i e_ij . e_ik + I_k delta_kj (bar i moves with theta_k only when i >= k).
+            rest = sp.Integer(0)
+            dT_dtheta = sp.Integer(0)
+            for i in range(k, n):
+                e_x, e_y = partial[i][k]
+                rest += s.m[i] * (a_rest[i][0] * e_x + v_com[i][0] * time_derivative(e_x)
+                                  + a_rest[i][1] * e_y + v_com[i][1] * time_derivative(e_y))
+                dT_dtheta += s.m[i] * (v_com[i][0] * sp.diff(v_com[i][0], theta[k])
+                                       + v_com[i][1] * sp.diff(v_com[i][1], theta[k]))
+            for j in range(n):
+                A[k, j] = sum((s.m[i] * (partial[i][j][0] * partial[i][k][0] + partial[i][j][1] * partial[i][k][1])
+                               for i in range(max(j, k), n)), sp.Integer(0))
+            A[k, k] += s.I[k]
+            force_k = dT_dtheta - sp.diff(potential, theta[k]) - sp.diff(dissipation, omega[k])
+            # Lagrange: d/dt(dT/domega_k) - dT/dtheta_k + dV/dtheta_k + dD/domega_k = (tip reaction) . dr_H/dtheta_k
+            b[k] = force_k - rest
             if pinned:
-                generalized_force += reaction_h[0] * sp.diff(joints[n][0], theta[k])
-                generalized_force += reaction_h[1] * sp.diff(joints[n][1], theta[k])
-            equations.append(dp_dt - sp.diff(kinetic, theta[k]) + sp.diff(potential, theta[k]) - generalized_force)
+                A[k, n] = -sp.diff(joints[n][0], theta[k])
+                A[k, n + 1] = -sp.diff(joints[n][1], theta[k])
             names.append(f"Lagrange equation for theta_{k + 1}")
+            lagrangian_force.append(force_k)
 
         unknowns = list(theta_ddot)
         tip_rows = None
         tip_reaction_index = None
         if pinned:
+            reaction_h = (sp.Symbol("R_Hx", real=True), sp.Symbol("R_Hy", real=True))
             tip_rows = (n, n + 1)
             for axis, label in ((0, "x"), (1, "y")):
-                phi = joints[n][axis] - (s.pin_x if axis == 0 else s.pin_y)
-                phi_dot = time_derivative(phi)
-                phi_ddot = sum(
-                    (sp.diff(phi_dot, theta[j]) * omega[j] + sp.diff(phi_dot, omega[j]) * theta_ddot[j] for j in range(n)),
-                    sp.Integer(0),
-                )
-                equations.append(phi_ddot)
+                # Phi = r_H - pin; Phi'' = sum_j dr_H/dtheta_j theta''_j + sum_j d/dt(dr_H/dtheta_j) omega_j = 0
+                row = n + axis
+                for j in range(n):
+                    jacobian = sp.diff(joints[n][axis], theta[j])
+                    A[row, j] = jacobian
+                    b[row] -= time_derivative(jacobian) * omega[j]
                 names.append(f"loop constraint Phi_{label}'' = 0")
             unknowns += list(reaction_h)
             tip_reaction_index = (n, n + 1)
-        A, b = linear_system(equations, unknowns)
-        mass_matrix = sp.Matrix(n, n, lambda i, j: sp.diff(kinetic, omega[i], omega[j]))
-        lagrangian_force = sp.Matrix(
-            [sp.diff(kinetic, theta[k]) - sp.diff(potential, theta[k]) - sp.diff(dissipation, omega[k]) for k in range(n)]
-        )
+        mass_matrix = A[:n, :n]
+        lagrangian_force = sp.Matrix(lagrangian_force)
         return LinearSystem(
             formulation=self.name,
             n=n,

@@ -16,16 +16,8 @@ from .trajectory import STATUS_INTEGRATOR_FAILED, STATUS_OK, STATUS_SINGULAR
 
 
 def _mass_and_forcing_from(compiled):
-    k = compiled.n_unknowns
-
     def mass_and_forcing(theta, omega, params):
-        A = np.empty((k, k))
-        b = np.empty(k)
-        compiled.module.assemble(
-            np.ascontiguousarray(theta, dtype=float), np.ascontiguousarray(omega, dtype=float),
-            np.ascontiguousarray(params, dtype=float), A, b,
-        )
-        return A, b
+        return compiled.matrix(theta, omega, params)
 
     return mass_and_forcing
 

@@ -1,8 +1,8 @@
 """``simulate``: one entry point from a validated chain, start state and settings to a Trajectory.
 
-Two back ends share the generated right-hand side. ``compiled`` runs the whole integration loop inside the
-generated numba module (``kernels.py``: RK45 and DOP853 matching scipy step for step, and the fixed-step
-implicit midpoint rule); ``scipy`` drives ``scipy.integrate``'s solvers (RK45, DOP853, Radau, LSODA) one step
+Two back ends share the generated right-hand side. ``compiled`` runs the whole integration loop in the
+once-compiled kernels of :mod:`physics.kernels` (RK45 and DOP853 matching scipy step for step, the fixed-step
+implicit midpoint rule and the variational integrator); ``scipy`` (imported only for this back end) drives ``scipy.integrate``'s solvers (RK45, DOP853, Radau, LSODA) one step
 at a time with the same right-hand side, so the two can be compared and any scipy method used.
 Failures midway come back as ``status``/``message`` with the samples computed so far; only bad input raises.
 """
@@ -125,18 +125,17 @@ def simulate(
 
 
 def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, project):
-    module = compiled.module
     y_out = np.full((len(t_eval), y0.size), np.nan)
     cond = np.empty(0)  # computed with the reactions in build_trajectory, once per sample
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     if settings.integrator == "midpoint":
-        result = module.integrate_midpoint(
+        result = compiled.integrate_midpoint(
             y0, t0, t1, settings.step, t_eval, params, alpha, beta, project, y_out, cond
         )
     elif settings.integrator == "variational":
-        result = module.integrate_variational(y0, t0, t1, settings.step, t_eval, params, y_out, cond)
+        result = compiled.integrate_variational(y0, t0, t1, settings.step, t_eval, params, y_out, cond)
     else:
-        integrate = module.integrate_rk45 if settings.integrator == "RK45" else module.integrate_dop853
+        integrate = compiled.integrate_rk45 if settings.integrator == "RK45" else compiled.integrate_dop853
         result = integrate(
             y0, t0, t1, t_eval, params, settings.rtol, settings.atol, alpha, beta, project,
             settings.max_steps, y_out, cond,
@@ -163,13 +162,11 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
     from scipy.integrate._ivp.ivp import METHODS
 
     n = compiled.n
-    theta_ddot = np.empty(n)
-    module = compiled.module
     counter = {"rhs": 0}
 
     def rhs(t, y):
         counter["rhs"] += 1
-        c = module.accel(y[:n], y[n:], params, alpha, beta, theta_ddot)
+        theta_ddot, c = compiled.accel(y[:n], y[n:], params, alpha, beta)
         if not c <= SINGULAR_PIVOT_RATIO:
             raise _Singular(t)
         return np.concatenate([y[n:], theta_ddot])
@@ -209,8 +206,10 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
                 break
             if project:
                 y = y_out[next_sample - 1].copy()
-                module.project_position(y[:n], params)
-                module.project_velocity(y[:n], y[n:], params)
+                theta, omega = np.ascontiguousarray(y[:n]), np.ascontiguousarray(y[n:])
+                compiled.project_position(theta, params)
+                compiled.project_velocity(theta, omega, params)
+                y = np.concatenate([theta, omega])
                 y_out[next_sample - 1] = y
     except _Singular as stop:
         status, t_now = STATUS_SINGULAR, float(stop.args[0])
@@ -220,11 +219,7 @@ def _integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, projec
 
 def system_condition(compiled, theta, omega, params) -> np.ndarray:
     """2-norm condition number of the formulation's matrix A at each sampled state (T,)."""
-    k = compiled.n_unknowns
-    A = np.empty((len(theta), k, k))
-    b = np.empty(k)
-    for i in range(len(theta)):
-        compiled.module.assemble(np.ascontiguousarray(theta[i]), np.ascontiguousarray(omega[i]), params, A[i], b)
+    A, _ = compiled.matrices(theta, omega, params)
     with np.errstate(all="ignore"):
         return np.linalg.cond(A)
 

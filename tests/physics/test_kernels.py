@@ -1,68 +1,48 @@
-"""The compiled integration kernels (physics/simulate/kernels.py) against scipy and against known behaviour.
+"""The once-compiled integration kernels (physics.kernels) on their own, against scipy and known behaviour.
 
-The kernels are written to be appended to a generated module that defines ``accel``, ``N_LINKS`` and ``PINNED``.
-Here each test system is a hand-written ``accel`` (equations written out below, independent of the project's
-derivations) followed by the text of kernels.py, written to the tests' private cache folder and imported; numba's
-cache lands beside it.
+The kernels take a mechanism's ``assemble`` (the generated code's contract, physics/kernels/abi.py) as a numba
+first-class function. Here each test system is a hand-written ``assemble`` (equations written out below,
+independent of the project's derivations), compiled with ``numba.cfunc`` and handed to the same kernels that
+every generated mechanism uses.
 """
 
-import hashlib
-import importlib.util
-import os
-import sys
-from pathlib import Path
+import math
 
 import numpy as np
 import pytest
+from numba import cfunc
 from scipy.integrate import solve_ivp
 
-KERNELS_PATH = Path(__file__).resolve().parents[2] / "physics" / "simulate" / "kernels.py"
+from physics.kernels import batch, explicit_rk, midpoint, projection, system
+from physics.kernels.abi import ASSEMBLE_SIGNATURE, make_layout
+from physics.kernels.constants import RK4_WORK_ROWS
 
-HEADER = """
-import math
-import numpy as np
-from numba import njit
-"""
 
 # Compound pendulum: (I + m d^2) theta'' = -m g d sin(theta). params[5] (pin_x, unused by an open chain) makes it
-# break once theta exceeds 0.5: 1 singular system (condition inf), 2 NaN acceleration, 3 a jump of 1e10 that no
+# break once theta exceeds 0.5: 1 singular system (a zero matrix), 2 NaN acceleration, 3 a jump of 1e10 that no
 # step is small enough to follow.
-PENDULUM = """
-N_LINKS = 1
-N_UNKNOWNS = 1
-PINNED = False
-
-
-@njit(cache=True)
-def accel(theta, omega, params, alpha, beta, theta_ddot):
+def pendulum_assemble(theta, omega, params, A, b):
     d = params[1]
     m = params[2]
     inertia = params[3]
     g = params[4]
-    theta_ddot[0] = -m * g * d * math.sin(theta[0]) / (inertia + m * d * d)
+    A[0] = inertia + m * d * d
+    b[0] = -m * g * d * math.sin(theta[0])
     fault = params[5]
     if fault != 0.0 and theta[0] > 0.5:
         if fault == 1.0:
-            return np.inf
+            A[0] = 0.0
         if fault == 2.0:
-            theta_ddot[0] = np.nan
+            b[0] = np.nan
         if fault == 3.0:
-            theta_ddot[0] = 1e10
-    return 1.0
-"""
+            b[0] = 1e10 * A[0]
+
 
 # Double pendulum of rigid bars, from Lagrange's equations written out by hand:
 #   M11 = I1 + m1 d1^2 + m2 L1^2, M12 = m2 L1 d2 cos(t1 - t2), M22 = I2 + m2 d2^2,
 #   r1 = -m2 L1 d2 sin(t1 - t2) w2^2 - (m1 d1 + m2 L1) g sin t1,
 #   r2 =  m2 L1 d2 sin(t1 - t2) w1^2 - m2 d2 g sin t2.
-DOUBLE = """
-N_LINKS = 2
-N_UNKNOWNS = 2
-PINNED = False
-
-
-@njit(cache=True)
-def accel(theta, omega, params, alpha, beta, theta_ddot):
+def double_assemble(theta, omega, params, A, b):
     L1 = params[0]
     d1 = params[2]
     d2 = params[3]
@@ -73,57 +53,68 @@ def accel(theta, omega, params, alpha, beta, theta_ddot):
     g = params[8]
     s12 = math.sin(theta[0] - theta[1])
     c12 = math.cos(theta[0] - theta[1])
-    M11 = I1 + m1 * d1 * d1 + m2 * L1 * L1
-    M12 = m2 * L1 * d2 * c12
-    M22 = I2 + m2 * d2 * d2
-    r1 = -m2 * L1 * d2 * s12 * omega[1] ** 2 - (m1 * d1 + m2 * L1) * g * math.sin(theta[0])
-    r2 = m2 * L1 * d2 * s12 * omega[0] ** 2 - m2 * d2 * g * math.sin(theta[1])
-    det = M11 * M22 - M12 * M12
-    if det <= 0.0:
-        return np.inf
-    theta_ddot[0] = (M22 * r1 - M12 * r2) / det
-    theta_ddot[1] = (M11 * r2 - M12 * r1) / det
-    return (M11 + M22) ** 2 / det
-"""
-
-# Pinned three-bar toy with a unit mass matrix: free acceleration u_i = -g m_i sin(theta_i), and the
-# constraint force J^T lambda that keeps the tip's acceleration J theta'' + Jdot omega zero (no Baumgarte).
-PINNED_THREE_BAR = """
-N_LINKS = 3
-N_UNKNOWNS = 3
-PINNED = True
+    A[0] = I1 + m1 * d1 * d1 + m2 * L1 * L1
+    A[1] = m2 * L1 * d2 * c12
+    A[2] = m2 * L1 * d2 * c12
+    A[3] = I2 + m2 * d2 * d2
+    b[0] = -m2 * L1 * d2 * s12 * omega[1] ** 2 - (m1 * d1 + m2 * L1) * g * math.sin(theta[0])
+    b[1] = m2 * L1 * d2 * s12 * omega[0] ** 2 - m2 * d2 * g * math.sin(theta[1])
 
 
-@njit(cache=True)
-def accel(theta, omega, params, alpha, beta, theta_ddot):
+# Pinned three-bar toy with a unit mass matrix: free acceleration u_i = -g m_i sin(theta_i) plus the constraint
+# force J^T lambda; rows 3 and 4 state the tip's acceleration J theta'' + Jdot omega = 0. Unknowns
+# x = [theta''_1..3, lambda_x, lambda_y].
+def pinned_assemble(theta, omega, params, A, b):
     g = params[12]
-    jx = np.empty(3)
-    jy = np.empty(3)
-    u = np.empty(3)
-    a = 0.0
-    b = 0.0
-    c = 0.0
-    rx = 0.0
-    ry = 0.0
     for i in range(3):
         L = params[i]
-        jx[i] = L * math.cos(theta[i])
-        jy[i] = L * math.sin(theta[i])
-        u[i] = -g * params[6 + i] * math.sin(theta[i])
-        a += jx[i] * jx[i]
-        b += jx[i] * jy[i]
-        c += jy[i] * jy[i]
-        rx += jx[i] * u[i] - L * math.sin(theta[i]) * omega[i] ** 2
-        ry += jy[i] * u[i] + L * math.cos(theta[i]) * omega[i] ** 2
-    det = a * c - b * b
-    if det <= 0.0:
-        return np.inf
-    lambda_x = (c * rx - b * ry) / det
-    lambda_y = (a * ry - b * rx) / det
+        jx = L * math.cos(theta[i])
+        jy = L * math.sin(theta[i])
+        A[i * 5 + i] = 1.0
+        A[i * 5 + 3] = jx
+        A[i * 5 + 4] = jy
+        A[3 * 5 + i] = jx
+        A[4 * 5 + i] = jy
+        b[i] = -g * params[6 + i] * math.sin(theta[i])
+    b[3] = 0.0
+    b[4] = 0.0
     for i in range(3):
-        theta_ddot[i] = u[i] - jx[i] * lambda_x - jy[i] * lambda_y
-    return (a + c) ** 2 / det
-"""
+        L = params[i]
+        b[3] += L * math.sin(theta[i]) * omega[i] ** 2
+        b[4] -= L * math.cos(theta[i]) * omega[i] ** 2
+
+
+class Toy:
+    """A hand-written system handed to the kernels exactly as a generated mechanism is."""
+
+    def __init__(self, assemble, n, k, pinned=False, tip_rows=None):
+        self.N_LINKS = n
+        self.RK4_WORK_ROWS = RK4_WORK_ROWS
+        self.assemble = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(assemble)
+        self.layout = make_layout(n, k, pinned, tip_rows, range(n), symmetric=False)
+
+    def accel(self, theta, omega, params):
+        theta_ddot = np.empty((1, self.N_LINKS))
+        cond = np.empty(1)
+        system.accel_states(self.assemble, self.layout, np.ascontiguousarray([theta]), np.ascontiguousarray([omega]),
+                            params, 0.0, 0.0, theta_ddot, cond)
+        return theta_ddot[0]
+
+    def integrate_rk45(self, *args):
+        return explicit_rk.integrate_rk45(self.assemble, self.layout, *args)
+
+    def integrate_dop853(self, *args):
+        return explicit_rk.integrate_dop853(self.assemble, self.layout, *args)
+
+    def integrate_midpoint(self, *args):
+        return midpoint.integrate_midpoint(self.assemble, self.layout, *args)
+
+    def rk4_batch_step(self, *args):
+        return batch.rk4_batch_step(self.assemble, self.layout, *args)
+
+    project_position = staticmethod(projection.project_position)
+    project_velocity = staticmethod(projection.project_velocity)
+
 
 PENDULUM_PARAMS = np.array([1.0, 0.5, 1.0, 0.2, 1.0, 0.0, 0.0])
 DOUBLE_PARAMS = np.array([1.0, 1.0, 0.5, 0.5, 1.0, 1.0, 0.2, 0.3, 1.0, 0.0, 0.0])
@@ -132,47 +123,28 @@ PENDULUM_Y0 = np.array([2.0, 0.0])
 
 
 @pytest.fixture(scope="module")
-def build(tmp_path_factory):
-    """Return ``build(name)``: the toy module ``name`` with kernels.py appended, imported once.
-
-    The files go to the session's private cache folder (LINKAGE_LAB_CACHE, set by conftest.py) when there is one,
-    named by a hash of their text, so a local rerun finds numba's compiled code; otherwise to a fresh folder.
-    """
-    cache = os.environ.get("LINKAGE_LAB_CACHE")
-    folder = Path(cache) / "kernel-tests" if cache else tmp_path_factory.mktemp("kernels")
-    folder.mkdir(parents=True, exist_ok=True)
-    sources = {"pendulum": PENDULUM, "double": DOUBLE, "pinned": PINNED_THREE_BAR}
+def build():
+    """Return ``build(name)``: the toy system ``name``, compiled once per test module."""
+    makers = {
+        "pendulum": lambda: Toy(pendulum_assemble, 1, 1),
+        "double": lambda: Toy(double_assemble, 2, 2),
+        "pinned": lambda: Toy(pinned_assemble, 3, 5, pinned=True, tip_rows=(3, 4)),
+    }
     built = {}
 
     def _build(name):
         if name not in built:
-            text = HEADER + sources[name] + "\n\n" + KERNELS_PATH.read_text()
-            digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-            path = folder / f"toy_{name}_{digest}.py"
-            if not path.exists() or path.read_text() != text:
-                partial = path.with_suffix(f".{os.getpid()}.tmp")
-                partial.write_text(text)
-                partial.replace(path)
-            module_name = f"_linkage_lab_kernel_toy_{name}_{digest}"
-            spec = importlib.util.spec_from_file_location(module_name, path)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[module_name] = module
-            spec.loader.exec_module(module)
-            built[name] = module
+            built[name] = makers[name]()
         return built[name]
 
-    yield _build
-    for module in built.values():
-        sys.modules.pop(module.__name__, None)
+    return _build
 
 
 def scipy_rhs(module, params):
     n = module.N_LINKS
 
     def rhs(t, y):
-        theta_ddot = np.empty(n)
-        module.accel(y[:n].copy(), y[n:].copy(), params, 0.0, 0.0, theta_ddot)
-        return np.concatenate([y[n:], theta_ddot])
+        return np.concatenate([y[n:], module.accel(y[:n], y[n:], params)])
 
     return rhs
 

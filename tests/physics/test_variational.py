@@ -16,32 +16,28 @@ from physics.model import validated
 from ..conftest import random_params
 
 
-def _mass(module, theta, params):
-    n = theta.size
-    M = np.empty((n, n))
-    force = np.empty(n)
-    module.mass_and_force(theta, np.zeros(n), params, M, force)
-    return M
+def _mass(compiled, theta, params):
+    return compiled.mass_and_force(theta, np.zeros(theta.size), params)[0]
 
 
-def _one_step(module, integrator, theta, momentum, params, h):
+def _one_step(compiled, integrator, theta, momentum, params, h):
     """The one-step map (theta, p) -> (theta', p') of an integrator, with p = M(theta) omega."""
     n = theta.size
-    omega = np.linalg.solve(_mass(module, theta, params), momentum)
+    omega = np.linalg.solve(_mass(compiled, theta, params), momentum)
     y0 = np.concatenate([theta, omega])
     t_eval = np.array([0.0, h])
     y_out = np.empty((2, 2 * n))
     cond = np.empty(0)
     if integrator == "variational":
-        status = module.integrate_variational(y0, 0.0, h, h, t_eval, params, y_out, cond)[0]
+        status = compiled.integrate_variational(y0, 0.0, h, h, t_eval, params, y_out, cond)[0]
     else:
-        status = module.integrate_midpoint(y0, 0.0, h, h, t_eval, params, 0.0, 0.0, False, y_out, cond)[0]
+        status = compiled.integrate_midpoint(y0, 0.0, h, h, t_eval, params, 0.0, 0.0, False, y_out, cond)[0]
     assert status == 0
     theta1, omega1 = y_out[1, :n], y_out[1, n:]
-    return np.concatenate([theta1, _mass(module, theta1, params) @ omega1])
+    return np.concatenate([theta1, _mass(compiled, theta1, params) @ omega1])
 
 
-def _symplectic_defect(module, integrator, state, params, h, eps=1e-6):
+def _symplectic_defect(compiled, integrator, state, params, h, eps=1e-6):
     """max |Phi^T J Phi - J| for the one-step map's Jacobian Phi (central differences)."""
     size = state.size
     n = size // 2
@@ -50,21 +46,21 @@ def _symplectic_defect(module, integrator, state, params, h, eps=1e-6):
         up, down = state.copy(), state.copy()
         up[j] += eps
         down[j] -= eps
-        jacobian[:, j] = (_one_step(module, integrator, up[:n], up[n:], params, h)
-                          - _one_step(module, integrator, down[:n], down[n:], params, h)) / (2 * eps)
+        jacobian[:, j] = (_one_step(compiled, integrator, up[:n], up[n:], params, h)
+                          - _one_step(compiled, integrator, down[:n], down[n:], params, h)) / (2 * eps)
     J = np.block([[np.zeros((n, n)), np.eye(n)], [-np.eye(n), np.zeros((n, n))]])
     return float(np.max(np.abs(jacobian.T @ J @ jacobian - J)))
 
 
 def test_variational_step_is_symplectic_and_the_midpoint_rule_in_theta_omega_is_not(rng):
-    module = load_compiled("lagrange", 3, False).module
+    compiled = load_compiled("lagrange", 3, False)
     params = random_params(rng, 3)
     theta = rng.uniform(-2.0, 2.0, 3)
-    momentum = _mass(module, theta, params) @ rng.uniform(-2.0, 2.0, 3)
+    momentum = _mass(compiled, theta, params) @ rng.uniform(-2.0, 2.0, 3)
     state = np.concatenate([theta, momentum])
     h = 0.05
-    variational = _symplectic_defect(module, "variational", state, params, h)
-    midpoint = _symplectic_defect(module, "midpoint", state, params, h)
+    variational = _symplectic_defect(compiled, "variational", state, params, h)
+    midpoint = _symplectic_defect(compiled, "midpoint", state, params, h)
     assert variational < 1e-7, variational
     assert midpoint > 1e3 * variational and midpoint > 1e-5, (midpoint, variational)
 
@@ -129,6 +125,6 @@ def test_damping_dissipates_energy_monotonically():
 def test_needs_the_lagrange_formulation():
     with pytest.raises(LinkageError, match="method = lagrange"):
         validated(Settings, integrator="variational", method="newton_euler")
-    module = load_compiled("newton_euler", 2, False).module
-    assert not module.HAS_LAGRANGIAN
-    assert load_compiled("lagrange", 2, False).module.HAS_LAGRANGIAN
+    compiled = load_compiled("newton_euler", 2, False)
+    assert not compiled.has_lagrangian
+    assert load_compiled("lagrange", 2, False).has_lagrangian

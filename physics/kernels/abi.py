@@ -1,0 +1,72 @@
+"""The binary contract between generated code and the once-compiled kernels.
+
+Generated code is straight-line arithmetic, one function per mechanism, compiled by numba as a C-callable
+function (``numba.cfunc``) that takes raw pointers to float64 arrays. The integration kernels
+(``physics.simulate.kernels``) are compiled once per installation with arguments of numba's first-class
+function type: they call whatever generated function they are handed through its address, so a new mechanism
+costs only the compilation of its own few functions, never the integrators again.
+
+* ``assemble(theta, omega, params, A, b)``: fills ``A`` (k x k, row-major, zeroed by the caller) and all of
+  ``b`` (k,) of ``A x = b`` at one state. ``params`` is the layout of docs/architecture.md.
+* ``mass_and_force(theta, omega, params, M, force)``: the Lagrangian's mass matrix (n x n, row-major, zeroed by
+  the caller) and force ``dL/dtheta + Q`` (n,), for the variational integrator (Lagrange only).
+
+A mechanism's ``layout`` (an int64 array, :func:`make_layout`) tells the kernels the sizes and where the
+angular accelerations and the tip constraint's rows sit in ``x``.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from numba import types
+from numba.core.errors import NumbaExperimentalFeatureWarning
+from numba.extending import intrinsic
+
+_POINTER = types.CPointer(types.float64)
+ASSEMBLE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
+MASS_AND_FORCE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
+# numba options every generated function is compiled with (a division by zero gives inf or NaN, never raises).
+CFUNC_OPTIONS = {"cache": True, "error_model": "numpy"}
+
+# Slots of the layout array.
+LAYOUT_LINKS = 0  # n
+LAYOUT_UNKNOWNS = 1  # k
+LAYOUT_PINNED = 2  # 1 when the tip is pinned
+LAYOUT_TIP_ROW_X = 3  # row of A x = b that states the tip's x acceleration (pinned chains), else -1
+LAYOUT_TIP_ROW_Y = 4
+LAYOUT_SYMMETRIC = 5  # 1 when A is symmetric positive definite (Lagrange's mass matrix): solved by Cholesky
+LAYOUT_THETA_DDOT = 6  # n entries: where each angular acceleration sits in x
+
+# numba calls first-class functions "experimental"; the kernels rely on them by design (and tests cover them).
+warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)
+
+
+def make_layout(n: int, n_unknowns: int, pinned: bool, tip_rows, theta_ddot_index, symmetric: bool) -> np.ndarray:
+    """The int64 layout array the kernels read (slots above)."""
+    rows = tuple(tip_rows) if tip_rows is not None and len(tip_rows) else (-1, -1)
+    head = [
+        n,
+        n_unknowns,
+        int(bool(pinned)),
+        int(rows[0]),
+        int(rows[1]),
+        int(bool(symmetric)),
+    ]
+    return np.array(head + [int(i) for i in theta_ddot_index], dtype=np.int64)
+
+
+@intrinsic
+def data_pointer(typingctx, array):
+    """The address of a C-contiguous array's first element, as the pointer generated code takes.
+
+    Only C-contiguous arrays type-check: a strided view would hand generated code the wrong elements."""
+    if not isinstance(array, types.Array) or array.layout != "C":
+        return None
+    signature = types.CPointer(array.dtype)(array)
+
+    def codegen(context, builder, sig, args):
+        return context.make_array(array)(context, builder, args[0]).data
+
+    return signature, codegen

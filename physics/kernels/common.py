@@ -1,0 +1,114 @@
+"""Small helpers of every integrator: the ODE right-hand side through the mechanism's system, norms, checks."""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .abi import LAYOUT_LINKS
+from .constants import (
+    SINGULAR_PIVOT_RATIO,
+    STATUS_NOT_FINITE,
+    STATUS_OK,
+    STATUS_SINGULAR,
+)
+from .system import solve_accel
+
+
+@njit(cache=True, error_model="numpy")
+def ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """Fill ``dydt = [omega, theta_ddot]`` at state ``y``; return ``(status, condition)``.
+
+    ``theta, omega, theta_ddot`` are scratch arrays of shape ``(n,)``: accel always sees contiguous 1-D arrays.
+    """
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
+    condition = solve_accel(system, theta, omega, params, alpha, beta, theta_ddot)
+    finite = condition == condition
+    for i in range(n):
+        dydt[i] = omega[i]
+        dydt[n + i] = theta_ddot[i]
+        if not np.isfinite(theta_ddot[i]):
+            finite = False
+    if condition > SINGULAR_PIVOT_RATIO:
+        return STATUS_SINGULAR, condition
+    if not finite:
+        return STATUS_NOT_FINITE, condition
+    return STATUS_OK, condition
+
+
+@njit(cache=True, error_model="numpy")
+def sample_condition(system, y, params, alpha, beta, theta, omega, theta_ddot):
+    """Condition estimate of accel at state ``y`` (the value stored in ``cond_out``)."""
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
+    return solve_accel(system, theta, omega, params, alpha, beta, theta_ddot)
+
+
+@njit(cache=True, error_model="numpy")
+def all_finite(x):
+    for i in range(x.shape[0]):
+        if not np.isfinite(x[i]):
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def rms_norm(x):
+    """Root-mean-square norm, scipy's ``common.norm``."""
+    total = 0.0
+    for i in range(x.shape[0]):
+        total += x[i] * x[i]
+    return math.sqrt(total) / math.sqrt(x.shape[0])
+
+
+@njit(cache=True, error_model="numpy")
+def check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out):
+    """Programming errors only (the caller validates user input): wrong shapes or a backward interval."""
+    if not (t_end >= t0):
+        raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
+    n = layout[LAYOUT_LINKS]
+    if y0.shape[0] != 2 * n:
+        raise ValueError("y0 must have shape (2 n,) for the mechanism's n links")
+    if params.shape[0] < 4 * n + 3:
+        raise ValueError("params must have at least 4 n + 3 entries")
+    if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
+        raise ValueError("y_out must have shape (len(t_eval), 2 n)")
+    if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:
+        raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
+
+
+@njit(cache=True, error_model="numpy")
+def hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
+    """Cubic Hermite interpolant at fraction ``s`` of a step of length ``h``."""
+    s2 = s * s
+    s3 = s2 * s
+    h00 = 2 * s3 - 3 * s2 + 1
+    h10 = s3 - 2 * s2 + s
+    h01 = -2 * s3 + 3 * s2
+    h11 = s3 - s2
+    for j in range(y_old.shape[0]):
+        y_sample[j] = h00 * y_old[j] + h10 * h * f_old[j] + h01 * y_new[j] + h11 * h * f_new[j]
+
+
+@njit(cache=True, error_model="numpy")
+def initial_samples(y, t0, t_eval, condition, y_out, cond_out):
+    """Write the start state into every sample at or before ``t0``; returns the next sample's index."""
+    i_sample = 0
+    while i_sample < t_eval.shape[0] and t_eval[i_sample] <= t0:
+        y_out[i_sample, :] = y
+        if cond_out.shape[0]:
+            cond_out[i_sample] = condition
+        i_sample += 1
+    return i_sample
+
+
+@njit(cache=True, error_model="numpy")
+def fixed_steps(t0, t_end, h):
+    """``N = ceil((t_end - t0) / h)`` equal steps (so the step is at most ``h``): ``(N, step)``."""
+    n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))
+    return n_total, (t_end - t0) / n_total

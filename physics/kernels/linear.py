@@ -1,0 +1,202 @@
+"""Dense linear solves for the formulations' small systems, with a cheap singularity estimate.
+
+Every solve returns the ratio of the largest to the smallest pivot: it grows like 1/delta at a distance delta
+from a singular position, so it doubles as the detector that stops a run before its answers are noise.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Entries below this fraction of the largest are rounding noise (about 500 units in the last place).
+RELATIVE_NOISE = 1e-13
+
+
+@njit(cache=True, error_model="numpy")
+def lu_solve(A, b, x):
+    """Solve A x = b by Gaussian elimination with partial pivoting, overwriting A and b (the fast path).
+
+    Returns the ratio of the largest to the smallest pivot magnitude, infinite when a pivot vanishes.
+    """
+    k = A.shape[0]
+    largest = 0.0
+    smallest = np.inf
+    for col in range(k):
+        pivot_row = col
+        pivot_abs = abs(A[col, col])
+        for row in range(col + 1, k):
+            value = abs(A[row, col])
+            if value > pivot_abs:
+                pivot_abs = value
+                pivot_row = row
+        if pivot_abs == 0.0 or not np.isfinite(pivot_abs):
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        if pivot_row != col:
+            for j in range(col, k):
+                tmp = A[col, j]
+                A[col, j] = A[pivot_row, j]
+                A[pivot_row, j] = tmp
+            tmp = b[col]
+            b[col] = b[pivot_row]
+            b[pivot_row] = tmp
+        largest = max(largest, pivot_abs)
+        smallest = min(smallest, pivot_abs)
+        inv = 1.0 / A[col, col]
+        for row in range(col + 1, k):
+            factor = A[row, col] * inv
+            if factor != 0.0:
+                for j in range(col + 1, k):
+                    A[row, j] -= factor * A[col, j]
+                b[row] -= factor * b[col]
+    for i in range(k - 1, -1, -1):
+        acc = b[i]
+        for j in range(i + 1, k):
+            acc -= A[i, j] * x[j]
+        x[i] = acc / A[i, i]
+    return largest / smallest
+
+
+@njit(cache=True, error_model="numpy")
+def cholesky_solve(A, b, x):
+    """Solve A x = b for a symmetric positive definite A (its lower triangle is read), overwriting A.
+
+    Half the work of LU and no pivoting: Lagrange's mass matrix is SPD by construction (kinetic energy).
+    Returns the ratio of the largest to the smallest pivot of the LU factorisation it is equivalent to
+    (``L_ii^2``); infinite when A is not positive definite (a singular or wrongly signed matrix).
+    """
+    k = A.shape[0]
+    largest = 0.0
+    smallest = np.inf
+    for j in range(k):
+        total = A[j, j]
+        for p in range(j):
+            total -= A[j, p] * A[j, p]
+        if not total > 0.0 or not np.isfinite(total):
+            for i in range(k):
+                x[i] = np.nan
+            return np.inf
+        largest = max(largest, total)
+        smallest = min(smallest, total)
+        diagonal = math.sqrt(total)
+        A[j, j] = diagonal
+        inv = 1.0 / diagonal
+        for i in range(j + 1, k):
+            total = A[i, j]
+            for p in range(j):
+                total -= A[i, p] * A[j, p]
+            A[i, j] = total * inv
+    for i in range(k):
+        total = b[i]
+        for p in range(i):
+            total -= A[i, p] * x[p]
+        x[i] = total / A[i, i]
+    for i in range(k - 1, -1, -1):
+        total = x[i]
+        for p in range(i + 1, k):
+            total -= A[p, i] * x[p]
+        x[i] = total / A[i, i]
+    return largest / smallest
+
+
+@njit(cache=True, error_model="numpy")
+def equilibrate(A, b, col_scale):
+    """Scale the rows and columns of A x = b to unit largest entry, in place; ``x = col_scale * x_scaled``.
+
+    Returns False when a row or column is rounding noise next to the rest (cos(pi/2) = 6e-17 in a loop
+    constraint): scaling it up would hide a singular position behind a solvable matrix.
+    """
+    k = A.shape[0]
+    overall = 0.0
+    for row in range(k):
+        for j in range(k):
+            overall = max(overall, abs(A[row, j]))
+    if not (overall > 0.0 and np.isfinite(overall)):
+        return False
+    noise = RELATIVE_NOISE * overall
+    for row in range(k):
+        biggest = 0.0
+        for j in range(k):
+            biggest = max(biggest, abs(A[row, j]))
+        if biggest <= noise:
+            return False
+        if np.isfinite(biggest):
+            inv = 1.0 / biggest
+            for j in range(k):
+                A[row, j] *= inv
+            b[row] *= inv
+    for j in range(k):
+        biggest = 0.0
+        for row in range(k):
+            biggest = max(biggest, abs(A[row, j]))
+        if biggest <= RELATIVE_NOISE:  # rows are now of size 1
+            return False
+        col_scale[j] = 1.0 / biggest if np.isfinite(biggest) else 1.0
+        for row in range(k):
+            A[row, j] *= col_scale[j]
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def lu_solve_equilibrated(A, b, x, col_scale):
+    """Solve A x = b equilibrated (rows and columns scaled), then by pivoted LU; returns the pivot ratio of the
+    equilibrated matrix, so that a mere difference of scale (a very light tip, stiff mass ratios) does not look
+    like a singular position. Infinite when singular."""
+    if not equilibrate(A, b, col_scale):
+        for i in range(A.shape[0]):
+            x[i] = np.nan
+        return np.inf
+    ratio = lu_solve(A, b, x)
+    for i in range(A.shape[0]):
+        x[i] *= col_scale[i]
+    return ratio
+
+
+@njit(cache=True, error_model="numpy")
+def lu_factor(M, pivots):
+    """In-place LU factorisation with partial pivoting; False if a pivot is exactly zero."""
+    size = M.shape[0]
+    for k in range(size):
+        best = k
+        for i in range(k + 1, size):
+            if abs(M[i, k]) > abs(M[best, k]):
+                best = i
+        pivots[k] = best
+        if M[best, k] == 0.0:
+            return False
+        if best != k:
+            for j in range(size):
+                swap = M[k, j]
+                M[k, j] = M[best, j]
+                M[best, j] = swap
+        for i in range(k + 1, size):
+            M[i, k] /= M[k, k]
+            factor = M[i, k]
+            if factor != 0.0:
+                for j in range(k + 1, size):
+                    M[i, j] -= factor * M[k, j]
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def lu_factor_solve(M, pivots, rhs):
+    """Solve with the factors of lu_factor, overwriting ``rhs`` with the solution."""
+    size = M.shape[0]
+    for k in range(size):
+        p = pivots[k]
+        if p != k:
+            swap = rhs[k]
+            rhs[k] = rhs[p]
+            rhs[p] = swap
+    for i in range(size):
+        total = rhs[i]
+        for j in range(i):
+            total -= M[i, j] * rhs[j]
+        rhs[i] = total
+    for i in range(size - 1, -1, -1):
+        total = rhs[i]
+        for j in range(i + 1, size):
+            total -= M[i, j] * rhs[j]
+        rhs[i] = total / M[i, i]

@@ -1,0 +1,219 @@
+"""Fixed-step implicit midpoint rule in ``(theta, omega)``, and the helpers every fixed-step kernel shares."""
+
+import numpy as np
+from numba import njit
+
+from .common import (
+    check_arguments,
+    fixed_steps,
+    hermite_sample,
+    initial_samples,
+    ode_rhs,
+    sample_condition,
+)
+from .constants import (
+    FD_RELATIVE_STEP,
+    NEWTON_MAX_ITERATIONS,
+    NEWTON_TOLERANCE,
+    STATUS_NO_CONVERGENCE,
+    STATUS_NOT_FINITE,
+    STATUS_OK,
+)
+from .linear import lu_factor, lu_factor_solve
+from .projection import project_state
+from .system import is_pinned, make_system
+
+
+@njit(cache=True, error_model="numpy")
+def hermite_samples(
+    system,
+    i_sample,
+    t,
+    t_new,
+    y,
+    f,
+    y_next,
+    f_next,
+    t_eval,
+    params,
+    alpha,
+    beta,
+    project,
+    y_sample,
+    theta,
+    omega,
+    theta_ddot,
+    y_out,
+    cond_out,
+):
+    """Fill the samples in ``(t, t_new]`` from the cubic Hermite interpolant of a fixed step (projected onto the
+    loop when ``project``); returns the next sample's index."""
+    while i_sample < t_eval.shape[0] and t_eval[i_sample] <= t_new:
+        s = (t_eval[i_sample] - t) / (t_new - t)
+        hermite_sample(s, t_new - t, y, f, y_next, f_next, y_sample)
+        if project:
+            project_state(y_sample, params, theta, omega)
+        y_out[i_sample, :] = y_sample
+        if cond_out.shape[0]:
+            cond_out[i_sample] = sample_condition(system, y_sample, params, alpha, beta, theta, omega, theta_ddot)
+        i_sample += 1
+    return i_sample
+
+
+@njit(cache=True, error_model="numpy")
+def integrate_midpoint(
+    assemble,
+    layout,
+    y0,
+    t0,
+    t_end,
+    h,
+    t_eval,
+    params,
+    alpha,
+    beta,
+    project,
+    y_out,
+    cond_out,
+):
+    """Fixed-step implicit midpoint rule ``y1 = y0 + h f((y0 + y1) / 2)``: symmetric, order 2.
+
+    Applied to ``y = (theta, omega)`` it is symplectic only where ``omega`` is a constant multiple of the
+    momentum (a single bar); for a chain use integrate_variational, which steps ``(theta, p)``.
+
+    The interval is cut into ``N = ceil((t_end - t0) / h)`` equal steps (so the step is at most ``h``). Each step
+    is solved by simplified Newton with a forward-difference Jacobian of the right-hand side refreshed at the start
+    of the step, until every correction is below NEWTON_TOLERANCE relative. Samples come from the cubic Hermite
+    interpolant between steps. Arguments and return value as integrate_rk45 (STATUS_NO_CONVERGENCE if Newton
+    fails; n_rhs includes the Jacobian's evaluations).
+    """
+    check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
+    if not (h > 0.0 and h < np.inf):
+        raise ValueError("h must be positive and finite")
+    system = make_system(assemble, layout)
+    projecting = is_pinned(system) and project
+    n = y0.shape[0] // 2
+    n_state = y0.shape[0]
+    theta = np.empty(n)
+    omega = np.empty(n)
+    theta_ddot = np.empty(n)
+    y = y0.copy()
+    f = np.empty(n_state)
+    y_next = np.empty(n_state)
+    f_next = np.empty(n_state)
+    y_mid = np.empty(n_state)
+    f_mid = np.empty(n_state)
+    y_probe = np.empty(n_state)
+    f_probe = np.empty(n_state)
+    correction = np.empty(n_state)
+    newton_matrix = np.empty((n_state, n_state))
+    pivots = np.empty(n_state, dtype=np.int64)
+    y_out[:, :] = np.nan
+    cond_out[:] = np.nan
+
+    t = t0
+    n_steps = 0
+    n_rhs = 0
+    if projecting and not project_state(y, params, theta, omega):
+        return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
+    status, condition = ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    n_rhs += 1
+    if status != STATUS_OK:
+        return status, n_steps, n_rhs, t, 0
+    i_sample = initial_samples(y, t0, t_eval, condition, y_out, cond_out)
+    if t_end == t0:
+        return STATUS_OK, n_steps, n_rhs, t, i_sample
+    n_total, step = fixed_steps(t0, t_end, h)
+
+    for k in range(n_total):
+        t_new = t_end if k == n_total - 1 else t0 + (k + 1) * step
+        # Newton matrix I - (step/2) df/dy; df/dy = [[0, I], [d theta_ddot / d theta, d theta_ddot / d omega]].
+        for i in range(n_state):
+            for j in range(n_state):
+                newton_matrix[i, j] = 0.0
+            newton_matrix[i, i] = 1.0
+        for i in range(n):
+            newton_matrix[i, n + i] = -0.5 * step
+        for j in range(n_state):
+            for i in range(n_state):
+                y_probe[i] = y[i]
+            y_probe[j] = y[j] + FD_RELATIVE_STEP * max(1.0, abs(y[j]))
+            delta = y_probe[j] - y[j]
+            status, _ = ode_rhs(system, y_probe, params, alpha, beta, theta, omega, theta_ddot, f_probe)
+            n_rhs += 1
+            if status != STATUS_OK:
+                break
+            for i in range(n):
+                newton_matrix[n + i, j] -= 0.5 * step * (f_probe[n + i] - f[n + i]) / delta
+        if status != STATUS_OK:
+            break
+        if not lu_factor(newton_matrix, pivots):
+            status = STATUS_NO_CONVERGENCE
+            break
+        # Explicit Euler predictor, then y1 <- y1 - M^-1 (y1 - y0 - step f((y0 + y1)/2)).
+        for i in range(n_state):
+            y_next[i] = y[i] + step * f[i]
+        converged = False
+        for iteration in range(NEWTON_MAX_ITERATIONS):
+            for i in range(n_state):
+                y_mid[i] = 0.5 * (y[i] + y_next[i])
+            status, _ = ode_rhs(system, y_mid, params, alpha, beta, theta, omega, theta_ddot, f_mid)
+            n_rhs += 1
+            if status != STATUS_OK:
+                break
+            for i in range(n_state):
+                correction[i] = -(y_next[i] - y[i] - step * f_mid[i])
+            lu_factor_solve(newton_matrix, pivots, correction)
+            largest = 0.0
+            for i in range(n_state):
+                y_next[i] += correction[i]
+                relative = abs(correction[i]) / (1.0 + abs(y_next[i]))
+                if not relative <= largest:
+                    largest = relative
+            if not np.isfinite(largest):
+                status = STATUS_NOT_FINITE
+                break
+            if largest <= NEWTON_TOLERANCE:
+                converged = True
+                break
+        if status != STATUS_OK:
+            break
+        if not converged:
+            status = STATUS_NO_CONVERGENCE
+            break
+        if projecting and not project_state(y_next, params, theta, omega):
+            status = STATUS_NOT_FINITE
+            break
+        status, _ = ode_rhs(system, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
+        n_rhs += 1
+        if status != STATUS_OK:
+            break
+        n_steps += 1
+
+        i_sample = hermite_samples(
+            system,
+            i_sample,
+            t,
+            t_new,
+            y,
+            f,
+            y_next,
+            f_next,
+            t_eval,
+            params,
+            alpha,
+            beta,
+            projecting,
+            y_probe,
+            theta,
+            omega,
+            theta_ddot,
+            y_out,
+            cond_out,
+        )
+        for i in range(n_state):
+            y[i] = y_next[i]
+            f[i] = f_next[i]
+        t = t_new
+
+    return status, n_steps, n_rhs, t, i_sample
