@@ -5,9 +5,9 @@ One ``.py`` file per formulation, number of links and closure, in the private ca
 derivations and of the code generator, the kernels' binary contract, and the sympy, numba, numpy and Python
 versions), computed from the files themselves, so a stale entry is never picked up. Files are written under a
 temporary name and renamed; the last line holds a SHA-256 of the rest, so a truncated or edited file is
-detected and rebuilt, never trusted. The file holds only the mechanism's straight-line arithmetic; numba
-compiles it as C-callable functions on first use (cached under ``<cache>/numba/generated``, checked by
-:mod:`physics.kernels.disk_cache`), and the once-compiled kernels of :mod:`physics.kernels` call it.
+detected and rebuilt, never trusted. The file holds only the mechanism's layout and straight-line arithmetic
+as LLVM IR, compiled to machine code in the loading process on first use (:mod:`physics.codegen.native`,
+a fraction of a second); the once-compiled kernels of :mod:`physics.kernels` call it through its address.
 sympy is imported only on a miss.
 """
 
@@ -25,12 +25,11 @@ from importlib import metadata
 from pathlib import Path
 
 import numpy as np
-from numba import cfunc
-
 from ..cache_folder import cache_dir, warn
 from ..errors import LinkageError
 from ..kernels import batch, disk_cache, explicit_rk, midpoint, projection, system, variational
-from ..kernels.abi import ASSEMBLE_SIGNATURE, CFUNC_OPTIONS, MASS_AND_FORCE_SIGNATURE, make_layout
+from ..kernels.abi import make_layout
+from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
@@ -79,8 +78,8 @@ def _c(array) -> np.ndarray:
 class CompiledSystem:
     """A mechanism's generated functions and layout, and every numeric operation on them.
 
-    The generated functions are compiled on first use (``assemble``, and ``mass_and_force`` only when the
-    variational integrator asks); all loops run in the once-compiled kernels of :mod:`physics.kernels`."""
+    The generated IR is compiled to machine code on first use; all loops run in the once-compiled kernels of
+    :mod:`physics.kernels`, which call it through its address."""
 
     formulation: str
     n: int
@@ -123,27 +122,24 @@ class CompiledSystem:
         return self._functions["layout"]
 
     # ---------------------------------------------------------------- compiled functions (lazy)
-    def _compiled(self, name: str, signature):
+    def _native(self, name: str):
         with self._lock:
-            if name not in self._functions:
+            if "native" not in self._functions:
                 start = time.perf_counter()
-                folder = disk_cache.numba_folder() / "generated"
-                disk_cache.verify(folder, self.path.stem + ".")
-                self._functions[name] = cfunc(signature, **CFUNC_OPTIONS)(getattr(self.module, name))
-                disk_cache.seal(folder, self.path.stem + ".")
+                self._functions["native"] = NativeModule(self.module.LLVM_IR)
                 self.build_seconds += time.perf_counter() - start
-            return self._functions[name]
+            return self._functions["native"].addresses[name]
 
     @property
     def assemble_function(self):
-        """The generated ``assemble`` as a C-callable numba function (the kernels' first argument)."""
-        return self._compiled("assemble", ASSEMBLE_SIGNATURE)
+        """The address of the generated ``assemble``'s machine code (the kernels' first argument)."""
+        return self._native("assemble")
 
     @property
     def mass_and_force_function(self):
         if not self.has_lagrangian:
             raise LinkageError(f"the variational integrator needs the Lagrange method, not {self.formulation}")
-        return self._compiled("mass_and_force", MASS_AND_FORCE_SIGNATURE)
+        return self._native("mass_and_force")
 
     # ---------------------------------------------------------------- one state, or a batch of states
     def accel_batch(self, theta, omega, params, alpha=0.0, beta=0.0):

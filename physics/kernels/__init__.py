@@ -1,8 +1,8 @@
 """Integration kernels compiled once per installation, for every mechanism.
 
-Each kernel takes the mechanism's generated ``assemble`` (and, for the variational integrator, its
-``mass_and_force``) as a numba first-class function plus the mechanism's ``layout`` array
-(:mod:`physics.kernels.abi`), so numba compiles RK45, DOP853, the implicit midpoint rule, the variational
+Each kernel takes the address of the mechanism's generated ``assemble`` (and, for the variational integrator,
+its ``mass_and_force``) as an integer, plus the mechanism's ``layout`` array (:mod:`physics.kernels.abi`), so
+numba compiles RK45, DOP853, the implicit midpoint rule, the variational
 integrator, projection and the batch RK4 step once and caches them; a new mechanism compiles only its own
 straight-line code. Everything is plain arrays and scalars with numba's ``error_model="numpy"`` (a division by
 zero gives inf or NaN, which the status reports, never an exception).

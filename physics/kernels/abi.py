@@ -1,10 +1,10 @@
 """The binary contract between generated code and the once-compiled kernels.
 
-Generated code is straight-line arithmetic, one function per mechanism, compiled by numba as a C-callable
-function (``numba.cfunc``) that takes raw pointers to float64 arrays. The integration kernels
-(``physics.simulate.kernels``) are compiled once per installation with arguments of numba's first-class
-function type: they call whatever generated function they are handed through its address, so a new mechanism
-costs only the compilation of its own few functions, never the integrators again.
+Generated code is straight-line arithmetic, one function per mechanism, compiled to machine code with the C
+calling convention (``physics.codegen.native``) and taking raw pointers to float64 arrays. The integration
+kernels (:mod:`physics.kernels`) are compiled once with the function's *address* as a plain integer argument and
+call it through :func:`call_native`, so a new mechanism costs only the compilation of its own few functions,
+never the integrators again, and a call from Python passes an int (numba's fastest argument type).
 
 * ``assemble(theta, omega, params, A, b)``: fills ``A`` (k x k, row-major, zeroed by the caller) and all of
   ``b`` (k,) of ``A x = b`` at one state. ``params`` is the layout of docs/architecture.md.
@@ -17,18 +17,14 @@ angular accelerations and the tip constraint's rows sit in ``x``.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
+from llvmlite import ir
 from numba import types
-from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.extending import intrinsic
 
 _POINTER = types.CPointer(types.float64)
 ASSEMBLE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
 MASS_AND_FORCE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
-# numba options every generated function is compiled with (a division by zero gives inf or NaN, never raises).
-CFUNC_OPTIONS = {"cache": True, "error_model": "numpy"}
 
 # Slots of the layout array.
 LAYOUT_LINKS = 0  # n
@@ -38,10 +34,6 @@ LAYOUT_TIP_ROW_X = 3  # row of A x = b that states the tip's x acceleration (pin
 LAYOUT_TIP_ROW_Y = 4
 LAYOUT_SYMMETRIC = 5  # 1 when A is symmetric positive definite (Lagrange's mass matrix): solved by Cholesky
 LAYOUT_THETA_DDOT = 6  # n entries: where each angular acceleration sits in x
-
-# numba calls first-class functions "experimental"; the kernels rely on them by design (and tests cover them).
-warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)
-
 
 def make_layout(n: int, n_unknowns: int, pinned: bool, tip_rows, theta_ddot_index, symmetric: bool) -> np.ndarray:
     """The int64 layout array the kernels read (slots above)."""
@@ -68,5 +60,26 @@ def data_pointer(typingctx, array):
 
     def codegen(context, builder, sig, args):
         return context.make_array(array)(context, builder, args[0]).data
+
+    return signature, codegen
+
+
+@intrinsic
+def call_native(typingctx, address, theta, omega, params, matrix, vector):
+    """Call the generated function at ``address`` (an integer) with five float64 pointers.
+
+    Both generated functions share this signature (``assemble`` and ``mass_and_force``). The address must come
+    from :mod:`physics.codegen.native` (or a ``numba.cfunc`` of the same signature, in tests): it is trusted."""
+    pointer = types.CPointer(types.float64)
+    if not isinstance(address, types.Integer) or any(arg != pointer for arg in (theta, omega, params, matrix, vector)):
+        return None
+    signature = types.void(address, pointer, pointer, pointer, pointer, pointer)
+
+    def codegen(context, builder, sig, args):
+        double_pointer = ir.DoubleType().as_pointer()
+        function_type = ir.FunctionType(ir.VoidType(), [double_pointer] * 5)
+        function = builder.inttoptr(args[0], function_type.as_pointer())
+        builder.call(function, args[1:])
+        return context.get_dummy_value()
 
     return signature, codegen

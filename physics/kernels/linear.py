@@ -60,44 +60,43 @@ def lu_solve(A, b, x):
 
 
 @njit(cache=True, error_model="numpy")
-def cholesky_solve(A, b, x):
-    """Solve A x = b for a symmetric positive definite A (its lower triangle is read), overwriting A.
+def ldlt_solve(A, b, x):
+    """Solve A x = b for a symmetric positive definite A by A = L D L^T (its lower triangle is read; overwritten).
 
-    Half the work of LU and no pivoting: Lagrange's mass matrix is SPD by construction (kinetic energy).
-    Returns the ratio of the largest to the smallest pivot of the LU factorisation it is equivalent to
-    (``L_ii^2``); infinite when A is not positive definite (a singular or wrongly signed matrix).
+    Half the work of LU, no pivoting and no square roots: Lagrange's mass matrix is SPD by construction (kinetic
+    energy). Returns the ratio of the largest to the smallest entry of D, which are the pivots of the LU
+    factorisation without pivoting; infinite when A is not positive definite (singular, or wrongly signed).
     """
     k = A.shape[0]
     largest = 0.0
     smallest = np.inf
     for j in range(k):
-        total = A[j, j]
+        pivot = A[j, j]
         for p in range(j):
-            total -= A[j, p] * A[j, p]
-        if not total > 0.0 or not np.isfinite(total):
+            pivot -= A[j, p] * A[j, p] * A[p, p]
+        if not pivot > 0.0 or not np.isfinite(pivot):
             for i in range(k):
                 x[i] = np.nan
             return np.inf
-        largest = max(largest, total)
-        smallest = min(smallest, total)
-        diagonal = math.sqrt(total)
-        A[j, j] = diagonal
-        inv = 1.0 / diagonal
+        largest = max(largest, pivot)
+        smallest = min(smallest, pivot)
+        A[j, j] = pivot
+        inv = 1.0 / pivot
         for i in range(j + 1, k):
             total = A[i, j]
             for p in range(j):
-                total -= A[i, p] * A[j, p]
+                total -= A[i, p] * A[j, p] * A[p, p]
             A[i, j] = total * inv
     for i in range(k):
         total = b[i]
         for p in range(i):
             total -= A[i, p] * x[p]
-        x[i] = total / A[i, i]
+        x[i] = total
     for i in range(k - 1, -1, -1):
-        total = x[i]
+        total = x[i] / A[i, i]
         for p in range(i + 1, k):
             total -= A[p, i] * x[p]
-        x[i] = total / A[i, i]
+        x[i] = total
     return largest / smallest
 
 

@@ -1,9 +1,9 @@
 """A mechanism's equations ``A x = b`` solved through its generated ``assemble``: the one right-hand side of
 every integrator, and the batched entry points Python calls (accelerations, reactions, matrices).
 
-A *system* is the tuple ``(assemble, layout, A, b, x, col_scale)``: the generated function (a numba
-first-class function, see :mod:`physics.kernels.abi`), the mechanism's layout array and the scratch arrays
-the solve reuses, allocated once per integration instead of once per call.
+A *system* is the tuple ``(assemble, layout, A, b, x, col_scale)``: the address of the generated function (see
+:mod:`physics.kernels.abi`), the mechanism's layout array and the scratch arrays the solve reuses, allocated
+once per integration instead of once per call.
 """
 
 import math
@@ -19,9 +19,10 @@ from .abi import (
     LAYOUT_TIP_ROW_X,
     LAYOUT_TIP_ROW_Y,
     LAYOUT_UNKNOWNS,
+    call_native,
     data_pointer,
 )
-from .linear import cholesky_solve, lu_solve, lu_solve_equilibrated
+from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
 RESCALE_ABOVE = 1e4
@@ -34,25 +35,20 @@ def make_system(assemble, layout):
     return (assemble, layout, np.zeros((k, k)), np.zeros(k), np.zeros(k), np.ones(k))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def is_pinned(system):
     return system[1][LAYOUT_PINNED] != 0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def assemble_into(system, theta, omega, params, alpha, beta):
     """``A`` and ``b`` of the system at one state, with Baumgarte terms on a pinned chain's tip rows.
 
     ``theta``, ``omega``, ``params`` must be C-contiguous (the generated code reads them through pointers)."""
     assemble, layout, A, b, x, col_scale = system
     A[:, :] = 0.0
-    assemble(
-        data_pointer(theta),
-        data_pointer(omega),
-        data_pointer(params),
-        data_pointer(A),
-        data_pointer(b),
-    )
+    call_native(assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A),
+                data_pointer(b))
     if layout[LAYOUT_PINNED] != 0 and (alpha != 0.0 or beta != 0.0):
         n = layout[LAYOUT_LINKS]
         tip_x = 0.0
@@ -90,11 +86,11 @@ def loop_ratio(theta, params):
     return math.sqrt((half_trace + gap) / smallest)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def solve_system(system, theta, omega, params, alpha, beta):
     """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
 
-    The fast path is Cholesky for a symmetric positive definite matrix (Lagrange's mass matrix), a pivoted LU
+    The fast path is L D L^T for a symmetric positive definite matrix (Lagrange's mass matrix), a pivoted LU
     otherwise; only when its pivot ratio looks singular is the system rebuilt and solved again equilibrated,
     so that a mere difference of scale (a very light tip, a stiff mass ratio) is not mistaken for a singular
     position. A closed chain's geometric singularity (all links lined up) is judged on the loop Jacobian.
@@ -102,7 +98,7 @@ def solve_system(system, theta, omega, params, alpha, beta):
     assemble, layout, A, b, x, col_scale = system
     assemble_into(system, theta, omega, params, alpha, beta)
     if layout[LAYOUT_SYMMETRIC] != 0:
-        ratio = cholesky_solve(A, b, x)
+        ratio = ldlt_solve(A, b, x)
     else:
         ratio = lu_solve(A, b, x)
     if not ratio <= RESCALE_ABOVE:
@@ -113,7 +109,7 @@ def solve_system(system, theta, omega, params, alpha, beta):
     return ratio
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
     """Angular accelerations (n,) at one state; returns the condition estimate."""
     ratio = solve_system(system, theta, omega, params, alpha, beta)
@@ -185,13 +181,8 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
 def lagrangian_pieces(mass_and_force, theta, omega, params, M, force):
     """The generated Lagrangian's mass matrix ``M`` (n, n) and force (n,) at one state (C-contiguous arrays)."""
     M[:, :] = 0.0
-    mass_and_force(
-        data_pointer(theta),
-        data_pointer(omega),
-        data_pointer(params),
-        data_pointer(M),
-        data_pointer(force),
-    )
+    call_native(mass_and_force, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(M),
+                data_pointer(force))
 
 
 @njit(cache=True, error_model="numpy")

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..codegen import load_compiled
 from ..errors import LinkageError
+from ..kernels.observables import chain_observables
 from ..kinematics import joint_positions
 from ..model import Chain, Settings, TracePoint, check_state
 from .trajectory import (
@@ -231,31 +232,19 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     condition estimate together, so the integrator need not evaluate either at the samples.
     """
     n = chain.n
-    theta, omega = y[:, :n], y[:, n:]
+    theta, omega = np.ascontiguousarray(y[:, :n]), np.ascontiguousarray(y[:, n:])
     L, d, m, I = (chain.array(f) for f in "LdmI")
     samples = len(t)
-    sin, cos = np.sin(theta), np.cos(theta)
-    joints = np.zeros((samples, n + 1, 2))
-    joints[:, 1:, 0] = np.cumsum(L * sin, axis=1)
-    joints[:, 1:, 1] = np.cumsum(-L * cos, axis=1)
     trace = settings.trace or TracePoint(bar=n, along=float(L[-1]))
     if trace.bar > n:
         raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {n}")
-    k = trace.bar - 1
-    trace_xy = np.stack(
-        [
-            joints[:, k, 0] + trace.along * sin[:, k] - trace.across * -cos[:, k],
-            joints[:, k, 1] - trace.along * cos[:, k] + trace.across * sin[:, k],
-        ],
-        axis=-1,
-    )
-    # centre-of-mass heights and velocities: the proximal joint plus d along the bar
-    com_y = joints[:, :-1, 1] - d * cos
-    lever_x, lever_y = L * cos * omega, L * sin * omega
-    com_vx = np.cumsum(lever_x, axis=1) - lever_x + d * cos * omega
-    com_vy = np.cumsum(lever_y, axis=1) - lever_y + d * sin * omega
-    kinetic = 0.5 * np.sum(m * (com_vx**2 + com_vy**2) + I * omega**2, axis=1)
-    potential = np.sum(m * chain.g * com_y, axis=1)
+    joints = np.empty((samples, n + 1, 2))
+    trace_xy = np.empty((samples, 2))
+    kinetic = np.empty(samples)
+    potential = np.empty(samples)
+    tip_velocity = np.empty((samples, 2))
+    chain_observables(theta, omega, L, d, m, I, float(chain.g), trace.bar - 1, float(trace.along),
+                      float(trace.across), joints, trace_xy, kinetic, potential, tip_velocity)
     energy = kinetic + potential
 
     reactions = np.zeros((samples, len(compiled.reaction_index), 2))
@@ -274,7 +263,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
         cond = np.zeros(0)
     if chain.pinned:
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = np.stack([np.sum(lever_x, axis=1), np.sum(lever_y, axis=1)], axis=-1)
+        constraint_velocity = tip_velocity
         if samples:
             # Near a singular position the pivot ratio understates the trouble: report the true 2-norm
             # condition number of the system actually solved.

@@ -70,7 +70,7 @@ def test_corrupted_entry_is_rebuilt(tmp_path):
     first = _probe(env)
     path = Path(first["path"])
     # an edit that still parses as Python (a wrong number) must not be trusted either
-    text = path.read_text().replace("A[0] = ", "A[0] = 2.0*", 1)
+    text = path.read_text().replace("fmul double", "fadd double", 1)
     path.write_text(text)
     again = _probe(env)
     assert again["from_cache"] is False

@@ -1,7 +1,7 @@
 """The once-compiled integration kernels (physics.kernels) on their own, against scipy and known behaviour.
 
-The kernels take a mechanism's ``assemble`` (the generated code's contract, physics/kernels/abi.py) as a numba
-first-class function. Here each test system is a hand-written ``assemble`` (equations written out below,
+The kernels take the address of a mechanism's ``assemble`` (the generated code's contract,
+physics/kernels/abi.py). Here each test system is a hand-written ``assemble`` (equations written out below,
 independent of the project's derivations), compiled with ``numba.cfunc`` and handed to the same kernels that
 every generated mechanism uses.
 """
@@ -90,7 +90,8 @@ class Toy:
     def __init__(self, assemble, n, k, pinned=False, tip_rows=None):
         self.N_LINKS = n
         self.RK4_WORK_ROWS = RK4_WORK_ROWS
-        self.assemble = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(assemble)
+        self._compiled = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(assemble)  # keeps the code alive
+        self.assemble = self._compiled.address
         self.layout = make_layout(n, k, pinned, tip_rows, range(n), symmetric=False)
 
     def accel(self, theta, omega, params):
