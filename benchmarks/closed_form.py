@@ -399,10 +399,12 @@ def _summary(samples: list[float]) -> dict:
     }
 
 
-def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True) -> dict:
+def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
+                methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae")) -> dict:
     """Seed case C end to end (arrays in, sampled ``(t, y)`` out) after a warm-up call: timings, step counts and
-    the tip check against ``physics.simulate``. ``include_physics``: also time ``physics.simulate`` (Lagrange,
-    compiled RK45, same settings) interleaved with the anchor, and report the ratio."""
+    the tip check against ``physics.simulate``. ``include_physics``: also time ``physics.simulate`` (compiled
+    RK45, same settings) for each of ``methods``, interleaved with the anchor in a rotating order, and report
+    each ratio."""
     import physics
 
     preset = physics.get_preset(CASE_C_PRESET)
@@ -410,28 +412,29 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True) ->
     params = chain.params()
     theta0, omega0 = np.array(preset.theta0, dtype=float), np.array(preset.omega0, dtype=float)
     n = chain.n
-    settings = physics.Settings(
-        method="lagrange", integrator="RK45", rtol=CASE_C_RTOL, atol=CASE_C_ATOL, t_end=CASE_C_T_END,
-        samples=CASE_C_SAMPLES,
-    )
+
+    def settings(method):
+        return physics.Settings(method=method, integrator="RK45", rtol=CASE_C_RTOL, atol=CASE_C_ATOL,
+                                t_end=CASE_C_T_END, samples=CASE_C_SAMPLES)
 
     def run_closed_form():
         return simulate_closed_form(params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
 
-    def run_physics():
-        return physics.simulate(chain, theta0, omega0, settings)
-
-    run_closed_form()  # warm-up: numba loads (or compiles) the kernel
-    ours = run_physics()
+    runners = {"closed_form": run_closed_form}
+    if include_physics:
+        for method in methods:
+            runners[method] = (lambda m=settings(method): physics.simulate(chain, theta0, omega0, m))
+    for call in runners.values():  # warm-up: numba loads (or compiles) every kernel
+        call()
+    ours = physics.simulate(chain, theta0, omega0, settings("lagrange"))
     t, y, n_steps, n_rhs = _run(params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
 
-    closed_times, physics_times = [], []
+    times: dict = {name: [] for name in runners}
+    names = list(runners)
     for round_index in range(repeats):
-        order = (run_closed_form, run_physics) if round_index % 2 == 0 else (run_physics, run_closed_form)
-        for call in order:
-            if call is run_physics and not include_physics:
-                continue
-            (closed_times if call is run_closed_form else physics_times).append(_time_once(call))
+        shift = round_index % len(names)
+        for name in names[shift:] + names[:shift]:
+            times[name].append(_time_once(runners[name]))
 
     tip_closed = tip_xy(params[:n], y[:, :n])
     tip_difference = np.max(np.abs(tip_closed - ours.tip_xy), axis=1)
@@ -443,7 +446,7 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True) ->
         "settings": {"integrator": "RK45", "rtol": CASE_C_RTOL, "atol": CASE_C_ATOL, "t_end": CASE_C_T_END,
                      "samples": CASE_C_SAMPLES},
         "repeats": repeats,
-        "closed_form": _summary(closed_times),
+        "closed_form": _summary(times["closed_form"]),
         "closed_form_n_steps": n_steps,
         "closed_form_n_rhs": n_rhs,
         "physics_n_steps": int(ours.n_steps),
@@ -455,10 +458,9 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True) ->
         "agree": max_difference_window < TIP_AGREEMENT,
     }
     if include_physics:
-        result["physics_simulate"] = _summary(physics_times)
-        result["physics_over_closed_form"] = (
-            result["physics_simulate"]["median_s"] / result["closed_form"]["median_s"]
-        )
+        closed = result["closed_form"]["median_s"]
+        result["physics_simulate"] = {m: _summary(times[m]) for m in methods}
+        result["physics_over_closed_form"] = {m: result["physics_simulate"][m]["median_s"] / closed for m in methods}
     return result
 
 

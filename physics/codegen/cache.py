@@ -116,8 +116,9 @@ class CompiledSystem:
     def layout(self) -> np.ndarray:
         if "layout" not in self._functions:
             m = self.module
+            solve = self._native("solve") if m.STRUCTURED else 0
             self._functions["layout"] = make_layout(
-                m.N_LINKS, m.N_UNKNOWNS, m.PINNED, m.TIP_ROWS, m.THETA_DDOT_INDEX, m.SYMMETRIC
+                m.N_LINKS, m.N_UNKNOWNS, m.PINNED, m.TIP_ROWS, m.THETA_DDOT_INDEX, m.SYMMETRIC, solve
             )
         return self._functions["layout"]
 

@@ -38,6 +38,9 @@ def emit_module(system: LinearSystem, header: str) -> str:
                   if system.mass_matrix[i, j] != 0]
         pieces += [(("v", i), system.lagrangian_force[i]) for i in range(n)]
         functions.append(llvm_ir.function_ir("mass_and_force", s, pieces, n, "M", "force"))
+    order = llvm_ir.elimination_order(system.A)
+    if order is not None:
+        functions.append(llvm_ir.structured_solve_ir(system.A, order))
 
     lines = []
     lines.append(header.rstrip() + "\n")
@@ -53,10 +56,14 @@ def emit_module(system: LinearSystem, header: str) -> str:
     # Lagrange's open-chain matrix is the mass matrix itself: symmetric positive definite, solved by Cholesky.
     symmetric = system.mass_matrix is not None and not system.pinned and system.A.is_symmetric(simplify=False)
     lines.append(f"SYMMETRIC = {bool(symmetric)}")
+    lines.append(f"STRUCTURED = {order is not None}  # a generated solve for the sparse A (elimination order below)")
+    if order is not None:
+        lines.append(f"ELIMINATION_ORDER = {[list(pair) for pair in order]}")
     lines.append("")
     lines.append("# assemble(theta, omega, params, A, b): A (k x k, row-major, zeroed by the caller) and b (k,) of")
     lines.append("# A x = b at one state; mass_and_force(theta, omega, params, M, force): the Lagrangian's mass matrix")
-    lines.append("# (n x n) and force dL/dtheta + Q (n,). Straight-line IEEE arithmetic, common subexpressions hoisted.")
+    lines.append("# (n x n) and force dL/dtheta + Q (n,); solve(A, b, x) for a sparse A (returns the pivot ratio).")
+    lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")
     lines.append('LLVM_IR = """')
     lines.append(llvm_ir.module_ir(functions).rstrip("\n"))
     lines.append('"""')

@@ -19,6 +19,9 @@ _DECLARATIONS = (
     "declare double @llvm.cos.f64(double)\n"
     "declare double @llvm.sqrt.f64(double)\n"
     "declare double @llvm.pow.f64(double, double)\n"
+    "declare double @llvm.fabs.f64(double)\n"
+    "declare double @llvm.maxnum.f64(double, double)\n"
+    "declare double @llvm.minnum.f64(double, double)\n"
 )
 
 
@@ -137,3 +140,98 @@ def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vect
 
 def module_ir(functions: list[str]) -> str:
     return _DECLARATIONS + "\n" + "\n\n".join(functions) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# A sparse system solved in a fixed order: Gaussian elimination unrolled over the structural non-zeros only
+# ---------------------------------------------------------------------------------------------------------------
+
+
+def elimination_order(A) -> list[tuple[int, int]] | None:
+    """A pivot sequence ``[(row, col), ...]`` for the symbolic matrix ``A``, or None when A is too dense to gain.
+
+    Markowitz's rule on the structure (the fewest fill-ins first), preferring pivots that cannot vanish: an
+    entry of the original matrix made of parameters and numbers only (a mass, an inertia, 1), never one holding
+    a sine or a cosine of the state. Fill-in entries count as possibly vanishing. The kernels check every solve
+    by its pivot ratio and fall back to a pivoted dense solve when a pivot turns out small."""
+    k = A.shape[0]
+    structure = {(i, j) for i in range(k) for j in range(k) if A[i, j] != 0}
+    if k < 6 or len(structure) > 0.4 * k * k:
+        return None
+    safe = {(i, j) for (i, j) in structure if not A[i, j].has(sp.sin, sp.cos)}
+    rows, cols = set(range(k)), set(range(k))
+    order = []
+    while rows:
+        best = None
+        for (i, j) in structure:
+            if i not in rows or j not in cols:
+                continue
+            row_count = sum(1 for (r, c) in structure if r == i and c in cols)
+            col_count = sum(1 for (r, c) in structure if c == j and r in rows)
+            key = ((i, j) not in safe, (row_count - 1) * (col_count - 1), i, j)
+            if best is None or key < best[0]:
+                best = (key, i, j)
+        if best is None:
+            return None  # structurally singular
+        _, pivot_row, pivot_col = best
+        order.append((pivot_row, pivot_col))
+        pivot_cols = [c for (r, c) in structure if r == pivot_row and c in cols and c != pivot_col]
+        for (r, c) in list(structure):
+            if c == pivot_col and r in rows and r != pivot_row:
+                for j in pivot_cols:
+                    if (r, j) not in structure:
+                        structure.add((r, j))  # fill-in
+        rows.discard(pivot_row)
+        cols.discard(pivot_col)
+    return order
+
+
+def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
+    """IR of ``double solve(double* A, double* b, double* x)``: Gaussian elimination of ``A x = b`` in the
+    fixed ``order``, unrolled over the structural non-zeros of the symbolic ``A`` (row-major, k x k). Returns
+    the ratio of the largest to the smallest pivot magnitude (inf when a pivot is zero); A and b are read only."""
+    k = A.shape[0]
+    function = _Function("solve", ())
+    function.lines = ["define double @solve(double* noalias %A, double* noalias %b, double* noalias %x) {", "entry:"]
+    entry = {}
+    for i in range(k):
+        for j in range(k):
+            if A[i, j] != 0:
+                entry[(i, j)] = function.load("A", i * k + j)
+    rhs = {i: function.load("b", i) for i in range(k)}
+    rows, cols = set(range(k)), set(range(k))
+    pivots = []  # (row, col, inverse, [(col, value) of the pivot row's remaining entries])
+    largest, smallest = _constant(0.0), _constant(float("inf"))
+    for pivot_row, pivot_col in order:
+        pivot = entry[(pivot_row, pivot_col)]
+        magnitude = function.emit(f"call double @llvm.fabs.f64(double {pivot})")
+        largest = function.emit(f"call double @llvm.maxnum.f64(double {largest}, double {magnitude})")
+        smallest = function.emit(f"call double @llvm.minnum.f64(double {smallest}, double {magnitude})")
+        inverse = function.emit(f"fdiv double {_constant(1.0)}, {pivot}")
+        remaining = [(c, entry[(pivot_row, c)]) for c in sorted(cols) if c != pivot_col and (pivot_row, c) in entry]
+        rows.discard(pivot_row)
+        cols.discard(pivot_col)
+        for r in sorted(rows):
+            if (r, pivot_col) not in entry:
+                continue
+            factor = function.emit(f"fmul double {entry.pop((r, pivot_col))}, {inverse}")
+            for c, value in remaining:
+                product = function.emit(f"fmul double {factor}, {value}")
+                if (r, c) in entry:
+                    entry[(r, c)] = function.emit(f"fsub double {entry[(r, c)]}, {product}")
+                else:
+                    entry[(r, c)] = function.emit(f"fneg double {product}")
+            product = function.emit(f"fmul double {factor}, {rhs[pivot_row]}")
+            rhs[r] = function.emit(f"fsub double {rhs[r]}, {product}")
+        pivots.append((pivot_row, pivot_col, inverse, remaining))
+    solution = {}
+    for pivot_row, pivot_col, inverse, remaining in reversed(pivots):
+        total = rhs[pivot_row]
+        for c, value in remaining:
+            product = function.emit(f"fmul double {value}, {solution[c]}")
+            total = function.emit(f"fsub double {total}, {product}")
+        solution[pivot_col] = function.emit(f"fmul double {total}, {inverse}")
+    for j in range(k):
+        function.store("x", j, solution[j])
+    ratio = function.emit(f"fdiv double {largest}, {smallest}")
+    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])

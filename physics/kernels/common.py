@@ -15,7 +15,7 @@ from .constants import (
 from .system import solve_accel
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     """Fill ``dydt = [omega, theta_ddot]`` at state ``y``; return ``(status, condition)``.
 

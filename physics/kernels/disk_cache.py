@@ -7,9 +7,11 @@ author's code. So, for the functions of this package and of the generated module
 
 * a cache locator puts their files under ``<cache folder>/numba/`` (the folder :mod:`physics.cache_folder`
   has checked to be private), whatever folder the package is installed in;
-* each file gets a ``.sha256`` sidecar once it is known to be complete; before numba reads a group of files,
-  :func:`verify` checks every sidecar (and, for a file that has none yet, walks its pickle opcodes without
-  executing them). A file that fails is removed with one line on stderr, and numba compiles afresh.
+* each file gets a ``.sha256`` sidecar once it is known to be complete (its digest, size and modification time);
+  before numba reads a group of files, :func:`verify` checks every sidecar: a file whose size and time are
+  unchanged is taken as recorded (one ``stat``, as git's index does), any other is hashed again; a file without a
+  sidecar must at least be a complete pickle (its opcodes walked without executing them). A file that fails is
+  removed with one line on stderr, and numba compiles afresh.
 
 numba writes its files under a temporary name and renames them, so a killed process leaves at most a stray
 ``*.tmp.*`` file, which is never read; stale ones are removed.
@@ -22,15 +24,18 @@ import hashlib
 import os
 import pickle
 import pickletools
+import shutil
 import threading
 import time
 from pathlib import Path
 
+import numba
 from numba.core import caching
 
 from ..cache_folder import cache_dir, warn
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+_KERNELS = Path(__file__).resolve().parent
 SIDECAR = ".sha256"
 STALE_TEMPORARY_SECONDS = 3600.0
 _lock = threading.Lock()
@@ -41,6 +46,25 @@ def numba_folder() -> Path:
     return cache_dir() / "numba"
 
 
+def _kernels_digest() -> str:
+    """Digest of every source file of the kernels and of numba's version. numba keys each cached function by
+    its own file alone, so a kernel whose callee in another file changed would load stale machine code: one
+    folder per digest of the whole package rules that out."""
+    h = hashlib.sha256()
+    for path in sorted(_KERNELS.glob("*.py")):
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    h.update(numba.__version__.encode())
+    return h.hexdigest()[:16]
+
+
+KERNELS_DIGEST = _kernels_digest()
+
+
+def kernels_folder() -> Path:
+    return numba_folder() / f"kernels-{KERNELS_DIGEST}"
+
+
 class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
     """numba cache locator for this package's files and the generated modules: ``<cache folder>/numba/...``."""
 
@@ -48,10 +72,10 @@ class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
         source = Path(py_file).resolve()
-        if source.is_relative_to(_PACKAGE_ROOT):
-            self._cache_path = str(numba_folder() / source.parent.relative_to(_PACKAGE_ROOT.parent))
+        if source.is_relative_to(_KERNELS):
+            self._cache_path = str(kernels_folder())
         else:
-            self._cache_path = str(numba_folder() / "generated")
+            self._cache_path = str(numba_folder() / source.parent.name)
 
     def get_cache_path(self):
         return self._cache_path
@@ -83,6 +107,24 @@ def install_locator() -> None:
 
 def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _record(path: Path) -> str:
+    """The sidecar's text: digest, size and modification time (ns) of ``path``."""
+    info = path.stat()
+    return f"{_digest(path)} {info.st_size} {info.st_mtime_ns}"
+
+
+def _matches(path: Path, sidecar: Path) -> bool:
+    """Whether ``path`` is still the file its sidecar recorded (a stat when nothing changed, else a hash)."""
+    fields = sidecar.read_text().split()
+    if len(fields) != 3:  # an older sidecar held the digest alone
+        return bool(fields) and _digest(path) == fields[0]
+    digest, size, mtime_ns = fields
+    info = path.stat()
+    if str(info.st_size) == size and str(info.st_mtime_ns) == mtime_ns:
+        return True
+    return _digest(path) == digest
 
 
 def _well_formed(path: Path) -> bool:
@@ -149,7 +191,7 @@ def verify(folder: Path, prefix: str) -> None:
                 sidecar = path.with_name(path.name + SIDECAR)
                 try:
                     if sidecar.exists():
-                        ok = sidecar.read_text().strip() == _digest(path)
+                        ok = _matches(path, sidecar)
                         reason = "checksum differs"
                     else:
                         ok = _well_formed(path)
@@ -172,13 +214,12 @@ def seal(folder: Path, prefix: str) -> None:
             continue
         sidecar = path.with_name(name + SIDECAR)
         try:
-            digest = _digest(path)
-            if sidecar.exists() and sidecar.read_text().strip() == digest:
+            if sidecar.exists() and _matches(path, sidecar):
                 continue
             if not _well_formed(path):
                 continue
             temporary = sidecar.with_name(f"{sidecar.name}.tmp.{os.getpid()}")
-            temporary.write_text(digest + "\n")
+            temporary.write_text(_record(path) + "\n")
             os.replace(temporary, sidecar)
         except OSError:
             pass
@@ -186,11 +227,26 @@ def seal(folder: Path, prefix: str) -> None:
 
 def kernel_folders() -> list[Path]:
     """Where numba keeps this package's own compiled functions."""
-    root = numba_folder() / _PACKAGE_ROOT.name
-    return [root / "kernels"]
+    return [kernels_folder()]
+
+
+STALE_KERNELS_SECONDS = 7 * 24 * 3600.0
+
+
+def _remove_stale_kernels() -> None:
+    """Compiled kernels of other versions of the package, untouched for a week (another installation may still
+    be using a recent one: ``python -m physics cache --clear`` empties everything at once)."""
+    now = time.time()
+    for folder in numba_folder().glob("kernels-*"):
+        try:
+            if folder != kernels_folder() and folder.is_dir() and now - folder.stat().st_mtime > STALE_KERNELS_SECONDS:
+                shutil.rmtree(folder, ignore_errors=True)
+        except OSError:
+            pass
 
 
 def verify_kernels() -> None:
+    _remove_stale_kernels()
     for folder in kernel_folders():
         verify(folder, "")
 

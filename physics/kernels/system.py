@@ -14,12 +14,14 @@ from numba import njit
 from .abi import (
     LAYOUT_LINKS,
     LAYOUT_PINNED,
+    LAYOUT_SOLVE,
     LAYOUT_SYMMETRIC,
     LAYOUT_THETA_DDOT,
     LAYOUT_TIP_ROW_X,
     LAYOUT_TIP_ROW_Y,
     LAYOUT_UNKNOWNS,
     call_native,
+    call_native_solve,
     data_pointer,
 )
 from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
@@ -35,12 +37,12 @@ def make_system(assemble, layout):
     return (assemble, layout, np.zeros((k, k)), np.zeros(k), np.zeros(k), np.ones(k))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def is_pinned(system):
     return system[1][LAYOUT_PINNED] != 0
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def assemble_into(system, theta, omega, params, alpha, beta):
     """``A`` and ``b`` of the system at one state, with Baumgarte terms on a pinned chain's tip rows.
 
@@ -86,18 +88,20 @@ def loop_ratio(theta, params):
     return math.sqrt((half_trace + gap) / smallest)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def solve_system(system, theta, omega, params, alpha, beta):
     """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
 
-    The fast path is L D L^T for a symmetric positive definite matrix (Lagrange's mass matrix), a pivoted LU
-    otherwise; only when its pivot ratio looks singular is the system rebuilt and solved again equilibrated,
+    The fast path is the mechanism's generated structured elimination for a sparse matrix (the DAE), L D L^T
+    for a symmetric positive definite one (Lagrange's mass matrix), a pivoted LU otherwise; only when its pivot ratio looks singular is the system rebuilt and solved again equilibrated,
     so that a mere difference of scale (a very light tip, a stiff mass ratio) is not mistaken for a singular
     position. A closed chain's geometric singularity (all links lined up) is judged on the loop Jacobian.
     """
     assemble, layout, A, b, x, col_scale = system
     assemble_into(system, theta, omega, params, alpha, beta)
-    if layout[LAYOUT_SYMMETRIC] != 0:
+    if layout[LAYOUT_SOLVE] != 0:
+        ratio = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(A), data_pointer(b), data_pointer(x))
+    elif layout[LAYOUT_SYMMETRIC] != 0:
         ratio = ldlt_solve(A, b, x)
     else:
         ratio = lu_solve(A, b, x)
@@ -109,7 +113,7 @@ def solve_system(system, theta, omega, params, alpha, beta):
     return ratio
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
     """Angular accelerations (n,) at one state; returns the condition estimate."""
     ratio = solve_system(system, theta, omega, params, alpha, beta)

@@ -69,7 +69,7 @@ def _generated_source(folder: Path) -> Path:
 
 def _numba_file(folder: Path, name: str, suffix: str) -> Path:
     """One of numba's files for a once-compiled kernel (generated code keeps no machine code on disk)."""
-    base = folder / "numba" / "physics" / "kernels"
+    (base,) = (folder / "numba").glob("kernels-*")
     (path,) = [p for p in base.glob(f"{name}-*{suffix}") if not p.name.endswith(".sha256")]
     return path
 
