@@ -48,7 +48,8 @@ MAX_TRACE_SECONDS = 30.0
 COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)
 NOTICE_SECONDS = 8.0
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
-# under a second, a cold one derives for tens of seconds.
+# under a second; a new mechanism derives and compiles in a few seconds (the very first run of an installation
+# also compiles the integrators, about half a minute).
 PREPARE_NOTICE_DELAY = 1.0
 
 # Between a browser closing and its session being closed, a frame or two may still be queued to the departed
@@ -387,7 +388,8 @@ class Session:
                         client.add_notification(
                             "Deriving equations...",
                             f"{label}, {spec.n} bars, {closure}: preparing the equations of motion. The first "
-                            "time, sympy derives them and numba compiles them (tens of seconds); afterwards "
+                            "time, sympy derives them and LLVM compiles them (a few seconds; the first run of an "
+                            "installation also compiles the integrators, about half a minute); afterwards "
                             "they load from the cache.",
                             loading=True,
                             with_close_button=False,

@@ -132,3 +132,26 @@ def test_ensemble_bad_count_is_one_line():
     result = run_cli("ensemble", "--preset", "triple-a", "--count", "0", check=False)
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
     assert "count" in result.stderr and "1 <= count" in result.stderr
+
+
+def test_warm_without_arguments_builds_every_preset_mechanism():
+    import physics
+
+    result = run_cli("warm")
+    built = {tuple(line.split(":")[0].split()) for line in result.stdout.splitlines()}
+    expected = set()
+    for name in physics.preset_names():
+        chain = physics.get_preset(name).chain
+        for method in physics.FORMULATION_NAMES:
+            expected.add((method, f"n={chain.n}", "pinned" if chain.pinned else "open"))
+    assert built == expected
+    info = json.loads(run_cli("cache", "--info", "--json").stdout)
+    held = {(e["method"], f"n={e['links']}", e["closure"]) for e in info["mechanisms"]}
+    assert expected <= held
+
+
+@pytest.mark.parametrize("links", ["1.5", "0", "13", "two"])
+def test_warm_refuses_links_that_are_not_whole_numbers_in_range(links):
+    result = run_cli("warm", "--links", links, check=False)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "--links" in result.stderr and "1..12" in result.stderr
