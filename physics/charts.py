@@ -333,6 +333,17 @@ def colormap(values: np.ndarray, missing_rgb=(0, 0, 0)) -> np.ndarray:
     return np.round(rgb).astype(np.uint8)
 
 
+def png_bytes(rgb: np.ndarray) -> bytes:
+    """An ``(H, W, 3)`` uint8 image encoded as PNG (Pillow, a dependency of viser)."""
+    import io
+
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
 def write_png(path, rgb: np.ndarray) -> None:
     """Write an ``(H, W, 3)`` uint8 image as PNG with Pillow (a dependency of viser)."""
     from PIL import Image

@@ -72,6 +72,9 @@ def _build_setup(args):
     chain, theta, omega = apply_overrides(preset.chain, preset.theta0, preset.omega0, overrides)
     if chain.pinned:
         chain, theta, omega = _close_loop(chain, theta, omega, args, overrides)
+    elif getattr(args, "pin", None):
+        raise LinkageError(f"--pin {args.pin}: preset {args.preset} is an open chain (its tip is free); "
+                           "--pin applies to closed loops such as four-bar and change-point")
     return chain, theta, omega, preset
 
 
@@ -118,7 +121,60 @@ def _settings(args, chain):
     )
     if args.step is not None:
         fields["step"] = args.step
+    if getattr(args, "max_steps", None) is not None:
+        fields["max_steps"] = args.max_steps
     return validated(Settings, **fields)
+
+
+# Ensembles: copies x steps a run may take (about half an hour at a million copy-steps a second).
+MAX_ENSEMBLE_COPY_STEPS = 2_000_000_000
+
+
+def check_output_path(out: str) -> None:
+    """Refuse, before any work, an output path that cannot be written: one line naming it and why."""
+    import os
+    from pathlib import Path
+
+    path = Path(out)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise LinkageError(f"--out {out}: is a folder; give a file name")
+    if not folder.is_dir():
+        raise LinkageError(f"--out {out}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise LinkageError(f"--out {out}: cannot write there (permission denied)")
+
+
+def write_output(out: str, data: bytes) -> None:
+    """Write ``data`` to ``out`` atomically: a temporary file in the same folder, then a rename, so a reader
+    never sees half a file and a failed write leaves the old one (or none). ``/dev/stdout``-like device paths
+    are written directly. A failure is one line (LinkageError), never a traceback."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    path = Path(out)
+    try:
+        if path.exists() and not path.is_file():  # a device such as /dev/null or /dev/full
+            with open(path, "wb") as handle:
+                handle.write(data)
+            return
+        fd, temporary = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
+                                         suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(data)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(temporary, path)
+        except BaseException:
+            try:
+                os.unlink(temporary)
+            except OSError:
+                pass
+            raise
+    except OSError as error:
+        raise LinkageError(f"--out {out}: could not write ({error.strerror or error})") from None
 
 
 def _write_table(columns: dict, fmt: str, out: str | None) -> None:
@@ -131,11 +187,11 @@ def _write_table(columns: dict, fmt: str, out: str | None) -> None:
         for row in zip(*columns.values()):
             writer.writerow([repr(float(v)) for v in row])
         text = buffer.getvalue()
+    text = text if text.endswith("\n") else text + "\n"
     if out:
-        with open(out, "w") as handle:
-            handle.write(text if text.endswith("\n") else text + "\n")
+        write_output(out, text.encode("utf-8"))
     else:
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.write(text)
 
 
 def cmd_simulate(args) -> int:
@@ -145,46 +201,40 @@ def cmd_simulate(args) -> int:
     if args.t_end is None:
         args.t_end = preset.t_end
     settings = _settings(args, chain)
+    if args.out:
+        check_output_path(args.out)
     trajectory = simulate(chain, theta, omega, settings)
     fmt = args.format or ("json" if args.out and args.out.endswith(".json") else "csv")
-    _write_table(trajectory.columns(), fmt, args.out)
-    if not trajectory.success:
-        print(f"error: {trajectory.message}", file=sys.stderr)
-        return EXIT_RUN_FAILED
-    return 0
+    if trajectory.success:
+        _write_table(trajectory.columns(), fmt, args.out)
+        return 0
+    # What was computed is kept, under a name that cannot be mistaken for a complete run.
+    partial = f"{args.out}.partial" if args.out else None
+    _write_table(trajectory.columns(), fmt, partial)
+    reached = float(trajectory.t[-1]) if len(trajectory.t) else float("nan")
+    where = f"; the {len(trajectory.t)} samples up to t = {reached:.6g} s are in {partial}" if partial else ""
+    print(f"error: {trajectory.message}{where}", file=sys.stderr)
+    return EXIT_RUN_FAILED
 
 
-def _case_chain(case: dict, pinned_default: bool, index: int):
+def _case_chain(case, pinned_default: bool, index: int):
+    """A validated case (physics.case_file.Case) -> (chain, theta, omega)."""
     from .model import make_chain
 
-    if not isinstance(case, dict):
-        raise LinkageError(f"case {index}: expected an object with links, params, theta, omega")
-    try:
-        n = int(case["links"])
-        params = case["params"]
-        theta = case["theta"]
-        omega = case.get("omega", [0.0] * n)
-    except (KeyError, TypeError, ValueError) as error:
-        raise LinkageError(f"case {index}: missing or invalid field {error}") from None
-    try:
-        L, d, m, I = ([params[f"{f}{i}"] for i in range(1, n + 1)] for f in "LdmI")
-        g = params.get("g", 1.0)
-    except KeyError as error:
-        raise LinkageError(f"case {index}: params lacks {error.args[0]}") from None
-    unknown = set(params) - {f"{f}{i}" for f in "LdmI" for i in range(1, n + 1)} - {"g"}
-    if unknown:
-        raise LinkageError(f"case {index}: unknown parameter(s) {sorted(unknown)}")
-    pin = case.get("pin")
+    n = case.links
+    L, d, m, I = ([case.params[f"{f}{i}"] for i in range(1, n + 1)] for f in "LdmI")
+    omega = case.omega if case.omega is not None else [0.0] * n
+    pin = case.pin
     if pin is None and pinned_default:
         from .kinematics import joint_positions
 
-        tip = joint_positions(np.asarray(L, float), np.asarray(theta, float))[-1]
+        tip = joint_positions(np.asarray(L, float), np.asarray(case.theta, float))[-1]
         pin = (float(tip[0]), float(tip[1]))
     try:
-        chain = make_chain(L, d, m, I, g=g, pin=tuple(pin) if pin is not None else None)
+        chain = make_chain(L, d, m, I, g=case.params.get("g", 1.0), pin=pin)
     except LinkageError as error:
         raise LinkageError(f"case {index}: {error}") from None
-    return chain, theta, omega
+    return chain, case.theta, omega
 
 
 def _with_grashof(result: dict, chain) -> dict:
@@ -201,13 +251,9 @@ def cmd_accelerations(args) -> int:
     from .presets import get_preset
 
     if args.input:
-        try:
-            with open(args.input) as handle:
-                cases = json.load(handle)
-        except (OSError, json.JSONDecodeError) as error:
-            raise LinkageError(f"--input {args.input}: {error}") from None
-        if not isinstance(cases, list):
-            raise LinkageError(f"--input {args.input}: expected a JSON list of cases")
+        from .case_file import read_cases
+
+        cases = read_cases(args.input)
         pinned_default = get_preset(args.preset, args.links).chain.pinned if args.preset else False
         results = []
         for index, case in enumerate(cases):
@@ -238,8 +284,20 @@ def cmd_ensemble(args) -> int:
         raise LinkageError(f"--t-end = {t_end}: allowed range 0 < t_end <= 1e5 s")
     if not 2 <= args.samples <= 100_000:
         raise LinkageError(f"--samples = {args.samples}: allowed range 2 <= samples <= 100000")
-    ensemble = Ensemble(chain, theta0, omega0, args.method, args.count, args.spread,
-                        step=DEFAULT_STEP if args.step is None else args.step, damping=args.damping)
+    step = DEFAULT_STEP if args.step is None else args.step
+    if not (math.isfinite(step) and step > 0.0):
+        raise LinkageError(f"--step = {step}: must be a positive number of seconds")
+    copy_steps = args.count * math.ceil(t_end / step)
+    if copy_steps > MAX_ENSEMBLE_COPY_STEPS:
+        raise LinkageError(
+            f"--count {args.count} x (t_end / step = {math.ceil(t_end / step):.3g}) = {copy_steps:.3g} copy-steps, more "
+            f"than the {MAX_ENSEMBLE_COPY_STEPS:.0e} allowed (about {copy_steps / 1e6 / 60:.3g} min at 1e6 copy-steps/s); "
+            "fewer copies, a shorter --t-end or a larger --step"
+        )
+    if args.out:
+        check_output_path(args.out)
+    ensemble = Ensemble(chain, theta0, omega0, args.method, args.count, args.spread, step=step,
+                        damping=args.damping)
     energy0 = ensemble.energy()
     scale = max(float(np.max(np.abs(energy0))), 1e-300)
     times, spread, alive, drift = [0.0], [ensemble.tip_spread()], [int(ensemble.alive.sum())], [0.0]
@@ -254,9 +312,9 @@ def cmd_ensemble(args) -> int:
     columns = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
     out = args.out or ""
     if out.endswith(".png"):
-        from .charts import fan_picture, write_png
+        from .charts import fan_picture, png_bytes
 
-        write_png(out, fan_picture(ensemble.joints(), ensemble.alive))
+        write_output(out, png_bytes(fan_picture(ensemble.joints(), ensemble.alive)))
     elif out.endswith(".csv"):
         _write_table(columns, "csv", out)
     else:
@@ -265,8 +323,7 @@ def cmd_ensemble(args) -> int:
                     "final_tips": ensemble.joints()[:, -1, :].tolist()}
         text = json.dumps(document)
         if out:
-            with open(out, "w") as handle:
-                handle.write(text + "\n")
+            write_output(out, (text + "\n").encode("utf-8"))
         else:
             print(text)
     if not ensemble.alive.all():
@@ -354,6 +411,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--rtol", type=float, default=1e-10)
     sim.add_argument("--atol", type=float, default=1e-10)
     sim.add_argument("--step", type=float, default=None, help="fixed step for --integrator midpoint or variational")
+    sim.add_argument("--max-steps", type=int, default=None,
+                     help="integration steps allowed (default 1e7, at most 1e9); a fixed-step run beyond it is refused")
     sim.add_argument("--t-end", type=float, default=None, help="seconds to simulate (default: the preset's)")
     sim.add_argument("--samples", type=int, default=201)
     sim.add_argument("--stabilization", default="projection", choices=("none", "baumgarte", "projection"))

@@ -131,6 +131,10 @@ class Chain(BaseModel):
         return Chain(bars=self.bars, g=self.g, pin=pin)
 
 
+DEFAULT_MAX_STEPS = 10_000_000  # about 20 s of integration for a triple pendulum
+MAX_STEPS_LIMIT = 1_000_000_000  # about an hour: beyond it a request is out of proportion for this tool
+
+
 class Settings(BaseModel):
     """How to integrate: formulation, integrator, tolerances, horizon, stabilisation of closed loops."""
 
@@ -149,7 +153,8 @@ class Settings(BaseModel):
     damping: float = Field(0.0, ge=0.0, le=1e3, description="viscous damping torque per unit relative joint speed")
     step: float = Field(1e-3, gt=0.0, le=1.0, description="fixed step of the midpoint and variational integrators")
     trace: Optional[TracePoint] = None
-    max_steps: int = Field(10_000_000, ge=1)
+    max_steps: int = Field(DEFAULT_MAX_STEPS, ge=1, le=MAX_STEPS_LIMIT,
+                           description="integration steps allowed before a run is stopped")
 
     @field_validator("rtol", "atol", "t_end", "step", "baumgarte_alpha", "baumgarte_beta", "damping", mode="before")
     @classmethod
@@ -166,6 +171,15 @@ class Settings(BaseModel):
         if self.integrator == "variational" and self.method != "lagrange":
             # It discretises the Lagrangian T - V itself; only the Lagrange derivation has one.
             raise ValueError(f"integrator = variational: needs method = lagrange (got {self.method})")
+        if self.integrator in FIXED_STEP_INTEGRATORS:
+            # A fixed-step run's cost is known before it starts: refuse one out of proportion up front.
+            steps = math.ceil(self.t_end / self.step * (1.0 - 1e-12))
+            if steps > self.max_steps:
+                raise ValueError(
+                    f"integrator = {self.integrator}: t_end / step = {self.t_end:g} / {self.step:g} = {steps:.3g} "
+                    f"steps, more than max_steps = {self.max_steps:.3g} (about {steps * 2e-6:.3g} s at 2 us a "
+                    f"step); use a larger step, a shorter t_end, or raise max_steps (at most {MAX_STEPS_LIMIT:.0e})"
+                )
         return self
 
 

@@ -77,6 +77,21 @@ def check_assembled(chain: Chain, theta: np.ndarray) -> None:
         )
 
 
+# A trajectory holds about 4n + 12 float64 columns per sample (angles, velocities, joints, energies,
+# reactions): past this many values (400 MB) a request does not fit a run of this tool, and is refused up front.
+MAX_OUTPUT_VALUES = 50_000_000
+
+
+def check_output_size(n: int, samples: int) -> None:
+    """Refuse, before any allocation, a trajectory too large to hold: one line with the estimate and the limit."""
+    values = samples * (4 * n + 12)
+    if values > MAX_OUTPUT_VALUES:
+        raise LinkageError(
+            f"samples = {samples}: a {n}-bar trajectory of that many samples holds about {values * 8 / 1e9:.2g} GB "
+            f"(limit {MAX_OUTPUT_VALUES * 8 / 1e9:.2g} GB); allowed samples <= {MAX_OUTPUT_VALUES // (4 * n + 12)}"
+        )
+
+
 def simulate(
     chain: Chain, theta0, omega0, settings: Settings | None = None, t_start: float = 0.0, *, continuing: bool = False
 ) -> Trajectory:
@@ -89,6 +104,7 @@ def simulate(
     """
     settings = settings or Settings()
     theta0, omega0 = check_state(chain.n, theta0, omega0)
+    check_output_size(chain.n, settings.samples)
     if not math.isfinite(t_start):
         raise LinkageError(f"t_start = {t_start}: must be a finite number")
     if not continuing:
