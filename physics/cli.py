@@ -458,8 +458,34 @@ def build_parser() -> argparse.ArgumentParser:
 _EXTERNAL = {"bench": ("physics.bench", "main"), "chaos-map": ("physics.chaos", "main")}
 
 
+class _NoScipyLinalg:
+    """An import hook that answers "not installed" for scipy while it is in ``sys.meta_path``."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name in ("scipy", "scipy.linalg"):
+            raise ImportError("scipy.linalg is not needed by numba's kernels here")
+        return None
+
+
+def start_numba_without_blas() -> None:
+    """When numba's CPU target starts it imports scipy.linalg (a quarter of a second) only to offer BLAS to
+    ``np.dot`` and ``np.linalg`` in compiled code, which Linkage Lab's kernels never call. A command-line process
+    is ours alone, so it starts numba's array support with that probe answered "no" (numba then compiles
+    ``np.dot`` as unsupported in this process). scipy itself imports normally afterwards (the reduced model,
+    ``--backend scipy``, the equilibrium solver)."""
+    if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
+        return
+    hook = _NoScipyLinalg()
+    sys.meta_path.insert(0, hook)
+    try:
+        import numba.np.arraymath  # noqa: F401  (runs numba's BLAS probe now, with the hook in place)
+    finally:
+        sys.meta_path.remove(hook)
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    start_numba_without_blas()
     try:
         if argv and argv[0] in _EXTERNAL:
             import importlib
