@@ -40,6 +40,7 @@ SIDECAR = ".sha256"
 STALE_TEMPORARY_SECONDS = 3600.0
 _lock = threading.Lock()
 _verified: set[tuple[str, str]] = set()
+_ensured: set[str] = set()
 
 
 def numba_folder() -> Path:
@@ -79,6 +80,12 @@ class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
 
     def get_cache_path(self):
         return self._cache_path
+
+    def ensure_cache_path(self):
+        """numba's check (make the folder, write a probe file) done once per folder, not once per function."""
+        if self._cache_path not in _ensured:
+            super().ensure_cache_path()
+            _ensured.add(self._cache_path)
 
     @classmethod
     def from_function(cls, py_func, py_file):
