@@ -13,7 +13,8 @@ For each chain length and formulation, in a rotating order within each round:
 * ``pydy``: PyDy's Kane's method + lambdify + solve_ivp for the same chain (benchmarks/pydy_anchor.py), if pydy is
   installed (``pip install -e '.[bench]'``).
 
-Then ``warm``: ``python -m physics simulate --preset triple-a`` with everything cached, median of ``--warm-runs``.
+Then ``warm``: ``python -m physics simulate --preset triple-a`` with everything cached, median of ``--warm-runs``
+(alternating with the ``--before`` tree).
 Prints one JSON object; every figure is a whole-process wall time in seconds, interpreter start included.
 """
 
@@ -78,7 +79,7 @@ def measure(links: list[int], before: Path | None, warm_runs: int) -> dict:
     try:
         template = _kernels_only(scratch)
         rows = []
-        for n in links:
+        for n in links:  # --links with no value: the warm figures alone
             for round_index, method in enumerate(FORMULATIONS):
                 row: dict = {"links": n, "method": method}
                 kinds = ["cold", "empty", "before", "pydy"]
@@ -100,12 +101,14 @@ def measure(links: list[int], before: Path | None, warm_runs: int) -> dict:
         shutil.copytree(template, warm_folder)
         command = [sys.executable, "-m", "physics", "simulate", "--preset", "triple-a", "--out", os.devnull]
         _timed(command, warm_folder, REPO_ROOT)  # fills the cache for this mechanism
-        warm = [_timed(command, warm_folder, REPO_ROOT) for _ in range(warm_runs)]
-        warm_before = []
+        warm, warm_before = [], []
+        before_folder = scratch / "warm-before"
         if before is not None:
-            before_folder = scratch / "warm-before"
             _timed(command, before_folder, before)
-            warm_before = [_timed(command, before_folder, before) for _ in range(warm_runs)]
+        for _ in range(warm_runs):  # interleaved, so both see the same machine
+            warm.append(_timed(command, warm_folder, REPO_ROOT))
+            if before is not None:
+                warm_before.append(_timed(command, before_folder, before))
         return {
             "command": "python -m benchmarks.cold_start " + " ".join(sys.argv[1:]),
             "load_average": os.getloadavg(),
@@ -122,7 +125,8 @@ def measure(links: list[int], before: Path | None, warm_runs: int) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.cold_start", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--links", type=int, nargs="+", default=[3, 10], help="chain lengths (1..12)")
+    parser.add_argument("--links", type=int, nargs="*", default=[3, 10],
+                        help="chain lengths (1..12); none at all: only the warm figures")
     parser.add_argument("--before", type=Path, default=None, help="an older checkout to time the same way")
     parser.add_argument("--warm-runs", type=int, default=5)
     args = parser.parse_args(argv)
