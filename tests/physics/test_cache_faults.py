@@ -205,3 +205,15 @@ def test_cache_command_shows_and_clears(cache):
     assert cleared.returncode == 0 and "removed 1 mechanisms" in cleared.stdout
     assert folder.is_dir() and not any(folder.iterdir())
     assert stat.S_IMODE(folder.stat().st_mode) == 0o700
+
+
+@pytest.mark.parametrize("kind", ["a file", "under a file"])
+def test_a_cache_path_that_cannot_be_a_folder_falls_back_to_a_private_cache(template, tmp_path, kind):
+    _, answer = template
+    blocker = tmp_path / "blocker"
+    blocker.write_text("not a folder")
+    path = blocker if kind == "a file" else blocker / "cache"
+    result = _run(path)
+    assert _answer(result) == answer
+    _one_warning(result.stderr)
+    assert str(path) in result.stderr and ("is not a folder" in result.stderr or "cannot be created" in result.stderr)
