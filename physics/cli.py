@@ -146,33 +146,19 @@ def check_output_path(out: str) -> None:
 
 
 def write_output(out: str, data: bytes) -> None:
-    """Write ``data`` to ``out`` atomically: a temporary file in the same folder, then a rename, so a reader
-    never sees half a file and a failed write leaves the old one (or none). ``/dev/stdout``-like device paths
-    are written directly. A failure is one line (LinkageError), never a traceback."""
-    import os
-    import tempfile
+    """Write ``data`` to ``out`` atomically (physics.files); a device such as ``/dev/null`` is written directly.
+    A failure is one line (LinkageError), never a traceback."""
     from pathlib import Path
+
+    from .files import write_atomically
 
     path = Path(out)
     try:
-        if path.exists() and not path.is_file():  # a device such as /dev/null or /dev/full
+        if path.exists() and not path.is_file():
             with open(path, "wb") as handle:
                 handle.write(data)
-            return
-        fd, temporary = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-                                         suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(data)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.replace(temporary, path)
-        except BaseException:
-            try:
-                os.unlink(temporary)
-            except OSError:
-                pass
-            raise
+        else:
+            write_atomically(path, data)
     except OSError as error:
         raise LinkageError(f"--out {out}: could not write ({error.strerror or error})") from None
 

@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
-import os
 import sys
-import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -25,9 +23,11 @@ from importlib import metadata
 from pathlib import Path
 
 import numpy as np
+
 from ..cache_folder import cache_dir, warn
 from ..errors import LinkageError
-from ..kernels import batch, disk_cache, explicit_rk, midpoint, projection, system, variational
+from ..files import write_atomically
+from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
 from ..kernels.abi import make_layout
 from .native import NativeModule
 
@@ -253,20 +253,7 @@ def _verified_text(path: Path) -> str | None:
 
 
 def _write_atomically(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.chmod(tmp, 0o600)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    write_atomically(path, text, mode=0o600)
 
 
 def _build_source(formulation: str, n: int, pinned: bool, digest: str) -> str:
@@ -286,14 +273,13 @@ def _build_source(formulation: str, n: int, pinned: bool, digest: str) -> str:
 
 
 def _remove_stale(folder: Path, key: str, current: Path) -> None:
-    """Entries of the same mechanism from another generator version, and their compiled code."""
+    """Entries of the same mechanism from another generator version."""
     for stale in folder.glob(f"{key}-*.py"):
         if stale != current:
-            for path in [stale, *(disk_cache.numba_folder() / "generated").glob(f"{stale.stem}.*")]:
-                try:
-                    path.unlink()
-                except OSError:
-                    pass
+            try:
+                stale.unlink()
+            except OSError:
+                pass
 
 
 def _import(path: Path, name: str):

@@ -39,8 +39,10 @@ LAYOUT_SYMMETRIC = 5  # 1 when A is symmetric positive definite (Lagrange's mass
 LAYOUT_SOLVE = 6  # address of the generated structured solve of a sparse A (the DAE), 0 when there is none
 LAYOUT_THETA_DDOT = 7  # n entries: where each angular acceleration sits in x
 
-def make_layout(n: int, n_unknowns: int, pinned: bool, tip_rows, theta_ddot_index, symmetric: bool,
-                solve_address: int = 0) -> np.ndarray:
+
+def make_layout(
+    n: int, n_unknowns: int, pinned: bool, tip_rows, theta_ddot_index, symmetric: bool, solve_address: int = 0
+) -> np.ndarray:
     """The int64 layout array the kernels read (slots above)."""
     rows = tuple(tip_rows) if tip_rows is not None and len(tip_rows) else (-1, -1)
     head = [n, n_unknowns, int(bool(pinned)), int(rows[0]), int(rows[1]), int(bool(symmetric)), int(solve_address)]

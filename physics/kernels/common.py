@@ -6,12 +6,7 @@ import numpy as np
 from numba import njit
 
 from .abi import LAYOUT_LINKS
-from .constants import (
-    SINGULAR_PIVOT_RATIO,
-    STATUS_NOT_FINITE,
-    STATUS_OK,
-    STATUS_SINGULAR,
-)
+from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
 from .system import solve_accel
 
 

@@ -1,12 +1,12 @@
-"""numba's on-disk cache for Linkage Lab's own functions: kept in the private cache folder, and never trusted
+"""numba's on-disk cache for Linkage Lab's kernels: kept in the private cache folder, and never trusted
 blindly.
 
 numba keeps compiled machine code as pickles (``.nbi`` index, ``.nbc`` data) and loads them without a check:
 a truncated, emptied or garbled file ends every later run with a traceback, and a planted one runs its
-author's code. So, for the functions of this package and of the generated modules only:
+author's code. So, for the kernels' functions only (generated code keeps no machine code on disk):
 
-* a cache locator puts their files under ``<cache folder>/numba/`` (the folder :mod:`physics.cache_folder`
-  has checked to be private), whatever folder the package is installed in;
+* a cache locator puts the kernels' files under ``<cache folder>/numba/kernels-<digest>/`` (the folder
+  :mod:`physics.cache_folder` has checked to be private), whatever folder the package is installed in;
 * each file gets a ``.sha256`` sidecar once it is known to be complete (its digest, size and modification time);
   before numba reads a group of files, :func:`verify` checks every sidecar: a file whose size and time are
   unchanged is taken as recorded (one ``stat``, as git's index does), any other is hashed again; a file without a
@@ -34,7 +34,6 @@ from numba.core import caching
 
 from ..cache_folder import cache_dir, warn
 
-_PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 _KERNELS = Path(__file__).resolve().parent
 SIDECAR = ".sha256"
 STALE_TEMPORARY_SECONDS = 3600.0
@@ -67,16 +66,12 @@ def kernels_folder() -> Path:
 
 
 class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
-    """numba cache locator for this package's files and the generated modules: ``<cache folder>/numba/...``."""
+    """numba cache locator for the kernels' files: ``<cache folder>/numba/kernels-<digest>/``."""
 
     def __init__(self, py_func, py_file):
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
-        source = Path(py_file).resolve()
-        if source.is_relative_to(_KERNELS):
-            self._cache_path = str(kernels_folder())
-        else:
-            self._cache_path = str(numba_folder() / source.parent.name)
+        self._cache_path = str(kernels_folder())
 
     def get_cache_path(self):
         return self._cache_path
@@ -95,7 +90,7 @@ class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
             return None
         if not source.exists():
             return None
-        if not (source.is_relative_to(_PACKAGE_ROOT) or source.is_relative_to(cache_dir().resolve())):
+        if not source.is_relative_to(_KERNELS):
             return None
         locator = cls(py_func, py_file)
         try:

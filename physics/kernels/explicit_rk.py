@@ -5,13 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .common import (
-    check_arguments,
-    initial_samples,
-    ode_rhs,
-    rms_norm,
-    sample_condition,
-)
+from .common import check_arguments, initial_samples, ode_rhs, rms_norm, sample_condition
 from .constants import (
     MAX_FACTOR,
     MIN_FACTOR,
@@ -43,22 +37,7 @@ from .tables import (
 
 
 @njit(cache=True, error_model="numpy")
-def _rk_stages(
-    system,
-    t,
-    y,
-    h,
-    A,
-    n_stages,
-    K,
-    y_stage,
-    params,
-    alpha,
-    beta,
-    theta,
-    omega,
-    theta_ddot,
-):
+def _rk_stages(system, t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
     """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop.
 
     Returns ``(status, rhs_evaluations)``.
@@ -99,20 +78,7 @@ def _rk45_sample(x, h, y_old, K, y_sample):
 
 @njit(cache=True, error_model="numpy")
 def _dop853_dense_coefficients(
-    system,
-    t_old,
-    h,
-    y_old,
-    y_new,
-    K,
-    F,
-    y_stage,
-    params,
-    alpha,
-    beta,
-    theta,
-    omega,
-    theta_ddot,
+    system, t_old, h, y_old, y_new, K, F, y_stage, params, alpha, beta, theta, omega, theta_ddot
 ):
     """scipy's DOP853 ``_dense_output_impl``: three extra stages into K[13:16], then the 7 rows of ``F``.
 
@@ -162,21 +128,7 @@ def _dop853_sample(x, y_old, F, y_sample):
 
 @njit(cache=True, error_model="numpy")
 def _integrate_explicit_rk(
-    system,
-    A,
-    y0,
-    t0,
-    t_end,
-    t_eval,
-    params,
-    rtol,
-    atol,
-    alpha,
-    beta,
-    project,
-    max_steps,
-    y_out,
-    cond_out,
+    system, A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
     """Shared driver of integrate_rk45 and integrate_dop853: scipy's ``solve_ivp`` loop with ``t_eval``.
 
@@ -285,20 +237,7 @@ def _integrate_explicit_rk(
             for j in range(n_state):
                 K[0, j] = f[j]
             status, evaluations = _rk_stages(
-                system,
-                t,
-                y,
-                h,
-                A,
-                n_stages,
-                K,
-                y_stage,
-                params,
-                alpha,
-                beta,
-                theta,
-                omega,
-                theta_ddot,
+                system, t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot
             )
             n_rhs += evaluations
             if status != STATUS_OK:
@@ -308,17 +247,7 @@ def _integrate_explicit_rk(
                 for r in range(n_stages):
                     total += K[r, j] * B[r]
                 y_new[j] = y[j] + h * total
-            status, _ = ode_rhs(
-                system,
-                y_new,
-                params,
-                alpha,
-                beta,
-                theta,
-                omega,
-                theta_ddot,
-                K[n_stages],
-            )
+            status, _ = ode_rhs(system, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -383,20 +312,7 @@ def _integrate_explicit_rk(
         if i_sample < n_samples and t_eval[i_sample] <= t_new:
             if use_dop853:
                 status, evaluations = _dop853_dense_coefficients(
-                    system,
-                    t,
-                    h,
-                    y,
-                    y_new,
-                    K,
-                    F,
-                    y_stage,
-                    params,
-                    alpha,
-                    beta,
-                    theta,
-                    omega,
-                    theta_ddot,
+                    system, t, h, y, y_new, K, F, y_stage, params, alpha, beta, theta, omega, theta_ddot
                 )
                 n_rhs += evaluations
                 if status != STATUS_OK:
@@ -428,21 +344,7 @@ def _integrate_explicit_rk(
 
 @njit(cache=True, error_model="numpy")
 def integrate_rk45(
-    assemble,
-    layout,
-    y0,
-    t0,
-    t_end,
-    t_eval,
-    params,
-    rtol,
-    atol,
-    alpha,
-    beta,
-    project,
-    max_steps,
-    y_out,
-    cond_out,
+    assemble, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
     """Dormand-Prince 5(4) exactly as scipy's ``solve_ivp(method="RK45")``, samples at ``t_eval``.
 
@@ -453,58 +355,16 @@ def integrate_rk45(
     """
     system = make_system(assemble, layout)
     return _integrate_explicit_rk(
-        system,
-        RK45_A,
-        y0,
-        t0,
-        t_end,
-        t_eval,
-        params,
-        rtol,
-        atol,
-        alpha,
-        beta,
-        project,
-        max_steps,
-        y_out,
-        cond_out,
+        system, RK45_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
     )
 
 
 @njit(cache=True, error_model="numpy")
 def integrate_dop853(
-    assemble,
-    layout,
-    y0,
-    t0,
-    t_end,
-    t_eval,
-    params,
-    rtol,
-    atol,
-    alpha,
-    beta,
-    project,
-    max_steps,
-    y_out,
-    cond_out,
+    assemble, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
     """Dormand-Prince 8(5,3) exactly as scipy's ``solve_ivp(method="DOP853")``; arguments as integrate_rk45."""
     system = make_system(assemble, layout)
     return _integrate_explicit_rk(
-        system,
-        DOP853_A,
-        y0,
-        t0,
-        t_end,
-        t_eval,
-        params,
-        rtol,
-        atol,
-        alpha,
-        beta,
-        project,
-        max_steps,
-        y_out,
-        cond_out,
+        system, DOP853_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
     )

@@ -4,7 +4,6 @@ Every solve returns the ratio of the largest to the smallest pivot: it grows lik
 from a singular position, so it doubles as the detector that stops a run before its answers are noise.
 """
 
-
 import numpy as np
 from numba import njit
 

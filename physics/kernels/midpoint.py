@@ -3,14 +3,7 @@
 import numpy as np
 from numba import njit
 
-from .common import (
-    check_arguments,
-    fixed_steps,
-    hermite_sample,
-    initial_samples,
-    ode_rhs,
-    sample_condition,
-)
+from .common import check_arguments, fixed_steps, hermite_sample, initial_samples, ode_rhs, sample_condition
 from .constants import (
     FD_RELATIVE_STEP,
     NEWTON_MAX_ITERATIONS,
@@ -61,21 +54,7 @@ def hermite_samples(
 
 
 @njit(cache=True, error_model="numpy")
-def integrate_midpoint(
-    assemble,
-    layout,
-    y0,
-    t0,
-    t_end,
-    h,
-    t_eval,
-    params,
-    alpha,
-    beta,
-    project,
-    y_out,
-    cond_out,
-):
+def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
     """Fixed-step implicit midpoint rule ``y1 = y0 + h f((y0 + y1) / 2)``: symmetric, order 2.
 
     Applied to ``y = (theta, omega)`` it is symplectic only where ``omega`` is a constant multiple of the

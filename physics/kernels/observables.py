@@ -12,8 +12,23 @@ from numba import njit
 
 
 @njit(cache=True, error_model="numpy")
-def chain_observables(theta, omega, L, d, m, inertia, g, trace_bar, trace_along, trace_across, joints, trace_xy,
-                      kinetic, potential, tip_velocity):
+def chain_observables(
+    theta,
+    omega,
+    L,
+    d,
+    m,
+    inertia,
+    g,
+    trace_bar,
+    trace_along,
+    trace_across,
+    joints,
+    trace_xy,
+    kinetic,
+    potential,
+    tip_velocity,
+):
     """Fill ``joints`` (T, n+1, 2), ``trace_xy`` (T, 2), ``kinetic``, ``potential`` (T,), ``tip_velocity`` (T, 2)
     from ``theta``, ``omega`` (T, n). ``trace_bar`` is 0-based; the traced point sits ``trace_along`` along the bar
     and ``trace_across`` to its left (counter-clockwise normal)."""

@@ -5,11 +5,7 @@ import math
 from numba import njit
 
 from .common import all_finite
-from .constants import (
-    PROJECTION_MAX_ITERATIONS,
-    PROJECTION_TOLERANCE,
-    SINGULAR_CONDITION,
-)
+from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION
 
 
 @njit(cache=True, error_model="numpy")

@@ -49,8 +49,9 @@ def assemble_into(system, theta, omega, params, alpha, beta):
     ``theta``, ``omega``, ``params`` must be C-contiguous (the generated code reads them through pointers)."""
     assemble, layout, A, b, x, col_scale = system
     A[:, :] = 0.0
-    call_native(assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A),
-                data_pointer(b))
+    call_native(
+        assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A), data_pointer(b)
+    )
     if layout[LAYOUT_PINNED] != 0 and (alpha != 0.0 or beta != 0.0):
         n = layout[LAYOUT_LINKS]
         tip_x = 0.0
@@ -185,8 +186,14 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
 def lagrangian_pieces(mass_and_force, theta, omega, params, M, force):
     """The generated Lagrangian's mass matrix ``M`` (n, n) and force (n,) at one state (C-contiguous arrays)."""
     M[:, :] = 0.0
-    call_native(mass_and_force, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(M),
-                data_pointer(force))
+    call_native(
+        mass_and_force,
+        data_pointer(theta),
+        data_pointer(omega),
+        data_pointer(params),
+        data_pointer(M),
+        data_pointer(force),
+    )
 
 
 @njit(cache=True, error_model="numpy")

@@ -23,18 +23,7 @@ from .system import is_pinned, lagrangian_pieces, make_system
 
 @njit(cache=True, error_model="numpy")
 def _del_residual(
-    system,
-    mass_and_force,
-    theta0,
-    momentum0,
-    unknowns,
-    step,
-    params,
-    theta_mid,
-    velocity,
-    M,
-    force,
-    residual,
+    system, mass_and_force, theta0, momentum0, unknowns, step, params, theta_mid, velocity, M, force, residual
 ):
     """Residual of the discrete Euler-Lagrange equation for the step's increment ``q1 - q0 = unknowns[:n]``.
 
@@ -196,18 +185,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         for i in range(n):
             unknowns[i] = step * f[i] + 0.5 * step * step * f[n + i]
         _del_residual(
-            system,
-            mass_and_force,
-            y[:n],
-            momentum,
-            unknowns,
-            step,
-            params,
-            theta_mid,
-            velocity,
-            M,
-            force,
-            residual,
+            system, mass_and_force, y[:n], momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
         )
         n_rhs += 1
         for j in range(size):
@@ -256,18 +234,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
                 largest = max(largest, abs(probe[i]))
                 scale = max(scale, abs(unknowns[i]))
             _del_residual(
-                system,
-                mass_and_force,
-                y[:n],
-                momentum,
-                unknowns,
-                step,
-                params,
-                theta_mid,
-                velocity,
-                M,
-                force,
-                residual,
+                system, mass_and_force, y[:n], momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
             )
             n_rhs += 1
             if not (np.isfinite(largest) and np.isfinite(scale)):
@@ -292,16 +259,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
             momentum_next[i] = total
             theta[i] = y[i] + unknowns[i]
         if not _velocity_from_momentum(
-            system,
-            mass_and_force,
-            theta,
-            momentum_next,
-            params,
-            M,
-            force,
-            mass_pivots,
-            loop_work,
-            omega,
+            system, mass_and_force, theta, momentum_next, params, M, force, mass_pivots, loop_work, omega
         ):
             status = STATUS_NOT_FINITE
             break
