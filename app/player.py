@@ -95,7 +95,7 @@ def _com_ratio(chain) -> np.ndarray:
 
 
 def _chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
-    """The ring's fields from a physics Trajectory (reactions only for dae; zeros elsewhere)."""
+    """The ring's fields from a physics Trajectory (joint reactions for every method: physics/reactions.py)."""
     out = {
         "t": traj.t,
         "theta": traj.theta,
@@ -106,8 +106,8 @@ def _chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
         "potential": traj.potential,
         "energy": traj.energy,
     }
-    if traj.reactions.shape[1:] == (n, 2):
-        out["reactions"] = traj.reactions
+    if traj.joint_reactions.shape[1:] == (n, 2):
+        out["reactions"] = traj.joint_reactions
     if pinned:
         if traj.constraint_xy.shape[1:] == (2,):
             out["constraint_xy"] = traj.constraint_xy
