@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import functools
 import html
+import re
 
 from .math_lines import multline
 from .parameters import METHOD_LABELS
 
-PANEL_LINE_CHARACTERS = 44  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
+PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
 SIMPLIFY_MAX_LINKS = 4  # trig-simplify entries for display up to this many bars (seconds of sympy at n = 4)
 
@@ -34,6 +35,13 @@ def _math(expr) -> str:
     from sympy.printing.mathml import mathml
 
     return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
+
+
+def _heading(row_name: str) -> str:
+    """A row's name for a heading: ``theta_2`` reads as θ with subscript 2, ``G3`` as G with subscript 3."""
+    text = html.escape(row_name)
+    text = re.sub(r"\btheta_(\d+)", "\u03b8<sub>\\1</sub>", text)
+    return re.sub(r"\bG(\d+)\b", "G<sub>\\1</sub>", text)
 
 
 def _term_lines(terms: list, width: int) -> list[list]:
@@ -64,7 +72,8 @@ def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) ->
         body = mathml(expr, printer="presentation")
         negative = terms[0].could_extract_minus_sign()
         sign = "" if not lead else (f"<mo>{lead}</mo>" if lead == "=" or not negative else "")
-        return f'<math display="block" style="text-align:left">{sign}{body}</math>'
+        indent = "0" if not lead else "1.5em"
+        return f'<div style="margin:0.35em 0 0.35em {indent};line-height:2"><math>{sign}{body}</math></div>'
 
     parts = [block(terms, "" if k == 0 else "+") for k, terms in enumerate(_term_lines(lhs_terms, width))]
     rhs_terms = list(sp.Add.make_args(rhs)) or [sp.Integer(0)]
@@ -116,7 +125,7 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
         text = _equation_lines(lhs_terms or [sp.Integer(0)], rhs)
         if len(text) > MAX_ROW_CHARACTERS:
             text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
-        parts.append(f"<p><b>{i + 1}. {html.escape(row_name)}</b></p>{text}")
+        parts.append(f"<p><b>{i + 1}. {_heading(row_name)}</b></p>{text}")
     parts.append("</div>")
     parts.append(
         "<p>Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "

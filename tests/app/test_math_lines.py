@@ -49,8 +49,9 @@ def test_panel_rows_are_broken_into_lines_of_maths():
     html = equations_html("lagrange", 3, False)
     rows = re.split(r"<p><b>\d+\. ", html)[1:]
     assert len(rows) == 3
+    assert "theta_" not in html and "\u03b8<sub>1</sub>" in html  # headings read as maths
     for row in rows:
-        blocks = re.findall(r"<math display=\"block\"[^>]*>(.*?)</math>", row, flags=re.S)
+        blocks = re.findall(r"<div style=\"margin[^>]*><math>(.*?)</math></div>", row, flags=re.S)
         assert len(blocks) >= 3, "a Lagrange row of a 3-bar chain spans several lines"
         text_lengths = [len(re.sub(r"<[^>]+>", "", block)) for block in blocks]
         assert max(text_lengths) <= 3 * PANEL_LINE_CHARACTERS, text_lengths
