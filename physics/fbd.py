@@ -69,6 +69,7 @@ class FreeBody:
     com_xy: np.ndarray
     com_acceleration: np.ndarray
     forces: tuple[Force, ...]
+    end_names: tuple[str, str] = ("", "")
 
     def net_force(self) -> np.ndarray:
         return np.sum([f.force for f in self.forces], axis=0)
@@ -87,7 +88,7 @@ class FreeBody:
         return {
             "bar": self.bar, "time": self.time, "mass": self.mass, "inertia": self.inertia,
             "theta": self.theta, "omega": self.omega, "alpha": self.alpha,
-            "ends": self.ends_xy.tolist(), "com": self.com_xy.tolist(),
+            "ends": self.ends_xy.tolist(), "end_names": list(self.end_names), "com": self.com_xy.tolist(),
             "com_acceleration": self.com_acceleration.tolist(),
             "forces": [f.as_dict() for f in self.forces],
             "balance": {
@@ -141,7 +142,8 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
             forces.append(Force("RH (by the ground at the pin)", "H", joints[n].copy(), tip_reaction.copy()))
         bodies.append(FreeBody(bar=i + 1, time=0.0, mass=float(m[i]), inertia=float(I[i]), theta=float(theta[i]),
                                omega=float(omega[i]), alpha=float(alpha[i]), ends_xy=joints[i:i + 2].copy(),
-                               com_xy=com, com_acceleration=accelerations[i], forces=tuple(forces)))
+                               com_xy=com, com_acceleration=accelerations[i], forces=tuple(forces),
+                               end_names=(_bar_label(i, n), _bar_label(i + 1, n))))
     return bodies
 
 
@@ -212,9 +214,10 @@ def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520
     (x0, y0), (x1, y1) = px(ends[0]), px(ends[1])
     out.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" stroke="#bbbbbb" stroke-width="14" '
                'stroke-linecap="round"/>')
-    for xy in ends:
+    for xy, name in zip(ends, body.end_names):
         cx, cy = px(xy)
         out.append(f'<circle cx="{cx:.1f}" cy="{cy:.1f}" r="5" fill="white" stroke="#444" stroke-width="1.5"/>')
+        out.append(f'<text x="{cx - 8:.1f}" y="{cy + 18:.1f}" fill="#444" text-anchor="end">{_esc(name)}</text>')
     gx, gy = px(body.com_xy)
     out.append(f'<circle cx="{gx:.1f}" cy="{gy:.1f}" r="4" fill="#444"><title>G{body.bar}</title></circle>')
     out.append(f'<text x="{gx + 7:.1f}" y="{gy - 7:.1f}" fill="#444">G{body.bar}</text>')

@@ -45,6 +45,10 @@ TIP_DEPARTURE = 0.1
 ANGLE_DEPARTURE = 0.01
 # Below this a value on a log axis is drawn at it (an exact zero has no logarithm).
 FLOOR = 1e-17
+# Points per curve in a figure (every k-th sample): enough for the eye, and the SVG files stay small.
+FIGURE_POINTS = 2000
+# Figures and numbers are documentation: readable by everyone, like the rest of the repository.
+OUTPUT_MODE = 0o644
 
 TRIPLE_CASES = (("A", "triple-a", 9), ("B", "triple-b", 10), ("C", "triple-c", 11))
 TEXT_READINGS = (("B (text)", "triple-b-text"), ("C (text)", "triple-c-text"))
@@ -152,12 +156,20 @@ def _floor(values) -> list[float]:
     return [max(float(v), FLOOR) for v in np.asarray(values, dtype=float)]
 
 
+def _thin(values) -> np.ndarray:
+    """Every k-th sample (and the last), at most about FIGURE_POINTS of them."""
+    values = np.asarray(values, dtype=float)
+    stride = max(1, -(-len(values) // FIGURE_POINTS))
+    index = np.unique(np.append(np.arange(0, len(values), stride), len(values) - 1))
+    return values[index]
+
+
 def figure_tip_path(label: str, number: int, case: dict) -> str:
     s = case["series"]
-    converged = Series(f"converged ({REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g})", s["reference_tip"][:, 0],
-                       s["reference_tip"][:, 1], color=PALETTE[0], marker=None, width=2.4)
-    replayed = Series(f"report's settings ({REPORT_INTEGRATOR} {REPORT_TOLERANCE:g})", s["report_tip"][:, 0],
-                      s["report_tip"][:, 1], color=PALETTE[2], dash=DASHES[1], marker=None)
+    converged = Series(f"converged ({REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g})", _thin(s["reference_tip"][:, 0]),
+                       _thin(s["reference_tip"][:, 1]), color=PALETTE[0], marker=None, width=2.4)
+    replayed = Series(f"report's settings ({REPORT_INTEGRATOR} {REPORT_TOLERANCE:g})", _thin(s["report_tip"][:, 0]),
+                      _thin(s["report_tip"][:, 1]), color=PALETTE[2], dash=DASHES[1], marker=None)
     departure = case["departure_time"]
     note = (f"the report's curve leaves the converged one by > {TIP_DEPARTURE:g} from t = {departure:.2f} s"
             if departure is not None else
@@ -169,13 +181,14 @@ def figure_tip_path(label: str, number: int, case: dict) -> str:
 
 def figure_differences(label: str, case: dict) -> str:
     s = case["series"]
+    t = _thin(s["t"])
     series = [
-        Series("x_NE - x_DAE (report's Fig 12)", s["t"], _floor(s["ne_minus_dae"]), color="#222222", marker=None),
-        Series("x_NE - x_Lagrange (report's Fig 13)", s["t"], _floor(s["ne_minus_lagrange"]), color="#888888",
+        Series("x_NE - x_DAE (report's Fig 12)", t, _floor(_thin(s["ne_minus_dae"])), color="#222222", marker=None),
+        Series("x_NE - x_Lagrange (report's Fig 13)", t, _floor(_thin(s["ne_minus_lagrange"])), color="#888888",
                dash=DASHES[1], marker=None),
     ]
     for k, (method, error) in enumerate(s["x_error"].items()):
-        series.append(Series(f"x_{method} - x_converged", s["t"], _floor(error), color=PALETTE[k + 1],
+        series.append(Series(f"x_{method} - x_converged", t, _floor(_thin(error)), color=PALETTE[k + 1],
                              dash=DASHES[k % len(DASHES)], marker=None))
     return line_chart(series, title=f"Figures 12-13, case {label}: differences between methods vs error of each",
                       x_label="t (s)", y_label="|difference in tip x|", log_y=True, width=900,
@@ -185,19 +198,19 @@ def figure_differences(label: str, case: dict) -> str:
 
 
 def figure_four_bar(case: dict, quantity: str) -> str:
-    t = case["series"]["t"]
+    t = _thin(case["series"]["t"])
     runs = (("report", f"report's settings ({REPORT_INTEGRATOR} {REPORT_TOLERANCE:g}, no stabilisation)", PALETTE[2]),
             ("projected", f"same, constraint projected", PALETTE[4]),
             ("reference", f"converged ({REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g}, projected)", PALETTE[0]))
     if quantity == "theta1":
-        series = [Series(label, t, case[key]["series"]["theta1"], color=colour, marker=None,
+        series = [Series(label, t, _thin(case[key]["series"]["theta1"]), color=colour, marker=None,
                          dash=DASHES[1] if key != "reference" else "") for key, label, colour in runs]
         return line_chart(series, title="Four-bar: crank angle theta1", x_label="t (s)", y_label="theta1 (rad)",
                           width=900)
     y_label, title = {"pin_gap": ("|tip - pin|", "Four-bar: tip distance from its pin"),
                       "energy_error": ("|E - E0| / |E0|", "Four-bar: relative energy error")}[quantity]
     # The largest value so far: at rounding level the raw values flicker over decades and hide the curve.
-    series = [Series(label, t, _floor(np.maximum.accumulate(case[key]["series"][quantity])), color=colour,
+    series = [Series(label, t, _floor(_thin(np.maximum.accumulate(case[key]["series"][quantity]))), color=colour,
                      marker=None) for key, label, colour in runs]
     return line_chart(series, title=title, x_label="t (s)", y_label=f"{y_label}, largest so far", log_y=True,
                       width=900, note=f"values below {FLOOR:g} drawn at {FLOOR:g}")
@@ -242,10 +255,11 @@ def write_study(out: Path, quick: bool = False) -> dict:
     for quantity in ("pin_gap", "energy_error", "theta1"):
         figures[f"four-bar-{quantity.replace('_', '-')}.svg"] = figure_four_bar(document["four_bar"], quantity)
     for name, svg in figures.items():
-        write_atomically(out / name, svg.encode("utf-8"))
+        write_atomically(out / name, svg.encode("utf-8"), mode=OUTPUT_MODE)
     numbers = _without_series(document)
     numbers["figures"] = sorted(figures)
-    write_atomically(out / "seed-report.json", (json.dumps(numbers, indent=2) + "\n").encode("utf-8"))
+    write_atomically(out / "seed-report.json", (json.dumps(numbers, indent=2) + "\n").encode("utf-8"),
+                     mode=OUTPUT_MODE)
     return numbers
 
 
