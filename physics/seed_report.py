@@ -26,6 +26,7 @@ from typing import TextIO
 import numpy as np
 
 from .charts import DASHES, PALETTE, Series, line_chart
+from .fbd import fbd_svg, free_body_at
 from .files import write_atomically
 from .model import FORMULATION_NAMES, Settings
 from .presets import get_preset
@@ -55,6 +56,9 @@ TEXT_READINGS = (("B (text)", "triple-b-text"), ("C (text)", "triple-c-text"))
 TRIPLE_T_END = 20.0  # the report's dur = 20
 FOUR_BAR_T_END = 100.0  # the report's dur = 100
 SAMPLES_PER_SECOND = 100  # output grid only: RK45's steps do not depend on it
+# The report's free-body diagrams, computed: triple pendulum (its Figures 6-8) at an instant in motion, and the
+# four-bar (Figures 15-17) at its start. (preset, time in s, report's figure numbers of bars 1..3)
+FREE_BODY_DIAGRAMS = (("triple-a", 2.5, (6, 7, 8)), ("four-bar", 0.0, (15, 16, 17)))
 
 
 def _run(preset_name: str, method: str, integrator: str, tolerance: float, t_end: float, samples: int,
@@ -254,6 +258,12 @@ def write_study(out: Path, quick: bool = False) -> dict:
         figures[f"figures-12-13-case-{label.lower()}.svg"] = figure_differences(label, case)
     for quantity in ("pin_gap", "energy_error", "theta1"):
         figures[f"four-bar-{quantity.replace('_', '-')}.svg"] = figure_four_bar(document["four_bar"], quantity)
+    for name, time, numbers in FREE_BODY_DIAGRAMS:
+        preset = get_preset(name)
+        for bar, number in enumerate(numbers, start=1):
+            body = free_body_at(preset.chain, preset.theta0, preset.omega0, time, bar)
+            title = f"{name}, bar {bar} at t = {time:g} s (the report's Figure {number})"
+            figures[f"fbd-{name}-bar-{bar}.svg"] = fbd_svg(body, title=title)
     for name, svg in figures.items():
         write_atomically(out / name, svg.encode("utf-8"), mode=OUTPUT_MODE)
     numbers = _without_series(document)

@@ -86,7 +86,7 @@ def test_command_writes_figures_and_numbers(tmp_path):
     assert set(numbers["triple"]) == {"A", "B", "C"} and set(numbers["text_readings"]) == {"B (text)", "C (text)"}
     for name in numbers["figures"]:
         assert (out / name).read_text().startswith("<svg")
-    assert len(numbers["figures"]) == 9
+    assert len(numbers["figures"]) == 15
     assert "Figures 12-13" in result.stdout and "Four-bar" in result.stdout
     case_c = numbers["triple"]["C"]
     assert f"{case_c['tip_error_max']:.3g}" in result.stdout  # printed as computed
