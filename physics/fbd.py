@@ -26,7 +26,7 @@ import numpy as np
 from .codegen import load_compiled
 from .errors import LinkageError
 from .kinematics import joint_positions
-from .model import Chain, Settings
+from .model import Chain, Settings, validated
 from .simulate import simulate
 
 # The state at the requested time comes from a run tight enough that its error is far below the values drawn.
@@ -125,7 +125,7 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     alpha = x[compiled.theta_ddot_index]
     reactions = x[compiled.reaction_index]  # (n, 2)
     tip_reaction = x[compiled.tip_reaction_index] if compiled.tip_reaction_index.size else None
-    L, d, m, I = (chain.array(f) for f in "LdmI")
+    L, d, m, inertia = (chain.array(f) for f in "LdmI")
     joints = joint_positions(L, theta)
     accelerations = com_accelerations(L, d, theta, omega, alpha)
     bodies = []
@@ -140,7 +140,7 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
                                 -reactions[i + 1]))
         elif tip_reaction is not None:
             forces.append(Force("RH (by the ground at the pin)", "H", joints[n].copy(), tip_reaction.copy()))
-        bodies.append(FreeBody(bar=i + 1, time=0.0, mass=float(m[i]), inertia=float(I[i]), theta=float(theta[i]),
+        bodies.append(FreeBody(bar=i + 1, time=0.0, mass=float(m[i]), inertia=float(inertia[i]), theta=float(theta[i]),
                                omega=float(omega[i]), alpha=float(alpha[i]), ends_xy=joints[i:i + 2].copy(),
                                com_xy=com, com_acceleration=accelerations[i], forces=tuple(forces),
                                end_names=(_bar_label(i, n), _bar_label(i + 1, n))))
@@ -162,8 +162,9 @@ def free_body_at(chain: Chain, theta0, omega0, time: float, bar: int) -> FreeBod
     check_request(chain, time, bar)
     theta, omega = np.asarray(theta0, dtype=float), np.asarray(omega0, dtype=float)
     if time > 0.0:
-        run = simulate(chain, theta, omega, Settings(method="dae", integrator="DOP853", rtol=FBD_TOLERANCE,
-                                                     atol=FBD_TOLERANCE, t_end=time, samples=2))
+        settings = validated(Settings, method="dae", integrator="DOP853", rtol=FBD_TOLERANCE, atol=FBD_TOLERANCE,
+                             t_end=time, samples=2)
+        run = simulate(chain, theta, omega, settings)
         if not run.success:
             raise LinkageError(f"--time = {time}: the run stopped before it ({run.message})")
         theta, omega = run.theta[-1], run.omega[-1]
@@ -225,8 +226,9 @@ def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520
         colour = _FORCE_COLOURS[k % len(_FORCE_COLOURS)]
         (ax, ay), (bx, by) = px(f.point_xy), px(tip)
         label = f"{f.name}: |F| = {np.hypot(*f.force):.4g}"
+        head = f"url(#head{k % len(_FORCE_COLOURS)})"
         out.append(f'<line x1="{ax:.1f}" y1="{ay:.1f}" x2="{bx:.1f}" y2="{by:.1f}" stroke="{colour}" '
-                   f'stroke-width="2.5" marker-end="url(#head{k % len(_FORCE_COLOURS)})"><title>{_esc(label)}</title></line>')
+                   f'stroke-width="2.5" marker-end="{head}"><title>{_esc(label)}</title></line>')
         out.append(f'<text x="{bx + 5:.1f}" y="{by + 4:.1f}" fill="{colour}">{_esc(f.name.split(" ")[0])}</text>')
     # Table of values.
     tx, ty = panel + 10, 54

@@ -71,8 +71,8 @@ def equilibrium_main(argv: list[str]) -> int:
         print(json.dumps({"preset": preset.name, "pin": preset.chain.pin,
                           "rest_positions": [p.as_dict() for p in positions]}))
         return 0
-    closure = f"tip pinned at ({preset.chain.pin[0]:.6g}, {preset.chain.pin[1]:.6g})" if preset.chain.pinned \
-        else "open chain"
+    pin = preset.chain.pin
+    closure = f"tip pinned at ({pin[0]:.6g}, {pin[1]:.6g})" if pin is not None else "open chain"
     print(f"{preset.name} ({closure}): {len(positions)} rest positions, lowest potential energy first")
     header = "  ".join(f"theta{i + 1} (deg)".rjust(13) for i in range(preset.chain.n))
     print(f"{header}  {'stable':>6}  {'V':>12}")

@@ -9,8 +9,6 @@ loop's manifold for a closed chain); it is stable where V has a strict minimum t
 * Closed chain (one degree of freedom for the four-bar): V is sampled along the whole loop (both assembly
   branches, :func:`physics.assembly.driving_range`), and each local minimum and maximum of the samples is
   refined and classified by :func:`physics.equilibrium.stationary_point` (Newton on the Lagrange conditions).
-
-scipy is imported only when a closed chain is asked for (through :mod:`physics.equilibrium`).
 """
 
 from __future__ import annotations
@@ -22,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import assemble, driving_range
+from .equilibrium import stationary_point
 from .errors import LinkageError
 from .model import Chain
 
@@ -74,8 +73,6 @@ def open_chain_rest_positions(chain: Chain) -> list[RestPosition]:
 
 def closed_chain_rest_positions(chain: Chain, samples: int = LOOP_SAMPLES) -> list[RestPosition]:
     """The stationary points of V around a four-bar's loop, lowest first."""
-    from .equilibrium import stationary_point  # scipy: only here
-
     if chain.n != 3:
         raise LinkageError(f"links = {chain.n}: rest positions of closed chains are found for four-bars (3 bars)")
     L, d, m = (chain.array(f) for f in "Ldm")
@@ -86,13 +83,13 @@ def closed_chain_rest_positions(chain: Chain, samples: int = LOOP_SAMPLES) -> li
         full_turn = hi - lo >= 2 * math.pi - 1e-12
         theta1 = np.linspace(lo, hi, samples, endpoint=not full_turn)
         for elbow in (1, -1):
-            curve = []
+            rows = []
             for t1 in theta1:
                 try:
-                    curve.append(assemble(L, pin, [t1], elbow=elbow))
+                    rows.append(assemble(L, pin, [t1], elbow=elbow))
                 except LinkageError:
-                    curve.append(np.full(3, np.nan))
-            curve = np.array(curve)
+                    rows.append(np.full(3, np.nan))
+            curve = np.array(rows)
             V = -np.sum(weights * np.cos(curve), axis=1)
             for k in _local_extrema(V, periodic=full_turn):
                 try:

@@ -28,7 +28,7 @@ import numpy as np
 from .charts import DASHES, PALETTE, Series, line_chart
 from .fbd import fbd_svg, free_body_at
 from .files import write_atomically
-from .model import FORMULATION_NAMES, Settings
+from .model import FORMULATION_NAMES, Settings, validated
 from .presets import get_preset
 from .simulate import Trajectory, simulate
 
@@ -64,9 +64,9 @@ FREE_BODY_DIAGRAMS = (("triple-a", 2.5, (6, 7, 8)), ("four-bar", 0.0, (15, 16, 1
 def _run(preset_name: str, method: str, integrator: str, tolerance: float, t_end: float, samples: int,
          stabilization: str = "projection") -> Trajectory:
     preset = get_preset(preset_name)
-    run = simulate(preset.chain, preset.theta0, preset.omega0,
-                   Settings(method=method, integrator=integrator, rtol=tolerance, atol=tolerance, t_end=t_end,
-                            samples=samples, stabilization=stabilization))
+    settings = validated(Settings, method=method, integrator=integrator, rtol=tolerance, atol=tolerance,
+                         t_end=t_end, samples=samples, stabilization=stabilization)
+    run = simulate(preset.chain, preset.theta0, preset.omega0, settings)
     if not run.success:
         raise RuntimeError(f"{preset_name} {method} {integrator} {tolerance:g}: {run.message}")
     return run
@@ -160,12 +160,12 @@ def _floor(values) -> list[float]:
     return [max(float(v), FLOOR) for v in np.asarray(values, dtype=float)]
 
 
-def _thin(values) -> np.ndarray:
+def _thin(values) -> list[float]:
     """Every k-th sample (and the last), at most about FIGURE_POINTS of them."""
-    values = np.asarray(values, dtype=float)
-    stride = max(1, -(-len(values) // FIGURE_POINTS))
-    index = np.unique(np.append(np.arange(0, len(values), stride), len(values) - 1))
-    return values[index]
+    array = np.asarray(values, dtype=float)
+    stride = max(1, -(-len(array) // FIGURE_POINTS))
+    index = np.unique(np.append(np.arange(0, len(array), stride), len(array) - 1))
+    return [float(v) for v in array[index]]
 
 
 def figure_tip_path(label: str, number: int, case: dict) -> str:
@@ -204,7 +204,7 @@ def figure_differences(label: str, case: dict) -> str:
 def figure_four_bar(case: dict, quantity: str) -> str:
     t = _thin(case["series"]["t"])
     runs = (("report", f"report's settings ({REPORT_INTEGRATOR} {REPORT_TOLERANCE:g}, no stabilisation)", PALETTE[2]),
-            ("projected", f"same, constraint projected", PALETTE[4]),
+            ("projected", "same, constraint projected", PALETTE[4]),
             ("reference", f"converged ({REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g}, projected)", PALETTE[0]))
     if quantity == "theta1":
         series = [Series(label, t, _thin(case[key]["series"]["theta1"]), color=colour, marker=None,
@@ -282,7 +282,10 @@ def _departure(t: float | None, threshold: float, unit: str, t_end: float) -> st
 def print_summary(numbers: dict, stream: TextIO) -> None:
     """The study's numbers as the docs quote them."""
     s = numbers["settings"]
-    write = lambda line="": print(line, file=stream)  # noqa: E731
+
+    def write(line: str = "") -> None:
+        print(line, file=stream)
+
     write(f"Report's settings: {s['report_integrator']} rtol = atol = {s['report_tolerance']:g}; converged runs: "
           f"{s['reference_integrator']} {s['reference_tolerance']:g} (checked against {s['check_tolerance']:g})")
     write()
