@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import io
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from physics import Settings, get_preset, simulate
-from physics.seed_report import ANGLE_DEPARTURE, TIP_DEPARTURE, four_bar_case, triple_case
+from physics.seed_report import ANGLE_DEPARTURE, TIP_DEPARTURE, four_bar_case, print_summary, triple_case
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def run(name, method, integrator, tolerance, t_end, samples, stabilization="projection"):
@@ -98,3 +102,17 @@ def test_command_refuses_an_output_that_is_a_file(tmp_path):
     result = subprocess.run([sys.executable, "-m", "physics", "seed-report", "--out", str(target)],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 2 and result.stderr.strip().count("\n") == 0 and "--out" in result.stderr
+
+
+def test_docs_quote_the_committed_numbers_as_the_command_prints_them():
+    """docs/seed-report.md's closing block is the command's printout of docs/seed-report/seed-report.json, and the
+    figures it shows are the ones the command wrote there."""
+    numbers = json.loads((ROOT / "docs" / "seed-report" / "seed-report.json").read_text())
+    assert not numbers["settings"]["quick"]
+    printed = io.StringIO()
+    print_summary(numbers, printed)
+    page = (ROOT / "docs" / "seed-report.md").read_text()
+    assert printed.getvalue().strip() in page
+    for name in numbers["figures"]:
+        assert (ROOT / "docs" / "seed-report" / name).exists()
+        assert f"seed-report/{name}" in page, f"{name} is not shown on the page"
