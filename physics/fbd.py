@@ -25,7 +25,7 @@ import numpy as np
 
 from .codegen import load_compiled
 from .errors import LinkageError
-from .kinematics import joint_positions
+from .kinematics import com_accelerations, joint_positions
 from .model import Chain, Settings, validated
 from .simulate import simulate
 
@@ -96,19 +96,6 @@ class FreeBody:
                 "net_moment_about_com": self.net_moment_about_com(), "inertia_times_alpha": self.inertia * self.alpha,
             },
         }
-
-
-def com_accelerations(L, d, theta, omega, alpha) -> np.ndarray:
-    """Accelerations of every centre of mass (n, 2) from the angles, rates and angular accelerations.
-
-    Each point on bar i moves with ``d/dt^2 (s e_i) = s (alpha_i n_i - omega_i^2 e_i)``, ``e_i = (sin, -cos)``,
-    ``n_i = (cos, sin)``; a centre of mass adds the full lengths of the bars before it."""
-    L, d, theta, omega, alpha = (np.asarray(v, dtype=float) for v in (L, d, theta, omega, alpha))
-    e = np.stack([np.sin(theta), -np.cos(theta)], axis=-1)
-    normal = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
-    unit = alpha[:, None] * normal - (omega**2)[:, None] * e
-    joint_acceleration = np.cumsum(L[:, None] * unit, axis=0) - L[:, None] * unit  # proximal joints
-    return joint_acceleration + d[:, None] * unit
 
 
 def _bar_label(k: int, n: int) -> str:
