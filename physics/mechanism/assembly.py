@@ -50,7 +50,7 @@ def assemble(mechanism: Mechanism, q_guess: np.ndarray | None = None, t: float =
     constraints = Constraints(mechanism)
     size = sketch_size(mechanism)
     weights = np.tile([1.0, 1.0, 1.0 / size], len(mechanism.bodies))  # q = weights * z: rotations in lengths
-    q = np.zeros(constraints.size) if q_guess is None else np.array(q_guess, dtype=float)
+    q = constraints.sketch_pose() if q_guess is None else np.array(q_guess, dtype=float)
     residual = constraints.residual(q, t)
     steps = 0
     while np.max(np.abs(residual), initial=0.0) > ASSEMBLY_TOLERANCE * size and steps < NEWTON_STEPS:

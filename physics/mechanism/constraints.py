@@ -1,7 +1,8 @@
 """The constraint equations of a mechanism in maximal coordinates, and their Jacobian, in closed form.
 
-Body i's pose is ``q_i = (x_i, y_i, phi_i)``: the displacement and rotation of the body from the sketch, so a
-point drawn at ``s`` is at ``r_i + R(phi_i) s`` (``q = 0`` is the sketch itself). Each joint contributes
+Body i's pose is ``q_i = (x_i, y_i, phi_i)``: the position of its centre of mass G and its rotation from the
+sketch, so a point drawn at ``s`` is at ``r_i + R(phi_i) (s - s_G)``. The sketch itself is ``q_i = (s_G, 0)``
+(:meth:`Constraints.sketch_pose`); with G as the reference point the mass matrix is diagonal. Each joint contributes
 equations ``Phi(q, t) = 0``:
 
 * revolute between points ``s_a`` of body i and ``s_b`` of body j: ``p_i(s_a) - p_j(s_b) = 0`` (two rows);
@@ -45,6 +46,7 @@ class Constraints:
     def __init__(self, mechanism: Mechanism) -> None:
         self.mechanism = mechanism
         self.body_index = {body.name: k for k, body in enumerate(mechanism.bodies)}
+        self.centres = np.array([body.centre for body in mechanism.bodies], dtype=float).reshape(-1, 2)
         self.size = 3 * len(mechanism.bodies)
         self._items: list[tuple] = []
         rows: list[Row] = []
@@ -52,16 +54,16 @@ class Constraints:
         for joint in mechanism.joints:
             if isinstance(joint, Revolute):
                 a_body, b_body = joint.a.split(".")[0], joint.b.split(".")[0]
-                s_a = np.array(mechanism.point_of(joint.a, joint.name))
-                s_b = np.array(mechanism.point_of(joint.b, joint.name))
+                s_a = self._relative(a_body, mechanism.point_of(joint.a, joint.name))
+                s_b = self._relative(b_body, mechanism.point_of(joint.b, joint.name))
                 self._items.append(("pin", self._index(a_body), s_a, self._index(b_body), s_b))
                 rows += [Row(joint.name, "x gap"), Row(joint.name, "y gap")]
                 if joint.name in speeds:
                     self._items.append(("speed", self._index(a_body), self._index(b_body), float(speeds[joint.name])))
                     rows.append(Row(joint.name, "driven angle"))
             else:
-                s_p = np.array(mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
-                s_t = np.array(mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
+                s_p = self._relative(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
+                s_t = self._relative(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
                 u = np.array(joint.direction) / np.hypot(*joint.direction)
                 self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u))
                 rows += [Row(joint.name, "offset across the guide"), Row(joint.name, "relative rotation")]
@@ -70,6 +72,21 @@ class Constraints:
     def _index(self, body: str) -> int:
         return -1 if body == GROUND else self.body_index[body]
 
+    def _relative(self, body: str, sketch_xy: tuple[float, float]) -> np.ndarray:
+        """A point of ``body`` relative to its centre of mass (ground points stay absolute)."""
+        k = self._index(body)
+        return np.array(sketch_xy, dtype=float) - (self.centres[k] if k >= 0 else 0.0)
+
+    def sketch_pose(self) -> np.ndarray:
+        """``q`` of the sketch: every centre of mass where it is drawn, no rotation."""
+        q = np.zeros(self.size)
+        q[0::3], q[1::3] = self.centres[:, 0], self.centres[:, 1]
+        return q
+
+    def body_point(self, q: np.ndarray, body: int, sketch_xy) -> np.ndarray:
+        """Where the point drawn at ``sketch_xy`` on body number ``body`` is at pose ``q``."""
+        return self.point(q, body, np.asarray(sketch_xy, dtype=float) - self.centres[body])
+
     @staticmethod
     def _pose(q: np.ndarray, k: int) -> tuple[np.ndarray, float]:
         if k < 0:
@@ -77,6 +94,7 @@ class Constraints:
         return q[3 * k : 3 * k + 2], float(q[3 * k + 2])
 
     def point(self, q: np.ndarray, k: int, s: np.ndarray) -> np.ndarray:
+        """A point given relative to body k's centre of mass (absolute for the ground, k = -1)."""
         r, phi = self._pose(q, k)
         return r + rotation(phi) @ s
 
