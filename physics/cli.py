@@ -448,6 +448,7 @@ _EXTERNAL = {
     "fbd": ("physics.report_commands", "fbd_main"),
     "equilibrium": ("physics.report_commands", "equilibrium_main"),
     "seed-report": ("physics.report_commands", "seed_report_main"),
+    "mechanism": ("physics.mechanism.command", "main"),
 }
 
 

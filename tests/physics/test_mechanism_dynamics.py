@@ -7,7 +7,11 @@ their energy and their constraints over a run.
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +25,8 @@ from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
 from physics.presets import get_preset
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 5])
@@ -99,3 +105,38 @@ def test_a_singular_pose_is_refused_in_one_line():
     mechanism: Mechanism = chain_mechanism(chain, [0.0, 0.0, 0.0])  # all bars in line: a singular position
     with pytest.raises(LinkageError, match="over-constrained|singular"):
         MechanismDAE(mechanism).solve(*chain_state(chain, [0.0] * 3, [0.0] * 3, [0.0] * 3))
+
+
+def _physics(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "physics", "mechanism", *args], capture_output=True, text=True,
+                          timeout=300, cwd=ROOT)
+
+
+def test_command_reports_topology_and_writes_a_run(tmp_path):
+    result = _physics("--preset", "watt-six-bar", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["mobility"] == report["grubler_mobility"] == 1 and len(report["loops"]) == 2
+    out = tmp_path / "rocker.csv"
+    result = _physics("--preset", "crank-rocker", "--t-end", "0.5", "--samples", "6", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    rows = out.read_text().splitlines()
+    assert len(rows) == 7 and rows[0].startswith("t,trace_x,trace_y,kinetic,potential,energy,constraint_residual")
+    assert json.loads(result.stdout)["run"]["max_constraint_residual"] <= 1e-10
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        ((), "give one of --preset NAME or --file"),
+        (("--file", "/nonexistent/m.toml"), "cannot read it"),
+        (("--preset", "slider-crank", "--t-end", "-1"), "t_end = -1.0: allowed range"),
+        (("--preset", "slider-crank", "--samples", "1"), "--samples 1: allowed range"),
+        (("--preset", "pentagon",), "--preset"),
+    ],
+)
+def test_command_bad_input_is_one_line(args, fragment):
+    result = _physics(*args)
+    assert result.returncode == 2 and result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in result.stderr, result.stderr
