@@ -3,7 +3,9 @@
 Between samples scipy's DOP853 integrates ``(q, qdot)``; at every sample the pose is projected back onto
 ``Phi(q, t) = 0`` (minimum-norm Newton, :func:`physics.mechanism.assembly.assemble`) and the velocities onto
 ``Phi_q qdot = nu`` in the metric of the mass matrix, so the residual stays at rounding level over any run
-(projection, the default of the chains too). A speed-driven mechanism follows its motor exactly.
+(projection, the default of the chains too). A mechanism its motors fully determine (mobility 0, like the
+Jansen leg) needs no integration at all: each sample is position analysis from the one before, its velocities
+and accelerations follow from the constraints, and the DAE gives the reactions and the motor torque.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import LinkageError
-from .assembly import assemble
+from .assembly import assemble, kinematics
 from .dae import MechanismDAE
 from .model import Mechanism
 
@@ -58,15 +60,19 @@ def simulate_mechanism(
     qdot0: np.ndarray | None = None,
     rtol: float = 1e-10,
     atol: float = 1e-10,
+    integrate: bool | None = None,
 ) -> MechanismRun:
-    """Integrate from the assembled sketch (or ``q0``) at rest (or ``qdot0``, projected) for ``t_end`` s."""
+    """Integrate from the assembled sketch (or ``q0``) at rest (or ``qdot0``, projected) for ``t_end`` s.
+    ``integrate``: None chooses (kinematics alone when the motors fix every body); True forces integration."""
     if not (np.isfinite(t_end) and 0.0 < t_end <= 1e4):
         raise LinkageError(f"t_end = {t_end}: allowed range 0 < t_end <= 1e4")
     if not 2 <= samples <= 1_000_000:
         raise LinkageError(f"samples = {samples}: allowed range 2 <= samples <= 1000000")
     dae = MechanismDAE(mechanism)
     constraints = dae.constraints
-    q = assemble(mechanism, q0, 0.0).q
+    assembled = assemble(mechanism, q0, 0.0)
+    q = assembled.q
+    driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float))
     size = constraints.size
     times = np.linspace(0.0, t_end, samples)
@@ -78,7 +84,10 @@ def simulate_mechanism(
 
     out_q, out_qdot, out_reactions, kinetic, potential, residual, trace_xy = [], [], [], [], [], [], []
     for k, t in enumerate(times):
-        if k > 0:
+        if k > 0 and driven:
+            q = assemble(mechanism, q, float(t)).q
+            qdot = kinematics(mechanism, q)[0]
+        elif k > 0:
             result = solve_ivp(rhs, (times[k - 1], t), np.concatenate([q, qdot]), method="DOP853", rtol=rtol,
                                atol=atol)
             if not result.success:

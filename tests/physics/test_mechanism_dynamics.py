@@ -140,3 +140,11 @@ def test_command_bad_input_is_one_line(args, fragment):
     assert result.returncode == 2 and result.stdout == ""
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in result.stderr, result.stderr
+
+
+def test_a_fully_driven_mechanism_moves_by_kinematics_as_the_integrated_dae_does():
+    mechanism = MECHANISM_PRESETS["chebyshev-lambda"]()
+    by_kinematics = simulate_mechanism(mechanism, t_end=1.0, samples=11)
+    integrated = simulate_mechanism(mechanism, t_end=1.0, samples=11, integrate=True, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(by_kinematics.q - integrated.q)) <= 1e-9
+    assert np.max(np.abs(by_kinematics.reactions - integrated.reactions)) <= 1e-7 * np.max(np.abs(integrated.reactions))
