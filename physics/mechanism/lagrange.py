@@ -22,14 +22,10 @@ import numpy as np
 import sympy as sp
 
 from ..errors import LinkageError
-from .model import GROUND, Mechanism, Prismatic, Revolute
-from .topology import analyse
+from .model import Mechanism, Prismatic, Revolute
+from .tree import closure_rows, flat, tree_poses, vector_call
 
 SINGULAR_RCOND = 1e-13
-
-
-def _rotation(phi) -> sp.Matrix:
-    return sp.Matrix([[sp.cos(phi), -sp.sin(phi)], [sp.sin(phi), sp.cos(phi)]])
 
 
 @dataclass(frozen=True)
@@ -73,36 +69,10 @@ def derive_tree_lagrange(mechanism: Mechanism) -> TreeLagrange:
 @functools.lru_cache(maxsize=16)
 def _derive(description: str) -> TreeLagrange:
     mechanism = Mechanism.model_validate(json.loads(description))
-    topology = analyse(mechanism)
+    poses = tree_poses(mechanism)
+    s, sd, t = poses.s, poses.sd, poses.t
+    angle, centre = poses.angle, poses.centre
     joints = {joint.name: joint for joint in mechanism.joints}
-    centres = {body.name: sp.Matrix(body.centre) for body in mechanism.bodies}
-    order = [body for body in _bfs_order(topology.parent)]
-    coordinates = [topology.parent[body][0] for body in order]
-    s = sp.Matrix(sp.symbols(f"s0:{len(order)}", real=True))
-    sd = sp.Matrix(sp.symbols(f"sd0:{len(order)}", real=True))
-    t = sp.Symbol("t", real=True)
-    angle: dict[str, sp.Expr] = {GROUND: sp.Integer(0)}
-    centre: dict[str, sp.Matrix] = {GROUND: sp.zeros(2, 1)}
-
-    def world(body: str, sketch_xy) -> sp.Matrix:
-        """Where the point drawn at ``sketch_xy`` on ``body`` is, in the tree coordinates."""
-        drawn = sp.Matrix(sketch_xy)
-        if body == GROUND:
-            return drawn
-        return centre[body] + _rotation(angle[body]) * (drawn - centres[body])
-
-    for index, body in enumerate(order):
-        joint_name, parent = topology.parent[body]
-        joint = joints[joint_name]
-        if isinstance(joint, Revolute):
-            child_side, parent_side = (joint.a, joint.b) if joint.a.split(".")[0] == body else (joint.b, joint.a)
-            angle[body] = angle[parent] + s[index]
-            pivot = world(parent, mechanism.point_of(parent_side, joint_name))
-            drawn = sp.Matrix(mechanism.point_of(child_side, joint_name))
-            centre[body] = pivot - _rotation(angle[body]) * (drawn - centres[body])
-        else:
-            _place_slider(mechanism, joint, body, parent, s[index], angle, centre, centres, world)
-
     bodies = [body.name for body in mechanism.bodies]
     positions = sp.Matrix([[centre[name][0], centre[name][1]] for name in bodies])
     angles = sp.Matrix([angle[name] for name in bodies])
@@ -123,27 +93,9 @@ def _derive(description: str) -> TreeLagrange:
     force = sp.Matrix([sp.diff(lagrangian, q) for q in s]) - momentum.jacobian(s) * sd
     force += _joint_torques(mechanism, joints, angle, s, sd)
 
-    rows: list[sp.Expr] = []
-    row_joints: list[str] = []
-    speeds: list[float] = []
-    tree = set(topology.tree_joints)
-    for joint in mechanism.joints:
-        if joint.name not in tree:
-            for expression in _cut_rows(mechanism, joint, angle, world):
-                rows.append(expression)
-                row_joints.append(joint.name)
-                speeds.append(0.0)
-    for driver in mechanism.drivers:
-        if driver.speed is None:
-            continue
-        joint = joints[driver.joint]
-        assert isinstance(joint, Revolute)
-        relative = angle[joint.b.split(".")[0]] - angle[joint.a.split(".")[0]]
-        rows.append(relative - driver.speed * t)
-        row_joints.append(joint.name)
-        speeds.append(float(driver.speed))
+    rows, row_joints, speeds = closure_rows(poses)
     phi = sp.Matrix(rows) if rows else sp.zeros(0, 1)
-    jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(order))
+    jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(s))
     gamma = -(jacobian * sd).jacobian(s) * sd if rows else sp.zeros(0, 1)
 
     def compile_(expr, *args):
@@ -152,61 +104,17 @@ def _derive(description: str) -> TreeLagrange:
     flat_s, flat_sd = list(s), list(sd)
     return TreeLagrange(
         mechanism=mechanism,
-        coordinates=tuple(coordinates),
+        coordinates=poses.coordinates,
         row_joints=tuple(row_joints),
-        mass=_vector_call(compile_(mass, flat_s), 1),
-        force=_vector_call(compile_(force, flat_s, flat_sd), 2),
-        constraint=_vector_call(compile_(phi, flat_s, t), 1, time=True),
-        constraint_jacobian=_vector_call(compile_(jacobian, flat_s), 1),
-        gamma=_vector_call(compile_(gamma, flat_s, flat_sd), 2),
-        body_angles=_flat(_vector_call(compile_(angles, flat_s), 1)),
-        body_centres=_vector_call(compile_(positions, flat_s), 1),
+        mass=vector_call(compile_(mass, flat_s), 1),
+        force=vector_call(compile_(force, flat_s, flat_sd), 2),
+        constraint=vector_call(compile_(phi, flat_s, t), 1, time=True),
+        constraint_jacobian=vector_call(compile_(jacobian, flat_s), 1),
+        gamma=vector_call(compile_(gamma, flat_s, flat_sd), 2),
+        body_angles=flat(vector_call(compile_(angles, flat_s), 1)),
+        body_centres=vector_call(compile_(positions, flat_s), 1),
         velocity_rhs=np.array(speeds),
     )
-
-
-def _vector_call(function: Callable, arrays: int, time: bool = False) -> Callable:
-    """Call a lambdified function of lists of symbols with plain arrays: ``f(s)``, ``f(s, sd)``, ``f(s, t)``."""
-    if time:
-        return lambda s, t: np.array(function(list(s), t), dtype=float)
-    if arrays == 1:
-        return lambda s: np.array(function(list(s)), dtype=float)
-    return lambda s, sd: np.array(function(list(s), list(sd)), dtype=float)
-
-
-def _flat(function: Callable) -> Callable:
-    return lambda *args: np.ravel(function(*args))
-
-
-def _bfs_order(parent: dict[str, tuple[str, str]]) -> list[str]:
-    depth = {}
-
-    def level(body: str) -> int:
-        if body == GROUND:
-            return 0
-        if body not in depth:
-            depth[body] = level(parent[body][1]) + 1
-        return depth[body]
-
-    return sorted(parent, key=lambda body: (level(body), list(parent).index(body)))
-
-
-def _place_slider(mechanism, joint: Prismatic, body, parent, travel, angle, centre, centres, world) -> None:
-    """A slider's child pose: the same rotation as its parent, the sliding point ``travel`` further along the
-    guide line (through the guide's point ``through``, direction ``u``) than in the sketch."""
-    u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
-    point = np.array(mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
-    through = np.array(mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-    drawn_offset = float(u @ (point - through))  # where the sketch puts the sliding point along the guide
-    angle[body] = angle[parent]
-    rotation = _rotation(angle[body])
-    guide = rotation * sp.Matrix(u) * (drawn_offset + travel)
-    if body == joint.body:  # the slider rides on its parent's guide
-        sliding_point = world(parent, through) + guide
-        centre[body] = sliding_point - rotation * (sp.Matrix(point) - centres[body])
-    else:  # the guide's carrier hangs from the slider
-        guide_point = world(parent, point) - guide
-        centre[body] = guide_point - rotation * (sp.Matrix(through) - centres[body])
 
 
 def _joint_torques(mechanism, joints, angle, s, sd) -> sp.Matrix:
@@ -229,63 +137,3 @@ def _joint_torques(mechanism, joints, angle, s, sd) -> sp.Matrix:
     return out
 
 
-def _cut_rows(mechanism, joint, angle, world) -> list[sp.Expr]:
-    """The constraint rows a joint left out of the tree adds (same form as the DAE's, independently written)."""
-    if isinstance(joint, Revolute):
-        a_body, b_body = joint.a.split(".")[0], joint.b.split(".")[0]
-        at_a = world(a_body, mechanism.point_of(joint.a, joint.name))
-        gap = at_a - world(b_body, mechanism.point_of(joint.b, joint.name))
-        return [gap[0], gap[1]]
-    u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
-    normal = _rotation(angle[joint.on]) * sp.Matrix([-u[1], u[0]])
-    gap = world(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name)) - world(
-        joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-    return [(normal.T * gap)[0], angle[joint.body] - angle[joint.on]]
-
-
-def tree_state(tree: TreeLagrange, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tree coordinates and rates ``(s, sd)`` of a maximal-coordinate state ``(q, qdot)`` (3 per body, centres
-    of mass and rotations from the sketch): a pin's relative rotation, a slider's travel along its guide."""
-    mechanism = tree.mechanism
-    names = [body.name for body in mechanism.bodies]
-    centres = {body.name: np.array(body.centre) for body in mechanism.bodies}
-
-    def pose(body: str):
-        if body == GROUND:
-            return np.zeros(2), 0.0, np.zeros(2), 0.0
-        k = names.index(body)
-        return q[3 * k : 3 * k + 2], q[3 * k + 2], qdot[3 * k : 3 * k + 2], qdot[3 * k + 2]
-
-    def point(body: str, sketch_xy) -> tuple[np.ndarray, np.ndarray]:
-        drawn = np.array(sketch_xy, dtype=float)
-        if body == GROUND:
-            return drawn, np.zeros(2)
-        r, phi, v, w = pose(body)
-        c, s_ = np.cos(phi), np.sin(phi)
-        arm = np.array([[c, -s_], [s_, c]]) @ (drawn - centres[body])
-        return r + arm, v + w * np.array([-arm[1], arm[0]])
-
-    topology = analyse(mechanism)
-    joints = {joint.name: joint for joint in mechanism.joints}
-    values, rates = [], []
-    for body in _bfs_order(topology.parent):
-        joint_name, parent = topology.parent[body]
-        joint = joints[joint_name]
-        _, phi_c, _, w_c = pose(body)
-        _, phi_p, _, w_p = pose(parent)
-        if isinstance(joint, Revolute):
-            values.append(phi_c - phi_p)
-            rates.append(w_c - w_p)
-            continue
-        u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
-        sliding, sliding_rate = point(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
-        guide, guide_rate = point(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-        _, phi_on, _, w_on = pose(joint.on)
-        cos_on, sin_on = np.cos(phi_on), np.sin(phi_on)
-        direction = np.array([cos_on * u[0] - sin_on * u[1], sin_on * u[0] + cos_on * u[1]])
-        drawn = np.array(mechanism.point_of(f"{joint.body}.{joint.point}", joint.name)) - np.array(
-            mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-        values.append(float(direction @ (sliding - guide)) - float(u @ drawn))
-        rates.append(float(w_on * np.array([-direction[1], direction[0]]) @ (sliding - guide)
-                           + direction @ (sliding_rate - guide_rate)))
-    return np.array(values), np.array(rates)

@@ -9,7 +9,8 @@ import pytest
 
 from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.lagrange import derive_tree_lagrange, tree_state
+from physics.mechanism.lagrange import derive_tree_lagrange
+from physics.mechanism.tree import tree_state
 from physics.mechanism.simulate import project_velocity
 
 STATES = 12
@@ -28,7 +29,7 @@ def test_tree_lagrange_matches_the_dae_at_random_states(name):
         guess = dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)
         q = assemble(mechanism, guess).q
         qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
-        s, sd = tree_state(tree, q, qdot)
+        s, sd = tree_state(mechanism, q, qdot)
         assert np.allclose(tree.body_angles(s), q[2::3], atol=1e-12)
         assert np.allclose(tree.body_centres(s), q.reshape(-1, 3)[:, :2], atol=1e-12)
         dae_solution = dae.solve(q, qdot)
