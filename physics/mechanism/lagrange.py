@@ -93,7 +93,7 @@ def _derive(description: str) -> TreeLagrange:
     force = sp.Matrix([sp.diff(lagrangian, q) for q in s]) - momentum.jacobian(s) * sd
     force += _joint_torques(mechanism, joints, angle, s, sd)
 
-    rows, row_joints, speeds = closure_rows(poses)
+    rows, row_joints, speeds, _kinds = closure_rows(poses)
     phi = sp.Matrix(rows) if rows else sp.zeros(0, 1)
     jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(s))
     gamma = -(jacobian * sd).jacobian(s) * sd if rows else sp.zeros(0, 1)

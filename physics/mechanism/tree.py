@@ -74,20 +74,22 @@ def tree_poses(mechanism: Mechanism) -> TreePoses:
     return poses
 
 
-def closure_rows(poses: TreePoses) -> tuple[list[sp.Expr], list[str], list[float]]:
+def closure_rows(poses: TreePoses) -> tuple[list[sp.Expr], list[str], list[float], list[str]]:
     """Constraint rows of the joints left out of the tree and of the speed motors: ``(rows, joint of each row,
-    motor speed of each row)``."""
+    motor speed of each row, kind of each row: "pin", "slide" or "motor")``."""
     mechanism = poses.mechanism
     tree = set(poses.topology.tree_joints)
     rows: list[sp.Expr] = []
     row_joints: list[str] = []
     speeds: list[float] = []
+    kinds: list[str] = []
     for joint in mechanism.joints:
         if joint.name not in tree:
             for expression in _cut_rows(poses, joint):
                 rows.append(expression)
                 row_joints.append(joint.name)
                 speeds.append(0.0)
+                kinds.append("pin" if isinstance(joint, Revolute) else "slide")
     joints = {joint.name: joint for joint in mechanism.joints}
     for driver in mechanism.drivers:
         if driver.speed is None:
@@ -98,7 +100,8 @@ def closure_rows(poses: TreePoses) -> tuple[list[sp.Expr], list[str], list[float
         rows.append(relative - driver.speed * poses.t)
         row_joints.append(joint.name)
         speeds.append(float(driver.speed))
-    return rows, row_joints, speeds
+        kinds.append("motor")
+    return rows, row_joints, speeds, kinds
 
 
 def bfs_order(parent: dict[str, tuple[str, str]]) -> list[str]:
