@@ -86,7 +86,7 @@ def warm_up(preset: str, links: int | None, method: str | None) -> None:
 
     try:
         params = SessionParameters.from_preset(preset, links=links, method=method)
-        ensure_ready(params.chain(), params.settings(), params.theta0, params.omega0)
+        ensure_ready(params.chain, params.settings, params.theta0, params.omega0)
     except Exception as error:  # an optimisation only: a session reports real problems itself
         print(f"linkage-lab: warm-up skipped: {error}", file=sys.stderr)
 
