@@ -32,7 +32,7 @@ import physics
 from physics import LinkageError
 from physics.model import validated
 
-from . import commands, export, warm
+from . import commands, export, readout, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -42,7 +42,6 @@ from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
 from .parameters import METHOD_LABELS, Display, SessionParameters, driving_count, methods_for, settings_data
 from .player import Frame, Player, RunSpec
-from .replay import replay_html
 from .viser_compat import connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
@@ -233,10 +232,6 @@ class Session:
         """A value typed into its box, in the control's units (degrees, milliseconds), parsed here."""
         self.set(name, text, units=CONTROL)
 
-    def set_value(self, name: str, value) -> None:
-        """The ``--set NAME=VALUE`` of ``python -m app snapshot``: :meth:`set` in SI units."""
-        self.set(name, value)
-
     def _set_display(self, name: str, value, units: str) -> None:
         display = commands.apply_display(self.view.display, name, value, units)
         self.view.display = display
@@ -244,19 +239,8 @@ class Session:
         self.player.touch()
         self.controls.sync_after(name)
 
-    def set_speed(self, speed) -> None:
-        self.set("speed", speed)
-
-    def set_trace_seconds(self, seconds) -> None:
-        self.set("trace_seconds", seconds)
-
-    def set_trace_point(self, label) -> None:
-        self.set("trace", label)
-
-    def set_reactions(self, on: bool, scale=None) -> None:
-        """Reaction arrows on or off (``scale``: the arrow scale, as ``set("arrow_scale", ...)``)."""
-        if scale is not None:
-            self.set("arrow_scale", scale)
+    def set_reactions(self, on: bool) -> None:
+        """Reaction arrows on or off (their length: ``set("arrow_scale", ...)``)."""
         self.view.reactions_on = bool(on)
         if not on:
             self.view.hide_arrows()
@@ -470,16 +454,10 @@ class Session:
         """Draw (or stop drawing) ``count`` copies whose initial angles differ by 1e-9 rad."""
         self.analysis.set_ensemble(on, count)
 
-    # ================================================================== export
+    # ================================================================== export and snapshot (app/readout.py)
     def history(self, label: str = "main") -> dict:
         """The stored samples of one run up to the displayed time (for export), as arrays."""
-        with self.player.lock:
-            runs = {run.spec.label: run for run in self.player.runs}
-            run = runs.get(label) or (self.player.runs[0] if self.player.runs else None)
-            if run is None or len(run.ring) == 0:
-                raise LinkageError("nothing to export yet: the simulation has not produced samples")
-            i = run.ring.index_at(self.player.display_time)
-            return run.ring.window(0, i)
+        return readout.history(self.player, label)
 
     def export_csv(self) -> bytes:
         return export.to_csv(self.history(), self.params)
@@ -488,10 +466,7 @@ class Session:
         return export.to_json(self.history(), self.params, self.run_label())
 
     def export_html(self) -> str:
-        try:
-            return replay_html(self.history(), self.params, title=f"Linkage Lab replay: {self.run_label()}")
-        except ValueError as error:  # too short a run to replay: a refusal, not a fault
-            raise LinkageError(str(error)) from None
+        return readout.replay(self.history(), self.params, self.run_label())
 
     def run_label(self) -> str:
         p = self.params
@@ -500,71 +475,12 @@ class Session:
     def download(self, kind: str, client=None) -> None:
         """Send the run (``csv``, ``json``, ``html``) or the equations (``tex``) to ``client`` (or this
         session's browser(s))."""
-        p = self.params
-        stem = f"linkage-{p.preset}-{p.method}"
-        if kind == "csv":
-            name, content = f"{stem}.csv", self.export_csv()
-        elif kind == "json":
-            name, content = f"{stem}.json", self.export_json()
-        elif kind == "tex":
-            from . import equations  # imports sympy: only when asked for
-
-            try:
-                text = equations.equations_tex(p.method, p.n, p.pinned)
-            except ValueError as error:
-                raise LinkageError(str(error)) from None
-            name, content = f"equations-{p.method}-{p.n}{'-pinned' if p.pinned else ''}.tex", text.encode("utf-8")
-        elif kind == "html":
-            name, content = f"{stem}-replay.html", self.export_html().encode("utf-8")
-        else:
-            raise LinkageError(f"download = {kind!r}: allowed csv, json, html, tex")
+        name, content = readout.download_file(self, kind)
         (client or self.target).send_file_download(name, content)
 
-    # ================================================================== snapshot
     def snapshot(self) -> dict:
-        """JSON-able state for tests and ``python -m app snapshot --json``."""
-        with self.player.lock:
-            runs = {run.spec.label: run for run in self.player.runs}
-            out_runs = []
-            for run in self.player.runs:
-                ring = run.ring
-                if len(ring) == 0:
-                    continue
-                i = ring.index_at(self.player.display_time)
-                out_runs.append(
-                    {
-                        "label": run.spec.label,
-                        "method": run.spec.settings.method,
-                        "t": float(ring.t_first + i * ring.dt),
-                        "theta": [float(v) for v in ring.get("theta", i)],
-                        "omega": [float(v) for v in ring.get("omega", i)],
-                        "joints": [[float(x), float(y)] for x, y in ring.get("joints", i)],
-                        "trace_xy": [float(v) for v in ring.get("trace_xy", i)],
-                        "samples_stored": len(ring),
-                        "simulated_until": ring.t_last,
-                        "failed": run.failed,
-                    }
-                )
-            nodes = self.view.scene_nodes()
-            main = out_runs[0] if out_runs else None
-            return {
-                "session": self.id,
-                "shared": self.shared,
-                "parameters": self.params.as_dict(),
-                "method": self.params.method,
-                "compare": self.compare,
-                "playing": self.player.playing,
-                "speed": self.player.speed,
-                "time": float(self.player.display_time),
-                "theta": main["theta"] if main else None,
-                "omega": main["omega"] if main else None,
-                "joints": main["joints"] if main else None,
-                "energy": self.view.current_values(runs),
-                "runs": out_runs,
-                "notice": self.notice,
-                "frames_sent": self.frames_sent,
-                "scene": {"root": self.view.scene.root, "nodes": nodes, "names": sorted(nodes)},
-            }
+        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys)."""
+        return readout.snapshot(self)
 
     # ================================================================== lifetime
     def close(self) -> None:

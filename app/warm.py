@@ -16,6 +16,8 @@ from typing import Callable
 
 import physics
 
+from .logs import log_once
+
 _loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple[str, int, bool], threading.Lock] = {}
 _guard = threading.Lock()
@@ -74,8 +76,8 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
             ensure_loaded(*system)
         try:
             physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
-        except ValueError:  # an invalid start: the run itself reports it
-            pass
+        except ValueError as error:  # an invalid start: the session's own run reports it with a notice
+            log_once(f"warm:{type(error).__name__}", "warming skipped one start: %s", error)
 
     _once(_ready, _ready_key(chain, settings), warm)
 

@@ -64,7 +64,7 @@ def test_a_value_outside_the_model_is_refused_with_its_name(connect):
     session.guard(lambda: session.set("L2", -1.0))
     assert session.params.L == before
     assert session.notice is not None and "L2" in session.notice and "-1" in session.notice
-    session.guard(lambda: session.set_value("nonsense", 3))
+    session.guard(lambda: session.set("nonsense", 3))
     assert "unknown parameter" in session.notice
 
 
