@@ -207,7 +207,19 @@ def _rebuilt(model: BaseModel, update: dict, name: str, q: Quantity, number: flo
 
 # ------------------------------------------------------------------------------------------ edits
 def apply(params: SessionParameters, name: str, value, units: str = SI) -> Edit:
-    """Apply one edit by name; LinkageError (nothing changed) when the models refuse it."""
+    """Apply one edit by name; LinkageError (nothing changed) when the models refuse it. Its text always names
+    the field: a reason found further in (a singular mass matrix, an open loop) is prefixed with it."""
+    try:
+        return _apply(params, name, value, units)
+    except LinkageError as error:
+        text = str(error)
+        if isinstance(name, str) and re.search(rf"\b{re.escape(name)}\b", text):
+            raise
+        shown = str(value)[:MAX_TEXT] if isinstance(value, str) else repr(value)
+        raise LinkageError(f"{name} = {shown}: {text}") from None
+
+
+def _apply(params: SessionParameters, name: str, value, units: str) -> Edit:
     if name in CHOICES:
         return _apply_choice(params, name, value)
     q, k = quantity(name)

@@ -76,7 +76,7 @@ class Controls:
         self._dynamic_numbers: list[str] = []
         self._status_text = ""
         self._equations_job: threading.Thread | None = None
-        self.numbers = NumberInputs(gui, port, self.bind, self._quiet)
+        self.numbers = NumberInputs(gui, port, self.bind, self._quiet, lambda: self.muted)
         self._build()
 
     # ------------------------------------------------------------------ helpers

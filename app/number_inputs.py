@@ -92,14 +92,16 @@ def shown(name: str, value_si: float) -> str:
 
 
 class NumberInputs:
-    """The numbers of one panel. ``mute(action)`` runs a write-back without running callbacks; ``bind(handle,
-    action)`` attaches a callback inside the session's error boundary."""
+    """The numbers of one panel. ``mute(action)`` runs a write-back without running callbacks and ``muted()``
+    tells whether one is under way; ``bind(handle, action)`` attaches a callback inside the session's error
+    boundary."""
 
-    def __init__(self, gui, port: SessionPort, bind: Callable, mute: Callable) -> None:
+    def __init__(self, gui, port: SessionPort, bind: Callable, mute: Callable, muted: Callable[[], bool]) -> None:
         self.gui = gui
         self.port = port
         self._bind = bind
         self._mute = mute
+        self._muted = muted
         self.controls: dict[str, NumberControl] = {}
         self._lock = threading.Lock()
 
@@ -127,7 +129,7 @@ class NumberInputs:
         control = NumberControl(name, slider, box, to_slider)
         self.controls[name] = control
         self._bind(slider, lambda value, event: self.port.set(name, from_slider(value)))
-        box.on_update(lambda event: self._typed(control))
+        box.on_update(lambda event: None if self._muted() else self._typed(control))
         return control
 
     def _typed(self, control: NumberControl) -> None:
