@@ -181,3 +181,25 @@ def test_any_value_is_applied_validly_or_refused_with_one_line(triple, name, val
         return
     edit.params.validate()
     assert edit.params.n == triple.n
+
+
+def test_the_session_offers_every_member_of_the_port_and_the_panel_uses_nothing_else():
+    """Controls and Analysis depend on app.ports.SessionPort, not on the Session's player, scene or target."""
+    import inspect
+    import re
+    from pathlib import Path
+
+    from app.ports import SessionPort
+    from app.session import Session
+
+    members = {name for name in vars(SessionPort) if not name.startswith("_")}
+    members |= set(SessionPort.__annotations__)
+    instance = {"id", "shared", "closed"}  # plain attributes, set when a session is made
+    missing = sorted(name for name in members - instance if not hasattr(Session, name))
+    assert missing == []
+    source = inspect.getsource(Session.__init__)
+    assert all(f"self.{name} = " in source for name in instance)
+    app = Path(__file__).resolve().parents[2] / "app"
+    for module in ("controls.py", "analysis.py", "number_inputs.py"):
+        text = (app / module).read_text()
+        assert not re.search(r"\.(params|player|target)\b", text), module
