@@ -211,6 +211,8 @@ def apply(params: SessionParameters, name: str, value, units: str = SI) -> Edit:
     the field: a reason found further in (a singular mass matrix, an open loop) is prefixed with it."""
     try:
         return _apply(params, name, value, units)
+    except (ArithmeticError, np.linalg.LinAlgError) as error:  # inside the bounds, beyond what floats can hold
+        raise LinkageError(f"{name} = {value!r}: too extreme to compute with ({type(error).__name__}: {error})") from None
     except LinkageError as error:
         text = str(error)
         if isinstance(name, str) and re.search(rf"\b{re.escape(name)}\b", text):

@@ -16,6 +16,7 @@ import threading
 from pathlib import Path
 
 import physics
+from physics import LinkageError
 from physics.model import FIXED_STEP_INTEGRATORS
 
 from .commands import options_of, split_name
@@ -55,6 +56,11 @@ STABILIZATION_OPTIONS = options_of("stabilization")
 
 def _round_to(value: float, step: float) -> float:
     return round(value / step) * step
+
+
+def _from_log10(exponent: float) -> float:
+    """The slider's log10(rtol) back to rtol; a wild exponent (a hostile client) stays a float the model refuses."""
+    return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
 
 
 def _degrees(theta: float) -> float:
@@ -172,9 +178,7 @@ class Controls:
         add = self.numbers.add
         self.status = gui.add_markdown("**Starting...**")
         self.transport = gui.add_button_group("Playback", ("Play", "Pause", "Step", "Reset"))
-        self.bind(self.transport, lambda value, event: {
-            "Play": s.play, "Pause": s.pause, "Step": s.step, "Reset": s.reset,
-        }[value]())
+        self.bind(self.transport, lambda value, event: self._transport(value))
         self.energy_plot = Plot(gui, "Energy", ["total E", "kinetic T", "potential V"],
                                 [(20, 20, 20), (214, 39, 40), (31, 119, 180)], y_label="J")
         self.drift_plot = Plot(gui, "Relative energy error since last change", ["|E - E0| / E0"],
@@ -205,7 +209,7 @@ class Controls:
             self.bind(self.integrator, lambda value, event: s.set("integrator", value))
             lo, hi, step = TOLERANCE_LOG10
             add("rtol", SliderSpec("rtol", lo, hi, step), p.tolerance, label="Tolerance log10(rtol)", slider_range=(lo, hi),
-                to_slider=lambda v: min(max(_round_to(math.log10(v), step), lo), hi), from_slider=lambda x: 10.0 ** x,
+                to_slider=lambda v: min(max(_round_to(math.log10(v), step), lo), hi), from_slider=_from_log10,
                 hint="rtol = atol = 10^value (adaptive integrators); type rtol itself in the box, e.g. 1e-9")
             add("step", STEP_SLIDER, p.step, label="Step (ms, fixed-step)")
             self.stabilization = gui.add_dropdown("Stabilisation (loops)", STABILIZATION_OPTIONS,
@@ -242,6 +246,12 @@ class Controls:
             help_file = STATIC / "help.md"
             gui.add_markdown(help_file.read_text() if help_file.exists() else "See docs/app.md.")
         self.rebuild()
+
+    def _transport(self, button) -> None:
+        actions = {"Play": self.port.play, "Pause": self.port.pause, "Step": self.port.step, "Reset": self.port.reset}
+        if not isinstance(button, str) or button not in actions:
+            raise LinkageError(f"playback = {button!r}: allowed {', '.join(actions)}")
+        actions[button]()
 
     def _method_labels(self) -> tuple[str, ...]:
         return tuple(method_label(m) for m in methods_for(self.port.setup.chain))

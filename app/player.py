@@ -171,6 +171,12 @@ class Player:
             self._thread.join(timeout)
 
     @property
+    def restart_pending(self) -> bool:
+        """A restart was asked for and has not been shown yet (the runs in ``runs`` are about to go)."""
+        with self.lock:
+            return self._pending is not None or self._restarting or self._restart_time is not None
+
+    @property
     def alive(self) -> bool:
         return self._thread.is_alive()
 

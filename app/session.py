@@ -219,7 +219,10 @@ class Session:
                 self.params = edit.params
                 self._restart_fresh()
             else:
-                self._commit(edit.params)
+                try:
+                    self._commit(edit.params)
+                except (ArithmeticError, np.linalg.LinAlgError) as error:  # closing the loop with extreme values
+                    raise LinkageError(f"{name} = {value!r}: too extreme to go on with ({error})") from None
             if edit.geometry:
                 self.view.resize(self.params)
                 self.frame_camera()
@@ -395,7 +398,9 @@ class Session:
     # ================================================================== playback
     def play(self) -> None:
         self._user_paused = False
-        if self.last_frame is not None and any(run.failed for run in self.player.runs):
+        if self.last_frame is not None and not self.player.restart_pending and any(
+            run.failed for run in self.player.runs
+        ):
             t_last = min(run.ring.t_last for run in self.player.runs)
             if self.player.display_time >= t_last - 1e-9:
                 raise LinkageError("the simulation stopped here; press Reset (or change a parameter) to go on")

@@ -105,3 +105,38 @@ def session_for_fuzz(lab):
     session.pause()
     yield session
     client.close()
+
+
+HOSTILE_NUMBERS = (float("nan"), float("inf"), float("-inf"), 1e308, -1e308)
+HOSTILE_TEXTS = ("abc", "", "NaN", "1e999", "<img src=x onerror=alert(1)>", "[1, 2]", "None", "0x1p3")
+
+
+def test_hostile_values_on_every_control_give_notices_and_never_pause_the_session(connect):
+    """What a hostile websocket client can make viser hand to the callbacks (viser casts a slider's value to
+    float, a box's or a dropdown's to str): every one is refused with a notice, the session keeps going."""
+    _, session = connect()
+    titles: list[str] = []
+    show = session.show_notice
+    session.show_notice = lambda title, body, **kw: (titles.append(title), show(title, body, **kw))
+    controls = session.controls
+    for name, number in list(controls.numbers.controls.items()):
+        if number.slider.disabled:
+            continue
+        for value in HOSTILE_NUMBERS:
+            number.slider.value = value
+        for text in HOSTILE_TEXTS:
+            session.guard(lambda name=name, text=text: session.set_typed(name, text))  # what the box's pause runs
+    controls.transport.value = "Bogus"
+    session.analysis.count_dropdown.value = "bogus"
+    for dropdown in (controls.method, controls.integrator, controls.stabilization, controls.trace_point,
+                     controls.mechanism):
+        dropdown.value = "<b>bogus</b>"
+    # "Simulation stopped": a value the models accept (L, g, omega have no upper bound) but no run survives;
+    # that run stops with a notice saying why. Never "Session paused" (an error of the app itself).
+    assert titles and "Not applied" in titles and set(titles) <= {"Not applied", "Simulation stopped"}, titles
+    assert_alive(session)
+    session.params.validate()
+    session.set_mechanism("triple-a")  # a fresh start after the barrage
+    session.play()
+    t0 = session.snapshot()["time"]
+    assert wait_until(lambda: session.snapshot()["time"] > t0 + 0.2)
