@@ -22,7 +22,6 @@ import numpy as np
 
 from .buffers import TrajectoryRing
 from .runs import (
-    FIRST_CHUNK_SECONDS,
     Frame,
     Restart,
     Run,

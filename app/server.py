@@ -137,8 +137,9 @@ class LabServer:
             session = Session(client, preset=self.preset, links=self.links, method=self.method)
         except Exception as error:  # never let one browser's start take the server down
             traceback.print_exc()
-            quietly(lambda: client.add_notification("Could not start a session", f"{type(error).__name__}: {error}",
-                                                    color="red"), "telling a browser its session failed")
+            reason = f"{type(error).__name__}: {error}"
+            quietly(lambda: client.add_notification("Could not start a session", reason, color="red"),
+                    "telling a browser its session failed")
         finally:
             with self._lock:
                 self._reserved -= 1
