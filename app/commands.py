@@ -52,13 +52,13 @@ class Quantity:
             return lo, lo_open, hi, hi_open
         for item in self.model.model_fields[self.field].metadata:
             if isinstance(item, annotated_types.Ge):
-                lo, lo_open = float(item.ge), False
+                lo, lo_open = _number(item.ge), False
             elif isinstance(item, annotated_types.Gt):
-                lo, lo_open = float(item.gt), True
+                lo, lo_open = _number(item.gt), True
             elif isinstance(item, annotated_types.Le):
-                hi, hi_open = float(item.le), False
+                hi, hi_open = _number(item.le), False
             elif isinstance(item, annotated_types.Lt):
-                hi, hi_open = float(item.lt), True
+                hi, hi_open = _number(item.lt), True
         return lo, lo_open, hi, hi_open
 
     def shown(self, value_si: float) -> str:
@@ -67,6 +67,10 @@ class Quantity:
         if self.unit.startswith("°"):
             return f"{text}{self.unit}"
         return f"{text} {self.unit}" if self.unit else text
+
+
+def _number(bound: object) -> float:
+    return float(bound)  # type: ignore[arg-type]  # the models' bounds are numbers
 
 
 DEG = 180.0 / math.pi
@@ -183,7 +187,7 @@ def _refusal(name: str, q: Quantity, number: float, error: ValidationError, para
         reasons.append(None if out_of_range else reason)
     if None in reasons:
         return LinkageError(f"{name} = {q.shown(number)}: outside the allowed range {range_text(name, q, params, k)}")
-    return LinkageError(f"{name} = {q.shown(number)}: " + "; ".join(dict.fromkeys(reasons)))
+    return LinkageError(f"{name} = {q.shown(number)}: " + "; ".join(dict.fromkeys(r for r in reasons if r)))
 
 
 def _in_degrees(text: str) -> str:
@@ -230,9 +234,9 @@ def _apply(params: SessionParameters, name: str, value, units: str) -> Edit:
     number = parse_number(name, q, value, units)
     if k is not None and not 1 <= k <= params.n:
         raise LinkageError(f"{name}: this mechanism has bars 1..{params.n}")
-    if q.model is Bar:
+    if q.model is Bar and k is not None:
         return _apply_bar(params, name, q, k, number)
-    if q.field in ("theta0", "omega0"):
+    if q.field in ("theta0", "omega0") and k is not None:
         return _apply_start(params, name, q, k, number)
     if name == "g":
         chain = _rebuilt(params.chain, {"g": number}, name, q, number)
@@ -279,9 +283,10 @@ def _apply_bar(params: SessionParameters, name: str, q: Quantity, k: int, number
 
 
 def _apply_pin(params: SessionParameters, name: str, q: Quantity, number: float) -> Edit:
-    if not params.pinned:
+    old = params.pin
+    if old is None:
         raise LinkageError(f"{name}: this mechanism is an open chain (no pinned tip)")
-    pin = (number, params.pin[1]) if name == "pin_x" else (params.pin[0], number)
+    pin = (number, old[1]) if name == "pin_x" else (old[0], number)
     chain = Chain.model_validate({**dict(params.chain), "pin": pin})
     count = driving_count(params.n, True)
     try:

@@ -293,7 +293,7 @@ class Controls:
                 self._angle_names.append(name)
                 self._dynamic_numbers.append(name)
         self.pin_folder.visible = p.pinned
-        if p.pinned:
+        if p.pin is not None:
             with self.pin_folder:
                 for name, value in zip(("pin_x", "pin_y"), p.pin):
                     add(name, PIN_SLIDER, value, label=f"pin {name[-1]} (m)")

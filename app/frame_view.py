@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -38,7 +38,7 @@ class FrameView:
         self.target = target
         self._player_lock = player_lock
         self._notice = notice
-        self.panel = None  # set once the panel exists (it is built after the scene)
+        self.panel: Any = None  # the session's Controls, set once they exist (they are built after the scene)
         scene_api = target.scene
         self.floor = scene_api.add_grid(
             "/floor", width=20.0, height=20.0, plane="xy", cell_size=0.25, section_size=1.0,

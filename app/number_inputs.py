@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 from .commands import QUANTITIES, Quantity, split_name
 from .logs import quietly
@@ -40,7 +40,7 @@ class SliderSpec:
         return QUANTITIES[self.key]
 
     @property
-    def model(self) -> type:
+    def model(self) -> Any:
         return self.quantity.model
 
     @property
@@ -79,8 +79,8 @@ class NumberControl:
     """One number's slider and typed box; ``to_slider`` maps the SI value to the slider's scale."""
 
     name: str  # the command-layer name (L2, g, rtol, ...)
-    slider: object
-    box: object
+    slider: Any  # viser's GuiSliderHandle
+    box: Any  # viser's GuiTextHandle
     to_slider: Callable[[float], float]
     timer: threading.Timer | None = None
 
@@ -205,7 +205,7 @@ def value_in_force(port: SessionPort, name: str) -> float:
         return float(getattr(p.chain.bars[k - 1], key))
     if name == "g":
         return p.g
-    if name in ("pin_x", "pin_y"):
+    if name in ("pin_x", "pin_y") and p.pin is not None:
         return p.pin[0 if name == "pin_x" else 1]
     if hasattr(display, name):
         return float(getattr(display, name))

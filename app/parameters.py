@@ -139,11 +139,14 @@ class SessionParameters:
 
     @property
     def pin(self) -> tuple[float, float] | None:
-        return tuple(self.chain.pin) if self.chain.pin is not None else None
+        pin = self.chain.pin
+        return (float(pin[0]), float(pin[1])) if pin is not None else None
 
     @property
     def trace(self) -> TracePoint:
-        return self.settings.trace
+        trace = self.settings.trace
+        assert trace is not None, "a session's settings always name the traced point (from_preset sets it)"
+        return trace
 
     @property
     def method(self) -> str:

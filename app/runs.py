@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from physics import energies, joint_positions
+from physics import Chain, Settings, energies, joint_positions
 from physics.kinematics import point_on_bar
 
 from .buffers import TrajectoryRing
@@ -23,8 +23,8 @@ class RunSpec:
     """What one run simulates: a validated chain, settings (``t_end``/``samples`` are set per chunk), a label."""
 
     label: str
-    chain: object  # physics.Chain
-    settings: object  # physics.Settings
+    chain: Chain
+    settings: Settings
 
     @property
     def n(self) -> int:

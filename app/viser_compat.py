@@ -31,9 +31,11 @@ def _version() -> tuple[int, int]:
 VERSION_TESTED = _version() in TESTED_MINORS
 
 try:  # the wire messages the public pose setters send
-    from viser._messages import SetOrientationMessage, SetPositionMessage
+    from viser import _messages as _wire
 except ImportError:  # pragma: no cover - another viser layout
-    SetOrientationMessage = SetPositionMessage = None
+    _wire = None  # type: ignore[assignment]
+SetPositionMessage: Any = getattr(_wire, "SetPositionMessage", None)
+SetOrientationMessage: Any = getattr(_wire, "SetOrientationMessage", None)
 
 
 def warn_once(key: str, text: str) -> None:
