@@ -31,7 +31,8 @@ from .parameters import Display, SessionParameters, driving_count, settings_data
 SI = "si"
 CONTROL = "control"
 MAX_TEXT = 64  # characters of a typed number; anything longer is not a number anyone typed
-_PER_BAR = re.compile(r"(L|d|m|I|theta|omega)([1-9][0-9]?)")
+PER_BAR_STATE = ("theta", "omega")  # with PARAMETER_FIELDS: the per-bar names of ``--set`` (L2, theta1, ...)
+_PER_BAR = re.compile(rf"({'|'.join((*PARAMETER_FIELDS, *PER_BAR_STATE))})([1-9][0-9]?)")
 
 
 @dataclass(frozen=True)
@@ -110,7 +111,7 @@ class Edit:
 # ------------------------------------------------------------------------------------------ names
 def split_name(name: str) -> tuple[str, int | None]:
     """``"L2"`` -> ``("L", 2)``; ``"g"`` -> ``("g", None)``: the quantity's key and the bar (1-based)."""
-    match = _PER_BAR.fullmatch(name)
+    match = _PER_BAR.fullmatch(name) if isinstance(name, str) else None
     if match:
         return match.group(1), int(match.group(2))
     return name, None
@@ -129,13 +130,9 @@ def quantity(name: str) -> tuple[Quantity, int | None]:
 
 def allowed_names(n: int | None = None) -> str:
     bars = f"1..{n}" if n else "1.."
-    per_bar = ", ".join(f"{f}{bars}" for f in ("L", "d", "m", "I", "theta", "omega"))
+    per_bar = ", ".join(f"{f}{bars}" for f in (*PARAMETER_FIELDS, *PER_BAR_STATE))
     single = [name for name, q in QUANTITIES.items() if not q.per_bar]
     return ", ".join([per_bar, *single, *CHOICES])
-
-
-def is_number_name(name: str) -> bool:
-    return name not in CHOICES
 
 
 # ------------------------------------------------------------------------------------------ numbers
@@ -219,14 +216,14 @@ def apply(params: SessionParameters, name: str, value, units: str = SI) -> Edit:
         raise LinkageError(f"{name} = {value!r}: too extreme to compute with ({type(error).__name__}: {error})") from None
     except LinkageError as error:
         text = str(error)
-        if isinstance(name, str) and re.search(rf"\b{re.escape(name)}\b", text):
-            raise
+        if not isinstance(name, str) or re.search(rf"\b{re.escape(name)}\b", text):
+            raise  # already names the field (or the name itself was refused)
         shown = str(value)[:MAX_TEXT] if isinstance(value, str) else repr(value)
         raise LinkageError(f"{name} = {shown}: {text}") from None
 
 
 def _apply(params: SessionParameters, name: str, value, units: str) -> Edit:
-    if name in CHOICES:
+    if isinstance(name, str) and name in CHOICES:
         return _apply_choice(params, name, value)
     q, k = quantity(name)
     if q.model is Display:
