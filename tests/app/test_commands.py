@@ -203,3 +203,14 @@ def test_the_session_offers_every_member_of_the_port_and_the_panel_uses_nothing_
     for module in ("controls.py", "analysis.py", "number_inputs.py"):
         text = (app / module).read_text()
         assert not re.search(r"\.(params|player|target)\b", text), module
+
+
+@given(name=st.one_of(st.text(max_size=12), st.integers(), st.none(), st.lists(st.text(max_size=2), max_size=2)),
+       value=st.one_of(st.floats(), st.text(max_size=8)))
+def test_any_name_is_a_known_field_or_one_line_saying_which_are(triple, name, value):
+    try:
+        edit = commands.apply(triple, name, value)
+    except physics.LinkageError as error:
+        assert "\n" not in str(error) and str(error)
+        return
+    edit.params.validate()
