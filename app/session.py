@@ -272,8 +272,7 @@ class Session:
             self._layout_changed()
 
     def set_links(self, links) -> None:
-        q = commands.Quantity("links", "", None, "links")
-        number = commands.parse_number("links", q, links)
+        number = commands.parse_number("links", commands.LINKS, links)
         if not (number == int(number) and 1 <= number <= physics.model.MAX_LINKS):
             raise LinkageError(f"links = {links}: allowed whole numbers 1 <= links <= {physics.model.MAX_LINKS}")
         if self.params.preset != "chain":
