@@ -28,7 +28,7 @@ def _inside(spec, low, high):
 @pytest.mark.parametrize(
     "spec",
     [*controls.BAR_SLIDERS.values(), controls.GRAVITY_SLIDER, controls.DAMPING_SLIDER, controls.ALPHA_SLIDER,
-     controls.BETA_SLIDER],
+     controls.BETA_SLIDER, controls.STEP_SLIDER, controls.SPEED_SLIDER, controls.TRACE_SLIDER, controls.ARROW_SLIDER],
     ids=lambda s: f"{s.model.__name__}.{s.field}",
 )
 def test_slider_ranges_sit_inside_the_model_bounds(spec):

@@ -140,3 +140,17 @@ def test_hostile_values_on_every_control_give_notices_and_never_pause_the_sessio
     session.play()
     t0 = session.snapshot()["time"]
     assert wait_until(lambda: session.snapshot()["time"] > t0 + 0.2)
+
+
+def test_every_number_of_the_panel_names_its_unit(connect):
+    _, session = connect()
+    session.set_mechanism("four-bar")  # a closed loop: the pin's controls too
+    dimensionless = {"rtol", "arrow_scale"}
+    units = ("(m)", "(kg)", "(kg·m²)", "(m/s²)", "(°", "(ms", "(s)", "(N·m·s)", "(1/s)", "(×)")
+    numbers = session.controls.numbers.controls
+    assert {"g", "I1", "theta1", "pin_x", "step", "speed"} <= set(numbers)
+    for name, control in numbers.items():
+        if name in dimensionless:
+            continue
+        assert any(unit in control.slider.label for unit in units), (name, control.slider.label)
+        assert any(unit in control.box.label for unit in units), (name, control.box.label)
