@@ -15,10 +15,12 @@ import ipaddress
 import socket
 import threading
 import time
+import traceback
 
 from physics import LinkageError
 
 from . import warm as warm_up
+from .logs import quietly
 from .parameters import SessionParameters
 from .session import Session
 
@@ -140,13 +142,10 @@ class LabServer:
         try:
             session = Session(client, preset=self.preset, links=self.links, method=self.method)
         except Exception as error:  # never let one browser's start take the server down
-            import traceback
-
             traceback.print_exc()
-            try:
-                client.add_notification("Could not start a session", f"{type(error).__name__}: {error}", color="red")
-            except Exception:
-                pass
+            reason = f"{type(error).__name__}: {error}"
+            quietly(lambda: client.add_notification("Could not start a session", reason, color="red"),
+                    "telling a browser its session failed")
         finally:
             with self._lock:
                 self._reserved -= 1
@@ -175,12 +174,13 @@ class LabServer:
             f"This server runs at most **{self.max_sessions}** simulations at once, and all are in use. "
             "Close another tab, or try again in a moment (reload this page)."
         )
-        try:
+
+        def tell() -> None:
             client.gui.add_markdown(text)
             client.add_notification("Server full", f"At most {self.max_sessions} sessions; reload later.",
                                     color="red", auto_close_seconds=None)
-        except Exception:
-            pass
+
+        quietly(tell, "telling a browser the server is full")  # it may have left already
 
     def _disconnect(self, client) -> None:
         with self._lock:

@@ -22,6 +22,8 @@ from physics.codegen.cache import is_generated
 # A build in a worker process that takes longer than this is left to finish in the server instead.
 PREBUILD_TIMEOUT_SECONDS = 600.0
 
+from .logs import log_once
+
 _loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple[str, int, bool], threading.Lock] = {}
 _guard = threading.Lock()
@@ -81,8 +83,8 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
             ensure_loaded(*system)
         try:
             physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
-        except ValueError:  # an invalid start: the run itself reports it
-            pass
+        except ValueError as error:  # an invalid start: the session's own run reports it with a notice
+            log_once(f"warm:{type(error).__name__}", "warming skipped one start: %s", error)
 
     _once(_ready, _ready_key(chain, settings), warm)
 
@@ -115,7 +117,7 @@ def warm_up(preset: str, links: int | None, method: str | None) -> None:
 
     try:
         params = SessionParameters.from_preset(preset, links=links, method=method)
-        ensure_ready(params.chain(), params.settings(), params.theta0, params.omega0)
+        ensure_ready(params.chain, params.settings, params.theta0, params.omega0)
     except Exception as error:  # an optimisation only: a session reports real problems itself
         print(f"linkage-lab: warm-up skipped: {error}", file=sys.stderr)
 
