@@ -219,6 +219,9 @@ class Controls:
             add("baumgarte_beta", BETA_SLIDER, p.baumgarte_beta)
             add("damping", DAMPING_SLIDER, p.damping)
         with self.tabs.add_tab("Display"):
+            self.camera_view = gui.add_button_group("View", ("Front", "3D"),
+                                                    hint="Front: the plane of the motion as a drawing. 3D: from above")
+            self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
             add("speed", SPEED_SLIDER, s.display.speed)
             add("trace_seconds", TRACE_SLIDER, s.display.trace_seconds, label="Trace length (s)")
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())

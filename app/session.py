@@ -242,6 +242,10 @@ class Session:
         self.player.touch()
         self.controls.sync_after(name)
 
+    def set_camera_view(self, view: str) -> None:
+        """``"front"`` (the plane of the motion as a drawing) or ``"3d"``: every camera of this session reframed."""
+        self.camera.set_view(view)
+
     def set_reactions(self, on: bool) -> None:
         """Reaction arrows on or off (their length: ``set("arrow_scale", ...)``)."""
         self.view.reactions_on = bool(on)
