@@ -82,6 +82,7 @@ class Controls:
         self._dynamic_numbers: list[str] = []
         self._status_text = ""
         self._equations_job: threading.Thread | None = None
+        self._equations_key: tuple | None = None  # the system the Equations tab shows (None: not asked for yet)
         self.numbers = NumberInputs(gui, port, self.bind, self._quiet, lambda: self.muted)
         self._build()
 
@@ -352,6 +353,7 @@ class Controls:
             self.numbers.sync(name)
 
     def sync_method(self) -> None:
+        self.refresh_equations()
         p = self.port.setup
         self._set_options(self.method, self._method_labels())
         self._set(self.method, method_label(p.method))
@@ -395,6 +397,12 @@ class Controls:
             quietly(lambda: setattr(self.status, "content", text), "updating the status line")
 
     # ------------------------------------------------------------------ equations
+    def refresh_equations(self) -> None:
+        """The Equations tab never shows another method's system: once shown, it follows the method in force."""
+        p = self.port.setup
+        if self._equations_key is not None and self._equations_key != (p.method, p.n, p.pinned):
+            self.show_equations()
+
     def show_equations(self) -> None:
         """Render the current system's equations in a worker thread (sympy is imported there, never at start)."""
         from . import equations  # imports sympy: only when asked for
@@ -402,18 +410,21 @@ class Controls:
         p = self.port.setup
         method = p.method
         key = (method, p.n, p.pinned)
-        if self._equations_job is not None and self._equations_job.is_alive():
-            return
+        self._equations_key = key
         self.equations.content = f"<p><b>Deriving</b> the {method_label(method)} equations for {p.n} bars...</p>"
+        if self._equations_job is not None and self._equations_job.is_alive():
+            return  # the running job sees the new key when it finishes and derives again
 
         def work() -> None:
             try:
                 html = equations.equations_html(*key)
             except Exception as error:  # shown in the panel; the session goes on
                 html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
-            now = self.port.setup
-            if (now.method, now.n, now.pinned) == key:
+            if self._equations_key == key:
                 self.equations.content = html
+            elif self._equations_key is not None and not self.port.closed:
+                self._equations_job = None
+                self.show_equations()  # the method changed while deriving: show the one in force
 
         self._equations_job = threading.Thread(target=work, name="equations", daemon=True)
         self._equations_job.start()
