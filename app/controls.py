@@ -194,6 +194,9 @@ class Controls:
         with self.tabs.add_tab("Mechanism"):
             self.mechanism = gui.add_dropdown("Mechanism", physics.preset_names(), initial_value=p.preset)
             self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
+            self.preset_defaults = gui.add_button("Reset to the preset's values",
+                                                  hint="Lengths, masses, inertias, gravity and angles as the preset has them")
+            self.bind(self.preset_defaults, lambda value, event: self.reset_to_preset())
             self.links = gui.add_slider("Bars (chain)", min=1, max=LINKS_MAX_ON_SLIDER, step=1, initial_value=p.n)
             self.bind(self.links, lambda value, event: s.set_links(value))
             add("g", GRAVITY_SLIDER, p.g)
@@ -402,6 +405,11 @@ class Controls:
         p = self.port.setup
         if self._equations_key is not None and self._equations_key != (p.method, p.n, p.pinned):
             self.show_equations()
+
+    def reset_to_preset(self) -> None:
+        """The preset's own values again (picking the preset already shown in the menu fires no event)."""
+        p = self.port.setup
+        self.port.set_mechanism(p.preset, links=p.n if p.preset == "chain" else None)
 
     def show_equations(self) -> None:
         """Render the current system's equations in a worker thread (sympy is imported there, never at start)."""

@@ -40,7 +40,15 @@ from .controls import Controls
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
 from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
-from .parameters import METHOD_LABELS, Display, SessionParameters, driving_count, methods_for, settings_data
+from .parameters import (
+    METHOD_LABELS,
+    Display,
+    SessionParameters,
+    driving_count,
+    in_menu_words,
+    methods_for,
+    settings_data,
+)
 from .player import Frame, Player, RunSpec
 from .viser_compat import connection_open
 
@@ -159,7 +167,7 @@ class Session:
         try:
             return action()
         except LinkageError as error:
-            self.show_notice("Not applied", str(error), color="yellow")
+            self.show_notice("Not applied", in_menu_words(str(error)), color="yellow")
             self.controls.sync_all()
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
             traceback.print_exc()
@@ -396,7 +404,7 @@ class Session:
         stuck = all(len(run.ring) <= 1 for run in self.player.runs)
         hint = ("This start cannot move. Press Reset to go back to the last start that ran."
                 if stuck else "Press Reset to start again.")
-        self.show_notice("Simulation stopped", f"{message}. {hint}", color="red", seconds=None)
+        self.show_notice("Simulation stopped", in_menu_words(f"{message}. {hint}"), color="red", seconds=None)
 
     # ================================================================== playback
     def play(self) -> None:
