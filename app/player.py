@@ -39,8 +39,27 @@ SAMPLE_DT = 1.0 / SAMPLE_RATE
 HISTORY_SECONDS = 120.0  # what a session keeps for plots and export; bounds its memory
 LOOKAHEAD_SECONDS = 1.0  # simulated time kept ready ahead of the display (times the playback speed)
 MAX_CHUNK_SECONDS = 2.0
-CHUNK_BUDGET_SECONDS = 0.008  # aim for chunks that take about half a frame to compute
+# Chunk lengths adapt to the work a chunk took, counted in right-hand-side evaluations, never to the wall
+# clock: a run is then the same, bit for bit, whatever the machine's load or the frame timing (each chunk
+# restarts the integrator, so its boundaries shape the result). About half a frame of compute for a triple
+# pendulum; the budget shrinks with the square of the chain length, as the cost of one evaluation grows.
+CHUNK_WORK_BUDGET = 3000.0  # right-hand-side evaluations per chunk at n = 3
 MAX_SPEED = 8.0
+
+
+def _chunk_work(traj) -> int:
+    """The work a chunk took: right-hand-side evaluations (steps for integrators that count none)."""
+    return int(getattr(traj, "n_rhs", 0) or getattr(traj, "n_steps", 0))
+
+
+def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
+    """The next chunk's length from this one's work alone (deterministic: see CHUNK_WORK_BUDGET)."""
+    budget = CHUNK_WORK_BUDGET * (3.0 / max(n, 1)) ** 2
+    if work > budget and seconds > 2 * SAMPLE_DT:
+        return max(2 * SAMPLE_DT, seconds / 2)
+    if work < budget / 4:
+        return min(MAX_CHUNK_SECONDS, seconds * 2)
+    return seconds
 
 
 class Player:
@@ -364,11 +383,7 @@ class Player:
                 run.failed = f"the state became non-finite at t = {t0 + (good + 1) * SAMPLE_DT:.4g} s"
             elif len(chunk["t"]) < steps:
                 run.failed = traj.message or "the simulation stopped early"
-            # adapt the chunk length to the compute time (slow integrators get short chunks)
-            if elapsed > CHUNK_BUDGET_SECONDS and run.chunk_seconds > 2 * SAMPLE_DT:
-                run.chunk_seconds = max(2 * SAMPLE_DT, run.chunk_seconds / 2)
-            elif elapsed < CHUNK_BUDGET_SECONDS / 4:
-                run.chunk_seconds = min(MAX_CHUNK_SECONDS, run.chunk_seconds * 2)
+            run.chunk_seconds = next_chunk_seconds(run.chunk_seconds, _chunk_work(traj), spec.n)
         return True
 
     def _available_until(self) -> float:

@@ -91,8 +91,8 @@ def chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
         "potential": traj.potential,
         "energy": traj.energy,
     }
-    if traj.reactions.shape[1:] == (n, 2):
-        out["reactions"] = traj.reactions
+    if traj.joint_reactions.shape[1:] == (n, 2):  # every method's (physics/reactions.py)
+        out["reactions"] = traj.joint_reactions
     if pinned:
         if traj.constraint_xy.shape[1:] == (2,):
             out["constraint_xy"] = traj.constraint_xy

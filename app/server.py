@@ -28,6 +28,9 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
 DEFAULT_PRESET = "triple-a"
 DEFAULT_MAX_SESSIONS = 32
+# Own sessions each integrate ahead in this interpreter (app/player.py); past this the 2-core machine of
+# docs/reliability.md cannot keep their frame rate. A larger audience watches one --shared session.
+MAX_SESSIONS_LIMIT = 100
 # Frames per second the server renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
 # beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core the server may use is not
 # spent on frames that viser would drop before sending (measured: python -m app.bench load).
@@ -76,8 +79,11 @@ class LabServer:
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
-        if int(max_sessions) < 1:
-            raise LinkageError(f"--max-sessions {max_sessions}: must be at least 1")
+        if not 1 <= int(max_sessions) <= MAX_SESSIONS_LIMIT:
+            raise LinkageError(
+                f"--max-sessions {max_sessions}: allowed range 1 <= max-sessions <= {MAX_SESSIONS_LIMIT} "
+                "(own sessions each integrate in this process; use --shared for a larger audience)"
+            )
         # validate the start mechanism once, before anything listens (raises LinkageError naming the field)
         SessionParameters.from_preset(preset, links=links, method=method)
         check_bindable(host)

@@ -10,11 +10,17 @@ Imports only physics (no viser), so ``python -m app`` can start warming first.
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 import threading
 from typing import Callable
 
 import physics
+from physics.codegen.cache import is_generated
+
+# A build in a worker process that takes longer than this is left to finish in the server instead.
+PREBUILD_TIMEOUT_SECONDS = 600.0
 
 from .logs import log_once
 
@@ -72,6 +78,7 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
     compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part."""
 
     def warm() -> None:
+        build_outside(settings.method, chain.n, chain.pinned, settings.integrator)
         for system in _systems(settings.method, chain.n, chain.pinned):
             ensure_loaded(*system)
         try:
@@ -80,6 +87,28 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
             log_once(f"warm:{type(error).__name__}", "warming skipped one start: %s", error)
 
     _once(_ready, _ready_key(chain, settings), warm)
+
+
+def build_outside(method: str, n: int, pinned: bool, integrator: str) -> bool:
+    """Derive and compile a mechanism the cache lacks in a worker process (physics/codegen/prebuild.py), so
+    the server's interpreter (and every other session's animation) never waits on sympy or numba's compiler.
+    True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
+    in-process, as before: slower for the others, still correct)."""
+    if all(is_generated(*system) for system in _systems(method, n, pinned)):
+        return False
+    command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
+               "pinned" if pinned else "open", integrator]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=PREBUILD_TIMEOUT_SECONDS,
+                              env=dict(os.environ), check=False)
+    except (OSError, subprocess.TimeoutExpired) as error:
+        print(f"linkage-lab: worker build failed ({error}); building in the server", file=sys.stderr)
+        return False
+    if done.returncode != 0:
+        reason = (done.stderr.strip().splitlines() or [f"exit {done.returncode}"])[-1]
+        print(f"linkage-lab: worker build failed ({reason}); building in the server", file=sys.stderr)
+        return False
+    return True
 
 
 def warm_up(preset: str, links: int | None, method: str | None) -> None:

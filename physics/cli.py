@@ -1,7 +1,8 @@
 """``python -m physics``: arguments -> models -> run -> CSV/JSON. Any error -> one line on stderr, non-zero exit.
 
-Subcommands: ``simulate``, ``accelerations``, ``presets``, ``warm`` (fill the derivation cache), and the
-benchmark and chaos-map commands (``bench``, ``chaos-map``) where installed.
+Subcommands: ``simulate``, ``accelerations``, ``presets``, ``warm`` (fill the derivation cache), the
+benchmark and chaos-map commands (``bench``, ``chaos-map``) where installed, and the seed-report companions
+(``fbd``, ``equilibrium``, ``seed-report``: physics.report_commands).
 """
 
 from __future__ import annotations
@@ -441,7 +442,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_EXTERNAL = {"bench": ("physics.bench", "main"), "chaos-map": ("physics.chaos", "main")}
+_EXTERNAL = {
+    "bench": ("physics.bench", "main"),
+    "chaos-map": ("physics.chaos", "main"),
+    "fbd": ("physics.report_commands", "fbd_main"),
+    "equilibrium": ("physics.report_commands", "equilibrium_main"),
+    "seed-report": ("physics.report_commands", "seed_report_main"),
+}
 
 
 class _NoScipyLinalg:

@@ -18,6 +18,7 @@ from ..errors import LinkageError
 from ..kernels.observables import chain_observables
 from ..kinematics import joint_positions
 from ..model import Chain, Settings, TracePoint, check_state
+from ..reactions import reactions_from_motion
 from .trajectory import (
     STATUS_INTEGRATOR_FAILED,
     STATUS_MAX_STEPS,
@@ -77,18 +78,18 @@ def check_assembled(chain: Chain, theta: np.ndarray) -> None:
         )
 
 
-# A trajectory holds about 4n + 12 float64 columns per sample (angles, velocities, joints, energies,
-# reactions): past this many values (400 MB) a request does not fit a run of this tool, and is refused up front.
+# A trajectory holds about 8n + 14 float64 columns per sample (angles, velocities, joints, energies, the
+# DAE's reactions, every method's joint reactions, pin reaction and constraint residuals): past this many values (400 MB) a request does not fit a run of this tool, and is refused up front.
 MAX_OUTPUT_VALUES = 50_000_000
 
 
 def check_output_size(n: int, samples: int) -> None:
     """Refuse, before any allocation, a trajectory too large to hold: one line with the estimate and the limit."""
-    values = samples * (4 * n + 12)
+    values = samples * (8 * n + 14)
     if values > MAX_OUTPUT_VALUES:
         raise LinkageError(
             f"samples = {samples}: a {n}-bar trajectory of that many samples holds about {values * 8 / 1e9:.2g} GB "
-            f"(limit {MAX_OUTPUT_VALUES * 8 / 1e9:.2g} GB); allowed samples <= {MAX_OUTPUT_VALUES // (4 * n + 12)}"
+            f"(limit {MAX_OUTPUT_VALUES * 8 / 1e9:.2g} GB); allowed samples <= {MAX_OUTPUT_VALUES // (8 * n + 14)}"
         )
 
 
@@ -264,6 +265,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     energy = kinetic + potential
 
     reactions = np.zeros((samples, len(compiled.reaction_index), 2))
+    joint_reactions = np.zeros((samples, n, 2))
     tip_reaction = np.zeros((samples, len(compiled.tip_reaction_index)))
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
@@ -275,6 +277,10 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
             reactions = x[:, compiled.reaction_index]
         if compiled.tip_reaction_index.size:
             tip_reaction = x[:, compiled.tip_reaction_index]
+        joint_reactions = reactions_from_motion(
+            L, d, m, float(chain.g), theta, omega, x[:, compiled.theta_ddot_index],
+            tip_reaction if chain.pinned else None,
+        )
     else:
         cond = np.zeros(0)
     if chain.pinned:
@@ -297,6 +303,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
         potential=potential,
         energy=energy,
         reactions=reactions,
+        joint_reactions=joint_reactions,
         tip_reaction=tip_reaction,
         constraint_xy=constraint_xy,
         constraint_velocity=constraint_velocity,
