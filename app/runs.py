@@ -80,7 +80,7 @@ def com_ratio(chain) -> np.ndarray:
 
 
 def chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
-    """The ring's fields from a physics Trajectory (reactions only for dae; zeros elsewhere)."""
+    """The ring's fields from a physics Trajectory (joint reactions for every method: physics/reactions.py)."""
     out = {
         "t": traj.t,
         "theta": traj.theta,
