@@ -123,7 +123,7 @@ class FrameView:
                 scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % TRACE_EVERY == 0:
                 self._update_traces(frame, runs)
-            if self.reactions_on and not self.compare:
+            if self.reactions_on:
                 self._update_arrows(frame, runs)
         if frame.restarted:
             self.energy_ref = self._energy_at(runs, frame, self.segment_t0)
@@ -152,20 +152,17 @@ class FrameView:
                 trace.update(self._trace_window(run.ring, rf.index))
 
     def _update_arrows(self, frame: Frame, runs) -> None:
-        run = runs.get("main")
-        if run is None or not frame.runs or frame.runs[0].label != "main":
+        """Arrows of the first run shown: the main run, or in compare mode the Newton-Euler run (the other
+        formulations' reactions agree with it to 1e-9 until the runs part)."""
+        rf = frame.runs[0] if frame.runs else None
+        run = runs.get(rf.label) if rf is not None else None
+        if run is None or "reactions" not in run.ring.field_names():
             self.arrows.hide()
             return
         spec = run.spec  # the run's own description: the session's parameters may already be newer
-        if not (spec.settings.method == "dae" or spec.pinned):
-            self.arrows.hide()
-            return
-        rf = frame.runs[0]
         ring = run.ring
-        points, forces = [], []
-        if spec.settings.method == "dae":
-            points.append(rf.joints[:-1])
-            forces.append(ring.get("reactions", rf.index))
+        points = [rf.joints[:-1]]
+        forces = [ring.get("reactions", rf.index)]
         if spec.pinned:
             points.append(rf.joints[-1:])
             forces.append(ring.get("tip_reaction", rf.index)[None, :])
@@ -275,5 +272,6 @@ class FrameView:
 
 
 def reactions_available(params: SessionParameters) -> bool:
-    """Reactions exist for the DAE (every joint) and for closed loops (the pin)."""
-    return params.method == "dae" or params.pinned
+    """Joint reactions exist for every method: the DAE solves for them, the others recover them from the
+    accelerations (physics/reactions.py); closed loops add the pin's."""
+    return True
