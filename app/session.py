@@ -38,10 +38,12 @@ from .camera import CameraDirector
 from .commands import CONTROL, SI
 from .controls import Controls
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
+from .free_body_view import FreeBodyView
 from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
 from .parameters import METHOD_LABELS, Display, SessionParameters, driving_count, methods_for, settings_data
 from .player import Frame, Player, RunSpec
+from .report_tab import ReportTab
 from .viser_compat import connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
@@ -100,6 +102,9 @@ class Session:
             self.controls = Controls(self, target.gui)
             self.view.panel = self.controls
             self.analysis = Analysis(self, self.controls, target.scene)
+            self.free_body = FreeBodyView(target.scene, lambda: self.view.display.arrow_scale,
+                                          redraw=self.player.touch)
+            self.report = ReportTab(self, self.controls, self.free_body)
             self._label_changed()
             self.view.build(self.params)
             self.view.show_start(self.params)
@@ -228,6 +233,16 @@ class Session:
             self._label_changed()
             self.controls.sync_after(name)
 
+    def set_start(self, theta0, omega0, play: bool = False) -> None:
+        """Start again at t = 0 from ``(theta0, omega0)`` (n,) in radians (a rest position, app/rest_view.py);
+        paused unless ``play``. LinkageError when the models refuse the state."""
+        with self._lock:
+            self.params = self.params.replaced(theta0=np.array(theta0, dtype=float),
+                                               omega0=np.array(omega0, dtype=float))
+            self._user_paused = not play
+            self._restart_fresh(play=play)
+            self.controls.sync_all()
+
     def set_typed(self, name: str, text: str) -> None:
         """A value typed into its box, in the control's units (degrees, milliseconds), parsed here."""
         self.set(name, text, units=CONTROL)
@@ -282,6 +297,7 @@ class Session:
         self.view.build(self.params)
         self.view.show_start(self.params)
         self.controls.rebuild()
+        self.report.rebuild()
         self.frame_camera(force=True)
         self._restart_fresh()
 
@@ -382,6 +398,7 @@ class Session:
             return
         runs = {run.spec.label: run for run in self.player.runs}
         self.view.draw(frame, runs, self.player.playing, self.player.real_time_factor())
+        self.free_body.update(frame, runs)
         self.analysis.on_frame(frame.t, frame.restarted)
         if self._start_params is not self._last_good_params and any(len(run.ring) > 1 for run in runs.values()):
             self._last_good_params = self._start_params
@@ -425,6 +442,7 @@ class Session:
                 if layout:
                     self.view.build(good)
                     self.controls.rebuild()
+                    self.report.rebuild()
                 else:
                     self.view.resize(good)
                 self.controls.sync_all()
@@ -493,6 +511,7 @@ class Session:
         self.player.stop()
         self.controls.close()
         self.analysis.remove()
+        self.report.remove()
         if self.shared:  # the server's scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
