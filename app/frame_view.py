@@ -49,6 +49,7 @@ class FrameView:
         self.arrows = ReactionArrows(scene_api, "/linkage/reactions")
         self.compare_scenes: dict[str, LinkageScene] = {}
         self.compare_traces: dict[str, TraceLine] = {}
+        self.divergence = None  # app.divergence.DivergencePlots, set by the session
         self.compare = False
         self.display = Display()
         self.reactions_on = False
@@ -199,20 +200,8 @@ class FrameView:
         c.drift_plot.update(t[in_segment], relative_drift(data["energy"][in_segment], self.energy_ref, scale))
         if chain.pinned:
             c.constraint_plot.update(t, np.hypot(data["constraint_xy"][:, 0], data["constraint_xy"][:, 1]))
-        if self.compare and len(frame.runs) == len(COMPARE_METHODS):
-            reference = runs.get(COMPARE_METHODS[0])
-            others = [runs.get(m) for m in COMPARE_METHODS[1:]]
-            if reference is None or any(o is None for o in others):
-                return
-            j = min(rf.index for rf in frame.runs)
-            ref = reference.ring.window(j - span, j, names=["t", "joints"])
-            diffs = []
-            for other in others:
-                o = other.ring.window(j - span, j, names=["joints"])["joints"]
-                m = min(len(o), len(ref["joints"]))
-                diffs.append(np.linalg.norm(ref["joints"][-m:, -1] - o[-m:, -1], axis=1))
-            m = min(len(d) for d in diffs)
-            c.divergence_plot.update(ref["t"][-m:], *[d[-m:] for d in diffs])
+        if self.compare and self.divergence is not None:
+            self.divergence.update(runs, frame.t)
 
     # ------------------------------------------------------------------ read-outs
     def current_values(self, runs: dict, frame: Frame | None = None) -> dict:

@@ -37,6 +37,7 @@ from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
 from .controls import Controls
+from .divergence import DivergencePlots, reference_spec
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
 from .free_body_view import FreeBodyView
 from .logs import quietly
@@ -101,6 +102,7 @@ class Session:
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
             self.view.panel = self.controls
+            self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)
             self.free_body = FreeBodyView(target.scene, lambda: self.view.display.arrow_scale,
                                           redraw=self.player.touch)
@@ -269,6 +271,7 @@ class Session:
             self.view.compare = bool(on)
             self.view.build(self.params)
             self.controls.sync_compare()
+            self.view.divergence.set_visible(self.compare)
             self._restart_fresh()
 
     def set_mechanism(self, name: str, links: int | None = None) -> None:
@@ -315,7 +318,8 @@ class Session:
     def _specs(self) -> list[RunSpec]:
         p = self.params
         if self.compare:
-            return [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            specs = [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            return [*specs, reference_spec(p, COMPARE_METHODS)]  # drawn only in the divergence plots
         return [RunSpec("main", p.chain, p.settings)]
 
     def _restart_fresh(self, play: bool | None = None) -> None:
