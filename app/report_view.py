@@ -121,8 +121,8 @@ def figure_html(figure: ReportFigure, folder: Path = SEED_REPORT_FOLDER, documen
              'style="width:100%;height:auto;display:block;border:1px solid #ddd"/>')
     parts = [image]
     if verdict:
-        parts.append(f'<p style="margin:6px 0;font-size:0.92em">{html_literal(verdict)}</p>')
-    parts.append(f'<p style="margin:2px 0;font-size:0.8em;color:#666">Full size: '
+        parts.append(f'<p style="margin:6px 0;font-size:0.8em">{html_literal(verdict)}</p>')
+    parts.append(f'<p style="margin:2px 0;font-size:0.75em;color:#666">Full size: '
                  f'<code>docs/seed-report/{html_literal(figure.file)}</code>; the reading of every figure: '
                  f'<code>{DOC_POINTER}</code>.</p>')
     return f'<div style="width:100%;max-width:100%;overflow:hidden">{"".join(parts)}</div>'
