@@ -71,8 +71,8 @@ def forces_on_bar(chain, bar: int, theta: np.ndarray, joints: np.ndarray, reacti
 class FreeBodyView:
     """Arrows and value labels of one bar's forces, under ``root`` in a session's scene.
 
-    ``arrow_scale`` returns the display's arrow scale (1 draws the mechanism's total weight as long as its
-    reach, as for the reaction arrows); ``redraw`` asks the player for a frame (a change while paused)."""
+    ``arrow_scale`` returns the display's arrow scale (at 1 the largest force on the bar is drawn one bar length
+    long); ``redraw`` asks the player for a frame (a change while paused)."""
 
     def __init__(self, scene_api, arrow_scale, redraw=lambda: None, root: str = "/free_body") -> None:
         self.scene_api = scene_api
@@ -127,11 +127,12 @@ class FreeBodyView:
         self.shown_t = float(ring.get("t", i))
 
     def _draw(self, forces: list[DrawnForce], chain, force_labels: bool) -> None:
-        L = chain.array("L")
-        reach = mechanism_reach(L, chain.pin)
-        weight = max(float(np.sum(chain.array("m"))) * chain.g, 1e-9)
-        scale = self._arrow_scale() * reach / weight
-        radius = 0.01 * reach
+        # to scale among themselves, as in physics/fbd.py's SVG: the largest force is one bar length long (times
+        # the display's arrow scale); the labels carry the values
+        length = max(float(chain.bars[self.bar - 1].L), 1e-3)
+        largest = max(max(float(np.hypot(*f.force)) for f in forces), 1e-12)
+        scale = self._arrow_scale() * length / largest
+        radius = 0.012 * mechanism_reach(chain.array("L"), chain.pin)
         starts = np.array([f.point_xy for f in forces])
         ends = starts + scale * np.array([f.force for f in forces])
         points = np.stack([to_world(starts), to_world(ends)], axis=1).astype(np.float32)

@@ -52,7 +52,8 @@ class ReportTab:
                 bind(self.fbd_box, lambda value, event: self.free_body.set_on(value))
                 self.fbd_bar = gui.add_dropdown("Bar", bar_options(port.setup.n), initial_value="1")
                 bind(self.fbd_bar, lambda value, event: self.free_body.set_bar(int(value)))
-                gui.add_markdown("Arrows to the scale of the reaction arrows (Display tab). The SVG of any bar: "
+                gui.add_markdown("Arrows to scale among themselves: the largest is one bar length long (times the "
+                                 "arrow scale of the Display tab). The SVG of any bar: "
                                  "`python -m physics fbd --preset triple-a --time 2.5 --bar 2 --out fbd.svg`.")
             self.rests = RestPositionsPanel(port, gui, bind)
             self.seed_report = SeedReportPanel(gui, bind)
