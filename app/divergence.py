@@ -21,6 +21,7 @@ import numpy as np
 import physics
 from physics.model import validated
 
+from .logs import quietly
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, SessionParameters, settings_data
 from .runs import RunSpec
@@ -96,6 +97,11 @@ class DivergencePlots:
         self.honest.set_visible(visible)
         if self.passing.visible != visible:
             self.passing.visible = visible
+
+    def remove(self) -> None:
+        """Drop the honest plot and its line (the between-methods plot belongs to the panel)."""
+        self.honest.remove()
+        quietly(self.passing.remove, "removing the divergence line")
 
     def update(self, runs: dict, t_shown: float) -> None:
         """Both plots from the stored runs up to ``t_shown`` (player thread, a few times a second)."""

@@ -519,3 +519,4 @@ class Session:
         if self.shared:  # the server's scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
+            self.view.divergence.remove()
