@@ -231,7 +231,8 @@ class Controls:
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())
             self.bind(self.trace_point, lambda value, event: s.set("trace", value))
             self.reactions = gui.add_checkbox("Reaction arrows", initial_value=False,
-                                              hint="Joint reactions (DAE) and the pin's reaction (closed loops)")
+                                              hint="Joint reactions (every method) and the pin's reaction (closed loops); "
+                                                   "in compare mode those of the Newton-Euler run")
             self.bind(self.reactions, lambda value, event: s.set_reactions(value))
             add("arrow_scale", ARROW_SLIDER, s.display.arrow_scale)
         with self.tabs.add_tab("Equations"):

@@ -37,7 +37,9 @@ from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
 from .controls import Controls
+from .divergence import DivergencePlots, reference_spec
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
+from .free_body_view import FreeBodyView
 from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
 from .parameters import (
@@ -50,6 +52,7 @@ from .parameters import (
     settings_data,
 )
 from .player import Frame, Player, RunSpec
+from .report_tab import ReportTab
 from .viser_compat import connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
@@ -107,7 +110,11 @@ class Session:
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
             self.view.panel = self.controls
+            self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)
+            self.free_body = FreeBodyView(target.scene, lambda: self.view.display.arrow_scale,
+                                          redraw=self.player.touch)
+            self.report = ReportTab(self, self.controls, self.free_body)
             self._label_changed()
             self.view.build(self.params)
             self.view.show_start(self.params)
@@ -239,6 +246,16 @@ class Session:
             self._label_changed()
             self.controls.sync_after(name)
 
+    def set_start(self, theta0, omega0, play: bool = False) -> None:
+        """Start again at t = 0 from ``(theta0, omega0)`` (n,) in radians (a rest position, app/rest_view.py);
+        paused unless ``play``. LinkageError when the models refuse the state."""
+        with self._lock:
+            self.params = self.params.replaced(theta0=np.array(theta0, dtype=float),
+                                               omega0=np.array(omega0, dtype=float))
+            self._user_paused = not play
+            self._restart_fresh(play=play)
+            self.controls.sync_all()
+
     def set_typed(self, name: str, text: str) -> None:
         """A value typed into its box, in the control's units (degrees, milliseconds), parsed here."""
         self.set(name, text, units=CONTROL)
@@ -269,6 +286,7 @@ class Session:
             self.view.compare = bool(on)
             self.view.build(self.params)
             self.controls.sync_compare()
+            self.view.divergence.set_visible(self.compare)
             self._restart_fresh()
 
     def set_mechanism(self, name: str, links: int | None = None) -> None:
@@ -296,6 +314,7 @@ class Session:
         self.view.build(self.params)
         self.view.show_start(self.params)
         self.controls.rebuild()
+        self.report.rebuild()
         self.frame_camera(force=True)
         self._restart_fresh()
 
@@ -313,7 +332,8 @@ class Session:
     def _specs(self) -> list[RunSpec]:
         p = self.params
         if self.compare:
-            return [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            specs = [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            return [*specs, reference_spec(p, COMPARE_METHODS)]  # drawn only in the divergence plots
         return [RunSpec("main", p.chain, p.settings)]
 
     def _restart_fresh(self, play: bool | None = None) -> None:
@@ -396,6 +416,7 @@ class Session:
             return
         runs = {run.spec.label: run for run in self.player.runs}
         self.view.draw(frame, runs, self.player.playing, self.player.real_time_factor())
+        self.free_body.update(frame, runs)
         self.analysis.on_frame(frame.t, frame.restarted)
         if self._start_params is not self._last_good_params and any(len(run.ring) > 1 for run in runs.values()):
             self._last_good_params = self._start_params
@@ -441,6 +462,7 @@ class Session:
                 if layout:
                     self.view.build(good)
                     self.controls.rebuild()
+                    self.report.rebuild()
                 else:
                     self.view.resize(good)
                 self.controls.sync_all()
@@ -509,6 +531,8 @@ class Session:
         self.player.stop()
         self.controls.close()
         self.analysis.remove()
+        self.report.remove()
         if self.shared:  # the server's scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
+            self.view.divergence.remove()
