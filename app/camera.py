@@ -30,6 +30,7 @@ class CameraDirector:
         self.closed = False
         self.framed_reach: float | None = None
         self.framed_aspect: dict[int, float] = {}  # id(camera) -> aspect it was framed for
+        self.framed_panel: dict[int, float] = {}  # id(camera) -> panel fraction it was framed for
         self._watched: set[int] = set()
         self._lengths = np.ones(1)
         self._pin: tuple[float, float] | None = None
@@ -75,6 +76,7 @@ class CameraDirector:
 
     def frame_one(self, camera, aspect: float) -> None:
         self.framed_aspect[id(camera)] = aspect
+        self.framed_panel[id(camera)] = panel_fraction(camera)
         position, look_at = camera_pose(self._lengths, self._pin, aspect=aspect,
                                         panel_fraction=panel_fraction(camera), view=self.view)
 
@@ -100,7 +102,8 @@ class CameraDirector:
                 return
             aspect = _aspect(reported)
             framed = self.framed_aspect.get(key)
-            if aspect is not None and (framed is None or abs(aspect / framed - 1.0) > ASPECT_TOLERANCE):
+            panel_moved = abs(panel_fraction(reported) - self.framed_panel.get(key, 0.0)) > ASPECT_TOLERANCE / 2
+            if aspect is not None and (framed is None or abs(aspect / framed - 1.0) > ASPECT_TOLERANCE or panel_moved):
                 self.frame_one(reported, aspect)
 
         camera.on_update(on_camera)

@@ -22,6 +22,7 @@ from .parameters import METHOD_LABELS, Display, SessionParameters
 from .player import SAMPLE_RATE, Frame
 from .scene import LinkageScene, mechanism_reach
 
+COMPARE_DEPTH_STEP = 0.01  # depth between the compare runs' mechanisms, as a fraction of the reach
 TRACE_EVERY = 2  # frames between trace updates (30 Hz)
 PLOT_EVERY = 12  # frames between plot updates (5 Hz)
 STATUS_EVERY = 15  # frames between status-line updates (4 Hz)
@@ -58,6 +59,8 @@ class FrameView:
         self.label = ""
         self._frame_lock = threading.Lock()
         self.last_frame: Frame | None = None
+        self._compare_key: list = []
+        self._compare_frames: dict = {}
         self.frames_sent = 0
 
     # ------------------------------------------------------------------ building
@@ -68,20 +71,28 @@ class FrameView:
             if self.compare:
                 self.scene.set_visible(False)
                 self.trace.update(np.zeros((0, 2)))
-                for method in COMPARE_METHODS:
+                reach = mechanism_reach(lengths, params.pin)
+                for k, method in enumerate(COMPARE_METHODS):
                     if method not in self.compare_scenes:
                         color = METHOD_COLORS[method]
-                        self.compare_scenes[method] = LinkageScene(
-                            self.target, f"/compare/{method}", opacity=0.45, palette=[color]
-                        )
+                        # opaque, one distinct colour each, a little apart in depth: where the runs agree the
+                        # front one shows (no blend into one colour), where they part all three show
+                        self._compare_frames[method] = self.target.scene.add_frame(
+                            f"/compare/{method}", show_axes=False, position=(0.0, COMPARE_DEPTH_STEP * k * reach, 0.0))
+                        self.compare_scenes[method] = LinkageScene(self.target, f"/compare/{method}", palette=[color])
                         self.compare_traces[method] = TraceLine(
                             self.target.scene, f"/compare/{method}/trace", color=color
                         )
                     self.compare_scenes[method].build(lengths, params.pin)
+                self._show_compare_key(reach)
             else:
                 for method in list(self.compare_scenes):
                     self.compare_scenes.pop(method).remove()
                     self.compare_traces.pop(method).remove()
+                    frame = self._compare_frames.pop(method, None)
+                    if frame is not None:
+                        quietly(frame.remove, "removing a compare frame")
+                self._hide_compare_key()
                 self.scene.build(lengths, params.pin)
                 self.scene.set_visible(True)
             reach = mechanism_reach(lengths, params.pin)
@@ -92,6 +103,24 @@ class FrameView:
                 trace.set_thickness(width)
             if not reactions_available(params):
                 self.arrows.hide()
+
+    def _show_compare_key(self, reach: float) -> None:
+        """The colour key in the scene: a ball of each run's colour and its method's name, top left of the
+        disc the mechanism sweeps (where no motion passes)."""
+        self._hide_compare_key()
+        scene = self.target.scene
+        for k, method in enumerate(COMPARE_METHODS):
+            z = reach * (0.9 - 0.12 * k)
+            self._compare_key.append(scene.add_icosphere(
+                f"/compare_key/{method}/ball", radius=0.025 * reach, color=METHOD_COLORS[method],
+                position=(-0.85 * reach, 0.0, z)))
+            self._compare_key.append(scene.add_label(
+                f"/compare_key/{method}/name", METHOD_LABELS[method], position=(-0.8 * reach, 0.0, z)))
+
+    def _hide_compare_key(self) -> None:
+        for handle in self._compare_key:
+            quietly(handle.remove, "removing the compare key")
+        self._compare_key = []
 
     def resize(self, params: SessionParameters) -> None:
         """New lengths or pin, same nodes."""
