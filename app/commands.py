@@ -189,14 +189,28 @@ def _refusal(name: str, q: Quantity, number: float, error: ValidationError, para
     return LinkageError(f"{name} = {q.shown(number)}: " + "; ".join(dict.fromkeys(r for r in reasons if r)))
 
 
+def _degrees_in_turn(radians: float) -> float:
+    """An angle in degrees, within one turn [0, 360)."""
+    return math.degrees(radians) % 360.0
+
+
 def _in_degrees(text: str) -> str:
-    """physics.assembly speaks radians; the panel's angles are degrees: one unit in one message."""
-    text = re.sub(r"(theta\d+)=(-?[\d.]+(?:e-?\d+)?)", lambda m: f"{m.group(1)} = {math.degrees(float(m.group(2))):.1f}°", text)
-    return re.sub(
-        r"allowed (theta\d+): \[(-?[\d.]+(?:e-?\d+)?), (-?[\d.]+(?:e-?\d+)?)\]",
-        lambda m: f"reachable {m.group(1)}: {math.degrees(float(m.group(2))):.1f}° to {math.degrees(float(m.group(3))):.1f}°",
-        text,
-    )
+    """physics.assembly speaks radians; the panel's angles are degrees: one unit in one message, angles within
+    one turn (a range that passes 360 reads "300.0° round to 6.0°"), and the loop's reason without repeating
+    "the loop cannot close"."""
+    text = re.sub(r"(theta\d+)=(-?[\d.]+(?:e-?\d+)?)",
+                  lambda m: f"{m.group(1)} = {_degrees_in_turn(float(m.group(2))):.1f}°", text)
+    text = re.sub(r"^the loop cannot close at theta\d+ = [\d.]+°: ", "", text)
+
+    def reachable(match: re.Match) -> str:
+        low, high = float(match.group(2)), float(match.group(3))
+        start, end = _degrees_in_turn(low), _degrees_in_turn(high)
+        if high - low >= 2 * math.pi - 1e-9:
+            return f"reachable {match.group(1)}: every angle"
+        joined = "to" if start < end else "round to"
+        return f"reachable {match.group(1)}: {start:.1f}° {joined} {end:.1f}°"
+
+    return re.sub(r"allowed (theta\d+): \[(-?[\d.]+(?:e-?\d+)?), (-?[\d.]+(?:e-?\d+)?)\]", reachable, text)
 
 
 def _rebuilt(model: BaseModel, update: dict, name: str, q: Quantity, number: float, params=None, k=None):
