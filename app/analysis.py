@@ -100,7 +100,7 @@ class Analysis:
 
     # ------------------------------------------------------------------ work-precision chart
     def work_precision_chart(self) -> None:
-        from physics import bench
+        from physics.studies import work_precision as bench
 
         p = self.session.params
         chain = p.chain()
@@ -130,7 +130,7 @@ class Analysis:
 
     # ------------------------------------------------------------------ chaos map
     def chaos_map(self) -> None:
-        from physics import chaos
+        from physics.studies import chaos_map as chaos
         from physics.presets import get_preset
 
         chain = get_preset("double").chain

@@ -1,4 +1,4 @@
-"""Chaos maps (physics.chaos): the flip-time physics, tiling through executors, Dask, the CLI."""
+"""Chaos maps (physics.studies.chaos_map): the flip-time physics, tiling through executors, Dask, the CLI."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from physics import Settings, get_preset, simulate
-from physics.chaos import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
+from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 from physics.kinematics import energies
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,12 +9,15 @@ pure text generation over plain floats, so it is deterministic and testable.
 
 from __future__ import annotations
 
+import colorsys
 import html
+import io
 import math
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
+from PIL import Image
 
 # Ten well-separated colours (Tableau 10) and dash patterns: colour tells one attribute of a curve
 # (for example the integrator), dash another (the formulation).
@@ -335,10 +338,6 @@ def colormap(values: np.ndarray, missing_rgb=(0, 0, 0)) -> np.ndarray:
 
 def png_bytes(rgb: np.ndarray) -> bytes:
     """An ``(H, W, 3)`` uint8 image encoded as PNG (Pillow, a dependency of viser)."""
-    import io
-
-    from PIL import Image
-
     buffer = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(buffer, format="PNG")
     return buffer.getvalue()
@@ -346,16 +345,12 @@ def png_bytes(rgb: np.ndarray) -> bytes:
 
 def write_png(path, rgb: np.ndarray) -> None:
     """Write an ``(H, W, 3)`` uint8 image as PNG with Pillow (a dependency of viser)."""
-    from PIL import Image
-
     Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(path, format="PNG")
 
 
 def fan_picture(joints: np.ndarray, alive: np.ndarray, size: int = 600) -> np.ndarray:
     """``(size, size, 3)`` picture of every copy's links from joints ``(N, n + 1, 2)`` (one hue per copy; copies
     not ``alive`` left out), the pivot in the middle: an ensemble's fan, for ``python -m physics ensemble``."""
-    import colorsys
-
     reach = max(float(np.max(np.abs(joints))), 1e-9) * 1.05
     image = np.full((size, size, 3), 255, dtype=np.uint8)
     count = joints.shape[0]
