@@ -130,8 +130,8 @@ class Analysis:
 
     # ------------------------------------------------------------------ chaos map
     def chaos_map(self) -> None:
-        from physics.studies import chaos_map as chaos
         from physics.presets import get_preset
+        from physics.studies import chaos_map as chaos
 
         chain = get_preset("double").chain
 

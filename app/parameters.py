@@ -15,8 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import physics
-from physics import LinkageError, Settings, TracePoint, get_preset, make_chain
-from physics import assembly
+from physics import LinkageError, Settings, TracePoint, assembly, get_preset, make_chain
 
 METHOD_LABELS = {
     "newton_euler": "Newton-Euler",

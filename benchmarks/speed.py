@@ -158,7 +158,6 @@ def machine_info() -> dict:
 
 def _seed_setup(case: str):
     import physics
-
     from physics.studies import seed_baseline
 
     preset = physics.get_preset(SEED_PRESETS[case])
@@ -173,7 +172,6 @@ def _seed_setup(case: str):
 
 def _settings(method: str, backend: str):
     import physics
-
     from physics.studies import seed_baseline as sb
 
     return physics.Settings(
@@ -184,7 +182,6 @@ def _settings(method: str, backend: str):
 
 def bench_seed(repeats: int, fast_calls: int) -> list[dict]:
     import physics
-
     from physics.studies import seed_baseline as sb
 
     rows = []
@@ -312,7 +309,6 @@ def _compiled_loop():
 
 def bench_rhs(repeats: int, batch: int = 1000) -> list[dict]:
     import physics
-
     from physics.studies import seed_baseline as sb
 
     rng = np.random.default_rng(7)

@@ -124,7 +124,8 @@ def potential_energy(L, d, m, g, theta) -> np.ndarray:
 
 def dependent_pair(independent: int) -> tuple[int, int]:
     """The two dependent angle indices (0-based, increasing) when ``independent`` is the coordinate."""
-    return tuple(k for k in range(3) if k != independent)
+    first, second = (k for k in range(3) if k != independent)
+    return first, second
 
 
 def _pair_rcond(theta_a: float, theta_b: float) -> float:
@@ -350,7 +351,7 @@ def simulate_reduced(
     omega = partition.null_vector(theta) * _independent_speed(L, theta, omega0, independent_index)
 
     out = _Samples()
-    switch_times = []
+    switch_times: list[float] = []
     status, message, nfev, t0 = 0, "reached t_end", 0, 0.0
     first = True
     while True:
@@ -410,8 +411,9 @@ def _dead_centre_event(partition: _Partition):
     def event(t, y):
         return partition.conditioning(partition.configuration(y[0])) - DEAD_CENTRE_RCOND
 
-    event.terminal = True
-    event.direction = -1
+    # scipy's solve_ivp reads these attributes off the event function (its documented protocol).
+    event.terminal = True  # type: ignore[attr-defined]
+    event.direction = -1  # type: ignore[attr-defined]
     return event
 
 
@@ -421,8 +423,9 @@ def _switch_event(partition: _Partition):
         threshold = min(SWITCH_RCOND, SWITCH_FRACTION * float(kappa.max()))
         return kappa[partition.independent] - threshold
 
-    event.terminal = True
-    event.direction = -1
+    # scipy's solve_ivp reads these attributes off the event function (its documented protocol).
+    event.terminal = True  # type: ignore[attr-defined]
+    event.direction = -1  # type: ignore[attr-defined]
     return event
 
 
@@ -445,6 +448,8 @@ def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[in
 class _Samples:
     def __init__(self):
         self.t, self.theta, self.omega, self.index = [], [], [], []
+        self.end_theta = np.zeros(3)  # the state where integration stopped (set by the integration loop)
+        self.end_omega = np.zeros(3)
 
     def add(self, partition, t, theta, omega):
         self.t.append(t)

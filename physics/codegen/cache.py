@@ -285,6 +285,7 @@ def _remove_stale(folder: Path, key: str, current: Path) -> None:
 
 def _import(path: Path, name: str):
     spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None, path  # a .py path always has a source loader
     module = importlib.util.module_from_spec(spec)
     # numba's on-disk cache finds the functions' globals again by module name: register it.
     sys.modules[name] = module

@@ -43,7 +43,7 @@ def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float
 
 def check_assembled(chain: Chain, theta: np.ndarray) -> None:
     """A closed chain must start on its loop; say by how much it misses."""
-    if not chain.pinned:
+    if chain.pin is None:
         return
     tip = joint_positions(chain.array("L"), theta)[-1]
     gap = float(np.hypot(tip[0] - chain.pin[0], tip[1] - chain.pin[1]))
@@ -127,6 +127,7 @@ def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, pro
     cond = np.empty(0)  # computed with the reactions in build_trajectory, once per sample
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     spec = INTEGRATORS[settings.integrator]
+    assert spec.kernel is not None, spec.name  # Settings sends only compiled-capable integrators here
     integrate = getattr(compiled, spec.kernel)
     if spec.needs_lagrangian:
         result = integrate(y0, t0, t1, settings.step, t_eval, params, y_out, cond)

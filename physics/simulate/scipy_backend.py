@@ -38,7 +38,9 @@ def integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, project
         return np.concatenate([y[n:], theta_ddot])
 
     y_out = np.full((len(t_eval), y0.size), np.nan)
-    solver_cls = SOLVERS[INTEGRATORS[settings.integrator].scipy_solver]
+    solver_name = INTEGRATORS[settings.integrator].scipy_solver
+    assert solver_name is not None, settings.integrator  # Settings sends only scipy-capable integrators here
+    solver_cls = SOLVERS[solver_name]
     y = y0.copy()
     t_now = float(t_eval[0])
     y_out[0] = y

@@ -276,11 +276,14 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
     t_max = 10.0 if quick else DEFAULT_T_MAX
     bar = Progress(3, "chaos", progress)
     compute_map(chain, resolution=8, t_max=0.1)  # load the compiled code in this process
-    rows = []
-    reference = None
-    for label, workers in (("in-process", 1), ("1 worker process", "pool1"), ("2 worker processes", 2)):
-        if workers == "pool1":
-            pool = ProcessPoolExecutor(max_workers=1)
+    rows: list[dict] = []
+    reference: np.ndarray | None = None
+    # (label, workers, a pool even for one worker): one worker process measures the cost of the process hop.
+    for label, workers, pooled in (("in-process", 1, False), ("1 worker process", 1, True),
+                                   ("2 worker processes", 2, False)):
+        executor: Executor | None
+        if pooled:
+            pool = ProcessPoolExecutor(max_workers=workers)
             executor, close = pool, pool.shutdown
         else:
             executor, close = make_executor(workers, None)
@@ -297,7 +300,8 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
                      "identical_to_in_process": identical})
         bar.step(label)
     bar.close()
-    document = {"kind": "chaos-map", "machine": machine_note(), "preset": "double", "resolution": resolution,
+    assert reference is not None
+    document: dict = {"kind": "chaos-map", "machine": machine_note(), "preset": "double", "resolution": resolution,
                 "t_max": t_max, "step": DEFAULT_STEP, "summary": summary(reference), "runs": rows,
                 "scaling_1_to_2_workers": rows[1]["seconds"] / rows[2]["seconds"]}
     out.mkdir(parents=True, exist_ok=True)

@@ -196,13 +196,13 @@ def line_chart(
     for index, s in enumerate(series):
         color = s.color or PALETTE[index % len(PALETTE)]
         segments, current, markers = [], [], []
-        labels = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
-        for xv, yv, label in zip(s.x, s.y, labels):
-            xv, yv = float(xv), float(yv)
+        labels: list[str | None] = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
+        for x_value, y_value, point_label in zip(s.x, s.y, labels):
+            xv, yv = float(x_value), float(y_value)
             if _drawable(xv, log_x) and _drawable(yv, log_y):
                 point = (x_axis.to_pixel(xv), y_axis.to_pixel(yv))
                 current.append(point)
-                markers.append((point, label))
+                markers.append((point, point_label))
             elif current:
                 segments.append(current)
                 current = []
@@ -215,8 +215,8 @@ def line_chart(
                 dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
                 group.append(f'<path d="{d}" fill="none" stroke="{color}" stroke-width="{s.width}"{dash}/>')
         if s.marker and len(markers) <= 400:
-            for (px, py), label in markers:
-                group.append(_marker_svg(s.marker, px, py, color, label))
+            for (px, py), point_label in markers:
+                group.append(_marker_svg(s.marker, px, py, color, point_label))
         group.append("</g>")
         out.extend(group)
     # Legend.

@@ -44,7 +44,8 @@ def figure_energy(result: dict) -> str:
     series = []
     for r in result["runs"]:
         centres, maxima = binned_median(r["t"], r["error"])
-        series.append(Series(f"{r['integrator']} ({r['setting']})", centres, floor_for_log(maxima), marker=None))
+        series.append(Series(f"{r['integrator']} ({r['setting']})", centres.tolist(), floor_for_log(maxima),
+                             marker=None))
     return line_chart(series, title=f"Case 2: energy error over {result['t_end']:g} s, {result['preset']} "
                       f"({result['method']})", x_label="t (s)",
                       y_label="median |E - E0| / scale in the window", log_x=True, log_y=True,
@@ -83,7 +84,7 @@ def cell_outcome(cell: dict) -> tuple[str, str]:
 
 
 def figure_degenerate(result: dict) -> str:
-    columns = None
+    columns: list[str] = []
     cells, labels = [], []
     for row in result["rows"]:
         if row["cells"]:

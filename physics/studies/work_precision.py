@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -286,7 +287,7 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
                 for value in knobs:
                     settings = make(value)
                     trajectory, seconds, runs = timed(
-                        lambda s=settings: simulate(chain, theta0, omega0, s), options["repeats"], options["budget"]
+                        partial(simulate, chain, theta0, omega0, settings), options["repeats"], options["budget"]
                     )
                     curve.points.append(_point(trajectory, ref["tip"], seconds, runs, value, curve.knob))
                     progress.step(f"{name} {curve.label} {value:g}")
@@ -329,7 +330,7 @@ def work_precision_chain(chain, theta0, omega0, trace=None, horizon: float = 5.0
     for curve, knobs, make in curves_for(chain, trace, horizon, formulations, integrators, tolerances, midpoint_steps):
         for value in knobs:
             settings = make(value)
-            trajectory, seconds, runs = timed(lambda s=settings: simulate(chain, theta0, omega0, s), repeats, budget)
+            trajectory, seconds, runs = timed(partial(simulate, chain, theta0, omega0, settings), repeats, budget)
             curve.points.append(_point(trajectory, ref["tip"], seconds, runs, value, curve.knob))
         curves.append(curve)
     case = {
@@ -397,7 +398,7 @@ def headline(case: dict) -> list:
     for accuracy in HEADLINE_ACCURACIES:
         ours = _reaching(case["curves"], accuracy, resolvable)
         base = _reaching(case["baseline"], accuracy, resolvable)
-        row = {"accuracy": accuracy, "ours": None, "baseline": None, "speedup": None}
+        row: dict = {"accuracy": accuracy, "ours": None, "baseline": None, "speedup": None}
         if ours:
             row["ours"] = {"label": ours["label"], "seconds": ours["seconds"], "error": ours["error"],
                            "knob": ours.get("tolerance", ours.get("step"))}

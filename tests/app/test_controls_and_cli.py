@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import wait_until
-
 import physics
 from app import controls
+from conftest import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 

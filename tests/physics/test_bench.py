@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from physics import LinkageError
+from physics import LinkageError, get_preset
 from physics.studies import work_precision
 from physics.studies.charts import Series, colormap, html_page, line_chart
 
@@ -115,8 +115,6 @@ def test_html_page_and_colormap():
 
 
 def test_work_precision_for_any_chain_as_the_app_asks():
-    from physics import get_preset
-
     preset = get_preset("four-bar")  # closed: the error is measured on the coupler point, the tip being pinned
     case, svg = work_precision.work_precision_chain(preset.chain, preset.theta0, preset.omega0, trace=preset.trace,
                                            horizon=2.0, integrators=("DOP853",), tolerances=(1e-4, 1e-8))

@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from physics import Settings, get_preset, simulate
-from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 from physics.kinematics import energies
+from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -94,8 +95,6 @@ def _cli(*args, timeout=120):
 
 
 def test_cli_writes_the_png_and_reports_throughput(tmp_path):
-    from PIL import Image
-
     out = tmp_path / "map.png"
     data = tmp_path / "map.npy"
     result = _cli("--resolution", "12", "--t-max", "2", "--workers", "1", "--out", str(out), "--data", str(data),

@@ -10,6 +10,9 @@ import sys
 
 import numpy as np
 import pytest
+from PIL import Image
+
+import physics
 
 
 def run_cli(*argv, check=True):
@@ -121,8 +124,6 @@ def test_ensemble_fan_opens_as_json_csv_and_png(tmp_path):
     picture = tmp_path / "fan.png"
     run_cli("ensemble", "--preset", "triple-a", "--count", "20", "--t-end", "30", "--samples", "2",
             "--out", str(picture))
-    from PIL import Image
-
     image = np.asarray(Image.open(picture).convert("RGB"))
     coloured = (image.max(axis=2).astype(int) - image.min(axis=2)) > 60
     assert coloured.mean() > 0.005  # the copies' links are drawn
@@ -135,8 +136,6 @@ def test_ensemble_bad_count_is_one_line():
 
 
 def test_warm_without_arguments_builds_every_preset_mechanism():
-    import physics
-
     result = run_cli("warm")
     built = {tuple(line.split(":")[0].split()) for line in result.stdout.splitlines()}
     expected = set()
