@@ -37,6 +37,7 @@ from .assembly import (
     wrap_near,
 )
 from .errors import LinkageError
+from .status import Status
 
 # Conditioning of a choice of independent angle i: the reciprocal 2-norm condition number of the dependent
 # Jacobian with its columns scaled to unit length (the bar lengths removed, so a long bar is not penalised),
@@ -226,8 +227,9 @@ class ReducedTrajectory:
 
     ``independent_index`` (T,) is the 0-based angle integrated at each sample, ``switch_times`` when it
     changed. ``constraint_xy`` / ``constraint_velocity`` (T, 2) are the tip's position minus the pin and its
-    velocity. ``status`` 0: reached ``t_end``; -1: the fixed coordinate met a dead centre; -2: every angle lost
-    validity at once (the whole loop singular); -3: the integrator failed. ``message`` says which and when.
+    velocity. ``status`` (physics.status.Status): OK, reached ``t_end``; SINGULAR, the fixed coordinate met a
+    dead centre or every angle lost validity at once (the whole loop singular); INTEGRATOR_FAILED, the integrator
+    failed or switched too often. ``message`` says which and when.
     """
 
     t: np.ndarray
@@ -352,7 +354,7 @@ def simulate_reduced(
 
     out = _Samples()
     switch_times: list[float] = []
-    status, message, nfev, t0 = 0, "reached t_end", 0, 0.0
+    status, message, nfev, t0 = Status.OK, "reached t_end", 0, 0.0
     first = True
     while True:
         i = partition.independent
@@ -369,7 +371,7 @@ def simulate_reduced(
                 events=events, dense_output=True,
             )
         except (_OutOfRange, ZeroDivisionError) as error:  # a dead centre slipped between two steps
-            status = -1 if not switching else -3
+            status = Status.SINGULAR if not switching else Status.INTEGRATOR_FAILED
             message = (
                 f"the reduced model lost theta{i + 1} as a coordinate after t = {t0 + t_offset:.6g} s "
                 f"({type(error).__name__}); a dead centre was passed between two steps; tighten rtol"
@@ -379,7 +381,7 @@ def simulate_reduced(
         _collect(out, partition, sol, theta, t_eval, include_start=first)
         first = False
         if sol.status == -1:
-            status, message = -3, f"integrator failed at t = {sol.t[-1] + t_offset:.6g} s: {sol.message}"
+            status, message = Status.INTEGRATOR_FAILED, f"integrator failed at t = {sol.t[-1] + t_offset:.6g} s: {sol.message}"
             break
         if sol.status == 0:
             break
@@ -390,7 +392,7 @@ def simulate_reduced(
             break
         new_index = best_independent(theta)
         if len(switch_times) >= MAX_SWITCHES:
-            status, message = -3, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event + t_offset:.6g} s"
+            status, message = Status.INTEGRATOR_FAILED, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event + t_offset:.6g} s"
             break
         switch_times.append(t_event)
         pair = list(dependent_pair(new_index))
@@ -429,15 +431,15 @@ def _switch_event(partition: _Partition):
     return event
 
 
-def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[int, str]:
+def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[Status, str]:
     i, (a, b) = partition.independent, partition.pair
     if switching:
         kappa = partition_conditioning(theta)
-        return -2, (
+        return Status.SINGULAR, (  # the whole loop is singular
             f"the loop is singular at t = {t:.6g} s: every angle's dependent pair is near collinear "
             f"(best conditioning {kappa.max():.2g}); all bars lie on one line, so no coordinate is valid"
         )
-    return -1, (
+    return Status.SINGULAR, (
         f"theta{i + 1} stopped being a valid coordinate at t = {t:.6g} s: bars {a + 1} and {b + 1} became "
         f"collinear (a dead centre: the conditioning of theta{i + 1} fell to {partition.conditioning(theta):.2g}, "
         f"limit {DEAD_CENTRE_RCOND:g}); the fixed-coordinate reduced model cannot continue past it, "

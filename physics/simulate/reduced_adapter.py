@@ -43,10 +43,8 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
     pinned = load_compiled("lagrange", 3, True)
     params = chain.params(damping=settings.damping)
     trajectory = build_trajectory(chain, settings, pinned, params, result.t + t_start, y)
-    trajectory.status = Status.OK if result.status == 0 else (
-        Status.SINGULAR if result.status in (-1, -2) else Status.INTEGRATOR_FAILED
-    )
-    trajectory.message = result.message if result.status != 0 else "ok"
+    trajectory.status = Status(result.status)
+    trajectory.message = result.message if result.status != Status.OK else "ok"
     trajectory.n_rhs = int(result.nfev)
     trajectory.stats = {
         "n_switches": int(result.n_switches),

@@ -35,6 +35,7 @@ from ..model import FORMULATION_NAMES, INTEGRATOR_NAMES, Settings, apply_overrid
 from ..presets import get_preset
 from ..registry import INTEGRATORS, backend_for, integrators_for
 from ..simulate import simulate
+from ..status import Status
 from .report import Progress
 from .stability_figures import (
     binned_median,
@@ -275,7 +276,7 @@ def chaos_divergence(presets=("triple-a", "triple-b", "triple-c"), tolerances=DI
             horizons[integrator] = []
             for tol in tolerances:
                 _, other, status = tip(integrator=integrator, tol=tol)
-                distance = _dist(other - reference) if status == 0 else np.full(len(t), np.nan)
+                distance = _dist(other - reference) if status == Status.OK else np.full(len(t), np.nan)
                 h = horizon(distance)
                 bounded = reference_horizon is not None and (h is None or h >= reference_horizon)
                 horizons[integrator].append({"tolerance": tol, "horizon": h, "lower_bound": h is None or bounded})

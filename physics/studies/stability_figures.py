@@ -65,7 +65,7 @@ def figure_peak_condition(result: dict) -> str:
         rows = [r for r in result["runs"] if r["method"] == method]
         series.append(Series(
             method, [r["distance"] for r in rows],
-            [r["peak_condition"] if (r["status"] == 0 and r["peak_condition"]) else float("nan") for r in rows],
+            [r["peak_condition"] if (r["status"] == Status.OK and r["peak_condition"]) else float("nan") for r in rows],
             point_labels=[f"{method}, {r['distance']:g} rad: {r['message']}" for r in rows],
         ))
     return line_chart(series, title="Case 3: peak condition number against release distance (gaps: the run failed)",

@@ -221,7 +221,7 @@ class _BaselineResult:
 
     @property
     def success(self):
-        return self.status == 0
+        return self.status == Status.OK
 
 
 def _baseline_plan(name, formulations, tolerances):
@@ -353,7 +353,7 @@ def _reaching(curves, accuracy: float, resolvable: float):
         points = curve["points"] if isinstance(curve, dict) else curve.points
         label = curve["label"] if isinstance(curve, dict) else curve.label
         for point in points:
-            if point["status"] == 0 and point["error"] is not None and point["error"] <= accuracy:
+            if point["status"] == Status.OK and point["error"] is not None and point["error"] <= accuracy:
                 if best is None or point["seconds"] < best["seconds"]:
                     best = dict(point, label=label)
     return best

@@ -177,6 +177,7 @@ def test_loopback_detection():
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.10")
 
 
+@pytest.mark.slow  # a fresh cache: the app compiles the kernels and derives while the test watches
 def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tmp_path):
     """Empty derivation cache: the page is never blank; it says it is deriving, then the motion starts."""
     import os

@@ -37,6 +37,7 @@ def quick_run(tmp_path_factory):
     return out, result
 
 
+@pytest.mark.slow  # the quick_run fixture runs `bench --quick` (about a minute)
 def test_quick_bench_writes_json_svg_html(quick_run):
     out, result = quick_run
     document = json.loads((out / "work_precision.json").read_text())
@@ -60,6 +61,7 @@ def test_quick_bench_writes_json_svg_html(quick_run):
     assert "work-precision" in result.stderr  # the progress bar
 
 
+@pytest.mark.slow  # the quick_run fixture runs `bench --quick` (about a minute)
 def test_quick_bench_headline_compares_with_the_baseline(quick_run):
     out, result = quick_run
     document = json.loads((out / "work_precision.json").read_text())

@@ -77,6 +77,7 @@ def test_local_processes_give_the_same_map_as_one_process():
     assert np.count_nonzero(single > 0) > 0 and np.count_nonzero(single == FORBIDDEN) > 0
 
 
+@pytest.mark.slow  # starts a local Dask cluster
 def test_a_local_dask_cluster_gives_the_same_map_as_one_process():
     distributed = pytest.importorskip(
         "distributed", reason="dask[distributed] is not installed (pip install 'dask[distributed]'; CI installs it)")
