@@ -10,7 +10,7 @@ import sys
 
 from physics import METHOD_NAMES, LinkageError, preset_names
 
-from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, is_loopback
+from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, MAX_SESSIONS_LIMIT, is_loopback
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -38,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="formulation to start with: " + ", ".join(METHOD_NAMES))
     parser.add_argument("--max-sessions", type=int, default=DEFAULT_MAX_SESSIONS,
                         help="most browsers served at once, each with its own simulation "
-                        f"(default {DEFAULT_MAX_SESSIONS})")
+                        f"(default {DEFAULT_MAX_SESSIONS}, at most {MAX_SESSIONS_LIMIT})")
     parser.add_argument("--shared", action="store_true",
                         help="one simulation that every browser watches and drives (lecture mode)")
     return parser

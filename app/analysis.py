@@ -16,6 +16,8 @@ import numpy as np
 import physics
 from physics import LinkageError
 
+from .logs import quietly
+from .ports import SessionPort
 from .scene import to_world
 from .text import markdown_literal
 
@@ -44,10 +46,15 @@ def segments(joints: np.ndarray) -> np.ndarray:
 
 
 class Analysis:
-    """The Analysis tab's widgets and jobs, and the ensemble drawn in the session's scene."""
+    """The Analysis tab's widgets and jobs, and the ensemble drawn in the session's scene.
 
-    def __init__(self, session) -> None:
-        self.session = session
+    It sees its session through :class:`~app.ports.SessionPort` (``port``), adds its tab to ``panel``'s tab
+    group and draws the ensemble with ``scene_api`` (the session's ``target.scene``)."""
+
+    def __init__(self, port: SessionPort, panel, scene_api) -> None:
+        self.session = port
+        self._panel = panel
+        self._scene_api = scene_api
         self.chart_handle = None
         self.image_handle = None
         self.ensemble = None  # physics.ensemble.Ensemble once built
@@ -63,24 +70,24 @@ class Analysis:
     # ------------------------------------------------------------------ widgets
     def _build(self) -> None:
         s = self.session
-        controls = s.controls
+        controls = self._panel
         gui = controls.gui
         self.tab = controls.tabs.add_tab("Analysis")
         with self.tab:
             self.chart_button = gui.add_button("Work-precision chart (current parameters)")
-            controls._on(self.chart_button, lambda value, event: s.work_precision_chart())
+            controls.bind(self.chart_button, lambda value, event: s.work_precision_chart())
             self.chart_status = gui.add_markdown("Error against wall time for a few integrators and tolerances "
                                                  "(a few seconds).")
             self.chaos_button = gui.add_button(f"Chaos map (double pendulum, {CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})")
-            controls._on(self.chaos_button, lambda value, event: s.chaos_map())
+            controls.bind(self.chaos_button, lambda value, event: s.chaos_map())
             self.chaos_status = gui.add_markdown(f"Initial-angle plane (theta1 across, theta2 up) coloured by the "
                                                  f"time until a link first flips (log scale, up to {CHAOS_T_MAX:g} s).")
             self.ensemble_box = gui.add_checkbox("Ensemble", initial_value=False,
                                                  hint="Copies of the mechanism whose initial angles differ by 1e-9 rad")
-            controls._on(self.ensemble_box, lambda value, event: s.set_ensemble(value))
+            controls.bind(self.ensemble_box, lambda value, event: s.set_ensemble(value))
             self.count_dropdown = gui.add_dropdown("Ensemble copies", ENSEMBLE_COUNTS,
                                                    initial_value=str(self.ensemble_count))
-            controls._on(self.count_dropdown, lambda value, event: s.set_ensemble(self.ensemble_on, int(value)))
+            controls.bind(self.count_dropdown, lambda value, event: s.set_ensemble(self.ensemble_on, value))
             self.ensemble_status = gui.add_markdown("")
 
     def _start(self, name: str, work) -> bool:
@@ -102,8 +109,8 @@ class Analysis:
     def work_precision_chart(self) -> None:
         from physics.studies import work_precision as bench
 
-        p = self.session.params
-        chain = p.chain()
+        p = self.session.setup
+        chain = p.chain
         theta0, omega0, trace = p.theta0.copy(), p.omega0.copy(), p.trace
         formulations = (p.method,) if p.method in physics.FORMULATION_NAMES else ("lagrange",)
 
@@ -118,7 +125,7 @@ class Analysis:
             html = f'<div style="width:100%;overflow-x:auto">{svg}</div>'
             if self.chart_handle is None:
                 with self.tab:
-                    self.chart_handle = self.session.controls.gui.add_html(html, order=self.chart_status.order + 0.1)
+                    self.chart_handle = self._panel.gui.add_html(html, order=self.chart_status.order + 0.1)
             else:
                 self.chart_handle.content = html
             self.chart_status.content = f"Work-precision chart: {p.n} bars, {formulations[0]}, horizon 5 s."
@@ -147,7 +154,7 @@ class Analysis:
                 return
             if self.image_handle is None:
                 with self.tab:
-                    self.image_handle = self.session.controls.gui.add_image(
+                    self.image_handle = self._panel.gui.add_image(
                         rgb, label="Chaos map (double pendulum)", format="png", order=self.chaos_status.order + 0.1)
             else:
                 self.image_handle.image = rgb
@@ -161,9 +168,10 @@ class Analysis:
     # ------------------------------------------------------------------ ensemble
     def set_ensemble(self, on: bool, count: int | None = None) -> None:
         if count is not None:
-            if str(int(count)) not in ENSEMBLE_COUNTS:
-                raise LinkageError(f"ensemble count = {count}: allowed {', '.join(ENSEMBLE_COUNTS)}")
-            self.ensemble_count = int(count)
+            text = str(count).strip() if isinstance(count, (str, int)) and not isinstance(count, bool) else None
+            if text not in ENSEMBLE_COUNTS:
+                raise LinkageError(f"ensemble count = {count!r}: allowed {', '.join(ENSEMBLE_COUNTS)}")
+            self.ensemble_count = int(text)
         self.ensemble_on = bool(on)
         if not self.ensemble_on:
             self._drop_ensemble()
@@ -174,13 +182,13 @@ class Analysis:
     def restart_ensemble(self) -> None:
         """Build a new ensemble from the displayed state (in a worker: the first build may compile)."""
         s = self.session
-        p = s.params
-        state = s.player.current_state()
+        p = s.setup
+        state = s.displayed_state()
         if state is None or len(state[1]) != p.n:
             t, theta, omega = 0.0, p.theta0.copy(), p.omega0.copy()
         else:
             t, theta, omega = state
-        chain = p.chain()
+        chain = p.chain
         method = p.method if p.method in physics.FORMULATION_NAMES else "lagrange"
         count, damping = self.ensemble_count, p.damping
         with self._lock:
@@ -202,7 +210,7 @@ class Analysis:
                 if generation != self._ensemble_generation or not self.ensemble_on or self.session.closed:
                     return
                 self._remove_node()
-                self.ensemble_node = self.session.target.scene.add_line_segments(
+                self.ensemble_node = self._scene_api.add_line_segments(
                     ENSEMBLE_NODE, points, _copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
                 self.ensemble = ensemble
                 self._ensemble_t = t
@@ -249,10 +257,7 @@ class Analysis:
 
     def _remove_node(self) -> None:
         if self.ensemble_node is not None:
-            try:
-                self.ensemble_node.remove()
-            except Exception:
-                pass
+            quietly(self.ensemble_node.remove, "removing the ensemble")
         self.ensemble_node = None
 
     def _drop_ensemble(self) -> None:

@@ -1,122 +1,88 @@
 """The control panel of one session, generated from the pydantic models where it can be.
 
-Slider ranges come from the model fields' bounds (``Field(ge=..., le=...)``) intersected with a range that is
-useful on a slider, and dropdown options from the fields' ``Literal`` types, so one declaration feeds
-validation, the GUI and the command line. Every callback calls exactly one :class:`~app.session.Session`
-method through ``session.guard``; values the session changes itself (a centre of mass pulled in by a
-shorter bar, assembled angles of a closed loop) are written back with callbacks muted.
+Slider ranges come from the model fields' bounds and dropdown options from the fields' ``Literal`` types, so
+one declaration feeds validation, the GUI and the command line; every number has a box for typed values
+beside its slider (:mod:`app.number_inputs`). The panel sees its session only through
+:class:`~app.ports.SessionPort`: it reads the values in force (``port.setup``, ``port.display``) and asks for
+changes by name (``port.set("m2", 3.0)``), each callback inside ``port.guard``. Values the session changes
+itself (a centre of mass pulled in by a shorter bar, assembled angles of a closed loop) are written back with
+callbacks muted.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-import typing
-from dataclasses import dataclass
 from pathlib import Path
 
-import annotated_types
-
 import physics
-from physics import Bar, Chain, Settings
+from physics import LinkageError
 from physics.model import FIXED_STEP_INTEGRATORS
 
+from .commands import options_of, split_name
+from .logs import quietly
+from .number_inputs import NumberInputs, SliderSpec
 from .overlays import METHOD_COLORS, Plot
-from .parameters import METHOD_LABELS, driving_count, method_label, methods_for
+from .parameters import METHOD_LABELS, driving_count, method_label, methods_for, wrap_degrees
+from .ports import SessionPort
 from .text import html_literal
 
 STATIC = Path(__file__).resolve().parent.parent / "static"
 
-
-@dataclass(frozen=True)
-class SliderSpec:
-    """A slider for one model field: the useful range on screen, clipped to the model's bounds."""
-
-    model: type
-    field: str
-    label: str
-    ui_min: float
-    ui_max: float
-    step: float
-
-    def bounds(self) -> tuple[float, bool, float, bool]:
-        """``(lo, lo_open, hi, hi_open)`` from the field's metadata (``-inf``/``inf`` when unbounded)."""
-        lo, lo_open, hi, hi_open = -math.inf, False, math.inf, False
-        for item in self.model.model_fields[self.field].metadata:
-            if isinstance(item, annotated_types.Ge):
-                lo, lo_open = float(item.ge), False
-            elif isinstance(item, annotated_types.Gt):
-                lo, lo_open = float(item.gt), True
-            elif isinstance(item, annotated_types.Le):
-                hi, hi_open = float(item.le), False
-            elif isinstance(item, annotated_types.Lt):
-                hi, hi_open = float(item.lt), True
-        return lo, lo_open, hi, hi_open
-
-    def range(self, value: float | None = None) -> tuple[float, float]:
-        """Slider min and max: inside the model's bounds by construction, widened to show ``value``."""
-        lo, lo_open, hi, hi_open = self.bounds()
-        low = max(self.ui_min, lo + (self.step if lo_open else 0.0))
-        high = min(self.ui_max, hi - (self.step if hi_open else 0.0))
-        if value is not None and math.isfinite(value):
-            high = max(high, min(value, hi))
-            low = min(low, max(value, lo))
-        return low, high
-
-    @property
-    def hint(self) -> str | None:
-        return self.model.model_fields[self.field].description
-
-
 BAR_SLIDERS = {
-    "L": SliderSpec(Bar, "L", "length L", 0.05, 3.0, 0.01),
-    "d": SliderSpec(Bar, "d", "centre of mass d", 0.0, 3.0, 0.01),  # max follows L
-    "m": SliderSpec(Bar, "m", "mass m", 0.0, 5.0, 0.05),
-    "I": SliderSpec(Bar, "I", "inertia I", 0.0, 1.0, 0.005),
+    "L": SliderSpec("L", 0.05, 3.0, 0.01),
+    "d": SliderSpec("d", 0.0, 3.0, 0.01),  # max follows L
+    "m": SliderSpec("m", 0.0, 5.0, 0.05),
+    "I": SliderSpec("I", 0.0, 1.0, 0.005),
 }
-GRAVITY_SLIDER = SliderSpec(Chain, "g", "gravity g", 0.0, 20.0, 0.05)
-DAMPING_SLIDER = SliderSpec(Settings, "damping", "joint damping", 0.0, 2.0, 0.01)
-ALPHA_SLIDER = SliderSpec(Settings, "baumgarte_alpha", "Baumgarte alpha", 0.0, 50.0, 0.5)
-BETA_SLIDER = SliderSpec(Settings, "baumgarte_beta", "Baumgarte beta", 0.0, 50.0, 0.5)
+GRAVITY_SLIDER = SliderSpec("g", 0.0, 20.0, 0.05)
+DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
+ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
+BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
+ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
+PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
+STEP_SLIDER = SliderSpec("step", 0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
+SPEED_SLIDER = SliderSpec("speed", 0.1, 4.0, 0.05)
+TRACE_SLIDER = SliderSpec("trace_seconds", 0.0, 20.0, 0.5)
+ARROW_SLIDER = SliderSpec("arrow_scale", 0.05, 3.0, 0.05)
 # tolerance and step are set on log / millisecond scales; their model bounds are checked in the tests
 TOLERANCE_LOG10 = (-12.0, -3.0, 0.5)  # rtol = atol = 10 ** slider
-STEP_MS = (0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
-ANGLE_DEG = (-180.0, 180.0, 0.5)
-PIN_RANGE = (-5.0, 5.0, 0.01)
-SPEED = (0.1, 4.0, 0.05)
-TRACE_SECONDS = (0.0, 20.0, 0.5)
-ARROW_SCALE = (0.05, 3.0, 0.05)
+STEP_MS = (STEP_SLIDER.ui_min, STEP_SLIDER.ui_max, STEP_SLIDER.step)
+ANGLE_DEG = (ANGLE_SLIDER.ui_min, ANGLE_SLIDER.ui_max, ANGLE_SLIDER.step)
 LINKS_MAX_ON_SLIDER = physics.model.MAX_LINKS
-
-
-def literal_options(model: type, field: str) -> tuple[str, ...]:
-    """Options of a ``Literal[...]`` field (the dropdowns' choices)."""
-    return tuple(typing.get_args(model.model_fields[field].annotation))
-
-
-INTEGRATOR_OPTIONS = literal_options(Settings, "integrator")
-STABILIZATION_OPTIONS = literal_options(Settings, "stabilization")
+INTEGRATOR_OPTIONS = options_of("integrator")
+STABILIZATION_OPTIONS = options_of("stabilization")
 
 
 def _round_to(value: float, step: float) -> float:
     return round(value / step) * step
 
 
+def _from_log10(exponent: float) -> float:
+    """The slider's log10(rtol) back to rtol; a wild exponent (a hostile client) stays a float the model refuses."""
+    return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
+
+
+def _degrees(theta: float) -> float:
+    """An angle for the angle sliders: degrees in [-180, 180], on the slider's step."""
+    return _round_to(wrap_degrees(theta), ANGLE_DEG[2])
+
+
 class Controls:
     """GUI of one session. ``rebuild()`` after the mechanism changed; ``sync_*`` after the session changed
     a value itself."""
 
-    def __init__(self, session) -> None:
-        self.session = session
-        self.gui = session.target.gui
+    def __init__(self, port: SessionPort, gui) -> None:
+        self.port = port
+        self.gui = gui
         self._muted = threading.local()
-        self._bar_handles: list[dict] = []
+        self._angle_names: list[str] = []
         self._bar_folders: list = []
-        self._angle_handles: list = []
-        self._pin_handles: dict = {}
-        self._dynamic: list = []  # handles removed on rebuild
+        self._dynamic: list = []  # folders removed on rebuild (their numbers are removed by name)
+        self._dynamic_numbers: list[str] = []
         self._status_text = ""
         self._equations_job: threading.Thread | None = None
+        self.numbers = NumberInputs(gui, port, self.bind, self._quiet, lambda: self.muted)
         self._build()
 
     # ------------------------------------------------------------------ helpers
@@ -124,54 +90,95 @@ class Controls:
     def muted(self) -> bool:
         return getattr(self._muted, "on", False)
 
-    def _set(self, handle, value) -> None:
-        """Write a value into a control without running its callback."""
+    def _quiet(self, action) -> None:
+        """Run ``action`` (writes into controls) without running the controls' callbacks."""
         self._muted.on = True
         try:
-            handle.value = value
+            action()
         finally:
             self._muted.on = False
+
+    def _set(self, handle, value) -> None:
+        """Write a value into a control without running its callback."""
+        self._quiet(lambda: setattr(handle, "value", value))
 
     def _set_options(self, handle, options) -> None:
         """Replace a dropdown's options without running its callback (viser picks options[0] if needed)."""
-        self._muted.on = True
-        try:
-            handle.options = tuple(options)
-        finally:
-            self._muted.on = False
+        self._quiet(lambda: setattr(handle, "options", tuple(options)))
 
-    def _on(self, handle, action) -> None:
+    def bind(self, handle, action) -> None:
         """Attach ``action(value, event)`` to a control, inside the session's error boundary."""
 
         def callback(event) -> None:
             if self.muted:
                 return
-            self.session.guard(lambda: action(handle.value, event))
+            self.port.guard(lambda: action(handle.value, event))
 
         if hasattr(handle, "on_click") and not hasattr(handle, "on_update"):
             handle.on_click(callback)
         else:
             handle.on_update(callback)
 
-    def _slider(self, spec: SliderSpec, value: float, *, label: str | None = None, max_value: float | None = None):
-        low, high = spec.range(value)
-        if max_value is not None:
-            high = max(min(high, max_value), low + spec.step)
-        value = min(max(value, low), high)
-        return self.gui.add_slider(
-            label or spec.label, min=low, max=high, step=spec.step, initial_value=value, hint=spec.hint
-        )
+    # the handles scripts and tests drive, by the names they know
+    @property
+    def gravity(self):
+        return self.numbers.controls["g"].slider
+
+    @property
+    def damping(self):
+        return self.numbers.controls["damping"].slider
+
+    @property
+    def alpha(self):
+        return self.numbers.controls["baumgarte_alpha"].slider
+
+    @property
+    def beta(self):
+        return self.numbers.controls["baumgarte_beta"].slider
+
+    @property
+    def step(self):
+        return self.numbers.controls["step"].slider
+
+    @property
+    def tolerance(self):
+        return self.numbers.controls["rtol"].slider
+
+    @property
+    def speed(self):
+        return self.numbers.controls["speed"].slider
+
+    @property
+    def trace_seconds(self):
+        return self.numbers.controls["trace_seconds"].slider
+
+    @property
+    def arrow_scale(self):
+        return self.numbers.controls["arrow_scale"].slider
+
+    @property
+    def _bar_handles(self) -> list[dict]:
+        """Per bar, its sliders by field (``[{"L": slider, "d": ..., "m": ..., "I": ...}, ...]``)."""
+        n = self.port.setup.n
+        return [{f: self.numbers.controls[f"{f}{k}"].slider for f in BAR_SLIDERS} for k in range(1, n + 1)]
+
+    @property
+    def _angle_handles(self) -> list:
+        return [self.numbers.controls[name].slider for name in self._angle_names]
+
+    def typed_box(self, name: str):
+        """The box for typed values of ``name`` (``I1``, ``g``, ``rtol``, ...)."""
+        return self.numbers.controls[name].box
 
     # ------------------------------------------------------------------ layout
     def _build(self) -> None:
-        s = self.session
-        p = s.params
+        s = self.port
+        p = s.setup
         gui = self.gui
+        add = self.numbers.add
         self.status = gui.add_markdown("**Starting...**")
         self.transport = gui.add_button_group("Playback", ("Play", "Pause", "Step", "Reset"))
-        self._on(self.transport, lambda value, event: {
-            "Play": s.play, "Pause": s.pause, "Step": s.step, "Reset": s.reset,
-        }[value]())
+        self.bind(self.transport, lambda value, event: self._transport(value))
         self.energy_plot = Plot(gui, "Energy", ["total E", "kinetic T", "potential V"],
                                 [(20, 20, 20), (214, 39, 40), (31, 119, 180)], y_label="J")
         self.drift_plot = Plot(gui, "Relative energy error since last change", ["|E - E0| / E0"],
@@ -185,72 +192,54 @@ class Controls:
         self.tabs = gui.add_tab_group()
         with self.tabs.add_tab("Mechanism"):
             self.mechanism = gui.add_dropdown("Mechanism", physics.preset_names(), initial_value=p.preset)
-            self._on(self.mechanism, lambda value, event: s.set_mechanism(value))
+            self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
             self.links = gui.add_slider("Bars (chain)", min=1, max=LINKS_MAX_ON_SLIDER, step=1, initial_value=p.n)
-            self._on(self.links, lambda value, event: s.set_links(int(value)))
-            self.gravity = self._slider(GRAVITY_SLIDER, p.g)
-            self._on(self.gravity, lambda value, event: s.set_gravity(value))
+            self.bind(self.links, lambda value, event: s.set_links(value))
+            add("g", GRAVITY_SLIDER, p.g)
             self.angles_folder = gui.add_folder("Initial angles (degrees)")
             self.pin_folder = gui.add_folder("Ground pin H")
             self.bars_folder = gui.add_folder("Bars")
         with self.tabs.add_tab("Simulation"):
             self.method = gui.add_dropdown("Method", self._method_labels(), initial_value=method_label(p.method))
-            self._on(self.method, lambda value, event: s.set_method(self._method_from_label(value)))
+            self.bind(self.method, lambda value, event: s.set("method", self._method_from_label(value)))
             self.compare = gui.add_checkbox("Compare all three methods", initial_value=False,
                                             hint="Run Newton-Euler, Lagrange and DAE from the same start")
-            self._on(self.compare, lambda value, event: s.set_compare(value))
+            self.bind(self.compare, lambda value, event: s.set_compare(value))
             self.integrator = gui.add_dropdown("Integrator", INTEGRATOR_OPTIONS, initial_value=p.integrator)
-            self._on(self.integrator, lambda value, event: s.set_integrator(value))
+            self.bind(self.integrator, lambda value, event: s.set("integrator", value))
             lo, hi, step = TOLERANCE_LOG10
-            self.tolerance = gui.add_slider("Tolerance log10(rtol)", min=lo, max=hi, step=step,
-                                            initial_value=_round_to(math.log10(p.tolerance), step),
-                                            hint="rtol = atol = 10^value (adaptive integrators)")
-            self._on(self.tolerance, lambda value, event: s.set_tolerance(10.0 ** value))
-            lo, hi, step = STEP_MS
-            self.step = gui.add_slider("Step (ms, fixed-step)", min=lo, max=hi, step=step,
-                                       initial_value=min(max(p.step * 1e3, lo), hi))
-            self._on(self.step, lambda value, event: s.set_step(value * 1e-3))
+            add("rtol", SliderSpec("rtol", lo, hi, step), p.tolerance, label="Tolerance log10(rtol)", slider_range=(lo, hi),
+                to_slider=lambda v: min(max(_round_to(math.log10(v), step), lo), hi), from_slider=_from_log10,
+                hint="rtol = atol = 10^value (adaptive integrators); type rtol itself in the box, e.g. 1e-9")
+            add("step", STEP_SLIDER, p.step, label="Step (ms, fixed-step)")
             self.stabilization = gui.add_dropdown("Stabilisation (loops)", STABILIZATION_OPTIONS,
                                                   initial_value=p.stabilization)
-            self._on(self.stabilization, lambda value, event: s.set_stabilization(value))
-            self.alpha = self._slider(ALPHA_SLIDER, p.baumgarte_alpha)
-            self._on(self.alpha, lambda value, event: s.set_stabilization(s.params.stabilization, alpha=value))
-            self.beta = self._slider(BETA_SLIDER, p.baumgarte_beta)
-            self._on(self.beta, lambda value, event: s.set_stabilization(s.params.stabilization, beta=value))
-            self.damping = self._slider(DAMPING_SLIDER, p.damping)
-            self._on(self.damping, lambda value, event: s.set_damping(value))
+            self.bind(self.stabilization, lambda value, event: s.set("stabilization", value))
+            add("baumgarte_alpha", ALPHA_SLIDER, p.baumgarte_alpha)
+            add("baumgarte_beta", BETA_SLIDER, p.baumgarte_beta)
+            add("damping", DAMPING_SLIDER, p.damping)
         with self.tabs.add_tab("Display"):
-            lo, hi, step = SPEED
-            self.speed = gui.add_slider("Playback speed", min=lo, max=hi, step=step, initial_value=1.0)
-            self._on(self.speed, lambda value, event: s.set_speed(value))
-            lo, hi, step = TRACE_SECONDS
-            self.trace_seconds = gui.add_slider("Trace length (s)", min=lo, max=hi, step=step,
-                                                initial_value=s.trace_seconds)
-            self._on(self.trace_seconds, lambda value, event: s.set_trace_seconds(value))
+            add("speed", SPEED_SLIDER, s.display.speed)
+            add("trace_seconds", TRACE_SLIDER, s.display.trace_seconds, label="Trace length (s)")
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())
-            self._on(self.trace_point, lambda value, event: s.set_trace_point(value))
+            self.bind(self.trace_point, lambda value, event: s.set("trace", value))
             self.reactions = gui.add_checkbox("Reaction arrows", initial_value=False,
                                               hint="Joint reactions (DAE) and the pin's reaction (closed loops)")
-            self._on(self.reactions, lambda value, event: s.set_reactions(value))
-            lo, hi, step = ARROW_SCALE
-            self.arrow_scale = gui.add_slider("Arrow scale", min=lo, max=hi, step=step, initial_value=s.reaction_scale,
-                                              hint="1 draws the total weight as long as the mechanism's reach")
-            self._on(self.arrow_scale, lambda value, event: s.set_reactions(s.reactions_on, scale=value))
+            self.bind(self.reactions, lambda value, event: s.set_reactions(value))
+            add("arrow_scale", ARROW_SLIDER, s.display.arrow_scale)
         with self.tabs.add_tab("Equations"):
             self.equations_button = gui.add_button("Show the equations of motion")
-            self._on(self.equations_button, lambda value, event: self.show_equations())
+            self.bind(self.equations_button, lambda value, event: self.show_equations())
             self.equations_tex = gui.add_button("Download as LaTeX")
-            self._on(self.equations_tex, lambda value, event: self._download(event, "tex"))
+            self.bind(self.equations_tex, lambda value, event: s.download("tex", getattr(event, "client", None)))
             self.equations = gui.add_html("<p>The equations being integrated, as derived by sympy, for the "
                                           "current mechanism and method. Press the button (the first time per "
                                           "mechanism this derives them, a few seconds).</p>")
         with self.tabs.add_tab("Export"):
-            self.export_csv = gui.add_button("Download CSV")
-            self._on(self.export_csv, lambda value, event: self._download(event, "csv"))
-            self.export_json = gui.add_button("Download JSON")
-            self._on(self.export_json, lambda value, event: self._download(event, "json"))
-            self.export_html = gui.add_button("Save HTML replay")
-            self._on(self.export_html, lambda value, event: self._download(event, "html"))
+            for kind, title in (("csv", "Download CSV"), ("json", "Download JSON"), ("html", "Save HTML replay")):
+                button = gui.add_button(title)
+                self.bind(button, lambda value, event, kind=kind: s.download(kind, getattr(event, "client", None)))
+                setattr(self, f"export_{kind}", button)
             gui.add_markdown("Exports hold the run up to the displayed time (at most the last "
                              "two minutes, 60 samples per second). The replay plays without the server.")
         with self.tabs.add_tab("Help"):
@@ -258,8 +247,14 @@ class Controls:
             gui.add_markdown(help_file.read_text() if help_file.exists() else "See docs/app.md.")
         self.rebuild()
 
+    def _transport(self, button) -> None:
+        actions = {"Play": self.port.play, "Pause": self.port.pause, "Step": self.port.step, "Reset": self.port.reset}
+        if not isinstance(button, str) or button not in actions:
+            raise LinkageError(f"playback = {button!r}: allowed {', '.join(actions)}")
+        actions[button]()
+
     def _method_labels(self) -> tuple[str, ...]:
-        return tuple(method_label(m) for m in methods_for(self.session.params.chain()))
+        return tuple(method_label(m) for m in methods_for(self.port.setup.chain))
 
     @staticmethod
     def _method_from_label(label: str) -> str:
@@ -271,48 +266,38 @@ class Controls:
     # ------------------------------------------------------------------ per-mechanism parts
     def rebuild(self) -> None:
         """(Re)create the per-bar folders, angle sliders and pin sliders; refresh every value."""
-        s = self.session
-        p = s.params
+        p = self.port.setup
+        self.numbers.remove(self._dynamic_numbers)
         for handle in self._dynamic:
-            try:
-                handle.remove()
-            except Exception:
-                pass
-        self._dynamic, self._bar_handles, self._angle_handles, self._pin_handles = [], [], [], {}
+            quietly(handle.remove, "removing a folder")
+        self._dynamic, self._dynamic_numbers, self._angle_names = [], [], []
         gui = self.gui
+        add = self.numbers.add
         with self.bars_folder:
             for k in range(1, p.n + 1):
                 folder = gui.add_folder(f"Bar {k}", expand_by_default=(p.n <= 3 and k == 1))
                 self._dynamic.append(folder)
                 with folder:
-                    handles = {}
                     for field, spec in BAR_SLIDERS.items():
-                        value = getattr(p, field)[k - 1]
+                        name = f"{field}{k}"
                         max_value = p.L[k - 1] if field == "d" else None
-                        handles[field] = self._slider(spec, value, label=spec.label, max_value=max_value)
-                        self._on(handles[field], lambda value, event, k=k, field=field: s.set_bar(k, field, value))
-                    self._bar_handles.append(handles)
+                        add(name, spec, getattr(p.chain.bars[k - 1], field), max_value=max_value)
+                        self._dynamic_numbers.append(name)
         with self.angles_folder:
             count = driving_count(p.n, p.pinned)
-            lo, hi, step = ANGLE_DEG
             for k in range(1, p.n + 1):
-                label = f"theta{k}" if k <= count else f"theta{k} (assembled)"
-                handle = gui.add_slider(label, min=lo, max=hi, step=step, initial_value=self._degrees(p.theta0[k - 1]),
-                                        disabled=k > count)
-                self._on(handle, lambda value, event, k=k: s.set_initial_angle(k, math.radians(value)))
-                self._angle_handles.append(handle)
-                self._dynamic.append(handle)
+                name = f"theta{k}"
+                label = f"theta{k} (°)" if k <= count else f"theta{k} (°, assembled)"
+                add(name, ANGLE_SLIDER, p.theta0[k - 1], label=label, to_slider=_degrees, from_slider=math.radians,
+                    disabled=k > count)
+                self._angle_names.append(name)
+                self._dynamic_numbers.append(name)
         self.pin_folder.visible = p.pinned
-        if p.pinned:
+        if p.pin is not None:
             with self.pin_folder:
-                lo, hi, step = PIN_RANGE
-                for axis, value in zip(("x", "y"), p.pin):
-                    handle = gui.add_slider(f"pin {axis}", min=min(lo, value), max=max(hi, value), step=step,
-                                            initial_value=value)
-                    self._pin_handles[axis] = handle
-                    self._dynamic.append(handle)
-                self._on(self._pin_handles["x"], lambda value, event: s.set_pin(value, s.params.pin[1]))
-                self._on(self._pin_handles["y"], lambda value, event: s.set_pin(s.params.pin[0], value))
+                for name, value in zip(("pin_x", "pin_y"), p.pin):
+                    add(name, PIN_SLIDER, value, label=f"pin {name[-1]} (m)")
+                    self._dynamic_numbers.append(name)
         self._set(self.mechanism, p.preset)
         self.links.visible = p.preset == "chain"
         self._set(self.links, p.n)
@@ -320,90 +305,98 @@ class Controls:
         self.sync_method()
         self.sync_integrator()
         self.sync_compare()
-        self._set_options(self.trace_point, p.trace_choices())
-        self._set(self.trace_point, p.trace_label())
+        self.sync_trace_point()
         self.equations.content = "<p>Press the button to show the equations for this mechanism and method.</p>"
 
-    @staticmethod
-    def _degrees(theta: float) -> float:
-        deg = math.degrees(theta)
-        deg = (deg + 180.0) % 360.0 - 180.0 if abs(deg) > 180.0 else deg
-        return round(deg / ANGLE_DEG[2]) * ANGLE_DEG[2]
-
     # ------------------------------------------------------------------ write-backs
+    def sync_after(self, name: str) -> None:
+        """After the session applied ``name``: the controls it may have moved show the values in force."""
+        key, k = split_name(name)
+        p = self.port.setup
+        if key == "L" and k is not None:
+            self.sync_bar(k)
+            if p.pinned:
+                self.sync_angles()
+        elif key == "theta" or name in ("pin_x", "pin_y"):
+            self.sync_angles()  # a closed loop assembles the other angles
+            self.numbers.sync(name)
+        elif name in ("method", "integrator", "stabilization"):
+            self.sync_method()
+            self.sync_integrator()
+        elif name == "trace":
+            self.sync_trace_point()
+        else:
+            self.numbers.sync(name)
+
     def sync_bar(self, k: int) -> None:
         """After bar k's length changed: the d slider's max follows L, and d may have been pulled in."""
-        p = self.session.params
-        if k - 1 >= len(self._bar_handles):
+        p = self.port.setup
+        if f"d{k}" not in self.numbers.controls:
             return
-        handles = self._bar_handles[k - 1]
-        d_handle = handles["d"]
-        d_handle.max = max(p.L[k - 1], BAR_SLIDERS["d"].step)
-        self._set(d_handle, min(p.d[k - 1], d_handle.max))
-        self._set(handles["L"], p.L[k - 1])
+        d_slider = self.numbers.controls[f"d{k}"].slider
+        self._quiet(lambda: setattr(d_slider, "max", max(p.L[k - 1], BAR_SLIDERS["d"].step)))
+        for field in BAR_SLIDERS:
+            self.numbers.sync(f"{field}{k}")
+        self.sync_trace_point()
+
+    def sync_trace_point(self) -> None:
+        p = self.port.setup
         self._set_options(self.trace_point, p.trace_choices())
         self._set(self.trace_point, p.trace_label())
 
     def sync_angles(self) -> None:
-        p = self.session.params
-        for k, handle in enumerate(self._angle_handles):
-            self._set(handle, self._degrees(p.theta0[k]))
+        for name in self._angle_names:
+            self.numbers.sync(name)
 
     def sync_method(self) -> None:
-        p = self.session.params
+        p = self.port.setup
         self._set_options(self.method, self._method_labels())
         self._set(self.method, method_label(p.method))
 
     def sync_integrator(self) -> None:
-        p = self.session.params
+        p = self.port.setup
         self._set(self.integrator, p.integrator)
-        self.step.visible = p.integrator in FIXED_STEP_INTEGRATORS
-        self.tolerance.visible = p.integrator not in FIXED_STEP_INTEGRATORS
+        fixed = p.integrator in FIXED_STEP_INTEGRATORS
+        baumgarte = p.pinned and p.stabilization == "baumgarte"
+        for name, visible in (("step", fixed), ("rtol", not fixed), ("baumgarte_alpha", baumgarte),
+                              ("baumgarte_beta", baumgarte)):
+            control = self.numbers.controls[name]
+            control.slider.visible = visible
+            control.box.visible = visible
         self.stabilization.visible = p.pinned
         self._set(self.stabilization, p.stabilization)
-        baumgarte = p.pinned and p.stabilization == "baumgarte"
-        self.alpha.visible = baumgarte
-        self.beta.visible = baumgarte
 
     def sync_compare(self) -> None:
-        s = self.session
+        s = self.port
         self._set(self.compare, s.compare)
         self.divergence_plot.set_visible(s.compare)
         self.method.disabled = s.compare
 
     def sync_all(self) -> None:
-        """Write every value of the session back into the controls (after ``Session.set_value``)."""
-        s = self.session
-        p = s.params
-        self._set(self.gravity, p.g)
-        self._set(self.damping, p.damping)
-        for k, handles in enumerate(self._bar_handles, start=1):
-            self.sync_bar(k)
-            for field in ("m", "I"):
-                self._set(handles[field], getattr(p, field)[k - 1])
-        self.sync_angles()
+        """Write every value in force back into the controls (after a refused value, or a Reset)."""
+        p = self.port.setup
+        for k in range(1, p.n + 1):
+            d_slider = self.numbers.controls.get(f"d{k}")
+            if d_slider is not None:
+                self._quiet(lambda s=d_slider.slider, k=k: setattr(s, "max", max(p.L[k - 1], BAR_SLIDERS["d"].step)))
+        self.numbers.sync_all()
         self.sync_method()
         self.sync_integrator()
-        self._set(self.speed, min(max(s.player.speed, SPEED[0]), SPEED[1]))
-        self._set(self.trace_seconds, s.trace_seconds)
-        if p.pinned and self._pin_handles:
-            self._set(self._pin_handles["x"], p.pin[0])
-            self._set(self._pin_handles["y"], p.pin[1])
+        self.sync_compare()
+        self.sync_trace_point()
+        self._set(self.reactions, self.port.reactions_on)
 
     def show_status(self, text: str) -> None:
         if text != self._status_text:
             self._status_text = text
-            try:
-                self.status.content = text
-            except Exception:
-                pass
+            quietly(lambda: setattr(self.status, "content", text), "updating the status line")
 
-    # ------------------------------------------------------------------ equations and export
+    # ------------------------------------------------------------------ equations
     def show_equations(self) -> None:
         """Render the current system's equations in a worker thread (sympy is imported there, never at start)."""
-        from . import equations
+        from . import equations  # imports sympy: only when asked for
 
-        p = self.session.params
+        p = self.port.setup
         method = p.method
         key = (method, p.n, p.pinned)
         if self._equations_job is not None and self._equations_job.is_alive():
@@ -415,43 +408,21 @@ class Controls:
                 html = equations.equations_html(*key)
             except Exception as error:  # shown in the panel; the session goes on
                 html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
-            if (self.session.params.method, self.session.params.n, self.session.params.pinned) == key:
+            now = self.port.setup
+            if (now.method, now.n, now.pinned) == key:
                 self.equations.content = html
 
         self._equations_job = threading.Thread(target=work, name="equations", daemon=True)
         self._equations_job.start()
 
-    def _download(self, event, kind: str) -> None:
-        s = self.session
-        client = getattr(event, "client", None)
-        if client is None:
-            client = None if s.shared else s.target
-        stem = f"linkage-{s.params.preset}-{s.params.method}"
-        if kind == "csv":
-            name, content = f"{stem}.csv", s.export_csv()
-        elif kind == "json":
-            name, content = f"{stem}.json", s.export_json()
-        elif kind == "tex":
-            from . import equations
-
-            p = s.params
-            try:
-                text = equations.equations_tex(p.method, p.n, p.pinned)
-            except ValueError as error:
-                raise physics.LinkageError(str(error)) from None
-            name, content = f"equations-{p.method}-{p.n}{'-pinned' if p.pinned else ''}.tex", text.encode("utf-8")
-        else:
-            name, content = f"{stem}-replay.html", s.export_html().encode("utf-8")
-        if client is None:
-            s.target.send_file_download(name, content)
-        else:
-            client.send_file_download(name, content)
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Stop pending typed values (the session is closing)."""
+        self.numbers.close()
 
     def remove(self) -> None:
+        self.close()
         for handle in [self.status, self.transport, self.tabs]:
-            try:
-                handle.remove()
-            except Exception:
-                pass
+            quietly(handle.remove, "removing a control")
         for plot in (self.energy_plot, self.drift_plot, self.constraint_plot, self.divergence_plot):
             plot.remove()

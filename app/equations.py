@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import functools
 import html
+import re
 
+from .math_lines import multline
 from .parameters import METHOD_LABELS
 
+PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
 SIMPLIFY_MAX_LINKS = 4  # trig-simplify entries for display up to this many bars (seconds of sympy at n = 4)
 
@@ -32,6 +35,51 @@ def _math(expr) -> str:
     from sympy.printing.mathml import mathml
 
     return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
+
+
+def _heading(row_name: str) -> str:
+    """A row's name for a heading: ``theta_2`` reads as θ with subscript 2, ``G3`` as G with subscript 3."""
+    text = html.escape(row_name)
+    text = re.sub(r"\btheta_(\d+)", "\u03b8<sub>\\1</sub>", text)
+    return re.sub(r"\bG(\d+)\b", "G<sub>\\1</sub>", text)
+
+
+def _term_lines(terms: list, width: int) -> list[list]:
+    """Terms grouped greedily into lines of about ``width`` characters of their plain-text form."""
+    lines: list[list] = []
+    current: list = []
+    used = 0
+    for term in terms:
+        size = len(str(term)) + 3
+        if current and used + size > width:
+            lines.append(current)
+            current, used = [], 0
+        current.append(term)
+        used += size
+    if current:
+        lines.append(current)
+    return lines
+
+
+def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) -> str:
+    """``lhs = rhs`` as MathML lines that fit the panel: broken between terms (browsers do not break MathML
+    themselves); a line that continues a sum starts with its sign, the right side starts with ``=``."""
+    import sympy as sp
+    from sympy.printing.mathml import mathml
+
+    def block(terms, lead: str) -> str:
+        expr = sp.Add(*terms, evaluate=False) if len(terms) > 1 else terms[0]
+        body = mathml(expr, printer="presentation")
+        negative = terms[0].could_extract_minus_sign()
+        sign = "" if not lead else (f"<mo>{lead}</mo>" if lead == "=" or not negative else "")
+        indent = "0" if not lead else "1.5em"
+        return f'<div style="margin:0.35em 0 0.35em {indent};line-height:2"><math>{sign}{body}</math></div>'
+
+    parts = [block(terms, "" if k == 0 else "+") for k, terms in enumerate(_term_lines(lhs_terms, width))]
+    rhs_terms = list(sp.Add.make_args(rhs)) or [sp.Integer(0)]
+    for k, terms in enumerate(_term_lines(rhs_terms, width)):
+        parts.append(block(terms, "=" if k == 0 else "+"))
+    return "".join(parts)
 
 
 @functools.lru_cache(maxsize=32)
@@ -58,20 +106,26 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
         "<p>Unknowns <i>x</i>:</p>",
         _math(sp.Matrix(unknowns).T),
     ]
+    def expand_for_display(expr):
+        return sp.expand(expr) if n <= SIMPLIFY_MAX_LINKS else expr
+
     def tidy(expr):
         # display only: products of sines and cosines become sin/cos of angle differences
         return sp.trigsimp(sp.expand(expr)) if n <= SIMPLIFY_MAX_LINKS else expr
 
     parts.append('<div style="overflow-x:auto">')
     for i, row_name in enumerate(system.equation_names):
-        lhs = sp.Add(*[tidy(system.A[i, j]) * unknowns[j] for j in range(len(unknowns)) if system.A[i, j] != 0],
-                     evaluate=False)
-        rhs = tidy(system.b[i])
-        equation = sp.Eq(lhs.xreplace(names), rhs.xreplace(names), evaluate=False)
-        text = _math(equation)
+        lhs_terms = [
+            term.xreplace(names)
+            for j in range(len(unknowns))
+            if system.A[i, j] != 0
+            for term in sp.Add.make_args(expand_for_display(tidy(system.A[i, j]) * unknowns[j]))
+        ]
+        rhs = tidy(system.b[i]).xreplace(names)
+        text = _equation_lines(lhs_terms or [sp.Integer(0)], rhs)
         if len(text) > MAX_ROW_CHARACTERS:
             text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
-        parts.append(f"<p><b>{i + 1}. {html.escape(row_name)}</b></p>{text}")
+        parts.append(f"<p><b>{i + 1}. {_heading(row_name)}</b></p>{text}")
     parts.append("</div>")
     parts.append(
         "<p>Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "
@@ -110,6 +164,6 @@ def equations_tex(formulation: str, n: int, pinned: bool) -> str:
     ]
     for row in data["rows"]:
         lines.append(r"\item " + _tex_text(row["label"]))
-        lines.append(r"\begin{multline*}" + row["latex"] + r"\end{multline*}")
+        lines.append(multline(row["latex"]))
     lines += [r"\end{enumerate}", r"\end{document}", ""]
     return "\n".join(lines)

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from .logs import quietly
 from .scene import to_world
 from .text import markdown_literal
 
@@ -72,10 +73,7 @@ class TraceLine:
         self.handle.thickness = float(thickness)
 
     def remove(self) -> None:
-        try:
-            self.handle.remove()
-        except Exception:
-            pass
+        quietly(self.handle.remove, "removing an overlay")
 
 
 class ReactionArrows:
@@ -115,10 +113,7 @@ class ReactionArrows:
 
     def remove(self) -> None:
         if self.handle is not None:
-            try:
-                self.handle.remove()
-            except Exception:
-                pass
+            quietly(self.handle.remove, "removing the reaction arrows")
             self.handle = None
 
 
@@ -178,10 +173,7 @@ class Plot:
             self.handle.visible = visible
 
     def remove(self) -> None:
-        try:
-            self.handle.remove()
-        except Exception:
-            pass
+        quietly(self.handle.remove, "removing an overlay")
 
 
 def relative_drift(energy: np.ndarray, reference: float, scale: float) -> np.ndarray:

@@ -1,21 +1,23 @@
-"""What a session lets the user change, and its translation into validated physics objects.
+"""What one session simulates: the physics models themselves, plus the app's own display settings.
 
-:class:`SessionParameters` is plain mutable data (lists and arrays). Every change goes through
-:meth:`SessionParameters.changed`, which builds the physics ``Chain`` and ``Settings`` from a copy and
-keeps the change only if they validate, so a session always holds a valid mechanism; an invalid value
-raises :class:`physics.LinkageError` with the model's one-line message and leaves the state as it was.
+:class:`SessionParameters` is an immutable value holding the validated ``physics.Chain`` and
+``physics.Settings`` and the start state; every number it offers (``L``, ``m``, ``method``, ...) is read from
+those models, never kept a second time. A change builds a new value through :mod:`app.commands`, so a session
+always holds a mechanism the models accepted. :class:`Display` is the same idea for what only the picture uses
+(playback speed, trace length, arrow scale): a pydantic model owns their bounds too.
 """
 
 from __future__ import annotations
 
-import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 import physics
-from physics import LinkageError, Settings, TracePoint, assembly, get_preset, make_chain
+from physics import Chain, LinkageError, Settings, TracePoint, assembly, get_preset
+from physics.model import check_state, validated
 
 METHOD_LABELS = {
     "newton_euler": "Newton-Euler",
@@ -25,17 +27,26 @@ METHOD_LABELS = {
     "reduced_fixed": "Reduced, theta1 fixed",
 }
 DEFAULT_METHOD = "lagrange"
-DEFAULT_INTEGRATOR = "DOP853"
 DEFAULT_TOLERANCE = 1e-9
-STABILIZATIONS = ("none", "baumgarte", "projection")
+# Settings of a session are validated for a one-second chunk: the player sets the real horizon per chunk, and
+# a fixed step is refused only when one second of it would exceed the model's step budget.
+CHUNK_T_END = 1.0
 
 
-def methods_for(chain) -> tuple[str, ...]:
+def methods_for(chain: Chain) -> tuple[str, ...]:
     """Methods offered for a chain: the three formulations, and the reduced models where physics has them."""
     names = tuple(physics.FORMULATION_NAMES)
     if physics.reduced_available(chain):
         names += tuple(m for m in physics.METHOD_NAMES if m not in names)
     return names
+
+
+def settings_data(settings: Settings) -> dict:
+    """A Settings' fields for building a changed copy; ``backend`` is left out because the model decides it
+    from the integrator (Radau and LSODA switch it to scipy, and a later compiled integrator must switch back)."""
+    data = dict(settings)
+    data.pop("backend", None)
+    return data
 
 
 def method_label(method: str) -> str:
@@ -47,125 +58,166 @@ def driving_count(n: int, pinned: bool) -> int:
     return n - 2 if pinned else n
 
 
-@dataclass
+class Display(BaseModel):
+    """What only the picture uses; bounds as for the physics fields, so the same command layer checks them."""
+
+    model_config = ConfigDict(frozen=True)
+
+    speed: float = Field(1.0, ge=0.01, le=8.0, description="simulated seconds shown per second")
+    trace_seconds: float = Field(4.0, ge=0.0, le=30.0, description="length of the drawn trace")
+    arrow_scale: float = Field(0.5, gt=0.0, le=10.0, description="1 draws the total weight as long as the reach")
+
+
+@dataclass(frozen=True)
 class SessionParameters:
-    """One session's mechanism, start state and integration choices (angles in radians)."""
+    """One session's mechanism (``chain``), integration choices (``settings``) and start (radians)."""
 
     preset: str
-    links: int
-    L: list[float]
-    d: list[float]
-    m: list[float]
-    I: list[float]
-    g: float
-    pin: tuple[float, float] | None
-    theta0: np.ndarray
-    omega0: np.ndarray
-    trace: TracePoint
-    method: str = DEFAULT_METHOD
-    integrator: str = DEFAULT_INTEGRATOR
-    tolerance: float = DEFAULT_TOLERANCE
-    step: float = 1e-3
-    stabilization: str = "projection"
-    baumgarte_alpha: float = 10.0
-    baumgarte_beta: float = 10.0
-    damping: float = 0.0
+    chain: Chain
+    settings: Settings
+    theta0: np.ndarray = field(repr=False)
+    omega0: np.ndarray = field(repr=False)
     default_trace: TracePoint | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_preset(cls, name: str, links: int | None = None, method: str | None = None) -> "SessionParameters":
         preset = get_preset(name, links=links)
-        chain = preset.chain
+        settings = validated(
+            Settings, method=method or DEFAULT_METHOD, rtol=DEFAULT_TOLERANCE, atol=DEFAULT_TOLERANCE,
+            trace=preset.trace, t_end=CHUNK_T_END, samples=2,
+        )
         params = cls(
             preset=preset.name,
-            links=chain.n,
-            L=[b.L for b in chain.bars],
-            d=[b.d for b in chain.bars],
-            m=[b.m for b in chain.bars],
-            I=[b.I for b in chain.bars],
-            g=chain.g,
-            pin=tuple(chain.pin) if chain.pin is not None else None,
+            chain=preset.chain,
+            settings=settings,
             theta0=np.array(preset.theta0, dtype=float),
             omega0=np.array(preset.omega0, dtype=float),
-            trace=preset.trace,
             default_trace=preset.trace,
         )
-        if method is not None:
-            params = params.changed(method=method)
         params.validate()
         return params
 
-    # ------------------------------------------------------------------ derived views
-    @property
-    def n(self) -> int:
-        return len(self.L)
-
-    @property
-    def pinned(self) -> bool:
-        return self.pin is not None
-
-    def chain(self):
-        """The validated physics ``Chain`` (raises LinkageError naming the field)."""
-        return make_chain(self.L, self.d, self.m, self.I, g=self.g, pin=self.pin)
-
-    def settings(self, method: str | None = None):
-        """Validated physics ``Settings`` (horizon and samples are set per chunk by the player)."""
-        from physics.model import validated
-
-        return validated(
-            Settings,
-            method=method or self.method,
-            integrator=self.integrator,
-            rtol=self.tolerance,
-            atol=self.tolerance,
-            step=self.step,
-            stabilization=self.stabilization,
-            baumgarte_alpha=self.baumgarte_alpha,
-            baumgarte_beta=self.baumgarte_beta,
-            damping=self.damping,
-            trace=self.trace,
-            t_end=1.0,
-            samples=2,
-        )
-
-    def validate(self) -> None:
-        """Raise LinkageError if the chain, settings, method or start state are not valid together."""
-        chain = self.chain()
-        self.settings()
-        if self.method not in methods_for(chain):
-            allowed = ", ".join(methods_for(chain))
-            raise LinkageError(f"method = {self.method}: not available for this mechanism; allowed: {allowed}")
-        if self.trace.bar > self.n:
-            raise LinkageError(f"trace.bar = {self.trace.bar}: the mechanism has {self.n} bars")
-        physics.model.check_state(self.n, self.theta0, self.omega0)
-        if chain.pinned:
-            gap = assembly.loop_residual(self.L, self.theta0, self.pin)
-            if not float(np.hypot(*gap)) <= 1e-8:
-                raise LinkageError(f"the start does not close the loop (tip misses the pin by {np.hypot(*gap):.3g})")
-
-    def changed(self, **updates) -> "SessionParameters":
-        """A validated copy with ``updates`` applied; raises LinkageError and leaves ``self`` untouched."""
-        new = copy.deepcopy(self)
-        for key, value in updates.items():
-            if not hasattr(new, key):
-                raise LinkageError(f"unknown parameter {key!r}")
-            setattr(new, key, value)
+    def replaced(self, **updates) -> "SessionParameters":
+        """A copy with ``updates`` (already validated models or arrays), checked together (:meth:`validate`)."""
+        new = replace(self, **updates)
         new.validate()
         return new
 
-    def assembled(self, theta_driving, theta_prev=None) -> np.ndarray:
-        """Start angles of a closed loop from its driving angles (physics.assembly); LinkageError if unreachable."""
-        return assembly.assemble(self.L, self.pin, np.asarray(theta_driving, float), theta_prev=theta_prev)
+    # ------------------------------------------------------------------ read from the models
+    @property
+    def n(self) -> int:
+        return self.chain.n
 
+    @property
+    def links(self) -> int:
+        return self.chain.n
+
+    @property
+    def pinned(self) -> bool:
+        return self.chain.pinned
+
+    @property
+    def L(self) -> list[float]:
+        return [bar.L for bar in self.chain.bars]
+
+    @property
+    def d(self) -> list[float]:
+        return [bar.d for bar in self.chain.bars]
+
+    @property
+    def m(self) -> list[float]:
+        return [bar.m for bar in self.chain.bars]
+
+    @property
+    def I(self) -> list[float]:  # noqa: E743 - the model's name for the centroidal inertia
+        return [bar.I for bar in self.chain.bars]
+
+    @property
+    def g(self) -> float:
+        return self.chain.g
+
+    @property
+    def pin(self) -> tuple[float, float] | None:
+        pin = self.chain.pin
+        return (float(pin[0]), float(pin[1])) if pin is not None else None
+
+    @property
+    def trace(self) -> TracePoint:
+        trace = self.settings.trace
+        assert trace is not None, "a session's settings always name the traced point (from_preset sets it)"
+        return trace
+
+    @property
+    def method(self) -> str:
+        return self.settings.method
+
+    @property
+    def integrator(self) -> str:
+        return self.settings.integrator
+
+    @property
+    def tolerance(self) -> float:
+        return self.settings.rtol
+
+    @property
+    def step(self) -> float:
+        return self.settings.step
+
+    @property
+    def stabilization(self) -> str:
+        return self.settings.stabilization
+
+    @property
+    def baumgarte_alpha(self) -> float:
+        return self.settings.baumgarte_alpha
+
+    @property
+    def baumgarte_beta(self) -> float:
+        return self.settings.baumgarte_beta
+
+    @property
+    def damping(self) -> float:
+        return self.settings.damping
+
+    def settings_for(self, method: str) -> Settings:
+        """These settings with another method (compare mode); LinkageError if that method refuses them."""
+        if method == self.settings.method:
+            return self.settings
+        return validated(Settings, **{**settings_data(self.settings), "method": method})
+
+    # ------------------------------------------------------------------ checks across models
+    def validate(self) -> None:
+        """Raise LinkageError if chain, settings, method and start do not fit together."""
+        chain = self.chain
+        if self.method not in methods_for(chain):
+            allowed = ", ".join(methods_for(chain))
+            raise LinkageError(f"method = {self.method}: not available for this mechanism; allowed: {allowed}")
+        if self.trace is None or self.trace.bar > self.n:
+            raise LinkageError(f"trace: the traced point must lie on one of the {self.n} bars")
+        check_state(self.n, self.theta0, self.omega0)
+        if chain.pinned:
+            gap = float(np.hypot(*assembly.loop_residual(self.L, self.theta0, self.pin)))
+            if not gap <= 1e-8:
+                raise LinkageError(f"the start does not close the loop (tip misses the pin by {gap:.3g})")
+
+    def assembled(self, theta_driving, theta_prev=None, L=None, pin=None) -> np.ndarray:
+        """Start angles of a closed loop from its driving angles (physics.assembly); LinkageError if unreachable."""
+        return assembly.assemble(
+            self.L if L is None else L, self.pin if pin is None else pin,
+            np.asarray(theta_driving, float), theta_prev=theta_prev,
+        )
+
+    # ------------------------------------------------------------------ the traced point
     def trace_choices(self) -> dict[str, TracePoint]:
         """Points the trace can follow: the preset's coupler point (if it has one), the tip, every joint and
         centre of mass. The first entry is the default."""
-        standard = {"tip H": TracePoint(bar=self.n, along=self.L[-1])}
+        L, d = self.L, self.d
+        standard = {"tip H": TracePoint(bar=self.n, along=L[-1])}
         for k in range(1, self.n):
-            standard[f"joint {k}"] = TracePoint(bar=k, along=self.L[k - 1])
+            standard[f"joint {k}"] = TracePoint(bar=k, along=L[k - 1])
         for k in range(1, self.n + 1):
-            standard[f"centre of mass {k}"] = TracePoint(bar=k, along=self.d[k - 1])
+            standard[f"centre of mass {k}"] = TracePoint(bar=k, along=d[k - 1])
         preset_point = self.default_trace
         if preset_point is not None and preset_point.bar <= self.n and preset_point not in standard.values():
             return {"coupler point": preset_point, **standard}
@@ -183,10 +235,7 @@ class SessionParameters:
             "preset": self.preset,
             "links": self.n,
             "pinned": self.pinned,
-            "bars": [
-                {"L": float(self.L[i]), "d": float(self.d[i]), "m": float(self.m[i]), "I": float(self.I[i])}
-                for i in range(self.n)
-            ],
+            "bars": [{"L": bar.L, "d": bar.d, "m": bar.m, "I": bar.I} for bar in self.chain.bars],
             "g": float(self.g),
             "pin": [float(v) for v in self.pin] if self.pin is not None else None,
             "theta0": [float(v) for v in self.theta0],
@@ -194,8 +243,8 @@ class SessionParameters:
             "trace": {"bar": self.trace.bar, "along": self.trace.along, "across": self.trace.across},
             "method": self.method,
             "integrator": self.integrator,
-            "rtol": self.tolerance,
-            "atol": self.tolerance,
+            "rtol": self.settings.rtol,
+            "atol": self.settings.atol,
             "step": self.step,
             "stabilization": self.stabilization,
             "baumgarte_alpha": self.baumgarte_alpha,

@@ -16,138 +16,49 @@ import collections
 import threading
 import time
 import traceback
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from .buffers import TrajectoryRing
+from .runs import (
+    Frame,
+    Restart,
+    Run,
+    RunFrame,
+    RunSpec,
+    chunk_dict,
+    com_ratio,
+    finite_prefix,
+    kinematic_sample,
+)
 
 SAMPLE_RATE = 60.0  # samples per simulated second; also the display's frames per wall-clock second
 SAMPLE_DT = 1.0 / SAMPLE_RATE
 HISTORY_SECONDS = 120.0  # what a session keeps for plots and export; bounds its memory
 LOOKAHEAD_SECONDS = 1.0  # simulated time kept ready ahead of the display (times the playback speed)
-FIRST_CHUNK_SECONDS = 0.25  # short first chunk after a restart, so the first new pose comes quickly
 MAX_CHUNK_SECONDS = 2.0
-CHUNK_BUDGET_SECONDS = 0.008  # aim for chunks that take about half a frame to compute
+# Chunk lengths adapt to the work a chunk took, counted in right-hand-side evaluations, never to the wall
+# clock: a run is then the same, bit for bit, whatever the machine's load or the frame timing (each chunk
+# restarts the integrator, so its boundaries shape the result). About half a frame of compute for a triple
+# pendulum; the budget shrinks with the square of the chain length, as the cost of one evaluation grows.
+CHUNK_WORK_BUDGET = 3000.0  # right-hand-side evaluations per chunk at n = 3
 MAX_SPEED = 8.0
 
 
-@dataclass
-class RunSpec:
-    """What one run simulates: a validated chain, settings (``t_end``/``samples`` are set per chunk), a label."""
-
-    label: str
-    chain: object  # physics.Chain
-    settings: object  # physics.Settings
-
-    @property
-    def n(self) -> int:
-        return self.chain.n
-
-    @property
-    def pinned(self) -> bool:
-        return self.chain.pinned
+def _chunk_work(traj) -> int:
+    """The work a chunk took: right-hand-side evaluations (steps for integrators that count none)."""
+    return int(getattr(traj, "n_rhs", 0) or getattr(traj, "n_steps", 0))
 
 
-@dataclass
-class Run:
-    spec: RunSpec
-    ring: TrajectoryRing
-    com_ratio: np.ndarray  # d / L per bar (0 where L = 0): centre of mass between its joints
-    failed: str | None = None  # message of a failed chunk: no samples will follow the last stored one
-    chunk_seconds: float = FIRST_CHUNK_SECONDS
-    compute_seconds: float = 0.0  # CPU time spent simulating (for the status line)
-    simulated_seconds: float = 0.0
-
-
-@dataclass
-class RunFrame:
-    label: str
-    index: int  # logical ring index of the sample at or before the displayed time
-    joints: np.ndarray  # (n+1, 2), interpolated to the displayed time
-    com: np.ndarray  # (n, 2)
-
-
-@dataclass
-class Frame:
-    t: float
-    runs: list[RunFrame]
-    restarted: bool = False  # first frame after a restart (the latency probe)
-    request_time: float | None = None
-    counter: int = 0
-
-
-@dataclass
-class _Restart:
-    specs: list[RunSpec]
-    t0: float
-    starts: list[tuple[np.ndarray, np.ndarray]]
-    keep_history: bool
-    requested_at: float
-    play: bool | None = None
-
-
-def _com_ratio(chain) -> np.ndarray:
-    L = np.array([b.L for b in chain.bars], dtype=float)
-    d = np.array([b.d for b in chain.bars], dtype=float)
-    return np.divide(d, L, out=np.zeros_like(d), where=L > 0)
-
-
-def _chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
-    """The ring's fields from a physics Trajectory (reactions only for dae; zeros elsewhere)."""
-    out = {
-        "t": traj.t,
-        "theta": traj.theta,
-        "omega": traj.omega,
-        "joints": traj.joints,
-        "trace_xy": traj.trace_xy,
-        "kinetic": traj.kinetic,
-        "potential": traj.potential,
-        "energy": traj.energy,
-    }
-    if traj.reactions.shape[1:] == (n, 2):
-        out["reactions"] = traj.reactions
-    if pinned:
-        if traj.constraint_xy.shape[1:] == (2,):
-            out["constraint_xy"] = traj.constraint_xy
-        if traj.tip_reaction.shape[1:] == (2,):
-            out["tip_reaction"] = traj.tip_reaction
-    return out
-
-
-def _kinematic_sample(spec: RunSpec, t0: float, theta0: np.ndarray, omega0: np.ndarray) -> dict[str, np.ndarray]:
-    """One sample from positions and velocities alone (no dynamics): what a failed start looks like."""
-    from physics import energies, joint_positions
-    from physics.kinematics import point_on_bar
-
-    chain = spec.chain
-    L = np.array([b.L for b in chain.bars], dtype=float)
-    theta = np.where(np.isfinite(theta0), theta0, 0.0)
-    omega = np.where(np.isfinite(omega0), omega0, 0.0)
-    kinetic, potential, total = energies(chain.params(), theta, omega)
-    trace = spec.settings.trace
-    if trace is not None:
-        trace_xy = point_on_bar(L, theta, trace.bar, trace.along, trace.across)
-    else:
-        trace_xy = joint_positions(L, theta)[-1]
-    return {
-        "t": np.array([t0]),
-        "theta": theta[None, :],
-        "omega": omega[None, :],
-        "joints": joint_positions(L, theta)[None],
-        "trace_xy": np.asarray(trace_xy)[None, :],
-        "kinetic": np.array([kinetic]),
-        "potential": np.array([potential]),
-        "energy": np.array([total]),
-    }
-
-
-def _finite_prefix(chunk: dict[str, np.ndarray]) -> int:
-    """Number of leading samples whose state is finite."""
-    ok = np.all(np.isfinite(chunk["theta"]), axis=1) & np.all(np.isfinite(chunk["omega"]), axis=1)
-    bad = np.flatnonzero(~ok)
-    return int(bad[0]) if bad.size else len(ok)
+def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
+    """The next chunk's length from this one's work alone (deterministic: see CHUNK_WORK_BUDGET)."""
+    budget = CHUNK_WORK_BUDGET * (3.0 / max(n, 1)) ** 2
+    if work > budget and seconds > 2 * SAMPLE_DT:
+        return max(2 * SAMPLE_DT, seconds / 2)
+    if work < budget / 4:
+        return min(MAX_CHUNK_SECONDS, seconds * 2)
+    return seconds
 
 
 class Player:
@@ -179,9 +90,9 @@ class Player:
         self.lock = threading.RLock()
         self._wake = threading.Event()
         self._stop = False
-        self._pending: _Restart | None = None
+        self._pending: Restart | None = None
         self._restarting = False
-        self._installing: _Restart | None = None  # the restart being installed (popped from _pending)
+        self._installing: Restart | None = None  # the restart being installed (popped from _pending)
         self._failure_reported = False
         self.runs: list[Run] = []
         self.generation = 0  # bumped at every restart; chunks of an older generation are dropped
@@ -220,7 +131,7 @@ class Player:
         runs start afresh (reset, new mechanism). Applied by the player thread as soon as it wakes.
         """
         with self.lock:
-            self._pending = _Restart(list(specs), float(t0), list(starts), keep_history, time.perf_counter(), play)
+            self._pending = Restart(list(specs), float(t0), list(starts), keep_history, time.perf_counter(), play)
         self._wake.set()
 
     def play(self) -> None:
@@ -276,6 +187,12 @@ class Player:
         self._wake.set()
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout)
+
+    @property
+    def restart_pending(self) -> bool:
+        """A restart was asked for and has not been shown yet (the runs in ``runs`` are about to go)."""
+        with self.lock:
+            return self._pending is not None or self._restarting or self._restart_time is not None
 
     @property
     def alive(self) -> bool:
@@ -358,7 +275,7 @@ class Player:
                 self._restarting = False
                 self._installing = None
 
-    def _install(self, pending: _Restart) -> None:
+    def _install(self, pending: Restart) -> None:
         """Replace the runs by ``pending``'s; the slow parts (loading code, the first sample) run unlocked."""
         for spec, (theta0, omega0) in zip(pending.specs, pending.starts):
             self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
@@ -385,7 +302,7 @@ class Player:
                 else:
                     ring = TrajectoryRing(spec.n, spec.pinned, capacity, SAMPLE_DT)
                 ring.append(sample)
-                runs.append(Run(spec=spec, ring=ring, com_ratio=_com_ratio(spec.chain), failed=failed))
+                runs.append(Run(spec=spec, ring=ring, com_ratio=com_ratio(spec.chain), failed=failed))
             self.runs = runs
             self._failure_reported = False
             self.generation += 1
@@ -409,11 +326,11 @@ class Player:
         else:
             message = traj.message
         if traj is not None and len(traj.t) > 0:
-            chunk = {k: v[:1] for k, v in _chunk_dict(traj, spec.n, spec.pinned).items()}
-            if _finite_prefix(chunk) == 1:
+            chunk = {k: v[:1] for k, v in chunk_dict(traj, spec.n, spec.pinned).items()}
+            if finite_prefix(chunk) == 1:
                 failed = message if (traj.status < 0 and len(traj.t) < 2) else None
                 return chunk, failed
-        return _kinematic_sample(spec, t0, theta0, omega0), message or "the start state could not be evaluated"
+        return kinematic_sample(spec, t0, theta0, omega0), message or "the start state could not be evaluated"
 
     def _simulate_chunk(self, spec: RunSpec, t0: float, theta0, omega0, steps: int, continuing: bool = False):
         """Simulate ``steps`` sample intervals from ``t0``; ``steps = 0`` evaluates the start state only."""
@@ -460,9 +377,9 @@ class Player:
             if generation != self.generation or run not in self.runs:
                 return True  # a restart happened meanwhile: this chunk belongs to the past
             run.compute_seconds += elapsed
-            chunk = _chunk_dict(traj, spec.n, spec.pinned)
+            chunk = chunk_dict(traj, spec.n, spec.pinned)
             chunk = {k: v[1:] for k, v in chunk.items()}  # the first sample is the stored start
-            good = _finite_prefix(chunk)
+            good = finite_prefix(chunk)
             run.ring.append({k: v[:good] for k, v in chunk.items()})
             run.simulated_seconds += good * SAMPLE_DT
             if traj.status < 0:
@@ -471,11 +388,7 @@ class Player:
                 run.failed = f"the state became non-finite at t = {t0 + (good + 1) * SAMPLE_DT:.4g} s"
             elif len(chunk["t"]) < steps:
                 run.failed = traj.message or "the simulation stopped early"
-            # adapt the chunk length to the compute time (slow integrators get short chunks)
-            if elapsed > CHUNK_BUDGET_SECONDS and run.chunk_seconds > 2 * SAMPLE_DT:
-                run.chunk_seconds = max(2 * SAMPLE_DT, run.chunk_seconds / 2)
-            elif elapsed < CHUNK_BUDGET_SECONDS / 4:
-                run.chunk_seconds = min(MAX_CHUNK_SECONDS, run.chunk_seconds * 2)
+            run.chunk_seconds = next_chunk_seconds(run.chunk_seconds, _chunk_work(traj), spec.n)
         return True
 
     def _available_until(self) -> float:

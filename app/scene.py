@@ -23,6 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .logs import quietly
+from .viser_compat import move_node
+
 # Bar colours, one per bar index (cycled); saturated so a screenshot test can find the links.
 BAR_COLORS = (
     (31, 119, 180),
@@ -45,33 +48,6 @@ JOINT_RADIUS_FRACTION = 0.028
 COM_RADIUS_FRACTION = 0.02
 # Below this relative change of the reach the camera is left alone (no jumps while dragging a slider).
 REFRAME_TOLERANCE = 0.15
-
-
-try:  # the per-frame fast path below needs these viser internals (1.1.x); without them, public setters
-    from viser._messages import SetOrientationMessage, SetPositionMessage
-except ImportError:  # pragma: no cover - another viser version
-    SetOrientationMessage = SetPositionMessage = None
-
-
-def _fast_pose(handle, position: tuple | None, wxyz: tuple | None) -> None:
-    """Move a node: the same messages as ``handle.position = ...`` / ``handle.wxyz = ...``, without their
-    per-call ``np.allclose`` (80 µs each, the largest cost of a frame with 30 sessions); a value equal to the
-    last one sent is skipped, as the public setters do."""
-    impl = getattr(handle, "_impl", None)
-    api = getattr(impl, "api", None)
-    queue = getattr(api, "_queue_scene_message", None)
-    if SetPositionMessage is None or queue is None:
-        if position is not None:
-            handle.position = position
-        if wxyz is not None:
-            handle.wxyz = wxyz
-        return
-    if position is not None and tuple(impl.position) != position:
-        impl.position[:] = position
-        queue(SetPositionMessage(impl.name, position))
-    if wxyz is not None and tuple(impl.wxyz) != wxyz:
-        impl.wxyz[:] = wxyz
-        queue(SetOrientationMessage(impl.name, wxyz))
 
 
 def to_world(xy: np.ndarray) -> np.ndarray:
@@ -214,10 +190,7 @@ class LinkageScene:
         """Remove every node (before a rebuild, or when the session closes)."""
         for handle in [self._ground, self._pin, self._ground_link, *self._bars, *self._joints, *self._coms]:
             if handle is not None:
-                try:
-                    handle.remove()
-                except Exception:  # a node of a departed client: nothing left to remove
-                    pass
+                quietly(handle.remove, "removing a scene node")  # a node of a departed client
         self._ground = self._pin = self._ground_link = None
         self._bars, self._joints, self._coms = [], [], []
         self.layout = None
@@ -239,12 +212,12 @@ class LinkageScene:
         for k, bar in enumerate(self._bars):
             a, b = joints_w[k], joints_w[k + 1]
             middle = (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
-            _fast_pose(bar, middle, bar_orientation(joints_xy[k], joints_xy[k + 1]))
+            move_node(bar, middle, bar_orientation(joints_xy[k], joints_xy[k + 1]))
         for k, joint in enumerate(self._joints):
             if k > 0:  # joint 0 is O and never moves
-                _fast_pose(joint, tuple(joints_w[k]), None)
+                move_node(joint, tuple(joints_w[k]), None)
         for k, com in enumerate(self._coms):
-            _fast_pose(com, tuple(com_w[k]), None)
+            move_node(com, tuple(com_w[k]), None)
 
     def poses(self) -> dict[str, dict]:
         """Current pose of every node, JSON-able: ``{name: {"position": [...], "wxyz": [...], "visible": bool}}``."""

@@ -15,10 +15,12 @@ import ipaddress
 import socket
 import threading
 import time
+import traceback
 
 from physics import LinkageError
 
 from . import warm as warm_up
+from .logs import quietly
 from .parameters import SessionParameters
 from .session import Session
 
@@ -26,6 +28,9 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
 DEFAULT_PRESET = "triple-a"
 DEFAULT_MAX_SESSIONS = 32
+# Own sessions each integrate ahead in this interpreter (app/player.py); past this the 2-core machine of
+# docs/reliability.md cannot keep their frame rate. A larger audience watches one --shared session.
+MAX_SESSIONS_LIMIT = 100
 # Frames per second the server renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
 # beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core the server may use is not
 # spent on frames that viser would drop before sending (measured: python -m app.bench load).
@@ -74,8 +79,11 @@ class LabServer:
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
-        if int(max_sessions) < 1:
-            raise LinkageError(f"--max-sessions {max_sessions}: must be at least 1")
+        if not 1 <= int(max_sessions) <= MAX_SESSIONS_LIMIT:
+            raise LinkageError(
+                f"--max-sessions {max_sessions}: allowed range 1 <= max-sessions <= {MAX_SESSIONS_LIMIT} "
+                "(own sessions each integrate in this process; use --shared for a larger audience)"
+            )
         # validate the start mechanism once, before anything listens (raises LinkageError naming the field)
         SessionParameters.from_preset(preset, links=links, method=method)
         check_bindable(host)
@@ -134,13 +142,10 @@ class LabServer:
         try:
             session = Session(client, preset=self.preset, links=self.links, method=self.method)
         except Exception as error:  # never let one browser's start take the server down
-            import traceback
-
             traceback.print_exc()
-            try:
-                client.add_notification("Could not start a session", f"{type(error).__name__}: {error}", color="red")
-            except Exception:
-                pass
+            reason = f"{type(error).__name__}: {error}"
+            quietly(lambda: client.add_notification("Could not start a session", reason, color="red"),
+                    "telling a browser its session failed")
         finally:
             with self._lock:
                 self._reserved -= 1
@@ -169,12 +174,13 @@ class LabServer:
             f"This server runs at most **{self.max_sessions}** simulations at once, and all are in use. "
             "Close another tab, or try again in a moment (reload this page)."
         )
-        try:
+
+        def tell() -> None:
             client.gui.add_markdown(text)
             client.add_notification("Server full", f"At most {self.max_sessions} sessions; reload later.",
                                     color="red", auto_close_seconds=None)
-        except Exception:
-            pass
+
+        quietly(tell, "telling a browser the server is full")  # it may have left already
 
     def _disconnect(self, client) -> None:
         with self._lock:

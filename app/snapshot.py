@@ -307,7 +307,7 @@ def paused_app(
         session = server.shared_session
         session.pause()
         for name, value in values:
-            session.set_value(name, value)
+            session.set(name, value)
         yield server, session
     finally:
         server.stop()

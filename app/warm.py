@@ -10,11 +10,19 @@ Imports only physics (no viser), so ``python -m app`` can start warming first.
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 import threading
 from typing import Callable
 
 import physics
+from physics.codegen.cache import is_generated
+
+from .logs import log_once
+
+# A build in a worker process that takes longer than this is left to finish in the server instead.
+PREBUILD_TIMEOUT_SECONDS = 600.0
 
 _loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple[str, int, bool], threading.Lock] = {}
@@ -70,14 +78,37 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
     compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part."""
 
     def warm() -> None:
+        build_outside(settings.method, chain.n, chain.pinned, settings.integrator)
         for system in _systems(settings.method, chain.n, chain.pinned):
             ensure_loaded(*system)
         try:
             physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
-        except ValueError:  # an invalid start: the run itself reports it
-            pass
+        except ValueError as error:  # an invalid start: the session's own run reports it with a notice
+            log_once(f"warm:{type(error).__name__}", "warming skipped one start: %s", error)
 
     _once(_ready, _ready_key(chain, settings), warm)
+
+
+def build_outside(method: str, n: int, pinned: bool, integrator: str) -> bool:
+    """Derive and compile a mechanism the cache lacks in a worker process (physics/codegen/prebuild.py), so
+    the server's interpreter (and every other session's animation) never waits on sympy or numba's compiler.
+    True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
+    in-process, as before: slower for the others, still correct)."""
+    if all(is_generated(*system) for system in _systems(method, n, pinned)):
+        return False
+    command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
+               "pinned" if pinned else "open", integrator]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=PREBUILD_TIMEOUT_SECONDS,
+                              env=dict(os.environ), check=False)
+    except (OSError, subprocess.TimeoutExpired) as error:
+        print(f"linkage-lab: worker build failed ({error}); building in the server", file=sys.stderr)
+        return False
+    if done.returncode != 0:
+        reason = (done.stderr.strip().splitlines() or [f"exit {done.returncode}"])[-1]
+        print(f"linkage-lab: worker build failed ({reason}); building in the server", file=sys.stderr)
+        return False
+    return True
 
 
 def warm_up(preset: str, links: int | None, method: str | None) -> None:
@@ -86,7 +117,7 @@ def warm_up(preset: str, links: int | None, method: str | None) -> None:
 
     try:
         params = SessionParameters.from_preset(preset, links=links, method=method)
-        ensure_ready(params.chain(), params.settings(), params.theta0, params.omega0)
+        ensure_ready(params.chain, params.settings, params.theta0, params.omega0)
     except Exception as error:  # an optimisation only: a session reports real problems itself
         print(f"linkage-lab: warm-up skipped: {error}", file=sys.stderr)
 

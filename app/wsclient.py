@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import collections
+import contextlib
 import json
 import sys
 import threading
@@ -171,10 +172,8 @@ class BackgroundClient:
 
     def close(self) -> None:
         if self._stop is not None:
-            try:
+            with contextlib.suppress(RuntimeError):  # raised only by a loop that has already finished
                 self._loop.call_soon_threadsafe(self._stop.set)
-            except RuntimeError:  # loop already finished
-                pass
         self._thread.join(5)
 
     def wait_for(self, predicate, timeout: float = 120.0) -> bool:

@@ -1,7 +1,8 @@
 """``python -m physics``: arguments -> models -> run -> CSV/JSON. Any error -> one line on stderr, non-zero exit.
 
-Subcommands: ``simulate``, ``accelerations``, ``presets``, ``warm`` (fill the derivation cache), and the
-benchmark and chaos-map commands (``bench``, ``chaos-map``) where installed.
+Subcommands: ``simulate``, ``accelerations``, ``presets``, ``warm`` (fill the derivation cache), the
+benchmark and chaos-map commands (``bench``, ``chaos-map``) where installed, and the seed-report companions
+(``fbd``, ``equilibrium``, ``seed-report``: physics.report_commands).
 """
 
 from __future__ import annotations
@@ -352,9 +353,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-# Subcommands implemented by studies, loaded by name only when asked for: a study may import sympy (the
-# seed-style baseline) or dask, which ``simulate`` must not load (tests/physics/test_lean_start.py).
-_EXTERNAL = {"bench": ("physics.studies.bench", "main"), "chaos-map": ("physics.studies.chaos_map", "main")}
+# Subcommands implemented apart, loaded by name only when asked for: a study may import sympy (the seed-style
+# baseline) or dask, which ``simulate`` must not load (tests/physics/test_lean_start.py).
+_EXTERNAL = {
+    "bench": ("physics.studies.bench", "main"),
+    "chaos-map": ("physics.studies.chaos_map", "main"),
+    "fbd": ("physics.report_commands", "fbd_main"),
+    "equilibrium": ("physics.report_commands", "equilibrium_main"),
+    "seed-report": ("physics.report_commands", "seed_report_main"),
+    "mechanism": ("physics.mechanism.command", "main"),
+}
 
 
 class _NoScipyLinalg:

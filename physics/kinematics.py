@@ -105,3 +105,19 @@ def loop_jacobian(L, theta) -> np.ndarray:
     """d(tip)/d(theta), shape ``theta.shape[:-1] + (2, n)``."""
     theta = np.asarray(theta, dtype=float)
     return np.stack([L * np.cos(theta), L * np.sin(theta)], axis=-2)
+
+
+def com_accelerations(L, d, theta, omega, theta_ddot) -> np.ndarray:
+    """Centre-of-mass accelerations, shape ``theta.shape[:-1] + (n, 2)``.
+
+    Each bar direction ``(sin th, -cos th)`` has second derivative ``theta_ddot (cos th, sin th) +
+    omega^2 (-sin th, cos th)``; a centre of mass adds its own bar's share at ``d`` to every earlier bar's at
+    ``L``."""
+    theta = np.asarray(theta, dtype=float)
+    omega = np.asarray(omega, dtype=float)
+    theta_ddot = np.asarray(theta_ddot, dtype=float)
+    ax = theta_ddot * np.cos(theta) - omega**2 * np.sin(theta)
+    ay = theta_ddot * np.sin(theta) + omega**2 * np.cos(theta)
+    jx = np.cumsum(L * ax, axis=-1) - L * ax  # acceleration of the proximal joint of each bar
+    jy = np.cumsum(L * ay, axis=-1) - L * ay
+    return np.stack([jx + d * ax, jy + d * ay], axis=-1)

@@ -1,9 +1,11 @@
 """The seed report's cases as data, plus ``chain(n)``.
 
-Seed values: L = 1, d = 0.5, m = 1, I = 0.2 / 0.3 / 0.4, g = 1, started at rest. ``single`` and ``double``
-are the first one or two bars of the same with the first angles of case A. The four-bar is the seed's
-triple pendulum with L3 = 2 and its tip pinned where it starts. ``change-point`` is a parallelogram four-bar
-(s + l = p + q) released next to the position where all four links line up.
+Seed values: L = 1, d = 0.5, m = 1, I = 0.2 / 0.3 / 0.4, g = 1, started at rest. Cases B and C have two
+readings (the report's text disagrees with its captions and code); the caption/code reading is the default,
+the text's is ``triple-b-text`` / ``triple-c-text``. ``single`` and ``double`` are the first one or two bars
+of the same with the first angles of case A. The four-bar is the seed's triple pendulum with L3 = 2 and its
+tip pinned where it starts. ``change-point`` is a parallelogram four-bar (s + l = p + q) released next to the
+position where all four links line up.
 """
 
 from __future__ import annotations
@@ -62,6 +64,28 @@ def _tip(L, theta) -> tuple[float, float]:
         float(np.sum(np.asarray(L) * np.sin(theta))),
         float(-np.sum(np.asarray(L) * np.cos(theta))),
     )
+
+
+# The seed report's three starts of the triple pendulum (section 2.4). Case A reads the same everywhere. For
+# cases B and C the report's text disagrees with its figure captions and its MATLAB code (which agree with
+# each other, and drew the figures): the presets follow the captions and code, and the text's reading is kept
+# under a ``-text`` name so either can be run.
+CASE_A = (math.pi / 2, math.pi, math.pi)
+CASE_B_CODE = (math.pi / 4, math.pi / 2, 3 * math.pi / 4)
+CASE_C_CODE = (math.pi, math.pi / 3, math.pi / 3)
+CASE_B_TEXT = (math.pi / 4, math.pi / 4, 3 * math.pi / 4)
+CASE_C_TEXT = (math.pi / 4, math.pi / 3, math.pi / 3)
+
+CASE_A_TEXT = ("Seed case A (report Figure 9): theta = (pi/2, pi, pi), at rest; bar 1 horizontal, bars 2 and 3 "
+               "pointing straight up. Text, caption and code agree.")
+CASE_B_CODE_TEXT = ("Seed case B as the report's Figure 10 caption and MATLAB code give it: theta = (pi/4, pi/2, "
+                    "3pi/4), at rest. The report's text says (pi/4, pi/4, 3pi/4) instead: see triple-b-text.")
+CASE_C_CODE_TEXT = ("Seed case C as the report's Figure 11 caption and MATLAB code give it: theta = (pi, pi/3, "
+                    "pi/3), at rest. The report's text says (pi/4, pi/3, pi/3) instead: see triple-c-text.")
+CASE_B_TEXT_TEXT = ("Seed case B as the report's text (section 2.4, 'Case 2') gives it: theta = (pi/4, pi/4, "
+                    "3pi/4), at rest. Its Figure 10 caption and code use (pi/4, pi/2, 3pi/4): see triple-b.")
+CASE_C_TEXT_TEXT = ("Seed case C as the report's text (section 2.4, 'Case 3') gives it: theta = (pi/4, pi/3, "
+                    "pi/3), at rest. Its Figure 11 caption and code use (pi, pi/3, pi/3): see triple-c.")
 
 
 def _seed_triple(name: str, theta, description: str) -> Preset:
@@ -147,9 +171,11 @@ def chain_preset(links: int = CHAIN_DEFAULT_LINKS) -> Preset:
 _FACTORIES = {
     "single": lambda: _seed_prefix("single", 1),
     "double": lambda: _seed_prefix("double", 2),
-    "triple-a": lambda: _seed_triple("triple-a", (math.pi / 2, math.pi, math.pi), "Seed case A: theta = (pi/2, pi, pi), at rest."),
-    "triple-b": lambda: _seed_triple("triple-b", (math.pi / 4, math.pi / 2, 3 * math.pi / 4), "Seed case B: theta = (pi/4, pi/2, 3pi/4), at rest."),
-    "triple-c": lambda: _seed_triple("triple-c", (math.pi, math.pi / 3, math.pi / 3), "Seed case C: theta = (pi, pi/3, pi/3), at rest."),
+    "triple-a": lambda: _seed_triple("triple-a", CASE_A, CASE_A_TEXT),
+    "triple-b": lambda: _seed_triple("triple-b", CASE_B_CODE, CASE_B_CODE_TEXT),
+    "triple-c": lambda: _seed_triple("triple-c", CASE_C_CODE, CASE_C_CODE_TEXT),
+    "triple-b-text": lambda: _seed_triple("triple-b-text", CASE_B_TEXT, CASE_B_TEXT_TEXT),
+    "triple-c-text": lambda: _seed_triple("triple-c-text", CASE_C_TEXT, CASE_C_TEXT_TEXT),
     "four-bar": four_bar,
     "change-point": change_point,
     "chain": chain_preset,

@@ -1,10 +1,11 @@
-"""The Dockerfile runs the README's own install and start commands.
+"""The Dockerfile: reproducible, least-privilege, and the README's own app.
 
-Docker cannot run on our machines, so this test reads the Dockerfile and README.md as text: the image must
-set the project up with the very commands the README gives a newcomer, start the app with the README's
-start command (plus the container-only ``--host 0.0.0.0 --port 8080``), run as a non-root user, warm the
-derivation cache at build time with the same interpreter, and carry a health check; and the README's
-``docker build`` / ``docker run`` lines must build and publish this image.
+Docker cannot run on our machines, so this test reads the Dockerfile and README.md as text: the base image is
+pinned by digest; the project is installed once, as root, non-editable, pinned by the same constraints.txt the
+README's install lines use; the image starts the README's app (plus the container-only ``--host 0.0.0.0 --port
+8080`` and a session cap within the server's limit), runs as a non-root user, warms the derivation cache at
+build time with the installed interpreter, and carries a health check; and the README's ``docker build`` /
+``docker run`` lines build and publish this image.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ import shlex
 from pathlib import Path
 
 import pytest
+
+from app.server import MAX_SESSIONS_LIMIT
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCKERFILE = ROOT / "Dockerfile"
@@ -130,30 +133,73 @@ def test_parser_joins_continuations_and_reads_exec_form():
     assert starts_app(".venv/bin/python -m app") and not starts_app("python -m app snapshot --json")
 
 
-def test_base_image_is_slim_python(instructions):
+def test_base_image_is_slim_python_pinned_by_digest(instructions):
     base = only(instructions, "FROM")
-    assert len(base) == 1 and re.fullmatch(r"python:3\.\d+-slim", base[0]), base
+    assert len(base) == 1, base
+    assert re.fullmatch(r"python:3\.\d+-slim(-bookworm)?@sha256:[0-9a-f]{64}", base[0]), (
+        f"the base image must be a slim Python pinned by digest (name:tag@sha256:...): {base[0]}"
+    )
 
 
-def test_image_sets_up_with_the_readme_commands_in_order(instructions):
-    setup, _ = readme_setup_and_start()
-    commands = [command for _, command in run_commands(instructions)]
-    positions = []
-    for command in setup:
-        assert command in commands, f"the image never runs the README's {command!r}; it runs {commands}"
-        positions.append(commands.index(command))
-    assert positions == sorted(positions), f"the README's setup commands run out of order: {setup}"
+def install_commands(instructions) -> list[tuple[int, str]]:
+    return [(index, command) for index, command in run_commands(instructions) if re.search(r"\bpip install\b", command)]
 
 
-def test_image_starts_with_the_readme_start_command_on_all_interfaces_inside_the_container(instructions):
+def interpreter_of(instructions) -> str:
+    """The interpreter beside the pip that installed the project (``/opt/x/bin/pip`` -> ``/opt/x/bin/python``)."""
+    pip = shlex.split(install_commands(instructions)[0][1])[0]
+    return str(Path(pip).with_name("python"))
+
+
+def test_install_is_pinned_non_editable_and_owned_by_root(instructions):
+    """The runtime user can run the installed app but not change it: installed before the first USER line
+    (as root), not editable (no link back to sources the user could edit), outside the user's home."""
+    installs = install_commands(instructions)
+    assert len(installs) == 1, f"expected one pip install, found {installs}"
+    index, command = installs[0]
+    words = shlex.split(command)
+    assert "-e" not in words and "--editable" not in words, f"the image's install must not be editable: {command}"
+    assert "-c" in words and words[words.index("-c") + 1].endswith("constraints.txt"), (
+        f"the image's install must be pinned by constraints.txt: {command}"
+    )
+    users = [position for position, (name, _) in enumerate(instructions) if name == "USER"]
+    assert users and index < users[0], "the project must be installed as root, before the first USER line"
+    interpreter = Path(words[0])
+    assert interpreter.is_absolute() and not str(interpreter).startswith("/home/"), (
+        f"install outside the runtime user's home: {interpreter}"
+    )
+    assert not any("chown" in arguments or "chmod" in arguments for name, arguments in instructions if name in ("RUN", "COPY")), (
+        "nothing may hand the installed files to the runtime user"
+    )
+
+
+def test_readme_installs_use_the_same_constraints_file():
+    lines = [line for line in readme_code_lines() if re.search(r"\bpip install\b", line)]
+    assert lines, "README.md has no install line"
+    for line in lines:
+        words = shlex.split(line.replace("&&", " "))
+        assert "-c" in words and words[words.index("-c") + 1] == "constraints.txt", (
+            f"the README's install line must use the pinned versions (pip install -c constraints.txt ...): {line}"
+        )
+    pins = [row for row in (ROOT / "constraints.txt").read_text(encoding="utf-8").splitlines() if row and not row.startswith("#")]
+    assert all(re.fullmatch(r"[a-z0-9_.-]+==[0-9][0-9a-z.+!-]*", row) for row in pins), pins
+    for package in ("viser", "numpy", "scipy", "sympy", "pydantic", "numba", "llvmlite"):
+        assert any(row.startswith(f"{package}==") for row in pins), f"constraints.txt does not pin {package}"
+
+
+def test_image_starts_the_readme_app_on_all_interfaces_with_a_session_cap(instructions):
     cmd = only(instructions, "CMD")
     assert len(cmd) == 1, f"expected one CMD, found {cmd}"
     words = command_words(cmd[0])
     _, start = readme_setup_and_start()
-    joined = " ".join(words)
-    assert joined == start or joined.startswith(start + " "), f"CMD {joined!r} does not run the README's {start!r}"
+    start_words = shlex.split(start)
+    installed_python = interpreter_of(instructions)
+    assert words[0] == installed_python, f"CMD must run the installed interpreter {installed_python}: {words}"
+    assert words[1 : len(start_words)] == start_words[1:], f"CMD {words} does not run the README's {start!r}"
     assert words[words.index("--host") + 1] == "0.0.0.0", words
     assert words[words.index("--port") + 1] == str(CONTAINER_PORT), words
+    cap = int(words[words.index("--max-sessions") + 1])
+    assert 1 <= cap <= MAX_SESSIONS_LIMIT, f"the image's session cap {cap} is outside 1..{MAX_SESSIONS_LIMIT}"
     assert only(instructions, "EXPOSE") == [str(CONTAINER_PORT)]
 
 
@@ -161,12 +207,9 @@ def test_runs_as_non_root_and_warms_the_cache_at_build_time(instructions):
     users = [(index, arguments) for index, (name, arguments) in enumerate(instructions) if name == "USER"]
     assert users and users[-1][1] not in ("root", "0"), f"the image must run as a non-root user, USER lines: {users}"
     commands = run_commands(instructions)
-    _, start = readme_setup_and_start()
-    interpreter = shlex.split(start)[0]
-    warm = [index for index, command in commands if command.startswith(f"{interpreter} -m physics warm")]
-    assert warm, f"no RUN line warms the derivation cache with the app's interpreter ({interpreter} -m physics warm)"
-    install = [index for index, command in commands if re.search(r"\bpip install\b", command)]
-    assert install and install[0] <= warm[0], "the cache is warmed after the project is installed"
+    installed_python = interpreter_of(instructions)
+    warm = [index for index, command in commands if command.startswith(f"{installed_python} -m physics warm")]
+    assert warm, f"no RUN line warms the derivation cache with the app's interpreter ({installed_python} -m physics warm)"
     assert users[-1][0] < warm[0], "the cache must be warmed as the user that runs the app (after the last USER)"
 
 

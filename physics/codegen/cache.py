@@ -343,3 +343,16 @@ def clear_memory_cache() -> None:
     """Forget loaded modules (tests use it to exercise the disk cache)."""
     with _lock:
         _loaded.clear()
+
+
+def is_generated(formulation: str, n: int, pinned: bool = False) -> bool:
+    """True if this mechanism's generated file is in the cache and intact: loading it needs no sympy.
+
+    The app asks before a build, to run the derivation in a worker process (:mod:`physics.codegen.prebuild`)
+    rather than in the server's interpreter."""
+    key = _key(formulation, int(n), bool(pinned))
+    with _lock:
+        if key in _loaded:
+            return True
+    path = cache_dir() / f"{key}-{generator_digest()}.py"
+    return path.exists() and _verified_text(path) is not None

@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import LinkageError
 from ..kernels.observables import chain_observables
 from ..model import TracePoint
+from ..reactions import reactions_from_motion
 from .trajectory import Trajectory
 
 
@@ -44,6 +45,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     energy = kinetic + potential
 
     reactions = np.zeros((samples, len(compiled.reaction_index), 2))
+    joint_reactions = np.zeros((samples, n, 2))
     tip_reaction = np.zeros((samples, len(compiled.tip_reaction_index)))
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
@@ -55,6 +57,10 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
             reactions = x[:, compiled.reaction_index]
         if compiled.tip_reaction_index.size:
             tip_reaction = x[:, compiled.tip_reaction_index]
+        joint_reactions = reactions_from_motion(
+            L, d, m, float(chain.g), theta, omega, x[:, compiled.theta_ddot_index],
+            tip_reaction if chain.pinned else None,
+        )
     else:
         cond = np.zeros(0)
     if chain.pinned:
@@ -77,6 +83,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
         potential=potential,
         energy=energy,
         reactions=reactions,
+        joint_reactions=joint_reactions,
         tip_reaction=tip_reaction,
         constraint_xy=constraint_xy,
         constraint_velocity=constraint_velocity,

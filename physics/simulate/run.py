@@ -54,18 +54,18 @@ def check_assembled(chain: Chain, theta: np.ndarray) -> None:
         )
 
 
-# A trajectory holds about 4n + 12 float64 columns per sample (angles, velocities, joints, energies,
-# reactions): past this many values (400 MB) a request does not fit a run of this tool, and is refused up front.
+# A trajectory holds about 8n + 14 float64 columns per sample (angles, velocities, joints, energies, the
+# DAE's reactions, every method's joint reactions, pin reaction and constraint residuals): past this many values (400 MB) a request does not fit a run of this tool, and is refused up front.
 MAX_OUTPUT_VALUES = 50_000_000
 
 
 def check_output_size(n: int, samples: int) -> None:
     """Refuse, before any allocation, a trajectory too large to hold: one line with the estimate and the limit."""
-    values = samples * (4 * n + 12)
+    values = samples * (8 * n + 14)
     if values > MAX_OUTPUT_VALUES:
         raise LinkageError(
             f"samples = {samples}: a {n}-bar trajectory of that many samples holds about {values * 8 / 1e9:.2g} GB "
-            f"(limit {MAX_OUTPUT_VALUES * 8 / 1e9:.2g} GB); allowed samples <= {MAX_OUTPUT_VALUES // (4 * n + 12)}"
+            f"(limit {MAX_OUTPUT_VALUES * 8 / 1e9:.2g} GB); allowed samples <= {MAX_OUTPUT_VALUES // (8 * n + 14)}"
         )
 
 

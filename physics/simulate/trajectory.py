@@ -36,6 +36,9 @@ class Trajectory:
     n_steps: int = 0
     n_rhs: int = 0
     stats: dict = field(default_factory=dict)
+    # (T, n, 2) for every method: from the accelerations by Newton's law per bar (physics/reactions.py),
+    # equal to the DAE's own ``reactions`` where it has them; not part of the CSV/JSON columns.
+    joint_reactions: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     trace_is_explicit: bool = False  # open chains list trace_x/y only when a point other than the tip was asked
 
     @property

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import physics
-from app import controls
+from app import controls, viser_compat
 from conftest import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -27,7 +27,7 @@ def _inside(spec, low, high):
 @pytest.mark.parametrize(
     "spec",
     [*controls.BAR_SLIDERS.values(), controls.GRAVITY_SLIDER, controls.DAMPING_SLIDER, controls.ALPHA_SLIDER,
-     controls.BETA_SLIDER],
+     controls.BETA_SLIDER, controls.STEP_SLIDER, controls.SPEED_SLIDER, controls.TRACE_SLIDER, controls.ARROW_SLIDER],
     ids=lambda s: f"{s.model.__name__}.{s.field}",
 )
 def test_slider_ranges_sit_inside_the_model_bounds(spec):
@@ -60,10 +60,10 @@ def test_dropdowns_offer_the_model_literals():
 def test_a_value_outside_the_model_is_refused_with_its_name(connect):
     _, session = connect()
     before = list(session.params.L)
-    session.guard(lambda: session.set_bar(2, "L", -1.0))
+    session.guard(lambda: session.set("L2", -1.0))
     assert session.params.L == before
     assert session.notice is not None and "L2" in session.notice and "-1" in session.notice
-    session.guard(lambda: session.set_value("nonsense", 3))
+    session.guard(lambda: session.set("nonsense", 3))
     assert "unknown parameter" in session.notice
 
 
@@ -156,7 +156,8 @@ def test_a_busy_port_moves_and_the_printed_url_follows(lab):
         (["--port", "70000"], "--port 70000"),
         (["--preset", "pentagon"], "--preset"),
         (["--method", "euler"], "--method"),
-        (["--max-sessions", "0"], "--max-sessions"),
+        (["--max-sessions", "0"], "--max-sessions 0: allowed range 1 <= max-sessions <= 100"),
+        (["--max-sessions", "101"], "--max-sessions 101: allowed range 1 <= max-sessions <= 100"),
         (["--links", "5"], "links"),
         (["--host", "203.0.113.7"], "--host 203.0.113.7"),
         (["--bogus"], "unrecognized arguments"),
@@ -219,7 +220,7 @@ def test_camera_backs_off_on_a_canvas_narrower_than_tall():
 def test_a_browser_reporting_a_narrow_canvas_gets_its_camera_reframed(connect):
     _, session = connect()
     camera = session.target.camera
-    assert wait_until(lambda: id(camera) in session._framed_aspect)  # framed on the first report (1280 x 720)
+    assert wait_until(lambda: id(camera) in session.camera.framed_aspect)  # framed on the first report (1280 x 720)
     wide = np.linalg.norm(np.asarray(camera.position) - np.asarray(camera.look_at))
 
     class NarrowCanvas:  # what a portrait window reports; position etc. are written by the session
@@ -227,7 +228,7 @@ def test_a_browser_reporting_a_narrow_canvas_gets_its_camera_reframed(connect):
         position = look_at = up_direction = None
 
     report = NarrowCanvas()
-    for callback in list(camera._state.camera_cb):  # viser's camera-update callbacks (internal list)
+    for callback in viser_compat.camera_callbacks(camera):  # what viser calls on a browser's camera report
         callback(report)
     assert report.position is not None
     narrow = np.linalg.norm(np.asarray(report.position) - np.asarray(report.look_at))

@@ -204,7 +204,7 @@ def test_compare_mode_runs_three_methods_that_agree_early(connect):
 
 def test_traced_point_and_trace_length(connect):
     _, session = connect()
-    session.set_trace_seconds(2.0)
+    session.set("trace_seconds", 2.0)
     session.controls.trace_point.value = "joint 1"
     assert session.params.trace.bar == 1
     session.play()

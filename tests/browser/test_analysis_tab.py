@@ -52,7 +52,7 @@ def test_ensemble_fans_out_and_is_drawn(start_lab):
                message="the ensemble's node on the server")
     assert analysis.ensemble.count == 100
     # Chaos takes the copies (1e-9 rad apart) visibly apart after some 20-30 s of simulated time: play fast.
-    session.set_speed(4.0)
+    session.set("speed", 4.0)
     session.play()
     wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 30.0, timeout_s=ANALYSIS_TIMEOUT_S,
                message="30 s of ensemble time")

@@ -34,11 +34,11 @@ def test_mass_and_initial_angle_sliders_and_method_dropdown_through_the_page(sta
     before = app.picture("controls-1-start")
     assert_mechanism_drawn(before, app)
 
-    # a mass: drag bar 1's "mass m" thumb from 1 kg towards 3 kg
+    # a mass: drag bar 1's "mass m (kg)" thumb from 1 kg towards 3 kg
     app.open_tab("Mechanism")
-    app.drag_slider("mass m", 3.0, folder="Bar 1")
+    app.drag_slider("mass m (kg)", 3.0, folder="Bar 1")
     wait_until(
-        lambda: session.params.m[0] != 1.0 and session.params.m[0] == app.slider_value("mass m", folder="Bar 1"),
+        lambda: session.params.m[0] != 1.0 and session.params.m[0] == app.slider_value("mass m (kg)", folder="Bar 1"),
         message="bar 1's mass on the server to follow the slider",
     )
     assert abs(session.params.m[0] - 3.0) <= 0.15, session.params.m
@@ -53,10 +53,10 @@ def test_mass_and_initial_angle_sliders_and_method_dropdown_through_the_page(sta
     assert changed > pictures.FRACTION_TOLERANCE, f"the scene barely changed after the mass change ({changed:.4f})"
 
     # an initial angle: drag theta1 from 90 degrees towards 45
-    app.drag_slider("theta1", 45.0, folder="Initial angles (degrees)")
+    app.drag_slider("theta1 (°)", 45.0, folder="Initial angles (degrees)")
     wait_until(
-        lambda: abs(math.degrees(session.params.theta0[0]) - app.slider_value("theta1")) < 1e-6
-        and app.slider_value("theta1") != 90.0,
+        lambda: abs(math.degrees(session.params.theta0[0]) - app.slider_value("theta1 (°)")) < 1e-6
+        and app.slider_value("theta1 (°)") != 90.0,
         message="theta1 on the server to follow the slider",
     )
     assert abs(math.degrees(session.params.theta0[0]) - 45.0) <= 3.0, session.params.theta0

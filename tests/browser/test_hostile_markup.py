@@ -14,7 +14,7 @@ import time
 import pytest
 
 from app import snapshot as snap
-from app import wsclient
+from app import viser_compat, wsclient
 
 MARKER = "PWNED"
 PAYLOADS = (
@@ -71,7 +71,7 @@ def test_shared_mode_shows_a_hostile_clients_markup_as_text_to_every_viewer(star
     session.pause()
     viewer = _shared_page(lab)
     # viser exposes no public id for a control; the wire protocol addresses it by this uuid.
-    updates = [(handle._impl.uuid, payload) for handle in _select_controls(session).values()]
+    updates = [(viser_compat.control_id(handle), payload) for handle in _select_controls(session).values()]
     wsclient.send_values(f"http://127.0.0.1:{lab.port}", updates)
     newcomer = _shared_page(lab)  # opens after the attack: sees the status line as it now stands
     for page in (viewer, newcomer):
@@ -83,8 +83,8 @@ def test_own_session_shows_its_own_hostile_values_as_text(start_lab):
     lab = start_lab(preset="four-bar")
     page = lab.open_page()
     session = page.session
-    setters = (session.set_method, session.set_integrator, session.set_stabilization, session.set_trace_point,
-               session.set_mechanism)
+    setters = [lambda value, name=name: session.set(name, value)
+               for name in ("method", "integrator", "stabilization", "trace")] + [session.set_mechanism]
     for payload in PAYLOADS:
         for setter in setters:
             session.guard(lambda setter=setter: setter(payload))  # what a control's callback does

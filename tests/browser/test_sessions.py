@@ -17,7 +17,7 @@ def test_three_pages_three_sessions_and_closing_one_releases_it(start_lab):
 
     # each page shows its own session: three different starts, each page at its own session's poses
     for angle, page in zip((0.4, 1.2, 2.0), pages):
-        page.session.set_value("theta1", angle)
+        page.session.set("theta1", angle)
         page.show_time(0.0)
     tips = [np.array(page.session.snapshot()["joints"][-1]) for page in pages]
     assert min(np.linalg.norm(a - b) for i, a in enumerate(tips) for b in tips[i + 1 :]) > 0.1
@@ -36,5 +36,5 @@ def test_three_pages_three_sessions_and_closing_one_releases_it(start_lab):
     # the other two keep their own sessions and keep serving
     for page, session in ((pages[0], sessions[0]), (pages[2], sessions[2])):
         assert page.session is session and not session.closed
-        session.set_value("theta1", -0.7)
+        session.set("theta1", -0.7)
         page.show_time(0.5)

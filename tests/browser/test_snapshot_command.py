@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import physics
+from app import commands
 from app.parameters import SessionParameters
 
 from . import pictures
@@ -42,10 +43,9 @@ def test_json_snapshot_needs_no_browser_and_holds_the_simulated_state():
     assert set(state["energy"]) and len(state["joints"]) == 3
 
     # the same start integrated directly by physics lands on the same joints
-    params = SessionParameters.from_preset("double")
-    params.m[0] = 2.0
-    settings = params.settings().model_copy(update={"t_end": 1.5, "samples": 151})
-    run = physics.simulate(params.chain(), params.theta0, params.omega0, settings)
+    params = commands.apply(SessionParameters.from_preset("double"), "m1", 2.0).params
+    settings = params.settings.model_copy(update={"t_end": 1.5, "samples": 151})
+    run = physics.simulate(params.chain, params.theta0, params.omega0, settings)
     assert run.status == 0, run.message
     np.testing.assert_allclose(state["joints"], run.joints[-1], atol=1e-6)
     # and the scene's nodes sit where the joints are: bar 2's middle in the x-z plane of the scene

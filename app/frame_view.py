@@ -1,0 +1,279 @@
+"""The frame view: what one session draws, from the player's frames (player thread) into scene and panel.
+
+Why apart from the session: drawing reads the runs, never changes what is simulated. It owns the scene of the
+mechanism (one :class:`~app.scene.LinkageScene`, or three translucent ones in compare mode), the trace, the
+reaction arrows, the floor; it feeds the plots and the status line of the panel it is given. Trace, plots and
+status are refreshed less often than poses (30, 5 and 4 times a second).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from typing import Any, Callable
+
+import numpy as np
+
+import physics
+
+from .logs import quietly
+from .overlays import METHOD_COLORS, ReactionArrows, TraceLine, energy_scale, relative_drift, status_markdown
+from .parameters import METHOD_LABELS, Display, SessionParameters
+from .player import SAMPLE_RATE, Frame
+from .scene import LinkageScene, mechanism_reach
+
+TRACE_EVERY = 2  # frames between trace updates (30 Hz)
+PLOT_EVERY = 12  # frames between plot updates (5 Hz)
+STATUS_EVERY = 15  # frames between status-line updates (4 Hz)
+PLOT_SECONDS = 30.0  # simulated seconds shown by the plots
+COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)
+
+
+class FrameView:
+    """Scene nodes, overlays, plots and status of one session. ``panel`` is the session's
+    :class:`~app.controls.Controls` (its plots and status line); ``player_lock`` guards the scene against the
+    player thread."""
+
+    def __init__(self, target, player_lock, notice: Callable[[], str | None]) -> None:
+        self.target = target
+        self._player_lock = player_lock
+        self._notice = notice
+        self.panel: Any = None  # the session's Controls, set once they exist (they are built after the scene)
+        scene_api = target.scene
+        self.floor = scene_api.add_grid(
+            "/floor", width=20.0, height=20.0, plane="xy", cell_size=0.25, section_size=1.0,
+            position=(0.0, 0.0, -1.0),
+        )
+        self.scene = LinkageScene(target, "/linkage")
+        self.trace = TraceLine(scene_api, "/linkage/trace")
+        self.arrows = ReactionArrows(scene_api, "/linkage/reactions")
+        self.compare_scenes: dict[str, LinkageScene] = {}
+        self.compare_traces: dict[str, TraceLine] = {}
+        self.compare = False
+        self.display = Display()
+        self.reactions_on = False
+        self.segment_t0 = 0.0  # time of the latest change: the energy error counts from here
+        self.energy_ref = 0.0
+        self.label = ""
+        self._frame_lock = threading.Lock()
+        self.last_frame: Frame | None = None
+        self.frames_sent = 0
+
+    # ------------------------------------------------------------------ building
+    def build(self, params: SessionParameters) -> None:
+        """(Re)make the nodes for ``params`` (and the compare mode in force)."""
+        lengths = np.array(params.L)
+        with self._player_lock:
+            if self.compare:
+                self.scene.set_visible(False)
+                self.trace.update(np.zeros((0, 2)))
+                for method in COMPARE_METHODS:
+                    if method not in self.compare_scenes:
+                        color = METHOD_COLORS[method]
+                        self.compare_scenes[method] = LinkageScene(
+                            self.target, f"/compare/{method}", opacity=0.45, palette=[color]
+                        )
+                        self.compare_traces[method] = TraceLine(
+                            self.target.scene, f"/compare/{method}/trace", color=color
+                        )
+                    self.compare_scenes[method].build(lengths, params.pin)
+            else:
+                for method in list(self.compare_scenes):
+                    self.compare_scenes.pop(method).remove()
+                    self.compare_traces.pop(method).remove()
+                self.scene.build(lengths, params.pin)
+                self.scene.set_visible(True)
+            reach = mechanism_reach(lengths, params.pin)
+            self.floor.position = (0.0, 0.0, -1.08 * reach)
+            width = 0.012 * reach
+            self.trace.set_thickness(width)
+            for trace in self.compare_traces.values():
+                trace.set_thickness(width)
+            if not reactions_available(params):
+                self.arrows.hide()
+
+    def resize(self, params: SessionParameters) -> None:
+        """New lengths or pin, same nodes."""
+        with self._player_lock:
+            for scene in [self.scene, *self.compare_scenes.values()]:
+                scene.resize(np.array(params.L), params.pin)
+
+    def show_start(self, params: SessionParameters) -> None:
+        """Put the nodes at the start pose before the first frame (a cold start derives for a while)."""
+        L = np.array(params.L, dtype=float)
+        joints = physics.joint_positions(L, params.theta0)
+        ratio = np.divide(np.array(params.d), L, out=np.zeros_like(L), where=L > 0)
+        com = joints[:-1] + ratio[:, None] * (joints[1:] - joints[:-1])
+        with self._player_lock, self.target.atomic():
+            for scene in [self.scene, *self.compare_scenes.values()]:
+                if scene.layout is not None:
+                    scene.show(joints, com)
+
+    def hide_arrows(self) -> None:
+        with self._player_lock:
+            self.arrows.hide()
+
+    # ------------------------------------------------------------------ every frame (player thread)
+    def draw(self, frame: Frame, runs: dict, playing: bool, real_time_factor: float) -> None:
+        with self.target.atomic():
+            for rf in frame.runs:
+                scene = self.scene if rf.label == "main" else self.compare_scenes.get(rf.label)
+                if scene is None or scene.layout is None or scene.layout.n + 1 != len(rf.joints):
+                    continue
+                scene.show(rf.joints, rf.com)
+            if frame.restarted or frame.counter % TRACE_EVERY == 0:
+                self._update_traces(frame, runs)
+            if self.reactions_on and not self.compare:
+                self._update_arrows(frame, runs)
+        if frame.restarted:
+            self.energy_ref = self._energy_at(runs, frame, self.segment_t0)
+            quietly(self.target.flush, "flushing a frame")
+        if self.panel is not None and (frame.restarted or frame.counter % PLOT_EVERY == 0):
+            self._update_plots(frame, runs)
+        if self.panel is not None and (frame.restarted or frame.counter % STATUS_EVERY == 0):
+            self.panel.show_status(self.status_text(playing, real_time_factor, frame, runs))
+        with self._frame_lock:
+            self.last_frame = frame
+            self.frames_sent += 1
+
+    def _trace_window(self, ring, index: int) -> np.ndarray:
+        count = int(round(self.display.trace_seconds * SAMPLE_RATE))
+        if count < 2:
+            return np.zeros((0, 2))
+        return ring.window(index - count, index, names=["trace_xy"])["trace_xy"]
+
+    def _update_traces(self, frame: Frame, runs) -> None:
+        for rf in frame.runs:
+            run = runs.get(rf.label)
+            if run is None:
+                continue
+            trace = self.trace if rf.label == "main" else self.compare_traces.get(rf.label)
+            if trace is not None:
+                trace.update(self._trace_window(run.ring, rf.index))
+
+    def _update_arrows(self, frame: Frame, runs) -> None:
+        run = runs.get("main")
+        if run is None or not frame.runs or frame.runs[0].label != "main":
+            self.arrows.hide()
+            return
+        spec = run.spec  # the run's own description: the session's parameters may already be newer
+        if not (spec.settings.method == "dae" or spec.pinned):
+            self.arrows.hide()
+            return
+        rf = frame.runs[0]
+        ring = run.ring
+        points, forces = [], []
+        if spec.settings.method == "dae":
+            points.append(rf.joints[:-1])
+            forces.append(ring.get("reactions", rf.index))
+        if spec.pinned:
+            points.append(rf.joints[-1:])
+            forces.append(ring.get("tip_reaction", rf.index)[None, :])
+        chain = spec.chain
+        weight = max(float(np.sum(chain.array("m"))) * chain.g, 1e-9)
+        reach = mechanism_reach(chain.array("L"), chain.pin)
+        # scale 1 draws the total weight as an arrow as long as the mechanism's reach
+        scale = self.display.arrow_scale * reach / weight
+        self.arrows.update(np.concatenate(points), np.concatenate(forces), scale, radius=0.008 * reach)
+
+    @staticmethod
+    def _energy_at(runs, frame: Frame, t: float) -> float:
+        run = runs.get(frame.runs[0].label) if frame.runs else None
+        if run is None or len(run.ring) == 0:
+            return 0.0
+        return float(run.ring.get("energy", run.ring.index_at(t)))
+
+    def _update_plots(self, frame: Frame, runs) -> None:
+        if not frame.runs:
+            return
+        first = runs.get(frame.runs[0].label)
+        if first is None:
+            return
+        i = frame.runs[0].index
+        span = int(PLOT_SECONDS * SAMPLE_RATE)
+        chain = first.spec.chain  # the run's own chain: the session's parameters may already be newer
+        data = first.ring.window(i - span, i, names=["t", "kinetic", "potential", "energy"] + (
+            ["constraint_xy"] if chain.pinned else []))
+        t = data["t"]
+        c = self.panel
+        c.energy_plot.update(t, data["energy"], data["kinetic"], data["potential"])
+        scale = energy_scale(chain.array("m"), chain.array("L"), chain.g)
+        in_segment = t >= self.segment_t0 - 1e-9
+        c.drift_plot.update(t[in_segment], relative_drift(data["energy"][in_segment], self.energy_ref, scale))
+        if chain.pinned:
+            c.constraint_plot.update(t, np.hypot(data["constraint_xy"][:, 0], data["constraint_xy"][:, 1]))
+        if self.compare and len(frame.runs) == len(COMPARE_METHODS):
+            reference = runs.get(COMPARE_METHODS[0])
+            others = [runs.get(m) for m in COMPARE_METHODS[1:]]
+            if reference is None or any(o is None for o in others):
+                return
+            j = min(rf.index for rf in frame.runs)
+            ref = reference.ring.window(j - span, j, names=["t", "joints"])
+            diffs = []
+            for other in others:
+                o = other.ring.window(j - span, j, names=["joints"])["joints"]
+                m = min(len(o), len(ref["joints"]))
+                diffs.append(np.linalg.norm(ref["joints"][-m:, -1] - o[-m:, -1], axis=1))
+            m = min(len(d) for d in diffs)
+            c.divergence_plot.update(ref["t"][-m:], *[d[-m:] for d in diffs])
+
+    # ------------------------------------------------------------------ read-outs
+    def current_values(self, runs: dict, frame: Frame | None = None) -> dict:
+        """Energy error and constraint error at the displayed sample of the first run."""
+        frame = frame or self.last_frame
+        if frame is None or not frame.runs:
+            return {}
+        run = runs.get(frame.runs[0].label)
+        if run is None or len(run.ring) == 0:
+            return {}
+        i = min(frame.runs[0].index, len(run.ring) - 1)
+        chain = run.spec.chain
+        energy = float(run.ring.get("energy", i))
+        scale = energy_scale(chain.array("m"), chain.array("L"), chain.g)
+        out = {
+            "kinetic": float(run.ring.get("kinetic", i)),
+            "potential": float(run.ring.get("potential", i)),
+            "total": energy,
+            "reference": self.energy_ref,
+            "relative_drift": float(relative_drift(np.array([energy]), self.energy_ref, scale)[0]),
+        }
+        if chain.pinned and "constraint_xy" in run.ring.field_names():
+            cxy = run.ring.get("constraint_xy", i)
+            out["constraint_error"] = float(math.hypot(cxy[0], cxy[1]))
+        return out
+
+    def status_text(self, playing: bool, real_time_factor: float, frame: Frame | None = None, runs=None) -> str:
+        values = self.current_values(runs or {}, frame) if runs is not None else {}
+        t = frame.t if frame is not None else (self.last_frame.t if self.last_frame else 0.0)
+        if self.compare:
+            label = "compare: " + ", ".join(METHOD_LABELS[m] for m in COMPARE_METHODS)
+        else:
+            label = self.label
+        return status_markdown(t, playing, real_time_factor, label, values.get("relative_drift"),
+                               values.get("constraint_error"), self._notice())
+
+    def scene_nodes(self) -> dict:
+        """Poses and visibility of every node (the snapshot's ``scene.nodes``)."""
+        nodes = {}
+        for scene in [self.scene] if not self.compare else list(self.compare_scenes.values()):
+            nodes.update(scene.poses())
+        for trace in [self.trace] if not self.compare else list(self.compare_traces.values()):
+            nodes[trace.name] = {"visible": bool(trace.handle.visible), "points": trace.points_shown}
+        if self.arrows.handle is not None:
+            nodes[self.arrows.name] = {"visible": bool(self.arrows.handle.visible), "arrows": self.arrows.count}
+        return nodes
+
+    def remove(self) -> None:
+        """Drop every node (a shared scene outlives its session)."""
+        with self._player_lock:
+            for scene in [self.scene, *self.compare_scenes.values()]:
+                scene.remove()
+            for trace in [self.trace, *self.compare_traces.values()]:
+                trace.remove()
+            self.arrows.remove()
+            quietly(self.floor.remove, "removing the floor")
+
+
+def reactions_available(params: SessionParameters) -> bool:
+    """Reactions exist for the DAE (every joint) and for closed loops (the pin)."""
+    return params.method == "dae" or params.pinned

@@ -1,0 +1,76 @@
+"""A session's notices: one notification per action in its browser(s), and the same text on the status line.
+
+Why a class of its own: several threads raise notices (GUI callbacks, the player, analysis workers), and a
+browser must never see them pile up. :meth:`Notices.show` replaces the previous notification instead of adding
+one, and a notice equal to the one still on screen is not sent again (a slider dragged into a refused range
+sends one value per step).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Callable
+
+from .logs import quietly
+
+NOTICE_SECONDS = 8.0
+
+
+class Notices:
+    """Notifications of one session. ``clients()`` lists the browsers to tell; ``on_change()`` redraws the
+    status line; ``connected()`` is False once the browser has gone (nothing is sent then)."""
+
+    def __init__(self, clients: Callable[[], list], on_change: Callable[[], None],
+                 connected: Callable[[], bool] = lambda: True) -> None:
+        self._clients = clients
+        self._on_change = on_change
+        self._connected = connected
+        self._lock = threading.Lock()
+        self._handles: list = []
+        self._shown: tuple[str, str] | None = None
+        self._until = 0.0
+        self.text: str | None = None  # the notice on the status line (None when there is none)
+        self.closed = False
+
+    def show(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
+        """Replace the current notice with this one (unless it is the same and still on screen)."""
+        with self._lock:
+            self.text = f"{title}: {body}"
+            now = time.monotonic()
+            if self._shown == (title, body) and now < self._until and self._handles:
+                return  # the same notice is still showing: not piled up again
+            if self.closed or not self._connected():
+                return
+            old, self._handles = self._handles, []
+            for handle in old:
+                quietly(handle.remove, "removing a notification")
+            for client in self._clients():
+                def add(client=client) -> None:
+                    self._handles.append(
+                        client.add_notification(title, body, color=color, auto_close_seconds=seconds)
+                    )
+                quietly(add, "sending a notification")
+            self._shown = (title, body)
+            self._until = now + (seconds if seconds is not None else float("inf"))
+        self._on_change()
+
+    def clear(self) -> None:
+        """Forget the status line's notice (a new start); the notification closes by itself."""
+        with self._lock:
+            self.text = None
+            self._shown = None
+
+    def progress(self, title: str, body: str) -> list:
+        """A notification with a spinner and no close button (work under way); dismiss it with :meth:`dismiss`."""
+        handles: list = []
+        for client in self._clients():
+            def add(client=client) -> None:
+                handles.append(client.add_notification(title, body, loading=True, with_close_button=False))
+            quietly(add, "sending a progress notification")
+        return handles
+
+    @staticmethod
+    def dismiss(handles: list) -> None:
+        for handle in handles:
+            quietly(handle.remove, "removing a progress notification")

@@ -1,0 +1,49 @@
+"""Build one mechanism's code in a process of its own: ``python -m physics.codegen.prebuild METHOD N open|pinned
+INTEGRATOR``.
+
+The app serves many browsers from one interpreter; a sympy derivation (seconds) or a first compilation of an
+integrator (half a minute on an installation's first run) there would hold the interpreter lock and freeze
+every other session's animation. The server runs this module as a child process instead: it derives and
+generates the code into the shared cache, and runs one tiny simulation so numba compiles the integrator
+into its disk cache; the server then only loads the results (a fraction of a second). The arguments are
+names from our own validated models, never code.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import LinkageError
+from ..model import Settings
+from ..presets import get_preset
+from ..simulate import simulate
+from .cache import FORMULATION_NAMES, load_compiled
+
+USAGE = "usage: python -m physics.codegen.prebuild METHOD N open|pinned INTEGRATOR"
+
+
+def prebuild(method: str, n: int, pinned: bool, integrator: str) -> None:
+    """Derive (if missing) and compile what ``method`` needs for this chain, and its integrator's kernel."""
+    systems = [(method, n, pinned)] if method in FORMULATION_NAMES else [("lagrange", n, False), ("lagrange", n, True)]
+    for formulation, links, closed in systems:
+        load_compiled(formulation, links, closed)
+    # The integrator kernels are compiled once for every mechanism: one tiny run of any chain compiles them.
+    preset = get_preset("four-bar") if method not in FORMULATION_NAMES else get_preset("chain", links=n)
+    settings = Settings(method=method, integrator=integrator, t_end=0.02, samples=2)
+    simulate(preset.chain, preset.theta0, preset.omega0, settings)
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 4 or argv[2] not in ("open", "pinned") or not argv[1].isdigit():
+        print(USAGE, file=sys.stderr)
+        return 2
+    try:
+        prebuild(argv[0], int(argv[1]), argv[2] == "pinned", argv[3])
+    except (LinkageError, ValueError) as error:
+        print("prebuild: " + " ".join(str(error).split()), file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,140 @@
+"""Position analysis of a mechanism: from a rough sketch to a pose where every joint closes, and the count of
+its degrees of freedom that the assembled pose actually has.
+
+Newton's method on ``Phi(q) = 0`` with minimum-norm steps (the system is underdetermined by the mobility):
+each step moves the bodies as little as possible, rotations weighed by the sketch's size, so the result is the
+assembled pose nearest the sketch, on the branch the sketch shows. The Grübler–Kutzbach count of
+:mod:`physics.mechanism.topology` can be wrong for special geometry (a parallelogram); the rank of the
+constraint Jacobian at the assembled pose cannot, and a constraint it shows to be redundant is refused, naming
+its loop, because the maximal-coordinate equations of motion would be singular there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import LinkageError
+from .constraints import Constraints
+from .model import Mechanism
+from .topology import Loop, Topology, analyse
+
+NEWTON_STEPS = 60
+ASSEMBLY_TOLERANCE = 1e-12  # relative to the sketch's size
+RANK_TOLERANCE = 1e-9  # singular values below this (relative to the largest) are treated as zero
+
+
+@dataclass(frozen=True)
+class Assembled:
+    """An assembled pose ``q`` (3 per body) with its residual, and the mechanism's degrees of freedom."""
+
+    q: np.ndarray
+    residual: float
+    newton_steps: int
+    grubler_mobility: int
+    mobility: int  # 3 B minus the rank of the constraint Jacobian at q
+    topology: Topology
+
+
+def sketch_size(mechanism: Mechanism) -> float:
+    points = [xy for body in mechanism.bodies for xy in body.points.values()] + list(mechanism.ground.values())
+    xs, ys = zip(*points)
+    return max(max(xs) - min(xs), max(ys) - min(ys), 1e-9)
+
+
+def assemble(mechanism: Mechanism, q_guess: np.ndarray | None = None, t: float = 0.0) -> Assembled:
+    """The pose nearest ``q_guess`` (default: the sketch) where every joint closes; LinkageError naming the
+    joint that stays open, or the loop that is over-constrained."""
+    topology = analyse_or_refuse(mechanism)
+    constraints = Constraints(mechanism)
+    size = sketch_size(mechanism)
+    weights = np.tile([1.0, 1.0, 1.0 / size], len(mechanism.bodies))  # q = weights * z: rotations in lengths
+    q = constraints.sketch_pose() if q_guess is None else np.array(q_guess, dtype=float)
+    residual = constraints.residual(q, t)
+    steps = 0
+    while np.max(np.abs(residual), initial=0.0) > ASSEMBLY_TOLERANCE * size and steps < NEWTON_STEPS:
+        jacobian = constraints.jacobian(q) * weights
+        step, *_ = np.linalg.lstsq(jacobian, -residual, rcond=None)
+        q = q + weights * step
+        residual = constraints.residual(q, t)
+        steps += 1
+    worst = int(np.argmax(np.abs(residual))) if residual.size else 0
+    if residual.size and abs(residual[worst]) > ASSEMBLY_TOLERANCE * size:
+        row = constraints.rows[worst]
+        raise LinkageError(
+            f"joint {row.joint!r}: the mechanism cannot be assembled near the sketch ({row.meaning} stays "
+            f"{abs(residual[worst]):.3g} after {steps} Newton steps); check the lengths its bodies' points give"
+        )
+    jacobian = constraints.jacobian(q)
+    rank = _rank(jacobian)
+    if rank < jacobian.shape[0]:
+        raise LinkageError(over_constrained_message(constraints, jacobian, topology.loops))
+    return Assembled(
+        q=q,
+        residual=float(np.max(np.abs(residual), initial=0.0)),
+        newton_steps=steps,
+        grubler_mobility=topology.mobility,
+        mobility=constraints.size - rank,
+        topology=topology,
+    )
+
+
+def analyse_or_refuse(mechanism: Mechanism) -> Topology:
+    try:
+        return analyse(mechanism)
+    except ValueError as error:
+        raise LinkageError(str(error)) from None
+
+
+def _rank(matrix: np.ndarray) -> int:
+    if matrix.size == 0:
+        return 0
+    values = np.linalg.svd(matrix, compute_uv=False)
+    return int(np.sum(values > RANK_TOLERANCE * max(values[0], 1e-300)))
+
+
+def over_constrained_message(constraints: Constraints, jacobian: np.ndarray, loops: tuple[Loop, ...]) -> str:
+    """Name a loop whose closing joint adds a constraint the rest already impose: without that joint's rows the
+    count of redundant rows drops."""
+    rank = _rank(jacobian)
+    redundant = jacobian.shape[0] - rank
+    for loop in loops:
+        keep = [k for k, row in enumerate(constraints.rows) if row.joint != loop.cut_joint]
+        if len(keep) - _rank(jacobian[keep]) < redundant:
+            return (
+                f"{loop.describe()}: over-constrained ({redundant} redundant constraint"
+                f"{'s' if redundant > 1 else ''}; the loop's joints fix nothing the others do not); "
+                "remove a joint or turn a pin into a slider"
+            )
+    joints = sorted({row.joint for row in constraints.rows})
+    return (
+        f"over-constrained: {redundant} redundant constraint{'s' if redundant > 1 else ''} among joints "
+        f"{', '.join(joints)}; remove a joint"
+    )
+
+
+def track(mechanism: Mechanism, times: np.ndarray, q_start: np.ndarray | None = None) -> np.ndarray:
+    """Poses of a driven mechanism at ``times`` (``(T, 3 B)``), each assembled from the one before: the branch
+    of the first pose is followed through the motion (no jump to the mirror branch between close times)."""
+    poses = []
+    q = q_start
+    for t in np.asarray(times, dtype=float):
+        q = assemble(mechanism, q, float(t)).q
+        poses.append(q)
+    return np.array(poses)
+
+
+def kinematics(mechanism: Mechanism, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Velocities and accelerations of a mechanism the drivers fully determine (mobility 0):
+    ``Phi_q qdot = nu`` and ``Phi_q qddot = gamma``. LinkageError if it has a free degree of freedom."""
+    constraints = Constraints(mechanism)
+    jacobian = constraints.jacobian(q)
+    if jacobian.shape[0] != jacobian.shape[1] or _rank(jacobian) < jacobian.shape[0]:
+        raise LinkageError(
+            f"{mechanism.name}: its drivers do not fix every body ({constraints.size - _rank(jacobian)} degrees of "
+            "freedom left): kinematics alone cannot give its velocities; it needs the equations of motion"
+        )
+    qdot = np.linalg.solve(jacobian, constraints.velocity_rhs())
+    qddot = np.linalg.solve(jacobian, constraints.acceleration_rhs(q, qdot))
+    return qdot, qddot

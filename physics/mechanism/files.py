@@ -1,0 +1,92 @@
+"""Reading a mechanism file (TOML or JSON) into a validated :class:`~physics.mechanism.model.Mechanism`.
+
+The file is the user's; every refusal is one line that names the file, the element (the body or joint by its
+name, not by its position in a list) and the field, so the command line can print it and the app can show it
+as a notice. Size is bounded before parsing.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from ..errors import LinkageError
+from .model import Mechanism
+
+MAX_FILE_BYTES = 1_000_000
+
+
+def _element_name(document: Any, location: tuple) -> str:
+    """``bodies[2].mass`` reads ``body 'rod': mass`` when the element has a name."""
+    parts: list[str] = []
+    node = document
+    index = 0
+    while index < len(location):
+        key = location[index]
+        if isinstance(key, str) and key in ("bodies", "joints", "drivers") and index + 1 < len(location):
+            position = location[index + 1]
+            element = node.get(key, []) if isinstance(node, dict) else []
+            item = element[position] if isinstance(position, int) and position < len(element) else None
+            label = {"bodies": "body", "joints": "joint", "drivers": "driver"}[key]
+            name = item.get("name", item.get("joint")) if isinstance(item, dict) else None
+            parts.append(f"{label} {name!r}" if name is not None else f"{label} {position + 1}")
+            node = item
+            index += 2
+            continue
+        if isinstance(key, str) and key not in ("revolute", "prismatic"):
+            parts.append(key)
+        node = node.get(key) if isinstance(node, dict) else None
+        index += 1
+    return ": ".join(parts)
+
+
+def mechanism_from_document(document: Any, source: str = "mechanism") -> Mechanism:
+    """A Mechanism from parsed JSON/TOML; LinkageError naming the element and the field."""
+    if not isinstance(document, dict):
+        raise LinkageError(f"{source}: expected a table of name, g, ground, bodies, joints, drivers")
+    try:
+        return Mechanism.model_validate(document)
+    except ValidationError as error:
+        item = error.errors()[0]
+        where = _element_name(document, tuple(item.get("loc", ())))
+        message = str(item.get("msg", "invalid")).removeprefix("Value error, ")
+        raise LinkageError(f"{source}: {where + ': ' if where else ''}{message}") from None
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read ``path`` (``.toml`` or ``.json``); one-line LinkageError for every problem."""
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError as error:
+        raise LinkageError(f"{path}: cannot read it ({error.strerror})") from None
+    if size > MAX_FILE_BYTES:
+        raise LinkageError(f"{path}: {size} bytes; a mechanism file may hold at most {MAX_FILE_BYTES}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise LinkageError(f"{path}: not UTF-8 text") from None
+    except OSError as error:
+        raise LinkageError(f"{path}: cannot read it ({error.strerror})") from None
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".json":
+            document = json.loads(text)
+        elif suffix == ".toml":
+            if sys.version_info < (3, 11):
+                raise LinkageError(f"{path}: TOML files need Python 3.11 or newer; write it as JSON")
+            import tomllib  # noqa: PLC0415 - standard library from Python 3.11 only
+
+            document = tomllib.loads(text)
+        else:
+            raise LinkageError(f"{path}: expected a .toml or .json file")
+    except (ValueError, RecursionError) as error:
+        if isinstance(error, LinkageError):
+            raise
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise LinkageError(f"{path}: not valid {suffix[1:].upper()} ({first})") from None
+    return mechanism_from_document(document, str(path))

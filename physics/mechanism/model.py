@@ -1,0 +1,202 @@
+"""A planar mechanism as a user writes it: rigid bodies, the joints between them, drivers, gravity.
+
+Geometry is given the way a person sketches a mechanism: every point (joint places, the centre of mass, traced
+points) in one drawing's coordinates, metres, at one instant (the *sketch*). Each body's own frame is the
+drawing's frame at that instant, so a body's shape is the set of its points and needs no separate description.
+A rough sketch is fine: :mod:`physics.mechanism.assembly` moves the bodies (keeping each rigid) until every
+joint closes. The chain and the four-bar of the rest of Linkage Lab are special cases of this description.
+
+Every field is validated here, with a message that names the body or joint and the field.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+GROUND = "ground"
+MAX_BODIES = 24
+MAX_POINTS_PER_BODY = 16
+
+Point = tuple[float, float]
+
+
+def _finite_point(value: object, what: str) -> Point:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ValueError(f"{what}: expected [x, y], got {value!r}")
+    out = []
+    for number in value:
+        if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(float(number)):
+            raise ValueError(f"{what}: coordinates must be finite numbers, got {value!r}")
+        out.append(float(number))
+    return (out[0], out[1])
+
+
+class Body(BaseModel):
+    """A rigid body: named points (at least one, at most 16), mass, centre of mass and centroidal inertia."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    name: str = Field(min_length=1, max_length=40, pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")
+    points: dict[str, Point] = Field(min_length=1, max_length=MAX_POINTS_PER_BODY)
+    mass: float = Field(ge=0.0, le=1e6, description="kg")
+    com: Point | None = Field(None, description="centre of mass in the sketch; default: mean of the points")
+    inertia: float = Field(ge=0.0, le=1e6, description="centroidal moment of inertia, kg m^2")
+
+    @field_validator("points", mode="before")
+    @classmethod
+    def _points(cls, value: object) -> dict[str, Point]:
+        if not isinstance(value, dict):
+            raise ValueError("points: expected a table of name = [x, y]")
+        return {str(name): _finite_point(xy, f"point {name!r}") for name, xy in value.items()}
+
+    @field_validator("com", mode="before")
+    @classmethod
+    def _com(cls, value: object) -> Point | None:
+        return None if value is None else _finite_point(value, "com")
+
+    @field_validator("name")
+    @classmethod
+    def _not_ground(cls, value: str) -> str:
+        if value == GROUND:
+            raise ValueError(f"name {GROUND!r} is reserved for the fixed frame")
+        return value
+
+    @property
+    def centre(self) -> Point:
+        if self.com is not None:
+            return self.com
+        xs, ys = zip(*self.points.values())
+        return (sum(xs) / len(xs), sum(ys) / len(ys))
+
+
+class Revolute(BaseModel):
+    """A pin between a point of one body and a point of another body or of the ground (``"ground.O"``)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    kind: Literal["revolute"] = "revolute"
+    name: str = Field(min_length=1, max_length=40)
+    a: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
+    b: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
+    damping: float = Field(0.0, ge=0.0, le=1e4, description="viscous torque per unit relative angular speed")
+
+
+class Prismatic(BaseModel):
+    """A slider: ``body`` keeps its angle relative to ``on`` and its point ``point`` moves along the line
+    through ``on``'s point ``through`` in direction ``direction`` (both in the sketch)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    kind: Literal["prismatic"] = "prismatic"
+    name: str = Field(min_length=1, max_length=40)
+    body: str = Field(min_length=1)
+    point: str = Field(min_length=1, description="the sliding point, a point of body")
+    on: str = Field(GROUND, description="the body (or ground) that carries the guide")
+    through: str = Field(min_length=1, description="a point of `on` on the guide line")
+    direction: Point = Field(description="direction of the guide in the sketch")
+    damping: float = Field(0.0, ge=0.0, le=1e4, description="viscous force per unit sliding speed")
+
+    @field_validator("direction", mode="before")
+    @classmethod
+    def _direction(cls, value: object) -> Point:
+        x, y = _finite_point(value, "direction")
+        if math.hypot(x, y) < 1e-12:
+            raise ValueError("direction: must not be the zero vector")
+        return (x, y)
+
+
+class Driver(BaseModel):
+    """A motor on a revolute joint: constant relative angular speed (rad/s), or a constant torque (N m)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    joint: str = Field(min_length=1)
+    speed: float | None = Field(None, ge=-1e3, le=1e3, description="rad/s")
+    torque: float | None = Field(None, ge=-1e6, le=1e6, description="N m")
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Driver:
+        if (self.speed is None) == (self.torque is None):
+            raise ValueError(f"driver on {self.joint!r}: give exactly one of speed (rad/s) or torque (N m)")
+        return self
+
+
+class Mechanism(BaseModel):
+    """Bodies, joints and drivers, with gravity ``g`` along -y and named ground points."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    name: str = Field("mechanism", max_length=80)
+    description: str = Field("", max_length=4000)
+    g: float = Field(9.81, ge=0.0, le=1e3, description="gravity, m/s^2, along -y")
+    ground: dict[str, Point] = Field(default_factory=dict, description="fixed points, name = [x, y]")
+    bodies: list[Body] = Field(min_length=1, max_length=MAX_BODIES)
+    joints: list[Revolute | Prismatic] = Field(min_length=1, max_length=4 * MAX_BODIES)
+    drivers: list[Driver] = Field(default_factory=list)
+    trace: str | None = Field(None, description="body.point whose path is traced")
+
+    @field_validator("ground", mode="before")
+    @classmethod
+    def _ground(cls, value: object) -> dict[str, Point]:
+        if not isinstance(value, dict):
+            raise ValueError("ground: expected a table of name = [x, y]")
+        return {str(name): _finite_point(xy, f"ground point {name!r}") for name, xy in value.items()}
+
+    @model_validator(mode="after")
+    def _references(self) -> Mechanism:
+        names = [body.name for body in self.bodies]
+        duplicate = next((name for name in names if names.count(name) > 1), None)
+        if duplicate is not None:
+            raise ValueError(f"body {duplicate!r}: two bodies have this name")
+        joint_names = [joint.name for joint in self.joints]
+        duplicate = next((name for name in joint_names if joint_names.count(name) > 1), None)
+        if duplicate is not None:
+            raise ValueError(f"joint {duplicate!r}: two joints have this name")
+        for joint in self.joints:
+            if isinstance(joint, Revolute):
+                for side in (joint.a, joint.b):
+                    self.point_of(side, f"joint {joint.name!r}")
+                if joint.a.split(".")[0] == joint.b.split(".")[0]:
+                    raise ValueError(f"joint {joint.name!r}: joins body {joint.a.split('.')[0]!r} to itself")
+            else:
+                self.point_of(f"{joint.body}.{joint.point}", f"joint {joint.name!r}")
+                self.point_of(f"{joint.on}.{joint.through}", f"joint {joint.name!r}")
+                if joint.body == joint.on:
+                    raise ValueError(f"joint {joint.name!r}: slides body {joint.body!r} on itself")
+        by_name = {joint.name: joint for joint in self.joints}
+        for driver in self.drivers:
+            driven = by_name.get(driver.joint)
+            if driven is None:
+                raise ValueError(f"driver: no joint named {driver.joint!r} (joints: {', '.join(by_name)})")
+            if not isinstance(driven, Revolute):
+                raise ValueError(f"driver on {driver.joint!r}: motors drive revolute joints only")
+        if len({driver.joint for driver in self.drivers}) != len(self.drivers):
+            raise ValueError("drivers: a joint has two drivers")
+        if self.trace is not None:
+            self.point_of(self.trace, "trace")
+        return self
+
+    def body(self, name: str) -> Body:
+        for body in self.bodies:
+            if body.name == name:
+                return body
+        raise KeyError(name)
+
+    def point_of(self, reference: str, where: str) -> Point:
+        """The sketch position of ``"body.point"`` (or ``"ground.point"``); a clear error if it does not exist."""
+        body_name, _, point = reference.partition(".")
+        if body_name == GROUND:
+            if point not in self.ground:
+                known = ", ".join(self.ground) or "none"
+                raise ValueError(f"{where}: no ground point {point!r} (ground points: {known})")
+            return self.ground[point]
+        names = [body.name for body in self.bodies]
+        if body_name not in names:
+            raise ValueError(f"{where}: no body {body_name!r} (bodies: {', '.join(names)})")
+        body = self.body(body_name)
+        if point not in body.points:
+            raise ValueError(f"{where}: body {body_name!r} has no point {point!r} (points: {', '.join(body.points)})")
+        return body.points[point]

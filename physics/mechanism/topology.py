@@ -1,0 +1,114 @@
+"""Which bodies a mechanism's joints connect: connectedness, loops and the Grübler–Kutzbach mobility count.
+
+Bodies and the ground are the nodes of a graph whose edges are the joints. A spanning tree from the ground
+reaches every body of a connected mechanism; each joint left out of the tree (a *cut* joint) closes one
+independent loop, made of the cut joint and the tree's path between its two bodies. The formulations that
+come later use the same split: the tree carries the coordinates, the cut joints are closed by multipliers.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+from .model import GROUND, Mechanism, Prismatic, Revolute
+
+# Degrees of freedom each element removes from a planar body.
+REMOVED_BY_JOINT = 2  # a pin (two translations) or a slider (one translation and the rotation)
+REMOVED_BY_SPEED_DRIVER = 1
+
+
+def joint_bodies(joint: Revolute | Prismatic) -> tuple[str, str]:
+    """The two bodies (or ``"ground"``) a joint connects."""
+    if isinstance(joint, Revolute):
+        return joint.a.split(".")[0], joint.b.split(".")[0]
+    return joint.body, joint.on
+
+
+@dataclass(frozen=True)
+class Loop:
+    """One independent loop: the cut joint that closes it and every joint around it, in order."""
+
+    cut_joint: str
+    joints: tuple[str, ...]
+
+    def describe(self) -> str:
+        return "loop " + " - ".join(self.joints)
+
+
+@dataclass(frozen=True)
+class Topology:
+    """``tree_joints`` reach every body from the ground; ``loops`` are closed by the cut joints;
+    ``mobility`` is the Grübler–Kutzbach count 3 B - 2 J - D (D: speed drivers)."""
+
+    bodies: tuple[str, ...]
+    tree_joints: tuple[str, ...]
+    loops: tuple[Loop, ...]
+    mobility: int
+    parent: dict[str, tuple[str, str]]  # body -> (joint to its parent, parent body)
+
+
+def analyse(mechanism: Mechanism) -> Topology:
+    """The mechanism's spanning tree, loops and mobility count; raises ValueError naming the body that the
+    ground cannot reach (a disconnected mechanism)."""
+    adjacency: dict[str, list[tuple[str, str]]] = {GROUND: []}
+    for body in mechanism.bodies:
+        adjacency[body.name] = []
+    for joint in mechanism.joints:
+        first, second = joint_bodies(joint)
+        adjacency[first].append((joint.name, second))
+        adjacency[second].append((joint.name, first))
+    parent: dict[str, tuple[str, str]] = {}
+    seen = {GROUND}
+    queue = deque([GROUND])
+    tree: list[str] = []
+    while queue:
+        node = queue.popleft()
+        for joint_name, other in adjacency[node]:
+            if other not in seen:
+                seen.add(other)
+                parent[other] = (joint_name, node)
+                tree.append(joint_name)
+                queue.append(other)
+    unreached = [body.name for body in mechanism.bodies if body.name not in seen]
+    if unreached:
+        raise ValueError(
+            f"body {unreached[0]!r}: not connected to the ground by any chain of joints "
+            f"(unconnected: {', '.join(unreached)})"
+        )
+    loops = tuple(_loop(joint, parent) for joint in mechanism.joints if joint.name not in tree)
+    speed_drivers = sum(1 for driver in mechanism.drivers if driver.speed is not None)
+    removed = REMOVED_BY_JOINT * len(mechanism.joints) + REMOVED_BY_SPEED_DRIVER * speed_drivers
+    mobility = 3 * len(mechanism.bodies) - removed
+    return Topology(
+        bodies=tuple(body.name for body in mechanism.bodies),
+        tree_joints=tuple(tree),
+        loops=loops,
+        mobility=mobility,
+        parent=parent,
+    )
+
+
+def _path_to_ground(body: str, parent: dict[str, tuple[str, str]]) -> list[tuple[str, str]]:
+    """``[(joint, body), ...]`` from ``body`` up to the ground."""
+    path = []
+    while body != GROUND:
+        joint, up = parent[body]
+        path.append((joint, body))
+        body = up
+    return path
+
+
+def _loop(joint: Revolute | Prismatic, parent: dict[str, tuple[str, str]]) -> Loop:
+    first, second = joint_bodies(joint)
+    up_first = _path_to_ground(first, parent)
+    up_second = _path_to_ground(second, parent)
+    bodies_first = [GROUND] + [body for _, body in reversed(up_first)]
+    bodies_second = [GROUND] + [body for _, body in reversed(up_second)]
+    common = 0
+    while common < min(len(bodies_first), len(bodies_second)) and bodies_first[common] == bodies_second[common]:
+        common += 1
+    # from the first body up to the common ancestor, down to the second body, and the cut joint back
+    down_first = [j for j, _ in reversed(up_first)][common - 1 :]
+    down_second = [j for j, _ in reversed(up_second)][common - 1 :]
+    return Loop(cut_joint=joint.name, joints=tuple(list(reversed(down_first)) + down_second + [joint.name]))

@@ -1,0 +1,85 @@
+"""viser behind one door (app/viser_compat.py): the fast paths are on with the installed viser, and nothing else
+in app/ touches viser's private parts.
+
+If a viser upgrade moves an internal, ``test_the_fast_paths_are_on`` fails here instead of the app quietly
+sending poses the slow way; widen ``TESTED_MINORS`` only after reading the new viser's internals again.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from pathlib import Path
+
+import numpy as np
+import viser
+
+from app import logs, viser_compat
+from conftest import wait_until
+
+APP = Path(__file__).resolve().parents[2] / "app"
+PRIVATE = re.compile(r"\._(impl|messages|queue_scene_message|websock_connection|state)\b|viser\._[a-z]")
+
+
+def test_the_fast_paths_are_on():
+    assert viser_compat.fallbacks() == [], viser_compat.fallbacks()
+    assert viser_compat.FAST_PATH and viser_compat.VERSION_TESTED, viser.__version__
+
+
+def test_every_node_of_a_session_moves_by_the_fast_path(connect):
+    _, session = connect()
+    handles = session.scene._bars + session.scene._joints + session.scene._coms
+    assert handles and all(viser_compat.fast_pose_available(h) for h in handles)
+    assert viser_compat.connection_open(session.target)
+
+
+def test_the_fast_path_moves_a_node_as_the_public_setter_does(connect):
+    _, session = connect()
+    bar = session.scene._bars[0]
+    viser_compat.move_node(bar, (0.25, 0.0, -0.5), (1.0, 0.0, 0.0, 0.0))
+    assert np.allclose(bar.position, (0.25, 0.0, -0.5)) and np.allclose(bar.wxyz, (1.0, 0.0, 0.0, 0.0))
+
+
+def test_a_fallback_uses_the_public_setters_and_says_so_once(connect, monkeypatch, caplog):
+    _, session = connect()
+    session.pause()
+    bar = session.scene._bars[0]
+    monkeypatch.setattr(viser_compat, "FAST_PATH", False)
+    monkeypatch.setattr(logs, "_seen", set())
+    with caplog.at_level(logging.WARNING, logger="app"):
+        with session.player.lock:
+            viser_compat.move_node(bar, (0.5, 0.0, -0.25), None)
+            viser_compat.move_node(bar, (0.75, 0.0, -0.25), None)
+    assert np.allclose(bar.position, (0.75, 0.0, -0.25))
+    warnings = [r for r in caplog.records if "public setters" in r.getMessage()]
+    assert len(warnings) == 1, [r.getMessage() for r in caplog.records]
+
+
+def test_a_closed_connection_is_seen(lab, connect):
+    client, session = connect()
+    target = session.target
+    client.close()
+    assert wait_until(lambda: session.closed or not viser_compat.connection_open(target), timeout=10)
+
+
+def test_no_private_viser_access_outside_the_door():
+    offenders = []
+    for path in sorted(APP.glob("*.py")):
+        if path.name == "viser_compat.py":
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), start=1):
+            if PRIVATE.search(line):
+                offenders.append(f"{path.name}:{number}: {line.strip()}")
+    assert offenders == []
+
+
+def test_no_silent_except_pass_in_the_app():
+    """An error the app expects is logged once (app/logs.py) or shown as a notice, never dropped."""
+    silent = []
+    for path in sorted(APP.glob("*.py")):
+        lines = path.read_text().splitlines()
+        for number, (line, following) in enumerate(zip(lines, lines[1:]), start=1):
+            if re.match(r"\s*except\b.*:\s*(#.*)?$", line) and following.strip() == "pass":
+                if "KeyboardInterrupt" not in line:  # Ctrl+C ends serve_forever; that is its purpose
+                    silent.append(f"{path.name}:{number}: {line.strip()}")
+    assert silent == []

@@ -1,0 +1,53 @@
+"""A mechanism the cache lacks is derived in a worker process, never in the server's interpreter.
+
+A sympy derivation holds the interpreter lock for seconds; in the server it would freeze every other
+session's animation. The test runs the app's build path (``app.warm.ensure_ready``) in a fresh interpreter
+with an empty derivation cache and checks that the mechanism was built by a worker (the cache holds it
+afterwards) while sympy was never imported by the interpreter that asked.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from physics.kernels.disk_cache import kernels_folder
+
+ROOT = Path(__file__).resolve().parents[2]
+
+SCRIPT = """
+import json, sys
+import numpy as np
+from app import warm
+from physics import get_preset, Settings
+from physics.codegen.cache import is_generated
+preset = get_preset("chain", links=2)
+before = is_generated("newton_euler", 2, False)
+built = warm.build_outside("newton_euler", 2, False, "RK45")
+warm.ensure_ready(preset.chain, Settings(method="newton_euler", integrator="RK45"), preset.theta0, preset.omega0)
+print(json.dumps({"before": before, "built": built, "after": is_generated("newton_euler", 2, False),
+                  "sympy": "sympy" in sys.modules}))
+"""
+
+
+def test_a_missing_mechanism_is_derived_by_a_worker_not_by_the_server(tmp_path):
+    from physics import Settings, get_preset, load_compiled, simulate
+
+    # the integrator kernels compile once per installation: bring them along so the test derives only
+    preset = get_preset("chain", links=2)
+    simulate(preset.chain, preset.theta0, preset.omega0, Settings(method="newton_euler", integrator="RK45", t_end=0.01))
+    load_compiled("newton_euler", 2, False)
+    cache = tmp_path / "cache"
+    target = cache / "numba" / kernels_folder().name
+    shutil.copytree(kernels_folder(), target)
+    os.chmod(cache, 0o700)
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(cache))
+    done = subprocess.run([sys.executable, "-c", SCRIPT], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result == {"before": False, "built": True, "after": True, "sympy": False}, (result, done.stderr)
