@@ -29,13 +29,13 @@ from ..errors import LinkageError
 from ..files import write_atomically
 from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
 from ..kernels.abi import make_layout
+from ..registry import FORMULATION_NAMES
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "model.py")
-FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
 MAX_LINKS = 12
 _CHECKSUM_PREFIX = "# sha256: "
 
