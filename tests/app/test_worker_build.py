@@ -15,6 +15,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from physics.kernels.disk_cache import kernels_folder
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,6 +36,7 @@ print(json.dumps({"before": before, "built": built, "after": is_generated("newto
 """
 
 
+@pytest.mark.slow  # a worker process derives a mechanism with sympy
 def test_a_missing_mechanism_is_derived_by_a_worker_not_by_the_server(tmp_path):
     from physics import Settings, get_preset, load_compiled, simulate
 

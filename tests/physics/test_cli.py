@@ -138,6 +138,7 @@ def test_ensemble_bad_count_is_one_line():
     assert "count" in result.stderr and "1 <= count" in result.stderr
 
 
+@pytest.mark.slow  # warms every preset's mechanisms in a child process
 def test_warm_without_arguments_builds_every_preset_mechanism():
     result = run_cli("warm")
     built = {tuple(line.split(":")[0].split()) for line in result.stdout.splitlines()}
