@@ -14,6 +14,11 @@ from .logs import quietly
 from .scene import REFRAME_TOLERANCE, camera_pose, mechanism_reach
 
 ASPECT_TOLERANCE = 0.05
+# The control panel floats over the canvas's right side: viser's "large" width, 24 em of 16 px, plus its margin.
+PANEL_PX = 400.0
+# Below this canvas width (a phone) the panel is folded away or fills the screen: frame the whole canvas.
+PANEL_MIN_CANVAS_PX = 600.0
+VIEWS = ("3d", "front")
 
 
 class CameraDirector:
@@ -28,6 +33,15 @@ class CameraDirector:
         self._watched: set[int] = set()
         self._lengths = np.ones(1)
         self._pin: tuple[float, float] | None = None
+        self.view = "3d"
+
+    def set_view(self, view: str) -> None:
+        """Front (the plane of the motion as a drawing) or 3D (slightly from above); every camera reframed."""
+        if view not in VIEWS:
+            raise ValueError(f"view = {view!r}: allowed {', '.join(VIEWS)}")
+        self.view = view
+        self.framed_aspect.clear()
+        self.frame(self._lengths, self._pin, force=True)
 
     def frame(self, lengths, pin, force: bool = False, client=None) -> None:
         """Point the camera(s) at the mechanism; only when its size changed noticeably unless ``force``.
@@ -41,7 +55,7 @@ class CameraDirector:
             cameras = [client.camera]
         elif self.shared:
             self.framed_reach = reach
-            position, look_at = camera_pose(self._lengths, pin)
+            position, look_at = camera_pose(self._lengths, pin, view=self.view)
 
             def initial() -> None:  # what a browser that connects later starts with
                 self.target.initial_camera.position = tuple(position)
@@ -61,7 +75,8 @@ class CameraDirector:
 
     def frame_one(self, camera, aspect: float) -> None:
         self.framed_aspect[id(camera)] = aspect
-        position, look_at = camera_pose(self._lengths, self._pin, aspect=aspect)
+        position, look_at = camera_pose(self._lengths, self._pin, aspect=aspect,
+                                        panel_fraction=panel_fraction(camera), view=self.view)
 
         def move() -> None:
             with self.target.atomic():
@@ -89,6 +104,16 @@ class CameraDirector:
                 self.frame_one(reported, aspect)
 
         camera.on_update(on_camera)
+
+
+def panel_fraction(camera) -> float:
+    """The share of this browser's canvas width the control panel covers (0 on a narrow canvas or before the
+    browser reported its size)."""
+    try:
+        width = float(camera.image_width)
+    except (AttributeError, TypeError, ValueError, AssertionError):
+        return 0.0
+    return PANEL_PX / width if width >= PANEL_MIN_CANVAS_PX else 0.0
 
 
 def _aspect(camera) -> float | None:

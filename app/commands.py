@@ -181,6 +181,7 @@ def _refusal(name: str, q: Quantity, number: float, error: ValidationError, para
     reasons = []
     for item in error.errors():
         reason = str(item.get("msg", "invalid")).removeprefix("Value error, ")
+        reason = re.sub(rf"^{re.escape(name)} = [^:]*: ", "", reason)  # the model named the field already
         out_of_range = item.get("type", "").startswith(("greater_than", "less_than")) or "allowed range" in reason
         reasons.append(None if out_of_range else reason)
     if None in reasons:
@@ -339,6 +340,8 @@ def _apply_choice(params: SessionParameters, name: str, value) -> Edit:
         settings = Settings.model_validate({**settings_data(params.settings), name: value})
     except ValidationError as error:
         reasons = (str(item.get("msg", "invalid")).removeprefix("Value error, ") for item in error.errors())
+        # a reason that names the field already is not prefixed twice
+        reasons = (re.sub(rf"^{re.escape(name)} = [^:]*: ", "", reason) for reason in reasons)
         raise LinkageError(f"{name} = {value}: " + "; ".join(reasons)) from None
     return Edit(params.replaced(settings=settings), restart=False, geometry=False)
 

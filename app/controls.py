@@ -82,6 +82,7 @@ class Controls:
         self._dynamic_numbers: list[str] = []
         self._status_text = ""
         self._equations_job: threading.Thread | None = None
+        self._equations_key: tuple | None = None  # the system the Equations tab shows (None: not asked for yet)
         self.numbers = NumberInputs(gui, port, self.bind, self._quiet, lambda: self.muted)
         self._build()
 
@@ -193,6 +194,9 @@ class Controls:
         with self.tabs.add_tab("Mechanism"):
             self.mechanism = gui.add_dropdown("Mechanism", physics.preset_names(), initial_value=p.preset)
             self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
+            self.preset_defaults = gui.add_button("Reset to the preset's values",
+                                                  hint="Lengths, masses, inertias, gravity and angles as the preset has them")
+            self.bind(self.preset_defaults, lambda value, event: self.reset_to_preset())
             self.links = gui.add_slider("Bars (chain)", min=1, max=LINKS_MAX_ON_SLIDER, step=1, initial_value=p.n)
             self.bind(self.links, lambda value, event: s.set_links(value))
             add("g", GRAVITY_SLIDER, p.g)
@@ -219,12 +223,16 @@ class Controls:
             add("baumgarte_beta", BETA_SLIDER, p.baumgarte_beta)
             add("damping", DAMPING_SLIDER, p.damping)
         with self.tabs.add_tab("Display"):
+            self.camera_view = gui.add_button_group("View", ("Front", "3D"),
+                                                    hint="Front: the plane of the motion as a drawing. 3D: from above")
+            self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
             add("speed", SPEED_SLIDER, s.display.speed)
             add("trace_seconds", TRACE_SLIDER, s.display.trace_seconds, label="Trace length (s)")
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())
             self.bind(self.trace_point, lambda value, event: s.set("trace", value))
             self.reactions = gui.add_checkbox("Reaction arrows", initial_value=False,
-                                              hint="Joint reactions (DAE) and the pin's reaction (closed loops)")
+                                              hint="Joint reactions (every method) and the pin's reaction (closed loops); "
+                                                   "in compare mode those of the Newton-Euler run")
             self.bind(self.reactions, lambda value, event: s.set_reactions(value))
             add("arrow_scale", ARROW_SLIDER, s.display.arrow_scale)
         with self.tabs.add_tab("Equations"):
@@ -349,6 +357,7 @@ class Controls:
             self.numbers.sync(name)
 
     def sync_method(self) -> None:
+        self.refresh_equations()
         p = self.port.setup
         self._set_options(self.method, self._method_labels())
         self._set(self.method, method_label(p.method))
@@ -392,6 +401,17 @@ class Controls:
             quietly(lambda: setattr(self.status, "content", text), "updating the status line")
 
     # ------------------------------------------------------------------ equations
+    def refresh_equations(self) -> None:
+        """The Equations tab never shows another method's system: once shown, it follows the method in force."""
+        p = self.port.setup
+        if self._equations_key is not None and self._equations_key != (p.method, p.n, p.pinned):
+            self.show_equations()
+
+    def reset_to_preset(self) -> None:
+        """The preset's own values again (picking the preset already shown in the menu fires no event)."""
+        p = self.port.setup
+        self.port.set_mechanism(p.preset, links=p.n if p.preset == "chain" else None)
+
     def show_equations(self) -> None:
         """Render the current system's equations in a worker thread (sympy is imported there, never at start)."""
         from . import equations  # imports sympy: only when asked for
@@ -399,18 +419,21 @@ class Controls:
         p = self.port.setup
         method = p.method
         key = (method, p.n, p.pinned)
-        if self._equations_job is not None and self._equations_job.is_alive():
-            return
+        self._equations_key = key
         self.equations.content = f"<p><b>Deriving</b> the {method_label(method)} equations for {p.n} bars...</p>"
+        if self._equations_job is not None and self._equations_job.is_alive():
+            return  # the running job sees the new key when it finishes and derives again
 
         def work() -> None:
             try:
                 html = equations.equations_html(*key)
             except Exception as error:  # shown in the panel; the session goes on
                 html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
-            now = self.port.setup
-            if (now.method, now.n, now.pinned) == key:
+            if self._equations_key == key:
                 self.equations.content = html
+            elif self._equations_key is not None and not self.port.closed:
+                self._equations_job = None
+                self.show_equations()  # the method changed while deriving: show the one in force
 
         self._equations_job = threading.Thread(target=work, name="equations", daemon=True)
         self._equations_job.start()

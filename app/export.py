@@ -14,7 +14,8 @@ import numpy as np
 
 def columns(history: dict[str, np.ndarray], method: str, pinned: bool) -> dict[str, np.ndarray]:
     """Named 1-D columns: ``t, theta1..n, omega1..n, tip_x, tip_y, kinetic, potential, energy``, then joint
-    reactions ``R0x, R0y, ...`` (dae), then ``RHx, RHy, constraint_x, constraint_y`` (closed loops), then
+    reactions ``R0x, R0y, ...`` (every method: the DAE solves for them, the others recover them from the
+    accelerations, physics/reactions.py), then ``RHx, RHy, constraint_x, constraint_y`` (closed loops), then
     ``trace_x, trace_y``."""
     n = history["theta"].shape[1]
     cols = {"t": history["t"]}
@@ -27,7 +28,7 @@ def columns(history: dict[str, np.ndarray], method: str, pinned: bool) -> dict[s
     cols["kinetic"] = history["kinetic"]
     cols["potential"] = history["potential"]
     cols["energy"] = history["energy"]
-    if method == "dae":
+    if "reactions" in history:
         for k in range(n):
             cols[f"R{k}x"] = history["reactions"][:, k, 0]
             cols[f"R{k}y"] = history["reactions"][:, k, 1]

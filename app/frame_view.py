@@ -49,6 +49,7 @@ class FrameView:
         self.arrows = ReactionArrows(scene_api, "/linkage/reactions")
         self.compare_scenes: dict[str, LinkageScene] = {}
         self.compare_traces: dict[str, TraceLine] = {}
+        self.divergence = None  # app.divergence.DivergencePlots, set by the session
         self.compare = False
         self.display = Display()
         self.reactions_on = False
@@ -123,7 +124,7 @@ class FrameView:
                 scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % TRACE_EVERY == 0:
                 self._update_traces(frame, runs)
-            if self.reactions_on and not self.compare:
+            if self.reactions_on:
                 self._update_arrows(frame, runs)
         if frame.restarted:
             self.energy_ref = self._energy_at(runs, frame, self.segment_t0)
@@ -152,20 +153,17 @@ class FrameView:
                 trace.update(self._trace_window(run.ring, rf.index))
 
     def _update_arrows(self, frame: Frame, runs) -> None:
-        run = runs.get("main")
-        if run is None or not frame.runs or frame.runs[0].label != "main":
+        """Arrows of the first run shown: the main run, or in compare mode the Newton-Euler run (the other
+        formulations' reactions agree with it to 1e-9 until the runs part)."""
+        rf = frame.runs[0] if frame.runs else None
+        run = runs.get(rf.label) if rf is not None else None
+        if run is None or "reactions" not in run.ring.field_names():
             self.arrows.hide()
             return
         spec = run.spec  # the run's own description: the session's parameters may already be newer
-        if not (spec.settings.method == "dae" or spec.pinned):
-            self.arrows.hide()
-            return
-        rf = frame.runs[0]
         ring = run.ring
-        points, forces = [], []
-        if spec.settings.method == "dae":
-            points.append(rf.joints[:-1])
-            forces.append(ring.get("reactions", rf.index))
+        points = [rf.joints[:-1]]
+        forces = [ring.get("reactions", rf.index)]
         if spec.pinned:
             points.append(rf.joints[-1:])
             forces.append(ring.get("tip_reaction", rf.index)[None, :])
@@ -202,20 +200,8 @@ class FrameView:
         c.drift_plot.update(t[in_segment], relative_drift(data["energy"][in_segment], self.energy_ref, scale))
         if chain.pinned:
             c.constraint_plot.update(t, np.hypot(data["constraint_xy"][:, 0], data["constraint_xy"][:, 1]))
-        if self.compare and len(frame.runs) == len(COMPARE_METHODS):
-            reference = runs.get(COMPARE_METHODS[0])
-            others = [runs.get(m) for m in COMPARE_METHODS[1:]]
-            if reference is None or any(o is None for o in others):
-                return
-            j = min(rf.index for rf in frame.runs)
-            ref = reference.ring.window(j - span, j, names=["t", "joints"])
-            diffs = []
-            for other in others:
-                o = other.ring.window(j - span, j, names=["joints"])["joints"]
-                m = min(len(o), len(ref["joints"]))
-                diffs.append(np.linalg.norm(ref["joints"][-m:, -1] - o[-m:, -1], axis=1))
-            m = min(len(d) for d in diffs)
-            c.divergence_plot.update(ref["t"][-m:], *[d[-m:] for d in diffs])
+        if self.compare and self.divergence is not None:
+            self.divergence.update(runs, frame.t)
 
     # ------------------------------------------------------------------ read-outs
     def current_values(self, runs: dict, frame: Frame | None = None) -> dict:
@@ -275,5 +261,6 @@ class FrameView:
 
 
 def reactions_available(params: SessionParameters) -> bool:
-    """Reactions exist for the DAE (every joint) and for closed loops (the pin)."""
-    return params.method == "dae" or params.pinned
+    """Joint reactions exist for every method: the DAE solves for them, the others recover them from the
+    accelerations (physics/reactions.py); closed loops add the pin's."""
+    return True

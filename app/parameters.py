@@ -10,6 +10,7 @@ always holds a mechanism the models accepted. :class:`Display` is the same idea 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -51,6 +52,15 @@ def settings_data(settings: Settings) -> dict:
 
 def method_label(method: str) -> str:
     return METHOD_LABELS.get(method, method)
+
+
+_METHOD_NAME = re.compile(r"\b(" + "|".join(sorted(METHOD_LABELS, key=len, reverse=True)) + r")\b")
+
+
+def in_menu_words(message: str) -> str:
+    """A physics message as the panel's menus word it: ``method = lagrange (got dae)`` reads ``method =
+    Lagrange (got DAE)``, ``choose method 'reduced'`` reads ``choose method 'Reduced (1 dof)'``."""
+    return _METHOD_NAME.sub(lambda match: METHOD_LABELS[match.group(1)], message)
 
 
 def driving_count(n: int, pinned: bool) -> int:

@@ -54,6 +54,9 @@ class SessionPort(Protocol):
 
     def set_reactions(self, on: bool) -> None: ...
 
+    def set_camera_view(self, view: str) -> None:
+        """Front or 3D view of the mechanism."""
+
     def play(self) -> None: ...
 
     def pause(self) -> None: ...

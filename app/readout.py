@@ -9,6 +9,7 @@ from __future__ import annotations
 from physics import LinkageError
 
 from . import export
+from .divergence import REFERENCE_LABEL
 from .replay import replay_html
 
 
@@ -59,12 +60,13 @@ def snapshot(session) -> dict:
     with player.lock:
         runs = {run.spec.label: run for run in player.runs}
         out_runs = []
+        reference = None  # compare mode's converged run (app/divergence.py): not one of the runs shown
         for run in player.runs:
             ring = run.ring
             if len(ring) == 0:
                 continue
             i = ring.index_at(player.display_time)
-            out_runs.append(
+            entry = (
                 {
                     "label": run.spec.label,
                     "method": run.spec.settings.method,
@@ -78,6 +80,10 @@ def snapshot(session) -> dict:
                     "failed": run.failed,
                 }
             )
+            if run.spec.label == REFERENCE_LABEL:
+                reference = entry
+            else:
+                out_runs.append(entry)
         view = session.view
         nodes = view.scene_nodes()
         main = out_runs[0] if out_runs else None
@@ -95,6 +101,7 @@ def snapshot(session) -> dict:
             "joints": main["joints"] if main else None,
             "energy": view.current_values(runs),
             "runs": out_runs,
+            "reference": reference,
             "notice": session.notice,
             "frames_sent": view.frames_sent,
             "scene": {"root": view.scene.root, "nodes": nodes, "names": sorted(nodes)},

@@ -234,20 +234,30 @@ class LinkageScene:
         return out
 
 
-def camera_pose(lengths: np.ndarray, pin, fov: float = math.radians(75.0),
-                aspect: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
+def camera_pose(lengths: np.ndarray, pin, fov: float = math.radians(75.0), aspect: float = 1.5,
+                panel_fraction: float = 0.0, view: str = "3d") -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at point (world) that frame the disc the mechanism can sweep.
 
-    Seen from -y, slightly from above, so the vertical plane of the motion faces the viewer. ``fov`` is the
-    vertical field of view; on a canvas narrower than it is tall (``aspect`` = width / height < 1, e.g. beside
-    the control panel in a small window) the camera backs off so the disc also fits across.
+    Seen from -y, slightly from above (``view="3d"``) or straight on (``view="front"``: the plane of the motion
+    as a drawing), so the vertical plane of the motion faces the viewer. ``fov`` is the vertical field of view.
+    ``panel_fraction``: the share of the canvas width the control panel covers on the right; the disc is fitted
+    into, and centred in, the part left free. On a canvas narrower than it is tall the camera backs off so the
+    disc also fits across.
     """
     reach = mechanism_reach(lengths, pin)
     center_xy = np.zeros(2)
     if pin is not None:
         center_xy = 0.5 * np.array(pin, dtype=float)
-    look_at = to_world(center_xy)
-    narrow = 1.0 / aspect if math.isfinite(aspect) and 0.05 < aspect < 1.0 else 1.0
-    distance = 1.05 * reach / math.tan(0.5 * fov) * narrow
-    position = look_at + np.array([0.0, -distance, 0.12 * distance])
+    aspect = aspect if math.isfinite(aspect) and aspect > 0.05 else 1.5
+    panel_fraction = min(max(panel_fraction, 0.0), 0.6) if math.isfinite(panel_fraction) else 0.0
+    free_aspect = aspect * (1.0 - panel_fraction)  # free width over height
+    half_height = math.tan(0.5 * fov)
+    # a little room around the disc; more from above, where the near half of the disc looks larger
+    margin = 1.05 if view == "front" else 1.15
+    distance = margin * reach / half_height * max(1.0, 1.0 / free_aspect)
+    # shift the view right by half the panel, so the disc sits in the middle of the free part
+    shift = panel_fraction * aspect * half_height * distance
+    look_at = to_world(center_xy) + np.array([shift, 0.0, 0.0])
+    lift = 0.0 if view == "front" else 0.12 * distance
+    position = look_at + np.array([0.0, -distance, lift])
     return position, look_at

@@ -37,11 +37,22 @@ from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
 from .controls import Controls
+from .divergence import DivergencePlots, reference_spec
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
+from .free_body_view import FreeBodyView
 from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
-from .parameters import METHOD_LABELS, Display, SessionParameters, driving_count, methods_for, settings_data
+from .parameters import (
+    METHOD_LABELS,
+    Display,
+    SessionParameters,
+    driving_count,
+    in_menu_words,
+    methods_for,
+    settings_data,
+)
 from .player import Frame, Player, RunSpec
+from .report_tab import ReportTab
 from .viser_compat import connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
@@ -99,7 +110,11 @@ class Session:
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
             self.view.panel = self.controls
+            self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)
+            self.free_body = FreeBodyView(target.scene, lambda: self.view.display.arrow_scale,
+                                          redraw=self.player.touch)
+            self.report = ReportTab(self, self.controls, self.free_body)
             self._label_changed()
             self.view.build(self.params)
             self.view.show_start(self.params)
@@ -159,7 +174,7 @@ class Session:
         try:
             return action()
         except LinkageError as error:
-            self.show_notice("Not applied", str(error), color="yellow")
+            self.show_notice("Not applied", in_menu_words(str(error)), color="yellow")
             self.controls.sync_all()
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
             traceback.print_exc()
@@ -231,6 +246,16 @@ class Session:
             self._label_changed()
             self.controls.sync_after(name)
 
+    def set_start(self, theta0, omega0, play: bool = False) -> None:
+        """Start again at t = 0 from ``(theta0, omega0)`` (n,) in radians (a rest position, app/rest_view.py);
+        paused unless ``play``. LinkageError when the models refuse the state."""
+        with self._lock:
+            self.params = self.params.replaced(theta0=np.array(theta0, dtype=float),
+                                               omega0=np.array(omega0, dtype=float))
+            self._user_paused = not play
+            self._restart_fresh(play=play)
+            self.controls.sync_all()
+
     def set_typed(self, name: str, text: str) -> None:
         """A value typed into its box, in the control's units (degrees, milliseconds), parsed here."""
         self.set(name, text, units=CONTROL)
@@ -241,6 +266,10 @@ class Session:
         self.player.set_speed(display.speed)
         self.player.touch()
         self.controls.sync_after(name)
+
+    def set_camera_view(self, view: str) -> None:
+        """``"front"`` (the plane of the motion as a drawing) or ``"3d"``: every camera of this session reframed."""
+        self.camera.set_view(view)
 
     def set_reactions(self, on: bool) -> None:
         """Reaction arrows on or off (their length: ``set("arrow_scale", ...)``)."""
@@ -257,6 +286,7 @@ class Session:
             self.view.compare = bool(on)
             self.view.build(self.params)
             self.controls.sync_compare()
+            self.view.divergence.set_visible(self.compare)
             self._restart_fresh()
 
     def set_mechanism(self, name: str, links: int | None = None) -> None:
@@ -284,6 +314,7 @@ class Session:
         self.view.build(self.params)
         self.view.show_start(self.params)
         self.controls.rebuild()
+        self.report.rebuild()
         self.frame_camera(force=True)
         self._restart_fresh()
 
@@ -301,7 +332,8 @@ class Session:
     def _specs(self) -> list[RunSpec]:
         p = self.params
         if self.compare:
-            return [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            specs = [RunSpec(method, p.chain, p.settings_for(method)) for method in COMPARE_METHODS]
+            return [*specs, reference_spec(p, COMPARE_METHODS)]  # drawn only in the divergence plots
         return [RunSpec("main", p.chain, p.settings)]
 
     def _restart_fresh(self, play: bool | None = None) -> None:
@@ -384,6 +416,7 @@ class Session:
             return
         runs = {run.spec.label: run for run in self.player.runs}
         self.view.draw(frame, runs, self.player.playing, self.player.real_time_factor())
+        self.free_body.update(frame, runs)
         self.analysis.on_frame(frame.t, frame.restarted)
         if self._start_params is not self._last_good_params and any(len(run.ring) > 1 for run in runs.values()):
             self._last_good_params = self._start_params
@@ -392,7 +425,7 @@ class Session:
         stuck = all(len(run.ring) <= 1 for run in self.player.runs)
         hint = ("This start cannot move. Press Reset to go back to the last start that ran."
                 if stuck else "Press Reset to start again.")
-        self.show_notice("Simulation stopped", f"{message}. {hint}", color="red", seconds=None)
+        self.show_notice("Simulation stopped", in_menu_words(f"{message}. {hint}"), color="red", seconds=None)
 
     # ================================================================== playback
     def play(self) -> None:
@@ -429,6 +462,7 @@ class Session:
                 if layout:
                     self.view.build(good)
                     self.controls.rebuild()
+                    self.report.rebuild()
                 else:
                     self.view.resize(good)
                 self.controls.sync_all()
@@ -497,6 +531,8 @@ class Session:
         self.player.stop()
         self.controls.close()
         self.analysis.remove()
+        self.report.remove()
         if self.shared:  # the server's scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
+            self.view.divergence.remove()

@@ -84,11 +84,11 @@ class Lab:
     def port(self) -> int:
         return self.server.port
 
-    def open_page(self, pause: bool = True) -> "AppPage":
+    def open_page(self, pause: bool = True, viewport: dict | None = None) -> "AppPage":
         """A new page (own browser context, so its own websocket and session), drawn and with its session
-        (paused at once unless ``pause`` is False)."""
+        (paused at once unless ``pause`` is False); ``viewport`` ``{"width", "height"}`` in CSS pixels."""
         before = set(self.server.sessions)
-        page = snap.goto_app(self.browser, self.port)
+        page = snap.goto_app(self.browser, self.port, viewport)
         deadline = time.monotonic() + SERVER_TIMEOUT_S
         while time.monotonic() < deadline:
             new = set(self.server.sessions) - before

@@ -2,6 +2,7 @@
 
     python tests/browser/regenerate_references.py            # every preset
     python tests/browser/regenerate_references.py four-bar   # only the presets named
+    python tests/browser/regenerate_references.py report-tab # a panel picture (tests/browser/panel_pictures.py)
 
 Each picture is exactly what ``python -m app snapshot --preset NAME --time 3.5 --out NAME.png`` writes
 (960 x 640, scene only, paused). A picture in which any bar's colour is missing is refused: a blank or
@@ -15,6 +16,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
@@ -22,12 +25,16 @@ if str(ROOT) not in sys.path:
 from app import snapshot as snap  # noqa: E402
 from physics import preset_names  # noqa: E402
 from tests.browser import pictures  # noqa: E402
+from tests.browser.panel_pictures import PANEL_PICTURES, panel_png  # noqa: E402
 from tests.browser.references_spec import REFERENCE_TIME, REFERENCES, VIEWPORT, bars_drawn  # noqa: E402
 
 
+MIN_PANEL_COLOURS = 16  # a panel picture with text and a figure has hundreds of colours; a blank one a few
+
+
 def main(argv: list[str]) -> int:
-    names = argv or list(preset_names())
-    unknown = sorted(set(names) - set(preset_names()))
+    names = argv or list(preset_names()) + list(PANEL_PICTURES)
+    unknown = sorted(set(names) - set(preset_names()) - set(PANEL_PICTURES))
     if unknown:
         print(f"regenerate_references: unknown preset(s) {', '.join(unknown)}; known: {', '.join(preset_names())}")
         return 2
@@ -38,9 +45,17 @@ def main(argv: list[str]) -> int:
         version = browser.version
         for name in names:
             started = time.perf_counter()
-            png = snap.render_pngs(name, [REFERENCE_TIME], viewport=VIEWPORT, browser=browser)[0]
-            image = pictures.decode_png(png)
-            missing = bars_drawn(image, name)
+            if name in PANEL_PICTURES:
+                png = panel_png(name, browser)
+                image = pictures.decode_png(png)
+                if len(np.unique(image.reshape(-1, 3), axis=0)) < MIN_PANEL_COLOURS:
+                    print(f"{name}: REFUSED, the picture is (nearly) blank")
+                    return 1
+                missing = {}
+            else:
+                png = snap.render_pngs(name, [REFERENCE_TIME], viewport=VIEWPORT, browser=browser)[0]
+                image = pictures.decode_png(png)
+                missing = bars_drawn(image, name)
             if missing:
                 print(f"{name}: REFUSED, bar colour(s) missing from the picture: {missing}")
                 return 1
