@@ -107,7 +107,7 @@ class Analysis:
 
     # ------------------------------------------------------------------ work-precision chart
     def work_precision_chart(self) -> None:
-        from physics import bench
+        from physics.studies import work_precision as bench
 
         p = self.session.setup
         chain = p.chain
@@ -137,8 +137,8 @@ class Analysis:
 
     # ------------------------------------------------------------------ chaos map
     def chaos_map(self) -> None:
-        from physics import chaos
         from physics.presets import get_preset
+        from physics.studies import chaos_map as chaos
 
         chain = get_preset("double").chain
 

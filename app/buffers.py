@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+
 # Fields of a sample and their shape after the time axis; n = number of bars.
 def _fields(n: int, pinned: bool) -> dict[str, tuple[int, ...]]:
     fields = {

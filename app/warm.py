@@ -19,10 +19,10 @@ from typing import Callable
 import physics
 from physics.codegen.cache import is_generated
 
+from .logs import log_once
+
 # A build in a worker process that takes longer than this is left to finish in the server instead.
 PREBUILD_TIMEOUT_SECONDS = 600.0
-
-from .logs import log_once
 
 _loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple[str, int, bool], threading.Lock] = {}

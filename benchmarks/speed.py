@@ -5,7 +5,7 @@
 Sections (BENCHMARKS.md quotes their output with the command and the machine):
 
 * ``seed``: the seed's three 20 s cases at its settings (RK45, rtol = atol = 1e-6, 200 samples), baseline
-  (benchmarks/seed_baseline.py: sympy + simplify + lambdify + numpy.linalg.solve + solve_ivp) against
+  (physics/studies/seed_baseline.py: sympy + simplify + lambdify + numpy.linalg.solve + solve_ivp) against
   ``physics.simulate`` on the compiled RK45 path, for Lagrange and the DAE. Derivation excluded on both sides
   (warmed up first). Calls are interleaved (baseline, ours, ours with scipy, the bare compiled kernel, in a
   rotating order) and each is timed alone with ``time.perf_counter`` and the garbage collector paused, as
@@ -158,8 +158,7 @@ def machine_info() -> dict:
 
 def _seed_setup(case: str):
     import physics
-
-    from . import seed_baseline
+    from physics.studies import seed_baseline
 
     preset = physics.get_preset(SEED_PRESETS[case])
     params = preset.chain.params()
@@ -173,8 +172,7 @@ def _seed_setup(case: str):
 
 def _settings(method: str, backend: str):
     import physics
-
-    from . import seed_baseline as sb
+    from physics.studies import seed_baseline as sb
 
     return physics.Settings(
         method=method, integrator="RK45", backend=backend, rtol=sb.SEED_RTOL, atol=sb.SEED_ATOL,
@@ -184,8 +182,7 @@ def _settings(method: str, backend: str):
 
 def bench_seed(repeats: int, fast_calls: int) -> list[dict]:
     import physics
-
-    from . import seed_baseline as sb
+    from physics.studies import seed_baseline as sb
 
     rows = []
     for formulation in BASELINE_FORMULATIONS:
@@ -312,8 +309,7 @@ def _compiled_loop():
 
 def bench_rhs(repeats: int, batch: int = 1000) -> list[dict]:
     import physics
-
-    from . import seed_baseline as sb
+    from physics.studies import seed_baseline as sb
 
     rng = np.random.default_rng(7)
     preset = physics.get_preset("triple-a")

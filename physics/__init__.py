@@ -21,7 +21,9 @@ from .model import (
     parameter_names,
 )
 from .presets import Preset, get_preset, preset_names
+from .registry import INTEGRATORS, METHODS
 from .simulate import Trajectory, simulate
+from .status import Status
 
 __version__ = "0.1.0"
 
@@ -36,11 +38,14 @@ __all__ = [
     "Chain",
     "CompiledSystem",
     "FORMULATION_NAMES",
+    "INTEGRATORS",
     "INTEGRATOR_NAMES",
     "LinkageError",
     "METHOD_NAMES",
+    "METHODS",
     "Preset",
     "Settings",
+    "Status",
     "TracePoint",
     "Trajectory",
     "accelerations",

@@ -199,7 +199,7 @@ def assemble(L, pin, theta_driving, theta_prev=None, elbow: int | None = None) -
         def distance_to_prev(pair):
             return (wrap_near(pair[0], ref_a) - ref_a) ** 2 + (wrap_near(pair[1], ref_b) - ref_b) ** 2
 
-        theta_a, theta_b = min(candidates, key=distance_to_prev)
+        theta_a, theta_b = min((c for c in candidates if c is not None), key=distance_to_prev)
         theta_a, theta_b = wrap_near(theta_a, ref_a), wrap_near(theta_b, ref_b)
     else:
         theta_a, theta_b = candidates[0]

@@ -9,67 +9,48 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib
 import io
 import json
 import math
 import sys
+import time
 
 import numpy as np
 
+from .arguments import Parser, parse_floats, parse_integers, parse_set
+from .assembly import assemble, grashof, project_velocity
+from .case_file import read_cases
+from .codegen import load_compiled
+from .codegen.inventory import cache_info, clear_cache, describe
+from .ensemble import DEFAULT_STEP, Ensemble
 from .errors import LinkageError
+from .evaluate import accelerations
+from .kernels.constants import RK4_WORK_ROWS
+from .kinematics import joint_positions
+from .model import Settings, TracePoint, apply_overrides, make_chain, validated
+from .outputs import check_output_path, write_output
+from .presets import get_preset, preset_names
+from .registry import (
+    BACKENDS,
+    COMPILED_INTEGRATORS,
+    FORMULATION_NAMES,
+    INTEGRATOR_NAMES,
+    INTEGRATORS,
+    METHOD_NAMES,
+    integrators_for,
+)
+from .simulate import simulate
+from .studies.charts import fan_picture, png_bytes
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 3
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports a bad argument as one line, like every other error here."""
-
-    def error(self, message):  # noqa: D401 - argparse hook
-        raise LinkageError(f"{self.prog}: {message}")
-
-
-def _parse_set(items) -> dict:
-    overrides = {}
-    for item in items or []:
-        if "=" not in item:
-            raise LinkageError(f"--set {item!r}: expected NAME=VALUE, e.g. --set L3=2")
-        name, value = item.split("=", 1)
-        overrides[name.strip()] = value.strip()
-    return overrides
-
-
-def _parse_floats(text: str, field: str, count: int | None = None) -> list[float]:
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise LinkageError(f"{field} = {text!r}: expected comma-separated numbers") from None
-    if count is not None and len(values) != count:
-        raise LinkageError(f"{field} = {text!r}: expected {count} comma-separated numbers, got {len(values)}")
-    bad = [v for v in values if not math.isfinite(v)]
-    if bad:
-        raise LinkageError(f"{field} = {text!r}: every entry must be a finite number")
-    return values
-
-
-def _parse_integers(text: str, field: str, low: int, high: int) -> list[int]:
-    """Comma-separated whole numbers in ``low..high`` (``1.5`` is refused, not truncated)."""
-    values = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part.lstrip("+").isdigit() or not low <= int(part) <= high:
-            raise LinkageError(f"{field} = {text!r}: expected comma-separated whole numbers {low}..{high}")
-        values.append(int(part))
-    return values
-
-
 def _build_setup(args):
     """Preset + overrides + pin -> (chain, theta0, omega0, preset). Closed chains stay assembled."""
-    from .model import apply_overrides
-    from .presets import get_preset
-
     preset = get_preset(args.preset, args.links)
-    overrides = _parse_set(getattr(args, "set", None))
+    overrides = parse_set(getattr(args, "set", None))
     chain, theta, omega = apply_overrides(preset.chain, preset.theta0, preset.omega0, overrides)
     if chain.pinned:
         chain, theta, omega = _close_loop(chain, theta, omega, args, overrides)
@@ -82,12 +63,9 @@ def _build_setup(args):
 def _close_loop(chain, theta, omega, args, overrides):
     """The pin is where the tip starts, unless ``--pin`` puts it elsewhere; then the last two angles are
     assembled from the driving ones. Start velocities are projected onto the loop's velocity constraint."""
-    from .assembly import assemble, project_velocity
-    from .kinematics import joint_positions
-
     n = chain.n
     if getattr(args, "pin", None):
-        pin = tuple(_parse_floats(args.pin, "--pin", 2))
+        pin = tuple(parse_floats(args.pin, "--pin", 2))
         chain = chain.with_pin(pin)
         theta = assemble(chain.array("L"), np.array(pin), theta[: n - 2], theta_prev=theta)
     else:
@@ -98,11 +76,9 @@ def _close_loop(chain, theta, omega, args, overrides):
 
 
 def _settings(args, chain):
-    from .model import Settings, TracePoint, validated
-
     trace = None
     if args.trace:
-        values = _parse_floats(args.trace, "--trace")
+        values = parse_floats(args.trace, "--trace")
         if len(values) not in (2, 3) or values[0] != int(values[0]):
             raise LinkageError(f"--trace {args.trace!r}: expected BAR,ALONG[,ACROSS], e.g. --trace 2,0.5,0.1")
         trace = validated(TracePoint, bar=int(values[0]), along=values[1], across=values[2] if len(values) > 2 else 0.0)
@@ -131,39 +107,6 @@ def _settings(args, chain):
 MAX_ENSEMBLE_COPY_STEPS = 2_000_000_000
 
 
-def check_output_path(out: str) -> None:
-    """Refuse, before any work, an output path that cannot be written: one line naming it and why."""
-    import os
-    from pathlib import Path
-
-    path = Path(out)
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise LinkageError(f"--out {out}: is a folder; give a file name")
-    if not folder.is_dir():
-        raise LinkageError(f"--out {out}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise LinkageError(f"--out {out}: cannot write there (permission denied)")
-
-
-def write_output(out: str, data: bytes) -> None:
-    """Write ``data`` to ``out`` atomically (physics.files); a device such as ``/dev/null`` is written directly.
-    A failure is one line (LinkageError), never a traceback."""
-    from pathlib import Path
-
-    from .files import write_atomically
-
-    path = Path(out)
-    try:
-        if path.exists() and not path.is_file():
-            with open(path, "wb") as handle:
-                handle.write(data)
-        else:
-            write_atomically(path, data)
-    except OSError as error:
-        raise LinkageError(f"--out {out}: could not write ({error.strerror or error})") from None
-
-
 def _write_table(columns: dict, fmt: str, out: str | None) -> None:
     if fmt == "json":
         text = json.dumps({k: [float(v) for v in arr] for k, arr in columns.items()})
@@ -182,8 +125,6 @@ def _write_table(columns: dict, fmt: str, out: str | None) -> None:
 
 
 def cmd_simulate(args) -> int:
-    from .simulate import simulate
-
     chain, theta, omega, preset = _build_setup(args)
     if args.t_end is None:
         args.t_end = preset.t_end
@@ -206,15 +147,11 @@ def cmd_simulate(args) -> int:
 
 def _case_chain(case, pinned_default: bool, index: int):
     """A validated case (physics.case_file.Case) -> (chain, theta, omega)."""
-    from .model import make_chain
-
     n = case.links
     L, d, m, I = ([case.params[f"{f}{i}"] for i in range(1, n + 1)] for f in "LdmI")
     omega = case.omega if case.omega is not None else [0.0] * n
     pin = case.pin
     if pin is None and pinned_default:
-        from .kinematics import joint_positions
-
         tip = joint_positions(np.asarray(L, float), np.asarray(case.theta, float))[-1]
         pin = (float(tip[0]), float(tip[1]))
     try:
@@ -226,20 +163,13 @@ def _case_chain(case, pinned_default: bool, index: int):
 
 def _with_grashof(result: dict, chain) -> dict:
     if chain.pinned and chain.n == 3:
-        from .assembly import grashof
-
         info = grashof(chain.array("L"), np.asarray(chain.pin))
         result["grashof"] = info.as_dict()
     return result
 
 
 def cmd_accelerations(args) -> int:
-    from .evaluate import accelerations
-    from .presets import get_preset
-
     if args.input:
-        from .case_file import read_cases
-
         cases = read_cases(args.input)
         pinned_default = get_preset(args.preset, args.links).chain.pinned if args.preset else False
         results = []
@@ -254,7 +184,7 @@ def cmd_accelerations(args) -> int:
         return 0
     chain, theta, omega, _ = _build_setup(args)
     if args.state:
-        values = _parse_floats(args.state, "--state", 2 * chain.n)
+        values = parse_floats(args.state, "--state", 2 * chain.n)
         theta, omega = np.array(values[: chain.n]), np.array(values[chain.n :])
     print(json.dumps(_with_grashof(accelerations(chain, theta, omega, args.method), chain)))
     return 0
@@ -263,8 +193,6 @@ def cmd_accelerations(args) -> int:
 def cmd_ensemble(args) -> int:
     """N copies whose initial angles differ by ``spread``, advanced together (physics.ensemble): how fast the fan
     opens. JSON (default), CSV (a ``.csv`` file) or a PNG of the copies at the end (a ``.png`` file)."""
-    from .ensemble import DEFAULT_STEP, Ensemble
-
     chain, theta0, omega0, preset = _build_setup(args)
     t_end = preset.t_end if args.t_end is None else args.t_end
     if not (math.isfinite(t_end) and 0.0 < t_end <= 1e5):
@@ -299,8 +227,6 @@ def cmd_ensemble(args) -> int:
     columns = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
     out = args.out or ""
     if out.endswith(".png"):
-        from .charts import fan_picture, png_bytes
-
         write_output(out, png_bytes(fan_picture(ensemble.joints(), ensemble.alive)))
     elif out.endswith(".csv"):
         _write_table(columns, "csv", out)
@@ -320,8 +246,6 @@ def cmd_ensemble(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from .presets import get_preset, preset_names
-
     print(json.dumps([get_preset(name).summary() for name in preset_names()], indent=2))
     return 0
 
@@ -329,32 +253,25 @@ def cmd_presets(args) -> int:
 def cmd_warm(args) -> int:
     """Derive and compile ahead of time, so the app and the CLI start warm: every integrator kernel once, then
     every mechanism the presets use (or the chains of ``--links``) for the three methods."""
-    import time
-
-    from .codegen import load_compiled
-    from .model import Settings
-    from .presets import get_preset, preset_names
-    from .simulate import simulate
-
     if args.links is None:
         targets = sorted({(get_preset(name).chain.n, get_preset(name).chain.pinned) for name in preset_names()})
     else:
-        targets = [(int(n), False) for n in _parse_integers(args.links, "--links", 1, 12)]
-    integrators = [("RK45", None), ("DOP853", None), ("midpoint", 0.01)]
+        targets = [(int(n), False) for n in parse_integers(args.links, "--links", 1, 12)]
+    warm_step = 0.01  # the fixed step of the warm-up runs (fixed-step integrators)
     for n, pinned in targets:
         preset = get_preset("four-bar") if pinned and n == 3 else get_preset("chain", links=n)
         if pinned and n != 3:
             continue
-        for method in ("newton_euler", "lagrange", "dae"):
+        for method in FORMULATION_NAMES:
             start = time.perf_counter()
             compiled = load_compiled(method, n, pinned)
-            runs = integrators + ([("variational", 0.01)] if method == "lagrange" else [])
-            for integrator, step in runs:
-                options = {"step": step} if step else {}
+            # Every kernel this formulation can run (the variational one needs a Lagrangian).
+            for integrator in integrators_for(method, COMPILED_INTEGRATORS):
+                options = {"step": warm_step} if INTEGRATORS[integrator].fixed_step else {}
                 simulate(preset.chain, preset.theta0, preset.omega0,
                          Settings(method=method, integrator=integrator, t_end=0.05, samples=3, **options))
             compiled.rk4_batch_step(np.array([preset.theta0]), np.array([preset.omega0]), preset.chain.params(),
-                                    1e-3, 0.0, 0.0, np.empty((7, n)), np.empty(1))
+                                    1e-3, 0.0, 0.0, np.empty((RK4_WORK_ROWS, n)), np.empty(1))
             print(f"{method} n={n} {'pinned' if pinned else 'open'}: {time.perf_counter() - start:.2f} s "
                   f"({'cached' if compiled.from_cache else 'derived'})", flush=True)
     return 0
@@ -362,8 +279,6 @@ def cmd_warm(args) -> int:
 
 def cmd_cache(args) -> int:
     """Where the cache is, what it holds and its size (``--info``, the default), or empty it (``--clear``)."""
-    from .codegen.inventory import cache_info, clear_cache, describe
-
     if args.clear:
         removed = clear_cache()
         print(f"removed {removed['removed_mechanisms']} mechanisms and {removed['removed_bytes'] / 1024 / 1024:.2f} "
@@ -375,26 +290,22 @@ def cmd_cache(args) -> int:
 
 
 def _common(parser, method_required=False):
-    from .presets import preset_names
-
     parser.add_argument("--preset", default="triple-a", choices=preset_names())
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain (1..12)")
-    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae", "reduced", "reduced_fixed"))
+    parser.add_argument("--method", default="lagrange", choices=METHOD_NAMES)
     parser.add_argument("--set", action="append", metavar="NAME=VALUE",
                         help="override a parameter or start value: L1..Ln d1..dn m1..mn I1..In g theta1.. omega1..")
     parser.add_argument("--pin", default=None, metavar="X,Y", help="pin the tip of a closed chain at this point")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .model import INTEGRATOR_NAMES
-
-    parser = _Parser(prog="python -m physics", description="Linkage Lab physics: derive, simulate, compare.")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    parser = Parser(prog="python -m physics", description="Linkage Lab physics: derive, simulate, compare.")
+    sub = parser.add_subparsers(dest="command", parser_class=Parser)
 
     sim = sub.add_parser("simulate", help="integrate a preset and print or write the trajectory")
     _common(sim)
     sim.add_argument("--integrator", default="DOP853", choices=INTEGRATOR_NAMES)
-    sim.add_argument("--backend", default="compiled", choices=("compiled", "scipy"))
+    sim.add_argument("--backend", default="compiled", choices=BACKENDS)
     sim.add_argument("--rtol", type=float, default=1e-10)
     sim.add_argument("--atol", type=float, default=1e-10)
     sim.add_argument("--step", type=float, default=None, help="fixed step for --integrator midpoint or variational")
@@ -442,9 +353,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Subcommands implemented apart, loaded by name only when asked for: a study may import sympy (the seed-style
+# baseline) or dask, which ``simulate`` must not load (tests/physics/test_lean_start.py).
 _EXTERNAL = {
-    "bench": ("physics.bench", "main"),
-    "chaos-map": ("physics.chaos", "main"),
+    "bench": ("physics.studies.bench", "main"),
+    "chaos-map": ("physics.studies.chaos_map", "main"),
     "fbd": ("physics.report_commands", "fbd_main"),
     "equilibrium": ("physics.report_commands", "equilibrium_main"),
     "seed-report": ("physics.report_commands", "seed_report_main"),
@@ -472,7 +385,8 @@ def start_numba_without_blas() -> None:
     hook = _NoScipyLinalg()
     sys.meta_path.insert(0, hook)
     try:
-        import numba.np.arraymath  # noqa: F401  (runs numba's BLAS probe now, with the hook in place)
+        # Must run here, with the hook in place: this import is the point of the function.
+        import numba.np.arraymath  # noqa: F401, PLC0415  (runs numba's BLAS probe now)
     finally:
         sys.meta_path.remove(hook)
 
@@ -482,8 +396,6 @@ def main(argv=None) -> int:
     start_numba_without_blas()
     try:
         if argv and argv[0] in _EXTERNAL:
-            import importlib
-
             module_name, func = _EXTERNAL[argv[0]]
             return int(getattr(importlib.import_module(module_name), func)(argv[1:]) or 0)
         parser = build_parser()

@@ -6,8 +6,8 @@ import numpy as np
 
 from .codegen import load_compiled
 from .errors import LinkageError
+from .kernels.constants import SINGULAR_PIVOT_RATIO
 from .model import Chain, check_state
-from .simulate.run import SINGULAR_PIVOT_RATIO
 
 
 def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0) -> dict:

@@ -27,6 +27,7 @@ from .codegen import load_compiled
 from .errors import LinkageError
 from .kinematics import com_accelerations, joint_positions
 from .model import Chain, Settings, validated
+from .registry import METHODS
 from .simulate import simulate
 
 # The state at the requested time comes from a run tight enough that its error is far below the values drawn.
@@ -98,6 +99,10 @@ class FreeBody:
         }
 
 
+# The free-body diagrams need every joint reaction: the formulation whose unknowns include them (the DAE).
+REACTION_FORMULATION = next(name for name, spec in METHODS.items() if spec.has_reactions)
+
+
 def _bar_label(k: int, n: int) -> str:
     return "O" if k == 0 else ("H" if k == n else f"J{k}")
 
@@ -107,7 +112,7 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     n = chain.n
     theta = np.asarray(theta, dtype=float).reshape(n)
     omega = np.asarray(omega, dtype=float).reshape(n)
-    compiled = load_compiled("dae", n, chain.pinned)
+    compiled = load_compiled(REACTION_FORMULATION, n, chain.pinned)
     x, _ = compiled.solve_full(theta, omega, chain.params())
     alpha = x[compiled.theta_ddot_index]
     reactions = x[compiled.reaction_index]  # (n, 2)
@@ -149,7 +154,7 @@ def free_body_at(chain: Chain, theta0, omega0, time: float, bar: int) -> FreeBod
     check_request(chain, time, bar)
     theta, omega = np.asarray(theta0, dtype=float), np.asarray(omega0, dtype=float)
     if time > 0.0:
-        settings = validated(Settings, method="dae", integrator="DOP853", rtol=FBD_TOLERANCE, atol=FBD_TOLERANCE,
+        settings = validated(Settings, method=REACTION_FORMULATION, integrator="DOP853", rtol=FBD_TOLERANCE, atol=FBD_TOLERANCE,
                              t_end=time, samples=2)
         run = simulate(chain, theta, omega, settings)
         if not run.success:

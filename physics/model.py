@@ -14,14 +14,47 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .errors import LinkageError
+from .kinematics import mass_matrix
+from .registry import (
+    BACKENDS,
+    COMPILED_INTEGRATORS,
+    DEFAULT_BACKEND,
+    FIXED_STEP_INTEGRATORS,
+    FORMULATION_NAMES,
+    INTEGRATOR_NAMES,
+    INTEGRATORS,
+    METHOD_NAMES,
+    backend_for,
+    incompatibility,
+)
+
+__all__ = [
+    "COMPILED_INTEGRATORS",
+    "FIXED_STEP_INTEGRATORS",
+    "FORMULATION_NAMES",
+    "INTEGRATOR_NAMES",
+    "METHOD_NAMES",
+    "STABILIZATIONS",
+    "Bar",
+    "Chain",
+    "Settings",
+    "TracePoint",
+    "apply_overrides",
+    "check_state",
+    "make_chain",
+    "parameter_names",
+    "validated",
+]
 
 MAX_LINKS = 12
-FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
-METHOD_NAMES = FORMULATION_NAMES + ("reduced", "reduced_fixed")
-INTEGRATOR_NAMES = ("RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational")
-COMPILED_INTEGRATORS = ("RK45", "DOP853", "midpoint", "variational")
-FIXED_STEP_INTEGRATORS = ("midpoint", "variational")
 STABILIZATIONS = ("none", "baumgarte", "projection")
+
+# The allowed values of Settings' name fields, built from the registry (physics.registry) so that a new
+# integrator or formulation is declared once. mypy cannot see through a Literal built at run time.
+MethodName = Literal[METHOD_NAMES]  # type: ignore[valid-type]
+IntegratorName = Literal[INTEGRATOR_NAMES]  # type: ignore[valid-type]
+BackendName = Literal[BACKENDS]  # type: ignore[valid-type]
+StabilizationName = Literal[STABILIZATIONS]  # type: ignore[valid-type]
 
 # Baumgarte gains: critically damped constraint error (alpha = beta), time constant 1/alpha = 0.1 s, two
 # orders of magnitude faster than the seed four-bar's swing (about 9.4 s), so drift is pulled back long before
@@ -140,14 +173,14 @@ class Settings(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    method: Literal["newton_euler", "lagrange", "dae", "reduced", "reduced_fixed"] = "lagrange"
-    integrator: Literal["RK45", "DOP853", "Radau", "LSODA", "midpoint", "variational"] = "DOP853"
-    backend: Literal["compiled", "scipy"] = "compiled"
+    method: MethodName = "lagrange"
+    integrator: IntegratorName = "DOP853"
+    backend: BackendName = DEFAULT_BACKEND
     rtol: float = Field(1e-10, gt=0.0, le=0.1)
     atol: float = Field(1e-10, gt=0.0, le=0.1)
     t_end: float = Field(20.0, gt=0.0, le=1e6)
     samples: int = Field(201, ge=2, le=10_000_000)
-    stabilization: Literal["none", "baumgarte", "projection"] = "projection"
+    stabilization: StabilizationName = "projection"
     baumgarte_alpha: float = Field(BAUMGARTE_ALPHA, ge=0.0, le=1e4)
     baumgarte_beta: float = Field(BAUMGARTE_BETA, ge=0.0, le=1e4)
     damping: float = Field(0.0, ge=0.0, le=1e3, description="viscous damping torque per unit relative joint speed")
@@ -163,15 +196,14 @@ class Settings(BaseModel):
 
     @model_validator(mode="after")
     def _check_backend(self) -> "Settings":
-        if self.backend == "compiled" and self.integrator not in COMPILED_INTEGRATORS:
-            # Radau and LSODA exist only in scipy; asking for them means asking for scipy.
-            object.__setattr__(self, "backend", "scipy")
-        if self.integrator in FIXED_STEP_INTEGRATORS and self.backend == "scipy":
-            raise ValueError(f"integrator = {self.integrator}: available with backend = compiled only")
-        if self.integrator == "variational" and self.method != "lagrange":
-            # It discretises the Lagrangian T - V itself; only the Lagrange derivation has one.
-            raise ValueError(f"integrator = variational: needs method = lagrange (got {self.method})")
-        if self.integrator in FIXED_STEP_INTEGRATORS:
+        # Radau and LSODA exist only in scipy; asking for them (on the default back end) means asking for scipy.
+        object.__setattr__(self, "backend", backend_for(self.integrator, self.backend))
+        # A fixed-step integrator on scipy, or the variational integrator (it discretises the Lagrangian T - V
+        # itself) on a formulation without one: refused with the fix.
+        problem = incompatibility(self.method, self.integrator, self.backend)
+        if problem:
+            raise ValueError(problem)
+        if INTEGRATORS[self.integrator].fixed_step:
             # A fixed-step run's cost is known before it starts: refuse one out of proportion up front.
             steps = math.ceil(self.t_end / self.step * (1.0 - 1e-12))
             if steps > self.max_steps:
@@ -270,8 +302,6 @@ def check_mass_matrix(chain: Chain) -> None:
                 f"bar {k + 1} has no inertia (m{k + 1}*d{k + 1}^2 + I{k + 1} + L{k + 1}^2 * mass beyond = 0): "
                 f"the mass matrix is singular; give bar {k + 1} a positive I{k + 1}, or m{k + 1} > 0 with d{k + 1} > 0"
             )
-    from .kinematics import mass_matrix  # numeric, cheap
-
     theta = np.linspace(0.3, 2.9, n) + 0.17 * np.arange(n) ** 2  # a generic configuration
     M = mass_matrix(chain.params(), theta)
     eig = np.linalg.eigvalsh(M)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .assembly import grashof
 from .errors import LinkageError
 from .model import MAX_LINKS, Chain, TracePoint, make_chain
 
@@ -107,8 +108,6 @@ def _seed_prefix(name: str, links: int) -> Preset:
 
 
 def _four_bar_extra(chain: Chain) -> dict:
-    from .assembly import grashof  # numeric, light
-
     info = grashof(chain.array("L"), np.array(chain.pin))
     return {"grashof": info.as_dict()}
 

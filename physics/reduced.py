@@ -37,6 +37,7 @@ from .assembly import (
     wrap_near,
 )
 from .errors import LinkageError
+from .status import Status
 
 # Conditioning of a choice of independent angle i: the reciprocal 2-norm condition number of the dependent
 # Jacobian with its columns scaled to unit length (the bar lengths removed, so a long bar is not penalised),
@@ -124,7 +125,8 @@ def potential_energy(L, d, m, g, theta) -> np.ndarray:
 
 def dependent_pair(independent: int) -> tuple[int, int]:
     """The two dependent angle indices (0-based, increasing) when ``independent`` is the coordinate."""
-    return tuple(k for k in range(3) if k != independent)
+    first, second = (k for k in range(3) if k != independent)
+    return first, second
 
 
 def _pair_rcond(theta_a: float, theta_b: float) -> float:
@@ -225,8 +227,9 @@ class ReducedTrajectory:
 
     ``independent_index`` (T,) is the 0-based angle integrated at each sample, ``switch_times`` when it
     changed. ``constraint_xy`` / ``constraint_velocity`` (T, 2) are the tip's position minus the pin and its
-    velocity. ``status`` 0: reached ``t_end``; -1: the fixed coordinate met a dead centre; -2: every angle lost
-    validity at once (the whole loop singular); -3: the integrator failed. ``message`` says which and when.
+    velocity. ``status`` (physics.status.Status): OK, reached ``t_end``; SINGULAR, the fixed coordinate met a
+    dead centre or every angle lost validity at once (the whole loop singular); INTEGRATOR_FAILED, the integrator
+    failed or switched too often. ``message`` says which and when.
     """
 
     t: np.ndarray
@@ -350,8 +353,8 @@ def simulate_reduced(
     omega = partition.null_vector(theta) * _independent_speed(L, theta, omega0, independent_index)
 
     out = _Samples()
-    switch_times = []
-    status, message, nfev, t0 = 0, "reached t_end", 0, 0.0
+    switch_times: list[float] = []
+    status, message, nfev, t0 = Status.OK, "reached t_end", 0, 0.0
     first = True
     while True:
         i = partition.independent
@@ -368,7 +371,7 @@ def simulate_reduced(
                 events=events, dense_output=True,
             )
         except (_OutOfRange, ZeroDivisionError) as error:  # a dead centre slipped between two steps
-            status = -1 if not switching else -3
+            status = Status.SINGULAR if not switching else Status.INTEGRATOR_FAILED
             message = (
                 f"the reduced model lost theta{i + 1} as a coordinate after t = {t0 + t_offset:.6g} s "
                 f"({type(error).__name__}); a dead centre was passed between two steps; tighten rtol"
@@ -378,7 +381,7 @@ def simulate_reduced(
         _collect(out, partition, sol, theta, t_eval, include_start=first)
         first = False
         if sol.status == -1:
-            status, message = -3, f"integrator failed at t = {sol.t[-1] + t_offset:.6g} s: {sol.message}"
+            status, message = Status.INTEGRATOR_FAILED, f"integrator failed at t = {sol.t[-1] + t_offset:.6g} s: {sol.message}"
             break
         if sol.status == 0:
             break
@@ -389,7 +392,7 @@ def simulate_reduced(
             break
         new_index = best_independent(theta)
         if len(switch_times) >= MAX_SWITCHES:
-            status, message = -3, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event + t_offset:.6g} s"
+            status, message = Status.INTEGRATOR_FAILED, f"coordinate switching exceeded {MAX_SWITCHES} switches by t = {t_event + t_offset:.6g} s"
             break
         switch_times.append(t_event)
         pair = list(dependent_pair(new_index))
@@ -410,8 +413,9 @@ def _dead_centre_event(partition: _Partition):
     def event(t, y):
         return partition.conditioning(partition.configuration(y[0])) - DEAD_CENTRE_RCOND
 
-    event.terminal = True
-    event.direction = -1
+    # scipy's solve_ivp reads these attributes off the event function (its documented protocol).
+    event.terminal = True  # type: ignore[attr-defined]
+    event.direction = -1  # type: ignore[attr-defined]
     return event
 
 
@@ -421,20 +425,21 @@ def _switch_event(partition: _Partition):
         threshold = min(SWITCH_RCOND, SWITCH_FRACTION * float(kappa.max()))
         return kappa[partition.independent] - threshold
 
-    event.terminal = True
-    event.direction = -1
+    # scipy's solve_ivp reads these attributes off the event function (its documented protocol).
+    event.terminal = True  # type: ignore[attr-defined]
+    event.direction = -1  # type: ignore[attr-defined]
     return event
 
 
-def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[int, str]:
+def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[Status, str]:
     i, (a, b) = partition.independent, partition.pair
     if switching:
         kappa = partition_conditioning(theta)
-        return -2, (
+        return Status.SINGULAR, (  # the whole loop is singular
             f"the loop is singular at t = {t:.6g} s: every angle's dependent pair is near collinear "
             f"(best conditioning {kappa.max():.2g}); all bars lie on one line, so no coordinate is valid"
         )
-    return -1, (
+    return Status.SINGULAR, (
         f"theta{i + 1} stopped being a valid coordinate at t = {t:.6g} s: bars {a + 1} and {b + 1} became "
         f"collinear (a dead centre: the conditioning of theta{i + 1} fell to {partition.conditioning(theta):.2g}, "
         f"limit {DEAD_CENTRE_RCOND:g}); the fixed-coordinate reduced model cannot continue past it, "
@@ -445,6 +450,8 @@ def _dead_centre_failure(partition: _Partition, theta, t, switching) -> tuple[in
 class _Samples:
     def __init__(self):
         self.t, self.theta, self.omega, self.index = [], [], [], []
+        self.end_theta = np.zeros(3)  # the state where integration stopped (set by the integration loop)
+        self.end_omega = np.zeros(3)
 
     def add(self, partition, t, theta, omega):
         self.t.append(t)

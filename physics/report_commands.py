@@ -15,15 +15,16 @@ import math
 import sys
 from pathlib import Path
 
-from .cli import _Parser, check_output_path, write_output
+from .arguments import Parser
 from .errors import LinkageError
 from .fbd import MAX_FBD_TIME, fbd_svg, free_body_at
+from .outputs import check_output_path, write_output
 from .presets import get_preset, preset_names
 from .rest_positions import rest_positions
 from .seed_report import print_summary, write_study
 
 
-def _preset_options(parser: _Parser, default: str) -> None:
+def _preset_options(parser: Parser, default: str) -> None:
     parser.add_argument("--preset", default=default, choices=preset_names())
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain (1..12)")
 
@@ -31,7 +32,7 @@ def _preset_options(parser: _Parser, default: str) -> None:
 def fbd_main(argv: list[str]) -> int:
     """Free-body diagram of one bar at one instant of a preset's run: SVG (``--out``), JSON (``--json``),
     or a short text listing of the forces."""
-    parser = _Parser(prog="python -m physics fbd",
+    parser = Parser(prog="python -m physics fbd",
                      description="forces on one bar at one instant (gravity, joint reactions, pin reaction)")
     _preset_options(parser, "triple-a")
     parser.add_argument("--time", type=float, default=0.0, help=f"instant of the run, 0..{MAX_FBD_TIME:g} s")
@@ -60,7 +61,7 @@ def fbd_main(argv: list[str]) -> int:
 
 def equilibrium_main(argv: list[str]) -> int:
     """The rest positions of a preset's chain: angles in degrees, stable or not, potential energy."""
-    parser = _Parser(prog="python -m physics equilibrium",
+    parser = Parser(prog="python -m physics equilibrium",
                      description="rest positions of a chain: angles, stability, potential energy")
     _preset_options(parser, "four-bar")
     parser.add_argument("--json", action="store_true", help="print as JSON")
@@ -84,7 +85,7 @@ def equilibrium_main(argv: list[str]) -> int:
 
 def seed_report_main(argv: list[str]) -> int:
     """Replay the seed report's figures at its settings beside converged runs; write SVGs and JSON; print."""
-    parser = _Parser(prog="python -m physics seed-report",
+    parser = Parser(prog="python -m physics seed-report",
                      description="the seed report's figures at its own settings, beside converged runs")
     parser.add_argument("--out", default="docs/seed-report", help="folder for the SVG figures and seed-report.json")
     parser.add_argument("--quick", action="store_true", help="short horizons (a check that it runs, not the figures)")

@@ -25,12 +25,12 @@ from typing import TextIO
 
 import numpy as np
 
-from .charts import DASHES, PALETTE, Series, line_chart
 from .fbd import fbd_svg, free_body_at
 from .files import write_atomically
 from .model import FORMULATION_NAMES, Settings, validated
 from .presets import get_preset
 from .simulate import Trajectory, simulate
+from .studies.charts import DASHES, PALETTE, Series, line_chart
 
 # The report's settings: ode45 (Dormand-Prince 5(4), scipy's RK45) with odeset('RelTol', 1e-6, 'AbsTol', 1e-6).
 REPORT_INTEGRATOR = "RK45"

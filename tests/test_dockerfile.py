@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from app.server import MAX_SESSIONS_LIMIT
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCKERFILE = ROOT / "Dockerfile"
 README = ROOT / "README.md"
@@ -186,8 +188,6 @@ def test_readme_installs_use_the_same_constraints_file():
 
 
 def test_image_starts_the_readme_app_on_all_interfaces_with_a_session_cap(instructions):
-    from app.server import MAX_SESSIONS_LIMIT
-
     cmd = only(instructions, "CMD")
     assert len(cmd) == 1, f"expected one CMD, found {cmd}"
     words = command_words(cmd[0])

@@ -29,13 +29,13 @@ from ..errors import LinkageError
 from ..files import write_atomically
 from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
 from ..kernels.abi import make_layout
+from ..registry import FORMULATION_NAMES
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "model.py")
-FORMULATION_NAMES = ("newton_euler", "lagrange", "dae")
 MAX_LINKS = 12
 _CHECKSUM_PREFIX = "# sha256: "
 
@@ -257,8 +257,9 @@ def _write_atomically(path: Path, text: str) -> None:
 
 
 def _build_source(formulation: str, n: int, pinned: bool, digest: str) -> str:
-    from ..derive import FORMULATIONS  # imports sympy: only on a miss
-    from .emit import emit_module
+    # sympy boundary: the derivations and the emitter import sympy, so they are loaded only on a cache miss.
+    from ..derive import FORMULATIONS  # noqa: PLC0415
+    from .emit import emit_module  # noqa: PLC0415
 
     system = FORMULATIONS[formulation]().derive(n, pinned)
     header = (
@@ -284,6 +285,7 @@ def _remove_stale(folder: Path, key: str, current: Path) -> None:
 
 def _import(path: Path, name: str):
     spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None, path  # a .py path always has a source loader
     module = importlib.util.module_from_spec(spec)
     # numba's on-disk cache finds the functions' globals again by module name: register it.
     sys.modules[name] = module

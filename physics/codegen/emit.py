@@ -25,7 +25,7 @@ def emit_module(system: LinearSystem, header: str) -> str:
     n = system.n
     k = len(system.unknowns)
 
-    entries = []  # (target, expression)
+    entries: list[tuple[tuple[int | str, int], object]] = []  # (target, expression)
     for i in range(k):
         for j in range(k):
             if system.A[i, j] != 0:
@@ -33,8 +33,8 @@ def emit_module(system: LinearSystem, header: str) -> str:
     for i in range(k):
         entries.append((("v", i), system.b[i]))
     functions = [llvm_ir.function_ir("assemble", s, entries, k, "A", "b")]
-    if system.mass_matrix is not None:
-        pieces = [((i, j), system.mass_matrix[i, j]) for i in range(n) for j in range(n)
+    if system.mass_matrix is not None and system.lagrangian_force is not None:
+        pieces: list[tuple[tuple[int | str, int], object]] = [((i, j), system.mass_matrix[i, j]) for i in range(n) for j in range(n)
                   if system.mass_matrix[i, j] != 0]
         pieces += [(("v", i), system.lagrangian_force[i]) for i in range(n)]
         functions.append(llvm_ir.function_ir("mass_and_force", s, pieces, n, "M", "force"))

@@ -35,7 +35,7 @@ def cache_info() -> dict:
     kernels = [p for p in numba.rglob("*") if p.is_file() and "generated" not in p.parts]
     other = [p for p in folder.rglob("*") if p.is_file() and numba not in p.parents and not _ENTRY.match(p.name)]
     parts = {
-        "generated_source": _size(folder / e["file"] for e in entries),
+        "generated_source": _size(folder / str(e["file"]) for e in entries),
         "generated_machine_code": _size(generated),
         "kernels_machine_code": _size(kernels),
         "other": _size(other),

@@ -71,6 +71,7 @@ class _Function:
             exponent >>= 1
             if exponent:
                 square = self.emit(f"fmul double {square}, {square}")
+        assert result is not None  # exponent >= 1: at least one factor was multiplied in
         return result
 
     def value(self, expr) -> str:
@@ -224,7 +225,7 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
             product = function.emit(f"fmul double {factor}, {rhs[pivot_row]}")
             rhs[r] = function.emit(f"fsub double {rhs[r]}, {product}")
         pivots.append((pivot_row, pivot_col, inverse, remaining))
-    solution = {}
+    solution: dict[int, str] = {}
     for pivot_row, pivot_col, inverse, remaining in reversed(pivots):
         total = rhs[pivot_row]
         for c, value in remaining:

@@ -16,6 +16,7 @@ import sys
 from ..errors import LinkageError
 from ..model import Settings
 from ..presets import get_preset
+from ..simulate import simulate
 from .cache import FORMULATION_NAMES, load_compiled
 
 USAGE = "usage: python -m physics.codegen.prebuild METHOD N open|pinned INTEGRATOR"
@@ -23,8 +24,6 @@ USAGE = "usage: python -m physics.codegen.prebuild METHOD N open|pinned INTEGRAT
 
 def prebuild(method: str, n: int, pinned: bool, integrator: str) -> None:
     """Derive (if missing) and compile what ``method`` needs for this chain, and its integrator's kernel."""
-    from ..simulate import simulate
-
     systems = [(method, n, pinned)] if method in FORMULATION_NAMES else [("lagrange", n, False), ("lagrange", n, True)]
     for formulation, links, closed in systems:
         load_compiled(formulation, links, closed)

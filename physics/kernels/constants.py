@@ -1,17 +1,21 @@
-"""Status codes and the numerical constants every kernel shares (one table, one meaning each)."""
+"""Status codes and the numerical constants every kernel shares (one table, one meaning each).
+
+The status codes are named for Python code by ``physics.status.Status`` (with their messages)."""
 
 STATUS_OK = 0
 STATUS_SINGULAR = -1  # accel reported a pivot ratio above SINGULAR_PIVOT_RATIO (or inf)
 STATUS_NOT_FINITE = -2  # a state, an acceleration or an error estimate turned NaN or infinite
 STATUS_STEP_TOO_SMALL = -3  # the adaptive step fell below 10 ulp of t, as in scipy
 STATUS_MAX_STEPS = -4  # more than max_steps accepted steps were needed
-STATUS_NO_CONVERGENCE = -5  # implicit midpoint: the Newton iteration did not converge (reduce h)
+STATUS_INTEGRATOR_FAILED = -5  # the integrator gave up: for the fixed-step ones, Newton did not converge (reduce h)
 
-# Beyond this the linear solve in accel has lost about 12 of its 16 digits: the answer is noise.
-SINGULAR_CONDITION = 1e12
+# A 2-norm condition number beyond which a solve has lost about 12 of its 16 digits: the answer is noise
+# (the projection leaves a state alone where J J^T is this badly conditioned).
+SINGULAR_CONDITION_NUMBER = 1e12
 # The pivot ratio returned by accel grows like 1/delta at a distance delta from a loop singularity, while
 # the 2-norm condition number grows like 1/delta^2: a ratio of 1e6 means a condition near 1e12, about 12 of
-# 16 digits lost. Past it the accelerations are not worth integrating. (Same value as physics.simulate.run.)
+# 16 digits lost. Past it the accelerations are not worth integrating. Every path (kernels, scipy back end,
+# ensembles, single evaluations) uses this one name.
 SINGULAR_PIVOT_RATIO = 1e6
 
 # scipy.integrate._ivp.rk: step-size controller constants.

@@ -137,7 +137,7 @@ def _well_formed(path: Path) -> bool:
             # a version string pickled alone, then the pickled (stamp, overloads)
             first_end = None
             for opcode, _arg, position in pickletools.genops(data):
-                if opcode.name == "STOP":
+                if opcode.name == "STOP" and position is not None:
                     first_end = position + 1
                     break
             if first_end is None:

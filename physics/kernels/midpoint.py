@@ -8,7 +8,7 @@ from .constants import (
     FD_RELATIVE_STEP,
     NEWTON_MAX_ITERATIONS,
     NEWTON_TOLERANCE,
-    STATUS_NO_CONVERGENCE,
+    STATUS_INTEGRATOR_FAILED,
     STATUS_NOT_FINITE,
     STATUS_OK,
 )
@@ -63,7 +63,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
     The interval is cut into ``N = ceil((t_end - t0) / h)`` equal steps (so the step is at most ``h``). Each step
     is solved by simplified Newton with a forward-difference Jacobian of the right-hand side refreshed at the start
     of the step, until every correction is below NEWTON_TOLERANCE relative. Samples come from the cubic Hermite
-    interpolant between steps. Arguments and return value as integrate_rk45 (STATUS_NO_CONVERGENCE if Newton
+    interpolant between steps. Arguments and return value as integrate_rk45 (STATUS_INTEGRATOR_FAILED if Newton
     fails; n_rhs includes the Jacobian's evaluations).
     """
     check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
@@ -127,7 +127,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
         if status != STATUS_OK:
             break
         if not lu_factor(newton_matrix, pivots):
-            status = STATUS_NO_CONVERGENCE
+            status = STATUS_INTEGRATOR_FAILED
             break
         # Explicit Euler predictor, then y1 <- y1 - M^-1 (y1 - y0 - step f((y0 + y1)/2)).
         for i in range(n_state):
@@ -158,7 +158,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
         if status != STATUS_OK:
             break
         if not converged:
-            status = STATUS_NO_CONVERGENCE
+            status = STATUS_INTEGRATOR_FAILED
             break
         if projecting and not project_state(y_next, params, theta, omega):
             status = STATUS_NOT_FINITE

@@ -5,7 +5,7 @@ import math
 from numba import njit
 
 from .common import all_finite
-from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION
+from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
 
 
 @njit(cache=True, error_model="numpy")
@@ -29,7 +29,7 @@ def project_position(theta, params):
 
     Each iteration applies ``dtheta = -J^T (J J^T)^-1 Phi``, ``Phi = tip - pin``; it stops when ``|Phi|`` is below
     PROJECTION_TOLERANCE or after PROJECTION_MAX_ITERATIONS. Near a singular configuration (all bars parallel,
-    ``J J^T`` with condition above SINGULAR_CONDITION) the correction would be noise, so ``theta`` is left as it is.
+    ``J J^T`` with condition above SINGULAR_CONDITION_NUMBER) the correction would be noise, so ``theta`` is left as it is.
     Returns the final ``|Phi|``.
     """
     n = theta.shape[0]
@@ -47,7 +47,7 @@ def project_position(theta, params):
             break
         a, b, c = _constraint_gram(theta, params)
         det = a * c - b * b
-        if not det > (a + c) * (a + c) / SINGULAR_CONDITION:
+        if not det > (a + c) * (a + c) / SINGULAR_CONDITION_NUMBER:
             break
         lambda_x = (c * phi_x - b * phi_y) / det
         lambda_y = (a * phi_y - b * phi_x) / det
@@ -71,7 +71,7 @@ def project_velocity(theta, omega, params):
         v_y += params[i] * math.sin(theta[i]) * omega[i]
     a, b, c = _constraint_gram(theta, params)
     det = a * c - b * b
-    if det > (a + c) * (a + c) / SINGULAR_CONDITION:
+    if det > (a + c) * (a + c) / SINGULAR_CONDITION_NUMBER:
         lambda_x = (c * v_x - b * v_y) / det
         lambda_y = (a * v_y - b * v_x) / det
         for i in range(n):

@@ -11,7 +11,7 @@ from .constants import (
     FD_RELATIVE_STEP,
     NEWTON_MAX_ITERATIONS,
     NEWTON_TOLERANCE,
-    STATUS_NO_CONVERGENCE,
+    STATUS_INTEGRATOR_FAILED,
     STATUS_NOT_FINITE,
     STATUS_OK,
 )
@@ -212,7 +212,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
             for i in range(size):
                 newton_matrix[i, j] = (residual_probe[i] - residual[i]) / delta
         if not lu_factor(newton_matrix, pivots):
-            status = STATUS_NO_CONVERGENCE
+            status = STATUS_INTEGRATOR_FAILED
             break
         # Stop when the correction is below NEWTON_TOLERANCE of the unknowns' size (norm-wise) plus the rounding
         # of the angles themselves (q1 = q0 + increment is stored to eps |q0|; the loop rows' residual is only
@@ -249,7 +249,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         if status != STATUS_OK:
             break
         if not converged:
-            status = STATUS_NO_CONVERGENCE
+            status = STATUS_INTEGRATOR_FAILED
             break
         # p1 = D2 L_d(q0, q1) + (h/2) Q = M v + (h/2) f at the converged midpoint (the last residual's M, force).
         for i in range(n):

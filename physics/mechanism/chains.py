@@ -31,8 +31,8 @@ def chain_mechanism(chain: Chain, theta_sketch) -> Mechanism:
     pins = [Revolute(name="O", a="bar1.P", b="ground.O")]
     pins += [Revolute(name=f"J{k}", a=f"bar{k + 1}.P", b=f"bar{k}.D") for k in range(1, chain.n)]
     ground = {"O": (0.0, 0.0)}
-    if chain.pinned:
-        ground["H"] = tuple(float(v) for v in chain.pin)
+    if chain.pin is not None:
+        ground["H"] = (float(chain.pin[0]), float(chain.pin[1]))
         pins.append(Revolute(name="H", a=f"bar{chain.n}.D", b="ground.H"))
     return Mechanism(name=f"chain of {chain.n}", g=chain.g, ground=ground, bodies=bodies, joints=pins)
 

@@ -16,8 +16,9 @@ import json
 
 import numpy as np
 
-from ..cli import _Parser, check_output_path, write_output
+from ..arguments import Parser
 from ..errors import LinkageError
+from ..outputs import check_output_path, write_output
 from .assembly import assemble
 from .files import load_mechanism
 from .model import Mechanism
@@ -64,7 +65,7 @@ def run_csv(run: MechanismRun) -> bytes:
 
 
 def main(argv: list[str]) -> int:
-    parser = _Parser(prog="python -m physics mechanism",
+    parser = Parser(prog="python -m physics mechanism",
                      description="check, assemble and simulate a planar mechanism (docs/mechanisms.md)")
     parser.add_argument("--preset", choices=sorted(MECHANISM_PRESETS), default=None)
     parser.add_argument("--file", default=None, help="a mechanism file, .toml or .json")

@@ -168,10 +168,10 @@ class Mechanism(BaseModel):
                     raise ValueError(f"joint {joint.name!r}: slides body {joint.body!r} on itself")
         by_name = {joint.name: joint for joint in self.joints}
         for driver in self.drivers:
-            joint = by_name.get(driver.joint)
-            if joint is None:
+            driven = by_name.get(driver.joint)
+            if driven is None:
                 raise ValueError(f"driver: no joint named {driver.joint!r} (joints: {', '.join(by_name)})")
-            if not isinstance(joint, Revolute):
+            if not isinstance(driven, Revolute):
                 raise ValueError(f"driver on {driver.joint!r}: motors drive revolute joints only")
         if len({driver.joint for driver in self.drivers}) != len(self.drivers):
             raise ValueError("drivers: a joint has two drivers")

@@ -12,7 +12,10 @@ import numpy as np
 
 from ..codegen import load_compiled
 from ..errors import LinkageError
-from .trajectory import STATUS_INTEGRATOR_FAILED, STATUS_OK, STATUS_SINGULAR
+from ..reduced import simulate_reduced
+from ..registry import METHODS
+from ..status import Status
+from .build import build_trajectory
 
 
 def _mass_and_forcing_from(compiled):
@@ -23,9 +26,6 @@ def _mass_and_forcing_from(compiled):
 
 
 def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float):
-    from ..reduced import simulate_reduced
-    from .run import build_trajectory
-
     if not chain.pinned or chain.n != 3:
         raise LinkageError(
             f"method = {settings.method}: the reduced model is for one-degree-of-freedom loops (a four-bar: 3 bars "
@@ -36,17 +36,15 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
     result = simulate_reduced(
         chain.array("L"), chain.array("d"), chain.array("m"), chain.array("I"), chain.g, np.asarray(chain.pin),
         theta0, settings.t_end, t_eval=t_eval, rtol=settings.rtol, atol=settings.atol,
-        switching=settings.method == "reduced", mass_and_forcing=_mass_and_forcing_from(open_chain),
+        switching=METHODS[settings.method].switches_branch, mass_and_forcing=_mass_and_forcing_from(open_chain),
         omega0=omega0, damping=settings.damping, t_offset=t_start,
     )
     y = np.concatenate([result.theta, result.omega], axis=1)
     pinned = load_compiled("lagrange", 3, True)
     params = chain.params(damping=settings.damping)
     trajectory = build_trajectory(chain, settings, pinned, params, result.t + t_start, y)
-    trajectory.status = STATUS_OK if result.status == 0 else (
-        STATUS_SINGULAR if result.status in (-1, -2) else STATUS_INTEGRATOR_FAILED
-    )
-    trajectory.message = result.message if result.status != 0 else "ok"
+    trajectory.status = Status(result.status)
+    trajectory.message = result.message if result.status != Status.OK else "ok"
     trajectory.n_rhs = int(result.nfev)
     trajectory.stats = {
         "n_switches": int(result.n_switches),

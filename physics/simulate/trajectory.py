@@ -6,12 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-STATUS_OK = 0
-STATUS_SINGULAR = -1
-STATUS_NONFINITE = -2
-STATUS_STEP_TOO_SMALL = -3
-STATUS_MAX_STEPS = -4
-STATUS_INTEGRATOR_FAILED = -5
+from ..status import Status
 
 
 @dataclass
@@ -36,7 +31,7 @@ class Trajectory:
     constraint_xy: np.ndarray
     constraint_velocity: np.ndarray
     condition: np.ndarray
-    status: int = STATUS_OK
+    status: int = Status.OK  # a Status value (0 ok, < 0 failed midway)
     message: str = ""
     n_steps: int = 0
     n_rhs: int = 0
@@ -48,7 +43,7 @@ class Trajectory:
 
     @property
     def success(self) -> bool:
-        return self.status == STATUS_OK
+        return self.status == Status.OK
 
     @property
     def n(self) -> int:

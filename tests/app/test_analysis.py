@@ -8,7 +8,6 @@ import numpy as np
 from conftest import wait_until
 
 
-
 def test_work_precision_chart_appears_in_the_panel(connect):
     _, session = connect()
     session.pause()

@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import wait_until
-
 import physics
 from app import controls, viser_compat
+from conftest import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -179,6 +178,7 @@ def test_loopback_detection():
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.10")
 
 
+@pytest.mark.slow  # a fresh cache: the app compiles the kernels and derives while the test watches
 def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tmp_path):
     """Empty derivation cache: the page is never blank; it says it is deriving, then the motion starts."""
     import os

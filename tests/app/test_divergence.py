@@ -7,11 +7,11 @@ against a single tight run of physics.simulate.
 from __future__ import annotations
 
 import numpy as np
-from conftest import wait_until
 
 import physics
 from app.divergence import REFERENCE_LABEL, VISIBLE_GAP
 from app.frame_view import COMPARE_METHODS
+from conftest import wait_until
 from physics.model import validated
 
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import wait_until
 
+from conftest import wait_until
 from physics.codegen import load_compiled
 
 INDEPENDENT = {"lagrange": "dae", "newton_euler": "dae", "dae": "lagrange"}

@@ -45,6 +45,7 @@ def test_latex_document_has_no_overlong_lines():
     assert max(len(line) for line in tex.splitlines()) <= TEX_LINE_CHARACTERS + 20
 
 
+@pytest.mark.slow  # renders every formulation's equations (sympy)
 def test_panel_rows_are_broken_into_lines_of_maths():
     html = equations_html("lagrange", 3, False)
     rows = re.split(r"<p><b>\d+\. ", html)[1:]

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import wait_until
 
 from app import export
 from app.parameters import METHOD_LABELS
+from conftest import wait_until
 
 
 @pytest.mark.parametrize("preset, method", [

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import wait_until
 
+from conftest import wait_until
 from physics import LinkageError
 from physics.rest_positions import rest_positions
 

@@ -12,9 +12,8 @@ import time
 import numpy as np
 import pytest
 
-from conftest import wait_until
-
 import physics
+from conftest import wait_until
 
 
 def test_a_browser_gets_its_own_animating_session(lab, connect):
@@ -249,7 +248,6 @@ def test_equations_as_latex_document():
 
 def test_shared_session_is_watched_by_every_browser():
     from app.server import LabServer
-
     from conftest import BrowserStandIn
 
     server = LabServer(port=0, shared=True, warm=False)
@@ -267,7 +265,6 @@ def test_shared_session_is_watched_by_every_browser():
 
 def test_a_browser_past_the_cap_is_turned_away_with_a_message():
     from app.server import LabServer
-
     from conftest import BrowserStandIn
 
     server = LabServer(port=0, max_sessions=1, warm=False)

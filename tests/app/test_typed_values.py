@@ -12,9 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import wait_until
-
 from app.number_inputs import shown
+from conftest import wait_until
 
 
 def type_into(session, name: str, text: str) -> None:

@@ -14,9 +14,8 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from conftest import wait_until
-
 from app import logs, viser_compat
+from conftest import wait_until
 
 APP = Path(__file__).resolve().parents[2] / "app"
 PRIVATE = re.compile(r"\._(impl|messages|queue_scene_message|websock_connection|state)\b|viser\._[a-z]")

@@ -15,6 +15,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from physics.kernels.disk_cache import kernels_folder
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,8 +36,9 @@ print(json.dumps({"before": before, "built": built, "after": is_generated("newto
 """
 
 
+@pytest.mark.slow  # a worker process derives a mechanism with sympy
 def test_a_missing_mechanism_is_derived_by_a_worker_not_by_the_server(tmp_path):
-    from physics import load_compiled, simulate, Settings, get_preset
+    from physics import Settings, get_preset, load_compiled, simulate
 
     # the integrator kernels compile once per installation: bring them along so the test derives only
     preset = get_preset("chain", links=2)

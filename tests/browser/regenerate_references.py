@@ -28,7 +28,6 @@ from tests.browser import pictures  # noqa: E402
 from tests.browser.panel_pictures import PANEL_PICTURES, panel_png  # noqa: E402
 from tests.browser.references_spec import REFERENCE_TIME, REFERENCES, VIEWPORT, bars_drawn  # noqa: E402
 
-
 MIN_PANEL_COLOURS = 16  # a panel picture with text and a figure has hundreds of colours; a blank one a few
 
 

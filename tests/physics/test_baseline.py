@@ -1,4 +1,4 @@
-"""The seed-approach baseline (benchmarks/seed_baseline.py) is a faithful port: same physics as ours.
+"""The seed-approach baseline (physics/studies/seed_baseline.py) is a faithful port: same physics as ours.
 
 The speed benchmark compares it with the compiled path; these tests make sure the two compute the same
 thing, so the ratio measures speed and not a different problem. Not timings.
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import physics
-from benchmarks import seed_baseline
+from physics.studies import seed_baseline
 
 pytestmark = pytest.mark.slow  # the baseline's sympy simplify of the Lagrange system takes several seconds
 

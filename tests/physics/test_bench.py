@@ -1,4 +1,5 @@
-"""The work-precision benchmark command (physics.bench) and the chart writer (physics.charts).
+"""The work-precision benchmark command (physics.studies.bench, physics.studies.work_precision) and the chart writer
+(physics.studies.charts).
 
 Speed itself is never asserted here (it is measured by the command and recorded in BENCHMARKS.md); these tests
 check that ``python -m physics bench --quick`` runs and that what it writes is sane."""
@@ -15,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from physics import LinkageError, bench
-from physics.charts import Series, colormap, html_page, line_chart
+from physics import LinkageError, get_preset
+from physics.studies import work_precision
+from physics.studies.charts import Series, colormap, html_page, line_chart
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -35,6 +37,7 @@ def quick_run(tmp_path_factory):
     return out, result
 
 
+@pytest.mark.slow  # the quick_run fixture runs `bench --quick` (about a minute)
 def test_quick_bench_writes_json_svg_html(quick_run):
     out, result = quick_run
     document = json.loads((out / "work_precision.json").read_text())
@@ -58,6 +61,7 @@ def test_quick_bench_writes_json_svg_html(quick_run):
     assert "work-precision" in result.stderr  # the progress bar
 
 
+@pytest.mark.slow  # the quick_run fixture runs `bench --quick` (about a minute)
 def test_quick_bench_headline_compares_with_the_baseline(quick_run):
     out, result = quick_run
     document = json.loads((out / "work_precision.json").read_text())
@@ -76,12 +80,12 @@ def _curve(label, points):
 def test_winners_pick_the_fastest_point_reaching_each_accuracy():
     fast_loose = _curve("fast", [(1e-3, 1e-3, 0.001), (1e-6, 1e-6, 0.002)])
     slow_tight = _curve("slow", [(1e-3, 1e-5, 0.010), (1e-9, 1e-10, 0.020)])
-    rows = bench.winners([fast_loose, slow_tight], (1e-3, 1e-5, 1e-8, 1e-12), uncertainty=1e-13)
+    rows = work_precision.winners([fast_loose, slow_tight], (1e-3, 1e-5, 1e-8, 1e-12), uncertainty=1e-13)
     assert [r["winner"] for r in rows] == ["fast", "fast", "slow", None]  # 1e-12 < 10 x uncertainty: not judged
     assert rows[0]["runner_up"] == "slow" and rows[1]["seconds"] == 0.002 and rows[2]["seconds"] == 0.020
     failed = _curve("failed", [(1e-3, 1e-9, 0.0001)])
     failed["points"][0]["status"] = -1
-    assert bench.winners([failed], (1e-3,), 1e-13)[0]["winner"] is None
+    assert work_precision.winners([failed], (1e-3,), 1e-13)[0]["winner"] is None
 
 
 @pytest.mark.parametrize(
@@ -113,10 +117,8 @@ def test_html_page_and_colormap():
 
 
 def test_work_precision_for_any_chain_as_the_app_asks():
-    from physics import get_preset
-
     preset = get_preset("four-bar")  # closed: the error is measured on the coupler point, the tip being pinned
-    case, svg = bench.work_precision_chain(preset.chain, preset.theta0, preset.omega0, trace=preset.trace,
+    case, svg = work_precision.work_precision_chain(preset.chain, preset.theta0, preset.omega0, trace=preset.trace,
                                            horizon=2.0, integrators=("DOP853",), tolerances=(1e-4, 1e-8))
     assert case["probe"] == "coupler point" and case["horizon"] == 2.0
     (curve,) = [c for c in case["curves"] if c["integrator"] == "DOP853" and c["formulation"] == "lagrange"]
@@ -124,4 +126,4 @@ def test_work_precision_for_any_chain_as_the_app_asks():
     assert 0.0 < tight < 1e-2 * loose
     assert svg.startswith("<svg") and "coupler point" in svg
     with pytest.raises(LinkageError, match="horizon"):
-        bench.work_precision_chain(preset.chain, preset.theta0, preset.omega0, horizon=-1.0)
+        work_precision.work_precision_chain(preset.chain, preset.theta0, preset.omega0, horizon=-1.0)

@@ -9,6 +9,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+# Every test starts processes on a fresh cache folder, so each compiles the kernels again (20-50 s apiece).
+pytestmark = pytest.mark.slow
+
 PROBE = r"""
 import json, sys
 from physics.codegen import load_compiled

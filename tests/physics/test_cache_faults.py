@@ -19,6 +19,9 @@ from pathlib import Path
 
 import pytest
 
+# Every test damages or relocates a cache, so its processes compile the kernels again (10-30 s apiece).
+pytestmark = pytest.mark.slow
+
 COMMAND = [sys.executable, "-m", "physics", "accelerations", "--preset", "triple-a", "--method", "lagrange",
            "--state", "0.3,-0.2,0.5,0.1,0.0,-0.4"]
 DAMAGES = {

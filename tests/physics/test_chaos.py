@@ -1,4 +1,4 @@
-"""Chaos maps (physics.chaos): the flip-time physics, tiling through executors, Dask, the CLI."""
+"""Chaos maps (physics.studies.chaos_map): the flip-time physics, tiling through executors, Dask, the CLI."""
 
 from __future__ import annotations
 
@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from physics import Settings, get_preset, simulate
-from physics.chaos import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 from physics.kinematics import energies
+from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -76,6 +77,7 @@ def test_local_processes_give_the_same_map_as_one_process():
     assert np.count_nonzero(single > 0) > 0 and np.count_nonzero(single == FORBIDDEN) > 0
 
 
+@pytest.mark.slow  # starts a local Dask cluster
 def test_a_local_dask_cluster_gives_the_same_map_as_one_process():
     distributed = pytest.importorskip(
         "distributed", reason="dask[distributed] is not installed (pip install 'dask[distributed]'; CI installs it)")
@@ -94,8 +96,6 @@ def _cli(*args, timeout=120):
 
 
 def test_cli_writes_the_png_and_reports_throughput(tmp_path):
-    from PIL import Image
-
     out = tmp_path / "map.png"
     data = tmp_path / "map.npy"
     result = _cli("--resolution", "12", "--t-max", "2", "--workers", "1", "--out", str(out), "--data", str(data),

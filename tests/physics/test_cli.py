@@ -10,6 +10,9 @@ import sys
 
 import numpy as np
 import pytest
+from PIL import Image
+
+import physics
 
 
 def run_cli(*argv, check=True):
@@ -64,6 +67,7 @@ def test_accelerations_contract_hanging_chain_reaction_is_total_weight():
     assert "joint_reactions" not in lagrange
 
 
+@pytest.mark.slow  # several CLI processes
 def test_accelerations_batch_input(tmp_path):
     cases = [
         {"links": 3, "params": {"L1": 1.0, "L2": 1.0, "L3": 1.0, "d1": 0.5, "d2": 0.5, "d3": 0.5, "m1": 1.0,
@@ -84,6 +88,7 @@ def test_accelerations_batch_input(tmp_path):
     np.testing.assert_allclose(results["dae"][0]["theta_ddot"], results["newton_euler"][0]["theta_ddot"], rtol=1e-10)
 
 
+@pytest.mark.slow  # one CLI process per method
 def test_four_bar_accelerations_report_tip_reaction_and_grashof_for_every_method():
     outs = [json.loads(run_cli("accelerations", "--preset", "four-bar", "--method", m).stdout)
             for m in ("newton_euler", "lagrange", "dae")]
@@ -103,6 +108,7 @@ def test_presets_lists_every_preset_with_parameters():
     assert four_bar["params"]["L3"] == 2.0 and four_bar["pin"] is not None and "grashof" in four_bar
 
 
+@pytest.mark.slow  # three ensemble runs through the CLI
 def test_ensemble_fan_opens_as_json_csv_and_png(tmp_path):
     document = json.loads(run_cli("ensemble", "--preset", "triple-a", "--count", "50", "--t-end", "30",
                                   "--samples", "7").stdout)
@@ -121,8 +127,6 @@ def test_ensemble_fan_opens_as_json_csv_and_png(tmp_path):
     picture = tmp_path / "fan.png"
     run_cli("ensemble", "--preset", "triple-a", "--count", "20", "--t-end", "30", "--samples", "2",
             "--out", str(picture))
-    from PIL import Image
-
     image = np.asarray(Image.open(picture).convert("RGB"))
     coloured = (image.max(axis=2).astype(int) - image.min(axis=2)) > 60
     assert coloured.mean() > 0.005  # the copies' links are drawn
@@ -134,9 +138,8 @@ def test_ensemble_bad_count_is_one_line():
     assert "count" in result.stderr and "1 <= count" in result.stderr
 
 
+@pytest.mark.slow  # warms every preset's mechanisms in a child process
 def test_warm_without_arguments_builds_every_preset_mechanism():
-    import physics
-
     result = run_cli("warm")
     built = {tuple(line.split(":")[0].split()) for line in result.stdout.splitlines()}
     expected = set()

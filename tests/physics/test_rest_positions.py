@@ -54,6 +54,7 @@ def four_bar():
     return chain, rest_positions(chain)
 
 
+@pytest.mark.slow  # an independent minimisation from many starts
 @pytest.mark.filterwarnings("ignore:delta_grad == 0.0")
 def test_four_bar_minima_match_an_independent_minimisation(four_bar):
     chain, positions = four_bar

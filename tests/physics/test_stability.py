@@ -1,4 +1,4 @@
-"""The stability study (physics.stability): each case runs, on shorter horizons than docs/stability.md, and
+"""The stability study (physics.studies.stability): each case runs, on shorter horizons than docs/stability.md, and
 shows what the docs say it shows."""
 
 from __future__ import annotations
@@ -10,9 +10,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-from physics import stability
+from physics.studies import stability, stability_figures
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,7 +32,7 @@ def test_case1_projection_holds_the_pin_and_no_stabilisation_drifts():
         assert distance[t >= 10.0].max() > 5 * distance[t <= 1.0].max()  # grows: drift, not noise
         assert none["final_distance"] > 1e3 * projection["max_distance"]
         assert baumgarte["final_distance"] < none["final_distance"]
-    svg = stability.figure_drift(result)
+    svg = stability_figures.figure_drift(result)
     assert svg.startswith("<svg") and _curves(svg) == 6 and "baumgarte, dae" in svg
 
 
@@ -42,7 +41,7 @@ def test_binned_median_tells_bounded_from_drifting():
     bounded = np.abs(np.sin(3.0 * t)) * 1e-4
     drifting = 1e-7 * t * (1.0 + 0.5 * np.sin(t))
     for values, low, high in ((bounded, -0.05, 0.05), (drifting, 0.9, 1.1)):
-        centres, maxima = stability.binned_median(t, values)
+        centres, maxima = stability_figures.binned_median(t, values)
         fit = centres >= 10.0
         slope = np.polyfit(np.log10(centres[fit]), np.log10(maxima[fit]), 1)[0]
         assert low < slope < high
@@ -55,7 +54,7 @@ def test_case2_midpoint_energy_error_stays_bounded_while_rk45_drifts():
     assert all(r["status"] == 0 for r in runs.values())
     assert runs["RK45"]["slope"] > 0.8 and runs["RK45"]["growth"] > 3.0
     assert abs(runs["midpoint"]["slope"]) < 0.1 and runs["midpoint"]["growth"] < 1.5
-    svg = stability.figure_energy(result)
+    svg = stability_figures.figure_energy(result)
     assert _curves(svg) == 2
 
 
@@ -80,8 +79,8 @@ def test_case3_condition_peaks_near_the_change_point_and_failure_is_reported():
         assert run["status"] < 0 and "singular" in run["message"] and run["t_reached"] == 0.0
     labels = [c["method"] for c in result["curves"]]
     assert labels[-1].startswith("loop Jacobian") and len(labels) == 5
-    assert _curves(stability.figure_condition(result)) == 5
-    assert stability.figure_peak_condition(result).startswith("<svg")
+    assert _curves(stability_figures.figure_condition(result)) == 5
+    assert stability_figures.figure_peak_condition(result).startswith("<svg")
 
 
 def test_case4_every_cell_either_runs_to_the_end_or_says_where_it_failed():
@@ -100,10 +99,10 @@ def test_case4_every_cell_either_runs_to_the_end_or_says_where_it_failed():
             else:
                 failures += 1
                 assert cell["t_reached"] < 2.0 and "t = " in cell["message"]
-            text, colour = stability.cell_outcome(cell)
+            text, colour = stability_figures.cell_outcome(cell)
             assert (cell["status"] < 0) == text.startswith(("singular", "non-finite", "step", "max", "failed"))
     assert failures >= 1  # the heavy tip on a light base breaks something, and says so
-    svg = stability.figure_degenerate(result)
+    svg = stability_figures.figure_degenerate(result)
     assert "rejected" in svg and "lagrange" in svg
 
 
@@ -117,8 +116,8 @@ def test_case5_tighter_tolerance_predicts_further_and_formulations_agree_early()
     t = np.asarray(case["t"])
     for method in ("newton_euler", "dae"):
         assert np.asarray(case["methods"][method]["distance"])[t <= 5.0].max() < 1e-10
-    assert _curves(stability.figure_divergence(result)) == 4
-    assert stability.figure_horizon(result).startswith("<svg")
+    assert _curves(stability_figures.figure_divergence(result)) == 4
+    assert stability_figures.figure_horizon(result).startswith("<svg")
 
 
 def test_cli_rejects_a_bad_case_with_one_line(tmp_path):

@@ -31,6 +31,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,8 +61,8 @@ class BaselineSystem:
     """Numeric ``A(args)`` and ``b(args)`` from lambdify; ``args = (*params, *theta, *omega)``."""
 
     formulation: str
-    A: object
-    b: object
+    A: Callable[..., np.ndarray]
+    b: Callable[..., np.ndarray]
     n_unknowns: int
     theta_ddot_index: tuple
     derive_seconds: float

@@ -9,12 +9,15 @@ pure text generation over plain floats, so it is deterministic and testable.
 
 from __future__ import annotations
 
+import colorsys
 import html
+import io
 import math
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
+from PIL import Image
 
 # Ten well-separated colours (Tableau 10) and dash patterns: colour tells one attribute of a curve
 # (for example the integrator), dash another (the formulation).
@@ -193,13 +196,13 @@ def line_chart(
     for index, s in enumerate(series):
         color = s.color or PALETTE[index % len(PALETTE)]
         segments, current, markers = [], [], []
-        labels = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
-        for xv, yv, label in zip(s.x, s.y, labels):
-            xv, yv = float(xv), float(yv)
+        labels: list[str | None] = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
+        for x_value, y_value, point_label in zip(s.x, s.y, labels):
+            xv, yv = float(x_value), float(y_value)
             if _drawable(xv, log_x) and _drawable(yv, log_y):
                 point = (x_axis.to_pixel(xv), y_axis.to_pixel(yv))
                 current.append(point)
-                markers.append((point, label))
+                markers.append((point, point_label))
             elif current:
                 segments.append(current)
                 current = []
@@ -212,8 +215,8 @@ def line_chart(
                 dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
                 group.append(f'<path d="{d}" fill="none" stroke="{color}" stroke-width="{s.width}"{dash}/>')
         if s.marker and len(markers) <= 400:
-            for (px, py), label in markers:
-                group.append(_marker_svg(s.marker, px, py, color, label))
+            for (px, py), point_label in markers:
+                group.append(_marker_svg(s.marker, px, py, color, point_label))
         group.append("</g>")
         out.extend(group)
     # Legend.
@@ -335,10 +338,6 @@ def colormap(values: np.ndarray, missing_rgb=(0, 0, 0)) -> np.ndarray:
 
 def png_bytes(rgb: np.ndarray) -> bytes:
     """An ``(H, W, 3)`` uint8 image encoded as PNG (Pillow, a dependency of viser)."""
-    import io
-
-    from PIL import Image
-
     buffer = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(buffer, format="PNG")
     return buffer.getvalue()
@@ -346,16 +345,12 @@ def png_bytes(rgb: np.ndarray) -> bytes:
 
 def write_png(path, rgb: np.ndarray) -> None:
     """Write an ``(H, W, 3)`` uint8 image as PNG with Pillow (a dependency of viser)."""
-    from PIL import Image
-
     Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(path, format="PNG")
 
 
 def fan_picture(joints: np.ndarray, alive: np.ndarray, size: int = 600) -> np.ndarray:
     """``(size, size, 3)`` picture of every copy's links from joints ``(N, n + 1, 2)`` (one hue per copy; copies
     not ``alive`` left out), the pivot in the middle: an ensemble's fan, for ``python -m physics ensemble``."""
-    import colorsys
-
     reach = max(float(np.max(np.abs(joints))), 1e-9) * 1.05
     image = np.full((size, size, 3), 255, dtype=np.uint8)
     count = joints.shape[0]

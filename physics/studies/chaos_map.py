@@ -19,11 +19,9 @@ within ``t_max`` are "not within t_max". Colour: log of the flip time, from ``st
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import sys
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -31,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import LinkageError
+from ..arguments import Parser
+from ..codegen import load_compiled
+from ..errors import LinkageError
+from ..kinematics import energies
+from ..model import FORMULATION_NAMES
+from ..presets import get_preset, preset_names
+from .charts import colormap, write_png
+from .report import Progress, machine_note
 
 DEFAULT_T_MAX = 30.0
 DEFAULT_STEP = 0.01
@@ -78,9 +83,6 @@ def flip_energy(params: np.ndarray, n: int) -> float:
 def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     """Flip times of one band: shape ``(len(theta2), len(theta1))``; NaN = not within t_max, FORBIDDEN = no
     flip possible. Runs in whichever process the executor picks."""
-    from .codegen import load_compiled
-    from .kinematics import energies
-
     compiled = load_compiled(task.method, task.n, False)
     params = np.asarray(task.params, dtype=float)
     n = task.n
@@ -138,8 +140,6 @@ def compute_map(chain, method: str = "lagrange", resolution: int = DEFAULT_RESOL
     result = np.empty((resolution, resolution))
     bar = None
     if progress:
-        from .bench import Progress
-
         bar = Progress(len(tasks), "chaos-map", True)
     try:
         if executor is None:
@@ -162,8 +162,6 @@ def compute_map(chain, method: str = "lagrange", resolution: int = DEFAULT_RESOL
 
 
 def check_map_arguments(chain, method, resolution, t_max, step) -> None:
-    from .model import FORMULATION_NAMES
-
     if chain.pinned:
         raise LinkageError("chaos maps are for open chains (the tip must be free); choose preset double or a triple")
     if chain.n < 2:
@@ -180,8 +178,6 @@ def check_map_arguments(chain, method, resolution, t_max, step) -> None:
 
 def to_rgb(times: np.ndarray, t_max: float, step: float) -> np.ndarray:
     """Image rows top to bottom = theta2 from +pi down to -pi; colour = log flip time from step to t_max."""
-    from .charts import colormap
-
     with np.errstate(invalid="ignore", divide="ignore"):
         value = np.log(np.clip(times, step, t_max) / step) / math.log(t_max / step)
     value = np.where(times > 0, value, np.nan)
@@ -207,8 +203,8 @@ def make_executor(workers: int | None, scheduler: str | None):
     """``(executor or None, close)``: None = this process; ProcessPoolExecutor for workers > 1; a Dask
     distributed executor for a scheduler address (dask imported only then)."""
     if scheduler:
-        try:
-            from distributed import Client
+        try:  # dask boundary: imported only when a scheduler is given (an optional extra)
+            from distributed import Client  # noqa: PLC0415
         except ImportError:
             raise LinkageError(
                 "--scheduler needs Dask: pip install 'dask[distributed]' (the 'dask' extra of linkage-lab)"
@@ -226,14 +222,11 @@ def make_executor(workers: int | None, scheduler: str | None):
     return pool, pool.shutdown
 
 
-def build_parser():
-    from .cli import _Parser
-    from .presets import preset_names
-
-    parser = _Parser(prog="python -m physics chaos-map", description="time-to-first-flip map of initial angles")
+def build_parser() -> Parser:
+    parser = Parser(prog="python -m physics chaos-map", description="time-to-first-flip map of initial angles")
     parser.add_argument("--preset", default="double", choices=preset_names())
     parser.add_argument("--links", type=int, default=None, help="bars for --preset chain")
-    parser.add_argument("--method", default="lagrange", choices=("newton_euler", "lagrange", "dae"))
+    parser.add_argument("--method", default="lagrange", choices=FORMULATION_NAMES)
     parser.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION, help="pixels per side")
     parser.add_argument("--t-max", type=float, default=DEFAULT_T_MAX, help="longest time followed (s)")
     parser.add_argument("--step", type=float, default=DEFAULT_STEP, help="RK4 step (s)")
@@ -246,8 +239,6 @@ def build_parser():
 
 
 def main(argv=None) -> int:
-    from .presets import get_preset
-
     args = build_parser().parse_args(argv)
     if args.workers is not None and not 1 <= args.workers <= 1024:
         raise LinkageError(f"--workers = {args.workers}: allowed range 1 <= workers <= 1024")
@@ -261,8 +252,6 @@ def main(argv=None) -> int:
     finally:
         close()
     elapsed = time.perf_counter() - start
-    from .charts import write_png
-
     try:
         write_png(args.out, to_rgb(times, args.t_max, args.step))
         if args.data:
@@ -282,19 +271,19 @@ def main(argv=None) -> int:
 
 def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Path]:
     """Pixels per second in this process, then with 1 and 2 local worker processes (same map)."""
-    from .bench import Progress, machine_note
-    from .presets import get_preset
-
     chain = get_preset("double").chain
     resolution = 48 if quick else 160
     t_max = 10.0 if quick else DEFAULT_T_MAX
     bar = Progress(3, "chaos", progress)
     compute_map(chain, resolution=8, t_max=0.1)  # load the compiled code in this process
-    rows = []
-    reference = None
-    for label, workers in (("in-process", 1), ("1 worker process", "pool1"), ("2 worker processes", 2)):
-        if workers == "pool1":
-            pool = ProcessPoolExecutor(max_workers=1)
+    rows: list[dict] = []
+    reference: np.ndarray | None = None
+    # (label, workers, a pool even for one worker): one worker process measures the cost of the process hop.
+    for label, workers, pooled in (("in-process", 1, False), ("1 worker process", 1, True),
+                                   ("2 worker processes", 2, False)):
+        executor: Executor | None
+        if pooled:
+            pool = ProcessPoolExecutor(max_workers=workers)
             executor, close = pool, pool.shutdown
         else:
             executor, close = make_executor(workers, None)
@@ -311,7 +300,8 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
                      "identical_to_in_process": identical})
         bar.step(label)
     bar.close()
-    document = {"kind": "chaos-map", "machine": machine_note(), "preset": "double", "resolution": resolution,
+    assert reference is not None
+    document: dict = {"kind": "chaos-map", "machine": machine_note(), "preset": "double", "resolution": resolution,
                 "t_max": t_max, "step": DEFAULT_STEP, "summary": summary(reference), "runs": rows,
                 "scaling_1_to_2_workers": rows[1]["seconds"] / rows[2]["seconds"]}
     out.mkdir(parents=True, exist_ok=True)
@@ -329,7 +319,5 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
     md.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     png = out / "chaos-map-bench.png"
-    from .charts import write_png
-
     write_png(png, to_rgb(reference, t_max, DEFAULT_STEP))
     return [path, md, png]

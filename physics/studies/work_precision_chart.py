@@ -1,0 +1,52 @@
+"""The work-precision diagram (SVG): error against wall time, one curve per configuration.
+
+Apart from :mod:`physics.studies.work_precision` so that the sweep (which returns a chart for the app) and
+the report writer (which saves one per case) can both draw it.
+"""
+
+from __future__ import annotations
+
+from ..registry import INTEGRATOR_NAMES
+from .charts import DASHES, MARKERS, PALETTE, Series, line_chart
+
+SEED_BASELINE = "seed-baseline"  # the backend field of the seed-style baseline's curves
+
+
+# Colour by integrator, dash and marker by method: one entry per registry name, in registry order.
+_INTEGRATOR_COLOURS = {name: k for k, name in enumerate(INTEGRATOR_NAMES)}
+_FORMULATION_DASH = {"newton_euler": 1, "lagrange": 0, "dae": 2, "reduced": 3}
+
+
+def probe_name(case: dict) -> str:
+    return case.get("probe", "tip")
+
+
+def chart(case_name: str, case: dict) -> str:
+    """The SVG work-precision diagram of one case: every curve, the baseline's as black crosses."""
+    series = []
+    for curve in case["curves"] + case["baseline"]:
+        points = [p for p in curve["points"] if p["error"] is not None]
+        if curve["backend"] == SEED_BASELINE:
+            color, dash, marker = "#222222", DASHES[_FORMULATION_DASH[curve["formulation"]]], "cross"
+        else:
+            color = PALETTE[_INTEGRATOR_COLOURS[curve["integrator"]]]
+            dash = DASHES[_FORMULATION_DASH[curve["formulation"]]]
+            marker = MARKERS[_FORMULATION_DASH[curve["formulation"]] % len(MARKERS)]
+        labels = [f"{curve['label']} {curve['knob']}={p[curve['knob']]:g}: {p['seconds'] * 1e3:.3g} ms, "
+                  f"error {p['error']:.2e}" for p in points]
+        series.append(Series(curve["label"].split(" (sympy")[0], [p["seconds"] for p in points],
+                             [max(p["error"], 1e-16) for p in points], color=color, dash=dash, marker=marker,
+                             point_labels=labels))
+    uncertainty = case["reference"]["uncertainty"]
+    return line_chart(
+        series,
+        title=f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s",
+        x_label="wall time per run (s), median",
+        y_label=f"{probe_name(case)} position error",
+        log_x=True,
+        log_y=True,
+        width=980,
+        height=560,
+        hlines=[(max(uncertainty, 1e-16), "reference uncertainty")],
+        note="colour: integrator; dash/marker: formulation; black crosses: seed-style baseline",
+    )
