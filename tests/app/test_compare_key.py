@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from conftest import wait_until
-
 from app.frame_view import COMPARE_METHODS
 from app.overlays import METHOD_COLORS
 from app.parameters import METHOD_LABELS
+from conftest import wait_until
 
 
 def test_compare_mode_draws_a_colour_key_and_opaque_runs(connect):
