@@ -9,6 +9,7 @@ The ensemble is advanced by the session's frame callback (player thread) by the 
 from __future__ import annotations
 
 import colorsys
+import re
 import threading
 
 import numpy as np
@@ -43,6 +44,12 @@ def segments(joints: np.ndarray) -> np.ndarray:
     """Joint positions (N, n + 1, 2) -> line segments (N * n, 2, 3) in the world (the mechanism's x-z plane)."""
     ends = np.stack([joints[:, :-1], joints[:, 1:]], axis=2)  # (N, n, 2, 2)
     return to_world(ends.reshape(-1, 2, 2)).astype(np.float32)
+
+
+def fit_width(svg: str) -> str:
+    """An SVG drawn at the panel's width (its viewBox keeps the proportions): never wider than the panel."""
+    return re.sub(r'^<svg ([^>]*?)width="[\d.]+" height="[\d.]+"', r'<svg \1width="100%" style="height:auto"', svg,
+                  count=1)
 
 
 class Analysis:
@@ -116,13 +123,14 @@ class Analysis:
 
         def work() -> None:
             try:
-                _, svg = bench.work_precision_chain(chain, theta0, omega0, trace=trace, formulations=formulations)
+                _, svg = bench.work_precision_chain(chain, theta0, omega0, trace=trace, formulations=formulations,
+                                                    narrow=True)
             except Exception as error:
                 self.chart_status.content = "Work-precision chart failed."
                 self.session.show_notice("Work-precision chart failed", f"{type(error).__name__}: {error}",
                                          color="red")
                 return
-            html = f'<div style="width:100%;overflow-x:auto">{svg}</div>'
+            html = f'<div style="width:100%">{fit_width(svg)}</div>'
             if self.chart_handle is None:
                 with self.tab:
                     self.chart_handle = self._panel.gui.add_html(html, order=self.chart_status.order + 0.1)

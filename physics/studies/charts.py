@@ -149,12 +149,17 @@ def line_chart(
     y_limits: Optional[tuple[float, float]] = None,
     hlines: Sequence[tuple[float, str]] = (),
     note: str = "",
+    legend_below: bool = False,
 ) -> str:
-    """An SVG line chart with axes, grid, ticks, a legend to the right, and optional horizontal reference
-    lines ``(y, label)``. Returns the SVG text (UTF-8, no external resources)."""
+    """An SVG line chart with axes, grid, ticks, a legend to the right (or, with ``legend_below``, under the
+    plot, one entry per line: for a narrow panel), and optional horizontal reference lines ``(y, label)``.
+    ``height`` is the plot's part; a legend below adds its own. Returns the SVG text (UTF-8, self-contained)."""
     longest = max((len(s.label) for s in series), default=0)
-    legend_width = int(min(380, 50 + 6.3 * longest)) if series else 0
-    left, right, top, bottom = 78, width - legend_width - 16, 40, height - 58
+    legend_width = 0 if legend_below or not series else int(min(380, 50 + 6.3 * longest))
+    legend_rows = len(series) if legend_below else 0
+    plot_height = height
+    height = plot_height + 17 * legend_rows + (8 if legend_rows else 0)
+    left, right, top, bottom = 78, width - legend_width - 16, 40, plot_height - 58
     xs = [float(v) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
     ys = [float(w) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
     ys += [float(v) for v, _ in hlines if _drawable(float(v), log_y)]
@@ -177,14 +182,16 @@ def line_chart(
         out.append(f'<text x="{left - 6}" y="{py + 4:.1f}" text-anchor="end">{_esc(_format_tick(tick, log_y))}</text>')
     out.append(f'<rect x="{left}" y="{top}" width="{right - left}" height="{bottom - top}" fill="none" stroke="#444"/>')
     out.append(
-        f'<text x="{(left + right) / 2:.1f}" y="{height - 22}" text-anchor="middle" font-size="13">{_esc(x_label)}</text>'
+        f'<text x="{(left + right) / 2:.1f}" y="{plot_height - 22}" text-anchor="middle" font-size="13">'
+        f'{_esc(x_label)}</text>'
     )
     out.append(
         f'<text x="18" y="{(top + bottom) / 2:.1f}" text-anchor="middle" font-size="13" '
         f'transform="rotate(-90 18 {(top + bottom) / 2:.1f})">{_esc(y_label)}</text>'
     )
     if note:
-        out.append(f'<text x="{left}" y="{height - 6}" font-size="10" fill="#666">{_esc(note)}</text>')
+        out.append(f'<text x="{left if not legend_below else 12}" y="{plot_height - 6}" font-size="10" '
+                   f'fill="#666">{_esc(note)}</text>')
     out.append(f'<clipPath id="plot"><rect x="{left}" y="{top}" width="{right - left}" height="{bottom - top}"/></clipPath>')
     for value, label in hlines:
         if not _drawable(float(value), log_y):
@@ -221,10 +228,10 @@ def line_chart(
         out.extend(group)
     # Legend.
     if series:
-        lx = right + 18
+        lx = 12 if legend_below else right + 18
         for index, s in enumerate(series):
             color = s.color or PALETTE[index % len(PALETTE)]
-            ly = top + 8 + 17 * index
+            ly = (plot_height + 10 + 17 * index) if legend_below else (top + 8 + 17 * index)
             dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
             out.append(f'<line x1="{lx}" y1="{ly}" x2="{lx + 26}" y2="{ly}" stroke="{color}" stroke-width="2"{dash}/>')
             if s.marker:

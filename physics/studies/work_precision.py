@@ -319,7 +319,7 @@ def work_precision(options: dict, progress_enabled: bool = True) -> dict:
 def work_precision_chain(chain, theta0, omega0, trace=None, horizon: float = 5.0, formulations=("lagrange",),
                          integrators=("RK45", "DOP853", "midpoint", "variational"),
                          tolerances=(1e-3, 1e-5, 1e-7, 1e-9), midpoint_steps=(0.05, 0.01, 2e-3), repeats: int = 1, budget: float = 0.2,
-                         title: str = "current parameters") -> tuple[dict, str]:
+                         title: str = "current parameters", narrow: bool = False) -> tuple[dict, str]:
     """A small work-precision sweep for any chain and start (what the app shows for its current parameters):
     returns the case document (as in the JSON) and its SVG chart. A few seconds for a triple pendulum."""
     if not (math.isfinite(horizon) and 0.0 < horizon <= 100.0):
@@ -341,7 +341,7 @@ def work_precision_chain(chain, theta0, omega0, trace=None, horizon: float = 5.0
         "baseline": [],
         "winners": winners(curves, HEADLINE_ACCURACIES, ref["uncertainty"]),
     }
-    return case, chart(title, case)
+    return case, chart(title, case, narrow=narrow)
 
 
 def _reaching(curves, accuracy: float, resolvable: float):

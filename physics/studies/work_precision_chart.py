@@ -21,8 +21,9 @@ def probe_name(case: dict) -> str:
     return case.get("probe", "tip")
 
 
-def chart(case_name: str, case: dict) -> str:
-    """The SVG work-precision diagram of one case: every curve, the baseline's as black crosses."""
+def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
+    """The SVG work-precision diagram of one case: every curve, the baseline's as black crosses. ``narrow``: a
+    380-px-wide version with the legend under the plot (the app's panel)."""
     series = []
     for curve in case["curves"] + case["baseline"]:
         points = [p for p in curve["points"] if p["error"] is not None]
@@ -40,13 +41,15 @@ def chart(case_name: str, case: dict) -> str:
     uncertainty = case["reference"]["uncertainty"]
     return line_chart(
         series,
-        title=f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s",
+        title=(f"{probe_name(case).capitalize()} error at t = {case['horizon']:g} s vs time" if narrow else
+               f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s"),
         x_label="wall time per run (s), median",
         y_label=f"{probe_name(case)} position error",
         log_x=True,
         log_y=True,
-        width=980,
-        height=560,
+        width=380 if narrow else 980,
+        height=330 if narrow else 560,
         hlines=[(max(uncertainty, 1e-16), "reference uncertainty")],
-        note="colour: integrator; dash/marker: formulation; black crosses: seed-style baseline",
+        note="colour: integrator; dash/marker: formulation" + ("" if narrow else "; black crosses: seed-style baseline"),
+        legend_below=narrow,
     )

@@ -17,6 +17,14 @@ def test_work_precision_chart_appears_in_the_panel(connect):
     handle = session.analysis.chart_handle
     assert handle is not None, session.notice
     assert "<svg" in handle.content and "</svg>" in handle.content
+    # drawn for the panel: its width follows the panel, its legend sits under the plot, inside the picture
+    import re
+
+    root = re.search(r"<svg [^>]*>", handle.content).group(0)
+    assert 'width="100%"' in root and 'viewBox="0 0 380 ' in root
+    view_height = float(re.search(r'viewBox="0 0 380 ([\d.]+)"', root).group(1))
+    legend_y = [float(y) for y in re.findall(r'<text x="44" y="([\d.]+)" font-size="11"', handle.content)]
+    assert legend_y and max(legend_y) < view_height
 
 
 def test_chaos_map_image_appears(connect):
