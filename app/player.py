@@ -300,6 +300,11 @@ class Player:
     def alive(self) -> bool:
         return self._thread.is_alive()
 
+    def superseded(self) -> bool:
+        """True while the restart being installed is no longer wanted: a newer one waits, or the player stops.
+        ``prepare`` polls it to cancel a slow build (app/warm.py kills its worker)."""
+        return self._stop or self._pending is not None
+
     # ------------------------------------------------------------------ state (any thread)
     def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
         """``(t, theta, omega)`` of the first run at the sample at or before the displayed time."""
@@ -380,7 +385,14 @@ class Player:
     def _install(self, pending: _Restart) -> None:
         """Replace the runs by ``pending``'s; the slow parts (loading code, the first sample) run unlocked."""
         for spec, (theta0, omega0) in zip(pending.specs, pending.starts):
-            self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
+            if self.superseded():  # a burst of edits: only the last one is prepared and shown
+                return
+            try:
+                self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
+            except Exception:
+                if self.superseded():  # cancelled for the newer request, which the loop installs next
+                    return
+                raise
         seeds = [self._seed(spec, pending.t0, *start) for spec, start in zip(pending.specs, pending.starts)]
         with self.lock:
             if self._pending is not None:  # a newer request arrived meanwhile: it wins

@@ -403,7 +403,7 @@ class Session:
         timer.daemon = True
         timer.start()
         try:
-            warm.ensure_ready(spec.chain, spec.settings, theta0, omega0)
+            warm.ensure_ready(spec.chain, spec.settings, theta0, omega0, cancelled=self.player.superseded)
         finally:
             timer.cancel()
             for handle in notice:
