@@ -191,6 +191,19 @@ def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
         proc.wait(10)
 
 
+def _slope(points: list[tuple[float, float]]) -> float | None:
+    """Least-squares slope of (seconds, MB) points, in MB per minute."""
+    if len(points) < 3:
+        return None
+    ts = [t for t, _ in points]
+    ys = [y for _, y in points]
+    t_mean, y_mean = statistics.fmean(ts), statistics.fmean(ys)
+    denominator = sum((t - t_mean) ** 2 for t in ts)
+    if denominator == 0:
+        return None
+    return round(60.0 * sum((t - t_mean) * (y - y_mean) for t, y in points) / denominator, 3)
+
+
 def _server_cpu_seconds(pids: list[int]) -> list[float]:
     """CPU seconds of each server process; this one's from getrusage (its own threads only)."""
     return [_own_cpu_seconds() if pid == os.getpid() else _cpu_seconds(pid) for pid in pids]
@@ -225,12 +238,17 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
                 sessions = list(server.sessions.values())
                 if server.shared_session is not None:
                     sessions.append(server.shared_session)
-                ring_bytes = sum(run.ring.nbytes for s in sessions for run in s.player.runs)
+                runs = [run for s in sessions for run in s.player.runs]
+                ring_bytes = sum(run.ring.nbytes for run in runs)
+                # the part of the rings written so far: their pages become resident as they fill (2 minutes)
+                filled_bytes = sum(run.ring.nbytes * len(run.ring) / run.ring.capacity for run in runs)
                 if server.shared_session is None and sessions:  # siblings' sessions hold rings of the same size
                     ring_bytes *= server.seats.count / len(sessions)
+                    filled_bytes *= server.seats.count / len(sessions)
                 samples.append({
                     "t": round(time.perf_counter() - started, 1),
-                    "ring_mb": round(ring_bytes / 1e6, 1),  # this process's sessions
+                    "ring_mb": round(ring_bytes / 1e6, 1),
+                    "ring_filled_mb": round(filled_bytes / 1e6, 2),
                     "rss_mb": round(sum(_rss_mb(pid) for pid in pids), 1),
                     "sessions": server.seats.count if server.shared_session is None else 0,
                     "cpu_s": round(sum(_server_cpu_seconds(pids)) - sum(cpu0), 2),
@@ -265,6 +283,7 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
             for sid in set(a["frames_rendered"]) & set(b["frames_rendered"]):
                 render_fps.append((b["frames_rendered"][sid] - a["frames_rendered"][sid]) / (b["t"] - a["t"]))
         warm = [s for s in samples if 10 <= s["t"] <= seconds]
+        steady_rss = [s for s in samples if 10 <= s["t"] <= min(seconds, early_seconds if early else seconds) - 1]
         return {
             "clients": clients,
             "shared": shared,
@@ -290,6 +309,11 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
                 "peak": max(s["rss_mb"] for s in samples) if samples else None,
                 "end": samples[-1]["rss_mb"] if samples else None,
                 "ring_buffers_peak": max(s["ring_mb"] for s in samples) if samples else None,
+                # growth per minute while every client stays, and the same less the samples stored meanwhile
+                # (bounded by the rings' capacity): what would be a leak
+                "slope_mb_per_min": _slope([(s["t"], s["rss_mb"]) for s in steady_rss]),
+                "slope_beyond_stored_samples_mb_per_min": _slope(
+                    [(s["t"], s["rss_mb"] - s["ring_filled_mb"]) for s in steady_rss]),
             },
             "sessions_after_early_leave": min(s["sessions"] for s in after_early) if after_early else None,
             "sessions_peak": max(s["sessions"] for s in samples) if samples else None,
@@ -310,6 +334,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--shared", action="store_true")
     parser.add_argument("--processes", type=int, default=1, help="server processes for the load part")
+    parser.add_argument("--early", type=int, default=5, help="clients of the load part that leave after 20 s")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
     args = parser.parse_args(argv)
     out: dict = {}
@@ -326,7 +351,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.part in ("all", "cpu"):
         out["cpu"] = measure_cpu()
     if args.part in ("all", "load"):
-        load = measure_load(args.clients, args.seconds, shared=args.shared, processes=args.processes)
+        load = measure_load(args.clients, args.seconds, early=args.early, shared=args.shared,
+                            processes=args.processes)
         load.pop("per_client")
         load.pop("samples")
         out["load"] = load

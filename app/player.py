@@ -35,6 +35,10 @@ MAX_CHUNK_SECONDS = 2.0
 # pendulum; the budget shrinks with the square of the chain length, as the cost of one evaluation grows.
 CHUNK_WORK_BUDGET = 3000.0  # right-hand-side evaluations per chunk at n = 3
 MAX_SPEED = 8.0
+# A frame is skipped while the previous one waits to be sent (see Player), but never for longer than this: a
+# browser whose buffer never empties still sees 4 frames per second, and a wrong "not delivered" never freezes.
+MAX_DEFER_SECONDS = 0.25
+MAX_STEP_SECONDS = MAX_DEFER_SECONDS + 2 * SAMPLE_DT  # most wall time one frame advances the display by
 
 
 @dataclass
@@ -176,9 +180,10 @@ class Player:
     count calls); ``make_settings(settings, t_end, samples)`` returns a copy with the chunk's horizon;
     ``on_frame(frame)`` moves the scene (called on the player thread, under the player's lock);
     ``on_failure(message)`` reports a run that stopped; ``prepare(spec, theta0, omega0)`` runs before a run's
-    first chunk
-    (loads compiled code, possibly slowly, with a notice). Chunks after the first continue a run and are
-    passed ``continuing=True``: a closed loop's drift belongs to the run and is not re-checked at each chunk.
+    first chunk (loads compiled code, possibly slowly, with a notice); ``ready_for_frame()`` says whether the
+    previous frame has been delivered (app/delivery.py): if not, a playing frame is skipped (the displayed
+    time still follows the wall clock) rather than rendered over an unsent one, for at most
+    MAX_DEFER_SECONDS. Chunks after the first continue a run and are passed ``continuing=True``: a closed loop's drift belongs to the run and is not re-checked at each chunk.
     """
 
     def __init__(
@@ -189,12 +194,14 @@ class Player:
         on_failure: Callable[[str], None],
         prepare: Callable[[RunSpec, np.ndarray, np.ndarray], None] | None = None,
         name: str = "player",
+        ready_for_frame: Callable[[], bool] | None = None,
     ) -> None:
         self._simulate = simulate
         self._make_settings = make_settings
         self._on_frame = on_frame
         self._on_failure = on_failure
         self._prepare = prepare or (lambda spec, theta0, omega0: None)
+        self._ready_for_frame = ready_for_frame or (lambda: True)
         self.lock = threading.RLock()
         self._wake = threading.Event()
         self._stop = False
@@ -208,6 +215,7 @@ class Player:
         self.playing = False
         self.speed = 1.0
         self.frame_counter = 0
+        self.frames_deferred = 0  # frame times skipped because the previous frame had not been delivered yet
         self.frame_interval = SAMPLE_DT  # wall seconds between frames; the server widens it under load
         self.latencies: collections.deque[float] = collections.deque(maxlen=256)  # seconds, restart -> pose
         self.last_restart_shown = 0.0  # perf_counter() when the first frame of the latest restart was sent
@@ -524,6 +532,11 @@ class Player:
             return any(run.failed is not None for run in self.runs)  # cannot get there
 
     def _render(self, now: float, restarted: bool = False) -> None:
+        if (not restarted and self._seek_target is None and self.playing
+                and now - self._last_frame_wall < MAX_DEFER_SECONDS and not self._ready_for_frame()):
+            with self.lock:
+                self.frames_deferred += 1
+            return
         with self.lock:
             wall_dt = now - self._last_frame_wall
             self._last_frame_wall = now
@@ -537,7 +550,8 @@ class Player:
                     self._seek_target = None
                     self._seek_done.set()
             elif self.playing and not restarted:
-                self.display_time = min(self.display_time + self.speed * min(wall_dt, 0.1), limit)
+                # real time across deferred frames; a longer stall (a busy machine) does not jump ahead
+                self.display_time = min(self.display_time + self.speed * min(wall_dt, MAX_STEP_SECONDS), limit)
             self._rate_window.append((now, self.display_time))
             moved = self.display_time != self._last_shown_time
             if not (restarted or moved or self._dirty):

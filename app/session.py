@@ -25,7 +25,7 @@ import numpy as np
 import physics
 from physics import LinkageError, TracePoint, assembly
 
-from . import export, warm
+from . import delivery, export, warm
 from .analysis import Analysis
 from .controls import Controls
 from .overlays import (
@@ -122,6 +122,7 @@ class Session:
             on_failure=self._on_failure,
             prepare=self._prepare,
             name=f"player-{self.id}",
+            ready_for_frame=None if shared else (lambda: delivery.caught_up(target)),
         )
         try:
             self._build_scene()
