@@ -60,7 +60,7 @@ def test_the_session_cap_holds_across_processes():
     try:
         assert server.siblings.wait_ready(120), server.siblings.failures
         clients = [BrowserStandIn(server.url) for _ in range(7)]
-        full = lambda c: any(title == "Server full" for _, title in c.notifications)  # noqa: E731
+        full = lambda c: any(title == "Server full" for _, title in c.notifications)
         assert wait_until(lambda: sum(full(c.counts) for c in clients) == 4, timeout=60)
         assert server.seats.count == 3
         served = [c for c in clients if not full(c.counts)]
@@ -79,10 +79,10 @@ def test_a_sibling_stops_when_the_first_process_is_killed():
         line = process.stdout.readline()
         assert "in 2 processes" in line, (line, process.stderr.read() if process.poll() is not None else "")
         children = subprocess.run(["ps", "-ww", "-o", "pid=,args=", "--ppid", str(process.pid)],
-                                  capture_output=True, text=True).stdout
-        siblings = [int(m.group(1)) for m in re.finditer(r"^\s*(\d+) .*spawn_main", children, re.M)]
+                                  capture_output=True, text=True, check=True).stdout
+        siblings = [int(m.group(1)) for m in re.finditer(r"^\s*(\d+) .*spawn_main", children, re.MULTILINE)]
         assert len(siblings) == 1, children
-        every_child = [int(m.group(1)) for m in re.finditer(r"^\s*(\d+) ", children, re.M)]
+        every_child = [int(m.group(1)) for m in re.finditer(r"^\s*(\d+) ", children, re.MULTILINE)]
         os.kill(process.pid, signal.SIGKILL)  # no chance to stop its siblings itself
         process.wait(10)
         assert wait_until(lambda: not any(_alive(pid) for pid in every_child), timeout=15), (
