@@ -98,6 +98,24 @@ def test_a_burst_of_edits_is_applied_as_its_last_value_and_resumes_within_a_seco
           f"installed; resumed {1e3 * resumed:.0f} ms after the last")
 
 
+def test_a_burst_of_mechanism_switches_ends_on_the_last_and_resumes_within_a_second(connect):
+    _, session = connect()
+    mechanisms = ["single", "double", "four-bar", "triple-a"]
+    for name in mechanisms:  # built once (in a worker on a cold cache), so the burst measures coalescing
+        session.guard(lambda n=name: session.set_mechanism(n))
+        assert session.player.wait_idle(300), name
+    for i in range(32):  # each switch rebuilds the scene and the controls
+        session.guard(lambda i=i: session.set_mechanism(mechanisms[i % 4]))
+        time.sleep(0.05)
+    session.guard(lambda: session.set_mechanism("four-bar"))
+    resumed = _resumed_within(session, RESUME_SECONDS)
+    assert resumed is not None, "the session did not resume within a second of the last switch"
+    assert session.player.error is None and session.notice is None, (session.player.error, session.notice)
+    assert session.params.preset == "four-bar" and session.player.runs[0].spec.pinned
+    assert session.scene.layout.n == 3
+    print(f"\nmechanisms: 33 switches 50 ms apart; resumed {1e3 * resumed:.0f} ms after the last")
+
+
 def test_superseded_preparations_are_cancelled_not_queued():
     """A prepare (a build, on a cold cache) that a newer request supersedes stops at once; only the newest
     request's prepare runs to the end, and the player shows it one prepare's time after the last request."""
