@@ -41,8 +41,16 @@ _spawn = multiprocessing.get_context("spawn")
 _serve_patch_lock = threading.Lock()
 
 
+def shares_ports() -> bool:
+    """Whether the kernel spreads one port's connections over processes (Linux ``SO_REUSEPORT``; macOS has the
+    option but gives every connection to one socket, Windows lacks it)."""
+    return sys.platform.startswith("linux") and hasattr(socket, "SO_REUSEPORT")
+
+
 def default_processes() -> int:
-    """One interpreter per core this process may run on."""
+    """One interpreter per core this process may run on (one where ports cannot be shared)."""
+    if not shares_ports():
+        return 1
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):

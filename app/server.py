@@ -4,7 +4,8 @@
 browser that connects gets its own :class:`~app.session.Session` on its client handle; closing the tab
 closes the session (player thread stopped, buffers dropped). Past ``max_sessions`` a browser is turned away
 with a message in its page. With ``shared``, one session lives on the server's shared scene and GUI and every
-browser watches (and drives) it.
+browser watches (and drives) it. With ``processes`` > 1 the server is that many processes on one port, each
+a ``LabServer`` with its share of the browsers (app/processes.py); ``seats`` counts the sessions of all of them.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import contextlib
 import io
 import ipaddress
 import socket
+import sys
 import threading
 import time
 
@@ -94,6 +96,10 @@ class LabServer:
                                f"{server_processes.MAX_PROCESSES}")
         check_bindable(host)
         processes = 1 if shared else int(processes)  # one shared session lives in one process
+        if processes > 1 and not server_processes.shares_ports():
+            print(f"linkage-lab: --processes {processes}: this system cannot share a port between processes; "
+                  "serving from one", file=sys.stderr)
+            processes = 1
         if processes > 1:  # siblings share the port (app/processes.py): reserve one nothing else holds
             port = server_processes.reserve_port(host, int(port))
             reuse_port = True
