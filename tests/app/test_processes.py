@@ -106,3 +106,17 @@ def test_a_port_held_by_anything_else_is_never_shared():
     while time.monotonic() < deadline and reserve_port("127.0.0.1", port) != port:  # freed: it is taken again
         time.sleep(0.1)
     assert reserve_port("127.0.0.1", port) == port
+
+
+def test_where_ports_cannot_be_shared_one_process_serves(monkeypatch, capsys):
+    from app import processes
+    from app.server import LabServer
+
+    monkeypatch.setattr(processes, "shares_ports", lambda: False)
+    assert processes.default_processes() == 1
+    server = LabServer(port=0, processes=2, warm=False)
+    try:
+        assert server.siblings is None and len(server.pids) == 1
+        assert "cannot share a port" in capsys.readouterr().err
+    finally:
+        server.stop()
