@@ -58,13 +58,26 @@ def default_processes() -> int:
     return max(1, min(cores, MAX_PROCESSES))
 
 
-class Seats:
-    """How many sessions exist across every process of one server, held in shared memory.
-
-    ``take(limit)`` claims a seat if fewer than ``limit`` are taken; ``release()`` gives one back."""
+class _LocalCount:
+    """An integer and its lock, for a server of one process (no shared memory, no helper process)."""
 
     def __init__(self) -> None:
-        self._value = _spawn.Value("i", 0)
+        self.value = 0
+        self._lock = threading.Lock()
+
+    def get_lock(self) -> threading.Lock:
+        return self._lock
+
+
+class Seats:
+    """How many sessions exist across every process of one server.
+
+    ``take(limit)`` claims a seat if fewer than ``limit`` are taken; ``release()`` gives one back. With
+    ``shared`` the count lives in shared memory (multiprocessing starts its resource tracker process for it)
+    and is handed to the sibling processes; otherwise it is a plain integer."""
+
+    def __init__(self, shared: bool = False) -> None:
+        self._value = _spawn.Value("i", 0) if shared else _LocalCount()
 
     def take(self, limit: int) -> bool:
         with self._value.get_lock():

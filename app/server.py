@@ -121,7 +121,7 @@ class LabServer:
         self._lock = threading.Lock()
         self.sessions: dict[int, Session] = {}  # this process's own sessions
         self.turned_away: set[int] = set()
-        self.seats = seats or server_processes.Seats()  # sessions of every process of this server
+        self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
         self.shared_session: Session | None = None
         self.closed_sessions = 0
         if shared:
