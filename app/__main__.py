@@ -39,6 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-sessions", type=int, default=DEFAULT_MAX_SESSIONS,
                         help="most browsers served at once, each with its own simulation "
                         f"(default {DEFAULT_MAX_SESSIONS}, at most {MAX_SESSIONS_LIMIT})")
+    parser.add_argument("--processes", type=int, default=None,
+                        help="server processes sharing the port, each serving its share of the browsers "
+                        "(default: one per core; --shared uses one)")
     parser.add_argument("--shared", action="store_true",
                         help="one simulation that every browser watches and drives (lecture mode)")
     return parser
@@ -57,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
 
         SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
         warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser is imported
+        from .processes import default_processes
         from .server import LabServer
 
         server = LabServer(
@@ -68,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
             max_sessions=args.max_sessions,
             shared=args.shared,
             warm=False,  # started above
+            processes=default_processes() if args.processes is None else args.processes,
         )
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)
@@ -77,7 +82,9 @@ def main(argv: list[str] | None = None) -> int:
               "machine can open the app", file=sys.stderr)
     if args.port not in (0, server.port):
         print(f"linkage-lab: port {args.port} is busy; using {server.port}", file=sys.stderr)
-    mode = "one shared session" if args.shared else f"up to {args.max_sessions} sessions"
+    count = len(server.pids)
+    mode = "one shared session" if args.shared else (
+        f"up to {args.max_sessions} sessions" + (f" in {count} processes" if count > 1 else ""))
     print(f"Linkage Lab serving at {server.url}  ({mode}; Ctrl+C to stop)", flush=True)
     server.serve_forever()
     return 0

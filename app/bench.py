@@ -12,8 +12,10 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
   the server and (b) that pose arriving at the client is recorded; also (a) for a mass slider while playing.
 * cpu: the server as a subprocess animating the triple pendulum for one client; CPU time of that process
   over wall time (1.00 = one core), and the frames per second the client received.
-* load: in-process server, N clients in a subprocess (``python -m app.wsclient``) for S seconds, some leaving
-  early; server CPU (this process), resident memory over time, sessions left, frames per second per client.
+* load: in-process server (with ``--processes K``, this process and K - 1 siblings on the same port:
+  app/processes.py), N clients in a subprocess (``python -m app.wsclient``) for S seconds, some leaving early;
+  server CPU (every server process, and each one), resident memory over time (summed over the server's
+  processes), sessions left, frames per second per client.
 """
 
 from __future__ import annotations
@@ -189,23 +191,46 @@ def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
         proc.wait(10)
 
 
+def _slope(points: list[tuple[float, float]]) -> float | None:
+    """Least-squares slope of (seconds, MB) points, in MB per minute."""
+    if len(points) < 3:
+        return None
+    ts = [t for t, _ in points]
+    ys = [y for _, y in points]
+    t_mean, y_mean = statistics.fmean(ts), statistics.fmean(ys)
+    denominator = sum((t - t_mean) ** 2 for t in ts)
+    if denominator == 0:
+        return None
+    return round(60.0 * sum((t - t_mean) * (y - y_mean) for t, y in points) / denominator, 3)
+
+
+def _server_cpu_seconds(pids: list[int]) -> list[float]:
+    """CPU seconds of each server process; this one's from getrusage (its own threads only)."""
+    return [_own_cpu_seconds() if pid == os.getpid() else _cpu_seconds(pid) for pid in pids]
+
+
 def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early_seconds: float = 20.0,
-                 shared: bool = False) -> dict:
-    """Server in this process, ``clients`` websocket clients in a subprocess; see the module docstring."""
+                 shared: bool = False, processes: int = 1) -> dict:
+    """Server in this process (and its siblings), ``clients`` websocket clients in a subprocess; see the
+    module docstring."""
     from .server import LabServer
 
-    server = LabServer(port=0, max_sessions=clients + 5, shared=shared)
+    server = LabServer(port=0, max_sessions=min(clients + 5, 100), shared=shared, processes=processes)
     samples = []
     try:
         server._warm_thread.join(600)
-        rss_before = _rss_mb()
+        if server.siblings is not None and not server.siblings.wait_ready():
+            raise RuntimeError(f"server processes failed to start: {server.siblings.failures}")
+        pids = server.pids
+        time.sleep(1.0)  # the siblings' own warm-up (loading compiled code) is under way in the background
+        rss_before = sum(_rss_mb(pid) for pid in pids)
         proc = subprocess.Popen(
             [sys.executable, "-m", "app.wsclient", server.url, "--clients", str(clients), "--seconds", str(seconds),
              "--early", str(early), "--early-seconds", str(early_seconds)],
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )
         started = time.perf_counter()
-        cpu0 = _own_cpu_seconds()
+        cpu0 = _server_cpu_seconds(pids)
         stop = threading.Event()
 
         def sample() -> None:
@@ -213,13 +238,20 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
                 sessions = list(server.sessions.values())
                 if server.shared_session is not None:
                     sessions.append(server.shared_session)
-                ring_bytes = sum(run.ring.nbytes for s in sessions for run in s.player.runs)
+                runs = [run for s in sessions for run in s.player.runs]
+                ring_bytes = sum(run.ring.nbytes for run in runs)
+                # the part of the rings written so far: their pages become resident as they fill (2 minutes)
+                filled_bytes = sum(run.ring.nbytes * len(run.ring) / run.ring.capacity for run in runs)
+                if server.shared_session is None and sessions:  # siblings' sessions hold rings of the same size
+                    ring_bytes *= server.seats.count / len(sessions)
+                    filled_bytes *= server.seats.count / len(sessions)
                 samples.append({
                     "t": round(time.perf_counter() - started, 1),
                     "ring_mb": round(ring_bytes / 1e6, 1),
-                    "rss_mb": round(_rss_mb(), 1),
-                    "sessions": len(server.sessions),
-                    "cpu_s": round(_own_cpu_seconds() - cpu0, 2),
+                    "ring_filled_mb": round(filled_bytes / 1e6, 2),
+                    "rss_mb": round(sum(_rss_mb(pid) for pid in pids), 1),
+                    "sessions": server.seats.count if server.shared_session is None else 0,
+                    "cpu_s": round(sum(_server_cpu_seconds(pids)) - sum(cpu0), 2),
                     "frames_rendered": {s.id: s.frames_sent for s in sessions},
                 })
 
@@ -228,7 +260,8 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
         children0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         out, err = proc.communicate(timeout=seconds + 300)
         wall = time.perf_counter() - started
-        cpu = _own_cpu_seconds() - cpu0
+        cpu_each = [b - a for a, b in zip(cpu0, _server_cpu_seconds(pids))]
+        cpu = sum(cpu_each)
         children1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         client_cpu = (children1.ru_utime + children1.ru_stime) - (children0.ru_utime + children0.ru_stime)
         stop.set()
@@ -250,12 +283,15 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
             for sid in set(a["frames_rendered"]) & set(b["frames_rendered"]):
                 render_fps.append((b["frames_rendered"][sid] - a["frames_rendered"][sid]) / (b["t"] - a["t"]))
         warm = [s for s in samples if 10 <= s["t"] <= seconds]
+        steady_rss = [s for s in samples if 10 <= s["t"] <= min(seconds, early_seconds if early else seconds) - 1]
         return {
             "clients": clients,
             "shared": shared,
             "seconds": seconds,
             "early_leavers": early,
+            "processes": len(pids),
             "server_cpu_cores": round(cpu / wall, 3),
+            "server_cpu_cores_per_process": [round(c / wall, 3) for c in cpu_each],
             "client_process_cpu_cores": round(client_cpu / wall, 3),
             "fps_per_client": {
                 "min": round(min(fps), 1),
@@ -273,10 +309,15 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
                 "peak": max(s["rss_mb"] for s in samples) if samples else None,
                 "end": samples[-1]["rss_mb"] if samples else None,
                 "ring_buffers_peak": max(s["ring_mb"] for s in samples) if samples else None,
+                # growth per minute while every client stays, and the same less the samples stored meanwhile
+                # (bounded by the rings' capacity): what would be a leak
+                "slope_mb_per_min": _slope([(s["t"], s["rss_mb"]) for s in steady_rss]),
+                "slope_beyond_stored_samples_mb_per_min": _slope(
+                    [(s["t"], s["rss_mb"] - s["ring_filled_mb"]) for s in steady_rss]),
             },
             "sessions_after_early_leave": min(s["sessions"] for s in after_early) if after_early else None,
             "sessions_peak": max(s["sessions"] for s in samples) if samples else None,
-            "sessions_at_end": len(server.sessions),
+            "sessions_at_end": server.seats.count,
             "shared_session": server.shared_session is not None,
             "per_client": per_client,
             "samples": samples,
@@ -292,6 +333,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clients", type=int, default=30)
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--shared", action="store_true")
+    parser.add_argument("--processes", type=int, default=1, help="server processes for the load part")
+    parser.add_argument("--early", type=int, default=5, help="clients of the load part that leave after 20 s")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
     args = parser.parse_args(argv)
     out: dict = {}
@@ -308,7 +351,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.part in ("all", "cpu"):
         out["cpu"] = measure_cpu()
     if args.part in ("all", "load"):
-        load = measure_load(args.clients, args.seconds, shared=args.shared)
+        load = measure_load(args.clients, args.seconds, early=args.early, shared=args.shared,
+                            processes=args.processes)
         load.pop("per_client")
         load.pop("samples")
         out["load"] = load

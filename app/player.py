@@ -44,6 +44,10 @@ MAX_CHUNK_SECONDS = 2.0
 # pendulum; the budget shrinks with the square of the chain length, as the cost of one evaluation grows.
 CHUNK_WORK_BUDGET = 3000.0  # right-hand-side evaluations per chunk at n = 3
 MAX_SPEED = 8.0
+# A frame is skipped while the previous one waits to be sent (see Player), but never for longer than this: a
+# browser whose buffer never empties still sees 4 frames per second, and a wrong "not delivered" never freezes.
+MAX_DEFER_SECONDS = 0.25
+MAX_STEP_SECONDS = MAX_DEFER_SECONDS + 2 * SAMPLE_DT  # most wall time one frame advances the display by
 
 
 def _chunk_work(traj) -> int:
@@ -68,9 +72,10 @@ class Player:
     count calls); ``make_settings(settings, t_end, samples)`` returns a copy with the chunk's horizon;
     ``on_frame(frame)`` moves the scene (called on the player thread, under the player's lock);
     ``on_failure(message)`` reports a run that stopped; ``prepare(spec, theta0, omega0)`` runs before a run's
-    first chunk
-    (loads compiled code, possibly slowly, with a notice). Chunks after the first continue a run and are
-    passed ``continuing=True``: a closed loop's drift belongs to the run and is not re-checked at each chunk.
+    first chunk (loads compiled code, possibly slowly, with a notice); ``ready_for_frame()`` says whether the
+    previous frame has been delivered (app/delivery.py): if not, a playing frame is skipped (the displayed
+    time still follows the wall clock) rather than rendered over an unsent one, for at most
+    MAX_DEFER_SECONDS. Chunks after the first continue a run and are passed ``continuing=True``: a closed loop's drift belongs to the run and is not re-checked at each chunk.
     """
 
     def __init__(
@@ -81,12 +86,14 @@ class Player:
         on_failure: Callable[[str], None],
         prepare: Callable[[RunSpec, np.ndarray, np.ndarray], None] | None = None,
         name: str = "player",
+        ready_for_frame: Callable[[], bool] | None = None,
     ) -> None:
         self._simulate = simulate
         self._make_settings = make_settings
         self._on_frame = on_frame
         self._on_failure = on_failure
         self._prepare = prepare or (lambda spec, theta0, omega0: None)
+        self._ready_for_frame = ready_for_frame or (lambda: True)
         self.lock = threading.RLock()
         self._wake = threading.Event()
         self._stop = False
@@ -100,6 +107,7 @@ class Player:
         self.playing = False
         self.speed = 1.0
         self.frame_counter = 0
+        self.frames_deferred = 0  # frame times skipped because the previous frame had not been delivered yet
         self.frame_interval = SAMPLE_DT  # wall seconds between frames; the server widens it under load
         self.latencies: collections.deque[float] = collections.deque(maxlen=256)  # seconds, restart -> pose
         self.last_restart_shown = 0.0  # perf_counter() when the first frame of the latest restart was sent
@@ -198,6 +206,11 @@ class Player:
     def alive(self) -> bool:
         return self._thread.is_alive()
 
+    def superseded(self) -> bool:
+        """True while the restart being installed is no longer wanted: a newer one waits, or the player stops.
+        ``prepare`` polls it to cancel a slow build (app/warm.py kills its worker)."""
+        return self._stop or self._pending is not None
+
     # ------------------------------------------------------------------ state (any thread)
     def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
         """``(t, theta, omega)`` of the first run at the sample at or before the displayed time."""
@@ -278,7 +291,14 @@ class Player:
     def _install(self, pending: Restart) -> None:
         """Replace the runs by ``pending``'s; the slow parts (loading code, the first sample) run unlocked."""
         for spec, (theta0, omega0) in zip(pending.specs, pending.starts):
-            self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
+            if self.superseded():  # a burst of edits: only the last one is prepared and shown
+                return
+            try:
+                self._prepare(spec, theta0, omega0)  # may take long on a cold cache (deriving, compiling)
+            except Exception:
+                if self.superseded():  # cancelled for the newer request, which the loop installs next
+                    return
+                raise
         seeds = [self._seed(spec, pending.t0, *start) for spec, start in zip(pending.specs, pending.starts)]
         with self.lock:
             if self._pending is not None:  # a newer request arrived meanwhile: it wins
@@ -410,6 +430,11 @@ class Player:
             return any(run.failed is not None for run in self.runs)  # cannot get there
 
     def _render(self, now: float, restarted: bool = False) -> None:
+        if (not restarted and self._seek_target is None and self.playing
+                and now - self._last_frame_wall < MAX_DEFER_SECONDS and not self._ready_for_frame()):
+            with self.lock:
+                self.frames_deferred += 1
+            return
         with self.lock:
             wall_dt = now - self._last_frame_wall
             self._last_frame_wall = now
@@ -423,7 +448,8 @@ class Player:
                     self._seek_target = None
                     self._seek_done.set()
             elif self.playing and not restarted:
-                self.display_time = min(self.display_time + self.speed * min(wall_dt, 0.1), limit)
+                # real time across deferred frames; a longer stall (a busy machine) does not jump ahead
+                self.display_time = min(self.display_time + self.speed * min(wall_dt, MAX_STEP_SECONDS), limit)
             self._rate_window.append((now, self.display_time))
             moved = self.display_time != self._last_shown_time
             if not (restarted or moved or self._dirty):

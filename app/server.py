@@ -4,7 +4,8 @@
 browser that connects gets its own :class:`~app.session.Session` on its client handle; closing the tab
 closes the session (player thread stopped, buffers dropped). Past ``max_sessions`` a browser is turned away
 with a message in its page. With ``shared``, one session lives on the server's shared scene and GUI and every
-browser watches (and drives) it.
+browser watches (and drives) it. With ``processes`` > 1 the server is that many processes on one port, each
+a ``LabServer`` with its share of the browsers (app/processes.py); ``seats`` counts the sessions of all of them.
 """
 
 from __future__ import annotations
@@ -13,12 +14,14 @@ import contextlib
 import io
 import ipaddress
 import socket
+import sys
 import threading
 import time
 import traceback
 
 from physics import LinkageError
 
+from . import processes as server_processes
 from . import warm as warm_up
 from .logs import quietly
 from .parameters import SessionParameters
@@ -28,12 +31,13 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
 DEFAULT_PRESET = "triple-a"
 DEFAULT_MAX_SESSIONS = 32
-# Own sessions each integrate ahead in this interpreter (app/player.py); past this the 2-core machine of
-# docs/reliability.md cannot keep their frame rate. A larger audience watches one --shared session.
+# Own sessions each integrate ahead and render in a server process (app/player.py, app/processes.py); past
+# this the 2-core machine of docs/reliability.md cannot keep their frame rate. A larger audience watches one
+# --shared session.
 MAX_SESSIONS_LIMIT = 100
-# Frames per second the server renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
-# beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core the server may use is not
-# spent on frames that viser would drop before sending (measured: python -m app.bench load).
+# Frames per second one server process renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
+# beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core a process's interpreter may
+# use is not spent on frames that viser would drop before sending (measured: python -m app.bench load).
 FRAME_BUDGET = 900.0
 FULL_RATE_SESSIONS = 15
 MIN_SESSION_FPS = 15.0
@@ -76,6 +80,9 @@ class LabServer:
         max_sessions: int = DEFAULT_MAX_SESSIONS,
         shared: bool = False,
         warm: bool = True,
+        processes: int = 1,
+        seats: server_processes.Seats | None = None,
+        reuse_port: bool = False,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -86,7 +93,18 @@ class LabServer:
             )
         # validate the start mechanism once, before anything listens (raises LinkageError naming the field)
         SessionParameters.from_preset(preset, links=links, method=method)
+        if not 1 <= int(processes) <= server_processes.MAX_PROCESSES:
+            raise LinkageError(f"--processes {processes}: allowed range 1 <= processes <= "
+                               f"{server_processes.MAX_PROCESSES}")
         check_bindable(host)
+        processes = 1 if shared else int(processes)  # one shared session lives in one process
+        if processes > 1 and not server_processes.shares_ports():
+            print(f"linkage-lab: --processes {processes}: this system cannot share a port between processes; "
+                  "serving from one", file=sys.stderr)
+            processes = 1
+        if processes > 1:  # siblings share the port (app/processes.py): reserve one nothing else holds
+            port = server_processes.reserve_port(host, int(port))
+            reuse_port = True
         # start loading the compiled equations now, in parallel with the server's start (see app/warm.py)
         self._warm_thread = warm_up.start_warm_up(preset, links, method) if warm else None
         import viser
@@ -97,20 +115,30 @@ class LabServer:
         self.max_sessions = int(max_sessions)
         self.shared = shared
         self.started = time.time()
-        with contextlib.redirect_stdout(io.StringIO()):  # viser's banner; we print the real URL ourselves
+        binding = server_processes.reuse_port_binding() if reuse_port else contextlib.nullcontext()
+        with contextlib.redirect_stdout(io.StringIO()), binding:  # viser's banner; we print the real URL ourselves
             self.viser = viser.ViserServer(host=host, port=int(port), label="Linkage Lab", verbose=False)
         self.viser.scene.set_up_direction("+z")
         self.viser.gui.configure_theme(control_width="large", show_share_button=False)
         self._lock = threading.Lock()
-        self.sessions: dict[int, Session] = {}
+        self.sessions: dict[int, Session] = {}  # this process's own sessions
         self.turned_away: set[int] = set()
-        self._reserved = 0
+        self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
         self.shared_session: Session | None = None
         self.closed_sessions = 0
         if shared:
             self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
+        self.siblings: server_processes.Siblings | None = None
+        if processes > 1:
+            options = {"host": host, "preset": preset, "links": links, "method": method,
+                       "max_sessions": max_sessions, "warm": warm}
+            try:
+                self.siblings = server_processes.start_siblings(processes - 1, self.port, options, self.seats)
+            except BaseException:
+                self.stop()
+                raise
 
     # ------------------------------------------------------------------ address
     @property
@@ -128,14 +156,9 @@ class LabServer:
         if self.shared_session is not None:
             self.shared_session.frame_camera(client=client)  # the newcomer only; the others keep their view
             return
-        with self._lock:
-            if len(self.sessions) + self._reserved >= self.max_sessions:
+        if not self.seats.take(self.max_sessions):
+            with self._lock:
                 self.turned_away.add(client.client_id)
-                full = True
-            else:
-                self._reserved += 1
-                full = False
-        if full:
             self._turn_away(client)
             return
         session = None
@@ -147,16 +170,17 @@ class LabServer:
             quietly(lambda: client.add_notification("Could not start a session", reason, color="red"),
                     "telling a browser its session failed")
         finally:
+            kept = False
             with self._lock:
-                self._reserved -= 1
-                if session is not None:
-                    if client.client_id in self.viser.get_clients():
-                        self.sessions[client.client_id] = session
-                        session = None
-            if session is not None:  # the browser left while its session was being built
-                session.close()
-                with self._lock:
-                    self.closed_sessions += 1
+                if session is not None and client.client_id in self.viser.get_clients():
+                    self.sessions[client.client_id] = session
+                    kept = True
+            if not kept:
+                self.seats.release()
+                if session is not None:  # the browser left while its session was being built
+                    session.close()
+                    with self._lock:
+                        self.closed_sessions += 1
             self._rebalance()
 
     def _rebalance(self) -> None:
@@ -188,6 +212,7 @@ class LabServer:
             self.turned_away.discard(client.client_id)
         if session is not None:
             session.close()
+            self.seats.release()
             with self._lock:
                 self.closed_sessions += 1
         self._rebalance()
@@ -207,12 +232,23 @@ class LabServer:
         raise TimeoutError(f"expected {count} sessions, have {len(self.sessions)} after {timeout} s")
 
     # ------------------------------------------------------------------ lifetime
+    @property
+    def pids(self) -> list[int]:
+        """Every process serving this server (this one first)."""
+        import os
+
+        return [os.getpid(), *(self.siblings.pids if self.siblings is not None else [])]
+
     def stop(self) -> None:
+        if getattr(self, "siblings", None) is not None:
+            self.siblings.stop()
+            self.siblings = None
         with self._lock:
             sessions = list(self.sessions.values())
             self.sessions.clear()
         for session in sessions:
             session.close()
+            self.seats.release()
         if self.shared_session is not None:
             self.shared_session.close()
         with contextlib.redirect_stdout(io.StringIO()):

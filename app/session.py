@@ -32,7 +32,7 @@ import physics
 from physics import LinkageError
 from physics.model import validated
 
-from . import commands, export, readout, warm
+from . import commands, delivery, export, readout, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -103,6 +103,7 @@ class Session:
             on_failure=self._on_failure,
             prepare=self._prepare,
             name=f"player-{self.id}",
+            ready_for_frame=None if shared else (lambda: delivery.caught_up(target)),
         )
         try:
             self.notices = Notices(self._clients, self._refresh_status, self._connection_open)
@@ -405,7 +406,7 @@ class Session:
         timer.daemon = True
         timer.start()
         try:
-            warm.ensure_ready(spec.chain, spec.settings, theta0, omega0)
+            warm.ensure_ready(spec.chain, spec.settings, theta0, omega0, cancelled=self.player.superseded)
         finally:
             timer.cancel()
             self.notices.dismiss(shown)

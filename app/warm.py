@@ -13,7 +13,9 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 import threading
+import time
 from typing import Callable
 
 import physics
@@ -23,6 +25,13 @@ from .logs import log_once
 
 # A build in a worker process that takes longer than this is left to finish in the server instead.
 PREBUILD_TIMEOUT_SECONDS = 600.0
+# How often a waiting build looks whether it is still wanted (a newer edit cancels it): well under the second
+# within which a session resumes after its last edit.
+CANCEL_POLL_SECONDS = 0.05
+
+
+class Cancelled(Exception):
+    """A build or warm-up nobody wants any more (the session has a newer request): its worker was killed."""
 
 _loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple[str, int, bool], threading.Lock] = {}
@@ -49,6 +58,10 @@ def _once(done: set, key: tuple, action: Callable[[], object]) -> None:
             done.add(key)
 
 
+def _not_cancelled() -> bool:
+    return False
+
+
 def ensure_loaded(method: str, n: int, pinned: bool) -> None:
     """Load (or derive) one compiled system once; concurrent callers for the same system wait for it."""
     _once(_loaded, (method, n, pinned), lambda: physics.load_compiled(method, n, pinned))
@@ -73,12 +86,17 @@ def is_ready(chain, settings) -> bool:
         return _ready_key(chain, settings) in _ready
 
 
-def ensure_ready(chain, settings, theta0, omega0) -> None:
+def ensure_ready(chain, settings, theta0, omega0, cancelled: Callable[[], bool] = _not_cancelled) -> None:
     """Loaded code *and* one short simulation done with this method and integrator in this process: numba
-    compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part."""
+    compiles (cold cache) or loads (warm) its integrators on their first call, which is the slow part.
+
+    ``cancelled()`` turning true while a worker builds kills the worker and raises :class:`Cancelled` (a burst
+    of edits builds only what the last one needs); nothing is marked ready then."""
 
     def warm() -> None:
-        build_outside(settings.method, chain.n, chain.pinned, settings.integrator)
+        build_outside(settings.method, chain.n, chain.pinned, settings.integrator, cancelled)
+        if cancelled():
+            raise Cancelled(f"{settings.method}, {chain.n} bars: no longer wanted")
         for system in _systems(settings.method, chain.n, chain.pinned):
             ensure_loaded(*system)
         try:
@@ -89,23 +107,48 @@ def ensure_ready(chain, settings, theta0, omega0) -> None:
     _once(_ready, _ready_key(chain, settings), warm)
 
 
-def build_outside(method: str, n: int, pinned: bool, integrator: str) -> bool:
+def build_outside(method: str, n: int, pinned: bool, integrator: str,
+                  cancelled: Callable[[], bool] = _not_cancelled) -> bool:
     """Derive and compile a mechanism the cache lacks in a worker process (physics/codegen/prebuild.py), so
     the server's interpreter (and every other session's animation) never waits on sympy or numba's compiler.
     True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
-    in-process, as before: slower for the others, still correct)."""
+    in-process, as before: slower for the others, still correct). When ``cancelled()`` turns true the worker
+    is killed at once (the cache's atomic writes leave no half file) and :class:`Cancelled` is raised."""
     if all(is_generated(*system) for system in _systems(method, n, pinned)):
         return False
     command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
                "pinned" if pinned else "open", integrator]
+    errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a chatty worker never blocks on it
     try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=PREBUILD_TIMEOUT_SECONDS,
-                              env=dict(os.environ), check=False)
-    except (OSError, subprocess.TimeoutExpired) as error:
+        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=errors, text=True,
+                                  env=dict(os.environ))
+    except OSError as error:
+        errors.close()
         print(f"linkage-lab: worker build failed ({error}); building in the server", file=sys.stderr)
         return False
-    if done.returncode != 0:
-        reason = (done.stderr.strip().splitlines() or [f"exit {done.returncode}"])[-1]
+    deadline = time.monotonic() + PREBUILD_TIMEOUT_SECONDS
+    try:
+        while True:
+            try:
+                worker.wait(CANCEL_POLL_SECONDS)
+                break
+            except subprocess.TimeoutExpired:
+                pass
+            if cancelled():
+                raise Cancelled(f"{method}, {n} bars: build no longer wanted")
+            if time.monotonic() > deadline:
+                print(f"linkage-lab: worker build took over {PREBUILD_TIMEOUT_SECONDS:.0f} s; building in the "
+                      "server", file=sys.stderr)
+                return False
+    finally:
+        if worker.poll() is None:
+            worker.kill()
+        worker.wait()
+        errors.seek(0)
+        stderr = errors.read()
+        errors.close()
+    if worker.returncode != 0:
+        reason = (stderr.strip().splitlines() or [f"exit {worker.returncode}"])[-1]
         print(f"linkage-lab: worker build failed ({reason}); building in the server", file=sys.stderr)
         return False
     return True

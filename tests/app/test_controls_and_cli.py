@@ -158,6 +158,8 @@ def test_a_busy_port_moves_and_the_printed_url_follows(lab):
         (["--method", "euler"], "--method"),
         (["--max-sessions", "0"], "--max-sessions 0: allowed range 1 <= max-sessions <= 100"),
         (["--max-sessions", "101"], "--max-sessions 101: allowed range 1 <= max-sessions <= 100"),
+        (["--processes", "0"], "--processes 0: allowed range 1 <= processes <= 16"),
+        (["--processes", "17"], "--processes 17: allowed range 1 <= processes <= 16"),
         (["--links", "5"], "links"),
         (["--host", "203.0.113.7"], "--host 203.0.113.7"),
         (["--bogus"], "unrecognized arguments"),

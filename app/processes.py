@@ -1,0 +1,233 @@
+"""The server as several processes on one port, so that own sessions do not share one interpreter lock.
+
+Where the time goes (``python -m app.bench load``, docs/reliability.md): with 30 own sessions of the triple
+pendulum the server spends about 2 % of its CPU integrating; the rest goes into turning each frame into viser
+messages (the player threads) and serialising, compressing and sending them (viser's event-loop thread). All of
+it needs the interpreter lock, so one interpreter serves at most about 1000 frames per second whatever the
+number of cores, and with a hundred player threads the threads mostly wait for the lock. Moving only the
+integration into a pool of workers would leave 98 % of the work where it is.
+
+So the server runs as ``processes`` interpreters instead, each a complete viser server with its own sessions,
+all bound to the same port with ``SO_REUSEPORT``: the kernel hands each new connection (page, assets and
+websocket alike; every process serves the same page) to one of them. The process started by ``python -m app``
+is the first; it starts the others (``multiprocessing`` with *spawn*: nothing of the first's threads is
+copied) and stops them when it stops; a sibling whose first process has gone stops itself. The cap on
+sessions is one count in shared memory (:class:`Seats`), so ``--max-sessions`` holds across all of them.
+
+The port is reserved by a plain bind before the processes bind it with ``SO_REUSEPORT``: a port already held by
+anything (including another Linkage Lab) is skipped, so two servers never share one port by accident.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import queue
+import signal
+import socket
+import sys
+import threading
+import time
+
+# Sibling processes get this long to start and bind (imports, warm-up of the compiled code in the background).
+SIBLING_START_TIMEOUT = 120.0
+SIBLING_STOP_TIMEOUT = 5.0
+MAX_PROCESSES = 16  # more interpreters than this only adds memory (about 200 MB each) on any machine we serve
+# A sibling checks this often whether the process that started it is still there.
+ORPHAN_CHECK_SECONDS = 1.0
+
+_spawn = multiprocessing.get_context("spawn")
+_serve_patch_lock = threading.Lock()
+
+
+def shares_ports() -> bool:
+    """Whether the kernel spreads one port's connections over processes (Linux ``SO_REUSEPORT``; macOS has the
+    option but gives every connection to one socket, Windows lacks it)."""
+    return sys.platform.startswith("linux") and hasattr(socket, "SO_REUSEPORT")
+
+
+def default_processes() -> int:
+    """One interpreter per core this process may run on (one where ports cannot be shared)."""
+    if not shares_ports():
+        return 1
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, MAX_PROCESSES))
+
+
+class _LocalCount:
+    """An integer and its lock, for a server of one process (no shared memory, no helper process)."""
+
+    def __init__(self) -> None:
+        self.value = 0
+        self._lock = threading.Lock()
+
+    def get_lock(self) -> threading.Lock:
+        return self._lock
+
+
+class Seats:
+    """How many sessions exist across every process of one server.
+
+    ``take(limit)`` claims a seat if fewer than ``limit`` are taken; ``release()`` gives one back. With
+    ``shared`` the count lives in shared memory (multiprocessing starts its resource tracker process for it)
+    and is handed to the sibling processes; otherwise it is a plain integer."""
+
+    def __init__(self, shared: bool = False) -> None:
+        self._value = _spawn.Value("i", 0) if shared else _LocalCount()
+
+    def take(self, limit: int) -> bool:
+        with self._value.get_lock():
+            if self._value.value >= limit:
+                return False
+            self._value.value += 1
+            return True
+
+    def release(self) -> None:
+        with self._value.get_lock():
+            self._value.value = max(0, self._value.value - 1)
+
+    @property
+    def count(self) -> int:
+        return int(self._value.value)
+
+
+def reserve_port(host: str, port: int) -> int:
+    """The first port from ``port`` on that nothing on this machine holds (a plain bind succeeds), for the
+    processes to share with ``SO_REUSEPORT``; ``port = 0`` picks a free one. Mirrors viser's own search."""
+    family = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)[0][0]
+    for candidate in ([0] if port == 0 else range(port, min(port + 1000, 65536))):
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            try:
+                probe.bind((host, candidate))
+            except OSError:
+                continue
+            return probe.getsockname()[1]
+    raise OSError(f"no free port from {port} on {host}")
+
+
+@contextlib.contextmanager
+def reuse_port_binding():
+    """While a viser server is being constructed (it binds before its constructor returns), make its
+    websockets server bind with ``SO_REUSEPORT``. viser has no option for it; its call is
+    ``websockets.asyncio.server.serve(...)``, whose extra keywords go to ``loop.create_server``."""
+    import websockets.asyncio.server as ws_server
+
+    with _serve_patch_lock:
+        original = ws_server.serve
+
+        def serve(*args, **kwargs):
+            kwargs["reuse_port"] = True
+            return original(*args, **kwargs)
+
+        ws_server.serve = serve
+        try:
+            yield
+        finally:
+            ws_server.serve = original
+
+
+class Siblings:
+    """The processes a first server started: ``pids``, ``wait_ready()``, ``stop()``.
+
+    The first process serves at once; each sibling joins the port when it has started (a second or two), and
+    the kernel hands it connections from then on. A sibling that fails to start is reported on stderr and
+    the others serve on."""
+
+    def __init__(self, processes: list, ready) -> None:
+        self._processes = processes
+        self._ready_queue = ready
+        self.ready = 0
+        self.failures: list[str] = []
+        self._all_reported = threading.Event()
+        self._stopping = threading.Event()
+        self._watcher = threading.Thread(target=self._collect, name="sibling-start", daemon=True)
+        self._watcher.start()
+
+    def _collect(self) -> None:
+        deadline = time.monotonic() + SIBLING_START_TIMEOUT
+        reported = 0
+        try:
+            while reported < len(self._processes) and not self._stopping.is_set():
+                try:
+                    status = self._ready_queue.get(timeout=0.2)
+                except queue.Empty:
+                    if time.monotonic() < deadline:
+                        continue
+                    status = f"did not start within {SIBLING_START_TIMEOUT:.0f} s"
+                reported += 1
+                if status == "ok":
+                    self.ready += 1
+                else:
+                    self.failures.append(status)
+                    print(f"linkage-lab: a server process could not start ({status}); the others serve on",
+                          file=sys.stderr)
+        finally:
+            self._all_reported.set()
+
+    def wait_ready(self, timeout: float = SIBLING_START_TIMEOUT) -> bool:
+        """True once every sibling serves."""
+        return self._all_reported.wait(timeout) and self.ready == len(self._processes)
+
+    @property
+    def pids(self) -> list[int]:
+        return [p.pid for p in self._processes if p.pid is not None]
+
+    def alive(self) -> int:
+        return sum(p.is_alive() for p in self._processes)
+
+    def stop(self) -> None:
+        self._stopping.set()
+        self._watcher.join(2.0)
+        for process in self._processes:
+            if process.is_alive():
+                process.terminate()
+        deadline = time.monotonic() + SIBLING_STOP_TIMEOUT
+        for process in self._processes:
+            process.join(max(0.0, deadline - time.monotonic()))
+            if process.is_alive():
+                process.kill()
+                process.join(1.0)
+        for process in self._processes:
+            process.close()
+        self._processes = []
+        self._ready_queue.close()
+        self._ready_queue.join_thread()
+
+
+def start_siblings(count: int, port: int, options: dict, seats: Seats) -> Siblings:
+    """Start ``count`` more server processes on ``port``; returns at once (see :class:`Siblings`)."""
+    ready = _spawn.Queue()
+    processes = [
+        _spawn.Process(target=_sibling_main, args=(port, options, seats, os.getpid(), ready),
+                       name=f"linkage-lab-{i + 2}", daemon=True)
+        for i in range(count)
+    ]
+    for process in processes:
+        process.start()
+    return Siblings(processes, ready)
+
+
+def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) -> None:
+    """One more server process: serve until the first process stops it or goes away."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the first process decides
+    try:
+        from .server import LabServer
+
+        server = LabServer(port=port, processes=1, seats=seats, reuse_port=True, **options)
+        if server.port != port:  # viser moved on: the shared port was not ours to join
+            server.stop()
+            raise OSError(f"bound {server.port} instead of {port}")
+    except Exception as error:  # reported to the first process, which serves on
+        ready.put(f"{type(error).__name__}: {error}")
+        return
+    ready.put("ok")
+    try:
+        while os.getppid() == parent:
+            time.sleep(ORPHAN_CHECK_SECONDS)
+    finally:
+        server.stop()
+        sys.stdout.flush()

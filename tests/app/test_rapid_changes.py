@@ -1,0 +1,270 @@
+"""Rapid changes coalesce, and a session leaves nothing behind.
+
+A burst of edits is applied as its last value: superseded restarts are dropped, a build in a worker process
+for a mechanism no longer wanted is killed, and the session animates again within a second of the last edit.
+After twenty browsers have come and gone, the server holds as many threads and child processes as before and
+its memory is back within 10 % (docs/reliability.md, "Load and lifetime").
+"""
+
+from __future__ import annotations
+
+import gc
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from conftest import BrowserStandIn, wait_until
+
+ROOT = Path(__file__).resolve().parents[2]
+RESUME_SECONDS = 1.0  # after the last edit of a burst, with the code built, the motion goes on within this
+
+
+def _children(pid: int | None = None) -> list[int]:
+    """Live child processes of ``pid`` (this process by default)."""
+    pid = pid or os.getpid()
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            found.append(int(entry))
+    return found
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _resumed_within(session, seconds: float) -> float | None:
+    """Seconds until the session shows its latest request and its displayed time moves; None if not."""
+    started = time.monotonic()
+    if not session.player.wait_idle(seconds):
+        return None
+    t0 = session.player.display_time
+    while time.monotonic() - started < seconds:
+        if session.player.display_time > t0 and session.player.playing:
+            return time.monotonic() - started
+        time.sleep(0.005)
+    return None
+
+
+def test_a_burst_of_edits_is_applied_as_its_last_value_and_resumes_within_a_second(connect):
+    _, session = connect()
+    methods = ["newton_euler", "lagrange", "dae"]
+    integrators = ["RK45", "DOP853"]
+    for method in methods:  # built once, so the burst measures coalescing, not compiling
+        session.guard(lambda m=method: session.set_method(m))
+        assert session.player.wait_idle(300)
+    edits = 0
+    for i in range(100):
+        session.guard(lambda i=i: session.set_method(methods[i % 3]))
+        session.guard(lambda i=i: session.set_integrator(integrators[i % 2]))
+        edits += 2
+        time.sleep(0.02)
+    for i in range(40):
+        session.guard(lambda i=i: session.set_compare(i % 2 == 0))
+        edits += 1
+        time.sleep(0.02)
+    # the end of the burst back to back, faster than a restart installs: the player takes only the newest
+    restarts_before = session.player.generation
+    for i in range(150):
+        session.guard(lambda i=i: session.set_method(methods[i % 3]))
+        session.guard(lambda i=i: session.set_integrator(integrators[i % 2]))
+    session.guard(lambda: session.set_compare(False))
+    session.guard(lambda: session.set_method("dae"))
+    session.guard(lambda: session.set_integrator("RK45"))
+    back_to_back = 303
+    resumed = _resumed_within(session, RESUME_SECONDS)
+    assert resumed is not None, "the session did not resume within a second of the last edit"
+    assert session.player.error is None and session.notice is None, (session.player.error, session.notice)
+    assert (session.params.method, session.params.integrator, session.compare) == ("dae", "RK45", False)
+    assert [run.spec.settings.method for run in session.player.runs] == ["dae"]
+    assert session.player.runs[0].spec.settings.integrator == "RK45"
+    installed = session.player.generation - restarts_before
+    print(f"\nburst: {edits} edits 20 ms apart, then {back_to_back} back to back of which {installed} were "
+          f"installed; resumed {1e3 * resumed:.0f} ms after the last")
+
+
+def test_a_burst_of_mechanism_switches_ends_on_the_last_and_resumes_within_a_second(connect):
+    _, session = connect()
+    mechanisms = ["single", "double", "four-bar", "triple-a"]
+    for name in mechanisms:  # built once (in a worker on a cold cache), so the burst measures coalescing
+        session.guard(lambda n=name: session.set_mechanism(n))
+        assert session.player.wait_idle(300), name
+    for i in range(32):  # each switch rebuilds the scene and the controls
+        session.guard(lambda i=i: session.set_mechanism(mechanisms[i % 4]))
+        time.sleep(0.05)
+    session.guard(lambda: session.set_mechanism("four-bar"))
+    resumed = _resumed_within(session, RESUME_SECONDS)
+    assert resumed is not None, "the session did not resume within a second of the last switch"
+    assert session.player.error is None and session.notice is None, (session.player.error, session.notice)
+    assert session.params.preset == "four-bar" and session.player.runs[0].spec.pinned
+    assert session.scene.layout.n == 3
+    print(f"\nmechanisms: 33 switches 50 ms apart; resumed {1e3 * resumed:.0f} ms after the last")
+
+
+def test_superseded_preparations_are_cancelled_not_queued():
+    """A prepare (a build, on a cold cache) that a newer request supersedes stops at once; only the newest
+    request's prepare runs to the end, and the player shows it one prepare's time after the last request."""
+
+    from app.player import Player, RunSpec
+    from physics import Settings, get_preset, simulate
+
+    preset = get_preset("triple-a")
+    build_seconds = 0.4
+    started, finished, cancelled = [], [], []
+    player = None
+
+    def slow_prepare(spec, theta0, omega0):  # as app/warm.py's build does: polls whether it is still wanted
+        started.append(spec.label)
+        deadline = time.monotonic() + build_seconds
+        while time.monotonic() < deadline:
+            if player.superseded():
+                cancelled.append((spec.label, time.monotonic()))
+                raise RuntimeError("cancelled")
+            time.sleep(0.005)
+        finished.append(spec.label)
+
+    player = Player(
+        simulate=simulate,
+        make_settings=lambda s, horizon, samples: s.model_copy(update={"t_end": horizon, "samples": samples}),
+        on_frame=lambda frame: None,
+        on_failure=lambda message: None,
+        prepare=slow_prepare,
+    )
+    try:
+        requested = {}
+        for i in range(30):
+            spec = RunSpec(f"edit-{i}", preset.chain, Settings(method="lagrange"))
+            requested[spec.label] = time.monotonic()
+            player.restart([spec], 0.0, [(preset.theta0, preset.omega0)], keep_history=False, play=True)
+            time.sleep(0.03)
+        last = time.monotonic()
+        assert player.wait_idle(10)
+        shown = time.monotonic()
+        assert [run.spec.label for run in player.runs] == ["edit-29"]
+        assert finished == ["edit-29"], finished  # no superseded prepare ran to its end
+        assert len(started) <= 30 and started[-1] == "edit-29"
+        for label, when in cancelled:  # each stopped within a poll of the request that superseded it
+            following = min(t for other, t in requested.items() if t > requested[label])
+            assert when - following < 0.1, (label, when - following)
+        assert shown - last < build_seconds + 0.5, shown - last
+    finally:
+        player.stop()
+
+
+CANCEL_SCRIPT = """
+import json, os, sys, threading, time
+from app import warm
+from physics.codegen.cache import is_generated
+stop = threading.Event()
+outcome = {}
+def build():
+    try:
+        outcome["built"] = warm.build_outside("dae", 4, False, "RK45", stop.is_set)
+    except warm.Cancelled:
+        outcome["cancelled_at"] = time.monotonic()
+thread = threading.Thread(target=build)
+thread.start()
+def children():
+    out = []
+    for e in os.listdir("/proc"):
+        if e.isdigit():
+            try:
+                fields = open(f"/proc/{e}/stat").read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == os.getpid() and fields[0] != "Z":
+                out.append(int(e))
+    return out
+deadline = time.monotonic() + 30
+while not children() and time.monotonic() < deadline:
+    time.sleep(0.01)
+worker_seen = bool(children())
+time.sleep(0.5)  # the worker is importing sympy and deriving
+stop.set()
+asked = time.monotonic()
+thread.join(10)
+result = {"worker_seen": worker_seen, "cancelled": "cancelled_at" in outcome,
+          "seconds": outcome.get("cancelled_at", 1e9) - asked, "children_after": len(children()),
+          "generated_after_cancel": is_generated("dae", 4, False)}
+result["built_again"] = warm.build_outside("dae", 4, False, "RK45")
+result["generated"] = is_generated("dae", 4, False)
+print(json.dumps(result))
+"""
+
+
+def test_a_build_no_longer_wanted_is_killed_and_the_next_one_succeeds(tmp_path):
+    from physics import Settings, get_preset, simulate
+    from physics.kernels.disk_cache import kernels_folder
+
+    preset = get_preset("chain", links=2)  # the integrator kernels compile once: bring them along
+    simulate(preset.chain, preset.theta0, preset.omega0, Settings(method="dae", integrator="RK45", t_end=0.01))
+    cache = tmp_path / "cache"
+    shutil.copytree(kernels_folder(), cache / "numba" / kernels_folder().name)
+    os.chmod(cache, 0o700)
+    done = subprocess.run([sys.executable, "-c", CANCEL_SCRIPT], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300, env=dict(os.environ, LINKAGE_LAB_CACHE=str(cache)), check=False)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["worker_seen"] and result["cancelled"], result
+    assert result["seconds"] < 0.5, result  # killed, not waited for
+    assert result["children_after"] == 0, result
+    assert result["generated_after_cancel"] is False, result
+    assert result["built_again"] is True and result["generated"] is True, result
+
+
+def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behind():
+    import threading
+
+    from app.server import LabServer
+
+    server = LabServer(port=0, warm=False)
+    try:
+
+        def cycle() -> None:
+            client = BrowserStandIn(server.url)
+            assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+            assert client.wait_for(lambda c: c.bar_updates() >= 20, timeout=60)
+            session = next(iter(server.sessions.values()))
+            session.guard(lambda: session.set_method("dae"))
+            session.guard(lambda: session.set_compare(True))  # every run, thread and buffer a session can make
+            poses = sum(client.counts.pose_updates.values())
+            assert client.wait_for(lambda c: sum(c.pose_updates.values()) >= poses + 100, timeout=60)
+            assert len(session.player.runs) == 3
+            client.close()
+            assert wait_until(lambda: not server.sessions and server.seats.count == 0, timeout=30)
+
+        def settled() -> tuple[int, int, float]:
+            gc.collect()
+            time.sleep(0.5)
+            return threading.active_count(), len(_children()), _rss_mb()
+
+        for _ in range(2):  # the first sessions load code, fill caches and pools: not a leak
+            cycle()
+        threads0, children0, rss0 = settled()
+        for _ in range(20):
+            cycle()
+        assert wait_until(lambda: threading.active_count() <= threads0, timeout=10), (
+            threading.active_count(), threads0, [t.name for t in threading.enumerate()])
+        threads1, children1, rss1 = settled()
+        print(f"\nlifetime: threads {threads0} -> {threads1}, child processes {children0} -> {children1}, "
+              f"RSS {rss0:.1f} -> {rss1:.1f} MB after 20 connect/disconnect cycles")
+        assert threads1 <= threads0
+        assert children1 <= children0
+        assert rss1 <= 1.10 * rss0, (rss0, rss1)
+    finally:
+        server.stop()
