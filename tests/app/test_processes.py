@@ -60,7 +60,9 @@ def test_the_session_cap_holds_across_processes():
     try:
         assert server.siblings.wait_ready(120), server.siblings.failures
         clients = [BrowserStandIn(server.url) for _ in range(7)]
-        full = lambda c: any(title == "Server full" for _, title in c.notifications)
+        def full(counts) -> bool:
+            return any(title == "Server full" for _, title in counts.notifications)
+
         assert wait_until(lambda: sum(full(c.counts) for c in clients) == 4, timeout=60)
         assert server.seats.count == 3
         served = [c for c in clients if not full(c.counts)]
