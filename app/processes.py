@@ -123,11 +123,11 @@ def reuse_port_binding():
             kwargs["reuse_port"] = True
             return original(*args, **kwargs)
 
-        ws_server.serve = serve
+        ws_server.serve = serve  # type: ignore[misc,assignment]  # viser calls websockets' serve by this name
         try:
             yield
         finally:
-            ws_server.serve = original
+            ws_server.serve = original  # type: ignore[misc]
 
 
 class Siblings:

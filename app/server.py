@@ -240,8 +240,9 @@ class LabServer:
         return [os.getpid(), *(self.siblings.pids if self.siblings is not None else [])]
 
     def stop(self) -> None:
-        if getattr(self, "siblings", None) is not None:
-            self.siblings.stop()
+        siblings = getattr(self, "siblings", None)
+        if siblings is not None:
+            siblings.stop()
             self.siblings = None
         with self._lock:
             sessions = list(self.sessions.values())
