@@ -50,18 +50,18 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "snapshot":
-        from . import snapshot
+        from . import snapshot  # noqa: PLC0415 - playwright and the browser helpers only for snapshots
 
         return snapshot.main(argv[1:]) or 0
     args = build_parser().parse_args(argv)
     try:
-        from . import warm
-        from .parameters import SessionParameters
+        from . import warm  # noqa: PLC0415 - the warm-up starts before viser is imported (below)
+        from .parameters import SessionParameters  # noqa: PLC0415 - same reason
 
         SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
         warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser is imported
-        from .processes import default_processes
-        from .server import LabServer
+        from .processes import default_processes  # noqa: PLC0415 - imports viser: after the warm-up started
+        from .server import LabServer  # noqa: PLC0415 - same reason
 
         server = LabServer(
             host=args.host,

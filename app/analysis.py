@@ -16,6 +16,8 @@ import numpy as np
 
 import physics
 from physics import LinkageError
+from physics.ensemble import Ensemble
+from physics.presets import get_preset
 
 from .logs import quietly
 from .ports import SessionPort
@@ -114,8 +116,7 @@ class Analysis:
 
     # ------------------------------------------------------------------ work-precision chart
     def work_precision_chart(self) -> None:
-        from physics.studies import work_precision as bench
-
+        from physics.studies import work_precision as bench  # noqa: PLC0415 - the studies import scipy: on demand
         p = self.session.setup
         chain = p.chain
         theta0, omega0, trace = p.theta0.copy(), p.omega0.copy(), p.trace
@@ -145,9 +146,7 @@ class Analysis:
 
     # ------------------------------------------------------------------ chaos map
     def chaos_map(self) -> None:
-        from physics.presets import get_preset
-        from physics.studies import chaos_map as chaos
-
+        from physics.studies import chaos_map as chaos  # noqa: PLC0415 - a study: imported on demand
         chain = get_preset("double").chain
 
         def work() -> None:
@@ -205,8 +204,6 @@ class Analysis:
         self.ensemble_status.content = f"**Preparing** {count} copies..."
 
         def work() -> None:
-            from physics.ensemble import Ensemble
-
             try:
                 ensemble = Ensemble(chain, theta, omega, method, count, ENSEMBLE_SPREAD, damping=damping)
                 points = segments(ensemble.joints())

@@ -414,7 +414,7 @@ class Controls:
 
     def show_equations(self) -> None:
         """Render the current system's equations in a worker thread (sympy is imported there, never at start)."""
-        from . import equations  # imports sympy: only when asked for
+        from . import equations  # noqa: PLC0415 - imports sympy: only when asked for
 
         p = self.port.setup
         method = p.method

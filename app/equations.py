@@ -3,7 +3,7 @@
 viser's markdown has no TeX renderer, but its HTML element shows raw HTML and browsers draw MathML natively,
 so each row of the derived linear system ``A x = b`` is printed with sympy's presentation-MathML printer,
 next to the name the derivation gave it (e.g. "AMB bar 2 about its centre of mass"). sympy is imported here
-only, lazily, in a worker thread; results are cached per (formulation, n, pinned).
+only (this module is imported on demand, in a worker thread); results are cached per (formulation, n, pinned).
 """
 
 from __future__ import annotations
@@ -11,6 +11,12 @@ from __future__ import annotations
 import functools
 import html
 import re
+
+import sympy as sp
+from sympy.printing.mathml import mathml
+
+from physics.codegen.latex import equations_latex
+from physics.derive import FORMULATIONS
 
 from .math_lines import multline
 from .parameters import METHOD_LABELS
@@ -22,7 +28,6 @@ SIMPLIFY_MAX_LINKS = 4  # trig-simplify entries for display up to this many bars
 
 def _display_names(system):
     """Symbols renamed for display: theta_ddot_i -> θ̈_i (sympy prints theta_i, omega_i, L_i as Greek/subscripts)."""
-    import sympy as sp
 
     mapping = {}
     for i, symbol in enumerate(system.symbols.theta_ddot, start=1):
@@ -32,7 +37,6 @@ def _display_names(system):
 
 
 def _math(expr) -> str:
-    from sympy.printing.mathml import mathml
 
     return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
 
@@ -64,8 +68,6 @@ def _term_lines(terms: list, width: int) -> list[list]:
 def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) -> str:
     """``lhs = rhs`` as MathML lines that fit the panel: broken between terms (browsers do not break MathML
     themselves); a line that continues a sum starts with its sign, the right side starts with ``=``."""
-    import sympy as sp
-    from sympy.printing.mathml import mathml
 
     def block(terms, lead: str) -> str:
         expr = sp.Add(*terms, evaluate=False) if len(terms) > 1 else terms[0]
@@ -85,7 +87,6 @@ def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) ->
 @functools.lru_cache(maxsize=32)
 def equations_html(formulation: str, n: int, pinned: bool) -> str:
     """HTML (with MathML) of the system ``A x = b`` that the simulation integrates."""
-    import sympy as sp
 
     if formulation.startswith("reduced"):
         return (
@@ -93,7 +94,6 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
             "the other angles by position analysis (physics.assembly). It has no symbolic system of its own "
             "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
         )
-    from physics.derive import FORMULATIONS
 
     system = FORMULATIONS[formulation]().derive(n, pinned)
     names = _display_names(system)
@@ -146,7 +146,6 @@ def equations_tex(formulation: str, n: int, pinned: bool) -> str:
     """A LaTeX document of the same system, from physics.codegen.equations_latex (cached beside the code)."""
     if formulation.startswith("reduced"):
         raise ValueError("the reduced model has no symbolic system of its own; choose a formulation")
-    from physics.codegen.latex import equations_latex
 
     data = equations_latex(formulation, n, pinned)
     label = METHOD_LABELS.get(formulation, formulation)

@@ -30,6 +30,8 @@ import sys
 import threading
 import time
 
+import websockets.asyncio.server as ws_server
+
 # Sibling processes get this long to start and bind (imports, warm-up of the compiled code in the background).
 SIBLING_START_TIMEOUT = 120.0
 SIBLING_STOP_TIMEOUT = 5.0
@@ -114,8 +116,6 @@ def reuse_port_binding():
     """While a viser server is being constructed (it binds before its constructor returns), make its
     websockets server bind with ``SO_REUSEPORT``. viser has no option for it; its call is
     ``websockets.asyncio.server.serve(...)``, whose extra keywords go to ``loop.create_server``."""
-    import websockets.asyncio.server as ws_server
-
     with _serve_patch_lock:
         original = ws_server.serve
 
@@ -215,7 +215,7 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
     """One more server process: serve until the first process stops it or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the first process decides
     try:
-        from .server import LabServer
+        from .server import LabServer  # noqa: PLC0415 - app.server imports this module: a cycle otherwise
 
         server = LabServer(port=port, processes=1, seats=seats, reuse_port=True, **options)
         if server.port != port:  # viser moved on: the shared port was not ours to join

@@ -44,7 +44,7 @@ def download_file(session, kind: str) -> tuple[str, bytes]:
     if kind == "html":
         return f"{stem}-replay.html", replay(session.history(), p, session.run_label()).encode("utf-8")
     if kind == "tex":
-        from . import equations  # imports sympy: only when asked for
+        from . import equations  # noqa: PLC0415 - imports sympy: only when asked for
 
         try:
             text = equations.equations_tex(p.method, p.n, p.pinned)

@@ -30,7 +30,7 @@ _recorder = None
 def _recording_server():
     global _recorder
     if _recorder is None:
-        import viser
+        import viser  # noqa: PLC0415 - the recording server is made on the first export only
 
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner; this server is private
             _recorder = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)

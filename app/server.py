@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import ipaddress
+import os
 import socket
 import sys
 import threading
@@ -22,6 +23,7 @@ import traceback
 from physics import LinkageError
 
 from . import processes as server_processes
+from . import replay
 from . import warm as warm_up
 from .logs import quietly
 from .parameters import SessionParameters
@@ -107,7 +109,7 @@ class LabServer:
             reuse_port = True
         # start loading the compiled equations now, in parallel with the server's start (see app/warm.py)
         self._warm_thread = warm_up.start_warm_up(preset, links, method) if warm else None
-        import viser
+        import viser  # noqa: PLC0415 - after the warm-up thread started: it loads compiled code meanwhile
 
         self.host = host
         self.requested_port = int(port)
@@ -235,8 +237,6 @@ class LabServer:
     @property
     def pids(self) -> list[int]:
         """Every process serving this server (this one first)."""
-        import os
-
         return [os.getpid(), *(self.siblings.pids if self.siblings is not None else [])]
 
     def stop(self) -> None:
@@ -254,9 +254,7 @@ class LabServer:
             self.shared_session.close()
         with contextlib.redirect_stdout(io.StringIO()):
             self.viser.stop()
-        from .replay import stop_recorder
-
-        stop_recorder()
+        replay.stop_recorder()
 
     def serve_forever(self) -> None:
         try:

@@ -14,12 +14,15 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import shutil
 import sys
 import time
 from pathlib import Path
 from typing import Any, Iterator, Sequence
+
+from physics import METHOD_NAMES, LinkageError, preset_names
 
 CHROMIUM_ENV = "LINKAGE_LAB_CHROMIUM"
 CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "chromium", "chromium-browser")
@@ -94,7 +97,7 @@ def find_chromium() -> str:
 def import_playwright():
     """``playwright.sync_api.sync_playwright``, or a one-line error saying how to get it."""
     try:
-        from playwright.sync_api import sync_playwright
+        from playwright.sync_api import sync_playwright  # noqa: PLC0415 - the optional snapshot extra
     except ImportError:
         raise SnapshotError(
             "the snapshot command needs the `playwright` Python package: pip install playwright "
@@ -300,7 +303,7 @@ def paused_app(
 ) -> Iterator[tuple[Any, Any]]:
     """``(server, session)``: the app on a free loopback port with one shared session (so it exists before
     any browser connects, and ``--json`` needs none), with ``values`` applied by their ``--set`` names."""
-    from .server import LabServer
+    from .server import LabServer  # noqa: PLC0415 - viser: not for --json runs that fail on their arguments
 
     server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=method, shared=True, warm=False)
     try:
@@ -398,8 +401,6 @@ class SnapshotInputError(ValueError):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from physics import METHOD_NAMES, preset_names
-
     parser = _OneLineParser(
         prog="linkage-lab snapshot",
         description="Render the app's scene headlessly to PNG (needs Chromium), or print the session's JSON state.",
@@ -436,8 +437,6 @@ def _parse_values(items: Sequence[str]) -> list[tuple[str, str]]:
 
 
 def _check(args: argparse.Namespace) -> None:
-    import math
-
     if not (math.isfinite(args.time) and 0.0 <= args.time <= 1e5):
         raise SnapshotInputError(f"--time {args.time}: allowed range 0 <= time <= 1e5")
     if not (64 <= args.width <= 4096 and 64 <= args.height <= 4096):
@@ -461,8 +460,6 @@ def _check(args: argparse.Namespace) -> None:
 def main(argv: list[str] | None = None) -> int:
     """``python -m app snapshot ...``: 0 on success; one line on stderr and 2 (bad input) or 3 (cannot
     render: no Chromium, page never drew) otherwise."""
-    from physics import LinkageError
-
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = build_parser().parse_args(argv)

@@ -22,6 +22,7 @@ import physics
 from physics.codegen.cache import is_generated
 
 from .logs import log_once
+from .parameters import SessionParameters
 
 # A build in a worker process that takes longer than this is left to finish in the server instead.
 PREBUILD_TIMEOUT_SECONDS = 600.0
@@ -156,8 +157,6 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
 
 def warm_up(preset: str, links: int | None, method: str | None) -> None:
     """Load the start mechanism's code and run one tiny simulation (numba loads its cached integrators)."""
-    from .parameters import SessionParameters
-
     try:
         params = SessionParameters.from_preset(preset, links=links, method=method)
         ensure_ready(params.chain, params.settings, params.theta0, params.omega0)
