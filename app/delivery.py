@@ -11,14 +11,9 @@ has left the buffer; the frame rate then follows what can really be delivered.
 
 from __future__ import annotations
 
+from . import viser_compat
+
 
 def caught_up(client) -> bool:
-    """True when nothing queued for ``client`` (a ``viser.ClientHandle``) waits to be sent.
-
-    Reads viser's per-client message buffer (messages leave it when taken into a window for sending); a viser
-    without it, or a closed connection, counts as caught up so that a session never stops animating on it."""
-    try:
-        buffer = client._websock_connection.get_message_buffer()
-        return buffer.done or not buffer.message_from_id
-    except AttributeError:
-        return True
+    """True when nothing queued for ``client`` waits to be sent (viser's buffer, read behind the one door)."""
+    return viser_compat.client_caught_up(client)

@@ -101,6 +101,20 @@ def connection_open(client) -> bool:
     return not buffer_of().done
 
 
+def client_caught_up(client) -> bool:
+    """True when nothing queued for ``client`` (a ``viser.ClientHandle``) waits to be sent (app/delivery.py).
+
+    Reads viser's per-client message buffer (messages leave it when taken into a window for sending); a viser
+    without it, or a closed connection, counts as caught up so that a session never stops animating on it."""
+    connection = getattr(client, "_websock_connection", None) if VERSION_TESTED else None
+    buffer_of = getattr(connection, "get_message_buffer", None)
+    if buffer_of is None:
+        warn_once("delivery", "cannot see what waits to be sent to a browser; rendering every frame")
+        return True
+    buffer = buffer_of()
+    return bool(buffer.done or not buffer.message_from_id)
+
+
 # ------------------------------------------------------------------------------------------ tests and tools
 def control_id(handle) -> str:
     """The id by which viser's wire protocol addresses a GUI control (a websocket client sets it by this)."""

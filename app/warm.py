@@ -133,9 +133,9 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
             try:
                 worker.wait(CANCEL_POLL_SECONDS)
                 break
-            except subprocess.TimeoutExpired:
-                pass
-            if cancelled():
+            except subprocess.TimeoutExpired:  # still building: see whether it is still wanted
+                still_building = True
+            if still_building and cancelled():
                 raise Cancelled(f"{method}, {n} bars: build no longer wanted")
             if time.monotonic() > deadline:
                 print(f"linkage-lab: worker build took over {PREBUILD_TIMEOUT_SECONDS:.0f} s; building in the "

@@ -66,12 +66,12 @@ def test_a_burst_of_edits_is_applied_as_its_last_value_and_resumes_within_a_seco
     methods = ["newton_euler", "lagrange", "dae"]
     integrators = ["RK45", "DOP853"]
     for method in methods:  # built once, so the burst measures coalescing, not compiling
-        session.guard(lambda m=method: session.set_method(m))
+        session.guard(lambda m=method: session.set("method", m))
         assert session.player.wait_idle(300)
     edits = 0
     for i in range(100):
-        session.guard(lambda i=i: session.set_method(methods[i % 3]))
-        session.guard(lambda i=i: session.set_integrator(integrators[i % 2]))
+        session.guard(lambda i=i: session.set("method", methods[i % 3]))
+        session.guard(lambda i=i: session.set("integrator", integrators[i % 2]))
         edits += 2
         time.sleep(0.02)
     for i in range(40):
@@ -81,11 +81,11 @@ def test_a_burst_of_edits_is_applied_as_its_last_value_and_resumes_within_a_seco
     # the end of the burst back to back, faster than a restart installs: the player takes only the newest
     restarts_before = session.player.generation
     for i in range(150):
-        session.guard(lambda i=i: session.set_method(methods[i % 3]))
-        session.guard(lambda i=i: session.set_integrator(integrators[i % 2]))
+        session.guard(lambda i=i: session.set("method", methods[i % 3]))
+        session.guard(lambda i=i: session.set("integrator", integrators[i % 2]))
     session.guard(lambda: session.set_compare(False))
-    session.guard(lambda: session.set_method("dae"))
-    session.guard(lambda: session.set_integrator("RK45"))
+    session.guard(lambda: session.set("method", "dae"))
+    session.guard(lambda: session.set("integrator", "RK45"))
     back_to_back = 303
     resumed = _resumed_within(session, RESUME_SECONDS)
     assert resumed is not None, "the session did not resume within a second of the last edit"
@@ -240,11 +240,11 @@ def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behin
             assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
             assert client.wait_for(lambda c: c.bar_updates() >= 20, timeout=60)
             session = next(iter(server.sessions.values()))
-            session.guard(lambda: session.set_method("dae"))
+            session.guard(lambda: session.set("method", "dae"))
             session.guard(lambda: session.set_compare(True))  # every run, thread and buffer a session can make
             poses = sum(client.counts.pose_updates.values())
             assert client.wait_for(lambda c: sum(c.pose_updates.values()) >= poses + 100, timeout=60)
-            assert len(session.player.runs) == 3
+            assert len(session.player.runs) == 4  # the three methods and the converged reference run
             client.close()
             assert wait_until(lambda: not server.sessions and server.seats.count == 0, timeout=30)
 
