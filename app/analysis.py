@@ -66,7 +66,7 @@ class Analysis:
         self._scene_api = scene_api
         self.chart_handle = None
         self.image_handle = None
-        self.ensemble = None  # physics.ensemble.Ensemble once built
+        self.ensemble: Ensemble | None = None  # once built
         self.ensemble_node = None
         self.ensemble_on = False
         self.ensemble_count = int(ENSEMBLE_COUNTS[0])

@@ -32,6 +32,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -216,9 +217,10 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
     from .server import LabServer
 
     server = LabServer(port=0, max_sessions=min(clients + 5, 100), shared=shared, processes=processes)
-    samples = []
+    samples: list[dict[str, Any]] = []
     try:
-        server._warm_thread.join(600)
+        if server._warm_thread is not None:
+            server._warm_thread.join(600)
         if server.siblings is not None and not server.siblings.wait_ready():
             raise RuntimeError(f"server processes failed to start: {server.siblings.failures}")
         pids = server.pids
@@ -239,7 +241,7 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
                 if server.shared_session is not None:
                     sessions.append(server.shared_session)
                 runs = [run for s in sessions for run in s.player.runs]
-                ring_bytes = sum(run.ring.nbytes for run in runs)
+                ring_bytes = float(sum(run.ring.nbytes for run in runs))
                 # the part of the rings written so far: their pages become resident as they fill (2 minutes)
                 filled_bytes = sum(run.ring.nbytes * len(run.ring) / run.ring.capacity for run in runs)
                 if server.shared_session is None and sessions:  # siblings' sessions hold rings of the same size

@@ -50,9 +50,9 @@ def reference_spec(params: SessionParameters, methods: tuple[str, ...]) -> RunSp
 def aligned_tips(runs: dict, labels: list[str], t_shown: float) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
     """Time (m,) and each run's tip (m, 2) on the samples every run has, from the oldest stored one up to the
     displayed time (every ``stride``-th sample, at most :data:`MAX_PLOTTED_SAMPLES`); None if a run is missing."""
-    rings = [runs[label].ring if label in runs else None for label in labels]
-    if any(ring is None or len(ring) < 2 for ring in rings):
+    if any(label not in runs or len(runs[label].ring) < 2 for label in labels):
         return None
+    rings = [runs[label].ring for label in labels]
     t0 = max(ring.t_first for ring in rings)
     t1 = min(min(ring.t_last for ring in rings), t_shown)
     if t1 <= t0:
@@ -60,13 +60,9 @@ def aligned_tips(runs: dict, labels: list[str], t_shown: float) -> tuple[np.ndar
     first = [ring.index_at(t0) for ring in rings]
     count = min(ring.index_at(t1) - i0 for ring, i0 in zip(rings, first)) + 1
     stride = max(1, math.ceil(count / MAX_PLOTTED_SAMPLES))
-    t = None
-    tips = {}
-    for label, ring, i0 in zip(labels, rings, first):
-        data = ring.window(i0, i0 + count - 1, names=["t", "joints"], stride=stride)
-        t = data["t"] if t is None else t
-        tips[label] = data["joints"][:, -1]
-    return t, tips
+    windows = [ring.window(i0, i0 + count - 1, names=["t", "joints"], stride=stride) for ring, i0 in zip(rings, first)]
+    tips = {label: data["joints"][:, -1] for label, data in zip(labels, windows)}
+    return windows[0]["t"], tips
 
 
 def first_passing(t: np.ndarray, gap: np.ndarray, level: float = VISIBLE_GAP) -> float | None:

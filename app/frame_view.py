@@ -16,6 +16,7 @@ import numpy as np
 
 import physics
 
+from .divergence import DivergencePlots
 from .logs import quietly
 from .overlays import METHOD_COLORS, ReactionArrows, TraceLine, energy_scale, relative_drift, status_markdown
 from .parameters import METHOD_LABELS, Display, SessionParameters
@@ -50,7 +51,7 @@ class FrameView:
         self.arrows = ReactionArrows(scene_api, "/linkage/reactions")
         self.compare_scenes: dict[str, LinkageScene] = {}
         self.compare_traces: dict[str, TraceLine] = {}
-        self.divergence = None  # app.divergence.DivergencePlots, set by the session
+        self.divergence: DivergencePlots | None = None  # set by the session
         self.compare = False
         self.display = Display()
         self.reactions_on = False
@@ -186,7 +187,7 @@ class FrameView:
         formulations' reactions agree with it to 1e-9 until the runs part)."""
         rf = frame.runs[0] if frame.runs else None
         run = runs.get(rf.label) if rf is not None else None
-        if run is None or "reactions" not in run.ring.field_names():
+        if rf is None or run is None or "reactions" not in run.ring.field_names():
             self.arrows.hide()
             return
         spec = run.spec  # the run's own description: the session's parameters may already be newer

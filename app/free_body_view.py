@@ -111,7 +111,7 @@ class FreeBodyView:
     def _update(self, frame, runs: dict) -> None:
         rf = frame.runs[0] if frame.runs else None
         run = runs.get(rf.label) if rf is not None else None
-        if run is None or len(run.ring) == 0 or not 1 <= self.bar <= run.spec.n:
+        if rf is None or run is None or len(run.ring) == 0 or not 1 <= self.bar <= run.spec.n:
             self.hide()
             return
         ring, chain = run.ring, run.spec.chain

@@ -287,7 +287,8 @@ class Session:
             self.view.compare = bool(on)
             self.view.build(self.params)
             self.controls.sync_compare()
-            self.view.divergence.set_visible(self.compare)
+            if self.view.divergence is not None:
+                self.view.divergence.set_visible(self.compare)
             self._restart_fresh()
 
     def set_mechanism(self, name: str, links: int | None = None) -> None:
@@ -536,4 +537,5 @@ class Session:
         if self.shared:  # the server's scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
-            self.view.divergence.remove()
+            if self.view.divergence is not None:
+                self.view.divergence.remove()

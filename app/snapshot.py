@@ -20,7 +20,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 from physics import METHOD_NAMES, LinkageError, preset_names
 
@@ -195,7 +195,7 @@ def browser_node_positions(page: Any, names: Sequence[str]) -> dict[str, list[fl
 
 
 def wait_for_node_positions(
-    page: Any, positions: dict[str, Sequence[float]], tolerance: float = 1e-5, timeout_s: float = PAGE_TIMEOUT_S
+    page: Any, positions: Mapping[str, Sequence[float]], tolerance: float = 1e-5, timeout_s: float = PAGE_TIMEOUT_S
 ) -> None:
     """Wait until every named scene node exists in the browser at the server's position."""
     expected = {name: [float(value) for value in position] for name, position in positions.items()}
@@ -308,6 +308,7 @@ def paused_app(
     server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=method, shared=True, warm=False)
     try:
         session = server.shared_session
+        assert session is not None  # a shared server makes its session before it serves
         session.pause()
         for name, value in values:
             session.set(name, value)

@@ -26,6 +26,7 @@ import msgspec
 import viser
 import websockets
 import zstandard
+from websockets.typing import Subprotocol
 
 POSE_TYPES = ("SetPositionMessage", "SetOrientationMessage")
 
@@ -102,7 +103,7 @@ async def run_client(url: str, seconds: float, counts: Counts, stop: asyncio.Eve
     protocol = f"viser-v{viser.__version__}"
     decompressor = zstandard.ZstdDecompressor()
     async with websockets.connect(
-        ws_url, subprotocols=[protocol], max_size=None, compression=None, open_timeout=60
+        ws_url, subprotocols=[Subprotocol(protocol)], max_size=None, compression=None, open_timeout=60
     ) as ws:
         await ws.send(camera_message())
         deadline = time.perf_counter() + seconds
@@ -134,7 +135,8 @@ async def _load(url: str, clients: int, seconds: float, early: int, early_second
                 "messages": c.messages,
                 "bytes": c.bytes,
                 "bar_updates": c.bar_updates(),
-                "pose_span": (c.last_pose_time - c.first_pose_time) if c.first_pose_time is not None else 0.0,
+                "pose_span": (c.last_pose_time - c.first_pose_time)
+                if c.first_pose_time is not None and c.last_pose_time is not None else 0.0,
                 "duration": early_seconds if i < early else seconds,
             }
             for i, c in enumerate(counts)
@@ -193,7 +195,7 @@ def gui_update_message(uuid: str, value) -> bytes:
 async def _send_values(url: str, updates: list[tuple[str, object]], pause: float) -> None:
     ws_url = url.replace("http://", "ws://")
     async with websockets.connect(
-        ws_url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None, compression=None, open_timeout=60
+        ws_url, subprotocols=[Subprotocol(f"viser-v{viser.__version__}")], max_size=None, compression=None, open_timeout=60
     ) as ws:
         await ws.send(camera_message())
         for uuid, value in updates:
