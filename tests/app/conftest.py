@@ -18,6 +18,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 os.environ.setdefault("LINKAGE_LAB_CACHE", tempfile.mkdtemp(prefix="linkage-lab-app-tests-"))
 
+from app.server import LabServer
 from app.wsclient import BackgroundClient  # noqa: E402
 
 
@@ -42,8 +43,6 @@ def wait_until(predicate, timeout: float = 120.0, interval: float = 0.02) -> boo
 
 @pytest.fixture(scope="module")
 def lab():
-    from app.server import LabServer
-
     server = LabServer(port=0, warm=False)
     yield server
     server.stop()

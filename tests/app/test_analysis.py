@@ -3,8 +3,11 @@ the tab's callbacks call. The heavy work runs in worker threads; these tests wai
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
+from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION
 from conftest import wait_until
 
 
@@ -18,7 +21,6 @@ def test_work_precision_chart_appears_in_the_panel(connect):
     assert handle is not None, session.notice
     assert "<svg" in handle.content and "</svg>" in handle.content
     # drawn for the panel: its width follows the panel, its legend sits under the plot, inside the picture
-    import re
 
     root = re.search(r"<svg [^>]*>", handle.content).group(0)
     assert 'width="100%"' in root and 'viewBox="0 0 380 ' in root
@@ -35,7 +37,6 @@ def test_chaos_map_image_appears(connect):
     handle = session.analysis.image_handle
     assert handle is not None, session.notice
     image = np.asarray(handle.image)
-    from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION
 
     side = CHAOS_RESOLUTION * CHAOS_DISPLAY_SCALE
     assert image.shape == (side, side, 3)

@@ -6,8 +6,11 @@ No server here: edits are applied to ``SessionParameters`` directly, as a sessio
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +21,8 @@ import physics
 from app import commands
 from app.commands import CONTROL, SI
 from app.parameters import Display, SessionParameters
+from app.ports import SessionPort
+from app.session import Session
 
 settings.register_profile("app-ci", max_examples=60, deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.too_slow])
@@ -186,13 +191,6 @@ def test_any_value_is_applied_validly_or_refused_with_one_line(triple, name, val
 
 def test_the_session_offers_every_member_of_the_port_and_the_panel_uses_nothing_else():
     """Controls and Analysis depend on app.ports.SessionPort, not on the Session's player, scene or target."""
-    import inspect
-    import re
-    from pathlib import Path
-
-    from app.ports import SessionPort
-    from app.session import Session
-
     members = {name for name in vars(SessionPort) if not name.startswith("_")}
     members |= set(SessionPort.__annotations__)
     instance = {"id", "shared", "closed"}  # plain attributes, set when a session is made

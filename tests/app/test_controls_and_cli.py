@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -13,6 +14,9 @@ import pytest
 
 import physics
 from app import controls, viser_compat
+from app.scene import camera_pose
+from app.server import is_loopback
+from app.wsclient import BackgroundClient
 from conftest import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -174,8 +178,6 @@ def test_bad_flags_fail_in_one_line(args, fragment):
 
 
 def test_loopback_detection():
-    from app.server import is_loopback
-
     assert is_loopback("127.0.0.1") and is_loopback("localhost") and is_loopback("::1")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.10")
 
@@ -183,10 +185,6 @@ def test_loopback_detection():
 @pytest.mark.slow  # a fresh cache: the app compiles the kernels and derives while the test watches
 def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tmp_path):
     """Empty derivation cache: the page is never blank; it says it is deriving, then the motion starts."""
-    import os
-
-    from app.wsclient import BackgroundClient
-
     env = dict(os.environ, LINKAGE_LAB_CACHE=str(tmp_path / "cold-cache"))
     proc = subprocess.Popen(
         [sys.executable, "-m", "app", "--port", "0", "--preset", "single"], cwd=ROOT, env=env,
@@ -210,8 +208,6 @@ def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tm
 
 
 def test_camera_backs_off_on_a_canvas_narrower_than_tall():
-    from app.scene import camera_pose
-
     lengths = np.array([1.0, 1.0, 1.0])
     position, look_at = camera_pose(lengths, None, aspect=1.5)
     wide = np.linalg.norm(position - look_at)

@@ -14,6 +14,8 @@ import os
 
 import pytest
 
+from app.bench import measure_load
+
 CLIENTS = 30
 SECONDS = float(os.environ.get("LINKAGE_LAB_LOAD_SECONDS", "60"))
 EARLY = 5  # clients that leave a third of the way through: their sessions must be freed
@@ -22,8 +24,6 @@ MIN_FPS = 10.0  # every client must keep receiving pose updates, at least this m
 
 @pytest.mark.load
 def test_thirty_clients_each_keep_receiving_poses_and_memory_stays_bounded():
-    from app.bench import measure_load
-
     early_seconds = SECONDS / 3
     result = measure_load(clients=CLIENTS, seconds=SECONDS, early=EARLY, early_seconds=early_seconds)
     summary = {k: v for k, v in result.items() if k not in ("per_client", "samples")}
@@ -50,8 +50,6 @@ CLASSROOM_MIN_FPS = 3.0  # a floor against starvation on a shared 2-core machine
 
 @pytest.mark.load
 def test_a_hundred_clients_over_two_processes_are_each_served_and_freed():
-    from app.bench import measure_load
-
     result = measure_load(clients=CLASSROOM, seconds=CLASSROOM_SECONDS, early=0, early_seconds=CLASSROOM_SECONDS,
                           processes=2)
     summary = {k: v for k, v in result.items() if k not in ("per_client", "samples")}
@@ -75,8 +73,6 @@ MAX_SLOPE_MB_PER_MIN = 3.0
 
 @pytest.mark.load
 def test_ten_playing_sessions_keep_memory_flat():
-    from app.bench import measure_load
-
     result = measure_load(clients=PLAYING, seconds=PLAYING_SECONDS, early=0, early_seconds=PLAYING_SECONDS)
     rss = result["rss_mb"]
     print("\nplaying:", json.dumps({"fps_per_client": result["fps_per_client"], "rss_mb": rss}))

@@ -12,6 +12,9 @@ import sys
 import time
 from pathlib import Path
 
+from app import processes
+from app.processes import reserve_port
+from app.server import LabServer
 from conftest import BrowserStandIn, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -26,8 +29,6 @@ def _alive(pid: int) -> bool:
 
 
 def test_browsers_are_spread_over_two_processes_and_each_is_served():
-    from app.server import LabServer
-
     server = LabServer(port=0, processes=2, warm=False)
     clients = []
     try:
@@ -53,8 +54,6 @@ def test_browsers_are_spread_over_two_processes_and_each_is_served():
 
 
 def test_the_session_cap_holds_across_processes():
-    from app.server import LabServer
-
     server = LabServer(port=0, processes=2, max_sessions=3, warm=False)
     clients = []
     try:
@@ -96,8 +95,6 @@ def test_a_sibling_stops_when_the_first_process_is_killed():
 
 
 def test_a_port_held_by_anything_else_is_never_shared():
-    from app.processes import reserve_port
-
     with socket.socket() as holder:
         holder.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)  # even a holder that would allow sharing
         holder.bind(("127.0.0.1", 0))
@@ -111,9 +108,6 @@ def test_a_port_held_by_anything_else_is_never_shared():
 
 
 def test_where_ports_cannot_be_shared_one_process_serves(monkeypatch, capsys):
-    from app import processes
-    from app.server import LabServer
-
     monkeypatch.setattr(processes, "shares_ports", lambda: False)
     assert processes.default_processes() == 1
     server = LabServer(port=0, processes=2, warm=False)

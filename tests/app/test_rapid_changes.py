@@ -14,10 +14,15 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
+from app.player import Player, RunSpec
+from app.server import LabServer
 from conftest import BrowserStandIn, wait_until
+from physics import Settings, get_preset, simulate
+from physics.kernels.disk_cache import kernels_folder
 
 ROOT = Path(__file__).resolve().parents[2]
 RESUME_SECONDS = 1.0  # after the last edit of a burst, with the code built, the motion goes on within this
@@ -120,8 +125,6 @@ def test_superseded_preparations_are_cancelled_not_queued():
     """A prepare (a build, on a cold cache) that a newer request supersedes stops at once; only the newest
     request's prepare runs to the end, and the player shows it one prepare's time after the last request."""
 
-    from app.player import Player, RunSpec
-    from physics import Settings, get_preset, simulate
 
     preset = get_preset("triple-a")
     build_seconds = 0.4
@@ -208,9 +211,6 @@ print(json.dumps(result))
 
 
 def test_a_build_no_longer_wanted_is_killed_and_the_next_one_succeeds(tmp_path):
-    from physics import Settings, get_preset, simulate
-    from physics.kernels.disk_cache import kernels_folder
-
     preset = get_preset("chain", links=2)  # the integrator kernels compile once: bring them along
     simulate(preset.chain, preset.theta0, preset.omega0, Settings(method="dae", integrator="RK45", t_end=0.01))
     cache = tmp_path / "cache"
@@ -228,10 +228,6 @@ def test_a_build_no_longer_wanted_is_killed_and_the_next_one_succeeds(tmp_path):
 
 
 def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behind():
-    import threading
-
-    from app.server import LabServer
-
     server = LabServer(port=0, warm=False)
     try:
 

@@ -5,15 +5,19 @@ Controls are driven by assigning ``handle.value``, which runs the same callbacks
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import time
+import weakref
 
 import numpy as np
 import pytest
 
 import physics
-from conftest import wait_until
+from app.equations import equations_html, equations_tex
+from app.server import LabServer
+from conftest import BrowserStandIn, wait_until
 
 
 def test_a_browser_gets_its_own_animating_session(lab, connect):
@@ -229,8 +233,6 @@ def test_exports(connect):
 
 
 def test_equations_panel_renders_mathml():
-    from app.equations import equations_html
-
     html = equations_html("newton_euler", 2, False)
     assert html.count("<math") >= 3
     assert "&#952;" in html  # theta, printed by sympy's MathML printer
@@ -238,8 +240,6 @@ def test_equations_panel_renders_mathml():
 
 
 def test_equations_as_latex_document():
-    from app.equations import equations_tex
-
     tex = equations_tex("dae", 2, False)
     assert tex.startswith("\\documentclass") and tex.rstrip().endswith("\\end{document}")
     assert tex.count("\\item ") == 10  # DAE, 2 bars: 4 LMB + 2 AMB + 4 joint constraints
@@ -247,9 +247,6 @@ def test_equations_as_latex_document():
 
 
 def test_shared_session_is_watched_by_every_browser():
-    from app.server import LabServer
-    from conftest import BrowserStandIn
-
     server = LabServer(port=0, shared=True, warm=False)
     try:
         a, b = BrowserStandIn(server.url), BrowserStandIn(server.url)
@@ -264,9 +261,6 @@ def test_shared_session_is_watched_by_every_browser():
 
 
 def test_a_browser_past_the_cap_is_turned_away_with_a_message():
-    from app.server import LabServer
-    from conftest import BrowserStandIn
-
     server = LabServer(port=0, max_sessions=1, warm=False)
     try:
         first = BrowserStandIn(server.url)
@@ -298,9 +292,6 @@ def test_closed_loop_without_stabilisation_runs_on_and_shows_its_drift(connect):
 
 
 def test_a_closed_session_is_garbage(lab, connect):
-    import gc
-    import weakref
-
     client, session = connect()
     ring = weakref.ref(session.player.runs[0].ring)
     ref = weakref.ref(session)

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from app.number_inputs import shown
-from conftest import wait_until
+from conftest import BrowserStandIn, wait_until
 
 
 def type_into(session, name: str, text: str) -> None:
@@ -93,8 +93,6 @@ def test_generated_text_in_a_box_never_pauses_or_kills_the_session(session_for_f
 @pytest.fixture(scope="module")
 def session_for_fuzz(lab):
     """One session for all generated examples (a fixture per example would open a browser each time)."""
-    from conftest import BrowserStandIn
-
     before = set(lab.sessions)
     client = BrowserStandIn(lab.url)
     assert wait_until(lambda: set(lab.sessions) - before, timeout=30)

@@ -6,6 +6,7 @@ import pytest
 
 from app import commands
 from app.parameters import SessionParameters, in_menu_words
+from conftest import wait_until
 from physics import LinkageError
 
 
@@ -27,8 +28,6 @@ def test_a_refusal_names_its_field_once():
 
 
 def test_reset_to_the_preset_values_undoes_edits(connect):
-    from conftest import wait_until
-
     _, session = connect()
     session.set_mechanism("double")
     default_L1, default_g = session.setup.L[0], session.setup.g

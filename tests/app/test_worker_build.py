@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from physics import Settings, get_preset, load_compiled, simulate
 from physics.kernels.disk_cache import kernels_folder
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,8 +39,6 @@ print(json.dumps({"before": before, "built": built, "after": is_generated("newto
 
 @pytest.mark.slow  # a worker process derives a mechanism with sympy
 def test_a_missing_mechanism_is_derived_by_a_worker_not_by_the_server(tmp_path):
-    from physics import Settings, get_preset, load_compiled, simulate
-
     # the integrator kernels compile once per installation: bring them along so the test derives only
     preset = get_preset("chain", links=2)
     simulate(preset.chain, preset.theta0, preset.omega0, Settings(method="newton_euler", integrator="RK45", t_end=0.01))
