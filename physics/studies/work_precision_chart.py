@@ -41,7 +41,7 @@ def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
     uncertainty = case["reference"]["uncertainty"]
     return line_chart(
         series,
-        title=(f"{probe_name(case).capitalize()} error at t = {case['horizon']:g} s vs time" if narrow else
+        title=(f"Work-precision: {probe_name(case)} error at {case['horizon']:g} s" if narrow else
                f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s"),
         x_label="wall time per run (s), median",
         y_label=f"{probe_name(case)} position error",
