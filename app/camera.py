@@ -35,6 +35,8 @@ class CameraDirector:
         self._lengths = np.ones(1)
         self._pin: tuple[float, float] | None = None
         self.view = "3d"
+        # False when the control panel is hidden (headless pictures): the whole canvas is free
+        self.reserve_panel = True
 
     def set_view(self, view: str) -> None:
         """Front (the plane of the motion as a drawing) or 3D (slightly from above); every camera reframed."""
@@ -76,9 +78,10 @@ class CameraDirector:
 
     def frame_one(self, camera, aspect: float) -> None:
         self.framed_aspect[id(camera)] = aspect
-        self.framed_panel[id(camera)] = panel_fraction(camera)
+        self.framed_panel[id(camera)] = panel_fraction(camera) if self.reserve_panel else 0.0
         position, look_at = camera_pose(self._lengths, self._pin, aspect=aspect,
-                                        panel_fraction=panel_fraction(camera), view=self.view)
+                                        panel_fraction=panel_fraction(camera) if self.reserve_panel else 0.0,
+                                        view=self.view)
 
         def move() -> None:
             with self.target.atomic():
@@ -102,7 +105,8 @@ class CameraDirector:
                 return
             aspect = _aspect(reported)
             framed = self.framed_aspect.get(key)
-            panel_moved = abs(panel_fraction(reported) - self.framed_panel.get(key, 0.0)) > ASPECT_TOLERANCE / 2
+            share = panel_fraction(reported) if self.reserve_panel else 0.0
+            panel_moved = abs(share - self.framed_panel.get(key, 0.0)) > ASPECT_TOLERANCE / 2
             if aspect is not None and (framed is None or abs(aspect / framed - 1.0) > ASPECT_TOLERANCE or panel_moved):
                 self.frame_one(reported, aspect)
 

@@ -367,6 +367,7 @@ def render_pngs(
         if browser is None:
             browser = stack.enter_context(chromium())
         server, session = stack.enter_context(paused_app(preset, links=links, method=method, values=values))
+        session.camera.reserve_panel = with_panel  # a picture without the panel frames on the whole canvas
         page = open_app_page(browser, server.port, viewport)
         stack.callback(page.context.close)
         if not with_panel:
