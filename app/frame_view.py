@@ -18,7 +18,14 @@ import physics
 
 from .divergence import DivergencePlots
 from .logs import quietly
-from .overlays import METHOD_COLORS, ReactionArrows, TraceLine, energy_scale, relative_drift, status_markdown
+from .overlays import (
+    METHOD_COLORS,
+    ReactionArrows,
+    TraceLine,
+    energy_scale,
+    relative_drift,
+    status_markdown,
+)
 from .parameters import METHOD_LABELS, Display, SessionParameters
 from .player import SAMPLE_RATE, Frame
 from .scene import LinkageScene, mechanism_reach
@@ -98,10 +105,6 @@ class FrameView:
                 self.scene.set_visible(True)
             reach = mechanism_reach(lengths, params.pin)
             self.floor.position = (0.0, 0.0, -1.08 * reach)
-            width = 0.012 * reach
-            self.trace.set_thickness(width)
-            for trace in self.compare_traces.values():
-                trace.set_thickness(width)
             if not reactions_available(params):
                 self.arrows.hide()
 

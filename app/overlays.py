@@ -17,6 +17,10 @@ from .text import markdown_literal
 TRACE_COLOR = (200, 30, 140)
 TRACE_FADED = (245, 235, 242)  # the oldest end of the trace, close to the white background
 REACTION_COLOR = (220, 60, 20)
+# The trace's width on screen, in pixels: the same on a projector, a laptop and a phone, however small the
+# mechanism is drawn (the reach is framed in the part of the canvas the panel leaves free).
+TRACE_PIXELS = 4.0
+
 METHOD_COLORS = {
     "newton_euler": (31, 119, 180),
     "lagrange": (255, 127, 14),
@@ -34,11 +38,12 @@ def _rgb(color) -> str:
 class TraceLine:
     """The traced point's path over the last N seconds, drawn as line segments fading towards the past."""
 
-    def __init__(self, scene_api, name: str, color=TRACE_COLOR, thickness: float = 0.012) -> None:
+    def __init__(self, scene_api, name: str, color=TRACE_COLOR, thickness: float = TRACE_PIXELS) -> None:
         self.color = np.array(color, dtype=float)
         self.faded = np.array(TRACE_FADED, dtype=float)
         self.handle = scene_api.add_line_segments(
-            name, points=np.zeros((1, 2, 3), np.float32), colors=np.zeros((1, 2, 3), np.uint8), thickness=thickness
+            name, points=np.zeros((1, 2, 3), np.float32), colors=np.zeros((1, 2, 3), np.uint8), thickness=thickness,
+            thickness_units="screen",
         )
         self.handle.visible = False
         self.points_shown = 0
@@ -69,8 +74,6 @@ class TraceLine:
             self.handle.visible = True
         self.points_shown = m
 
-    def set_thickness(self, thickness: float) -> None:
-        self.handle.thickness = float(thickness)
 
     def remove(self) -> None:
         quietly(self.handle.remove, "removing an overlay")

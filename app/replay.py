@@ -71,7 +71,7 @@ def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage La
                               position=(0.0, 0.0, -1.08 * reach))
         scene = LinkageScene(server, "/linkage")
         scene.build(L, params.pin)
-        trace = TraceLine(server.scene, "/linkage/trace", thickness=0.012 * reach)
+        trace = TraceLine(server.scene, "/linkage/trace")
         server.scene.add_label("/title", title, position=(look_at[0], 0.0, look_at[2] + 1.05 * reach))
         serializer = server.get_scene_serializer()
         for i in frames:
