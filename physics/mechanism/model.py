@@ -34,6 +34,13 @@ def _finite_point(value: object, what: str) -> Point:
     return (out[0], out[1])
 
 
+def _point_table(value: object, table: str, item: str) -> dict[str, Point]:
+    """``{name: [x, y]}`` checked point by point; messages name the ``table`` or the ``item`` and its name."""
+    if not isinstance(value, dict):
+        raise ValueError(f"{table}: expected a table of name = [x, y]")
+    return {str(name): _finite_point(xy, f"{item} {name!r}") for name, xy in value.items()}
+
+
 class Body(BaseModel):
     """A rigid body: named points (at least one, at most 16), mass, centre of mass and centroidal inertia."""
 
@@ -48,9 +55,7 @@ class Body(BaseModel):
     @field_validator("points", mode="before")
     @classmethod
     def _points(cls, value: object) -> dict[str, Point]:
-        if not isinstance(value, dict):
-            raise ValueError("points: expected a table of name = [x, y]")
-        return {str(name): _finite_point(xy, f"point {name!r}") for name, xy in value.items()}
+        return _point_table(value, "points", "point")
 
     @field_validator("com", mode="before")
     @classmethod
@@ -141,9 +146,7 @@ class Mechanism(BaseModel):
     @field_validator("ground", mode="before")
     @classmethod
     def _ground(cls, value: object) -> dict[str, Point]:
-        if not isinstance(value, dict):
-            raise ValueError("ground: expected a table of name = [x, y]")
-        return {str(name): _finite_point(xy, f"ground point {name!r}") for name, xy in value.items()}
+        return _point_table(value, "ground", "ground point")
 
     @model_validator(mode="after")
     def _references(self) -> Mechanism:
