@@ -47,6 +47,16 @@ __all__ = [
 ]
 
 MAX_LINKS = 12
+
+# Upper bounds of the physical inputs: far beyond any linkage a course or a lab builds, and low enough that
+# the energies, the mass matrix and the angles stay well inside double precision (L = 1e308 used to pass and
+# overflow in the mass matrix). docs/reliability.md lists them.
+MAX_LENGTH = 1e3  # m
+MAX_MASS = 1e6  # kg
+MAX_INERTIA = 1e12  # kg m^2 (a 1e6 kg bar 1 km long has m L^2 / 12 = 8.3e10)
+MAX_GRAVITY = 1e3  # m/s^2, about 100 g
+MAX_ANGLE = 1e4  # rad, about 1600 turns from the reference direction
+MAX_ANGULAR_SPEED = 1e4  # rad/s
 STABILIZATIONS = ("none", "baumgarte", "projection")
 
 # The allowed values of Settings' name fields, built from the registry (physics.registry) so that a new
@@ -87,10 +97,10 @@ class Bar(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    L: float = Field(1.0, ge=0.0, description="length")
+    L: float = Field(1.0, ge=0.0, le=MAX_LENGTH, description="length")
     d: float = Field(0.5, ge=0.0, description="centre-of-mass distance from the proximal joint")
-    m: float = Field(1.0, ge=0.0, description="mass")
-    I: float = Field(0.1, ge=0.0, description="centroidal moment of inertia")
+    m: float = Field(1.0, ge=0.0, le=MAX_MASS, description="mass")
+    I: float = Field(0.1, ge=0.0, le=MAX_INERTIA, description="centroidal moment of inertia")
 
     @field_validator("L", "d", "m", "I", mode="before")
     @classmethod
@@ -126,7 +136,7 @@ class Chain(BaseModel):
     model_config = ConfigDict(frozen=True)
 
     bars: list[Bar] = Field(min_length=1, max_length=MAX_LINKS)
-    g: float = Field(1.0, ge=0.0, description="gravity")
+    g: float = Field(1.0, ge=0.0, le=MAX_GRAVITY, description="gravity")
     pin: Optional[tuple[float, float]] = None
 
     @field_validator("g", mode="before")
@@ -219,11 +229,11 @@ class Settings(BaseModel):
 # Turning pydantic's errors into one clear line that names the field as the user spells it.
 
 _FIELD_RANGE = {
-    "L": "L >= 0",
+    "L": f"0 <= L <= {MAX_LENGTH:g} m",
     "d": "0 <= d <= L",
-    "m": "m >= 0",
-    "I": "I >= 0",
-    "g": "g >= 0",
+    "m": f"0 <= m <= {MAX_MASS:g} kg",
+    "I": f"0 <= I <= {MAX_INERTIA:g} kg m^2",
+    "g": f"0 <= g <= {MAX_GRAVITY:g} m/s^2",
     "rtol": "0 < rtol <= 0.1",
     "atol": "0 < atol <= 0.1",
     "t_end": "0 < t_end <= 1e6",
@@ -370,4 +380,10 @@ def check_state(n: int, theta, omega) -> tuple[np.ndarray, np.ndarray]:
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             raise LinkageError(f"{name}{bad[0] + 1} = {arr[bad[0]]}: must be a finite number")
+    for name, arr, limit, unit in (("theta", theta, MAX_ANGLE, "rad"), ("omega", omega, MAX_ANGULAR_SPEED, "rad/s")):
+        bad = np.flatnonzero(np.abs(arr) > limit)
+        if bad.size:
+            raise LinkageError(
+                f"{name}{bad[0] + 1} = {arr[bad[0]]:g}: allowed range -{limit:g} <= {name} <= {limit:g} {unit}"
+            )
     return theta, omega

@@ -42,11 +42,12 @@ def four_bar():
 
 # name, value (control units), how to read it back (SI), expected SI, a refused value, words of the refusal
 VALID_AND_REFUSED = [
-    ("L2", "0.7", lambda p: p.L[1], 0.7, "-1", "L2 = -1 m: outside the allowed range L2 >= 0 m"),
+    ("L2", "0.7", lambda p: p.L[1], 0.7, "-1", "L2 = -1 m: outside the allowed range 0 <= L2 <= 1000 m"),
     ("d1", "0.25", lambda p: p.d[0], 0.25, "2", "0 <= d1 <= 1 m"),
-    ("m3", "2.5", lambda p: p.m[2], 2.5, "-0.5", "m3 >= 0 kg"),
-    ("I1", "1e-3", lambda p: p.I[0], 1e-3, "-1e-3", "I1 = -0.001 kg·m²: outside the allowed range I1 >= 0 kg·m²"),
-    ("g", "9.81", lambda p: p.g, 9.81, "-9.81", "g >= 0 m/s²"),
+    ("m3", "2.5", lambda p: p.m[2], 2.5, "-0.5", "0 <= m3 <= 1e+06 kg"),
+    ("I1", "1e-3", lambda p: p.I[0], 1e-3, "-1e-3", "I1 = -0.001 kg·m²: outside the allowed range 0 <= I1 <= 1e+12 kg·m²"),
+    ("g", "9.81", lambda p: p.g, 9.81, "-9.81", "0 <= g <= 1000 m/s²"),
+    ("g", "9.81", lambda p: p.g, 9.81, "1e6", "g = 1e+06 m/s²: outside the allowed range 0 <= g <= 1000 m/s²"),
     ("theta1", "45", lambda p: p.theta0[0], math.radians(45), "abc", "theta1 = 'abc': not a number"),
     ("omega2", "90", lambda p: p.omega0[1], math.radians(90), "inf", "omega2 = inf: must be a finite number"),
     ("rtol", "1e-6", lambda p: p.settings.rtol, 1e-6, "0.5", "0 < rtol <= 0.1"),
@@ -58,7 +59,7 @@ VALID_AND_REFUSED = [
 
 
 @pytest.mark.parametrize("name, text, read, expected, refused, words", VALID_AND_REFUSED,
-                         ids=[row[0] for row in VALID_AND_REFUSED])
+                         ids=[f"{row[0]}-{row[4]}" for row in VALID_AND_REFUSED])
 def test_each_field_is_applied_and_refused_with_its_name_and_range(triple, name, text, read, expected, refused, words):
     edit = commands.apply(triple, name, text, units=CONTROL)
     assert read(edit.params) == pytest.approx(expected, rel=1e-12)

@@ -23,11 +23,14 @@ def _chain_with(field, index, value, g=1.0):
 @pytest.mark.parametrize(
     "field, index, value, must_say",
     [
-        ("L", 1, -1.0, ["L2", ">= 0"]),
+        ("L", 1, -1.0, ["L2", "0 <= L <= 1000 m"]),
+        ("L", 0, 1e308, ["L1", "0 <= L <= 1000 m"]),
+        ("m", 0, 1e7, ["m1", "0 <= m <= 1e+06 kg"]),
+        ("I", 1, 1e300, ["I2", "0 <= I <= 1e+12 kg m^2"]),
         ("d", 0, -0.1, ["d1", "0 <= d <= L"]),
         ("d", 2, 1.5, ["d3", "0 <= d <= L"]),
-        ("m", 2, -2.0, ["m3", ">= 0"]),
-        ("I", 0, -0.5, ["I1", ">= 0"]),
+        ("m", 2, -2.0, ["m3", "0 <= m"]),
+        ("I", 0, -0.5, ["I1", "0 <= I"]),
         ("L", 0, math.nan, ["L1", "finite"]),
         ("m", 1, math.inf, ["m2", "finite"]),
         ("I", 2, math.nan, ["I3", "finite"]),
@@ -42,12 +45,34 @@ def test_bar_rules_name_the_field(field, index, value, must_say):
     assert "\n" not in text
 
 
-@pytest.mark.parametrize("g, must_say", [(-1.0, ["g", ">= 0"]), (math.nan, ["g", "finite"])])
+@pytest.mark.parametrize(
+    "g, must_say",
+    [(-1.0, ["g", "0 <= g <= 1000 m/s^2"]), (1e300, ["g = 1e+300", "0 <= g <= 1000 m/s^2"]), (math.nan, ["g", "finite"])],
+)
 def test_gravity_rules(g, must_say):
     with pytest.raises(LinkageError) as info:
         _chain_with("L", 0, 1.0, g=g)
     for part in must_say:
         assert part in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "name, value, must_say",
+    [
+        ("theta2", 1e5, "theta2 = 100000: allowed range -10000 <= theta <= 10000 rad"),
+        ("omega1", -1e300, "omega1 = -1e+300: allowed range -10000 <= omega <= 10000 rad/s"),
+    ],
+)
+def test_start_state_beyond_its_bound_is_refused_on_the_command_line(name, value, must_say):
+    result = subprocess.run(
+        [sys.executable, "-m", "physics", "simulate", "--preset", "triple-a", "--set", f"{name}={value}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip() == f"error: {must_say}"
+    assert result.stdout == ""
 
 
 def test_singular_mass_matrix_names_the_bar_and_the_fix():
