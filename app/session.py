@@ -53,7 +53,7 @@ from .parameters import (
 )
 from .player import Frame, Player, RunSpec
 from .report_tab import ReportTab
-from .viser_compat import connection_open
+from .viser_compat import check_gui_updates, connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
 # under a second; a new mechanism derives and compiles in a few seconds (the very first run of an installation
@@ -110,6 +110,7 @@ class Session:
             self.view = FrameView(target, self.player.lock, lambda: self.notices.text)
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
+            check_gui_updates(target.gui, self._refuse_update)
             self.view.panel = self.controls
             self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)
@@ -186,6 +187,12 @@ class Session:
                 color="red",
             )
         return None
+
+    def _refuse_update(self, handle, problem: str) -> None:
+        """A value no browser sends for this control (a hostile client's): a notice, and the controls put back
+        on the values in force (runs on viser's event loop; nothing was applied)."""
+        self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
+        quietly(self.controls.sync_all, "putting the controls back after a refused value")
 
     def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
         """A notification in this session's browser(s), and the same text on the status line."""

@@ -36,6 +36,7 @@ except ImportError:  # pragma: no cover - another viser layout
     _wire = None  # type: ignore[assignment]
 SetPositionMessage: Any = getattr(_wire, "SetPositionMessage", None)
 SetOrientationMessage: Any = getattr(_wire, "SetOrientationMessage", None)
+GuiUpdateMessage: Any = getattr(_wire, "GuiUpdateMessage", None)
 
 
 def warn_once(key: str, text: str) -> None:
@@ -51,6 +52,8 @@ def fallbacks() -> list[str]:
         reasons.append(f"viser {viser.__version__} is not a tested version")
     if SetPositionMessage is None:
         reasons.append("viser._messages.SetPositionMessage is missing")
+    if GuiUpdateMessage is None:
+        reasons.append("viser._messages.GuiUpdateMessage is missing")
     return reasons
 
 
@@ -113,6 +116,82 @@ def client_caught_up(client) -> bool:
         return True
     buffer = buffer_of()
     return bool(buffer.done or not buffer.message_from_id)
+
+
+# ------------------------------------------------------------------------------------------ incoming values
+SHOWN_VALUE_CHARS = 40  # a refused value is quoted in a notice up to this many characters
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= SHOWN_VALUE_CHARS else text[: SHOWN_VALUE_CHARS - 1] + "…"
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def update_problem(current: object, updates: object) -> str | None:
+    """Why a browser's GUI update cannot be what a browser sends for a control whose value is ``current``
+    (None when it can).
+
+    viser casts an incoming value with the type of the control's value (``float(value)``) on its event loop:
+    a hostile client's ``"abc"`` or ``null`` for a slider ended in a traceback there, before any callback of ours
+    could refuse it. Browsers send only ``{"value": ...}``, a number for a slider or box, text for a dropdown,
+    ``true`` for a button, a list for a vector; anything else is refused here."""
+    if not isinstance(updates, dict) or set(updates) != {"value"}:
+        names = sorted(str(name) for name in updates) if isinstance(updates, dict) else []
+        return f"a browser sets only a control's value (got {_shown(names or updates)})"
+    value = updates["value"]
+    if isinstance(current, bool):
+        ok = isinstance(value, bool)
+        kind = "true or false"
+    elif _is_number(current):
+        ok = _is_number(value)
+        kind = "a number"
+    elif isinstance(current, str):
+        ok = isinstance(value, str)
+        kind = "text"
+    elif isinstance(current, tuple):
+        ok = (
+            isinstance(value, (list, tuple))
+            and len(value) == len(current)
+            and all(_is_number(new) if _is_number(old) else type(new) is type(old) for old, new in zip(current, value))
+        )
+        kind = f"a list of {len(current)} values"
+    else:
+        return None  # a kind of control this app does not make: viser decides
+    return None if ok else f"{_shown(value)} is not {kind}"
+
+
+def check_gui_updates(gui, refuse: Callable[[Any, str], None]) -> bool:
+    """Put :func:`update_problem` in front of viser's handler of a browser's control updates for ``gui`` (a
+    ``GuiApi``): a value no browser would send is dropped and ``refuse(handle, reason)`` is called (the
+    session's notice); every other update goes on to viser unchanged. False when this viser has another shape
+    (then viser's own casting stays the only check)."""
+    interface = getattr(gui, "_websock_interface", None) if VERSION_TESTED else None
+    handlers = getattr(interface, "_incoming_handlers", {}).get(GuiUpdateMessage) if interface is not None else None
+    original = getattr(gui, "_handle_gui_updates", None)
+    controls = getattr(gui, "_gui_input_handle_from_uuid", None)
+    if not handlers or original is None or controls is None or original not in handlers:
+        warn_once("updates", "cannot check a browser's control values before viser casts them")
+        return False
+
+    async def checked(client_id, message) -> None:
+        handle = controls.get(getattr(message, "uuid", None))
+        if handle is None:
+            return  # not one of this GUI's controls: viser would ignore it too
+        problem = update_problem(handle._impl.value, getattr(message, "updates", None))
+        if problem is None:
+            await original(client_id, message)
+            return
+        try:
+            refuse(handle, problem)
+        except Exception:  # the event loop's boundary: a refusal never raises into viser
+            log_once("viser_compat:refuse", "could not show a refused control value")
+
+    handlers[handlers.index(original)] = checked
+    return True
 
 
 # ------------------------------------------------------------------------------------------ tests and tools

@@ -98,7 +98,9 @@ class Counts:
         return self.position_updates.get(name, 0)
 
 
-async def run_client(url: str, seconds: float, counts: Counts, stop: asyncio.Event | None = None) -> None:
+async def run_client(
+    url: str, seconds: float, counts: Counts, stop: asyncio.Event | None = None, outbox: asyncio.Queue | None = None
+) -> None:
     ws_url = url.replace("http://", "ws://")
     protocol = f"viser-v{viser.__version__}"
     decompressor = zstandard.ZstdDecompressor()
@@ -108,6 +110,8 @@ async def run_client(url: str, seconds: float, counts: Counts, stop: asyncio.Eve
         await ws.send(camera_message())
         deadline = time.perf_counter() + seconds
         while time.perf_counter() < deadline and not (stop is not None and stop.is_set()):
+            while outbox is not None and not outbox.empty():
+                await ws.send(outbox.get_nowait())
             try:
                 raw = await asyncio.wait_for(ws.recv(), timeout=min(0.2, max(0.01, deadline - time.perf_counter())))
             except asyncio.TimeoutError:
@@ -153,6 +157,7 @@ class BackgroundClient:
         self._ready = threading.Event()
         self._loop = asyncio.new_event_loop()
         self._stop: asyncio.Event | None = None
+        self._outbox: asyncio.Queue | None = None
         self.error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, daemon=True, name="ws-client")
         self._thread.start()
@@ -163,14 +168,21 @@ class BackgroundClient:
 
         async def main():
             self._stop = asyncio.Event()
+            self._outbox = asyncio.Queue()
             self._ready.set()
-            await run_client(self.url, 1e9, self.counts, self._stop)
+            await run_client(self.url, 1e9, self.counts, self._stop, self._outbox)
 
         try:
             self._loop.run_until_complete(main())
         except BaseException as error:  # looked at by whoever owns the client
             self.error = error
             self._ready.set()
+
+    def send_value(self, uuid: str, value) -> None:
+        """Send a control update as this client, as a browser (or a hostile script in its page) would."""
+        outbox = self._outbox
+        assert outbox is not None, "the client is not running"
+        self._loop.call_soon_threadsafe(outbox.put_nowait, gui_update_message(uuid, value))
 
     def close(self) -> None:
         if self._stop is not None:

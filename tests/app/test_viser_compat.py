@@ -26,6 +26,19 @@ def test_the_fast_paths_are_on():
     assert viser_compat.FAST_PATH and viser_compat.VERSION_TESTED, viser.__version__
 
 
+def test_control_values_are_checked_before_viser_casts_them():
+    """The check of app/viser_compat.check_gui_updates sits in viser's handler list (tests/app/test_hostile_updates
+    shows what it refuses); with another viser shape it would return False and log why."""
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        handlers = server.gui._websock_interface._incoming_handlers[viser_compat.GuiUpdateMessage]
+        assert server.gui._handle_gui_updates in handlers
+        assert viser_compat.check_gui_updates(server.gui, lambda handle, problem: None)
+        assert server.gui._handle_gui_updates not in handlers and len(handlers) == 1
+    finally:
+        server.stop()
+
+
 def test_every_node_of_a_session_moves_by_the_fast_path(connect):
     _, session = connect()
     handles = session.scene._bars + session.scene._joints + session.scene._coms
