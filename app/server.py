@@ -23,9 +23,10 @@ import traceback
 from physics import LinkageError
 
 from . import processes as server_processes
-from . import replay
+from . import replay, viser_compat
 from . import warm as warm_up
 from .logs import quietly
+from .page import READY_HTML, page_folder
 from .parameters import SessionParameters
 from .session import Session
 
@@ -118,7 +119,8 @@ class LabServer:
         self.shared = shared
         self.started = time.time()
         binding = server_processes.reuse_port_binding() if reuse_port else contextlib.nullcontext()
-        with contextlib.redirect_stdout(io.StringIO()), binding:  # viser's banner; we print the real URL ourselves
+        page = viser_compat.serving_page_from(page_folder())  # the loading screen from the first paint
+        with contextlib.redirect_stdout(io.StringIO()), binding, page:  # viser's banner: we print the real URL
             self.viser = viser.ViserServer(host=host, port=int(port), label="Linkage Lab", verbose=False)
         self.viser.scene.set_up_direction("+z")
         self.viser.gui.configure_theme(control_width="large", show_share_button=False)
@@ -203,6 +205,7 @@ class LabServer:
 
         def tell() -> None:
             client.gui.add_markdown(text)
+            client.gui.add_html(READY_HTML)  # the loading screen gives way to this message
             client.add_notification("Server full", f"At most {self.max_sessions} sessions; reload later.",
                                     color="red", auto_close_seconds=None)
 

@@ -42,6 +42,7 @@ from .frame_view import COMPARE_METHODS, FrameView, reactions_available
 from .free_body_view import FreeBodyView
 from .logs import quietly
 from .notices import NOTICE_SECONDS, Notices
+from .page import READY_HTML
 from .parameters import (
     METHOD_LABELS,
     Display,
@@ -122,6 +123,7 @@ class Session:
             self.view.show_start(self.params)
             self.frame_camera(force=True)
             self._restart_fresh(play=autoplay)
+            target.gui.add_html(READY_HTML)  # the page's loading screen gives way to the panel (app/page.py)
         except BaseException:
             self.player.stop()  # no thread left behind by a session that could not start
             raise

@@ -113,6 +113,9 @@ def launch_chromium(playwright: Any, executable: str | None = None) -> Any:
     )
 
 
+LOADING_SCREEN_ID = "linkage-lab-loading"  # static/loading.html
+
+
 def page_url(port: int) -> str:
     return f"http://127.0.0.1:{port}/{PAGE_QUERY}"
 
@@ -135,9 +138,17 @@ def goto_app(browser: Any, port: int, viewport: dict | None = None, timeout_s: f
 
 
 def wait_until_drawn(page: Any, timeout_s: float = PAGE_TIMEOUT_S) -> None:
-    """First frame drawn, software-WebGL notice gone."""
+    """First frame drawn, the app's loading screen gone (app/page.py), software-WebGL notice gone."""
     wait_for_first_frame(page, timeout_s)
+    wait_for_panel(page, timeout_s)
     dismiss_software_notice(page, timeout_s)
+
+
+def wait_for_panel(page: Any, timeout_s: float = PAGE_TIMEOUT_S) -> None:
+    """The session's panel has arrived and the loading screen has removed itself."""
+    page.wait_for_function(
+        f"() => !document.getElementById('{LOADING_SCREEN_ID}')", timeout=timeout_s * 1000, polling=POLL_MS
+    )
 
 
 def wait_for_first_frame(page: Any, timeout_s: float = PAGE_TIMEOUT_S) -> None:

@@ -11,7 +11,9 @@ when the installed viser makes the fast path fall back, so an upgrade cannot slo
 
 from __future__ import annotations
 
-from typing import Any, Callable
+import contextlib
+from pathlib import Path
+from typing import Any, Callable, Iterator
 
 import viser
 
@@ -192,6 +194,34 @@ def check_gui_updates(gui, refuse: Callable[[Any, str], None]) -> bool:
 
     handlers[handlers.index(original)] = checked
     return True
+
+
+# ------------------------------------------------------------------------------------------ the page
+@contextlib.contextmanager
+def serving_page_from(folder: Path | None) -> Iterator[bool]:
+    """While a ``viser.ViserServer`` is constructed inside this block, its HTTP server serves the client from
+    ``folder`` (app/page.py: viser's page with the loading screen) instead of viser's own build folder.
+
+    viser takes the folder as a fixed argument of its ``infra.WebsockServer``; the block hands it ours. Yields
+    False (and viser serves its own page) when there is no folder or this viser has another shape."""
+    infra = getattr(viser, "infra", None)
+    original = getattr(infra, "WebsockServer", None)
+    if folder is None or original is None or not VERSION_TESTED:
+        if folder is not None:
+            warn_once("page", "cannot serve the page with the loading screen; viser's bare page shows until ready")
+        yield False
+        return
+
+    class PageServer(original):  # type: ignore[misc, valid-type]
+        def __init__(self, *args, **kwargs) -> None:
+            kwargs["http_server_root"] = folder
+            super().__init__(*args, **kwargs)
+
+    setattr(infra, "WebsockServer", PageServer)
+    try:
+        yield True
+    finally:
+        setattr(infra, "WebsockServer", original)
 
 
 # ------------------------------------------------------------------------------------------ tests and tools

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from app import logs, viser_compat
+from app import logs, page, viser_compat
 from conftest import wait_until
 
 APP = Path(__file__).resolve().parents[2] / "app"
@@ -96,3 +96,15 @@ def test_no_silent_except_pass_in_the_app():
                 if "KeyboardInterrupt" not in line:  # Ctrl+C ends serve_forever; that is its purpose
                     silent.append(f"{path.name}:{number}: {line.strip()}")
     assert silent == []
+
+
+def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
+    folder = page.page_folder()
+    assert folder is not None
+    served = (folder / "index.html").read_text(encoding="utf-8")
+    original = page.viser_page().read_text(encoding="utf-8")
+    body = served.index("<body>") + len("<body>")
+    assert served[body:].lstrip().startswith('<div id="linkage-lab-loading"')
+    assert served.replace("\n" + page.LOADING_SCREEN.read_text(encoding="utf-8"), "", 1) == original
+    assert page.READY_ID in served  # the screen waits for the session's marker
+    assert (folder.stat().st_mode & 0o077) == 0  # a private folder

@@ -1,0 +1,62 @@
+"""The page a browser loads: viser's own client with Linkage Lab's loading screen in front of it.
+
+Between the first paint and the moment a session's panel arrives (a fraction of a second warm, longer while a
+new session is being built), viser's client shows its bare developer panel (the websocket address, "Save Canvas",
+the scene tree), which is meaningless to a student. The loading screen (``static/loading.html``) covers the
+page from its first paint and removes itself when the session adds its ready marker (:data:`READY_HTML`).
+
+viser serves its client from a folder it is given at construction; the page is written once per process into a
+private temporary folder (mode 0700, removed at exit) and handed to viser through
+:func:`app.viser_compat.serving_page_from`.
+"""
+
+from __future__ import annotations
+
+import atexit
+import importlib.util
+import shutil
+import tempfile
+from pathlib import Path
+
+STATIC = Path(__file__).resolve().parent.parent / "static"
+LOADING_SCREEN = STATIC / "loading.html"
+READY_ID = "linkage-lab-ready"
+READY_HTML = f'<span id="{READY_ID}" hidden></span>'
+"""Added to a browser's panel when its session is shown (or it is told the server is full)."""
+
+_folder: Path | None = None
+
+
+def viser_page() -> Path:
+    """viser's own page (found without importing viser: the server imports it after the warm-up has started)."""
+    spec = importlib.util.find_spec("viser")
+    if spec is None or not spec.submodule_search_locations:
+        raise OSError("viser is not installed")
+    return Path(list(spec.submodule_search_locations)[0]) / "client" / "build" / "index.html"
+
+
+def with_loading_screen(page: str, screen: str) -> str:
+    """``page`` (viser's index.html) with ``screen`` as the first thing in its body."""
+    marker = "<body>"
+    at = page.find(marker)
+    if at < 0:
+        raise ValueError("viser's page has no <body>")
+    at += len(marker)
+    return page[:at] + "\n" + screen + page[at:]
+
+
+def page_folder() -> Path | None:
+    """A folder holding the page with the loading screen (made once per process); None when viser's page cannot
+    be read or changed, then viser serves its own."""
+    global _folder
+    if _folder is not None:
+        return _folder
+    try:
+        page = with_loading_screen(viser_page().read_text(encoding="utf-8"), LOADING_SCREEN.read_text(encoding="utf-8"))
+        folder = Path(tempfile.mkdtemp(prefix="linkage-lab-page-"))
+        (folder / "index.html").write_text(page, encoding="utf-8")
+    except (OSError, ValueError, UnicodeError):
+        return None
+    atexit.register(shutil.rmtree, folder, True)
+    _folder = folder
+    return folder
