@@ -7,6 +7,9 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
 * start: ``python -m app --port 0`` as a subprocess, from launch to the printed URL, to the start pose a client
   receives (drawn before any simulation) and to the first simulated pose (animation running); with the
   derivation cache warm (the current one) and cold (an empty temporary one).
+* browser-start: the same launch, with real Chromium (Debian's, headless, software WebGL) loading the page as
+  soon as the URL is printed: from launch to the loading screen painted, to the session's panel (the loading
+  screen gone) and to motion shown (the status line reads ``t = ... s (playing)`` with t > 0); warm cache.
 * latency: in-process server, one client, session paused; an initial-angle slider is set on the server
   (``handle.value = ...``, the browser's path) and the time to (a) the first pose of the new start queued by
   the server and (b) that pose arriving at the client is recorded; also (a) for a mass slider while playing.
@@ -106,6 +109,45 @@ def measure_start(cold: bool) -> dict:
         proc.wait(10)
         if tmp is not None:
             tmp.cleanup()
+
+
+PLAYING = re.compile(r"t = ([0-9.]+) s \(playing\)")
+
+
+def measure_browser_start() -> dict:
+    """Launch to what a person sees in a real browser (warm cache); see the module docstring."""
+    from . import snapshot
+
+    sync_playwright = snapshot.import_playwright()
+    with sync_playwright() as playwright:
+        browser = snapshot.launch_chromium(playwright)  # before the launch: a browser already open, as in class
+        try:
+            launched = time.perf_counter()
+            proc, url, url_seconds = _start_server([], dict(os.environ))
+            try:
+                port = int(url.rsplit(":", 1)[1].strip("/"))
+                page = browser.new_context(viewport=snapshot.VIEWPORT).new_page()
+                page.goto(snapshot.page_url(port), wait_until="commit")  # not "load": the screen paints before
+                page.wait_for_selector(f"#{snapshot.LOADING_SCREEN_ID}", state="attached")
+                painted = time.perf_counter() - launched
+                snapshot.wait_for_panel(page)
+                panel = time.perf_counter() - launched
+                motion = None
+                deadline = time.perf_counter() + 120
+                while time.perf_counter() < deadline:
+                    match = PLAYING.search(page.inner_text("body"))
+                    if match and float(match.group(1)) > 0:
+                        motion = time.perf_counter() - launched
+                        break
+                    time.sleep(0.02)
+                page.context.close()
+            finally:
+                proc.terminate()
+                proc.wait(10)
+        finally:
+            browser.close()
+    return {"url_printed_s": round(url_seconds, 3), "loading_screen_painted_s": round(painted, 3),
+            "panel_shown_s": round(panel, 3), "motion_shown_s": round(motion, 3) if motion else None}
 
 
 def measure_latency(samples: int = 40) -> dict:
@@ -331,7 +373,7 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("part", choices=["all", "start", "latency", "cpu", "load"], nargs="?", default="all")
+    parser.add_argument("part", choices=["all", "start", "browser-start", "latency", "cpu", "load"], nargs="?", default="all")
     parser.add_argument("--clients", type=int, default=30)
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--shared", action="store_true")
@@ -348,6 +390,12 @@ def main(argv: list[str] | None = None) -> int:
         }
         if not args.no_cold:
             out["start_cold"] = measure_start(cold=True)
+    if args.part == "browser-start":  # not in "all": it needs Chromium and playwright (the snapshot extra)
+        runs = [measure_browser_start() for _ in range(3)]
+        out["browser_start_warm"] = {
+            "runs": runs,
+            "median_motion_shown_s": statistics.median(r["motion_shown_s"] for r in runs if r["motion_shown_s"]),
+        }
     if args.part in ("all", "latency"):
         out["latency"] = measure_latency()
     if args.part in ("all", "cpu"):
