@@ -86,6 +86,10 @@ def main(argv: list[str] | None = None) -> int:
     mode = "one shared session" if args.shared else (
         f"up to {args.max_sessions} sessions" + (f" in {count} processes" if count > 1 else ""))
     print(f"Linkage Lab serving at {server.url}  ({mode}; Ctrl+C to stop)", flush=True)
+    if server.presenter_url is not None:
+        print(f"Presenter (only this browser can change anything; keep it to yourself): {server.presenter_url}",
+              flush=True)
+        print(f"Viewers: {server.url}", flush=True)
     server.serve_forever()
     return 0
 

@@ -60,3 +60,14 @@ def page_folder() -> Path | None:
     atexit.register(shutil.rmtree, folder, True)
     _folder = folder
     return folder
+
+
+def add_alias(name: str) -> bool:
+    """Serve the page under ``/<name>`` too (the presenter's secret address in ``--shared`` mode: viser's client
+    connects its websocket to the page's own path, so the server learns which address a browser opened).
+    False when there is no page folder."""
+    folder = page_folder()
+    if folder is None or "/" in name or not name.endswith(".html"):
+        return False
+    shutil.copyfile(folder / "index.html", folder / name)
+    return True

@@ -14,6 +14,7 @@ import contextlib
 import io
 import ipaddress
 import os
+import secrets
 import socket
 import sys
 import threading
@@ -26,7 +27,7 @@ from . import processes as server_processes
 from . import replay, viser_compat
 from . import warm as warm_up
 from .logs import quietly
-from .page import READY_HTML, page_folder
+from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
 from .session import Session
 
@@ -67,6 +68,17 @@ def check_bindable(host: str) -> None:
             probe.bind((address[0], 0))
         except OSError as error:
             raise LinkageError(f"--host {host}: cannot listen on this address ({error.strerror or error})") from None
+
+
+VIEWER_LINE = ("**The presenter controls this session.** You are watching: the controls show the presenter's "
+               "settings, and changes from this browser are not applied.")
+# A viewer's controls, drawn read-only (the server refuses a viewer's changes whatever the page does); the tabs
+# stay usable, so a viewer can read the equations and the help.
+VIEWER_STYLE = """<style>
+.mantine-Slider-root, .mantine-NumberInput-root, .mantine-TextInput-root, .mantine-Select-root,
+.mantine-NativeSelect-root, .mantine-Button-root, .mantine-Checkbox-root, .mantine-SegmentedControl-root,
+.mantine-ColorInput-root, .mantine-Switch-root { pointer-events: none; opacity: 0.55; }
+</style>"""
 
 
 class LabServer:
@@ -130,8 +142,15 @@ class LabServer:
         self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
         self.shared_session: Session | None = None
         self.closed_sessions = 0
+        # --shared: only the browser that opened the presenter's secret address may change anything
+        self.presenter_path: str | None = None
         if shared:
+            name = f"presenter-{secrets.token_urlsafe(18)}.html"
+            if add_alias(name):
+                self.presenter_path = "/" + name
             self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
+            if self.presenter_path is not None:
+                self.shared_session.is_presenter = self.is_presenter
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
         self.siblings: server_processes.Siblings | None = None
@@ -156,8 +175,14 @@ class LabServer:
         return f"http://{host}:{self.port}"
 
     # ------------------------------------------------------------------ sessions
+    @property
+    def presenter_url(self) -> str | None:
+        """``--shared``: the address whose browser controls the session (None without a presenter lock)."""
+        return None if self.presenter_path is None else self.url + self.presenter_path
+
     def _connect(self, client) -> None:
         if self.shared_session is not None:
+            self._seat_in_audience(client)
             self.shared_session.frame_camera(client=client)  # the newcomer only; the others keep their view
             return
         if not self.seats.take(self.max_sessions):
@@ -186,6 +211,24 @@ class LabServer:
                     with self._lock:
                         self.closed_sessions += 1
             self._rebalance()
+
+    def is_presenter(self, client_id: int) -> bool:
+        """Whether this browser opened the presenter's address (asked on each change, so that a change sent
+        before the connection was announced is judged too). A viser that hides the path locks nobody out."""
+        path = viser_compat.connection_path(self.viser, client_id)
+        return path is None or path == self.presenter_path
+
+    def _seat_in_audience(self, client) -> None:
+        """A browser of the shared session other than the presenter's is a viewer: its controls are drawn
+        read-only and a line says who controls (the server refuses its changes in any case)."""
+        if self.presenter_path is None or self.is_presenter(client.client_id):
+            return
+
+        def tell() -> None:
+            client.gui.add_markdown(VIEWER_LINE, order=-1000.0)
+            client.gui.add_html(VIEWER_STYLE)
+
+        quietly(tell, "showing a viewer who controls the session")
 
     def _rebalance(self) -> None:
         """Share the frame budget among the sessions (see FRAME_BUDGET)."""

@@ -166,11 +166,18 @@ def update_problem(current: object, updates: object) -> str | None:
     return None if ok else f"{_shown(value)} is not {kind}"
 
 
-def check_gui_updates(gui, refuse: Callable[[Any, str], None]) -> bool:
+def check_gui_updates(
+    gui,
+    refuse: Callable[[Any, str], None],
+    allowed: Callable[[int], bool] | None = None,
+    refuse_sender: Callable[[int, Any], None] | None = None,
+) -> bool:
     """Put :func:`update_problem` in front of viser's handler of a browser's control updates for ``gui`` (a
     ``GuiApi``): a value no browser would send is dropped and ``refuse(handle, reason)`` is called (the
-    session's notice); every other update goes on to viser unchanged. False when this viser has another shape
-    (then viser's own casting stays the only check)."""
+    session's notice); an update from a browser for which ``allowed(client_id)`` is False (a viewer of a
+    presenter's session) is dropped and ``refuse_sender(client_id, handle)`` is called; every other update goes
+    on to viser unchanged. False when this viser has another shape (then viser's own casting stays the only
+    check)."""
     interface = getattr(gui, "_websock_interface", None) if VERSION_TESTED else None
     handlers = getattr(interface, "_incoming_handlers", {}).get(GuiUpdateMessage) if interface is not None else None
     original = getattr(gui, "_handle_gui_updates", None)
@@ -183,6 +190,13 @@ def check_gui_updates(gui, refuse: Callable[[Any, str], None]) -> bool:
         handle = controls.get(getattr(message, "uuid", None))
         if handle is None:
             return  # not one of this GUI's controls: viser would ignore it too
+        if allowed is not None and not allowed(client_id):
+            try:
+                if refuse_sender is not None:
+                    refuse_sender(client_id, handle)
+            except Exception:  # the event loop's boundary
+                log_once("viser_compat:refuse_sender", "could not tell a viewer that the presenter controls")
+            return
         problem = update_problem(handle._impl.value, getattr(message, "updates", None))
         if problem is None:
             await original(client_id, message)
@@ -194,6 +208,30 @@ def check_gui_updates(gui, refuse: Callable[[Any, str], None]) -> bool:
 
     handlers[handlers.index(original)] = checked
     return True
+
+
+def resend_value(client, handle) -> None:
+    """Send ``handle``'s value in force to one browser only (``client``, a ``viser.ClientHandle``): puts back a
+    control that a viewer moved in its own page although the change was not applied."""
+    connection = getattr(client, "_websock_connection", None) if VERSION_TESTED else None
+    if connection is None or GuiUpdateMessage is None:
+        warn_once("resend", "cannot put one browser's control back")
+        return
+    connection.queue_message(GuiUpdateMessage(handle._impl.uuid, {"value": handle._impl.value}))
+
+
+def connection_path(server, client_id: int) -> str | None:
+    """The path of the address whose websocket ``client_id`` opened on ``server`` (a ``viser.ViserServer``):
+    viser's client connects to its page's own address without the query (``/`` or ``/presenter-....html``).
+    None when this viser has another shape."""
+    websock = getattr(server, "_websock_server", None) if VERSION_TESTED else None
+    connection = getattr(websock, "_live_connections", {}).get(client_id) if websock is not None else None
+    request = getattr(connection, "request", None)
+    path = getattr(request, "path", None)
+    if path is None:
+        warn_once("path", "cannot see which address a browser opened; --shared has no presenter")
+        return None
+    return str(path).partition("?")[0]
 
 
 # ------------------------------------------------------------------------------------------ the page

@@ -70,6 +70,7 @@ class Counts:
         self.notifications: list[tuple[float, str]] = []  # (perf_counter, title) of notifications shown
         self.watch = "/linkage/bar_1"
         self.watched: collections.deque = collections.deque(maxlen=4096)  # (perf_counter, message) of ``watch``
+        self.gui_updates: collections.deque = collections.deque(maxlen=4096)  # (uuid, updates) of control updates
 
     def add(self, messages: list[dict], nbytes: int) -> None:
         self.frames += 1
@@ -81,6 +82,8 @@ class Counts:
             if kind == "NotificationShowMessage":
                 props = message.get("props") or {}
                 self.notifications.append((time.perf_counter(), str(props.get("title", ""))))
+            if kind == "GuiUpdateMessage":
+                self.gui_updates.append((message.get("uuid"), message.get("updates") or {}))
             if kind in POSE_TYPES:
                 name = message.get("name", "?")
                 self.pose_updates[name] += 1

@@ -72,7 +72,7 @@ def test_shared_mode_shows_a_hostile_clients_markup_as_text_to_every_viewer(star
     viewer = _shared_page(lab)
     # viser exposes no public id for a control; the wire protocol addresses it by this uuid.
     updates = [(viser_compat.control_id(handle), payload) for handle in _select_controls(session).values()]
-    wsclient.send_values(f"http://127.0.0.1:{lab.port}", updates)
+    wsclient.send_values(lab.server.presenter_url, updates)  # the presenter: a viewer's values are not applied
     newcomer = _shared_page(lab)  # opens after the attack: sees the status line as it now stands
     for page in (viewer, newcomer):
         _assert_inert(page, payload)

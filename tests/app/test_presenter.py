@@ -1,0 +1,96 @@
+"""--shared with a presenter lock: only the browser that opened the presenter's secret address changes anything;
+a viewer's changes are refused by the server (whatever its page does), put back in its page, and it is told why.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+import urllib.request
+
+import pytest
+
+from app import viser_compat
+from app.server import LabServer
+from app.wsclient import BackgroundClient, send_values
+from conftest import wait_until
+
+
+@pytest.fixture(scope="module")
+def shared():
+    server = LabServer(port=0, warm=False, shared=True, preset="triple-a")
+    assert server.shared_session.player.wait_idle(60)
+    yield server
+    server.stop()
+
+
+def _gravity(server):
+    return server.shared_session.controls.numbers.controls["g"].slider
+
+
+def test_the_presenter_address_is_secret_and_serves_the_page(shared):
+    url = shared.presenter_url
+    assert url is not None and url.startswith(shared.url + "/presenter-") and url.endswith(".html")
+    token = url.rsplit("presenter-", 1)[1].removesuffix(".html")
+    assert len(token) >= 24  # 18 random bytes
+    page = urllib.request.urlopen(url, timeout=30).read().decode()
+    assert 'id="linkage-lab-loading"' in page
+    other = LabServer(port=0, warm=False, shared=True, preset="single")
+    try:
+        assert other.presenter_url.rsplit("/", 1)[1] != url.rsplit("/", 1)[1]  # a new secret per server
+    finally:
+        other.stop()
+
+
+def test_a_viewer_changes_nothing_and_the_presenter_changes_everything(shared):
+    session = shared.shared_session
+    before = session.params.chain.g
+    viewer = BackgroundClient(shared.url)
+    try:
+        assert wait_until(lambda: len(shared.viser.get_clients()) >= 1, timeout=30)
+        send_values(shared.url, [(viser_compat.control_id(_gravity(shared)), before + 1.0)])
+        time.sleep(0.5)
+        assert session.params.chain.g == before, "a viewer's change was applied"
+        send_values(shared.presenter_url, [(viser_compat.control_id(_gravity(shared)), before + 1.0)])
+        assert wait_until(lambda: session.params.chain.g == pytest.approx(before + 1.0), timeout=30)
+    finally:
+        viewer.close()
+        session.set("g", before)
+
+
+def test_a_viewer_is_told_and_its_control_is_put_back(shared):
+    session = shared.shared_session
+    viewer = BackgroundClient(shared.url)
+    try:
+        assert wait_until(lambda: len(shared.viser.get_clients()) == 1, timeout=30)
+        (client_id,) = shared.viser.get_clients()
+        assert not session.may_change(client_id)
+        uuid = viser_compat.control_id(_gravity(shared))
+        viewer.send_value(uuid, 7.0)
+        viewer.send_value(uuid, 8.0)
+        told = lambda: [title for _, title in viewer.counts.notifications  # noqa: E731
+                        if title == "The presenter controls this session"]
+        assert wait_until(told, timeout=10)
+        time.sleep(0.5)
+        assert len(told()) == 1  # once, not once per step of a drag
+        put_back = [updates["value"] for u, updates in list(viewer.counts.gui_updates) if u == uuid]
+        assert put_back and put_back[-1] == pytest.approx(session.params.chain.g)
+        assert session.params.chain.g not in (7.0, 8.0)
+    finally:
+        viewer.close()
+
+
+def test_the_command_prints_the_presenter_and_viewer_addresses():
+    proc = subprocess.Popen([sys.executable, "-m", "app", "--shared", "--port", "0"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        lines = [proc.stdout.readline() for _ in range(3)]
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    assert lines[0].startswith("Linkage Lab serving at http://127.0.0.1:"), lines
+    viewer_url = lines[0].split()[4]
+    assert lines[1].startswith("Presenter (only this browser can change anything") and \
+        f"{viewer_url}/presenter-" in lines[1], lines
+    assert lines[2].strip() == f"Viewers: {viewer_url}", lines
