@@ -19,6 +19,7 @@ import physics
 from physics import LinkageError
 from physics.model import FIXED_STEP_INTEGRATORS
 
+from . import share
 from .commands import options_of, split_name
 from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
@@ -250,10 +251,20 @@ class Controls:
                 setattr(self, f"export_{kind}", button)
             gui.add_markdown("Exports hold the run up to the displayed time (at most the last "
                              "two minutes, 60 samples per second). The replay plays without the server.")
+            self.share_button = gui.add_button("Link to this setup")
+            self.bind(self.share_button, lambda value, event: self.show_link())
+            self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
+                                               "in a new session (press the button for the current ones).")
         with self.tabs.add_tab("Help"):
             help_file = STATIC / "help.md"
             gui.add_markdown(help_file.read_text() if help_file.exists() else "See docs/app.md.")
         self.rebuild()
+
+    def show_link(self) -> None:
+        """The share link for the current setup (app/share.py), as a link to open or copy."""
+        query = share.link_query(self.port.setup)
+        self.share_link.content = (f"[Open this setup]({query}) (right-click to copy the link), or add this to "
+                                   f"the server's address:\n\n`{query}`")
 
     def _transport(self, button) -> None:
         actions = {"Play": self.port.play, "Pause": self.port.pause, "Step": self.port.step, "Reset": self.port.reset}

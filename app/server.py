@@ -24,8 +24,9 @@ import traceback
 from physics import LinkageError
 
 from . import processes as server_processes
-from . import replay, viser_compat
+from . import replay, share, viser_compat
 from . import warm as warm_up
+from .commands import CONTROL
 from .logs import quietly
 from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
@@ -192,7 +193,12 @@ class LabServer:
             return
         session = None
         try:
-            session = Session(client, preset=self.preset, links=self.links, method=self.method)
+            setup, refused = self._setup_of(client)
+            preset, links, not_started = share.start_of(setup, self.preset, self.links)
+            session = Session(client, preset=preset, links=links, method=self.method)
+            refused += not_started + share.apply_setup(setup, lambda name, text: session.set(name, text, CONTROL))
+            if refused:
+                session.show_notice("Not applied from the link", "; ".join(refused))
         except Exception as error:  # never let one browser's start take the server down
             traceback.print_exc()
             reason = f"{type(error).__name__}: {error}"
@@ -229,6 +235,13 @@ class LabServer:
             client.gui.add_html(VIEWER_STYLE)
 
         quietly(tell, "showing a viewer who controls the session")
+
+    def _setup_of(self, client) -> tuple[list[tuple[str, str]], list[str]]:
+        """The setup a share link carries (app/share.py), and why it cannot be read if so."""
+        try:
+            return share.setup_from_path(viser_compat.connection_path(self.viser, client.client_id)) or [], []
+        except LinkageError as error:
+            return [], [str(error)]
 
     def _rebalance(self) -> None:
         """Share the frame budget among the sessions (see FRAME_BUDGET)."""

@@ -1,0 +1,123 @@
+"""Share links: a page address whose query sets up a session (``?preset=double&L1=1.5&theta1=60&method=dae``), and
+the link for the current setup.
+
+How the query reaches the server: viser's client opens its websocket at the page's own address without the
+query, so the page's loading screen (``static/loading.html``) moves the setup into the websocket's path,
+``/setup/<the query, percent-encoded>``, before viser's client starts; the server reads that path
+(:func:`app.viser_compat.connection_path`) and applies each name through the session's command layer, as a
+typed value: numbers in the panel's units (degrees, degrees per second, milliseconds), every bound the models'.
+"""
+
+from __future__ import annotations
+
+import math
+import urllib.parse
+from typing import Callable
+
+from physics import LinkageError, preset_names
+from physics.model import MAX_LINKS
+
+from .commands import CONTROL, DEG
+from .parameters import SessionParameters, driving_count
+
+SETUP_PATH = "/setup/"
+MAX_SETUP_CHARS = 4000  # a share link a person could paste; anything longer is refused, not parsed
+MAX_SETUP_NAMES = 80  # 12 bars x (L, d, m, I, theta, omega) and the settings
+FIRST = ("preset", "links")  # the mechanism comes first: the other names are its bars and settings
+SETTINGS = ("method", "integrator", "rtol", "step", "stabilization", "baumgarte_alpha", "baumgarte_beta", "damping")
+
+
+def setup_from_path(path: str | None) -> list[tuple[str, str]] | None:
+    """The ``(name, value)`` pairs a websocket path carries (None: not a setup path); LinkageError if the link is
+    too long or has too many names."""
+    if not path or not path.startswith(SETUP_PATH):
+        return None
+    encoded = path[len(SETUP_PATH):]
+    if len(encoded) > MAX_SETUP_CHARS:
+        raise LinkageError(f"link: {len(encoded)} characters; at most {MAX_SETUP_CHARS}")
+    pairs = urllib.parse.parse_qsl(urllib.parse.unquote(encoded), keep_blank_values=True)
+    if len(pairs) > MAX_SETUP_NAMES:
+        raise LinkageError(f"link: {len(pairs)} values; at most {MAX_SETUP_NAMES}")
+    return pairs
+
+
+def start_of(pairs: list[tuple[str, str]], preset: str, links: int | None) -> tuple[str, int | None, list[str]]:
+    """The link's mechanism and number of bars (the session is made with them, before anything else), else
+    ``preset`` and ``links``; with the refusals (one line each)."""
+    values = dict(pairs)
+    refused = []
+    if "preset" in values:
+        name = values["preset"]
+        if name in preset_names():
+            preset, links = name, None
+        else:
+            refused.append(f"preset = {name!r}: allowed {', '.join(preset_names())}")
+    if "links" in values:
+        text = values["links"]
+        try:
+            number = float(text)
+        except ValueError:
+            number = math.nan
+        whole = math.isfinite(number) and number == int(number) and 1 <= number <= MAX_LINKS
+        if preset != "chain":
+            refused.append("links: only the 'chain' mechanism has a variable number of bars")
+        elif whole:
+            links = int(number)
+        else:
+            refused.append(f"links = {text!r}: allowed whole numbers 1 <= links <= {MAX_LINKS}")
+    return preset, links, refused
+
+
+def apply_setup(pairs: list[tuple[str, str]], set_value: Callable[[str, str], None]) -> list[str]:
+    """Apply each pair except the mechanism (see :func:`start_of`) with ``set_value(name, text)`` (the session's
+    ``set(name, text, units=CONTROL)``), in the link's order; returns the refusals (one line each), the rest
+    applied."""
+    refused = []
+    for name, text in pairs:
+        if name in FIRST:
+            continue
+        try:
+            set_value(name, text)
+        except LinkageError as error:
+            refused.append(str(error))
+    return refused
+
+
+def _number(value: float) -> str:
+    return f"{value:.12g}"
+
+
+def link_query(params: SessionParameters) -> str:
+    """The query for ``params``: the preset and every value that differs from the preset's own (so a link stays
+    short and reads as what was changed), numbers in the panel's units."""
+    base = SessionParameters.from_preset(params.preset, links=params.links if params.preset == "chain" else None)
+    pairs: list[tuple[str, str]] = [("preset", params.preset)]
+    if params.preset == "chain":
+        pairs.append(("links", str(params.n)))
+    for name in SETTINGS:
+        value, default = getattr(params, name if name != "rtol" else "tolerance"), getattr(
+            base, name if name != "rtol" else "tolerance")
+        if value != default:
+            shown = value * 1e3 if name == "step" else value
+            pairs.append((name, _number(shown) if isinstance(value, float) else str(value)))
+    if params.g != base.g:
+        pairs.append(("g", _number(params.g)))
+    for field in ("L", "d", "m", "I"):
+        for k, (value, default) in enumerate(zip(getattr(params, field), getattr(base, field)), start=1):
+            if value != default:
+                pairs.append((f"{field}{k}", _number(value)))
+    if params.pin is not None and base.pin is not None:
+        for axis, value, default in zip(("pin_x", "pin_y"), params.pin, base.pin):
+            if value != default:
+                pairs.append((axis, _number(value)))
+    for k in range(driving_count(params.n, params.pinned)):
+        if not math.isclose(params.theta0[k], base.theta0[k], abs_tol=1e-12):
+            pairs.append((f"theta{k + 1}", _number(params.theta0[k] * DEG)))
+    if not params.pinned:
+        for k in range(params.n):
+            if params.omega0[k] != base.omega0[k]:
+                pairs.append((f"omega{k + 1}", _number(params.omega0[k] * DEG)))
+    return "?" + urllib.parse.urlencode(pairs)
+
+
+UNITS = CONTROL  # the units a link's numbers are in
