@@ -43,8 +43,28 @@ def build_parser() -> argparse.ArgumentParser:
                         help="server processes sharing the port, each serving its share of the browsers "
                         "(default: one per core; --shared uses one)")
     parser.add_argument("--shared", action="store_true",
-                        help="one simulation that every browser watches and drives (lecture mode)")
+                        help="one simulation that every browser watches; only the presenter's browser (the address "
+                        "printed) changes it (lecture mode)")
+    parser.add_argument("--state", default=None, metavar="FILE",
+                        help="a setup saved from the Export tab (JSON): every new session starts from it")
     return parser
+
+
+def read_setup(path: str, preset: str, links: int | None) -> list[tuple[str, str]]:
+    """``--state FILE``: the saved setup's pairs, checked as a whole (LinkageError naming what is wrong)."""
+    from . import share  # noqa: PLC0415 - imports the models: after the argument check, as the rest of main
+
+    try:
+        with open(path, "rb") as file:
+            data = file.read(share.MAX_STATE_BYTES + 1)
+    except OSError as error:
+        raise LinkageError(f"--state {path}: {error.strerror or error}") from None
+    pairs = share.pairs_from_state(data, f"--state {path}")
+    try:
+        share.check_setup(pairs, preset, links)
+    except LinkageError as error:
+        raise LinkageError(f"--state {path}: {error}") from None
+    return pairs
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -59,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
         from .parameters import SessionParameters  # noqa: PLC0415 - same reason
 
         SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
+        setup = read_setup(args.state, args.preset, args.links) if args.state else []
         warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser is imported
         from .processes import default_processes  # noqa: PLC0415 - imports viser: after the warm-up started
         from .server import LabServer  # noqa: PLC0415 - same reason
@@ -73,6 +94,7 @@ def main(argv: list[str] | None = None) -> int:
             shared=args.shared,
             warm=False,  # started above
             processes=default_processes() if args.processes is None else args.processes,
+            setup=setup,
         )
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)

@@ -65,6 +65,8 @@ class SessionPort(Protocol):
 
     def reset(self) -> None: ...
 
+    def upload_setup(self, client_id: int | None, name: str, content: bytes) -> None: ...
+
     def download(self, kind: str, client: object | None) -> None:
         """Send the run (csv, json, html) or the equations (tex) to a browser."""
 

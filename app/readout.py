@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from physics import LinkageError
 
-from . import export
+from . import export, share
 from .divergence import REFERENCE_LABEL
 from .replay import replay_html
 
@@ -43,6 +43,8 @@ def download_file(session, kind: str) -> tuple[str, bytes]:
         return f"{stem}.json", export.to_json(session.history(), p, session.run_label())
     if kind == "html":
         return f"{stem}-replay.html", replay(session.history(), p, session.run_label()).encode("utf-8")
+    if kind == "setup":
+        return f"linkage-{p.preset}-setup.json", share.state_document(p)
     if kind == "tex":
         from . import equations  # noqa: PLC0415 - imports sympy: only when asked for
 
@@ -51,7 +53,7 @@ def download_file(session, kind: str) -> tuple[str, bytes]:
         except ValueError as error:
             raise LinkageError(str(error)) from None
         return f"equations-{p.method}-{p.n}{'-pinned' if p.pinned else ''}.tex", text.encode("utf-8")
-    raise LinkageError(f"download = {kind!r}: allowed csv, json, html, tex")
+    raise LinkageError(f"download = {kind!r}: allowed csv, json, html, setup, tex")
 
 
 def snapshot(session) -> dict:

@@ -99,6 +99,7 @@ class LabServer:
         processes: int = 1,
         seats: server_processes.Seats | None = None,
         reuse_port: bool = False,
+        setup: list[tuple[str, str]] | None = None,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -130,6 +131,7 @@ class LabServer:
         self.preset, self.links, self.method = preset, links, method
         self.max_sessions = int(max_sessions)
         self.shared = shared
+        self.setup = list(setup or [])  # --state: the saved setup every new session starts from (app/share.py)
         self.started = time.time()
         binding = server_processes.reuse_port_binding() if reuse_port else contextlib.nullcontext()
         page = viser_compat.serving_page_from(page_folder())  # the loading screen from the first paint
@@ -152,12 +154,14 @@ class LabServer:
             self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
             if self.presenter_path is not None:
                 self.shared_session.is_presenter = self.is_presenter
+            if self.setup:
+                self.shared_session.load_setup(self.setup, "the setup file")
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
         self.siblings: server_processes.Siblings | None = None
         if processes > 1:
             options = {"host": host, "preset": preset, "links": links, "method": method,
-                       "max_sessions": max_sessions, "warm": warm}
+                       "max_sessions": max_sessions, "warm": warm, "setup": self.setup}
             try:
                 self.siblings = server_processes.start_siblings(processes - 1, self.port, options, self.seats)
             except BaseException:
@@ -239,9 +243,10 @@ class LabServer:
     def _setup_of(self, client) -> tuple[list[tuple[str, str]], list[str]]:
         """The setup a share link carries (app/share.py), and why it cannot be read if so."""
         try:
-            return share.setup_from_path(viser_compat.connection_path(self.viser, client.client_id)) or [], []
+            link = share.setup_from_path(viser_compat.connection_path(self.viser, client.client_id)) or []
         except LinkageError as error:
-            return [], [str(error)]
+            return list(self.setup), [str(error)]
+        return share.merged(self.setup, link), []
 
     def _rebalance(self) -> None:
         """Share the frame budget among the sessions (see FRAME_BUDGET)."""

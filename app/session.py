@@ -32,7 +32,7 @@ import physics
 from physics import LinkageError
 from physics.model import validated
 
-from . import commands, delivery, export, readout, warm
+from . import commands, delivery, export, readout, share, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -195,6 +195,22 @@ class Session:
                 color="red",
             )
         return None
+
+    def load_setup(self, pairs: list[tuple[str, str]], where: str = "the setup") -> None:
+        """Apply a share link's or a setup file's ``(name, value)`` pairs (app/share.py): the mechanism first,
+        then each value; what the models refuse is listed in one notice, the rest applied."""
+        preset, links, refused = share.start_of(pairs, self.params.preset, None)
+        if preset != self.params.preset or links is not None:
+            self.set_mechanism(preset, links)
+        refused += share.apply_setup(pairs, lambda name, text: self.set(name, text, CONTROL))
+        if refused:
+            self.show_notice(f"Not applied from {where}", "; ".join(refused))
+
+    def upload_setup(self, client_id: int | None, name: str, content: bytes) -> None:
+        """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one)."""
+        if client_id is not None and not self.may_change(client_id):
+            raise LinkageError("setup file: the presenter controls this session")
+        self.load_setup(share.pairs_from_state(content, f"setup file {name[:60]!r}"), f"setup file {name[:60]!r}")
 
     def may_change(self, client_id: int) -> bool:
         return self.is_presenter is None or self.is_presenter(client_id)

@@ -10,13 +10,17 @@ typed value: numbers in the panel's units (degrees, degrees per second, millisec
 
 from __future__ import annotations
 
+import json
 import math
 import urllib.parse
-from typing import Callable
+from typing import Callable, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError
 
 from physics import LinkageError, preset_names
 from physics.model import MAX_LINKS
 
+from . import commands
 from .commands import CONTROL, DEG
 from .parameters import SessionParameters, driving_count
 
@@ -83,6 +87,27 @@ def apply_setup(pairs: list[tuple[str, str]], set_value: Callable[[str, str], No
     return refused
 
 
+def check_setup(pairs: list[tuple[str, str]], preset: str, links: int | None) -> SessionParameters:
+    """The parameters ``pairs`` set up from ``preset``; LinkageError naming the first value refused (a setup
+    file given on the command line must be right as a whole)."""
+    preset, links, refused = start_of(pairs, preset, links)
+    if refused:
+        raise LinkageError(refused[0])
+    params = SessionParameters.from_preset(preset, links=links)
+    for name, text in pairs:
+        if name not in FIRST:
+            params = commands.apply(params, name, text, CONTROL).params
+    return params
+
+
+def merged(saved: list[tuple[str, str]], link: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """A server's saved setup (``--state``) with a link's on top; a link that names its own mechanism replaces
+    the saved setup (whose values belong to another mechanism)."""
+    if any(name == "preset" for name, _ in link):
+        return list(link)
+    return [*saved, *link]
+
+
 def _number(value: float) -> str:
     return f"{value:.12g}"
 
@@ -121,3 +146,49 @@ def link_query(params: SessionParameters) -> str:
 
 
 UNITS = CONTROL  # the units a link's numbers are in
+
+# ------------------------------------------------------------------------------------------ setup files
+MAX_STATE_BYTES = 65536
+STATE_NAME = "linkage-lab-setup.json"
+
+
+class SetupFile(BaseModel):
+    """A saved setup: the names and values of a share link, as JSON (numbers in the panel's units)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    linkage_lab_setup: Literal[1] = Field(description="the format's version")
+    values: dict[StrictStr, Union[StrictInt, StrictFloat, StrictStr]] = Field(max_length=MAX_SETUP_NAMES)
+
+
+def state_document(params: SessionParameters) -> bytes:
+    """The current setup as a JSON file that :func:`pairs_from_state` reads back."""
+    values: dict[str, float | str] = {}
+    for name, text in urllib.parse.parse_qsl(link_query(params)[1:]):
+        try:
+            values[name] = int(text) if name == "links" else float(text)
+        except ValueError:  # a name: preset, method, integrator, stabilization
+            values[name] = text
+    return (json.dumps({"linkage_lab_setup": 1, "values": values}, indent=2) + "\n").encode()
+
+
+def pairs_from_state(data: bytes, where: str = "setup file") -> list[tuple[str, str]]:
+    """The ``(name, value)`` pairs of a saved setup; LinkageError (one line naming what is wrong) otherwise."""
+    if len(data) > MAX_STATE_BYTES:
+        raise LinkageError(f"{where}: {len(data)} bytes; a setup file is at most {MAX_STATE_BYTES}")
+    try:
+        document = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise LinkageError(f"{where}: not UTF-8 text") from None
+    except json.JSONDecodeError as error:
+        raise LinkageError(f"{where}: not valid JSON ({error.msg}, line {error.lineno})") from None
+    except RecursionError:
+        raise LinkageError(f"{where}: nested too deeply") from None
+    try:
+        setup = SetupFile.model_validate(document)
+    except ValidationError as error:
+        first = error.errors()[0]
+        field = ".".join(str(part) for part in first.get("loc", ())) or "the file"
+        raise LinkageError(f"{where}: {field}: {first.get('msg', 'invalid')} "
+                           f"(expected {{\"linkage_lab_setup\": 1, \"values\": {{\"L1\": 1.5, ...}}}})") from None
+    return [(name, value if isinstance(value, str) else repr(value)) for name, value in setup.values.items()]

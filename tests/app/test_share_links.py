@@ -3,7 +3,10 @@ applied), and the link for the current setup gives the same setup back."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 import urllib.parse
 
 import pytest
@@ -11,6 +14,7 @@ import pytest
 from app import commands, share
 from app.commands import CONTROL
 from app.parameters import SessionParameters
+from app.server import LabServer
 from app.wsclient import BackgroundClient
 from conftest import wait_until
 
@@ -21,7 +25,7 @@ def _path(query: str) -> str:
 
 def _connect_with(lab, query: str):
     before = set(lab.sessions)
-    url = lab.url + _path(query)
+    url = lab.url + (_path(query) if query else "")
     client = BackgroundClient(url)
     assert wait_until(lambda: set(lab.sessions) - before, timeout=60)
     (client_id,) = set(lab.sessions) - before
@@ -99,3 +103,72 @@ def test_the_link_for_a_setup_gives_the_same_setup_back(preset, edits):
     assert rebuilt.omega0 == pytest.approx(params.omega0, abs=1e-11)
     assert query.startswith(f"?preset={preset}")
     assert len(pairs) <= 2 + len(edits) + 2  # only what differs from the preset (closed loops: assembled angles)
+
+
+# ------------------------------------------------------------------------------------------ setup files
+def test_a_saved_setup_reads_back_as_the_same_setup():
+    params = SessionParameters.from_preset("double")
+    for name, text in {"L1": "1.25", "theta2": "-40", "method": "lagrange", "omega1": "15"}.items():
+        params = commands.apply(params, name, text, CONTROL).params
+    document = share.state_document(params)
+    assert json.loads(document)["values"]["L1"] == 1.25
+    back = share.check_setup(share.pairs_from_state(document), "single", None)
+    assert back.chain == params.chain and back.settings == params.settings
+    assert back.theta0 == pytest.approx(params.theta0, abs=1e-11)
+    assert back.omega0 == pytest.approx(params.omega0, abs=1e-11)
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"{not json", "not valid JSON"),
+    ("{}".encode("utf-16"), "not UTF-8"),
+    (b'{"linkage_lab_setup": 2, "values": {}}', "linkage_lab_setup"),
+    (b'{"linkage_lab_setup": 1, "values": {"L1": true}}', "values.L1"),
+    (b'{"linkage_lab_setup": 1, "values": {"L1": [1]}}', "values.L1"),
+    (b'{"linkage_lab_setup": 1, "values": {}, "extra": 1}', "extra"),
+    (b"[" * 100000, "at most 65536"),
+    (b"[" * 30000 + b"]" * 30000, "nested too deeply"),
+])
+def test_a_bad_setup_file_is_one_line_naming_what_is_wrong(content, words):
+    with pytest.raises(share.LinkageError) as info:
+        share.pairs_from_state(content, "setup.json")
+    text = str(info.value)
+    assert words in text and "\n" not in text and text.startswith("setup.json"), text
+
+
+def test_the_command_line_refuses_a_bad_setup_file_with_one_line(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"linkage_lab_setup": 1, "values": {"preset": "double", "L1": -1}}')
+    result = subprocess.run([sys.executable, "-m", "app", "--state", str(bad), "--port", "0"],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.strip() == (f"linkage-lab: error: --state {bad}: L1 = -1 m: outside the allowed range "
+                                     "0 <= L1 <= 1000 m")
+    missing = subprocess.run([sys.executable, "-m", "app", "--state", str(tmp_path / "none.json")],
+                             capture_output=True, text=True, timeout=120)
+    assert missing.returncode == 2 and "No such file" in missing.stderr and missing.stderr.count("\n") == 1
+
+
+def test_every_new_session_starts_from_the_servers_setup_and_a_link_replaces_it():
+    setup = share.pairs_from_state(b'{"linkage_lab_setup": 1, "values": {"preset": "double", "g": 4.5}}')
+    server = LabServer(port=0, warm=False, setup=setup)
+    try:
+        client, session = _connect_with(server, "")
+        assert session.params.preset == "double" and session.params.g == 4.5
+        other, linked = _connect_with(server, "?preset=single&g=2")
+        assert linked.params.preset == "single" and linked.params.g == 2.0
+        client.close()
+        other.close()
+    finally:
+        server.stop()
+
+
+def test_a_setup_file_loaded_in_a_session_and_refused_to_a_viewer(connect):
+    _, session = connect()
+    session.upload_setup(None, "s.json", b'{"linkage_lab_setup": 1, "values": {"preset": "four-bar", "m2": 2}}')
+    assert session.params.preset == "four-bar" and session.params.m[1] == 2.0
+    session.is_presenter = lambda client_id: False
+    try:
+        with pytest.raises(share.LinkageError, match="the presenter controls this session"):
+            session.upload_setup(7, "s.json", b'{"linkage_lab_setup": 1, "values": {"g": 3}}')
+    finally:
+        session.is_presenter = None
