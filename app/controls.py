@@ -41,6 +41,7 @@ DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
 ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
 ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
+SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
 PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
 STEP_SLIDER = SliderSpec("step", 0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
 SPEED_SLIDER = SliderSpec("speed", 0.1, 4.0, 0.05)
@@ -62,6 +63,12 @@ def _round_to(value: float, step: float) -> float:
 def _from_log10(exponent: float) -> float:
     """The slider's log10(rtol) back to rtol; a wild exponent (a hostile client) stays a float the model refuses."""
     return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
+
+
+def _degrees_per_second(omega: float) -> float:
+    """An angular velocity for its slider: degrees per second on the slider's step (not wrapped: 720 °/s is two
+    turns a second)."""
+    return _round_to(math.degrees(omega), SPEED_START_SLIDER.step)
 
 
 def _degrees(theta: float) -> float:
@@ -202,6 +209,7 @@ class Controls:
             self.bind(self.links, lambda value, event: s.set_links(value))
             add("g", GRAVITY_SLIDER, p.g)
             self.angles_folder = gui.add_folder("Initial angles (degrees)")
+            self.speeds_folder = gui.add_folder("Initial angular velocities (°/s)", expand_by_default=False)
             self.pin_folder = gui.add_folder("Ground pin H")
             self.bars_folder = gui.add_folder("Bars")
         with self.tabs.add_tab("Simulation"):
@@ -317,6 +325,14 @@ class Controls:
                     disabled=k > count)
                 self._angle_names.append(name)
                 self._dynamic_numbers.append(name)
+        with self.speeds_folder:
+            for k in range(1, p.n + 1):
+                name = f"omega{k}"
+                label = f"omega{k} (°/s)" if k <= count else f"omega{k} (°/s, follows the loop)"
+                add(name, SPEED_START_SLIDER, p.omega0[k - 1], label=label, to_slider=_degrees_per_second,
+                    from_slider=math.radians, disabled=k > count)
+                self._angle_names.append(name)
+                self._dynamic_numbers.append(name)
         self.pin_folder.visible = p.pinned
         if p.pin is not None:
             with self.pin_folder:
@@ -342,8 +358,8 @@ class Controls:
             self.sync_bar(k)
             if p.pinned:
                 self.sync_angles()
-        elif key == "theta" or name in ("pin_x", "pin_y"):
-            self.sync_angles()  # a closed loop assembles the other angles
+        elif key in ("theta", "omega") or name in ("pin_x", "pin_y"):
+            self.sync_angles()  # a closed loop assembles the other angles and projects the velocities
             self.numbers.sync(name)
         elif name in ("method", "integrator", "stabilization"):
             self.sync_method()
@@ -370,6 +386,7 @@ class Controls:
         self._set(self.trace_point, p.trace_label())
 
     def sync_angles(self) -> None:
+        """Every initial angle and angular velocity slider (a closed loop moves the assembled ones too)."""
         for name in self._angle_names:
             self.numbers.sync(name)
 

@@ -1,0 +1,48 @@
+"""Initial angular velocity sliders (issue 14): ω₀ per bar in degrees per second; a closed loop takes the first
+ones and the others follow the loop (its velocity constraint holds); the run starts with them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import wait_until
+from physics.assembly import loop_jacobian
+
+
+def test_an_open_chain_starts_with_the_speeds_set_on_the_sliders(connect):
+    _, session = connect()
+    session.set_mechanism("triple-a")
+    controls = session.controls.numbers.controls
+    assert all(not controls[f"omega{k}"].slider.disabled for k in (1, 2, 3))
+    controls["omega2"].slider.value = 120.0
+    session.set_typed("omega3", "-1e2")
+    assert session.params.omega0 == pytest.approx(np.radians([0.0, 120.0, -100.0]))
+    assert controls["omega3"].slider.value == -100.0
+    expected = np.radians([0.0, 120.0, -100.0])
+
+    def started_with_them() -> bool:
+        omega = session.history()["omega"]
+        return omega.shape[0] > 0 and bool(np.allclose(omega[0], expected, atol=1e-9, rtol=0))
+
+    assert wait_until(started_with_them, timeout=30), session.history()["omega"][:1]
+
+
+def test_a_closed_loop_takes_its_first_speed_and_the_others_follow_the_loop(connect):
+    _, session = connect()
+    session.set_mechanism("four-bar")
+    controls = session.controls.numbers.controls
+    assert not controls["omega1"].slider.disabled
+    assert controls["omega2"].slider.disabled and controls["omega3"].slider.disabled
+    assert "follows the loop" in controls["omega2"].slider.label
+    controls["omega1"].slider.value = 90.0
+    p = session.params
+    assert p.omega0[0] == pytest.approx(math.radians(90.0))
+    residual = loop_jacobian(np.array(p.L), p.theta0) @ p.omega0
+    assert np.max(np.abs(residual)) < 1e-9 and abs(p.omega0[1]) > 0.01
+    shown = [controls[f"omega{k}"].slider.value for k in (2, 3)]
+    assert shown == pytest.approx(np.degrees(p.omega0[1:]), abs=2.5)  # on the slider's 5 °/s step
+    with pytest.raises(Exception, match="this mechanism takes only omega1"):
+        session.set("omega2", 10.0)
