@@ -188,6 +188,10 @@ class Controls:
         self.status = gui.add_markdown("**Starting...**")
         self.transport = gui.add_button_group("Playback", ("Play", "Pause", "Step", "Reset"))
         self.bind(self.transport, lambda value, event: self._transport(value))
+        # beside Playback, not in a tab: a lecturer switches views often (and the F key presses it)
+        self.camera_view = gui.add_button_group("View", ("Front", "3D"),
+                                                hint="Front: the plane of the motion as a drawing. 3D: from above")
+        self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
         self.energy_plot = Plot(gui, "Energy", ["total E", "kinetic T", "potential V"],
                                 [(20, 20, 20), (214, 39, 40), (31, 119, 180)], y_label="J")
         self.drift_plot = Plot(gui, "Relative energy error since last change", ["|E - E0| / E0"],
@@ -232,9 +236,6 @@ class Controls:
             add("baumgarte_beta", BETA_SLIDER, p.baumgarte_beta)
             add("damping", DAMPING_SLIDER, p.damping)
         with self.tabs.add_tab("Display"):
-            self.camera_view = gui.add_button_group("View", ("Front", "3D"),
-                                                    hint="Front: the plane of the motion as a drawing. 3D: from above")
-            self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
             add("speed", SPEED_SLIDER, s.display.speed)
             add("trace_seconds", TRACE_SLIDER, s.display.trace_seconds, label="Trace length (s)")
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())

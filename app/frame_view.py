@@ -70,6 +70,7 @@ class FrameView:
         self._compare_key: list = []
         self._compare_frames: dict = {}
         self.frames_sent = 0
+        self._status_playing: bool | None = None  # "playing" or "paused" as the status line last said
 
     # ------------------------------------------------------------------ building
     def build(self, params: SessionParameters) -> None:
@@ -164,8 +165,10 @@ class FrameView:
             quietly(self.target.flush, "flushing a frame")
         if self.panel is not None and (frame.restarted or frame.counter % PLOT_EVERY == 0):
             self._update_plots(frame, runs)
-        if self.panel is not None and (frame.restarted or frame.counter % STATUS_EVERY == 0):
+        if self.panel is not None and (frame.restarted or frame.counter % STATUS_EVERY == 0
+                                       or playing != self._status_playing):
             self.panel.show_status(self.status_text(playing, real_time_factor, frame, runs))
+            self._status_playing = playing
         with self._frame_lock:
             self.last_frame = frame
             self.frames_sent += 1

@@ -1,8 +1,12 @@
-"""The page a browser loads: viser's own client with Linkage Lab's loading screen in front of it.
+"""The page a browser loads: viser's own client with Linkage Lab's additions (``static/page.html``).
+
+The additions: a loading screen; share links (app/share.py); dark mode when the browser prefers it (viser's own
+``?darkMode``); keyboard shortcuts (Space play/pause, R reset, S step, F front view) that press the panel's own
+buttons, so that they go through the same checks as a click.
 
 Between the first paint and the moment a session's panel arrives (a fraction of a second warm, longer while a
 new session is being built), viser's client shows its bare developer panel (the websocket address, "Save Canvas",
-the scene tree), which is meaningless to a student. The loading screen (``static/loading.html``) covers the
+the scene tree), which is meaningless to a student. The loading screen covers the
 page from its first paint and removes itself when the session adds its ready marker (:data:`READY_HTML`).
 
 viser serves its client from a folder it is given at construction; the page is written once per process into a
@@ -19,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 STATIC = Path(__file__).resolve().parent.parent / "static"
-LOADING_SCREEN = STATIC / "loading.html"
+ADDITIONS = STATIC / "page.html"
 READY_ID = "linkage-lab-ready"
 READY_HTML = f'<span id="{READY_ID}" hidden></span>'
 """Added to a browser's panel when its session is shown (or it is told the server is full)."""
@@ -52,7 +56,7 @@ def page_folder() -> Path | None:
     if _folder is not None:
         return _folder
     try:
-        page = with_loading_screen(viser_page().read_text(encoding="utf-8"), LOADING_SCREEN.read_text(encoding="utf-8"))
+        page = with_loading_screen(viser_page().read_text(encoding="utf-8"), ADDITIONS.read_text(encoding="utf-8"))
         folder = Path(tempfile.mkdtemp(prefix="linkage-lab-page-"))
         (folder / "index.html").write_text(page, encoding="utf-8")
     except (OSError, ValueError, UnicodeError):

@@ -491,6 +491,7 @@ class Session:
     def pause(self) -> None:
         self._user_paused = True
         self.player.pause()
+        self.player.touch()  # the status line says "paused" at once (a paused player draws no new frame)
 
     def step(self) -> None:
         self._user_paused = True

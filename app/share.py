@@ -2,7 +2,7 @@
 the link for the current setup.
 
 How the query reaches the server: viser's client opens its websocket at the page's own address without the
-query, so the page's loading screen (``static/loading.html``) moves the setup into the websocket's path,
+query, so the page's loading screen (``static/page.html``) moves the setup into the websocket's path,
 ``/setup/<the query, percent-encoded>``, before viser's client starts; the server reads that path
 (:func:`app.viser_compat.connection_path`) and applies each name through the session's command layer, as a
 typed value: numbers in the panel's units (degrees, degrees per second, milliseconds), every bound the models'.

@@ -113,7 +113,7 @@ def launch_chromium(playwright: Any, executable: str | None = None) -> Any:
     )
 
 
-LOADING_SCREEN_ID = "linkage-lab-loading"  # static/loading.html
+LOADING_SCREEN_ID = "linkage-lab-loading"  # static/page.html
 
 
 def page_url(port: int) -> str:

@@ -46,3 +46,15 @@ def test_a_closed_loop_takes_its_first_speed_and_the_others_follow_the_loop(conn
     assert shown == pytest.approx(np.degrees(p.omega0[1:]), abs=2.5)  # on the slider's 5 °/s step
     with pytest.raises(Exception, match="this mechanism takes only omega1"):
         session.set("omega2", 10.0)
+
+
+def test_the_status_line_says_paused_at_once(connect):
+    """A paused player draws no new frame; the status line used to say "(playing)" until the next change."""
+    _, session = connect()
+    session.play()
+    assert wait_until(lambda: "(playing)" in session.controls.status.content, timeout=30)
+    session.pause()
+    assert wait_until(lambda: "(paused)" in session.controls.status.content, timeout=2), \
+        session.controls.status.content
+    session.play()
+    assert wait_until(lambda: "(playing)" in session.controls.status.content, timeout=2)

@@ -105,6 +105,6 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
     original = page.viser_page().read_text(encoding="utf-8")
     body = served.index("<body>") + len("<body>")
     assert served[body:].lstrip().startswith('<div id="linkage-lab-loading"')
-    assert served.replace("\n" + page.LOADING_SCREEN.read_text(encoding="utf-8"), "", 1) == original
+    assert served.replace("\n" + page.ADDITIONS.read_text(encoding="utf-8"), "", 1) == original
     assert page.READY_ID in served  # the screen waits for the session's marker
     assert (folder.stat().st_mode & 0o077) == 0  # a private folder
