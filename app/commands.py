@@ -94,7 +94,8 @@ QUANTITIES: dict[str, Quantity] = {
     "trace_seconds": Quantity("trace length", "s", Display, "trace_seconds"),
     "arrow_scale": Quantity("arrow scale", "", Display, "arrow_scale"),
 }
-LINKS = Quantity("number of bars", "", None, "links")  # a whole number; choosing it loads the chain preset
+LINKS = Quantity("number of bars", "", None, "links")
+TIMELINE = Quantity("timeline", "s", None, "timeline")  # a time of the run so far (Session.scrub)  # a whole number; choosing it loads the chain preset
 assert set(PARAMETER_FIELDS) <= set(QUANTITIES), "every --set field of the CLI has its quantity here"
 CHOICES = ("method", "integrator", "stabilization", "trace")
 DISPLAY_NAMES = tuple(name for name, q in QUANTITIES.items() if q.model is Display)

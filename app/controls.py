@@ -41,6 +41,8 @@ DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
 ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
 ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
+TIMELINE_STEP = 1.0 / 60.0  # one sample
+TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
 SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
 PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
 STEP_SLIDER = SliderSpec("step", 0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
@@ -188,6 +190,11 @@ class Controls:
         self.status = gui.add_markdown("**Starting...**")
         self.transport = gui.add_button_group("Playback", ("Play", "Pause", "Step", "Reset"))
         self.bind(self.transport, lambda value, event: self._transport(value))
+        # the run so far: drag back to look again (pauses there); Play goes on from the time shown
+        self.timeline = gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
+                                       initial_value=0.0, hint="Drag to go back through the run so far (pauses)")
+        self.bind(self.timeline, lambda value, event: s.scrub(value))
+        self._timeline_end = 0.0
         # beside Playback, not in a tab: a lecturer switches views often (and the F key presses it)
         self.camera_view = gui.add_button_group("View", ("Front", "3D"),
                                                 hint="Front: the plane of the motion as a drawing. 3D: from above")
@@ -429,6 +436,24 @@ class Controls:
         self.sync_compare()
         self.sync_trace_point()
         self._set(self.reactions, self.port.reactions_on)
+
+    def show_timeline(self, t: float, t_first: float, restarted: bool) -> None:
+        """The timeline's range is the run so far (what the rings still hold), its thumb the time shown."""
+        if restarted:
+            self._timeline_end = 0.0
+        self._timeline_end = max(self._timeline_end, t)
+        low = max(0.0, math.floor(t_first / TIMELINE_STEP) * TIMELINE_STEP)
+        high = max(self._timeline_end, low + TIMELINE_MIN_SPAN)
+        handle = self.timeline
+        value = min(max(round(t / TIMELINE_STEP) * TIMELINE_STEP, low), high)
+
+        def write() -> None:
+            if (handle.min, handle.max) != (low, high):
+                handle.min, handle.max = low, high
+            if handle.value != value:
+                handle.value = value
+
+        self._quiet(write)
 
     def show_status(self, text: str) -> None:
         if text != self._status_text:

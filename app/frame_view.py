@@ -169,6 +169,9 @@ class FrameView:
                                        or playing != self._status_playing):
             self.panel.show_status(self.status_text(playing, real_time_factor, frame, runs))
             self._status_playing = playing
+            first = runs.get(frame.runs[0].label) if frame.runs else None
+            if first is not None and len(first.ring):
+                self.panel.show_timeline(frame.t, first.ring.t_first, frame.restarted)
         with self._frame_lock:
             self.last_frame = frame
             self.frames_sent += 1

@@ -497,6 +497,14 @@ class Session:
         self._user_paused = True
         self.player.step()
 
+    def scrub(self, t) -> None:
+        """Show time ``t`` of the run so far (the timeline), paused there; Play goes on from it."""
+        number = commands.parse_number("timeline", commands.TIMELINE, t)
+        if not 0.0 <= number <= MAX_GOTO_TIME:
+            raise LinkageError(f"timeline = {number:g} s: allowed range 0 <= timeline <= {MAX_GOTO_TIME:g} s")
+        self._user_paused = True
+        self.player.seek(number, timeout=0.0)  # returns at once; the player shows it when it can
+
     def reset(self) -> None:
         """Start again at t = 0. If the current start cannot move at all (a singular position), go back to
         the last start that did, so Reset always recovers."""
