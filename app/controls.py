@@ -15,6 +15,8 @@ import math
 import threading
 from pathlib import Path
 
+import numpy as np
+
 import physics
 from physics import LinkageError
 from physics.model import FIXED_STEP_INTEGRATORS
@@ -25,6 +27,7 @@ from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, driving_count, method_label, methods_for, wrap_degrees
+from .phase_view import BAR_COLORS, phase_picture
 from .ports import SessionPort
 from .text import html_literal
 
@@ -41,6 +44,7 @@ DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
 ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
 ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
+PLOT_CHOICES = ("Energy", "Angles θ(t)", "Phase portrait (θ, ω)")
 TIMELINE_STEP = 1.0 / 60.0  # one sample
 TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
 SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
@@ -199,6 +203,12 @@ class Controls:
         self.camera_view = gui.add_button_group("View", ("Front", "3D"),
                                                 hint="Front: the plane of the motion as a drawing. 3D: from above")
         self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
+        self.plot_choice = gui.add_dropdown("Plot", PLOT_CHOICES, initial_value=PLOT_CHOICES[0],
+                                            hint="Energy and its error, the angles over time, or the phase portrait")
+        self.bind(self.plot_choice, lambda value, event: self.choose_plot(value))
+        self.angle_plot: Plot | None = None  # made per mechanism (one series per bar), in rebuild()
+        self.phase_image = gui.add_image(phase_picture(np.zeros((0, 1)), np.zeros((0, 1))), format="png",
+                                         visible=False)
         self.energy_plot = Plot(gui, "Energy", ["total E", "kinetic T", "potential V"],
                                 [(20, 20, 20), (214, 39, 40), (31, 119, 180)], y_label="J")
         self.drift_plot = Plot(gui, "Relative energy error since last change", ["|E - E0| / E0"],
@@ -349,6 +359,8 @@ class Controls:
                     self._dynamic_numbers.append(name)
         self._set(self.mechanism, p.preset)
         self.links.visible = p.preset == "chain"
+        if self.angle_plot is None or len(self.angle_plot.labels) != p.n:
+            self._make_angle_plot(p.n)
         self._set(self.links, p.n)
         self.constraint_plot.set_visible(p.pinned)
         self.sync_method()
@@ -436,6 +448,30 @@ class Controls:
         self.sync_compare()
         self.sync_trace_point()
         self._set(self.reactions, self.port.reactions_on)
+
+    @property
+    def plot_kind(self) -> str:
+        """``energy``, ``angles`` or ``phase``: which plot the frame view keeps up to date."""
+        return ("energy", "angles", "phase")[PLOT_CHOICES.index(self.plot_choice.value)]
+
+    def choose_plot(self, label) -> None:
+        if label not in PLOT_CHOICES:
+            raise LinkageError(f"plot = {label!r}: allowed {', '.join(PLOT_CHOICES)}")
+        kind = self.plot_kind
+        self.energy_plot.set_visible(kind == "energy")
+        self.drift_plot.set_visible(kind == "energy")
+        if self.angle_plot is not None:
+            self.angle_plot.set_visible(kind == "angles")
+        self.phase_image.visible = kind == "phase"
+        self.port.refresh_plots()
+
+    def _make_angle_plot(self, n: int) -> None:
+        if self.angle_plot is not None:
+            self.angle_plot.remove()
+        self.angle_plot = Plot(self.gui, "Angles", [f"θ{k}" for k in range(1, n + 1)],
+                               [BAR_COLORS[k % len(BAR_COLORS)] for k in range(n)], y_label="°",
+                               order=self.energy_plot.handle.order - 0.5)
+        self.angle_plot.set_visible(self.plot_kind == "angles")
 
     def show_timeline(self, t: float, t_first: float, restarted: bool) -> None:
         """The timeline's range is the run so far (what the rings still hold), its thumb the time shown."""

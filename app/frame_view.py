@@ -27,6 +27,7 @@ from .overlays import (
     status_markdown,
 )
 from .parameters import METHOD_LABELS, Display, SessionParameters
+from .phase_view import phase_picture
 from .player import SAMPLE_RATE, Frame
 from .scene import LinkageScene, mechanism_reach
 
@@ -229,10 +230,16 @@ class FrameView:
         i = frame.runs[0].index
         span = int(PLOT_SECONDS * SAMPLE_RATE)
         chain = first.spec.chain  # the run's own chain: the session's parameters may already be newer
-        data = first.ring.window(i - span, i, names=["t", "kinetic", "potential", "energy"] + (
+        kind = self.panel.plot_kind
+        extra = ["theta", "omega"] if kind in ("angles", "phase") else []
+        data = first.ring.window(i - span, i, names=["t", "kinetic", "potential", "energy"] + extra + (
             ["constraint_xy"] if chain.pinned else []))
         t = data["t"]
         c = self.panel
+        if kind == "angles" and c.angle_plot is not None and data["theta"].shape[1] == len(c.angle_plot.labels):
+            c.angle_plot.update(t, *np.degrees(data["theta"]).T)
+        elif kind == "phase" and len(t) >= 2:
+            c.phase_image.image = phase_picture(np.degrees(data["theta"]), np.degrees(data["omega"]))
         c.energy_plot.update(t, data["energy"], data["kinetic"], data["potential"])
         scale = energy_scale(chain.array("m"), chain.array("L"), chain.g)
         in_segment = t >= self.segment_t0 - 1e-9

@@ -140,7 +140,7 @@ class Plot:
     """
 
     def __init__(self, gui, title: str, labels: list[str], colors: list, *, log: bool = False, height: int = 160,
-                 y_label: str = "") -> None:
+                 y_label: str = "", order: float | None = None) -> None:
         self.log = log
         self.labels = labels
         if log:
@@ -158,6 +158,7 @@ class Plot:
             legend={"show": True, "live": False},
             height=height,
             aspect=2.0,
+            order=order,
         )
         self.points_shown = 0
 

@@ -497,6 +497,10 @@ class Session:
         self._user_paused = True
         self.player.step()
 
+    def refresh_plots(self) -> None:
+        """Redraw the chosen plot now (it was just chosen; a paused player draws no new frame)."""
+        self.player.touch()
+
     def scrub(self, t) -> None:
         """Show time ``t`` of the run so far (the timeline), paused there; Play goes on from it."""
         number = commands.parse_number("timeline", commands.TIMELINE, t)

@@ -1,0 +1,68 @@
+"""The phase portrait: each bar's angle against its angular velocity over the last seconds, as a small picture.
+
+Why a picture: uPlot (viser's chart) draws series over an increasing x, and a phase portrait's x (the angle) goes
+back and forth. The picture is drawn with Pillow (which viser brings) a few times a second, only while it is
+the chosen plot.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+WIDTH, HEIGHT = 384, 260
+MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 56, 10, 24, 34
+# one colour per bar (up to 12), the matplotlib "tab" colours that the bars' own colours follow
+BAR_COLORS = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
+              (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207), (57, 59, 121), (99, 121, 57)]
+
+
+def _ticks(low: float, high: float, count: int = 5) -> list[float]:
+    """Round tick values between ``low`` and ``high`` (1, 2 or 5 times a power of ten apart)."""
+    span = max(high - low, 1e-12)
+    raw = span / count
+    power = 10.0 ** math.floor(math.log10(raw))
+    step = min((m * power for m in (1.0, 2.0, 5.0, 10.0)), key=lambda s: abs(s - raw))
+    first = math.ceil(low / step) * step
+    return [first + i * step for i in range(int((high - first) / step + 1e-9) + 1)]
+
+
+def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray) -> np.ndarray:
+    """An RGB picture (HEIGHT, WIDTH, 3): ``theta_deg`` (samples, bars) wrapped to [-180, 180] on x, ``omega_deg``
+    on y; a line breaks where an angle wraps round."""
+    image = Image.new("RGB", (WIDTH, HEIGHT), (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    x0, x1 = MARGIN_LEFT, WIDTH - MARGIN_RIGHT
+    y0, y1 = MARGIN_TOP, HEIGHT - MARGIN_BOTTOM
+    draw.text((x0, 4), "Phase portrait: omega (deg/s) against theta", fill=(20, 20, 20))
+    wrapped = (np.asarray(theta_deg, dtype=float) + 180.0) % 360.0 - 180.0
+    omega = np.asarray(omega_deg, dtype=float)
+    finite = np.isfinite(omega)
+    top = float(np.max(np.abs(omega[finite]))) if finite.any() else 1.0
+    top = max(top * 1.1, 1.0)
+
+    def px(theta: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return np.column_stack([x0 + (theta + 180.0) / 360.0 * (x1 - x0), y1 - (w + top) / (2 * top) * (y1 - y0)])
+
+    for value in (-180.0, -90.0, 0.0, 90.0, 180.0):
+        x = x0 + (value + 180.0) / 360.0 * (x1 - x0)
+        draw.line([(x, y0), (x, y1)], fill=(235, 235, 235))
+        draw.text((x - 10, y1 + 4), f"{value:g}", fill=(60, 60, 60))
+    for value in _ticks(-top, top):
+        y = y1 - (value + top) / (2 * top) * (y1 - y0)
+        draw.line([(x0, y), (x1, y)], fill=(235, 235, 235))
+        draw.text((4, y - 6), f"{value:g}", fill=(60, 60, 60))
+    draw.rectangle([x0, y0, x1, y1], outline=(120, 120, 120))
+    draw.text(((x0 + x1) / 2 - 30, HEIGHT - 14), "theta (deg)", fill=(40, 40, 40))
+    if wrapped.ndim == 2 and len(wrapped) >= 2:
+        for bar in range(wrapped.shape[1]):
+            points = px(wrapped[:, bar], omega[:, bar])
+            breaks = np.flatnonzero(np.abs(np.diff(wrapped[:, bar])) > 180.0) + 1
+            for segment in np.split(np.arange(len(points)), breaks):
+                if len(segment) >= 2:
+                    draw.line([tuple(p) for p in points[segment]], fill=BAR_COLORS[bar % len(BAR_COLORS)], width=2)
+            draw.text((x1 - 44 - 44 * (wrapped.shape[1] - 1 - bar), y0 + 4), f"bar {bar + 1}",
+                      fill=BAR_COLORS[bar % len(BAR_COLORS)])
+    return np.asarray(image)
