@@ -32,7 +32,7 @@ MAX_FRAME_DT = 0.5  # s of simulated time advanced per frame at most (a jump bac
 CHAOS_RESOLUTION = 64
 CHAOS_T_MAX = 10.0  # s: a small map, a few seconds to compute
 CHAOS_STEP = 0.01
-CHAOS_DISPLAY_SCALE = 5  # each map pixel drawn as 5 x 5 screen pixels (the panel shows images at their own size)
+CHAOS_DISPLAY_SCALE = 4  # each map pixel drawn as 4 x 4 screen pixels: with its axes and colour bar, 384 px wide
 
 
 def _copy_colors(count: int, n: int) -> np.ndarray:
@@ -154,7 +154,7 @@ class Analysis:
                 times = chaos.compute_map(chain, "lagrange", CHAOS_RESOLUTION, CHAOS_T_MAX, CHAOS_STEP)
                 rgb = chaos.to_rgb(times, CHAOS_T_MAX, CHAOS_STEP)
                 rgb = np.repeat(np.repeat(rgb, CHAOS_DISPLAY_SCALE, axis=0), CHAOS_DISPLAY_SCALE, axis=1)
-                rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
+                rgb = chaos.framed_picture(rgb, CHAOS_T_MAX, CHAOS_STEP)  # axes, ticks, colour bar, key
             except Exception as error:
                 self.chaos_status.content = "Chaos map failed."
                 self.session.show_notice("Chaos map failed", f"{type(error).__name__}: {error}", color="red")

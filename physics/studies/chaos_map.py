@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from PIL import Image, ImageDraw
 
 from ..arguments import Parser
 from ..codegen import load_compiled
@@ -321,3 +322,62 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
     png = out / "chaos-map-bench.png"
     write_png(png, to_rgb(reference, t_max, DEFAULT_STEP))
     return [path, md, png]
+
+
+# ------------------------------------------------------------------------------------------------
+# A framed picture: axes, ticks and a colour bar (the app's Analysis tab)
+
+FRAME_LEFT, FRAME_BOTTOM, FRAME_TOP, BAR_WIDTH, BAR_GAP, BAR_LABELS = 44, 34, 40, 14, 12, 58
+LEGEND_HEIGHT = 34
+
+
+def _log_ticks(step: float, t_max: float) -> list[float]:
+    """1, 2, 5 times powers of ten between ``step`` and ``t_max``, thinned to at most six."""
+    ticks = [m * 10.0 ** e for e in range(math.floor(math.log10(step)), math.ceil(math.log10(t_max)) + 1)
+             for m in (1.0, 2.0, 5.0) if step <= m * 10.0 ** e <= t_max]
+    while len(ticks) > 6:
+        ticks = ticks[::2]
+    return ticks
+
+
+def framed_picture(rgb: np.ndarray, t_max: float, step: float) -> np.ndarray:
+    """``rgb`` (a map from :func:`to_rgb`, any size) with its axes (theta1 across, theta2 up, in degrees, ticks
+    every 90), a colour bar of the first flip time on a log scale from ``step`` to ``t_max`` with ticks in
+    seconds, and a key for the two colours that are not times."""
+    height, width = rgb.shape[:2]
+    total_w = FRAME_LEFT + width + BAR_GAP + BAR_WIDTH + BAR_LABELS
+    total_h = FRAME_TOP + height + FRAME_BOTTOM + LEGEND_HEIGHT
+    image = Image.new("RGB", (total_w, total_h), (255, 255, 255))
+    image.paste(Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)), (FRAME_LEFT, FRAME_TOP))
+    draw = ImageDraw.Draw(image)
+    ink = (40, 40, 40)
+    x0, y0, x1, y1 = FRAME_LEFT, FRAME_TOP, FRAME_LEFT + width, FRAME_TOP + height
+    draw.rectangle([x0 - 1, y0 - 1, x1, y1], outline=ink)
+    draw.text((x0, 4), "first flip time of the double pendulum", fill=ink)
+    for degrees in (-180, -90, 0, 90, 180):
+        fraction = (degrees + 180) / 360.0
+        x = x0 + fraction * width
+        draw.line([(x, y1), (x, y1 + 4)], fill=ink)
+        draw.text((x - 10, y1 + 6), f"{degrees}", fill=ink)
+        y = y1 - fraction * height
+        draw.line([(x0 - 5, y), (x0 - 1, y)], fill=ink)
+        draw.text((2, y - 6), f"{degrees}", fill=ink)
+    draw.text(((x0 + x1) / 2 - 40, y1 + 20), "theta1 (deg)", fill=ink)
+    draw.text((2, y0 - 22), "theta2 (deg)", fill=ink)
+    # the colour bar: bottom = step, top = t_max, log scale (as to_rgb colours the map)
+    bx0, bx1 = x1 + BAR_GAP, x1 + BAR_GAP + BAR_WIDTH
+    bar = colormap(np.linspace(1.0, 0.0, height)[:, None].repeat(BAR_WIDTH, axis=1))
+    image.paste(Image.fromarray(bar), (bx0, y0))
+    draw.rectangle([bx0 - 1, y0 - 1, bx1, y1], outline=ink)
+    for seconds in _log_ticks(step, t_max):
+        fraction = math.log(seconds / step) / math.log(t_max / step)
+        y = y1 - fraction * height
+        draw.line([(bx1, y), (bx1 + 4, y)], fill=ink)
+        draw.text((bx1 + 6, y - 6), f"{seconds:g} s", fill=ink)
+    ly = y1 + FRAME_BOTTOM
+    for i, (colour, text) in enumerate(((NOT_FLIPPED_RGB, f"no flip within {t_max:g} s"),
+                                        (FORBIDDEN_RGB, "too little energy to flip"))):
+        lx = x0 + i * (width // 2 + 10)
+        draw.rectangle([lx, ly, lx + 10, ly + 10], fill=colour, outline=ink)
+        draw.text((lx + 14, ly), text, fill=ink)
+    return np.asarray(image)

@@ -16,7 +16,9 @@ from PIL import Image
 
 from physics import Settings, get_preset, simulate
 from physics.kinematics import energies
+from physics.studies import chaos_map as chaos
 from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
+from physics.studies.charts import colormap
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -123,3 +125,22 @@ def test_cli_bad_arguments_fail_with_one_line(tmp_path, args, needle):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0] and "Traceback" not in result.stderr
+
+
+def test_the_framed_map_has_its_axes_a_colour_bar_and_a_key():
+    """The Analysis tab's picture (issue 14): the map unchanged inside, a colour bar from the shortest flip time
+    (bottom) to t_max (top) in the map's own colours, and the two colours that are not times in a key."""
+    rng = np.random.default_rng(3)
+    times = rng.uniform(0.01, 10.0, (16, 16))
+    times[0, 0], times[1, 1] = chaos.FORBIDDEN, 0.0
+    rgb = chaos.to_rgb(times, 10.0, 0.01)
+    framed = chaos.framed_picture(rgb, 10.0, 0.01)
+    top, left = chaos.FRAME_TOP, chaos.FRAME_LEFT
+    assert np.array_equal(framed[top:top + 16, left:left + 16], rgb)
+    bar_x = left + 16 + chaos.BAR_GAP + chaos.BAR_WIDTH // 2
+    assert np.array_equal(framed[top, bar_x], colormap(np.array(1.0)))
+    assert np.array_equal(framed[top + 15, bar_x], colormap(np.array(0.0)))
+    key = framed[top + 16 + chaos.FRAME_BOTTOM:]
+    for colour in (chaos.NOT_FLIPPED_RGB, chaos.FORBIDDEN_RGB):
+        assert np.all(key == colour, axis=-1).sum() >= 64, colour
+    assert chaos._log_ticks(0.01, 10.0) == [0.01, 0.05, 0.2, 1.0, 5.0]
