@@ -37,6 +37,8 @@ class CameraDirector:
         self.view = "3d"
         # False when the control panel is hidden (headless pictures): the whole canvas is free
         self.reserve_panel = True
+        # (centre_xy, radius) to frame instead of the whole reach (a picture of one instant: pose_disc)
+        self.disc: tuple[np.ndarray, float] | None = None
 
     def set_view(self, view: str) -> None:
         """Front (the plane of the motion as a drawing) or 3D (slightly from above); every camera reframed."""
@@ -58,7 +60,7 @@ class CameraDirector:
             cameras = [client.camera]
         elif self.shared:
             self.framed_reach = reach
-            position, look_at = camera_pose(self._lengths, pin, view=self.view)
+            position, look_at = camera_pose(self._lengths, pin, view=self.view, disc=self.disc)
 
             def initial() -> None:  # what a browser that connects later starts with
                 self.target.initial_camera.position = tuple(position)
@@ -81,7 +83,7 @@ class CameraDirector:
         self.framed_panel[id(camera)] = panel_fraction(camera) if self.reserve_panel else 0.0
         position, look_at = camera_pose(self._lengths, self._pin, aspect=aspect,
                                         panel_fraction=panel_fraction(camera) if self.reserve_panel else 0.0,
-                                        view=self.view)
+                                        view=self.view, disc=self.disc)
 
         def move() -> None:
             with self.target.atomic():

@@ -234,20 +234,33 @@ class LinkageScene:
         return out
 
 
+def pose_disc(points_xy: np.ndarray, margin: float = 1.35) -> tuple[np.ndarray, float]:
+    """The smallest centred box's disc around ``points_xy`` (joints and ground points at one instant), with a
+    margin: what a picture of that instant frames."""
+    points = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+    low, high = points.min(axis=0), points.max(axis=0)
+    center = 0.5 * (low + high)
+    return center, margin * max(float(np.max(np.linalg.norm(points - center, axis=1))), 0.05)
+
+
 def camera_pose(lengths: np.ndarray, pin, fov: float = math.radians(75.0), aspect: float = 1.5,
-                panel_fraction: float = 0.0, view: str = "3d") -> tuple[np.ndarray, np.ndarray]:
+                panel_fraction: float = 0.0, view: str = "3d",
+                disc: tuple[np.ndarray, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and look-at point (world) that frame the disc the mechanism can sweep.
 
     Seen from -y, slightly from above (``view="3d"``) or straight on (``view="front"``: the plane of the motion
     as a drawing), so the vertical plane of the motion faces the viewer. ``fov`` is the vertical field of view.
     ``panel_fraction``: the share of the canvas width the control panel covers on the right; the disc is fitted
     into, and centred in, the part left free. On a canvas narrower than it is tall the camera backs off so the
-    disc also fits across.
+    disc also fits across. ``disc``: ``(centre_xy, radius)`` to frame instead (a picture of one instant frames
+    the mechanism as it stands there, :func:`pose_disc`).
     """
     reach = mechanism_reach(lengths, pin)
     center_xy = np.zeros(2)
     if pin is not None:
         center_xy = 0.5 * np.array(pin, dtype=float)
+    if disc is not None:
+        center_xy, reach = np.asarray(disc[0], dtype=float), max(float(disc[1]), 1e-3)
     aspect = aspect if math.isfinite(aspect) and aspect > 0.05 else 1.5
     panel_fraction = min(max(panel_fraction, 0.0), 0.6) if math.isfinite(panel_fraction) else 0.0
     free_aspect = aspect * (1.0 - panel_fraction)  # free width over height

@@ -100,6 +100,7 @@ class LabServer:
         seats: server_processes.Seats | None = None,
         reuse_port: bool = False,
         setup: list[tuple[str, str]] | None = None,
+        presenter: bool = True,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -147,10 +148,11 @@ class LabServer:
         self.closed_sessions = 0
         # --shared: only the browser that opened the presenter's secret address may change anything
         self.presenter_path: str | None = None
-        if shared:
+        if shared and presenter:
             name = f"presenter-{secrets.token_urlsafe(18)}.html"
             if add_alias(name):
                 self.presenter_path = "/" + name
+        if shared:
             self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
             if self.presenter_path is not None:
                 self.shared_session.is_presenter = self.is_presenter

@@ -319,6 +319,7 @@ class Session:
     def set_camera_view(self, view: str) -> None:
         """``"front"`` (the plane of the motion as a drawing) or ``"3d"``: every camera of this session reframed."""
         self.camera.set_view(view)
+        self.view.floor.visible = view != "front"  # a front view is a drawing of the plane: no floor below it
 
     def set_reactions(self, on: bool) -> None:
         """Reaction arrows on or off (their length: ``set("arrow_scale", ...)``)."""

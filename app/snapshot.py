@@ -13,16 +13,22 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import json
 import math
 import os
 import shutil
 import sys
+import threading
 import time
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
+
+import numpy as np
 
 from physics import METHOD_NAMES, LinkageError, preset_names
+
+from .scene import pose_disc
 
 CHROMIUM_ENV = "LINKAGE_LAB_CHROMIUM"
 CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "chromium", "chromium-browser")
@@ -316,7 +322,9 @@ def paused_app(
     any browser connects, and ``--json`` needs none), with ``values`` applied by their ``--set`` names."""
     from .server import LabServer  # noqa: PLC0415 - viser: not for --json runs that fail on their arguments
 
-    server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=method, shared=True, warm=False)
+    # shared: the session exists before any page connects; no presenter lock (the picture's page is the only one)
+    server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=method, shared=True, warm=False,
+                       presenter=False)
     try:
         session = server.shared_session
         assert session is not None  # a shared server makes its session before it serves
@@ -328,9 +336,26 @@ def paused_app(
         server.stop()
 
 
-def show_time(session: Any, t: float, timeout_s: float = PAGE_TIMEOUT_S) -> None:
-    """Pause the session at simulated time ``t`` (simulating up to it from the start)."""
-    if not session.goto_time(t, timeout=timeout_s):
+PROGRESS_EVERY_S = 2.0
+
+
+def show_time(session: Any, t: float, timeout_s: float = PAGE_TIMEOUT_S,
+              progress: Callable[[str], None] | None = None) -> None:
+    """Pause the session at simulated time ``t`` (simulating up to it from the start); a long way there reports
+    how far it got every few seconds through ``progress``."""
+    reached: list[bool] = []
+    worker = threading.Thread(target=lambda: reached.append(session.goto_time(t, timeout=timeout_s)), daemon=True,
+                              name="snapshot-goto")
+    started = time.perf_counter()
+    worker.start()
+    while worker.is_alive():
+        worker.join(PROGRESS_EVERY_S)
+        if worker.is_alive() and progress is not None:
+            runs = list(session.player.runs)
+            so_far = min((run.ring.t_last for run in runs), default=0.0)
+            elapsed = time.perf_counter() - started
+            progress(f"simulating: {so_far:.1f} of {t:g} s ({elapsed:.0f} s so far, at most {timeout_s:g} s)")
+    if not reached or not reached[0]:
         raise SnapshotError(f"time = {t}: the simulation did not reach it within {timeout_s:g} s")
 
 
@@ -340,11 +365,47 @@ def node_positions(session: Any) -> dict[str, list[float]]:
     return {name: node["position"] for name, node in nodes.items() if "position" in node}
 
 
-def scene_picture(page: Any, session: Any, t: float) -> bytes:
-    """PNG of the scene at simulated time ``t``, paused, once the browser shows the server's poses."""
-    show_time(session, t)
+def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], None] | None = None,
+                  tight: bool = False) -> bytes:
+    """PNG of the scene at simulated time ``t``, paused, once the browser shows the server's poses; ``tight``:
+    framed on the mechanism as it stands at ``t`` rather than on its whole reach."""
+    show_time(session, t, progress=progress)
     wait_for_node_positions(page, node_positions(session))
+    if tight:
+        positions = node_positions(session)
+        points = np.array([(p[0], p[2]) for p in positions.values()])  # world (x, 0, y) -> the plane
+        on_page = project_to_page(page, list(positions))
+        session.camera.disc = pose_disc(points)
+        session.camera.frame(session.params.L, session.params.pin, force=True)
+        deadline = time.monotonic() + CAMERA_WAIT_S  # the camera's move shows as the nodes moving on the page
+        while time.monotonic() < deadline and project_to_page(page, list(positions)) == on_page:
+            time.sleep(POLL_MS / 1000.0)
     return settled_screenshot(page, clip=canvas_clip(page))
+
+
+MAX_CAPTION = 200
+CAMERA_WAIT_S = 5.0
+
+
+def labelled(png: bytes, caption: str | None, stamp: str | None) -> bytes:
+    """``png`` with a caption (bottom left) and a time stamp (bottom right) drawn on a light band, for slides."""
+    if not caption and not stamp:
+        return png
+    from PIL import Image, ImageDraw  # noqa: PLC0415 - Pillow (viser's) only for labelled pictures
+
+    image = Image.open(io.BytesIO(png)).convert("RGB")
+    draw = ImageDraw.Draw(image)
+    band = 24
+    width, height = image.size
+    draw.rectangle([0, height - band, width, height], fill=(245, 245, 245))
+    if caption:
+        draw.text((8, height - band + 6), caption, fill=(20, 20, 20))
+    if stamp:
+        right = draw.textlength(stamp)
+        draw.text((width - right - 8, height - band + 6), stamp, fill=(20, 20, 20))
+    out = io.BytesIO()
+    image.save(out, format="PNG")
+    return out.getvalue()
 
 
 @contextlib.contextmanager
@@ -370,6 +431,9 @@ def render_pngs(
     viewport: dict | None = None,
     with_panel: bool = False,
     browser: Any = None,
+    view: str = "3d",
+    progress: Callable[[str], None] | None = None,
+    tight: bool = False,
 ) -> list[bytes]:
     """PNG pictures of ``preset`` at each simulated time in ``times``: the snapshot command's core, also
     what tests/browser/regenerate_references.py stores and the reference test compares. ``browser``: an
@@ -379,11 +443,12 @@ def render_pngs(
             browser = stack.enter_context(chromium())
         server, session = stack.enter_context(paused_app(preset, links=links, method=method, values=values))
         session.camera.reserve_panel = with_panel  # a picture without the panel frames on the whole canvas
+        session.set_camera_view(view)
         page = open_app_page(browser, server.port, viewport)
         stack.callback(page.context.close)
         if not with_panel:
             hide_overlays(page)
-        return [scene_picture(page, session, t) for t in times]
+        return [scene_picture(page, session, t, progress, tight) for t in times]
 
 
 def session_json(
@@ -435,6 +500,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--width", type=int, default=VIEWPORT["width"], help="picture width in pixels")
     parser.add_argument("--height", type=int, default=VIEWPORT["height"], help="picture height in pixels")
     parser.add_argument("--with-panel", action="store_true", help="keep the control panel in the picture")
+    parser.add_argument("--view", choices=("front", "3d"), default="front",
+                        help="front: the plane of the motion straight on, for slides (default); 3d: from above")
+    parser.add_argument("--frame", choices=("pose", "reach"), default=None,
+                        help="pose: frame the mechanism as it stands at --time (default for one picture); reach: "
+                        "frame all it can sweep, as the app does (default for --frames, so the view stays put)")
+    parser.add_argument("--caption", default=None, help=f"text under the picture (at most {MAX_CAPTION} characters)")
+    parser.add_argument("--stamp", action="store_true", help="write the simulated time on the picture")
     parser.add_argument("--json", action="store_true", help="print the session's JSON snapshot instead (no browser)")
     return parser
 
@@ -452,6 +524,9 @@ def _parse_values(items: Sequence[str]) -> list[tuple[str, str]]:
 def _check(args: argparse.Namespace) -> None:
     if not (math.isfinite(args.time) and 0.0 <= args.time <= 1e5):
         raise SnapshotInputError(f"--time {args.time}: allowed range 0 <= time <= 1e5")
+    if args.caption is not None and (len(args.caption) > MAX_CAPTION or not args.caption.isprintable()):
+        raise SnapshotInputError(f"--caption: at most {MAX_CAPTION} printable characters on one line "
+                                 f"(got {len(args.caption)})")
     if not (64 <= args.width <= 4096 and 64 <= args.height <= 4096):
         raise SnapshotInputError(f"--width {args.width} --height {args.height}: allowed range 64..4096 pixels each")
     if args.json:
@@ -491,8 +566,11 @@ def main(argv: list[str] | None = None) -> int:
         started = time.perf_counter()
         pictures = render_pngs(
             args.preset, times, viewport={"width": args.width, "height": args.height}, with_panel=args.with_panel,
+            view=args.view, progress=lambda line: print(line, file=sys.stderr, flush=True), tight=(args.frame or ("pose" if args.frames is None else "reach")) == "pose",
             **options,
         )
+        pictures = [labelled(picture, args.caption, f"t = {t:.2f} s" if args.stamp else None)
+                    for picture, t in zip(pictures, times)]
         if args.frames is None:
             paths = [args.out]
         else:

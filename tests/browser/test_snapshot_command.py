@@ -77,9 +77,34 @@ def test_errors_are_one_line_with_a_non_zero_exit(tmp_path):
         assert "Traceback" not in result.stderr
 
 
+def test_a_slide_is_front_on_tight_and_labelled(chromium_executable, tmp_path):
+    """The defaults for slides (issue 14): the plane straight on without the floor, framed on the mechanism as it
+    stands, a caption and a time stamp on a band under it."""
+    from app.scene import BAR_COLORS
+
+    out = tmp_path / "slide.png"
+    result = snapshot_command("--preset", "triple-a", "--time", "3.5", "--out", str(out),
+                              "--caption", "Triple pendulum A", "--stamp")
+    assert result.returncode == 0, result.stderr
+    image = pictures.read_png(out)
+    height, width = image.shape[:2]
+    bars = np.zeros(image.shape[:2], dtype=bool)
+    for colour in BAR_COLORS[:3]:
+        bars |= pictures.colour_match(image, colour)
+    rows, cols = np.nonzero(bars)
+    spread = max(rows.max() - rows.min(), (cols.max() - cols.min()) * height / width)
+    assert spread > 0.35 * height, f"the bars span only {spread} of {height} px: not framed tightly"
+    band = image[height - 20:]
+    assert np.all(band.reshape(-1, 3).max(axis=0) >= 240) and (band < 100).any()  # a light band with text on it
+    grey = np.all((image > 150) & (image < 215) & (np.ptp(image, axis=2)[..., None] < 8), axis=2)
+    assert grey[: height - 24].mean() < 0.01, "the floor grid shows in a front view"
+    assert snapshot_command("--preset", "single", "--out", str(out), "--caption", "x" * 201).returncode == 2
+
+
 def test_png_is_the_reference_picture_and_frames_make_a_sequence(chromium_executable, tmp_path):
     out = tmp_path / "frame.png"
-    result = snapshot_command("--preset", "triple-a", "--time", f"{REFERENCE_TIME}", "--out", str(out))
+    result = snapshot_command("--preset", "triple-a", "--time", f"{REFERENCE_TIME}", "--out", str(out),
+                              "--view", "3d", "--frame", "reach")  # as the app and the reference pictures frame it
     assert result.returncode == 0, result.stderr
     image = pictures.read_png(out)
     assert image.shape == (640, 960, 3)
