@@ -71,6 +71,21 @@ def _from_log10(exponent: float) -> float:
     return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
 
 
+def reach_text(p) -> str:
+    """Where a four-bar's theta1 can be set: the closed-form intervals of physics.assembly.driving_range, in
+    degrees within one turn, as the slider shows angles."""
+    intervals = physics.assembly.driving_range(p.L, p.pin)
+    if not intervals:
+        return "*theta1 reachable: nowhere: this loop cannot close (change a length or the pin)*"
+    parts = []
+    for low, high in intervals:
+        if high - low >= 2 * math.pi - 1e-9:
+            return "*theta1 reachable: every angle (bar 1 is a crank)*"
+        start, end = wrap_degrees(low), wrap_degrees(high)
+        parts.append(f"{start:.1f}° to {end:.1f}°" + (" (through ±180°)" if start > end else ""))
+    return "*theta1 reachable: " + " and ".join(parts) + "*"
+
+
 def _degrees_per_second(omega: float) -> float:
     """An angular velocity for its slider: degrees per second on the slider's step (not wrapped: 720 °/s is two
     turns a second)."""
@@ -343,6 +358,11 @@ class Controls:
                     disabled=k > count)
                 self._angle_names.append(name)
                 self._dynamic_numbers.append(name)
+            if p.pinned and p.n == 3:  # a four-bar: the range of theta1 over which the loop closes, in closed form
+                self.reach_line = gui.add_markdown(reach_text(p))
+                self._dynamic.append(self.reach_line)
+            else:
+                self.reach_line = None
         with self.speeds_folder:
             for k in range(1, p.n + 1):
                 name = f"omega{k}"
@@ -378,8 +398,10 @@ class Controls:
             self.sync_bar(k)
             if p.pinned:
                 self.sync_angles()
+                self.sync_reach()
         elif key in ("theta", "omega") or name in ("pin_x", "pin_y"):
             self.sync_angles()  # a closed loop assembles the other angles and projects the velocities
+            self.sync_reach()
             self.numbers.sync(name)
         elif name in ("method", "integrator", "stabilization"):
             self.sync_method()
@@ -404,6 +426,11 @@ class Controls:
         p = self.port.setup
         self._set_options(self.trace_point, p.trace_choices())
         self._set(self.trace_point, p.trace_label())
+
+    def sync_reach(self) -> None:
+        """The four-bar's reachable theta1 after a length or the pin changed."""
+        if getattr(self, "reach_line", None) is not None:
+            self.reach_line.content = reach_text(self.port.setup)
 
     def sync_angles(self) -> None:
         """Every initial angle and angular velocity slider (a closed loop moves the assembled ones too)."""

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import wait_until
-from physics.assembly import loop_jacobian
+from physics.assembly import driving_range, loop_jacobian
 
 
 def test_an_open_chain_starts_with_the_speeds_set_on_the_sliders(connect):
@@ -58,3 +58,19 @@ def test_the_status_line_says_paused_at_once(connect):
         session.controls.status.content
     session.play()
     assert wait_until(lambda: "(playing)" in session.controls.status.content, timeout=2)
+
+
+def test_a_four_bar_shows_where_theta1_can_be_set(connect):
+    _, session = connect()
+    session.set_mechanism("four-bar")
+    line = session.controls.reach_line
+    assert line is not None and line.content.startswith("*theta1 reachable: ")
+    p = session.params
+    intervals = driving_range(p.L, p.pin)
+    for low, high in intervals:
+        assert f"{math.degrees(low):.1f}°" in line.content or f"{math.degrees(high):.1f}°" in line.content
+    before = line.content
+    session.set("L1", 0.5 * p.L[0])
+    assert line.content != before  # the range follows the lengths
+    session.set_mechanism("triple-a")
+    assert session.controls.reach_line is None
