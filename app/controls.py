@@ -45,7 +45,7 @@ ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
 ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
 PLOT_CHOICES = ("Energy", "Angles θ(t)", "Phase portrait (θ, ω)")
-TIMELINE_STEP = 1.0 / 60.0  # one sample
+TIMELINE_STEP = 0.05  # s: three samples; the slider's ends read as round numbers
 TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
 SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
 PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
@@ -505,10 +505,11 @@ class Controls:
         if restarted:
             self._timeline_end = 0.0
         self._timeline_end = max(self._timeline_end, t)
-        low = max(0.0, math.floor(t_first / TIMELINE_STEP) * TIMELINE_STEP)
-        high = max(self._timeline_end, low + TIMELINE_MIN_SPAN)
+        low = round(max(0.0, math.ceil(t_first / TIMELINE_STEP - 1e-9) * TIMELINE_STEP), 2)
+        high = round(max(math.ceil(self._timeline_end / TIMELINE_STEP - 1e-9) * TIMELINE_STEP,
+                         low + TIMELINE_MIN_SPAN), 2)
         handle = self.timeline
-        value = min(max(round(t / TIMELINE_STEP) * TIMELINE_STEP, low), high)
+        value = min(max(round(round(t / TIMELINE_STEP) * TIMELINE_STEP, 2), low), high)
 
         def write() -> None:
             if (handle.min, handle.max) != (low, high):

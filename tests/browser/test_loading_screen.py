@@ -65,3 +65,19 @@ def test_a_browser_turned_away_sees_the_full_message_not_the_loading_screen(star
     lab.opened.append(page)
     snap.wait_for_panel(page)
     assert page.get_by_text("Linkage Lab is full").first.is_visible()
+
+
+def test_on_a_phone_the_panel_starts_folded_and_a_tap_opens_it(start_lab):
+    lab = start_lab(preset="single")
+    phone = lab.browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=1, is_mobile=True,
+                                    has_touch=True).new_page()
+    lab.opened.append(phone)
+    phone.goto(snap.page_url(lab.port))
+    snap.wait_until_drawn(phone)
+    playback = phone.get_by_text("Playback", exact=True).first
+    assert not playback.is_visible(), "the panel covers the scene on a phone"
+    phone.get_by_text("Linkage Lab", exact=True).first.click()
+    playback.wait_for(state="visible")
+    desk = snap.open_app_page(lab.browser, lab.port, {"width": 1400, "height": 850})
+    lab.opened.append(desk)
+    assert desk.get_by_text("Playback", exact=True).first.is_visible()  # a desk's panel stays open
