@@ -29,7 +29,7 @@ from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, driving_count, method_label, methods_for, wrap_degrees
 from .phase_view import BAR_COLORS, phase_picture
 from .ports import SessionPort
-from .text import html_literal
+from .text import html_literal, markdown_literal
 
 STATIC = Path(__file__).resolve().parent.parent / "static"
 
@@ -69,6 +69,12 @@ def _round_to(value: float, step: float) -> float:
 def _from_log10(exponent: float) -> float:
     """The slider's log10(rtol) back to rtol; a wild exponent (a hostile client) stays a float the model refuses."""
     return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
+
+
+def preset_description(p) -> str:
+    """The preset's own description (physics.presets), for the line under the mechanism menu."""
+    preset = physics.get_preset(p.preset, p.n if p.preset == "chain" else None)
+    return preset.description or p.preset
 
 
 def reach_text(p) -> str:
@@ -238,6 +244,7 @@ class Controls:
         with self.tabs.add_tab("Mechanism"):
             self.mechanism = gui.add_dropdown("Mechanism", physics.preset_names(), initial_value=p.preset)
             self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
+            self.description = gui.add_markdown("")  # what the chosen preset is and teaches (physics.presets)
             self.preset_defaults = gui.add_button("Reset to the preset's values",
                                                   hint="Lengths, masses, inertias, gravity and angles as the preset has them")
             self.bind(self.preset_defaults, lambda value, event: self.reset_to_preset())
@@ -378,6 +385,7 @@ class Controls:
                     add(name, PIN_SLIDER, value, label=f"pin {name[-1]} (m)")
                     self._dynamic_numbers.append(name)
         self._set(self.mechanism, p.preset)
+        self.description.content = "*" + markdown_literal(preset_description(p)) + "*"
         self.links.visible = p.preset == "chain"
         if self.angle_plot is None or len(self.angle_plot.labels) != p.n:
             self._make_angle_plot(p.n)

@@ -74,3 +74,11 @@ def test_a_four_bar_shows_where_theta1_can_be_set(connect):
     assert line.content != before  # the range follows the lengths
     session.set_mechanism("triple-a")
     assert session.controls.reach_line is None
+
+
+def test_the_mechanism_menu_says_what_the_preset_is(connect):
+    _, session = connect()
+    for name in ("triple-a", "four-bar"):
+        session.set_mechanism(name)
+        text = session.controls.description.content
+        assert text.startswith("*Seed") and len(text) > 40, text

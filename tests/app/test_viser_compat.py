@@ -104,7 +104,7 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
     served = (folder / "index.html").read_text(encoding="utf-8")
     original = page.viser_page().read_text(encoding="utf-8")
     body = served.index("<body>") + len("<body>")
-    assert served[body:].lstrip().startswith('<div id="linkage-lab-loading"')
+    assert served[body:].lstrip().startswith("<style>") and '<div id="linkage-lab-loading"' in served[body:]
     assert served.replace("\n" + page.ADDITIONS.read_text(encoding="utf-8"), "", 1) == original
     assert page.READY_ID in served  # the screen waits for the session's marker
     assert (folder.stat().st_mode & 0o077) == 0  # a private folder

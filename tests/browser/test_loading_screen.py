@@ -81,3 +81,5 @@ def test_on_a_phone_the_panel_starts_folded_and_a_tap_opens_it(start_lab):
     desk = snap.open_app_page(lab.browser, lab.port, {"width": 1400, "height": 850})
     lab.opened.append(desk)
     assert desk.get_by_text("Playback", exact=True).first.is_visible()  # a desk's panel stays open
+    thumb = desk.locator(".mantine-Slider-thumb").first.bounding_box()
+    assert thumb["width"] >= 15 and thumb["height"] >= 15, thumb  # findable (viser's own: 7 x 11 px)
