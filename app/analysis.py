@@ -20,11 +20,13 @@ from physics.ensemble import Ensemble
 from physics.presets import get_preset
 
 from .logs import quietly
+from .overlays import Plot
 from .ports import SessionPort
 from .scene import to_world
 from .text import markdown_literal
 
 ENSEMBLE_COUNTS = ("100", "1000")
+SPREAD_EVERY = 6  # frames between updates of the spread figure (10 Hz)
 ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
 ENSEMBLE_NODE = "/ensemble/links"
 MAX_FRAME_DT = 0.5  # s of simulated time advanced per frame at most (a jump back or far ahead restarts instead);
@@ -72,6 +74,8 @@ class Analysis:
         self.ensemble_count = int(ENSEMBLE_COUNTS[0])
         self._ensemble_t: float | None = None
         self._ensemble_generation = 0
+        self._spread_t: list[float] = []  # the spread over the ensemble's life (its figure)
+        self._spread: list[float] = []
         self._lock = threading.Lock()
         self._jobs: dict[str, threading.Thread] = {}
         self._build()
@@ -98,6 +102,9 @@ class Analysis:
                                                    initial_value=str(self.ensemble_count))
             controls.bind(self.count_dropdown, lambda value, event: s.set_ensemble(self.ensemble_on, value))
             self.ensemble_status = gui.add_markdown("")
+            self.spread_plot = Plot(gui, "Ensemble spread: largest tip distance from copy 0", ["spread"],
+                                    [(148, 103, 189)], log=True, height=140, y_label="m")
+            self.spread_plot.set_visible(False)
 
     def _start(self, name: str, work) -> bool:
         job = self._jobs.get(name)
@@ -219,6 +226,8 @@ class Analysis:
                     ENSEMBLE_NODE, points, _copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
                 self.ensemble = ensemble
                 self._ensemble_t = t
+                self._spread_t, self._spread = [t], [ensemble.tip_spread()]
+                self.spread_plot.set_visible(True)
             self.ensemble_status.content = f"{count} copies, {method}, RK4 step {ensemble.step * 1e3:.3g} ms."
 
         threading.Thread(target=work, name=f"ensemble-{s.id}", daemon=True).start()
@@ -255,7 +264,15 @@ class Analysis:
         if dt == 0.0:
             return
         ensemble.advance(dt)
+        # where the displayed run is at the copies' time, when that is one of its samples (every 4th RK4 step)
+        shown = self.session.state_at(t - ensemble.pending, exact=True)
+        if shown is not None and len(shown[0]) == ensemble.theta.shape[1]:
+            ensemble.anchor(*shown)  # copy 0 stays on the displayed pendulum (Ensemble.anchor)
         node.points = segments(ensemble.joints())
+        self._spread_t.append(t)
+        self._spread.append(ensemble.tip_spread())
+        if len(self._spread_t) % SPREAD_EVERY == 0:
+            self.spread_plot.update(np.array(self._spread_t), np.array(self._spread))
         if not ensemble.alive.all():
             self.ensemble_status.content = f"{int(ensemble.alive.sum())} of {ensemble.count} copies alive: " \
                                            f"{ensemble.message}"
@@ -266,6 +283,7 @@ class Analysis:
         self.ensemble_node = None
 
     def _drop_ensemble(self) -> None:
+        quietly(lambda: self.spread_plot.set_visible(False), "hiding the spread plot")
         with self._lock:
             self._ensemble_generation += 1
             self._remove_node()

@@ -65,6 +65,9 @@ def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
     return seconds
 
 
+EXACT_SAMPLE = 1e-6  # of a sample interval: a time this close to a sample's is that sample's
+
+
 class Player:
     """Background simulation and frame clock of one session.
 
@@ -212,6 +215,26 @@ class Player:
         return self._stop or self._pending is not None
 
     # ------------------------------------------------------------------ state (any thread)
+    def state_at(self, t: float, exact: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(theta, omega)`` of the first run at time ``t``, interpolated linearly between its stored samples
+        (1/60 s apart); None when ``t`` is not stored, or with ``exact`` when ``t`` is not a sample's time."""
+        with self.lock:
+            if not self.runs or len(self.runs[0].ring) < 2:
+                return None
+            ring = self.runs[0].ring
+            if not ring.t_first <= t <= ring.t_last:
+                return None
+            i = min(ring.index_at(t), len(ring) - 2)
+            frac = min(max((t - (ring.t_first + i * ring.dt)) / ring.dt, 0.0), 1.0)
+            if exact:
+                if min(frac, 1.0 - frac) > EXACT_SAMPLE:
+                    return None
+                i, frac = (i, 0.0) if frac <= EXACT_SAMPLE else (i + 1, 0.0)
+                return ring.get("theta", i).copy(), ring.get("omega", i).copy()
+            theta = ring.get("theta", i) + frac * (ring.get("theta", i + 1) - ring.get("theta", i))
+            omega = ring.get("omega", i) + frac * (ring.get("omega", i + 1) - ring.get("omega", i))
+            return np.array(theta), np.array(omega)
+
     def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
         """``(t, theta, omega)`` of the first run at the sample at or before the displayed time."""
         with self.lock:

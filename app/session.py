@@ -174,6 +174,11 @@ class Session:
     def displayed_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
         return self.player.current_state()
 
+    def state_at(self, t: float, exact: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+        """The displayed run's ``(theta, omega)`` at time ``t`` (interpolated between samples; ``exact``: only at
+        a sample's time), if stored."""
+        return self.player.state_at(t, exact)
+
     # ================================================================== error boundary and notices
     def guard(self, action: Callable[[], object]) -> object:
         """Run one GUI action; show any error as a notice in this browser instead of raising.

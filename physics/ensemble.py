@@ -112,6 +112,30 @@ class Ensemble:
                             f"failed copies are left out of alive (their states are not to be trusted)")
         self.alive &= ~bad
 
+    @property
+    def pending(self) -> float:
+        """Seconds asked of :meth:`advance` but not yet stepped (less than one step): the copies' states are
+        this much behind the time asked."""
+        return self._pending
+
+    def anchor(self, theta, omega) -> float:
+        """Shift every copy by the same amount so that copy 0 (started exactly at the given start) is at
+        ``(theta, omega)``: the state a more accurate run (the app's displayed one) has reached at this time.
+
+        Why: the copies are advanced by fixed-step RK4 and the displayed run by an adaptive integrator; their
+        difference, however small, grows as fast as the copies' own spread in a chaotic motion, so the whole fan
+        would drift away from the displayed pendulum. Shifting all copies together keeps their differences (the
+        spread, computed by one integrator for all) and removes the common drift. Returns the size of the shift
+        (largest entry, rad or rad/s)."""
+        theta = np.asarray(theta, dtype=float).reshape(self.theta.shape[1])
+        omega = np.asarray(omega, dtype=float).reshape(self.omega.shape[1])
+        shift_theta, shift_omega = theta - self.theta[0], omega - self.omega[0]
+        if not (np.all(np.isfinite(shift_theta)) and np.all(np.isfinite(shift_omega))):
+            raise LinkageError("anchor: the state must be finite")
+        self.theta += shift_theta[None, :]
+        self.omega += shift_omega[None, :]
+        return float(max(np.max(np.abs(shift_theta)), np.max(np.abs(shift_omega))))
+
     def joints(self) -> np.ndarray:
         """Joint positions O, 1..n of every copy: shape ``(N, n + 1, 2)``."""
         return joint_positions(self.lengths, self.theta)

@@ -74,3 +74,29 @@ def test_bad_ensemble_count_is_a_notice(connect):
     session.guard(lambda: session.set_ensemble(True, 7))
     assert session.notice is not None and "ensemble count" in session.notice
     assert session.analysis.ensemble_node is None
+
+
+def test_the_ensemble_stays_on_the_displayed_pendulum_and_shows_its_spread(connect):
+    """Issue 14: the ensemble (RK4 at a fixed step) drifted away from the displayed pendulum (an adaptive
+    integrator); copy 0 is now put back on it at every sample the two share, and the spread is plotted."""
+    _, session = connect()
+    session.set_mechanism("triple-a")
+    analysis = session.analysis
+    session.guard(lambda: session.set_ensemble(True, 100))
+    assert wait_until(lambda: analysis.ensemble is not None, timeout=180), analysis.ensemble_status.content
+    session.play()
+    assert wait_until(lambda: session.snapshot()["time"] > 6.0, timeout=60)
+    session.pause()
+    ensemble = analysis.ensemble
+    for _ in range(4):  # step as frames do until the copies' time is one of the displayed run's samples
+        shown = session.state_at(analysis._ensemble_t - ensemble.pending, exact=True)
+        if shown is not None:
+            break
+        analysis.on_frame(analysis._ensemble_t + 1.0 / 240.0, False)
+    assert shown is not None
+    gap = float(np.max(np.abs(ensemble.theta[0] - shown[0])))
+    assert gap <= 1e-12, f"copy 0 is {gap:.3g} rad from the displayed pendulum"  # 1.4e-8 at 6 s unanchored
+    plot = analysis.spread_plot
+    assert plot.handle.visible and plot.points_shown > 10
+    spread = np.asarray(plot.handle.data[1])
+    assert spread[-1] > spread[0]  # the fan opens (log10 of the spread)

@@ -94,3 +94,19 @@ def test_bad_arguments_name_the_field(kwargs, field):
     ensemble = Ensemble(preset.chain, preset.theta0, preset.omega0, count=1)
     with pytest.raises(LinkageError, match="dt"):
         ensemble.advance(-1.0)
+
+
+def test_anchoring_moves_copy_zero_and_keeps_every_difference():
+    """Ensemble.anchor (the app keeps copy 0 on the displayed pendulum): one common shift."""
+    preset = get_preset("triple-a")
+    ensemble = Ensemble(preset.chain, preset.theta0, preset.omega0, "lagrange", 8, 1e-6)
+    ensemble.advance(0.5)
+    theta, omega = ensemble.theta.copy(), ensemble.omega.copy()
+    target_theta, target_omega = theta[0] + 1e-3, omega[0] - 2e-3
+    size = ensemble.anchor(target_theta, target_omega)
+    assert size == pytest.approx(2e-3)
+    assert np.array_equal(ensemble.theta[0], target_theta) and np.array_equal(ensemble.omega[0], target_omega)
+    assert np.allclose(ensemble.theta - ensemble.theta[0], theta - theta[0], atol=1e-15, rtol=0)
+    assert np.allclose(ensemble.omega - ensemble.omega[0], omega - omega[0], atol=1e-15, rtol=0)
+    with pytest.raises(LinkageError):
+        ensemble.anchor(np.full(3, np.nan), target_omega)
