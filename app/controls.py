@@ -484,6 +484,12 @@ class Controls:
         self.sync_trace_point()
         self._set(self.reactions, self.port.reactions_on)
 
+    def clear_plots(self) -> None:
+        """Empty every plot of the run (a new start is being prepared)."""
+        for plot in (self.energy_plot, self.drift_plot, self.constraint_plot, self.angle_plot):
+            if plot is not None:
+                plot.clear()
+
     @property
     def plot_kind(self) -> str:
         """``energy``, ``angles`` or ``phase``: which plot the frame view keeps up to date."""

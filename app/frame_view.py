@@ -144,6 +144,12 @@ class FrameView:
             for scene in [self.scene, *self.compare_scenes.values()]:
                 if scene.layout is not None:
                     scene.show(joints, com)
+            # nothing of the mechanism before: its trace and plots would sit beside the new start while a cold
+            # cache derives the new equations (the first frame of the new run redraws them)
+            for trace in [self.trace, *self.compare_traces.values()]:
+                trace.update(np.zeros((0, 2)))
+            if self.panel is not None:
+                self.panel.clear_plots()
 
     def hide_arrows(self) -> None:
         with self._player_lock:

@@ -172,6 +172,11 @@ class Plot:
         self.handle.data = arrays
         self.points_shown = len(arrays[0])
 
+    def clear(self) -> None:
+        """No data (a new mechanism's first frame has not come yet)."""
+        self.handle.data = tuple(np.zeros(2) for _ in range(len(self.labels) + 1))
+        self.points_shown = 0
+
     def set_visible(self, visible: bool) -> None:
         if self.handle.visible != visible:
             self.handle.visible = visible

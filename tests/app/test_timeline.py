@@ -34,3 +34,17 @@ def test_the_timeline_follows_scrubs_back_and_plays_on(connect):
     session.reset()
     session.play()
     assert wait_until(lambda: timeline.max < furthest, timeout=10)  # a new run, a new range
+
+
+def test_a_new_start_clears_the_old_trace_and_plots_until_its_first_frame(connect):
+    """Issue 14 item 9: while a cold cache derives a new mechanism, the old trace and plots stayed beside it."""
+    _, session = connect()
+    session.play()
+    assert wait_until(lambda: session.view.trace.points_shown > 10 and
+                      session.controls.energy_plot.points_shown > 10, timeout=30)
+    session.pause()
+    session.player.wait_idle(30)
+    with session.player.lock:  # no frame may come in between: as while the new equations are derived
+        session.view.show_start(session.params)
+        assert session.view.trace.points_shown == 0 and not session.view.trace.handle.visible
+        assert session.controls.energy_plot.points_shown == 0 and session.controls.drift_plot.points_shown == 0
