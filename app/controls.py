@@ -112,6 +112,7 @@ class Controls:
         self.gui = gui
         self._muted = threading.local()
         self._angle_names: list[str] = []
+        self._speed_names: list[str] = []  # omega1.. (initial angular velocities)
         self._bar_folders: list = []
         self._dynamic: list = []  # folders removed on rebuild (their numbers are removed by name)
         self._dynamic_numbers: list[str] = []
@@ -343,7 +344,7 @@ class Controls:
         self.numbers.remove(self._dynamic_numbers)
         for handle in self._dynamic:
             quietly(handle.remove, "removing a folder")
-        self._dynamic, self._dynamic_numbers, self._angle_names = [], [], []
+        self._dynamic, self._dynamic_numbers, self._angle_names, self._speed_names = [], [], [], []
         gui = self.gui
         add = self.numbers.add
         with self.bars_folder:
@@ -376,7 +377,7 @@ class Controls:
                 label = f"omega{k} (°/s)" if k <= count else f"omega{k} (°/s, follows the loop)"
                 add(name, SPEED_START_SLIDER, p.omega0[k - 1], label=label, to_slider=_degrees_per_second,
                     from_slider=math.radians, disabled=k > count)
-                self._angle_names.append(name)
+                self._speed_names.append(name)
                 self._dynamic_numbers.append(name)
         self.pin_folder.visible = p.pinned
         if p.pin is not None:
@@ -442,7 +443,7 @@ class Controls:
 
     def sync_angles(self) -> None:
         """Every initial angle and angular velocity slider (a closed loop moves the assembled ones too)."""
-        for name in self._angle_names:
+        for name in self._angle_names + self._speed_names:
             self.numbers.sync(name)
 
     def sync_method(self) -> None:
