@@ -304,8 +304,8 @@ class Controls:
             self.bind(self.save_setup, lambda value, event: s.download("setup", getattr(event, "client", None)))
             self.load_setup = gui.add_upload_button("Load a setup (JSON)", mime_type="application/json")
             self.load_setup.on_upload(lambda event: None if self.muted else s.guard(
-                lambda: s.upload_setup(getattr(event, "client_id", None), event.target.value.name,
-                                       event.target.value.content)))
+                lambda: s.upload_setup(getattr(event, "client_id", None), self.load_setup.value.name,
+                                       self.load_setup.value.content)))
             self.share_button = gui.add_button("Link to this setup")
             self.bind(self.share_button, lambda value, event: self.show_link())
             self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
