@@ -318,6 +318,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--trace", default=None, metavar="BAR,ALONG[,ACROSS]", help="point to trace")
     sim.add_argument("--out", default=None, help="write to this file (CSV, or JSON if it ends in .json)")
     sim.add_argument("--format", default=None, choices=("csv", "json"))
+    sim.add_argument("--mechanism", default=None, metavar="FILE",
+                     help="a mechanism file (.toml or .json, docs/mechanisms.md): run as `python -m physics mechanism "
+                     "--file FILE` runs it; only --t-end, --samples and --out apply with it")
     sim.set_defaults(func=cmd_simulate)
 
     acc = sub.add_parser("accelerations", help="print the accelerations (and reactions) at one state as JSON")
@@ -391,10 +394,39 @@ def start_numba_without_blas() -> None:
         sys.meta_path.remove(hook)
 
 
+MECHANISM_OPTIONS = ("--t-end", "--samples", "--out")  # what `simulate --mechanism FILE` passes on
+
+
+def _mechanism_arguments(argv: list[str]) -> list[str]:
+    """``simulate --mechanism FILE [--t-end T] [--samples N] [--out F]`` as the ``mechanism`` command's own
+    arguments (``--file FILE``, a run of 2 s unless ``--t-end``): one place simulates a general mechanism
+    (physics/mechanism/command.py). The chain options (``--preset``, ``--method``, ...) do not apply to it."""
+    parser = Parser(prog="python -m physics simulate --mechanism",
+                    description="simulate a mechanism file (docs/mechanisms.md)")
+    parser.add_argument("--mechanism", required=True, metavar="FILE", help="a mechanism file, .toml or .json")
+    parser.add_argument("--t-end", default="2", help="seconds to simulate (default 2)")
+    parser.add_argument("--samples", default=None)
+    parser.add_argument("--out", default=None)
+    args, rest = parser.parse_known_args(argv)
+    if rest:
+        raise LinkageError(f"{rest[0]}: does not apply with --mechanism (a mechanism file's run takes "
+                           f"{', '.join(MECHANISM_OPTIONS)})")
+    if not args.mechanism.strip():
+        raise LinkageError("--mechanism: give a mechanism file (.toml or .json)")
+    out = ["--file", args.mechanism, "--t-end", args.t_end]
+    if args.samples is not None:
+        out += ["--samples", args.samples]
+    if args.out is not None:
+        out += ["--out", args.out]
+    return out
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     start_numba_without_blas()
     try:
+        if argv[:1] == ["simulate"] and any(a == "--mechanism" or a.startswith("--mechanism=") for a in argv):
+            argv = ["mechanism", *_mechanism_arguments(argv[1:])]
         if argv and argv[0] in _EXTERNAL:
             module_name, func = _EXTERNAL[argv[0]]
             return int(getattr(importlib.import_module(module_name), func)(argv[1:]) or 0)

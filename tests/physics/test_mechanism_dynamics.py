@@ -148,3 +148,24 @@ def test_a_fully_driven_mechanism_moves_by_kinematics_as_the_integrated_dae_does
     integrated = simulate_mechanism(mechanism, t_end=1.0, samples=11, integrate=True, rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(by_kinematics.q - integrated.q)) <= 1e-9
     assert np.max(np.abs(by_kinematics.reactions - integrated.reactions)) <= 1e-7 * np.max(np.abs(integrated.reactions))
+
+
+def test_simulate_takes_a_mechanism_file(tmp_path):
+    """Issue 16: ``python -m physics simulate --mechanism FILE`` runs a mechanism file as the mechanism command
+    does; the chain options do not apply to it and are refused with one line."""
+    path = tmp_path / "rocker.json"
+    path.write_text(MECHANISM_PRESETS["crank-rocker"]().model_dump_json(), encoding="utf-8")
+    out = tmp_path / "run.csv"
+    run = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(path), "--t-end", "0.5",
+                          "--samples", "6", "--out", str(out)], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert run.returncode == 0, run.stderr
+    assert len(out.read_text().splitlines()) == 7 and "wrote" in run.stdout
+    same = _physics("--file", str(path), "--t-end", "0.5", "--samples", "6", "--out", str(tmp_path / "same.csv"))
+    assert same.returncode == 0 and (tmp_path / "same.csv").read_text() == out.read_text()
+    bad = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(path), "--method", "dae"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert bad.returncode == 2 and bad.stderr.strip() == (
+        "error: --method: does not apply with --mechanism (a mechanism file's run takes --t-end, --samples, --out)")
+    missing = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(tmp_path / "no.toml")],
+                             capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "cannot read it" in missing.stderr
