@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
                         f"(default {DEFAULT_MAX_SESSIONS}, at most {MAX_SESSIONS_LIMIT})")
     parser.add_argument("--processes", type=int, default=None,
                         help="server processes sharing the port, each serving its share of the browsers "
-                        "(default: one per core; --shared uses one)")
+                        "(default: one per core and one more; --shared uses one)")
     parser.add_argument("--shared", action="store_true",
                         help="one simulation that every browser watches; only the presenter's browser (the address "
                         "printed) changes it (lecture mode)")

@@ -81,7 +81,7 @@ def _start_server(extra: list[str], env: dict) -> tuple[subprocess.Popen, str, f
 
 
 def measure_start(cold: bool) -> dict:
-    from .wsclient import BackgroundClient
+    from .wsclient import BackgroundClient, moves_positions
 
     env = dict(os.environ)
     tmp = None
@@ -96,7 +96,7 @@ def measure_start(cold: bool) -> dict:
         # simulation); animation has begun when bar 1 has been moved a second time
         ok = client.wait_for(lambda c: c.bar_updates() >= 2, timeout=900)
         watched = list(client.counts.watched)
-        positions = [(t, m) for t, m in watched if m.get("type") == "SetPositionMessage"]
+        positions = [(t, m) for t, m in watched if moves_positions(m)]
         return {
             "cache": "cold" if cold else "warm",
             "url_printed_s": round(url_seconds, 3),

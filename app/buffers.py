@@ -118,5 +118,18 @@ class TrajectoryRing:
         idx = (self._start + np.arange(i0, i1 + 1, stride)) % self.capacity
         return {name: self._data[name][idx] for name in (names or self._data)}
 
+    def series(self, name: str, i0: int, i1: int) -> np.ndarray:
+        """One field's samples i0 <= i <= i1 in time order: at most two slices of the storage, no index array
+        (the trace reads this every other frame)."""
+        i0 = max(i0, 0)
+        i1 = min(i1, self._count - 1)
+        array = self._data[name]
+        if i1 < i0:
+            return array[:0].copy()
+        a, b = self._phys(i0), self._phys(i1)
+        if a <= b:
+            return array[a : b + 1].copy()
+        return np.concatenate([array[a:], array[: b + 1]])
+
     def field_names(self) -> tuple[str, ...]:
         return tuple(self._data)

@@ -20,6 +20,7 @@ from .divergence import DivergencePlots
 from .logs import quietly
 from .overlays import (
     METHOD_COLORS,
+    PLOT_POINTS,
     ReactionArrows,
     TraceLine,
     energy_scale,
@@ -187,7 +188,7 @@ class FrameView:
         count = int(round(self.display.trace_seconds * SAMPLE_RATE))
         if count < 2:
             return np.zeros((0, 2))
-        return ring.window(index - count, index, names=["trace_xy"])["trace_xy"]
+        return ring.series("trace_xy", index - count, index)
 
     def _update_traces(self, frame: Frame, runs) -> None:
         for rf in frame.runs:
@@ -235,11 +236,14 @@ class FrameView:
             return
         i = frame.runs[0].index
         span = int(PLOT_SECONDS * SAMPLE_RATE)
+        # read every stride-th sample, ending at the displayed one: the plots show PLOT_POINTS points anyway
+        span = min(span, i)
+        stride = max(1, -(-span // PLOT_POINTS))
         chain = first.spec.chain  # the run's own chain: the session's parameters may already be newer
         kind = self.panel.plot_kind
         extra = ["theta", "omega"] if kind in ("angles", "phase") else []
-        data = first.ring.window(i - span, i, names=["t", "kinetic", "potential", "energy"] + extra + (
-            ["constraint_xy"] if chain.pinned else []))
+        data = first.ring.window(i - (span // stride) * stride, i, stride=stride, names=[
+            "t", "kinetic", "potential", "energy"] + extra + (["constraint_xy"] if chain.pinned else []))
         t = data["t"]
         c = self.panel
         if kind == "angles" and c.angle_plot is not None and data["theta"].shape[1] == len(c.angle_plot.labels):

@@ -13,6 +13,7 @@ import numpy as np
 from .logs import quietly
 from .scene import to_world
 from .text import markdown_literal
+from .viser_compat import update_node_props
 
 TRACE_COLOR = (200, 30, 140)
 TRACE_FADED = (245, 235, 242)  # the oldest end of the trace, close to the white background
@@ -64,12 +65,13 @@ class TraceLine:
         segments = np.zeros((m - 1, 2, 3), np.float32)
         segments[:, 0, 0], segments[:, 0, 2] = xy[:-1, 0], xy[:-1, 1]  # world (x, 0, y), see scene.to_world
         segments[:, 1, 0], segments[:, 1, 2] = xy[1:, 0], xy[1:, 1]
-        self.handle.points = segments
+        updates = {"points": segments}
         if self._colors is None or len(self._colors) != m - 1:  # the fade depends on the length only
             age = np.linspace(0.0, 1.0, m)  # 0 = oldest, 1 = newest
             shade = self.faded[None, :] + age[:, None] ** 1.5 * (self.color - self.faded)[None, :]
             self._colors = np.stack([shade[:-1], shade[1:]], axis=1).round().astype(np.uint8)
-            self.handle.colors = self._colors
+            updates["colors"] = self._colors
+        update_node_props(self.handle, updates)  # points and colours in one message, no per-call cast
         if not self.handle.visible:
             self.handle.visible = True
         self.points_shown = m

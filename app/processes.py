@@ -50,14 +50,18 @@ def shares_ports() -> bool:
 
 
 def default_processes() -> int:
-    """One interpreter per core this process may run on (one where ports cannot be shared)."""
+    """One interpreter per core this process may run on, and one more (one where ports cannot be shared).
+
+    Why one more: a server process is bound by its interpreter lock, not by a core. With 100 sessions on two
+    cores, two processes used 1.4 cores between them and rendered 20 to 25 frames/s per session; three used 1.6
+    cores and rendered 26 to 27 (``python -m app.bench load --clients 100 --processes K``, BENCHMARKS.md)."""
     if not shares_ports():
         return 1
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
         cores = os.cpu_count() or 1
-    return max(1, min(cores, MAX_PROCESSES))
+    return max(1, min(cores + 1, MAX_PROCESSES))
 
 
 class _LocalCount:

@@ -9,9 +9,13 @@ Node names are stable paths (tests and the snapshot command rely on them)::
 
     {root}/ground            the fixed pivot O (a small block)
     {root}/pin, {root}/ground_link   pinned chains only: the ground pin H and the ground link O-H
-    {root}/bar_k             bar k = 1..n, a box from joint k-1 to joint k
-    {root}/joint_k           joint k = 0..n (joint 0 is O, joint n the tip)
-    {root}/com_k             centre of mass of bar k
+    {root}/bars              the bars, one batched box mesh: instance k-1 is bar k, from joint k-1 to joint k
+    {root}/spheres           the joints and centres of mass, one batched sphere mesh: instance 2k is joint k
+                             (k = 0..n; joint 0 is O, joint n the tip), instance 2k-1 the centre of mass of bar k
+
+Each bar, joint and centre of mass also has a part name, ``{root}/bar_k``, ``{root}/joint_k`` and
+``{root}/com_k``: :meth:`LinkageScene.poses` reports the parts under those names, and the browser helpers of
+``app/snapshot.py`` find a part's instance in its batched node by that name (:func:`part_instance`).
     {root}/trace             the traced point's recent path (see overlays.py)
     {root}/reactions         joint-reaction arrows (dae only, see overlays.py)
 """
@@ -24,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .logs import quietly
-from .viser_compat import move_node
+from .shapes import UNIT_BOX, UNIT_SPHERE
+from .viser_compat import update_node_props
 
 # Bar colours, one per bar index (cycled); saturated so a screenshot test can find the links.
 BAR_COLORS = (
@@ -59,15 +64,21 @@ def to_world(xy: np.ndarray) -> np.ndarray:
     return out
 
 
-def bar_orientation(start_xy: np.ndarray, end_xy: np.ndarray) -> tuple[float, float, float, float]:
-    """Quaternion (w, x, y, z) turning the box's local x axis onto the bar from start to end.
-
-    A rotation by ``phi`` about world y maps x to ``(cos phi, 0, -sin phi)``; the bar direction in the
-    world is ``(dx, 0, dy)``, hence ``phi = atan2(-dy, dx)``.
-    """
-    dx, dy = float(end_xy[0] - start_xy[0]), float(end_xy[1] - start_xy[1])
-    phi = math.atan2(-dy, dx) if (dx or dy) else 0.0
-    return (math.cos(phi / 2), 0.0, math.sin(phi / 2), 0.0)
+def part_instance(name: str) -> tuple[str, int | None]:
+    """Where a part is drawn: ``(node name, instance index)`` for a bar, joint or centre of mass of a
+    :class:`LinkageScene` (``/linkage/bar_2`` -> ``("/linkage/bars", 1)``), ``(name, None)`` for any other node."""
+    root, _, part = name.rpartition("/")
+    kind, _, number = part.partition("_")
+    if not number.isdigit():
+        return name, None
+    k = int(number)
+    if kind == "bar" and k >= 1:
+        return f"{root}/bars", k - 1
+    if kind == "joint":
+        return f"{root}/spheres", 2 * k
+    if kind == "com" and k >= 1:
+        return f"{root}/spheres", 2 * k - 1
+    return name, None
 
 
 @dataclass(frozen=True)
@@ -91,6 +102,11 @@ class LinkageScene:
 
     ``target`` is a ``viser.ViserServer`` (shared scene) or a ``viser.ClientHandle`` (one browser).
     ``opacity`` < 1 draws a translucent mechanism (compare mode); ``palette`` overrides the bar colours.
+
+    Why batched nodes: a frame's cost on the server is almost all in viser's message path, per message. The
+    bars are one batched box mesh and the joints and centres of mass one batched sphere mesh, so a frame is
+    two messages (bars: positions and orientations together; spheres: positions) whatever the number of bars,
+    where one node per part took 4n messages.
     """
 
     def __init__(self, target, root: str = "/linkage", *, opacity: float | None = None, palette=None) -> None:
@@ -101,19 +117,28 @@ class LinkageScene:
         self.layout: Layout | None = None
         self.lengths = np.zeros(0)
         self.reach = 1.0
-        self._bars: list = []
-        self._joints: list = []
-        self._coms: list = []
+        self._width = 0.0
+        self._bars = None  # batched box mesh, instance k-1 = bar k
+        self._spheres = None  # batched sphere mesh, instance 2k = joint k, 2k-1 = centre of mass of bar k
         self._ground = None
         self._pin = None
         self._ground_link = None
         self._visible = True
+        # what the browser was last sent (float32, as viser sends it)
+        self._bar_positions = np.zeros((0, 3), np.float32)
+        self._bar_wxyzs = np.zeros((0, 4), np.float32)
+        self._sphere_positions = np.zeros((0, 3), np.float32)
 
     # ------------------------------------------------------------------ building
     def node_names(self) -> list[str]:
-        """Names of the nodes this scene owns right now (for snapshots and tests)."""
-        handles = [self._ground, self._pin, self._ground_link, *self._bars, *self._joints, *self._coms]
-        return [h.name for h in handles if h is not None]
+        """Names of the parts this scene draws right now (for snapshots and tests): the static nodes and, for
+        each bar, joint and centre of mass, its part name (an instance of a batched node, see the module)."""
+        return list(self.poses())
+
+    @property
+    def batched_nodes(self) -> dict[str, object]:
+        """The two batched handles by kind (``bars``, ``spheres``); empty before :meth:`build`."""
+        return {} if self._bars is None else {"bars": self._bars, "spheres": self._spheres}
 
     def build(self, lengths: np.ndarray, pin: tuple[float, float] | None) -> None:
         """Create (or recreate, when n or the closure changed) every node, sized for ``lengths``."""
@@ -124,10 +149,11 @@ class LinkageScene:
             return
         self.remove()
         scene = self.target.scene
+        n = layout.n
         self.layout = layout
         self.lengths = lengths.copy()
         self.reach = mechanism_reach(lengths, pin)
-        width = BAR_WIDTH_FRACTION * self.reach
+        width = self._width = BAR_WIDTH_FRACTION * self.reach
         r_joint = JOINT_RADIUS_FRACTION * self.reach
         r_com = COM_RADIUS_FRACTION * self.reach
         common = {"opacity": self.opacity, "cast_shadow": False, "receive_shadow": False}
@@ -148,28 +174,47 @@ class LinkageScene:
                 colors=GROUND_COLOR,
                 thickness=0.5 * width,
             )
-        for k in range(1, layout.n + 1):
-            color = self.palette[(k - 1) % len(self.palette)]
-            self._bars.append(
-                scene.add_box(
-                    f"{self.root}/bar_{k}",
-                    color=color,
-                    dimensions=(max(lengths[k - 1], 1e-6), width, width),
-                    **common,
-                )
-            )
-        for k in range(layout.n + 1):
-            self._joints.append(
-                scene.add_icosphere(
-                    f"{self.root}/joint_{k}", radius=r_joint, color=JOINT_COLOR, subdivisions=2, **common
-                )
-            )
-        for k in range(1, layout.n + 1):
-            self._coms.append(
-                scene.add_icosphere(f"{self.root}/com_{k}", radius=r_com, color=COM_COLOR, subdivisions=2, **common)
-            )
+        # start pose: the chain hanging straight down (the first show() moves it at once)
+        joints_xy = np.zeros((n + 1, 2))
+        joints_xy[1:, 1] = -np.cumsum(lengths)
+        com_xy = 0.5 * (joints_xy[:-1] + joints_xy[1:])
+        bar_positions, bar_wxyzs, sphere_positions = self._instances(joints_xy, com_xy)
+        box_vertices, box_faces = UNIT_BOX
+        self._bars = scene.add_batched_meshes_simple(
+            f"{self.root}/bars",
+            box_vertices,
+            box_faces,
+            batched_wxyzs=bar_wxyzs,
+            batched_positions=bar_positions,
+            batched_scales=self._bar_scales(lengths),
+            batched_colors=np.array([self.palette[k % len(self.palette)] for k in range(n)], dtype=np.uint8),
+            lod="off",
+            **common,
+        )
+        sphere_vertices, sphere_faces = UNIT_SPHERE
+        radii = np.full(2 * n + 1, r_joint, dtype=np.float32)
+        radii[1::2] = r_com
+        colors = np.tile(np.array(JOINT_COLOR, dtype=np.uint8), (2 * n + 1, 1))
+        colors[1::2] = COM_COLOR
+        self._spheres = scene.add_batched_meshes_simple(
+            f"{self.root}/spheres",
+            sphere_vertices,
+            sphere_faces,
+            batched_wxyzs=np.tile(np.array([1.0, 0.0, 0.0, 0.0], dtype=np.float32), (2 * n + 1, 1)),
+            batched_positions=sphere_positions,
+            batched_scales=radii,
+            batched_colors=colors,
+            lod="off",
+            **common,
+        )
+        self._bar_positions, self._bar_wxyzs, self._sphere_positions = bar_positions, bar_wxyzs, sphere_positions
         if not self._visible:
             self.set_visible(False)
+
+    def _bar_scales(self, lengths: np.ndarray) -> np.ndarray:
+        scales = np.full((len(lengths), 3), self._width, dtype=np.float32)
+        scales[:, 0] = np.maximum(lengths, 1e-6)
+        return scales
 
     @staticmethod
     def _ground_link_points(pin) -> np.ndarray:
@@ -178,60 +223,104 @@ class LinkageScene:
     def resize(self, lengths: np.ndarray, pin: tuple[float, float] | None) -> None:
         """New lengths or pin with the same layout: resize the bars, move the pin; no rebuild."""
         lengths = np.asarray(lengths, dtype=float)
-        for k, bar in enumerate(self._bars):
-            if lengths[k] != self.lengths[k]:
-                bar.dimensions = (max(lengths[k], 1e-6), bar.dimensions[1], bar.dimensions[2])
+        if self._bars is not None and not np.array_equal(lengths, self.lengths):
+            self._bars.batched_scales = self._bar_scales(lengths)
         self.lengths = lengths.copy()
         if pin is not None and self._pin is not None:
             self._pin.position = tuple(to_world(np.array(pin)))
             self._ground_link.points = self._ground_link_points(pin)
 
+    def _handles(self) -> list:
+        return [h for h in (self._ground, self._pin, self._ground_link, self._bars, self._spheres) if h is not None]
+
     def remove(self) -> None:
         """Remove every node (before a rebuild, or when the session closes)."""
-        for handle in [self._ground, self._pin, self._ground_link, *self._bars, *self._joints, *self._coms]:
-            if handle is not None:
-                quietly(handle.remove, "removing a scene node")  # a node of a departed client
-        self._ground = self._pin = self._ground_link = None
-        self._bars, self._joints, self._coms = [], [], []
+        for handle in self._handles():
+            quietly(handle.remove, "removing a scene node")  # a node of a departed client
+        self._ground = self._pin = self._ground_link = self._bars = self._spheres = None
         self.layout = None
 
     def set_visible(self, visible: bool) -> None:
         self._visible = visible
-        for handle in [self._ground, self._pin, self._ground_link, *self._bars, *self._joints, *self._coms]:
-            if handle is not None:
-                handle.visible = visible
+        for handle in self._handles():
+            handle.visible = visible
+
+    @property
+    def visible(self) -> bool:
+        return self._visible
 
     # ------------------------------------------------------------------ moving
-    def show(self, joints_xy: np.ndarray, com_xy: np.ndarray) -> None:
-        """Move every node to one frame: ``joints_xy`` (n+1, 2) with joint 0 = O, ``com_xy`` (n, 2).
+    @staticmethod
+    def _instances(joints_xy: np.ndarray, com_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Batched positions and orientations (float32) of the bars and spheres for one frame."""
+        joints_xy = np.asarray(joints_xy, dtype=float)
+        n = len(joints_xy) - 1
+        middle = 0.5 * (joints_xy[:-1] + joints_xy[1:])
+        delta = joints_xy[1:] - joints_xy[:-1]
+        # a rotation by phi about world y maps the box's x axis to (cos phi, 0, -sin phi); the bar runs along
+        # (dx, 0, dy) in the world, hence phi = atan2(-dy, dx) (0 for a bar of zero length)
+        half_phi = 0.5 * np.arctan2(-delta[:, 1], delta[:, 0])
+        bar_positions = np.zeros((n, 3), np.float32)
+        bar_positions[:, 0], bar_positions[:, 2] = middle[:, 0], middle[:, 1]
+        bar_wxyzs = np.zeros((n, 4), np.float32)
+        bar_wxyzs[:, 0], bar_wxyzs[:, 2] = np.cos(half_phi), np.sin(half_phi)
+        sphere_positions = np.zeros((2 * n + 1, 3), np.float32)
+        sphere_positions[0::2, 0], sphere_positions[0::2, 2] = joints_xy[:, 0], joints_xy[:, 1]
+        sphere_positions[1::2, 0], sphere_positions[1::2, 2] = com_xy[:, 0], com_xy[:, 1]
+        return bar_positions, bar_wxyzs, sphere_positions
 
-        The caller wraps frames in ``target.atomic()`` so a browser applies one frame at once.
+    def show(self, joints_xy: np.ndarray, com_xy: np.ndarray) -> None:
+        """Move every part to one frame: ``joints_xy`` (n+1, 2) with joint 0 = O, ``com_xy`` (n, 2).
+
+        Two messages at most (none for a part that did not move). The caller wraps frames in
+        ``target.atomic()`` so a browser applies one frame at once.
         """
-        joints_w = to_world(joints_xy).tolist()
-        com_w = to_world(com_xy).tolist()
-        for k, bar in enumerate(self._bars):
-            a, b = joints_w[k], joints_w[k + 1]
-            middle = (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]))
-            move_node(bar, middle, bar_orientation(joints_xy[k], joints_xy[k + 1]))
-        for k, joint in enumerate(self._joints):
-            if k > 0:  # joint 0 is O and never moves
-                move_node(joint, tuple(joints_w[k]), None)
-        for k, com in enumerate(self._coms):
-            move_node(com, tuple(com_w[k]), None)
+        if self._bars is None:
+            return
+        bar_positions, bar_wxyzs, sphere_positions = self._instances(joints_xy, np.asarray(com_xy, dtype=float))
+        bars = {}
+        if not np.array_equal(bar_positions, self._bar_positions):
+            bars["batched_positions"] = self._bar_positions = bar_positions
+        if not np.array_equal(bar_wxyzs, self._bar_wxyzs):
+            bars["batched_wxyzs"] = self._bar_wxyzs = bar_wxyzs
+        if bars:
+            update_node_props(self._bars, bars)
+        if not np.array_equal(sphere_positions, self._sphere_positions):
+            self._sphere_positions = sphere_positions
+            update_node_props(self._spheres, {"batched_positions": sphere_positions})
 
     def poses(self) -> dict[str, dict]:
-        """Current pose of every node, JSON-able: ``{name: {"position": [...], "wxyz": [...], "visible": bool}}``."""
+        """Current pose of every part, JSON-able: ``{name: {"position": [...], "wxyz": [...], "visible": bool}}``,
+        one entry per static node and per bar (``bar_k``), joint (``joint_k``) and centre of mass (``com_k``)."""
         out = {}
-        handles = [self._ground, self._pin, *self._bars, *self._joints, *self._coms]
-        for h in handles:
-            if h is None:
-                continue
-            out[h.name] = {
-                "position": [float(v) for v in h.position],
-                "wxyz": [float(v) for v in h.wxyz],
-                "visible": bool(h.visible),
+        for h in (self._ground, self._pin):
+            if h is not None:
+                out[h.name] = {
+                    "position": [float(v) for v in h.position],
+                    "wxyz": [float(v) for v in h.wxyz],
+                    "visible": bool(h.visible),
+                }
+        if self._bars is None:
+            return out
+        n = len(self._bar_positions)
+        for k in range(1, n + 1):
+            out[f"{self.root}/bar_{k}"] = {
+                "position": [float(v) for v in self._bar_positions[k - 1]],
+                "wxyz": [float(v) for v in self._bar_wxyzs[k - 1]],
+                "visible": self._visible,
             }
+        for k in range(n + 1):
+            out[f"{self.root}/joint_{k}"] = self._sphere_pose(2 * k)
+        for k in range(1, n + 1):
+            out[f"{self.root}/com_{k}"] = self._sphere_pose(2 * k - 1)
         return out
+
+    def _sphere_pose(self, index: int) -> dict:
+        return {
+            "position": [float(v) for v in self._sphere_positions[index]],
+            "wxyz": [1.0, 0.0, 0.0, 0.0],
+            "visible": self._visible,
+        }
 
 
 def pose_disc(points_xy: np.ndarray, margin: float = 1.35) -> tuple[np.ndarray, float]:

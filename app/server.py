@@ -43,7 +43,7 @@ MAX_SESSIONS_LIMIT = 100
 # Frames per second one server process renders in total. Up to FULL_RATE_SESSIONS sessions animate at 60 fps;
 # beyond, they share this budget (at least MIN_SESSION_FPS each), so the one core a process's interpreter may
 # use is not spent on frames that viser would drop before sending (measured: python -m app.bench load).
-FRAME_BUDGET = 900.0
+FRAME_BUDGET = 1500.0
 FULL_RATE_SESSIONS = 15
 MIN_SESSION_FPS = 15.0
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from physics import METHOD_NAMES, LinkageError, preset_names
 
-from .scene import pose_disc
+from .scene import part_instance, pose_disc
 
 CHROMIUM_ENV = "LINKAGE_LAB_CHROMIUM"
 CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "chromium", "chromium-browser")
@@ -200,29 +200,60 @@ def wait_for_drawn_frames(page: Any, frames: int = 2, timeout_s: float = 30.0) -
     )
 
 
+# Position of a scene node or of one instance of a batched node (app/scene.py, ``part_instance``) in the
+# browser: world coordinates, or local ones (in the frame of the node's parent); null when not there yet.
+PART_POSITION_JS = """
+const partPosition = (mutable, [nodeName, index], world) => {
+    const node = mutable.nodeRefFromName[nodeName];
+    if (node === undefined) return null;
+    node.updateWorldMatrix(true, true);
+    let position;
+    if (index === null) {
+        position = node.getWorldPosition(node.position.clone());
+    } else {
+        let mesh = null;
+        node.traverse((o) => { if (mesh === null && o.isMesh && typeof o.getMatrixAt === "function") mesh = o; });
+        if (mesh === null || index >= mesh.count) return null;
+        const matrix = mesh.matrixWorld.clone();
+        mesh.getMatrixAt(index, matrix);
+        matrix.premultiply(mesh.matrixWorld);
+        position = node.position.clone().setFromMatrixPosition(matrix);
+    }
+    return world || node.parent === null ? position : node.parent.worldToLocal(position);
+};
+"""
+
+
+def _addresses(names: Sequence[str]) -> list[list]:
+    return [[name, *part_instance(name)] for name in names]
+
+
 def browser_node_positions(page: Any, names: Sequence[str]) -> dict[str, list[float] | None]:
-    """Local positions of scene nodes as the browser holds them (None: not there yet)."""
+    """Local positions of scene nodes or parts as the browser holds them (None: not there yet)."""
     return page.evaluate(
-        """(names) => Object.fromEntries(names.map((name) => {
-            const node = window.__viserMutable.nodeRefFromName[name];
-            return [name, node === undefined ? null : [node.position.x, node.position.y, node.position.z]];
-        }))""",
-        list(names),
+        "(addresses) => {" + PART_POSITION_JS + """
+            return Object.fromEntries(addresses.map(([name, node, index]) => {
+                const p = partPosition(window.__viserMutable, [node, index], false);
+                return [name, p === null ? null : [p.x, p.y, p.z]];
+            }));
+        }""",
+        _addresses(names),
     )
 
 
 def wait_for_node_positions(
     page: Any, positions: Mapping[str, Sequence[float]], tolerance: float = 1e-5, timeout_s: float = PAGE_TIMEOUT_S
 ) -> None:
-    """Wait until every named scene node exists in the browser at the server's position."""
-    expected = {name: [float(value) for value in position] for name, position in positions.items()}
+    """Wait until every named scene node or part exists in the browser at the server's position."""
+    expected = [[*address, [float(v) for v in positions[address[0]]]] for address in _addresses(list(positions))]
     page.wait_for_function(
-        """([expected, tolerance]) => Object.entries(expected).every(([name, position]) => {
-            const node = window.__viserMutable.nodeRefFromName[name];
-            if (node === undefined) return false;
-            const actual = [node.position.x, node.position.y, node.position.z];
-            return actual.every((value, i) => Math.abs(value - position[i]) <= tolerance);
-        })""",
+        "([expected, tolerance]) => {" + PART_POSITION_JS + """
+            return expected.every(([name, node, index, position]) => {
+                const p = partPosition(window.__viserMutable, [node, index], false);
+                if (p === null) return false;
+                return [p.x, p.y, p.z].every((value, i) => Math.abs(value - position[i]) <= tolerance);
+            });
+        }""",
         arg=[expected, tolerance],
         timeout=timeout_s * 1000,
         polling=POLL_MS,
@@ -230,21 +261,20 @@ def wait_for_node_positions(
 
 
 def project_to_page(page: Any, names: Sequence[str]) -> dict[str, list[float] | None]:
-    """Page pixel coordinates ``[x, y]`` of the named scene nodes' origins, through the browser's own
-    camera (None for a node the browser does not have)."""
+    """Page pixel coordinates ``[x, y]`` of the named scene nodes' or parts' origins, through the browser's own
+    camera (None for one the browser does not have)."""
     return page.evaluate(
-        """(names) => {
+        "(addresses) => {" + PART_POSITION_JS + """
             const mutable = window.__viserMutable;
             const rect = mutable.canvas.getBoundingClientRect();
-            return Object.fromEntries(names.map((name) => {
-                const node = mutable.nodeRefFromName[name];
-                if (node === undefined) return [name, null];
-                node.updateWorldMatrix(true, false);
-                const point = node.getWorldPosition(node.position.clone()).project(mutable.camera);
+            return Object.fromEntries(addresses.map(([name, node, index]) => {
+                const p = partPosition(mutable, [node, index], true);
+                if (p === null) return [name, null];
+                const point = p.project(mutable.camera);
                 return [name, [rect.left + (point.x + 1) / 2 * rect.width, rect.top + (1 - point.y) / 2 * rect.height]];
             }));
         }""",
-        list(names),
+        _addresses(names),
     )
 
 

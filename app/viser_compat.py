@@ -1,8 +1,9 @@
 """The one door to viser's private internals, open only for the viser versions it was written against.
 
-Why private parts at all: moving a node through the public setters costs an ``np.allclose`` per call (80 µs,
-the largest cost of a frame with 30 sessions), and viser has no public way to ask whether a browser's
-connection is already closed. Everything else in app/ uses viser's public API only.
+Why private parts at all: viser's public setters send one message per property, each value cast through its
+type hint, where a frame of the mechanism needs a batched node's positions and orientations in one message (a
+frame's cost is almost all per message); and viser has no public way to ask whether a browser's connection is
+already closed. Everything else in app/ uses viser's public API only.
 
 Each helper works on any viser: on a version outside :data:`TESTED_MINORS`, or when an internal is missing,
 it takes the public (slower) route and logs one warning saying so. ``tests/app/test_viser_compat.py`` fails
@@ -32,12 +33,11 @@ def _version() -> tuple[int, int]:
 
 VERSION_TESTED = _version() in TESTED_MINORS
 
-try:  # the wire messages the public pose setters send
+try:  # the wire message the public property setters send
     from viser import _messages as _wire
 except ImportError:  # pragma: no cover - another viser layout
     _wire = None  # type: ignore[assignment]
-SetPositionMessage: Any = getattr(_wire, "SetPositionMessage", None)
-SetOrientationMessage: Any = getattr(_wire, "SetOrientationMessage", None)
+SceneNodeUpdateMessage: Any = getattr(_wire, "SceneNodeUpdateMessage", None)
 GuiUpdateMessage: Any = getattr(_wire, "GuiUpdateMessage", None)
 
 
@@ -52,8 +52,8 @@ def fallbacks() -> list[str]:
     reasons = []
     if not VERSION_TESTED:
         reasons.append(f"viser {viser.__version__} is not a tested version")
-    if SetPositionMessage is None:
-        reasons.append("viser._messages.SetPositionMessage is missing")
+    if SceneNodeUpdateMessage is None:
+        reasons.append("viser._messages.SceneNodeUpdateMessage is missing")
     if GuiUpdateMessage is None:
         reasons.append("viser._messages.GuiUpdateMessage is missing")
     return reasons
@@ -70,28 +70,24 @@ def _scene_queue(handle) -> Callable[[Any], None] | None:
 
 
 def fast_pose_available(handle) -> bool:
-    """True when :func:`move_node` takes the fast path for this handle."""
+    """True when :func:`update_node_props` takes the fast path for this handle."""
     return FAST_PATH and _scene_queue(handle) is not None
 
 
-def move_node(handle, position: tuple | None, wxyz: tuple | None) -> None:
-    """Move a scene node: the same messages as ``handle.position = ...`` / ``handle.wxyz = ...``, without their
-    per-call ``np.allclose``; a value equal to the last one sent is skipped, as the public setters do."""
+def update_node_props(handle, updates: dict[str, Any]) -> None:
+    """Set several properties of a scene node (e.g. a batched mesh's ``batched_positions`` and
+    ``batched_wxyzs``) in one message, where the public setters send one message per property after casting
+    each value through its type hint. The values must already have the wire types (float32 arrays)."""
     queue = _scene_queue(handle) if FAST_PATH else None
     if queue is None:
         warn_once("pose", "scene nodes move through viser's public setters (slower per frame)")
-        if position is not None:
-            handle.position = position
-        if wxyz is not None:
-            handle.wxyz = wxyz
+        for name, value in updates.items():
+            setattr(handle, name, value)
         return
     impl = handle._impl
-    if position is not None and tuple(impl.position) != position:
-        impl.position[:] = position
-        queue(SetPositionMessage(impl.name, position))
-    if wxyz is not None and tuple(impl.wxyz) != wxyz:
-        impl.wxyz[:] = wxyz
-        queue(SetOrientationMessage(impl.name, wxyz))
+    for name, value in updates.items():
+        setattr(impl.props, name, value)
+    queue(SceneNodeUpdateMessage(impl.name, dict(updates)))
 
 
 # ------------------------------------------------------------------------------------------ clients

@@ -28,7 +28,20 @@ import websockets
 import zstandard
 from websockets.typing import Subprotocol
 
-POSE_TYPES = ("SetPositionMessage", "SetOrientationMessage")
+POSE_PROPS = ("batched_positions", "batched_wxyzs")  # what moves the batched parts of a mechanism (app/scene.py)
+BARS = "/linkage/bars"
+
+
+def moves_parts(message: dict) -> bool:
+    """True for a message that moves the instances of a batched node (a frame of a mechanism)."""
+    return message.get("type") == "SceneNodeUpdateMessage" and any(
+        prop in (message.get("updates") or {}) for prop in POSE_PROPS
+    )
+
+
+def moves_positions(message: dict) -> bool:
+    """True for a message that sets a batched node's instance positions."""
+    return message.get("type") == "SceneNodeUpdateMessage" and "batched_positions" in (message.get("updates") or {})
 
 
 def camera_message() -> bytes:
@@ -62,13 +75,13 @@ class Counts:
         self.frames = 0
         self.messages = 0
         self.by_type: collections.Counter = collections.Counter()
-        self.pose_updates: collections.Counter = collections.Counter()  # node name -> count (position + orientation)
-        self.position_updates: collections.Counter = collections.Counter()  # node name -> position updates
+        self.pose_updates: collections.Counter = collections.Counter()  # node name -> messages that moved its parts
+        self.position_updates: collections.Counter = collections.Counter()  # node name -> instance position updates
         self.first_pose_time: float | None = None
         self.last_pose_time: float | None = None
         self.bytes = 0
         self.notifications: list[tuple[float, str]] = []  # (perf_counter, title) of notifications shown
-        self.watch = "/linkage/bar_1"
+        self.watch = BARS
         self.watched: collections.deque = collections.deque(maxlen=4096)  # (perf_counter, message) of ``watch``
         self.gui_updates: collections.deque = collections.deque(maxlen=4096)  # (uuid, updates) of control updates
 
@@ -84,10 +97,10 @@ class Counts:
                 self.notifications.append((time.perf_counter(), str(props.get("title", ""))))
             if kind == "GuiUpdateMessage":
                 self.gui_updates.append((message.get("uuid"), message.get("updates") or {}))
-            if kind in POSE_TYPES:
+            if moves_parts(message):
                 name = message.get("name", "?")
                 self.pose_updates[name] += 1
-                if kind == "SetPositionMessage":
+                if moves_positions(message):
                     self.position_updates[name] += 1
                 now = time.perf_counter()
                 if name == self.watch:
@@ -96,8 +109,8 @@ class Counts:
                     self.first_pose_time = now
                 self.last_pose_time = now
 
-    def bar_updates(self, name: str = "/linkage/bar_1") -> int:
-        """Position updates of one bar received: one per displayed frame in which it moved."""
+    def bar_updates(self, name: str = BARS) -> int:
+        """Position updates of a mechanism's bars received: one per displayed frame in which they moved."""
         return self.position_updates.get(name, 0)
 
 

@@ -16,7 +16,7 @@ import physics
 from app import controls, viser_compat
 from app.scene import camera_pose
 from app.server import is_loopback
-from app.wsclient import BackgroundClient
+from app.wsclient import BackgroundClient, moves_positions
 from conftest import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -198,7 +198,7 @@ def test_a_cold_start_shows_the_mechanism_and_a_deriving_notice_then_animates(tm
         assert client.wait_for(lambda c: any("Deriving" in title for _, title in c.notifications), timeout=60)
         assert client.wait_for(lambda c: c.bar_updates() >= 5, timeout=600)  # then it animates
         first_notice = min(t for t, title in client.counts.notifications if "Deriving" in title)
-        positions = [t for t, m in client.counts.watched if m.get("type") == "SetPositionMessage"]
+        positions = [t for t, m in client.counts.watched if moves_positions(m)]
         assert positions[0] <= first_notice < positions[1]
     finally:
         if client is not None:

@@ -116,3 +116,11 @@ def test_where_ports_cannot_be_shared_one_process_serves(monkeypatch, capsys):
         assert "cannot share a port" in capsys.readouterr().err
     finally:
         server.stop()
+
+
+def test_by_default_one_process_per_core_and_one_more(monkeypatch):
+    monkeypatch.setattr(processes, "shares_ports", lambda: True)
+    monkeypatch.setattr(processes.os, "sched_getaffinity", lambda pid: {0, 1})
+    assert processes.default_processes() == 3
+    monkeypatch.setattr(processes.os, "sched_getaffinity", lambda pid: set(range(64)))
+    assert processes.default_processes() == processes.MAX_PROCESSES

@@ -93,8 +93,8 @@ def test_length_slider_resizes_the_bar_and_caps_d(connect):
     assert session.params.d[0] <= 0.4 + 1e-12
     assert handles["d"].max == pytest.approx(0.4)
     assert handles["d"].value <= 0.4 + 1e-12
-    bar = session.scene._bars[0]
-    assert bar.dimensions[0] == pytest.approx(0.4)
+    bars = session.scene.batched_nodes["bars"]
+    assert bars.batched_scales[0][0] == pytest.approx(0.4)
     assert session.player.wait_idle(120)
     joints = np.array(session.snapshot()["joints"])
     assert np.linalg.norm(joints[1] - joints[0]) == pytest.approx(0.4, rel=1e-6)
@@ -201,9 +201,9 @@ def test_compare_mode_runs_three_methods_that_agree_early(connect):
     assert np.max(np.abs(tips - tips[0])) < 1e-5  # one start, three derivations, same motion early on
     for method in physics.FORMULATION_NAMES:
         assert f"/compare/{method}/bar_1" in snap["scene"]["nodes"]
-    assert not session.scene._bars[0].visible
+    assert not session.scene.visible and not session.scene.batched_nodes["bars"].visible
     session.controls.compare.value = False
-    assert session.scene._bars[0].visible and not session.compare_scenes
+    assert session.scene.batched_nodes["bars"].visible and not session.compare_scenes
 
 
 def test_traced_point_and_trace_length(connect):

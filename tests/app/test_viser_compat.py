@@ -41,29 +41,48 @@ def test_control_values_are_checked_before_viser_casts_them():
 
 def test_every_node_of_a_session_moves_by_the_fast_path(connect):
     _, session = connect()
-    handles = session.scene._bars + session.scene._joints + session.scene._coms
-    assert handles and all(viser_compat.fast_pose_available(h) for h in handles)
+    handles = list(session.scene.batched_nodes.values())
+    assert len(handles) == 2 and all(viser_compat.fast_pose_available(h) for h in handles)
     assert viser_compat.connection_open(session.target)
 
 
-def test_the_fast_path_moves_a_node_as_the_public_setter_does(connect):
+def test_the_fast_path_sets_props_as_the_public_setters_do(connect):
     _, session = connect()
-    bar = session.scene._bars[0]
-    viser_compat.move_node(bar, (0.25, 0.0, -0.5), (1.0, 0.0, 0.0, 0.0))
-    assert np.allclose(bar.position, (0.25, 0.0, -0.5)) and np.allclose(bar.wxyz, (1.0, 0.0, 0.0, 0.0))
+    session.pause()
+    bars = session.scene.batched_nodes["bars"]
+    positions = np.arange(3 * len(bars.batched_positions), dtype=np.float32).reshape(-1, 3)
+    wxyzs = np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (len(positions), 1))
+    with session.player.lock:
+        viser_compat.update_node_props(bars, {"batched_positions": positions, "batched_wxyzs": wxyzs})
+    assert np.array_equal(bars.batched_positions, positions) and np.array_equal(bars.batched_wxyzs, wxyzs)
+
+
+def test_one_frame_is_two_messages_whatever_the_number_of_bars(lab, connect):
+    """Why the parts are batched (app/scene.py): a frame costs per message, so a frame of any chain is one
+    message for the bars (positions and orientations together) and one for the joints and centres of mass."""
+    client, session = connect()
+    session.set_mechanism("chain", links=7)
+    assert session.player.wait_idle(600)
+    assert wait_until(lambda: client.counts.bar_updates() >= 10, timeout=60)
+    recent = list(client.counts.watched)[-5:]
+    assert all(set(m["updates"]) == {"batched_positions", "batched_wxyzs"} for _, m in recent), recent
+    assert session.scene.batched_nodes["bars"].batched_positions.shape == (7, 3)
+    moved = {name for name, count in client.counts.pose_updates.items() if count >= 5}
+    assert moved == {"/linkage/bars", "/linkage/spheres"}, client.counts.pose_updates
 
 
 def test_a_fallback_uses_the_public_setters_and_says_so_once(connect, monkeypatch, caplog):
     _, session = connect()
     session.pause()
-    bar = session.scene._bars[0]
+    bars = session.scene.batched_nodes["bars"]
+    positions = np.zeros_like(bars.batched_positions)
     monkeypatch.setattr(viser_compat, "FAST_PATH", False)
     monkeypatch.setattr(logs, "_seen", set())
     with caplog.at_level(logging.WARNING, logger="app"):
         with session.player.lock:
-            viser_compat.move_node(bar, (0.5, 0.0, -0.25), None)
-            viser_compat.move_node(bar, (0.75, 0.0, -0.25), None)
-    assert np.allclose(bar.position, (0.75, 0.0, -0.25))
+            viser_compat.update_node_props(bars, {"batched_positions": positions + 1.0})
+            viser_compat.update_node_props(bars, {"batched_positions": positions + 2.0})
+    assert np.allclose(bars.batched_positions, 2.0)
     warnings = [r for r in caplog.records if "public setters" in r.getMessage()]
     assert len(warnings) == 1, [r.getMessage() for r in caplog.records]
 
