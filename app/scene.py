@@ -292,7 +292,7 @@ class LinkageScene:
     def poses(self) -> dict[str, dict]:
         """Current pose of every part, JSON-able: ``{name: {"position": [...], "wxyz": [...], "visible": bool}}``,
         one entry per static node and per bar (``bar_k``), joint (``joint_k``) and centre of mass (``com_k``)."""
-        out = {}
+        out: dict[str, dict] = {}
         for h in (self._ground, self._pin):
             if h is not None:
                 out[h.name] = {
