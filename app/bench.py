@@ -16,7 +16,8 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
 * cpu: the server as a subprocess animating the triple pendulum for one client; CPU time of that process
   over wall time (1.00 = one core), and the frames per second the client received.
 * load: in-process server (with ``--processes K``, this process and K - 1 siblings on the same port:
-  app/processes.py), N clients in a subprocess (``python -m app.wsclient``) for S seconds, some leaving early;
+  app/processes.py), N clients in a subprocess (``python -m app.wsclient``; ``--client-processes J`` splits them
+  over J subprocesses) for S seconds, some leaving early;
   server CPU (every server process, and each one), resident memory over time (summed over the server's
   processes), sessions left, frames per second per client.
 """
@@ -253,7 +254,7 @@ def _server_cpu_seconds(pids: list[int]) -> list[float]:
 
 
 def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early_seconds: float = 20.0,
-                 shared: bool = False, processes: int = 1) -> dict:
+                 shared: bool = False, processes: int = 1, client_processes: int = 1) -> dict:
     """Server in this process (and its siblings), ``clients`` websocket clients in a subprocess; see the
     module docstring."""
     from .server import LabServer
@@ -268,11 +269,18 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
         pids = server.pids
         time.sleep(1.0)  # the siblings' own warm-up (loading compiled code) is under way in the background
         rss_before = sum(_rss_mb(pid) for pid in pids)
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "app.wsclient", server.url, "--clients", str(clients), "--seconds", str(seconds),
-             "--early", str(early), "--early-seconds", str(early_seconds)],
-            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        )
+        # the clients split over ``client_processes`` load generators (one Python process decodes about 5000
+        # frames/s, fewer than 100 viewers of a --shared session receive at 60 frames/s)
+        shares = [clients // client_processes + (k < clients % client_processes) for k in range(client_processes)]
+        early_shares = [early // client_processes + (k < early % client_processes) for k in range(client_processes)]
+        procs = [
+            subprocess.Popen(
+                [sys.executable, "-m", "app.wsclient", server.url, "--clients", str(share), "--seconds",
+                 str(seconds), "--early", str(early_share), "--early-seconds", str(early_seconds)],
+                cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            )
+            for share, early_share in zip(shares, early_shares) if share
+        ]
         started = time.perf_counter()
         cpu0 = _server_cpu_seconds(pids)
         stop = threading.Event()
@@ -302,7 +310,7 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
         sampler = threading.Thread(target=sample, daemon=True)
         sampler.start()
         children0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        out, err = proc.communicate(timeout=seconds + 300)
+        outputs = [proc.communicate(timeout=seconds + 300) for proc in procs]
         wall = time.perf_counter() - started
         cpu_each = [b - a for a, b in zip(cpu0, _server_cpu_seconds(pids))]
         cpu = sum(cpu_each)
@@ -311,10 +319,10 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
         stop.set()
         sampler.join(2)
         time.sleep(1.0)
-        if proc.returncode != 0:
-            raise RuntimeError(f"load clients failed: {err[-2000:]}")
-        result = json.loads(out)
-        per_client = result["per_client"]
+        for proc, (_, err) in zip(procs, outputs):
+            if proc.returncode != 0:
+                raise RuntimeError(f"load clients failed: {err[-2000:]}")
+        per_client = [client for out, _ in outputs for client in json.loads(out)["per_client"]]
         # frames received per second while receiving (first to last pose: excludes connecting)
         fps = [c["bar_updates"] / c["pose_span"] if c["pose_span"] > 0 else 0.0 for c in per_client]
         full = [c for c in per_client if c["duration"] == seconds]
@@ -334,6 +342,7 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
             "seconds": seconds,
             "early_leavers": early,
             "processes": len(pids),
+            "client_processes": len(procs),
             "server_cpu_cores": round(cpu / wall, 3),
             "server_cpu_cores_per_process": [round(c / wall, 3) for c in cpu_each],
             "client_process_cpu_cores": round(client_cpu / wall, 3),
@@ -379,6 +388,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--shared", action="store_true")
     parser.add_argument("--processes", type=int, default=1, help="server processes for the load part")
     parser.add_argument("--early", type=int, default=5, help="clients of the load part that leave after 20 s")
+    parser.add_argument("--client-processes", type=int, default=1,
+                        help="load generators the clients of the load part are split over")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
     args = parser.parse_args(argv)
     out: dict = {}
@@ -402,7 +413,7 @@ def main(argv: list[str] | None = None) -> int:
         out["cpu"] = measure_cpu()
     if args.part in ("all", "load"):
         load = measure_load(args.clients, args.seconds, early=args.early, shared=args.shared,
-                            processes=args.processes)
+                            processes=args.processes, client_processes=args.client_processes)
         load.pop("per_client")
         load.pop("samples")
         out["load"] = load
