@@ -64,6 +64,16 @@ def to_world(xy: np.ndarray) -> np.ndarray:
     return out
 
 
+def instance_colors(colors) -> np.ndarray:
+    """(N, 3) uint8 instance colours that show as the sRGB ``colors`` given: viser's batched meshes take
+    instance colours as linear values (a node's own ``color`` is sRGB), so without this conversion the bars
+    came out paler than viser's own boxes of the same colour (measured in Chromium on the same lit face: the
+    blue bar (31, 119, 180) drew as (63, 132, 169) where ``add_box`` drew (0, 73, 136); with it, (0, 73, 136))."""
+    srgb = np.asarray(colors, dtype=float) / 255.0
+    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    return np.round(255.0 * linear).astype(np.uint8)
+
+
 def part_instance(name: str) -> tuple[str, int | None]:
     """Where a part is drawn: ``(node name, instance index)`` for a bar, joint or centre of mass of a
     :class:`LinkageScene` (``/linkage/bar_2`` -> ``("/linkage/bars", 1)``), ``(name, None)`` for any other node."""
@@ -187,15 +197,15 @@ class LinkageScene:
             batched_wxyzs=bar_wxyzs,
             batched_positions=bar_positions,
             batched_scales=self._bar_scales(lengths),
-            batched_colors=np.array([self.palette[k % len(self.palette)] for k in range(n)], dtype=np.uint8),
+            batched_colors=instance_colors([self.palette[k % len(self.palette)] for k in range(n)]),
+            flat_shading=True,  # as viser's add_box: a box's 8 shared corners would otherwise smooth its faces
             lod="off",
             **common,
         )
         sphere_vertices, sphere_faces = UNIT_SPHERE
         radii = np.full(2 * n + 1, r_joint, dtype=np.float32)
         radii[1::2] = r_com
-        colors = np.tile(np.array(JOINT_COLOR, dtype=np.uint8), (2 * n + 1, 1))
-        colors[1::2] = COM_COLOR
+        colors = instance_colors([COM_COLOR if i % 2 else JOINT_COLOR for i in range(2 * n + 1)])
         self._spheres = scene.add_batched_meshes_simple(
             f"{self.root}/spheres",
             sphere_vertices,

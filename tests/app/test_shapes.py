@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from app.scene import instance_colors
 from app.shapes import unit_box, unit_sphere
 
 
@@ -36,3 +37,9 @@ def test_unit_sphere_is_a_closed_outward_sphere_of_radius_one(subdivisions, n_ve
     assert _closed(faces)
     volume = _signed_volume(vertices, faces)
     assert 0.6 * 4 / 3 * np.pi < volume < 4 / 3 * np.pi  # inscribed polyhedron, outward faces
+
+
+def test_instance_colours_are_the_linear_values_of_the_srgb_palette():
+    assert instance_colors([(0, 0, 0), (255, 255, 255)]).tolist() == [[0, 0, 0], [255, 255, 255]]
+    # sRGB 50 % grey is 21.4 % linear light; the dark end is linear (x / 12.92)
+    assert instance_colors([(128, 128, 128), (10, 10, 10)]).tolist() == [[55, 55, 55], [1, 1, 1]]
