@@ -19,6 +19,7 @@ from physics import LinkageError
 from physics.ensemble import Ensemble
 from physics.presets import get_preset
 
+from .buffers import ThinnedSeries
 from .logs import quietly
 from .overlays import Plot
 from .ports import SessionPort
@@ -27,6 +28,7 @@ from .text import markdown_literal
 
 ENSEMBLE_COUNTS = ("100", "1000")
 SPREAD_EVERY = 6  # frames between updates of the spread figure (10 Hz)
+SPREAD_POINTS = 512  # points of the spread figure at most, over the ensemble's whole life (ThinnedSeries)
 ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
 ENSEMBLE_NODE = "/ensemble/links"
 MAX_FRAME_DT = 0.5  # s of simulated time advanced per frame at most (a jump back or far ahead restarts instead);
@@ -74,8 +76,8 @@ class Analysis:
         self.ensemble_count = int(ENSEMBLE_COUNTS[0])
         self._ensemble_t: float | None = None
         self._ensemble_generation = 0
-        self._spread_t: list[float] = []  # the spread over the ensemble's life (its figure)
-        self._spread: list[float] = []
+        self._spread = ThinnedSeries(SPREAD_POINTS)  # the spread over the ensemble's life (its figure)
+        self._frames_advanced = 0
         self._lock = threading.Lock()
         self._jobs: dict[str, threading.Thread] = {}
         self._build()
@@ -226,7 +228,8 @@ class Analysis:
                     ENSEMBLE_NODE, points, _copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
                 self.ensemble = ensemble
                 self._ensemble_t = t
-                self._spread_t, self._spread = [t], [ensemble.tip_spread()]
+                self._spread.clear()
+                self._spread.append(t, ensemble.tip_spread())
                 self.spread_plot.set_visible(True)
             self.ensemble_status.content = f"{count} copies, {method}, RK4 step {ensemble.step * 1e3:.3g} ms."
 
@@ -269,10 +272,12 @@ class Analysis:
         if shown is not None and len(shown[0]) == ensemble.theta.shape[1]:
             ensemble.anchor(*shown)  # copy 0 stays on the displayed pendulum (Ensemble.anchor)
         node.points = segments(ensemble.joints())
-        self._spread_t.append(t)
-        self._spread.append(ensemble.tip_spread())
-        if len(self._spread_t) % SPREAD_EVERY == 0:
-            self.spread_plot.update(np.array(self._spread_t), np.array(self._spread))
+        with self._lock:  # a restart (another thread) clears the series
+            self._spread.append(t, ensemble.tip_spread())
+            self._frames_advanced += 1
+            spread = self._spread.arrays() if self._frames_advanced % SPREAD_EVERY == 0 else None
+        if spread is not None:
+            self.spread_plot.update(*spread)
         if not ensemble.alive.all():
             self.ensemble_status.content = f"{int(ensemble.alive.sum())} of {ensemble.count} copies alive: " \
                                            f"{ensemble.message}"

@@ -133,3 +133,55 @@ class TrajectoryRing:
 
     def field_names(self) -> tuple[str, ...]:
         return tuple(self._data)
+
+
+class ThinnedSeries:
+    """A time series over a whole run in bounded memory: at most ``capacity`` points, evenly thinned.
+
+    Every ``stride``-th point appended is kept; when ``capacity`` are kept, every other one is dropped and the
+    stride doubles. The newest point is always part of :meth:`arrays`, so a live figure ends at the present.
+    Why: the ensemble's spread figure shows the spread since the ensemble started, however long it has run; a
+    list of every frame's value grew without bound and was copied whole into the figure 10 times a second.
+    """
+
+    def __init__(self, capacity: int = 512) -> None:
+        if capacity < 4 or capacity % 2:
+            raise ValueError(f"capacity = {capacity}: need an even number >= 4")
+        self.capacity = capacity
+        self._t = np.zeros(capacity)
+        self._y = np.zeros(capacity)
+        self._count = 0
+        self._stride = 1
+        self._seen = 0  # points appended since the start
+        self._latest: tuple[float, float] | None = None
+
+    def __len__(self) -> int:
+        return self._count
+
+    def clear(self) -> None:
+        self._count = 0
+        self._stride = 1
+        self._seen = 0
+        self._latest = None
+
+    def append(self, t: float, y: float) -> None:
+        if self._seen % self._stride == 0:
+            if self._count == self.capacity:
+                half = self.capacity // 2
+                self._t[:half] = self._t[0 : self.capacity : 2]
+                self._y[:half] = self._y[0 : self.capacity : 2]
+                self._count = half
+                self._stride *= 2
+            if self._seen % self._stride == 0:
+                self._t[self._count] = t
+                self._y[self._count] = y
+                self._count += 1
+        self._seen += 1
+        self._latest = (t, y)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(t, y) of the kept points and the newest one, oldest first (copies)."""
+        t, y = self._t[: self._count], self._y[: self._count]
+        if self._latest is not None and (self._count == 0 or self._t[self._count - 1] != self._latest[0]):
+            return np.append(t, self._latest[0]), np.append(y, self._latest[1])
+        return t.copy(), y.copy()

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.buffers import TrajectoryRing
+from app.buffers import ThinnedSeries, TrajectoryRing
 
 
 def _chunk(t0: int, m: int) -> dict[str, np.ndarray]:
@@ -32,3 +32,22 @@ def test_series_equals_the_window_and_the_samples_appended(capacity, chunks, i0,
     first = total - len(ring)  # the oldest sample kept
     expected = [[k, -k] for k in range(first + max(i0, 0), first + min(i1, len(ring) - 1) + 1)]
     assert np.array_equal(series, np.array(expected, dtype=float).reshape(-1, 2))
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(capacity=st.sampled_from([4, 6, 16, 64]), appended=st.integers(1, 3000))
+def test_a_thinned_series_is_bounded_even_and_ends_at_the_newest_point(capacity, appended):
+    series = ThinnedSeries(capacity)
+    for k in range(appended):
+        series.append(float(k), float(10 * k))
+    t, y = series.arrays()
+    assert len(series) <= capacity and len(t) <= capacity + 1
+    assert t[0] == 0.0 and t[-1] == appended - 1  # the whole life, up to the present
+    assert np.array_equal(y, 10 * t)
+    kept = t[: len(series)]
+    steps = np.diff(kept)
+    assert np.all(steps == steps[0]) if len(steps) else True  # evenly thinned
+    assert len(steps) == 0 or steps[0] <= 2 * max(1.0, appended / capacity)  # no thinner than needed
+    series.clear()
+    series.append(5.0, 1.0)
+    assert [a.tolist() for a in series.arrays()] == [[5.0], [1.0]]
