@@ -24,7 +24,7 @@ import numpy as np
 from pydantic import BaseModel, ValidationError
 
 from physics import Bar, Chain, LinkageError, Settings, TracePoint, assembly
-from physics.model import PARAMETER_FIELDS, check_mass_matrix
+from physics.model import MAX_LINKS, PARAMETER_FIELDS, check_mass_matrix
 
 from .parameters import Display, SessionParameters, driving_count, settings_data
 
@@ -138,6 +138,15 @@ def allowed_names(n: int | None = None) -> str:
 
 
 # ------------------------------------------------------------------------------------------ numbers
+def parse_links(value) -> int:
+    """The number of bars of a chain from a number or a typed text: a whole number 1..MAX_LINKS, else a
+    LinkageError naming the field, what was given and the allowed range (the app's box, a share link)."""
+    number = parse_number("links", LINKS, value)
+    if not (number == int(number) and 1 <= number <= MAX_LINKS):
+        raise LinkageError(f"links = {value!r}: allowed whole numbers 1 <= links <= {MAX_LINKS}")
+    return int(number)
+
+
 def parse_number(name: str, q: Quantity, value, units: str = SI) -> float:
     """A finite float in SI from a number or a typed text (``1e-3``, `` 2.5 ``, ``−1`` with a minus sign);
     LinkageError naming the field and what was typed otherwise."""

@@ -358,12 +358,10 @@ class Session:
             self._layout_changed()
 
     def set_links(self, links) -> None:
-        number = commands.parse_number("links", commands.LINKS, links)
-        if not (number == int(number) and 1 <= number <= physics.model.MAX_LINKS):
-            raise LinkageError(f"links = {links}: allowed whole numbers 1 <= links <= {physics.model.MAX_LINKS}")
+        number = commands.parse_links(links)
         if self.params.preset != "chain":
             raise LinkageError("links: only the 'chain' mechanism has a variable number of bars")
-        self.set_mechanism("chain", links=int(number))
+        self.set_mechanism("chain", links=number)
 
     def _layout_changed(self) -> None:
         self._label_changed()

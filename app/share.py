@@ -18,7 +18,6 @@ from typing import Callable, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError
 
 from physics import LinkageError, preset_names
-from physics.model import MAX_LINKS
 
 from . import commands
 from .commands import CONTROL, DEG
@@ -57,18 +56,13 @@ def start_of(pairs: list[tuple[str, str]], preset: str, links: int | None) -> tu
         else:
             refused.append(f"preset = {name!r}: allowed {', '.join(preset_names())}")
     if "links" in values:
-        text = values["links"]
-        try:
-            number = float(text)
-        except ValueError:
-            number = math.nan
-        whole = math.isfinite(number) and number == int(number) and 1 <= number <= MAX_LINKS
         if preset != "chain":
             refused.append("links: only the 'chain' mechanism has a variable number of bars")
-        elif whole:
-            links = int(number)
         else:
-            refused.append(f"links = {text!r}: allowed whole numbers 1 <= links <= {MAX_LINKS}")
+            try:
+                links = commands.parse_links(values["links"])
+            except LinkageError as error:
+                refused.append(str(error))
     return preset, links, refused
 
 

@@ -214,3 +214,14 @@ def test_any_name_is_a_known_field_or_one_line_saying_which_are(triple, name, va
         assert "\n" not in str(error) and str(error)
         return
     edit.params.validate()
+
+
+@pytest.mark.parametrize("value, expected", [("3", 3), (" 12 ", 12), (1, 1), ("7.0", 7), ("1e1", 10)])
+def test_links_are_whole_numbers_in_range(value, expected):
+    assert commands.parse_links(value) == expected
+
+
+@pytest.mark.parametrize("value", ["0", "13", "3.5", "abc", "", "nan", "inf", True, None, [3]])
+def test_bad_links_are_refused_with_the_field_and_the_range(value):
+    with pytest.raises(physics.LinkageError, match=r"^links"):
+        commands.parse_links(value)
