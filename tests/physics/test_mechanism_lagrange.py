@@ -1,6 +1,7 @@
 """The three formulations of any mechanism agree, each derived on its own: Lagrange and Newton–Euler on a
-spanning tree against the maximal-coordinate DAE, at random assembled states of every mechanism preset: every
-body's angular acceleration and every multiplier of the joints they close by constraints (cut joints, motors).
+spanning tree against the maximal-coordinate DAE, at random assembled states of every mechanism preset and of random valid mechanisms (open and closed chains,
+slider-cranks of random proportions, driven crank-rockers and Jansen legs at random speeds): every body's angular
+acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10.
 """
 
 from __future__ import annotations
@@ -8,27 +9,33 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from physics import Bar, Chain
+from physics.assembly import tip_position
 from physics.mechanism import MECHANISM_PRESETS, assemble
+from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.lagrange import derive_tree_lagrange
 from physics.mechanism.newton_euler import derive_tree_newton_euler
+from physics.mechanism.presets import crank_rocker, jansen_leg, slider_crank
 from physics.mechanism.simulate import project_velocity
 from physics.mechanism.tree import tree_state
 
 STATES = 12
 
 
-@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
-@pytest.mark.parametrize("name", sorted(MECHANISM_PRESETS))
-def test_tree_formulations_match_the_dae_at_random_states(name, formulation):
-    mechanism = MECHANISM_PRESETS[name]()
+# Issue 16: accelerations and every multiplier within 1e-10 relative (measured: 1e-14 at worst, the Jansen leg)
+AGREEMENT = 1e-10
+
+
+def assert_three_way_agreement(mechanism, formulation: str, rng: np.random.Generator, states: int = STATES) -> None:
+    """At ``states`` random assembled states: the tree formulation's body angular accelerations and cut-joint and
+    motor multipliers equal the DAE's."""
     dae = MechanismDAE(mechanism)
     tree = (derive_tree_lagrange if formulation == "lagrange" else derive_tree_newton_euler)(mechanism)
-    rng = np.random.default_rng(sum(map(ord, name)))
     angle_map = np.array([tree.body_angles(e) - tree.body_angles(np.zeros(len(tree.coordinates)))
                           for e in np.eye(len(tree.coordinates))]).T  # body angles are linear in s
     checked = 0
-    for _ in range(STATES):
+    for _ in range(states):
         guess = dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)
         q = assemble(mechanism, guess).q
         qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
@@ -39,7 +46,7 @@ def test_tree_formulations_match_the_dae_at_random_states(name, formulation):
         dae_solution = dae.solve(q, qdot)
         sdd, multipliers = tree.solve(s, sd)
         scale = 1.0 + np.max(np.abs(dae_solution.qddot[2::3]))
-        assert np.max(np.abs(angle_map @ sdd - dae_solution.qddot[2::3])) <= 1e-9 * scale
+        assert np.max(np.abs(angle_map @ sdd - dae_solution.qddot[2::3])) <= AGREEMENT * scale
         rows = [row.joint for row in dae.constraints.rows]
         for joint in dict.fromkeys(tree.row_joints):
             mine = multipliers[[k for k, j in enumerate(tree.row_joints) if j == joint]]
@@ -49,6 +56,43 @@ def test_tree_formulations_match_the_dae_at_random_states(name, formulation):
             elif len(theirs) == 3:  # a pin that is both cut and driven: x, y, then the motor
                 theirs = theirs[:2] if len(mine) == 2 else theirs
             force_scale = 1.0 + np.max(np.abs(dae_solution.reactions))
-            assert np.max(np.abs(mine - theirs)) <= 1e-9 * force_scale, (joint, mine, theirs)
+            assert np.max(np.abs(mine - theirs)) <= AGREEMENT * force_scale, (joint, mine, theirs)
         checked += 1
-    assert checked == STATES
+    assert checked == states
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+@pytest.mark.parametrize("name", sorted(MECHANISM_PRESETS))
+def test_tree_formulations_match_the_dae_at_random_states(name, formulation):
+    assert_three_way_agreement(MECHANISM_PRESETS[name](), formulation, np.random.default_rng(sum(map(ord, name))))
+
+
+def random_mechanism(rng: np.random.Generator, kind: str):
+    """A random valid mechanism of ``kind``: an open chain of 1 to 5 bars, a chain of 3 or 4 bars whose tip is
+    pinned where a random pose puts it (a four-bar, a five-bar of two degrees of freedom), a slider-crank of
+    random proportions, or a driven crank-rocker or Jansen leg at a random motor speed and crank angle."""
+    if kind in ("open chain", "closed chain"):
+        n = int(rng.integers(1, 6)) if kind == "open chain" else int(rng.integers(3, 5))
+        L = rng.uniform(0.3, 2.0, n)
+        sketch = rng.uniform(-np.pi, np.pi, n)
+        bars = [Bar(L=L[k], d=L[k] * rng.uniform(0.1, 0.9), m=rng.uniform(0.2, 3.0), I=rng.uniform(0.01, 1.0))
+                for k in range(n)]
+        pin = tuple(float(v) for v in tip_position(L, sketch)) if kind == "closed chain" else None
+        return chain_mechanism(Chain(bars=bars, g=rng.uniform(0.5, 10.0), pin=pin), sketch)
+    if kind == "slider-crank":
+        crank = rng.uniform(0.02, 0.1)
+        return slider_crank(crank=crank, rod=crank * rng.uniform(2.5, 5.0), angle_deg=rng.uniform(10.0, 170.0))
+    if kind == "crank-rocker":
+        return crank_rocker(speed=rng.uniform(0.5, 10.0))
+    return jansen_leg(speed=rng.uniform(0.5, 6.0), crank_angle_deg=rng.uniform(0.0, 360.0))
+
+
+KINDS = ("open chain", "closed chain", "slider-crank", "crank-rocker", "jansen-leg")
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+@pytest.mark.parametrize("kind", KINDS)
+def test_tree_formulations_match_the_dae_on_random_valid_mechanisms(kind, formulation):
+    rng = np.random.default_rng(20261124 + KINDS.index(kind))
+    for _ in range(4):
+        assert_three_way_agreement(random_mechanism(rng, kind), formulation, rng, states=3)
