@@ -80,3 +80,21 @@ def test_ten_playing_sessions_keep_memory_flat():
         assert client["bar_updates"] / client["pose_span"] >= MIN_FPS, (i, client)
     assert rss["slope_beyond_stored_samples_mb_per_min"] is not None
     assert rss["slope_beyond_stored_samples_mb_per_min"] < MAX_SLOPE_MB_PER_MIN, rss
+
+
+VIEWERS = 100
+VIEWER_SECONDS = 20.0
+# of the frames the shared session rendered, the share each viewer must receive: before every frame was
+# flushed, viser's sender dozed up to 1/60 s after each window and viewers received about two frames in three
+MIN_RECEIVED_SHARE = 0.85
+
+
+@pytest.mark.load
+def test_every_viewer_of_a_shared_session_receives_the_frames_it_renders():
+    result = measure_load(clients=VIEWERS, seconds=VIEWER_SECONDS, early=0, early_seconds=VIEWER_SECONDS,
+                          shared=True)
+    rendered = result["server_frames_per_session_per_s"]["median"]
+    print("\nviewers:", json.dumps({"fps_per_client": result["fps_per_client"], "rendered": rendered}))
+    assert rendered is not None and rendered > 0
+    for i, client in enumerate(result["per_client"]):
+        assert client["bar_updates"] / client["pose_span"] >= MIN_RECEIVED_SHARE * rendered, (i, client, rendered)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,16 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
     assert served.replace("\n" + page.ADDITIONS.read_text(encoding="utf-8"), "", 1) == original
     assert page.READY_ID in served  # the screen waits for the session's marker
     assert (folder.stat().st_mode & 0o077) == 0  # a private folder
+
+
+def test_every_frame_is_flushed_so_no_frame_waits_for_the_next_window(connect, monkeypatch):
+    """Why each frame is flushed (app/frame_view.py): viser's sender, idle after a window, otherwise looks
+    again only after up to 1/60 s, and a frame drawn meanwhile meets the next one and is coalesced away."""
+    _, session = connect()
+    assert session.player.wait_idle(600)
+    flushes = []
+    monkeypatch.setattr(session.view.target, "flush", lambda: flushes.append(time.perf_counter()))
+    sent0 = session.view.frames_sent
+    assert wait_until(lambda: session.view.frames_sent - sent0 >= 20, timeout=60)
+    frames = session.view.frames_sent - sent0
+    assert len(flushes) >= frames - 1, (len(flushes), frames)
