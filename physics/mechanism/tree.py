@@ -210,3 +210,11 @@ def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[n
         rates.append(float(w_on * np.array([-direction[1], direction[0]]) @ (sliding - guide)
                            + direction @ (sliding_rate - guide_rate)))
     return np.array(values), np.array(rates)
+
+
+def reactions_from_motion(tree_reactions, motion: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+    """Every reaction row from a formulation's ``motion`` (``(B, 9)``: x, y, phi, their rates, their
+    accelerations per body) and its multipliers (:class:`physics.mechanism.reactions.TreeReactions`)."""
+    motion = np.asarray(motion, dtype=float).reshape(-1, 9)
+    return tree_reactions.solve(motion[:, 0:2], motion[:, 2], motion[:, 5], motion[:, 6:8], motion[:, 8],
+                                np.asarray(multipliers, dtype=float))

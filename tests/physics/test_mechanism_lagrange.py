@@ -1,7 +1,9 @@
 """The three formulations of any mechanism agree, each derived on its own: Lagrange and Newton–Euler on a
 spanning tree against the maximal-coordinate DAE, at random assembled states of every mechanism preset and of random valid mechanisms (open and closed chains,
 slider-cranks of random proportions, driven crank-rockers and Jansen legs at random speeds): every body's angular
-acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10.
+acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10; and
+every reaction row of every joint, the tree's own joints included (Newton's second law on each tree formulation's
+own accelerations, physics/mechanism/reactions.py), in the DAE's layout and signs, within 1e-10.
 """
 
 from __future__ import annotations
@@ -57,8 +59,18 @@ def assert_three_way_agreement(mechanism, formulation: str, rng: np.random.Gener
                 theirs = theirs[:2] if len(mine) == 2 else theirs
             force_scale = 1.0 + np.max(np.abs(dae_solution.reactions))
             assert np.max(np.abs(mine - theirs)) <= AGREEMENT * force_scale, (joint, mine, theirs)
+        reactions = tree.reactions(s, sd, sdd, multipliers)
+        assert tree.tree_reactions.row_names == tuple(f"{row.joint}: {row.meaning}" for row in dae.constraints.rows)
+        assert reaction_disagreement(reactions, dae_solution.reactions) <= AGREEMENT, (
+            dae.constraints.rows[int(np.argmax(np.abs(reactions - dae_solution.reactions)))])
         checked += 1
     assert checked == states
+
+
+def reaction_disagreement(mine: np.ndarray, theirs: np.ndarray) -> float:
+    """The largest difference of any reaction row, relative to 1 + the largest reaction."""
+    assert mine.shape == theirs.shape
+    return float(np.max(np.abs(mine - theirs)) / (1.0 + np.max(np.abs(theirs))))
 
 
 @pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
@@ -96,3 +108,26 @@ def test_tree_formulations_match_the_dae_on_random_valid_mechanisms(kind, formul
     rng = np.random.default_rng(20261124 + KINDS.index(kind))
     for _ in range(4):
         assert_three_way_agreement(random_mechanism(rng, kind), formulation, rng, states=3)
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+@pytest.mark.parametrize("name", ["slider-crank", "jansen-leg"])
+def test_the_reaction_check_sees_any_single_wrong_row(name, formulation):
+    """The agreement check above is not blind: a tree formulation's reactions with any one row off by 1e-8 of
+    the largest reaction fail it, the tree's own joints' rows as much as the multipliers' rows."""
+    mechanism = MECHANISM_PRESETS[name]()
+    dae = MechanismDAE(mechanism)
+    tree = (derive_tree_lagrange if formulation == "lagrange" else derive_tree_newton_euler)(mechanism)
+    rng = np.random.default_rng(7)
+    q = assemble(mechanism, dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)).q
+    qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
+    s, sd = tree_state(mechanism, q, qdot)
+    reactions = tree.reactions(s, sd, *tree.solve(s, sd))
+    theirs = dae.solve(q, qdot).reactions
+    assert reaction_disagreement(reactions, theirs) <= AGREEMENT
+    tree_rows = [k for k, row in enumerate(dae.constraints.rows) if row.joint in tree.coordinates]
+    assert tree_rows  # the tree's own joints are among the rows checked
+    for k in range(len(reactions)):
+        wrong = reactions.copy()
+        wrong[k] += 1e-8 * (1.0 + np.max(np.abs(theirs)))
+        assert reaction_disagreement(wrong, theirs) > AGREEMENT, dae.constraints.rows[k]
