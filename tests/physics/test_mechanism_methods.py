@@ -1,0 +1,137 @@
+"""Any planar mechanism, third part: choosing the formulation and the stabilisation of a run, and continuing one.
+
+Each formulation integrates its own accelerations (the DAE in maximal coordinates, Lagrange and Newton–Euler in
+tree coordinates) and reports its own reactions, so runs of the three methods agreeing is a check of all three;
+the stabilisations are told apart by what they do to the constraint residual; a run continued from the end of
+another equals one run over both spans.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics.errors import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
+
+ROOT = Path(__file__).resolve().parents[2]
+METHODS = ("dae", "lagrange", "newton_euler")
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar"])
+def test_the_three_methods_integrate_the_same_motion_and_reactions(name):
+    """Undriven runs of each formulation (its own accelerations integrated, its own reactions) agree."""
+    mechanism = MECHANISM_PRESETS[name]()
+    runs = {method: simulate_mechanism(mechanism, 0.5, 11, method=method, rtol=1e-12, atol=1e-12)
+            for method in METHODS}
+    reference = runs["dae"]
+    assert np.ptp(reference.potential) > 1e-3 * np.max(np.abs(reference.energy))  # it moves
+    for method, run in runs.items():
+        assert run.method == method and run.stabilization == "projection" and run.integrated
+        assert run.row_names == reference.row_names
+        assert np.max(np.abs(run.q - reference.q)) <= 1e-9
+        assert np.max(np.abs(run.qdot - reference.qdot)) <= 1e-8
+        scale = 1.0 + np.max(np.abs(reference.reactions))
+        assert np.max(np.abs(run.reactions - reference.reactions)) <= 1e-8 * scale, method
+        assert np.max(run.residual) <= 1e-10
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_stabilizations_hold_the_loops_as_documented(method):
+    """At a loose tolerance the closures drift without stabilisation; Baumgarte's terms pull the drift back by
+    more than ten times; projection keeps it at rounding level."""
+    mechanism = MECHANISM_PRESETS["watt-six-bar"]()
+    worst = {}
+    for stabilization in ("none", "baumgarte", "projection"):
+        run = simulate_mechanism(mechanism, 3.0, 31, method=method, stabilization=stabilization, rtol=1e-6,
+                                 atol=1e-6)
+        assert run.stabilization == stabilization
+        worst[stabilization] = float(np.max(run.residual))
+    assert worst["none"] > 1e-8
+    assert worst["baumgarte"] < worst["none"] / 10
+    assert worst["projection"] <= 1e-10
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_continued_run_equals_one_run_over_both_spans(method):
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    whole = simulate_mechanism(mechanism, 0.6, 7, method=method, rtol=1e-12, atol=1e-12)
+    first = simulate_mechanism(mechanism, 0.3, 4, method=method, rtol=1e-12, atol=1e-12)
+    rest = simulate_mechanism(mechanism, 0.3, 4, q0=first.q[-1], qdot0=first.qdot[-1], t_start=float(first.t[-1]),
+                              method=method, rtol=1e-12, atol=1e-12)
+    assert np.allclose(rest.t, whole.t[3:], rtol=0, atol=1e-15)
+    assert np.max(np.abs(rest.q - whole.q[3:])) <= 1e-9
+    assert np.max(np.abs(rest.energy - whole.energy[3:])) <= 1e-9 * np.max(np.abs(whole.energy))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_motor_follows_absolute_time_from_t_start(method):
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    speed = mechanism.drivers[0].speed
+    crank = [body.name for body in mechanism.bodies].index("crank")
+    run = simulate_mechanism(mechanism, 0.5, 6, t_start=0.25, method=method)
+    assert np.allclose(run.t, np.linspace(0.25, 0.75, 6))
+    assert np.allclose(run.q[:, 3 * crank + 2], speed * run.t, atol=1e-10)
+    assert not run.integrated and run.method == method
+    reference = simulate_mechanism(mechanism, 0.5, 6, t_start=0.25)
+    assert np.max(np.abs(run.reactions - reference.reactions)) <= 1e-10 * (1 + np.max(np.abs(reference.reactions)))
+
+
+@pytest.mark.parametrize(
+    "field, value, fragment",
+    [
+        ("t_end", 0.0, "t_end = 0.0: allowed range 0 < t_end <= 1e4"),
+        ("t_end", float("nan"), "t_end = nan: allowed range"),
+        ("samples", 1, "samples = 1: allowed range 2 <= samples <= 1000000"),
+        ("t_start", float("inf"), "t_start = inf: allowed range"),
+        ("method", "rk4", "method = 'rk4': allowed values dae, lagrange, newton_euler"),
+        ("stabilization", "both", "stabilization = 'both': allowed values none, baumgarte, projection"),
+        ("rtol", 0.5, "rtol = 0.5: allowed range 1e-14 <= rtol <= 1e-2"),
+        ("atol", -1.0, "atol = -1.0: allowed range"),
+    ],
+)
+def test_bad_run_options_are_one_line_naming_the_field(field, value, fragment):
+    options = {"t_end": 1.0, "samples": 3, field: value}
+    with pytest.raises(LinkageError) as error:
+        simulate_mechanism(MECHANISM_PRESETS["slider-crank"](), **options)
+    message = str(error.value)
+    assert message.startswith(fragment) and "\n" not in message
+
+
+def _physics(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "physics", *args], capture_output=True, text=True, timeout=300,
+                          cwd=ROOT)
+
+
+def test_both_commands_take_method_and_stabilization(tmp_path):
+    path = tmp_path / "slider.json"
+    path.write_text(MECHANISM_PRESETS["slider-crank"]().model_dump_json(), encoding="utf-8")
+    result = _physics("mechanism", "--file", str(path), "--t-end", "0.2", "--samples", "3", "--method",
+                      "newton_euler", "--stabilization", "baumgarte", "--json", "--out", str(tmp_path / "a.csv"))
+    assert result.returncode == 0, result.stderr
+    run = json.loads(result.stdout)["run"]
+    assert run["method"] == "newton_euler" and run["stabilization"] == "baumgarte"
+    result = _physics("simulate", "--mechanism", str(path), "--t-end", "0.2", "--samples", "3", "--method",
+                      "newton_euler", "--stabilization", "baumgarte", "--out", str(tmp_path / "b.csv"))
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+    by_dae = _physics("mechanism", "--file", str(path), "--t-end", "0.2", "--samples", "3", "--out",
+                      str(tmp_path / "c.csv"))
+    assert by_dae.returncode == 0 and (tmp_path / "c.csv").read_text() != (tmp_path / "a.csv").read_text()
+    for args, line in [
+        (("mechanism", "--file", str(path), "--method", "euler"),
+         "error: method = 'euler': allowed values dae, lagrange, newton_euler"),
+        (("simulate", "--mechanism", str(path), "--stabilization", "tight"),
+         "error: stabilization = 'tight': allowed values none, baumgarte, projection"),
+        (("simulate", "--mechanism", str(path), "--integrator", "RK45"),
+         "error: --integrator: does not apply with --mechanism (a mechanism file's run takes --t-end, --samples, "
+         "--out, --method, --stabilization)"),
+    ]:
+        bad = _physics(*args)
+        assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == line, bad.stderr
