@@ -17,6 +17,7 @@ chains (docs/physics.md, "Closed loops"): ``baumgarte`` replaces the closures' `
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.lapack import dgesv
 
 from ..errors import LinkageError
 from .assembly import ASSEMBLY_TOLERANCE, sketch_size
@@ -42,31 +43,40 @@ class DaeFormulation:
         self.tolerance = ASSEMBLY_TOLERANCE * sketch_size(dae.mechanism)
         scale = sketch_size(dae.mechanism)
         self.weights = np.tile([1.0, 1.0, 1.0 / scale**2], len(dae.mechanism.bodies))  # as assembly weighs steps
+        self._parameters = np.array([0.0, alpha, beta])
+        self._native: tuple | None = None  # (augmented system, closures), machine code compiled on first use
 
     def start(self, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return q, qdot
 
     def accelerations(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        jacobian = self.constraints.jacobian(x)
-        applied = self.dae.applied(v)
-        if jacobian.shape[0] == 0:
-            return self.inverse_mass * applied
-        gamma = self.constraints.acceleration_rhs(x, v)
-        if self.alpha or self.beta:
-            gamma = gamma - 2.0 * self.alpha * (jacobian @ v - self.velocity_target) - self.beta**2 * (
-                self.constraints.residual(x, t))
-        weighted = jacobian * self.inverse_mass
-        multipliers = np.linalg.solve(weighted @ jacobian.T, gamma - weighted @ applied)
-        return self.inverse_mass * (applied + jacobian.T @ multipliers)
+        """From the DAE's machine code (compiled when first needed), Baumgarte terms included."""
+        self._parameters[0] = t
+        return solve(*self._compiled()[0](x, v, self._parameters))[: self.size]
+
+    def _compiled(self):
+        if self._native is None:
+            from .dae_native import compile_dae  # noqa: PLC0415  (sympy and llvmlite only when a run integrates)
+
+            self._native = compile_dae(self.dae.mechanism)
+        return self._native
 
     def project(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = _least_change(lambda z: self.constraints.residual(z, t), self.constraints.jacobian, x, self.weights,
-                          self.tolerance)
-        jacobian = self.constraints.jacobian(x)
+        """Least-change Gauss-Newton onto ``Phi(q, t) = 0`` (rotations weighed by the sketch's size, as assembly
+        does), then the velocity nearest in kinetic energy with ``Phi_q qdot = nu``."""
+        closures = self._compiled()[1]
+        time = np.array([t])
+        for _ in range(PROJECTION_ITERATIONS):
+            jacobian, gap = closures(x, (), time)
+            if gap.size == 0 or np.max(np.abs(gap)) <= self.tolerance:
+                break
+            weighted = jacobian * self.weights
+            x = x - self.weights * (jacobian.T @ solve(weighted @ jacobian.T, gap))
+        jacobian, _ = closures(x, (), time)
         if jacobian.shape[0]:
             weighted = jacobian * self.inverse_mass
             gap = jacobian @ v - self.velocity_target
-            v = v - self.inverse_mass * (jacobian.T @ np.linalg.solve(weighted @ jacobian.T, gap))
+            v = v - self.inverse_mass * (jacobian.T @ solve(weighted @ jacobian.T, gap))
         return x, v
 
     def sample(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -85,6 +95,8 @@ class TreeFormulation:
         self.rows = len(tree.row_joints)
         self.velocity_target = np.asarray(tree.velocity_rhs, dtype=float).reshape(self.rows)
         self.tolerance = ASSEMBLY_TOLERANCE * sketch_size(dae.mechanism)
+        self._parameters = np.array([0.0, alpha, beta])
+        self._native = tree.native()
 
     def _jacobian(self, s: np.ndarray) -> np.ndarray:
         return np.asarray(self.tree.constraint_jacobian(s), dtype=float).reshape(self.rows, self.size)
@@ -118,8 +130,10 @@ class TreeFormulation:
         return matrix, rhs
 
     def accelerations(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        matrix, rhs = self._system(t, x, v)
-        return np.linalg.solve(matrix, rhs)[: self.size]
+        """From the formulation's machine code (compiled when first needed), Baumgarte terms included."""
+        self._parameters[0] = t
+        matrix, rhs = self._native(x, v, self._parameters)
+        return solve(matrix, rhs)[: self.size]
 
     def project(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if not self.rows:
@@ -138,6 +152,15 @@ class TreeFormulation:
         motion = np.asarray(self.tree.motion(x, v, sdd), dtype=float).reshape(-1, 9)
         reactions = self.tree.reactions(x, v, sdd, multipliers)
         return motion[:, 0:3].ravel(), motion[:, 3:6].ravel(), reactions
+
+
+def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``matrix x = rhs`` by LAPACK's dgesv directly (numpy's wrapper costs four times the solve of a small
+    system); LinkageError when the matrix is exactly singular."""
+    _, _, x, info = dgesv(matrix, rhs)
+    if info != 0:
+        raise LinkageError("singular pose (a dead centre or a redundant constraint)")
+    return x
 
 
 def _least_change(residual, jacobian, x: np.ndarray, weights: np.ndarray, tolerance: float) -> np.ndarray:

@@ -24,7 +24,15 @@ import sympy as sp
 from ..errors import LinkageError
 from .model import Mechanism, Prismatic, Revolute
 from .reactions import TreeReactions
-from .tree import closure_rows, flat, reactions_from_motion, tree_poses, vector_call
+from .tree import (
+    baumgarte_terms,
+    closure_rows,
+    flat,
+    native_builder,
+    reactions_from_motion,
+    tree_poses,
+    vector_call,
+)
 
 SINGULAR_RCOND = 1e-13
 
@@ -46,6 +54,7 @@ class TreeLagrange:
     velocity_rhs: np.ndarray  # (rows,): the motors' speeds on their rows
     motion: Callable  # (s, sd, sdd) -> (B, 9): x, y, phi, their rates and their accelerations, per body
     tree_reactions: TreeReactions
+    native: Callable  # () -> NativeSystem of the augmented system, Baumgarte terms included (compiled once)
 
     def reactions(self, s: np.ndarray, sd: np.ndarray, sdd: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
         """Every joint reaction, in the DAE's row layout: the multipliers for the cut joints and motors, Newton's
@@ -113,6 +122,14 @@ def _derive(description: str) -> TreeLagrange:
                          acceleration[2 * k], acceleration[2 * k + 1], angular_acceleration[k]]
                         for k in range(len(bodies))])
 
+    k, count = len(s), len(rows)
+    augmented = sp.zeros(k + count, k + count)
+    augmented[:k, :k] = mass
+    right = sp.Matrix(force)
+    if rows:
+        augmented[:k, k:], augmented[k:, :k] = -jacobian.T, jacobian
+        right = right.col_join(gamma - baumgarte_terms(phi, jacobian, sd, speeds))
+
     def compile_(expr, *args):
         return sp.lambdify(args, expr, modules="numpy", cse=True)
 
@@ -131,6 +148,7 @@ def _derive(description: str) -> TreeLagrange:
         velocity_rhs=np.array(speeds),
         motion=_motion_call(compile_(motion, flat_s, flat_sd, list(sdd))),
         tree_reactions=TreeReactions(mechanism, poses.topology, poses.order, tuple(row_joints), tuple(kinds)),
+        native=native_builder(s, sd, t, augmented, right),
     )
 
 

@@ -26,7 +26,17 @@ import sympy as sp
 from ..errors import LinkageError
 from .model import GROUND, Mechanism, Prismatic, Revolute
 from .reactions import TreeReactions
-from .tree import TreePoses, closure_rows, flat, reactions_from_motion, rotation, tree_poses, vector_call
+from .tree import (
+    TreePoses,
+    baumgarte_terms,
+    closure_rows,
+    flat,
+    native_builder,
+    reactions_from_motion,
+    rotation,
+    tree_poses,
+    vector_call,
+)
 
 SINGULAR_RCOND = 1e-13
 
@@ -50,6 +60,7 @@ class TreeNewtonEuler:
     velocity_rhs: np.ndarray  # (rows,): the motors' speeds on their rows
     motion: Callable  # (s, sd, sdd) -> (B, 9): x, y, phi, their rates and their accelerations, per body
     tree_reactions: TreeReactions
+    native: Callable  # () -> NativeSystem of matrix and rhs, Baumgarte terms included (compiled once)
 
     def reactions(self, s: np.ndarray, sd: np.ndarray, sdd: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
         """Every joint reaction, in the DAE's row layout: the multipliers for the cut joints and motors, Newton's
@@ -195,6 +206,9 @@ def _derive(description: str) -> TreeNewtonEuler:
     motion = sp.Matrix([[*poses.centre[name], poses.angle[name], *centre_velocity[name], angle_rate[name],
                          *centre_acceleration[name], angle_acceleration[name]] for name in bodies])
     phi_jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(s))
+    stabilised = sp.Matrix(rhs)
+    if rows:
+        stabilised[len(s):, 0] = rhs[len(s):, 0] - baumgarte_terms(phi, phi_jacobian, sd, speeds)
     return TreeNewtonEuler(
         mechanism=mechanism,
         coordinates=poses.coordinates,
@@ -207,6 +221,7 @@ def _derive(description: str) -> TreeNewtonEuler:
         velocity_rhs=np.array(speeds),
         motion=_motion_call(compile_(motion, flat_s, flat_sd, list(sdd))),
         tree_reactions=TreeReactions(mechanism, poses.topology, poses.order, tuple(row_joints), tuple(kinds)),
+        native=native_builder(s, sd, poses.t, matrix, stabilised),
     )
 
 
