@@ -131,3 +131,43 @@ def test_the_reaction_check_sees_any_single_wrong_row(name, formulation):
         wrong = reactions.copy()
         wrong[k] += 1e-8 * (1.0 + np.max(np.abs(theirs)))
         assert reaction_disagreement(wrong, theirs) > AGREEMENT, dae.constraints.rows[k]
+
+
+def _moving_guides():
+    """A block sliding on a swinging arm (the slider's body is the tree child), and a rail hanging from a block
+    pinned to the ground (the guide's carrier is the tree child): both ways a slider can sit in the tree."""
+    from physics.mechanism import Mechanism  # noqa: PLC0415
+
+    arm = {"ground": {"O": [0, 0]}, "bodies": [
+        {"name": "arm", "mass": 1, "inertia": 0.1, "points": {"O": [0, 0], "T": [1, 0.2]}},
+        {"name": "block", "mass": 0.5, "inertia": 0.01, "points": {"P": [0.5, 0.3], "Q": [0.6, 0.4]}}],
+        "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "arm.O", "damping": 0.05},
+                   {"kind": "prismatic", "name": "S", "body": "block", "point": "P", "on": "arm", "through": "T",
+                    "direction": [1, 0.3]}]}
+    rail = {"ground": {"O": [0, 0]}, "bodies": [
+        {"name": "block", "mass": 0.5, "inertia": 0.02, "points": {"O": [0, 0], "P": [0.1, 0.05]}},
+        {"name": "rail", "mass": 1.2, "inertia": 0.2, "points": {"T": [0.3, 0.4], "E": [1.0, -0.3]}}],
+        "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "block.O"},
+                   {"kind": "prismatic", "name": "S", "body": "block", "point": "P", "on": "rail", "through": "T",
+                    "direction": [0.8, -0.6]}],
+        "drivers": [{"joint": "O", "torque": 0.7}]}
+    return [Mechanism.model_validate(arm), Mechanism.model_validate(rail)]
+
+
+def _damped_torque_driven_crank_rocker():
+    spec = crank_rocker().model_dump()
+    spec["drivers"] = [{"joint": spec["drivers"][0]["joint"], "torque": 0.4}]
+    for joint in spec["joints"]:
+        joint["damping"] = 0.02
+    from physics.mechanism import Mechanism  # noqa: PLC0415
+
+    return Mechanism.model_validate(spec)
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+def test_every_reaction_agrees_with_sliders_on_moving_guides_damping_and_torque_motors(formulation):
+    """The tree joints' reactions where the slider's moment balance matters (its guide turns), with pin damping
+    and a torque motor among the loads."""
+    rng = np.random.default_rng(99)
+    for mechanism in [*_moving_guides(), _damped_torque_driven_crank_rocker()]:
+        assert_three_way_agreement(mechanism, formulation, rng, states=4)
