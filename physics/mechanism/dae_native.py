@@ -41,8 +41,8 @@ def _compile(description: str) -> tuple[NativeSystem, NativeSystem]:
     dae = MechanismDAE(Mechanism.model_validate(json.loads(description)))
     constraints = dae.constraints
     size = constraints.size
-    q = sp.Matrix(sp.symbols(f"q0:{size}", real=True))
-    qdot = sp.Matrix(sp.symbols(f"qd0:{size}", real=True))
+    q = sp.Matrix(sp.symbols(f"q0:{size}"))
+    qdot = sp.Matrix(sp.symbols(f"qd0:{size}"))
     t = sp.Symbol("t", real=True)
 
     def angle(k: int):
