@@ -189,3 +189,14 @@ def test_the_compiled_right_hand_sides_equal_the_formulations(name, method):
         got = stabilised.accelerations(t, x, v)
         assert np.max(np.abs(got - expected)) <= 1e-10 * (1 + np.max(np.abs(expected)))
         assert np.max(np.abs(got - compiled)) > 1e-6  # the terms did something here
+
+
+@pytest.mark.parametrize("method", ["lagrange", "newton_euler"])
+def test_a_fully_driven_mechanism_integrated_by_a_tree_formulation_moves_as_by_kinematics(method):
+    mechanism = MECHANISM_PRESETS["chebyshev-lambda"]()
+    by_kinematics = simulate_mechanism(mechanism, 1.0, 11, method=method)
+    integrated = simulate_mechanism(mechanism, 1.0, 11, method=method, integrate=True, rtol=1e-12, atol=1e-12)
+    assert integrated.integrated and not by_kinematics.integrated and integrated.steps > 0
+    assert np.max(np.abs(by_kinematics.q - integrated.q)) <= 1e-9
+    assert np.max(np.abs(by_kinematics.reactions - integrated.reactions)) <= 1e-7 * np.max(
+        np.abs(integrated.reactions))
