@@ -112,8 +112,10 @@ class TreeFormulation:
         jacobian = self._jacobian(s)
         return 2.0 * self.alpha * (jacobian @ sd - self.velocity_target) + self.beta**2 * self._residual(s, t)
 
-    def _system(self, t: float, s: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The formulation's own linear system in ``(sdd, multipliers)``."""
+    def _system(self, t: float, s: np.ndarray, sd: np.ndarray, stabilised: bool = True
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The formulation's own linear system in ``(sdd, multipliers)``, with the Baumgarte terms when
+        ``stabilised`` (the samples report the reactions without them, as the DAE's samples do)."""
         if self.name == "newton_euler":
             matrix = np.atleast_2d(self.tree.matrix(s))
             rhs = np.array(self.tree.rhs(s, sd), dtype=float)
@@ -125,7 +127,7 @@ class TreeFormulation:
             matrix[:k, :k], matrix[:k, k:], matrix[k:, :k] = mass, -jacobian.T, jacobian
             rhs = np.concatenate([np.ravel(self.tree.force(s, sd)),
                                   np.ravel(self.tree.gamma(s, sd)) if rows else np.zeros(0)])
-        if self.rows and (self.alpha or self.beta):
+        if stabilised and self.rows and (self.alpha or self.beta):
             rhs[self.size:] -= self._baumgarte(t, s, sd)
         return matrix, rhs
 
@@ -144,7 +146,7 @@ class TreeFormulation:
         return x, v - jacobian.T @ np.linalg.solve(jacobian @ jacobian.T, gap)
 
     def sample(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        matrix, rhs = self._system(t, x, v)
+        matrix, rhs = self._system(t, x, v, stabilised=False)
         if 1.0 / np.linalg.cond(matrix) < 1e-13:
             raise LinkageError(f"{self.mechanism.name}: singular pose (a dead centre or a redundant constraint)")
         solution = np.linalg.solve(matrix, rhs)
