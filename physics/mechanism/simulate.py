@@ -124,6 +124,8 @@ def simulate_mechanism(
     integration. To continue a run, pass its last ``t``, ``q`` and ``qdot`` as ``t_start``, ``q0``, ``qdot0``."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol)
+    q0, qdot0 = (_state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
+                                                                                          (qdot0, "qdot0")))
     dae = MechanismDAE(mechanism)
     constraints = dae.constraints
     assembled = assemble(mechanism, q0, options.t_start)
@@ -174,6 +176,19 @@ def simulate_mechanism(
         method=options.method, stabilization=options.stabilization, integrated=not driven,
         steps=0 if stepper is None else stepper.steps, evaluations=0 if stepper is None else stepper.evaluations,
     )
+
+
+def _state_vector(value, name: str, size: int) -> np.ndarray | None:
+    """``q0`` or ``qdot0`` as a float array of ``size`` finite numbers (x, y, phi per body), or None."""
+    if value is None:
+        return None
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        array = np.zeros(0)
+    if array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise LinkageError(f"{name}: expected {size} finite numbers (x, y, phi of each body's centre of mass)")
+    return array
 
 
 def _trace_point(mechanism: Mechanism) -> tuple[int, tuple[float, float]] | None:

@@ -104,6 +104,14 @@ def test_bad_run_options_are_one_line_naming_the_field(field, value, fragment):
     assert message.startswith(fragment) and "\n" not in message
 
 
+@pytest.mark.parametrize("field, value", [("q0", np.zeros(4)), ("qdot0", [0.0] * 8 + [float("nan")]),
+                                          ("q0", "pose")])
+def test_a_bad_start_state_is_one_line_naming_it(field, value):
+    with pytest.raises(LinkageError) as error:
+        simulate_mechanism(MECHANISM_PRESETS["slider-crank"](), 1.0, 3, **{field: value})
+    assert str(error.value) == f"{field}: expected 9 finite numbers (x, y, phi of each body's centre of mass)"
+
+
 def _physics(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "physics", *args], capture_output=True, text=True, timeout=300,
                           cwd=ROOT)
