@@ -8,6 +8,10 @@ rows ``C(s) sdd = gamma`` with multipliers: for a cut pin, the force ON body ``a
 DAE's multipliers of the same joint, which is what the tests compare. This derivation never looks at the DAE
 of :mod:`physics.mechanism.dae`: it shares only the description and the tree.
 
+The reactions of the tree's own joints follow from this formulation's accelerations by Newton's second law per
+body (:mod:`physics.mechanism.reactions`); the augmented system, Baumgarte terms included, is also compiled to
+machine code for the integrator when a run first needs it (:mod:`physics.mechanism.native_system`).
+
 sympy is imported here, at derivation; the result is turned into numpy functions once per mechanism.
 """
 

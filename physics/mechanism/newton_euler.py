@@ -10,7 +10,9 @@ for every tree joint, the bodies beyond it (its subtree) satisfy
 
 With one balance per tree coordinate and the closures of :func:`physics.mechanism.tree.closure_rows`, the
 unknowns are the tree accelerations and the closures' multipliers, found in one linear solve. Nothing here
-is taken from the Lagrange or DAE derivations: only the description, the tree and its poses.
+is taken from the Lagrange or DAE derivations: only the description, the tree and its poses. The tree joints'
+own reactions follow from these accelerations by Newton's second law per body
+(:mod:`physics.mechanism.reactions`).
 """
 
 from __future__ import annotations

@@ -80,7 +80,6 @@ def test_motor_torque_equals_the_power_balance_from_kinematics(name):
         assert torque * speed == pytest.approx(power, abs=1e-9 * (1 + abs(power)))
 
 
-@pytest.mark.slow  # numeric right-hand side in Python: seconds per run until generated code lands
 @pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar", "stephenson-six-bar"])
 def test_undriven_mechanisms_keep_energy_and_constraints(name):
     mechanism = MECHANISM_PRESETS[name]()
