@@ -12,6 +12,7 @@ is done when a run first integrates (a mechanism its motors fully determine neve
 from __future__ import annotations
 
 import ctypes
+import threading
 from types import SimpleNamespace
 
 import numpy as np
@@ -26,7 +27,8 @@ _SIGNATURE = ctypes.CFUNCTYPE(None, *([ctypes.c_void_p] * 5))
 class NativeSystem:
     """``system(x, v, params) -> (A, b)`` for the symbols ``coordinates``, ``rates`` and ``parameters`` the
     expressions ``matrix`` (rows x columns) and ``vector`` (rows,) are written in. The returned arrays are
-    buffers reused by the next call: use them before calling again."""
+    buffers of the calling thread, reused by its next call: use them before calling again. (One system serves
+    every run of its mechanism in the process, so concurrent runs in threads each get their own buffers.)"""
 
     def __init__(self, coordinates, rates, parameters, matrix: sp.Matrix, vector: sp.Matrix) -> None:
         rows, columns = matrix.shape
@@ -37,16 +39,33 @@ class NativeSystem:
         function = llvm_ir.function_ir("assemble", symbols, entries, columns, "A", "b")
         self._module = NativeModule(llvm_ir.module_ir([function]))  # owns the machine code
         self._function = _SIGNATURE(self._module.addresses["assemble"])
-        self.matrix = np.zeros((rows, columns))
-        self.vector = np.zeros(max(rows, 1))
-        self._x = np.zeros(max(len(coordinates), 1))
-        self._v = np.zeros(max(len(rates), 1))
-        self._p = np.zeros(max(len(parameters), 1))
-        self._addresses = [array.ctypes.data for array in (self._x, self._v, self._p, self.matrix, self.vector)]
+        self._shape = (rows, columns, len(coordinates), len(rates), len(parameters))
+        self._local = threading.local()
+
+    def _buffers(self) -> _Buffers:
+        buffers = getattr(self._local, "buffers", None)
+        if buffers is None:
+            buffers = self._local.buffers = _Buffers(*self._shape)
+        return buffers
 
     def __call__(self, x, v, parameters) -> tuple[np.ndarray, np.ndarray]:
-        self._x[: len(x)] = x
-        self._v[: len(v)] = v
-        self._p[: len(parameters)] = parameters
-        self._function(*self._addresses)
-        return self.matrix, self.vector
+        buffers = self._buffers()
+        buffers.x[: len(x)] = x
+        buffers.v[: len(v)] = v
+        buffers.p[: len(parameters)] = parameters
+        self._function(*buffers.addresses)
+        return buffers.matrix, buffers.vector
+
+
+class _Buffers:
+    """One thread's arrays for a system: the state and parameters in, ``A`` (zeroed once: only its structural
+    non-zeros are ever written) and ``b`` out, and their addresses for the call."""
+
+    def __init__(self, rows: int, columns: int, coordinates: int, rates: int, parameters: int) -> None:
+        self.matrix = np.zeros((rows, columns))
+        self.vector = np.zeros(rows)
+        self.x = np.zeros(max(coordinates, 1))
+        self.v = np.zeros(max(rates, 1))
+        self.p = np.zeros(max(parameters, 1))
+        self.vector_storage = self.vector if rows else np.zeros(1)
+        self.addresses = [array.ctypes.data for array in (self.x, self.v, self.p, self.matrix, self.vector_storage)]

@@ -208,3 +208,17 @@ def test_a_fully_driven_mechanism_integrated_by_a_tree_formulation_moves_as_by_k
     assert np.max(np.abs(by_kinematics.q - integrated.q)) <= 1e-9
     assert np.max(np.abs(by_kinematics.reactions - integrated.reactions)) <= 1e-7 * np.max(
         np.abs(integrated.reactions))
+
+
+def test_runs_in_threads_at_once_give_the_runs_of_one_thread():
+    """One compiled system serves every run of a mechanism in the process; runs in concurrent threads (an app's
+    sessions) must not share its buffers."""
+    from concurrent.futures import ThreadPoolExecutor  # noqa: PLC0415
+
+    mechanism = MECHANISM_PRESETS["watt-six-bar"]()
+    alone = {method: simulate_mechanism(mechanism, 0.3, 4, method=method).q for method in METHODS}
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        futures = [(method, pool.submit(simulate_mechanism, mechanism, 0.3, 4, method=method))
+                   for method in METHODS * 2]
+        for method, future in futures:
+            assert np.array_equal(future.result().q, alone[method]), method
