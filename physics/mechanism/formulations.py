@@ -35,8 +35,7 @@ class DaeFormulation:
     name = "dae"
 
     def __init__(self, dae: MechanismDAE, alpha: float, beta: float) -> None:
-        self.dae, self.constraints = dae, dae.constraints
-        self.alpha, self.beta = alpha, beta
+        self.dae = dae
         self.size = dae.constraints.size
         self.inverse_mass = 1.0 / dae.mass_diagonal
         self.velocity_target = dae.constraints.velocity_rhs()
@@ -96,7 +95,6 @@ class TreeFormulation:
         self.velocity_target = np.asarray(tree.velocity_rhs, dtype=float).reshape(self.rows)
         self.tolerance = ASSEMBLY_TOLERANCE * sketch_size(dae.mechanism)
         self._parameters = np.array([0.0, alpha, beta])
-        self._native = tree.native()
 
     def _jacobian(self, s: np.ndarray) -> np.ndarray:
         return np.asarray(self.tree.constraint_jacobian(s), dtype=float).reshape(self.rows, self.size)
@@ -134,7 +132,7 @@ class TreeFormulation:
     def accelerations(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
         """From the formulation's machine code (compiled when first needed), Baumgarte terms included."""
         self._parameters[0] = t
-        matrix, rhs = self._native(x, v, self._parameters)
+        matrix, rhs = self.tree.native()(x, v, self._parameters)
         return solve(matrix, rhs)[: self.size]
 
     def project(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
