@@ -320,7 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--format", default=None, choices=("csv", "json"))
     sim.add_argument("--mechanism", default=None, metavar="FILE",
                      help="a mechanism file (.toml or .json, docs/mechanisms.md): run as `python -m physics mechanism "
-                     "--file FILE` runs it; only --t-end, --samples and --out apply with it")
+                     "--file FILE` runs it; only --t-end, --samples, --out, --method and --stabilization apply with it")
     sim.set_defaults(func=cmd_simulate)
 
     acc = sub.add_parser("accelerations", help="print the accelerations (and reactions) at one state as JSON")
@@ -394,19 +394,23 @@ def start_numba_without_blas() -> None:
         sys.meta_path.remove(hook)
 
 
-MECHANISM_OPTIONS = ("--t-end", "--samples", "--out")  # what `simulate --mechanism FILE` passes on
+MECHANISM_OPTIONS = ("--t-end", "--samples", "--out", "--method", "--stabilization")  # what `simulate --mechanism`
+# passes on to the mechanism command
 
 
 def _mechanism_arguments(argv: list[str]) -> list[str]:
-    """``simulate --mechanism FILE [--t-end T] [--samples N] [--out F]`` as the ``mechanism`` command's own
-    arguments (``--file FILE``, a run of 2 s unless ``--t-end``): one place simulates a general mechanism
-    (physics/mechanism/command.py). The chain options (``--preset``, ``--method``, ...) do not apply to it."""
+    """``simulate --mechanism FILE [--t-end T] [--samples N] [--out F] [--method M] [--stabilization S]`` as the
+    ``mechanism`` command's own arguments (``--file FILE``, a run of 2 s unless ``--t-end``): one place simulates
+    a general mechanism (physics/mechanism/command.py). The other chain options (``--preset``, ``--integrator``,
+    ...) do not apply to it."""
     parser = Parser(prog="python -m physics simulate --mechanism",
                     description="simulate a mechanism file (docs/mechanisms.md)")
     parser.add_argument("--mechanism", required=True, metavar="FILE", help="a mechanism file, .toml or .json")
     parser.add_argument("--t-end", default="2", help="seconds to simulate (default 2)")
     parser.add_argument("--samples", default=None)
     parser.add_argument("--out", default=None)
+    parser.add_argument("--method", default=None)
+    parser.add_argument("--stabilization", default=None)
     args, rest = parser.parse_known_args(argv)
     if rest:
         raise LinkageError(f"{rest[0]}: does not apply with --mechanism (a mechanism file's run takes "
@@ -416,8 +420,9 @@ def _mechanism_arguments(argv: list[str]) -> list[str]:
     out = ["--file", args.mechanism, "--t-end", args.t_end]
     if args.samples is not None:
         out += ["--samples", args.samples]
-    if args.out is not None:
-        out += ["--out", args.out]
+    for option in ("out", "method", "stabilization"):
+        if getattr(args, option) is not None:
+            out += [f"--{option}", getattr(args, option)]
     return out
 
 

@@ -3,10 +3,12 @@
     python -m physics mechanism --preset jansen-leg                 # topology, mobility, loops (text)
     python -m physics mechanism --file my.toml --json               # the same as JSON
     python -m physics mechanism --preset crank-rocker --t-end 2 --samples 201 --out run.csv
+    python -m physics mechanism --preset slider-crank --t-end 2 --method lagrange --stabilization baumgarte
 
-With ``--out`` (or ``--t-end``) the mechanism is simulated (maximal-coordinate DAE with projection) and a CSV
-of ``t``, the traced point, the energies, the largest constraint residual and every joint reaction is written
-atomically. Bad input is one line and exit 2 (printed by :mod:`physics.cli`).
+With ``--out`` (or ``--t-end``) the mechanism is simulated (``--method``: the maximal-coordinate DAE, the
+default, or Lagrange or Newton–Euler on a spanning tree; ``--stabilization``: projection, the default,
+Baumgarte or none) and a CSV of ``t``, the traced point, the energies, the largest constraint residual and
+every joint reaction of that formulation is written atomically. Bad input is one line and exit 2 (printed by :mod:`physics.cli`).
 """
 
 from __future__ import annotations
@@ -21,9 +23,10 @@ from ..errors import LinkageError
 from ..outputs import check_output_path, write_output
 from .assembly import assemble
 from .files import load_mechanism
+from .formulations import METHODS, STABILIZATIONS
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
-from .simulate import MechanismRun, simulate_mechanism
+from .simulate import MechanismRun, run_options, simulate_mechanism
 
 MAX_SAMPLES = 100_000
 
@@ -73,7 +76,12 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--t-end", type=float, default=None, help="simulate this many seconds (0 < t_end <= 1e4)")
     parser.add_argument("--samples", type=int, default=201, help=f"samples of the run (2..{MAX_SAMPLES})")
     parser.add_argument("--out", default=None, help="write the run as CSV to this file")
+    parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(METHODS)}")
+    parser.add_argument("--stabilization", default="projection",
+                        help=f"how the loops are held: {', '.join(STABILIZATIONS)}")
     args = parser.parse_args(argv)
+    run_options(t_end=2.0 if args.t_end is None else args.t_end, samples=max(args.samples, 2), t_start=0.0,
+                method=args.method, stabilization=args.stabilization, rtol=1e-10, atol=1e-10)
     mechanism = _mechanism(args)
     if args.out:
         check_output_path(args.out)
@@ -82,9 +90,11 @@ def main(argv: list[str]) -> int:
     report = summary(mechanism)
     run = None
     if args.out or args.t_end is not None:
-        run = simulate_mechanism(mechanism, t_end=2.0 if args.t_end is None else args.t_end, samples=args.samples)
+        run = simulate_mechanism(mechanism, t_end=2.0 if args.t_end is None else args.t_end, samples=args.samples,
+                                 method=args.method, stabilization=args.stabilization)
         report["run"] = {
-            "t_end": float(run.t[-1]), "samples": len(run.t),
+            "t_end": float(run.t[-1]), "samples": len(run.t), "method": run.method,
+            "stabilization": run.stabilization,
             "max_constraint_residual": float(np.max(run.residual)),
             "energy_change": float(run.energy[-1] - run.energy[0]),
         }
@@ -98,6 +108,6 @@ def main(argv: list[str]) -> int:
     for loop in report["loops"]:
         print("  loop " + " - ".join(loop))
     if run is not None:
-        print(f"  ran {run.t[-1]:g} s: constraint residual at most {np.max(run.residual):.2g}, "
+        print(f"  ran {run.t[-1]:g} s ({run.method}, {run.stabilization}): constraint residual at most {np.max(run.residual):.2g}, "
               f"energy change {run.energy[-1] - run.energy[0]:.3g} J" + (f"; wrote {args.out}" if args.out else ""))
     return 0

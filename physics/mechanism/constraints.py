@@ -32,6 +32,77 @@ def rotation(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def _perp(vectors: np.ndarray) -> np.ndarray:
+    """Each row turned by +90 degrees."""
+    return np.column_stack([-vectors[:, 1], vectors[:, 0]])
+
+
+class _JointArrays:
+    """The joints of each kind as arrays (body numbers, arms, rows), so that the equations are evaluated for all
+    joints of a kind at once: the integrator evaluates them thousands of times a second. The ground is body
+    number ``B`` here (a spare slot whose pose is always zero)."""
+
+    def __init__(self, items: list[tuple], bodies: int) -> None:
+        row = 0
+        pins, slides, motors = [], [], []
+        for item in items:
+            if item[0] == "pin":
+                pins.append((row, *item[1:]))
+                row += 2
+            elif item[0] == "slide":
+                slides.append((row, *item[1:]))
+                row += 2
+            else:
+                motors.append((row, *item[1:]))
+                row += 1
+
+        def body(k: int) -> int:
+            return bodies if k < 0 else k
+
+        def arms(entries, column) -> np.ndarray:
+            return np.array([entry[column] for entry in entries], dtype=float).reshape(-1, 2)
+
+        self.pin_rows = np.array([p[0] for p in pins], dtype=int)
+        self.pin_a, self.pin_sa = np.array([body(p[1]) for p in pins], dtype=int), arms(pins, 2)
+        self.pin_b, self.pin_sb = np.array([body(p[3]) for p in pins], dtype=int), arms(pins, 4)
+        self.slide_rows = np.array([s[0] for s in slides], dtype=int)
+        self.slide_body, self.slide_sp = np.array([body(s[1]) for s in slides], dtype=int), arms(slides, 2)
+        self.slide_on, self.slide_st = np.array([body(s[3]) for s in slides], dtype=int), arms(slides, 4)
+        self.slide_m = arms(slides, 5)
+        self.motor_rows = np.array([m[0] for m in motors], dtype=int)
+        self.motor_a = np.array([body(m[1]) for m in motors], dtype=int)
+        self.motor_b = np.array([body(m[2]) for m in motors], dtype=int)
+        self.motor_speed = np.array([m[3] for m in motors], dtype=float)
+
+
+class _Frame:
+    """Every body's pose (and rates) at one state, the ground appended as body ``B`` at rest at the origin."""
+
+    def __init__(self, arrays: _JointArrays, q: np.ndarray, qdot: np.ndarray | None = None) -> None:
+        pose = np.vstack([np.reshape(q, (-1, 3)), np.zeros((1, 3))])
+        self.position = pose[:, :2]
+        self.angle = pose[:, 2]
+        self.cos, self.sin = np.cos(self.angle), np.sin(self.angle)
+        if qdot is not None:
+            rate = np.vstack([np.reshape(qdot, (-1, 3)), np.zeros((1, 3))])
+            self.velocity, self.spin = rate[:, :2], rate[:, 2]
+
+    def turned(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
+        """``R(phi_body) arm`` row by row."""
+        c, s = self.cos[body], self.sin[body]
+        return np.column_stack([c * arm[:, 0] - s * arm[:, 1], s * arm[:, 0] + c * arm[:, 1]])
+
+    def points(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
+        return self.position[body] + self.turned(body, arm)
+
+    def point_velocities(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
+        return self.velocity[body] + self.spin[body][:, None] * _perp(self.turned(body, arm))
+
+    def centripetal(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
+        """The part of a point's acceleration without qddot: ``-R(phi) s phidot^2``."""
+        return -(self.spin[body] ** 2)[:, None] * self.turned(body, arm)
+
+
 @dataclass(frozen=True)
 class Row:
     """One scalar constraint, for error messages: which joint (or driver) and what it holds."""
@@ -68,6 +139,7 @@ class Constraints:
                 self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u))
                 rows += [Row(joint.name, "offset across the guide"), Row(joint.name, "relative rotation")]
         self.rows = tuple(rows)
+        self._arrays = _JointArrays(self._items, len(mechanism.bodies))
 
     def _index(self, body: str) -> int:
         return -1 if body == GROUND else self.body_index[body]
@@ -99,65 +171,52 @@ class Constraints:
         return r + rotation(phi) @ s
 
     def residual(self, q: np.ndarray, t: float = 0.0) -> np.ndarray:
-        out: list[float] = []
-        for item in self._items:
-            if item[0] == "pin":
-                _, i, s_a, j, s_b = item
-                out.extend(self.point(q, i, s_a) - self.point(q, j, s_b))
-            elif item[0] == "slide":
-                _, i, s_p, j, s_t, m = item
-                _, phi_j = self._pose(q, j)
-                normal = rotation(phi_j) @ m
-                out.append(float(normal @ (self.point(q, i, s_p) - self.point(q, j, s_t))))
-                out.append(self._pose(q, i)[1] - phi_j)
-            else:
-                _, i, j, speed = item  # body b (j) turns relative to body a (i)
-                out.append(self._pose(q, j)[1] - self._pose(q, i)[1] - speed * t)
-        return np.array(out)
+        frame = _Frame(self._arrays, q)
+        arrays = self._arrays
+        out = np.empty(len(self.rows))
+        if arrays.pin_rows.size:
+            gap = frame.points(arrays.pin_a, arrays.pin_sa) - frame.points(arrays.pin_b, arrays.pin_sb)
+            out[arrays.pin_rows], out[arrays.pin_rows + 1] = gap[:, 0], gap[:, 1]
+        if arrays.slide_rows.size:
+            normal = frame.turned(arrays.slide_on, arrays.slide_m)
+            gap = frame.points(arrays.slide_body, arrays.slide_sp) - frame.points(arrays.slide_on, arrays.slide_st)
+            out[arrays.slide_rows] = np.sum(normal * gap, axis=1)
+            out[arrays.slide_rows + 1] = frame.angle[arrays.slide_body] - frame.angle[arrays.slide_on]
+        if arrays.motor_rows.size:
+            out[arrays.motor_rows] = (frame.angle[arrays.motor_b] - frame.angle[arrays.motor_a]
+                                      - arrays.motor_speed * t)
+        return out
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        rows: list[np.ndarray] = []
-
-        def point_columns(k: int, s: np.ndarray, sign: float, block: np.ndarray) -> None:
-            if k < 0:
-                return
-            _, phi = self._pose(q, k)
-            block[:, 3 * k : 3 * k + 2] += sign * np.eye(2)
-            block[:, 3 * k + 2] += sign * (_PERP @ rotation(phi) @ s)
-
-        for item in self._items:
-            if item[0] == "pin":
-                _, i, s_a, j, s_b = item
-                block = np.zeros((2, self.size))
-                point_columns(i, s_a, 1.0, block)
-                point_columns(j, s_b, -1.0, block)
-                rows.extend(block)
-            elif item[0] == "slide":
-                _, i, s_p, j, s_t, m = item
-                _, phi_j = self._pose(q, j)
-                normal = rotation(phi_j) @ m
-                gap = self.point(q, i, s_p) - self.point(q, j, s_t)
-                block = np.zeros((2, self.size))
-                point_columns(i, s_p, 1.0, block)
-                point_columns(j, s_t, -1.0, block)
-                offset = normal @ block
-                if j >= 0:
-                    offset[3 * j + 2] += (_PERP @ normal) @ gap
-                angle = np.zeros(self.size)
-                if i >= 0:
-                    angle[3 * i + 2] = 1.0
-                if j >= 0:
-                    angle[3 * j + 2] -= 1.0
-                rows += [offset, angle]
-            else:
-                _, i, j, _speed = item
-                angle = np.zeros(self.size)
-                if j >= 0:
-                    angle[3 * j + 2] = 1.0
-                if i >= 0:
-                    angle[3 * i + 2] -= 1.0
-                rows.append(angle)
-        return np.array(rows).reshape(len(rows), self.size)
+        frame = _Frame(self._arrays, q)
+        arrays = self._arrays
+        out = np.zeros((len(self.rows), self.size + 3))  # three spare columns take the ground's entries
+        if arrays.pin_rows.size:
+            rows = arrays.pin_rows
+            for sign, body, arm in ((1.0, arrays.pin_a, arrays.pin_sa), (-1.0, arrays.pin_b, arrays.pin_sb)):
+                swing = _perp(frame.turned(body, arm))
+                column = 3 * body
+                out[rows, column] += sign
+                out[rows + 1, column + 1] += sign
+                out[rows, column + 2] += sign * swing[:, 0]
+                out[rows + 1, column + 2] += sign * swing[:, 1]
+        if arrays.slide_rows.size:
+            rows, body, on = arrays.slide_rows, arrays.slide_body, arrays.slide_on
+            normal = frame.turned(on, arrays.slide_m)
+            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
+            out[rows, 3 * body] += normal[:, 0]
+            out[rows, 3 * body + 1] += normal[:, 1]
+            out[rows, 3 * body + 2] += np.sum(normal * _perp(frame.turned(body, arrays.slide_sp)), axis=1)
+            out[rows, 3 * on] -= normal[:, 0]
+            out[rows, 3 * on + 1] -= normal[:, 1]
+            out[rows, 3 * on + 2] += np.sum(_perp(normal) * gap - normal * _perp(frame.turned(on, arrays.slide_st)),
+                                            axis=1)
+            out[rows + 1, 3 * body + 2] += 1.0
+            out[rows + 1, 3 * on + 2] -= 1.0
+        if arrays.motor_rows.size:
+            out[arrays.motor_rows, 3 * arrays.motor_b + 2] += 1.0
+            out[arrays.motor_rows, 3 * arrays.motor_a + 2] -= 1.0
+        return out[:, : self.size]
 
     def velocity_rhs(self) -> np.ndarray:
         """``nu`` with ``Phi_q qdot = nu``: minus the explicit time derivative, non-zero on driven rows only."""
@@ -174,42 +233,19 @@ class Constraints:
     def acceleration_rhs(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """``gamma`` with ``Phi_q qddot = gamma``: the terms of the second time derivative of ``Phi`` that do not
         hold ``qddot`` (centripetal and Coriolis terms), moved to the right-hand side."""
-        out: list[float] = []
-
-        def rate(k: int) -> tuple[np.ndarray, float]:
-            if k < 0:
-                return np.zeros(2), 0.0
-            return qdot[3 * k : 3 * k + 2], float(qdot[3 * k + 2])
-
-        def point_velocity(k: int, s: np.ndarray) -> np.ndarray:
-            if k < 0:
-                return np.zeros(2)
-            velocity, spin = rate(k)
-            return velocity + spin * (_PERP @ rotation(self._pose(q, k)[1]) @ s)
-
-        def centripetal(k: int, s: np.ndarray) -> np.ndarray:
-            """The part of a point's acceleration without qddot: ``-R(phi) s phidot^2``."""
-            if k < 0:
-                return np.zeros(2)
-            return -(rate(k)[1] ** 2) * (rotation(self._pose(q, k)[1]) @ s)
-
-        for item in self._items:
-            if item[0] == "pin":
-                _, i, s_a, j, s_b = item
-                out.extend(-(centripetal(i, s_a) - centripetal(j, s_b)))
-            elif item[0] == "slide":
-                _, i, s_p, j, s_t, m = item
-                _, phi_j = self._pose(q, j)
-                spin_j = rate(j)[1]
-                normal = rotation(phi_j) @ m
-                gap = self.point(q, i, s_p) - self.point(q, j, s_t)
-                gap_rate = point_velocity(i, s_p) - point_velocity(j, s_t)
-                quadratic = (
-                    -(spin_j**2) * (normal @ gap)
-                    + 2.0 * spin_j * ((_PERP @ normal) @ gap_rate)
-                    + normal @ (centripetal(i, s_p) - centripetal(j, s_t))
-                )
-                out += [-float(quadratic), 0.0]
-            else:
-                out.append(0.0)
-        return np.array(out)
+        frame = _Frame(self._arrays, q, qdot)
+        arrays = self._arrays
+        out = np.zeros(len(self.rows))
+        if arrays.pin_rows.size:
+            gamma = -(frame.centripetal(arrays.pin_a, arrays.pin_sa) - frame.centripetal(arrays.pin_b, arrays.pin_sb))
+            out[arrays.pin_rows], out[arrays.pin_rows + 1] = gamma[:, 0], gamma[:, 1]
+        if arrays.slide_rows.size:
+            body, on = arrays.slide_body, arrays.slide_on
+            spin_on = frame.spin[on][:, None]
+            normal = frame.turned(on, arrays.slide_m)
+            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
+            gap_rate = frame.point_velocities(body, arrays.slide_sp) - frame.point_velocities(on, arrays.slide_st)
+            quadratic = (-(spin_on**2) * normal * gap + 2.0 * spin_on * _perp(normal) * gap_rate
+                         + normal * (frame.centripetal(body, arrays.slide_sp) - frame.centripetal(on, arrays.slide_st)))
+            out[arrays.slide_rows] = -np.sum(quadratic, axis=1)
+        return out

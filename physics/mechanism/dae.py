@@ -12,8 +12,8 @@ across the guide and the torque that keeps the relative angle, for a speed motor
 ``b`` (minus on body ``a``): the driving torque a student plots over a crank turn (inverse dynamics).
 
 This module evaluates the system numerically from the constraint equations of
-:mod:`physics.mechanism.constraints`; a symbolic derivation and generated code, as for the chains, is the next
-step (docs/mechanisms.md).
+:mod:`physics.mechanism.constraints`: every sample's reactions, and the check for a singular pose. Between samples
+the integrator calls the same system as machine code (:mod:`physics.mechanism.dae_native`).
 """
 
 from __future__ import annotations

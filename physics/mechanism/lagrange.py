@@ -8,6 +8,10 @@ rows ``C(s) sdd = gamma`` with multipliers: for a cut pin, the force ON body ``a
 DAE's multipliers of the same joint, which is what the tests compare. This derivation never looks at the DAE
 of :mod:`physics.mechanism.dae`: it shares only the description and the tree.
 
+The reactions of the tree's own joints follow from this formulation's accelerations by Newton's second law per
+body (:mod:`physics.mechanism.reactions`); the augmented system, Baumgarte terms included, is also compiled to
+machine code for the integrator when a run first needs it (:mod:`physics.mechanism.native_system`).
+
 sympy is imported here, at derivation; the result is turned into numpy functions once per mechanism.
 """
 
@@ -23,7 +27,16 @@ import sympy as sp
 
 from ..errors import LinkageError
 from .model import Mechanism, Prismatic, Revolute
-from .tree import closure_rows, flat, tree_poses, vector_call
+from .reactions import TreeReactions
+from .tree import (
+    baumgarte_terms,
+    closure_rows,
+    flat,
+    native_builder,
+    reactions_from_motion,
+    tree_poses,
+    vector_call,
+)
 
 SINGULAR_RCOND = 1e-13
 
@@ -43,6 +56,14 @@ class TreeLagrange:
     body_angles: Callable  # (s) -> (B,)
     body_centres: Callable  # (s) -> (B, 2)
     velocity_rhs: np.ndarray  # (rows,): the motors' speeds on their rows
+    motion: Callable  # (s, sd, sdd) -> (B, 9): x, y, phi, their rates and their accelerations, per body
+    tree_reactions: TreeReactions
+    native: Callable  # () -> NativeSystem of the augmented system, Baumgarte terms included (compiled once)
+
+    def reactions(self, s: np.ndarray, sd: np.ndarray, sdd: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+        """Every joint reaction, in the DAE's row layout: the multipliers for the cut joints and motors, Newton's
+        second law on this formulation's own accelerations for the tree's joints."""
+        return reactions_from_motion(self.tree_reactions, self.motion(s, sd, sdd), multipliers)
 
     def solve(self, s: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(sdd, multipliers)`` at one state; LinkageError at a singular pose."""
@@ -93,10 +114,25 @@ def _derive(description: str) -> TreeLagrange:
     force = sp.Matrix([sp.diff(lagrangian, q) for q in s]) - momentum.jacobian(s) * sd
     force += _joint_torques(mechanism, joints, angle, s, sd)
 
-    rows, row_joints, speeds, _kinds = closure_rows(poses)
+    rows, row_joints, speeds, kinds = closure_rows(poses)
     phi = sp.Matrix(rows) if rows else sp.zeros(0, 1)
     jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(s))
     gamma = -(jacobian * sd).jacobian(s) * sd if rows else sp.zeros(0, 1)
+
+    sdd = poses.sdd
+    acceleration = jac_pos * sdd + velocity.jacobian(s) * sd
+    angular_acceleration = jac_ang * sdd + spin.jacobian(s) * sd
+    motion = sp.Matrix([[positions[k, 0], positions[k, 1], angles[k], velocity[2 * k], velocity[2 * k + 1], spin[k],
+                         acceleration[2 * k], acceleration[2 * k + 1], angular_acceleration[k]]
+                        for k in range(len(bodies))])
+
+    k, count = len(s), len(rows)
+    augmented = sp.zeros(k + count, k + count)
+    augmented[:k, :k] = mass
+    right = sp.Matrix(force)
+    if rows:
+        augmented[:k, k:], augmented[k:, :k] = -jacobian.T, jacobian
+        right = right.col_join(gamma - baumgarte_terms(phi, jacobian, sd, speeds))
 
     def compile_(expr, *args):
         return sp.lambdify(args, expr, modules="numpy", cse=True)
@@ -114,7 +150,14 @@ def _derive(description: str) -> TreeLagrange:
         body_angles=flat(vector_call(compile_(angles, flat_s), 1)),
         body_centres=vector_call(compile_(positions, flat_s), 1),
         velocity_rhs=np.array(speeds),
+        motion=_motion_call(compile_(motion, flat_s, flat_sd, list(sdd))),
+        tree_reactions=TreeReactions(mechanism, poses.topology, poses.order, tuple(row_joints), tuple(kinds)),
+        native=native_builder(s, sd, t, augmented, right),
     )
+
+
+def _motion_call(function: Callable) -> Callable:
+    return lambda s, sd, sdd: np.array(function(list(s), list(sd), list(sdd)), dtype=float)
 
 
 def _joint_torques(mechanism, joints, angle, s, sd) -> sp.Matrix:

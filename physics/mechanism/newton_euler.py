@@ -10,7 +10,9 @@ for every tree joint, the bodies beyond it (its subtree) satisfy
 
 With one balance per tree coordinate and the closures of :func:`physics.mechanism.tree.closure_rows`, the
 unknowns are the tree accelerations and the closures' multipliers, found in one linear solve. Nothing here
-is taken from the Lagrange or DAE derivations: only the description, the tree and its poses.
+is taken from the Lagrange or DAE derivations: only the description, the tree and its poses. The tree joints'
+own reactions follow from these accelerations by Newton's second law per body
+(:mod:`physics.mechanism.reactions`).
 """
 
 from __future__ import annotations
@@ -25,7 +27,18 @@ import sympy as sp
 
 from ..errors import LinkageError
 from .model import GROUND, Mechanism, Prismatic, Revolute
-from .tree import TreePoses, closure_rows, flat, rotation, tree_poses, vector_call
+from .reactions import TreeReactions
+from .tree import (
+    TreePoses,
+    baumgarte_terms,
+    closure_rows,
+    flat,
+    native_builder,
+    reactions_from_motion,
+    rotation,
+    tree_poses,
+    vector_call,
+)
 
 SINGULAR_RCOND = 1e-13
 
@@ -44,6 +57,17 @@ class TreeNewtonEuler:
     matrix: Callable
     rhs: Callable
     body_angles: Callable
+    constraint: Callable  # (s, t) -> (rows,): the closures, for projection and Baumgarte terms
+    constraint_jacobian: Callable  # (s) -> (rows, k)
+    velocity_rhs: np.ndarray  # (rows,): the motors' speeds on their rows
+    motion: Callable  # (s, sd, sdd) -> (B, 9): x, y, phi, their rates and their accelerations, per body
+    tree_reactions: TreeReactions
+    native: Callable  # () -> NativeSystem of matrix and rhs, Baumgarte terms included (compiled once)
+
+    def reactions(self, s: np.ndarray, sd: np.ndarray, sdd: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+        """Every joint reaction, in the DAE's row layout: the multipliers for the cut joints and motors, Newton's
+        second law on this formulation's own accelerations for the tree's joints."""
+        return reactions_from_motion(self.tree_reactions, self.motion(s, sd, sdd), multipliers)
 
     def solve(self, s: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         matrix = np.atleast_2d(self.matrix(s))
@@ -73,7 +97,7 @@ def _derive(description: str) -> TreeNewtonEuler:
     mechanism = Mechanism.model_validate(json.loads(description))
     poses = tree_poses(mechanism)
     s, sd, sdd = poses.s, poses.sd, poses.sdd
-    rows, row_joints, _speeds, kinds = closure_rows(poses)
+    rows, row_joints, speeds, kinds = closure_rows(poses)
     multipliers = sp.Matrix(sp.symbols(f"lam0:{len(rows)}", real=True)) if rows else sp.zeros(0, 1)
     joints = {joint.name: joint for joint in mechanism.joints}
     bodies = {body.name: body for body in mechanism.bodies}
@@ -180,6 +204,13 @@ def _derive(description: str) -> TreeNewtonEuler:
 
     flat_s, flat_sd = list(s), list(sd)
     angles = sp.Matrix([poses.angle[body.name] for body in mechanism.bodies])
+    centre_velocity = {name: poses.centre[name].jacobian(s) * sd for name in bodies}
+    motion = sp.Matrix([[*poses.centre[name], poses.angle[name], *centre_velocity[name], angle_rate[name],
+                         *centre_acceleration[name], angle_acceleration[name]] for name in bodies])
+    phi_jacobian = phi.jacobian(s) if rows else sp.zeros(0, len(s))
+    stabilised = sp.Matrix(rhs)
+    if rows:
+        stabilised[len(s):, 0] = rhs[len(s):, 0] - baumgarte_terms(phi, phi_jacobian, sd, speeds)
     return TreeNewtonEuler(
         mechanism=mechanism,
         coordinates=poses.coordinates,
@@ -187,4 +218,14 @@ def _derive(description: str) -> TreeNewtonEuler:
         matrix=vector_call(compile_(matrix, flat_s), 1),
         rhs=flat(vector_call(compile_(rhs, flat_s, flat_sd), 2)),
         body_angles=flat(vector_call(compile_(angles, flat_s), 1)),
+        constraint=vector_call(compile_(phi, flat_s, poses.t), 1, time=True),
+        constraint_jacobian=vector_call(compile_(phi_jacobian, flat_s), 1),
+        velocity_rhs=np.array(speeds),
+        motion=_motion_call(compile_(motion, flat_s, flat_sd, list(sdd))),
+        tree_reactions=TreeReactions(mechanism, poses.topology, poses.order, tuple(row_joints), tuple(kinds)),
+        native=native_builder(s, sd, poses.t, matrix, stabilised),
     )
+
+
+def _motion_call(function: Callable) -> Callable:
+    return lambda s, sd, sdd: np.array(function(list(s), list(sd), list(sdd)), dtype=float)

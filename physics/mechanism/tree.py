@@ -210,3 +210,36 @@ def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[n
         rates.append(float(w_on * np.array([-direction[1], direction[0]]) @ (sliding - guide)
                            + direction @ (sliding_rate - guide_rate)))
     return np.array(values), np.array(rates)
+
+
+def reactions_from_motion(tree_reactions, motion: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+    """Every reaction row from a formulation's ``motion`` (``(B, 9)``: x, y, phi, their rates, their
+    accelerations per body) and its multipliers (:class:`physics.mechanism.reactions.TreeReactions`)."""
+    motion = np.asarray(motion, dtype=float).reshape(-1, 9)
+    return tree_reactions.solve(motion[:, 0:2], motion[:, 2], motion[:, 5], motion[:, 6:8], motion[:, 8],
+                                np.asarray(multipliers, dtype=float))
+
+
+BAUMGARTE_GAINS = sp.symbols("baumgarte_alpha baumgarte_beta", real=True)
+
+
+def baumgarte_terms(phi: sp.Matrix, jacobian: sp.Matrix, sd: sp.Matrix, speeds: list[float]) -> sp.Matrix:
+    """What Baumgarte stabilisation takes from the closures' acceleration rows: ``2 alpha Phi' + beta^2 Phi``
+    (``Phi' = C sd - nu``, ``nu`` the motors' speeds), in the gain symbols :data:`BAUMGARTE_GAINS`."""
+    alpha, beta = BAUMGARTE_GAINS
+    return 2 * alpha * (jacobian * sd - sp.Matrix(speeds)) + beta**2 * phi
+
+
+def native_builder(s: sp.Matrix, sd: sp.Matrix, t: sp.Symbol, matrix: sp.Matrix, vector: sp.Matrix) -> Callable:
+    """A function that compiles (once, when first called) ``matrix x = vector`` in ``(s, sd)`` and the
+    parameters ``(t, alpha, beta)`` to machine code (:class:`physics.mechanism.native_system.NativeSystem`)."""
+    built: list = []
+
+    def build():
+        if not built:
+            from .native_system import NativeSystem  # noqa: PLC0415  (llvmlite only when a run integrates)
+
+            built.append(NativeSystem(list(s), list(sd), [t, *BAUMGARTE_GAINS], matrix, vector))
+        return built[0]
+
+    return build

@@ -1,7 +1,9 @@
 """The three formulations of any mechanism agree, each derived on its own: Lagrange and Newton–Euler on a
 spanning tree against the maximal-coordinate DAE, at random assembled states of every mechanism preset and of random valid mechanisms (open and closed chains,
 slider-cranks of random proportions, driven crank-rockers and Jansen legs at random speeds): every body's angular
-acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10.
+acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10; and
+every reaction row of every joint, the tree's own joints included (Newton's second law on each tree formulation's
+own accelerations, physics/mechanism/reactions.py), in the DAE's layout and signs, within 1e-10.
 """
 
 from __future__ import annotations
@@ -57,8 +59,18 @@ def assert_three_way_agreement(mechanism, formulation: str, rng: np.random.Gener
                 theirs = theirs[:2] if len(mine) == 2 else theirs
             force_scale = 1.0 + np.max(np.abs(dae_solution.reactions))
             assert np.max(np.abs(mine - theirs)) <= AGREEMENT * force_scale, (joint, mine, theirs)
+        reactions = tree.reactions(s, sd, sdd, multipliers)
+        assert tree.tree_reactions.row_names == tuple(f"{row.joint}: {row.meaning}" for row in dae.constraints.rows)
+        assert reaction_disagreement(reactions, dae_solution.reactions) <= AGREEMENT, (
+            dae.constraints.rows[int(np.argmax(np.abs(reactions - dae_solution.reactions)))])
         checked += 1
     assert checked == states
+
+
+def reaction_disagreement(mine: np.ndarray, theirs: np.ndarray) -> float:
+    """The largest difference of any reaction row, relative to 1 + the largest reaction."""
+    assert mine.shape == theirs.shape
+    return float(np.max(np.abs(mine - theirs)) / (1.0 + np.max(np.abs(theirs))))
 
 
 @pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
@@ -96,3 +108,66 @@ def test_tree_formulations_match_the_dae_on_random_valid_mechanisms(kind, formul
     rng = np.random.default_rng(20261124 + KINDS.index(kind))
     for _ in range(4):
         assert_three_way_agreement(random_mechanism(rng, kind), formulation, rng, states=3)
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+@pytest.mark.parametrize("name", ["slider-crank", "jansen-leg"])
+def test_the_reaction_check_sees_any_single_wrong_row(name, formulation):
+    """The agreement check above is not blind: a tree formulation's reactions with any one row off by 1e-8 of
+    the largest reaction fail it, the tree's own joints' rows as much as the multipliers' rows."""
+    mechanism = MECHANISM_PRESETS[name]()
+    dae = MechanismDAE(mechanism)
+    tree = (derive_tree_lagrange if formulation == "lagrange" else derive_tree_newton_euler)(mechanism)
+    rng = np.random.default_rng(7)
+    q = assemble(mechanism, dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)).q
+    qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
+    s, sd = tree_state(mechanism, q, qdot)
+    reactions = tree.reactions(s, sd, *tree.solve(s, sd))
+    theirs = dae.solve(q, qdot).reactions
+    assert reaction_disagreement(reactions, theirs) <= AGREEMENT
+    tree_rows = [k for k, row in enumerate(dae.constraints.rows) if row.joint in tree.coordinates]
+    assert tree_rows  # the tree's own joints are among the rows checked
+    for k in range(len(reactions)):
+        wrong = reactions.copy()
+        wrong[k] += 1e-8 * (1.0 + np.max(np.abs(theirs)))
+        assert reaction_disagreement(wrong, theirs) > AGREEMENT, dae.constraints.rows[k]
+
+
+def _moving_guides():
+    """A block sliding on a swinging arm (the slider's body is the tree child), and a rail hanging from a block
+    pinned to the ground (the guide's carrier is the tree child): both ways a slider can sit in the tree."""
+    from physics.mechanism import Mechanism  # noqa: PLC0415
+
+    arm = {"ground": {"O": [0, 0]}, "bodies": [
+        {"name": "arm", "mass": 1, "inertia": 0.1, "points": {"O": [0, 0], "T": [1, 0.2]}},
+        {"name": "block", "mass": 0.5, "inertia": 0.01, "points": {"P": [0.5, 0.3], "Q": [0.6, 0.4]}}],
+        "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "arm.O", "damping": 0.05},
+                   {"kind": "prismatic", "name": "S", "body": "block", "point": "P", "on": "arm", "through": "T",
+                    "direction": [1, 0.3]}]}
+    rail = {"ground": {"O": [0, 0]}, "bodies": [
+        {"name": "block", "mass": 0.5, "inertia": 0.02, "points": {"O": [0, 0], "P": [0.1, 0.05]}},
+        {"name": "rail", "mass": 1.2, "inertia": 0.2, "points": {"T": [0.3, 0.4], "E": [1.0, -0.3]}}],
+        "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "block.O"},
+                   {"kind": "prismatic", "name": "S", "body": "block", "point": "P", "on": "rail", "through": "T",
+                    "direction": [0.8, -0.6]}],
+        "drivers": [{"joint": "O", "torque": 0.7}]}
+    return [Mechanism.model_validate(arm), Mechanism.model_validate(rail)]
+
+
+def _damped_torque_driven_crank_rocker():
+    spec = crank_rocker().model_dump()
+    spec["drivers"] = [{"joint": spec["drivers"][0]["joint"], "torque": 0.4}]
+    for joint in spec["joints"]:
+        joint["damping"] = 0.02
+    from physics.mechanism import Mechanism  # noqa: PLC0415
+
+    return Mechanism.model_validate(spec)
+
+
+@pytest.mark.parametrize("formulation", ["lagrange", "newton_euler"])
+def test_every_reaction_agrees_with_sliders_on_moving_guides_damping_and_torque_motors(formulation):
+    """The tree joints' reactions where the slider's moment balance matters (its guide turns), with pin damping
+    and a torque motor among the loads."""
+    rng = np.random.default_rng(99)
+    for mechanism in [*_moving_guides(), _damped_torque_driven_crank_rocker()]:
+        assert_three_way_agreement(mechanism, formulation, rng, states=4)
