@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as dop853
 
 from ..errors import LinkageError
+from ..kernels import tables
 
 SAFETY = 0.9  # scipy's: steps from the asymptotic error estimate are multiplied by this
 MIN_FACTOR = 0.2  # scipy's: largest decrease of a step size after a rejected step
@@ -22,11 +22,11 @@ MAX_FACTOR = 10.0  # scipy's: largest increase after an accepted one
 ERROR_EXPONENT = -1.0 / 8.0  # DOP853's error estimate is of order 7
 MAX_STEPS = 5_000_000
 
-_STAGES = dop853.N_STAGES
-_A = dop853.A[:_STAGES, :_STAGES]
-_B = dop853.B
-_C = dop853.C[:_STAGES]
-_E3, _E5 = dop853.E3, dop853.E5
+_STAGES = tables.DOP853_N_STAGES  # scipy's coefficients, as the compiled kernels use them (same doubles)
+_A = tables.DOP853_A[:_STAGES, :_STAGES]
+_B = tables.DOP853_B
+_C = tables.DOP853_C[:_STAGES]
+_E3, _E5 = tables.DOP853_E3, tables.DOP853_E5
 
 
 def _error_norm(stages: np.ndarray, h: float, scale: np.ndarray) -> float:
