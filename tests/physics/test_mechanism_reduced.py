@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from physics.errors import LinkageError
-from physics.mechanism import MECHANISM_PRESETS, Mechanism, Revolute, assemble
+from physics.mechanism import MECHANISM_PRESETS, Body, Driver, Mechanism, Prismatic, Revolute, assemble
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.presets import bar, circle_intersection, pin
 from physics.mechanism.reduced import SWITCH_SHARE, simulate_reduced
 from physics.mechanism.reduced_coordinates import JointCoordinates
 from physics.mechanism.reduced_partition import Partition
@@ -24,6 +25,42 @@ from physics.reduced import simulate_reduced as simulate_four_bar
 
 MOBILITY_ONE = ["slider-crank", "watt-six-bar", "stephenson-six-bar"]
 EPS = np.finfo(float).eps
+
+
+def quick_return() -> Mechanism:
+    """A crank whose pin carries a block sliding along a swinging rocker (the quick-return mechanism): the guide
+    turns and the block's centre of mass is off its sliding point, so every term of a travel's curvature
+    counts (the presets' piston slides on the ground through its centre of mass, where they all vanish)."""
+    o, q = (0.0, 0.0), (0.0, -0.25)
+    a = (0.1 * math.cos(math.radians(60.0)), 0.1 * math.sin(math.radians(60.0)))
+    along = np.subtract(a, q) / math.dist(a, q)
+    end = (q[0] + 0.45 * along[0], q[1] + 0.45 * along[1])
+    return Mechanism(
+        name="quick-return", ground={"O": o, "Q": q},
+        bodies=[bar("crank", ("O", o), ("A", a)), bar("rocker", ("Q", q), ("E", end)),
+                Body(name="block", points={"A": a}, mass=0.2, com=(a[0] + 0.01, a[1] + 0.02), inertia=2e-4)],
+        joints=[pin("O", "ground.O", "crank.O"), pin("A", "crank.A", "block.A"), pin("Q", "ground.Q", "rocker.Q"),
+                Prismatic(name="slide", body="block", point="A", on="rocker", through="Q",
+                          direction=(float(along[0]), float(along[1])))],
+        trace="block.A",
+    )
+
+
+def driven_five_bar() -> Mechanism:
+    """Two cranks joined by two links (two degrees of freedom), one crank turned by a motor: mobility 1 with a
+    constraint that depends on time."""
+    o1, o2 = (0.0, 0.0), (0.3, 0.0)
+    a, b = (0.0, 0.1), (0.35, 0.12)
+    c = circle_intersection(a, 0.25, b, 0.2, side=+1)
+    return Mechanism(
+        name="driven-five-bar", ground={"O1": o1, "O2": o2},
+        bodies=[bar("crank", ("O1", o1), ("A", a)), bar("left", ("A", a), ("C", c)), bar("right", ("C", c), ("B", b)),
+                bar("rocker", ("O2", o2), ("B", b))],
+        joints=[pin("O1", "ground.O1", "crank.O1"), pin("A", "crank.A", "left.A"), pin("C", "left.C", "right.C"),
+                pin("B", "right.B", "rocker.B"), pin("O2", "ground.O2", "rocker.O2")],
+        drivers=[Driver(joint="O1", speed=3.0)],
+        trace="left.C",
+    )
 
 
 def consistent_velocity(mechanism: Mechanism, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -52,9 +89,9 @@ def joint_speeds(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> dict[
     return speeds
 
 
-@pytest.mark.parametrize("name", MOBILITY_ONE)
-def test_joint_coordinate_gradients_and_curvatures_match_finite_differences(name):
-    mechanism = MECHANISM_PRESETS[name]()
+@pytest.mark.parametrize("make", [*(MECHANISM_PRESETS[name] for name in MOBILITY_ONE), quick_return])
+def test_joint_coordinate_gradients_and_curvatures_match_finite_differences(make):
+    mechanism = make()
     dae = MechanismDAE(mechanism)
     coordinates = JointCoordinates(mechanism, dae.constraints)
     rng = np.random.default_rng(7)
@@ -89,6 +126,26 @@ def test_reduced_run_agrees_with_the_dae_run(name):
     assert np.max(np.abs(run.reactions - dae.reactions)) <= 1e-5 * force_scale
     assert np.nanmax(np.abs(run.trace_xy - dae.trace_xy)) <= 1e-7
     assert np.ptp(dae.q[:, 2]) > 0.5  # the crank really moved: agreement over a motion, not a pose
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("make", "coordinate", "t_end"),
+                         [(quick_return, "slide", 0.3), (quick_return, None, 2.0), (driven_five_bar, None, 2.0)])
+def test_a_moving_guide_and_a_motor_agree_with_the_dae_run(make, coordinate, t_end):
+    """A slider on a turning guide (in its travel until just before that travel's first dead centre, at 0.34 s,
+    so the travel's curvature is at work; and in the best joints), and a motor on a two-degree-of-freedom
+    five-bar (velocities ``B sdot + D`` with ``D`` from the motor)."""
+    mechanism = make()
+    options = dict(rtol=1e-12, atol=1e-12)
+    reduced = simulate_reduced(mechanism, t_end, 41, coordinate=coordinate, switching=coordinate is None, **options)
+    dae = simulate_mechanism(mechanism, t_end, 41, **options)
+    if coordinate is not None:
+        assert set(reduced.coordinate) == {coordinate}
+    assert np.max(np.abs(reduced.run.q - dae.q)) <= 1e-7
+    assert np.max(np.abs(reduced.run.qdot - dae.qdot)) <= 1e-6 * (1 + np.max(np.abs(dae.qdot)))
+    assert np.max(np.abs(reduced.run.reactions - dae.reactions)) <= 1e-5 * np.max(np.abs(dae.reactions))
+    assert np.max(reduced.run.residual) <= 20 * EPS * sketch_size(mechanism) * (1 + np.max(np.abs(dae.q)))
+    assert np.ptp(dae.q[:, 2]) > 0.05  # the crank turned
 
 
 @pytest.mark.slow  # 10 s of each preset
