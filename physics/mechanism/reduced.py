@@ -64,7 +64,7 @@ class ReducedSettings(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     t_end: float = Field(gt=0.0, le=1e4, description="duration from t_start, s")
-    samples: int = Field(ge=2, le=1_000_000, strict=True)
+    samples: int = Field(ge=2, le=1_000_000)
     t_start: float = Field(0.0, ge=-1e6, le=1e6)
     rtol: float = Field(1e-10, ge=1e-13, le=0.1)
     atol: float = Field(1e-10, gt=0.0, le=1.0)
