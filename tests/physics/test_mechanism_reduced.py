@@ -265,12 +265,14 @@ def test_a_fixed_coordinate_is_refused_at_its_dead_centre():
     assert "\n" not in str(caught.value)
 
 
-@pytest.mark.parametrize("name", MOBILITY_ONE)
-def test_the_coordinate_in_use_always_keeps_its_share(name):
+@pytest.mark.parametrize(("name", "coordinate"), [*((name, None) for name in MOBILITY_ONE), ("slider-crank", "guide")])
+def test_the_coordinate_in_use_always_keeps_its_share(name, coordinate):
     """At every sample the joint integrated moves at least SWITCH_SHARE times as fast as the fastest joint,
-    read with the test's own joint speeds."""
+    read with the test's own joint speeds (started in the piston's travel: before and after its switch)."""
     mechanism = MECHANISM_PRESETS[name]()
-    reduced = simulate_reduced(mechanism, 2.0, 201, rtol=1e-8, atol=1e-8)
+    reduced = simulate_reduced(mechanism, 2.0, 201, rtol=1e-8, atol=1e-8, coordinate=coordinate)
+    if coordinate is not None:
+        assert reduced.switches and reduced.coordinate[1] == coordinate
     for q, qdot, joint in zip(reduced.run.q[1:], reduced.run.qdot[1:], reduced.coordinate[1:]):
         speeds = joint_speeds(mechanism, q, qdot)
         assert speeds[joint] >= (1 - 1e-6) * SWITCH_SHARE * max(speeds.values())
