@@ -33,8 +33,8 @@ NEWTON_STEPS = 30
 # Newton stops when a step moves no coordinate by more than this times the mechanism's size (rotations counted
 # as lengths), or when steps below NEWTON_NOISE times the size stop shrinking (rounding noise). The steps use
 # the reference pose's inverse (a chord iteration) while each is below CHORD_RATE times the one before, and a
-# fresh inverse otherwise.
-NEWTON_STEP_TOLERANCE = 1e-15
+# fresh inverse otherwise, so what is left after the last step is below CHORD_RATE times it: rounding level.
+NEWTON_STEP_TOLERANCE = 1e-14
 NEWTON_NOISE = 1e-12
 CHORD_RATE = 0.1
 # A pose whose residual stays above this (times the size) after NEWTON_STEPS has lost the branch.
