@@ -26,7 +26,6 @@ more than one coordinate and is refused as well.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +38,7 @@ from .dae import MechanismDAE
 from .model import Mechanism
 from .reduced_coordinates import JointCoordinates
 from .reduced_partition import Partition, ReducedState
+from .reduced_samples import Samples, collect_segment
 from .simulate import MechanismRun
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
@@ -154,7 +154,7 @@ def simulate_reduced(
     qdot = _nearest_velocity(dae, at_rest, qdot_start)
     times = settings.t_start + np.linspace(0.0, settings.t_end, settings.samples)
     t_final = float(times[-1])
-    collected = _Samples(times)
+    collected = Samples(times)
     switches: list[CoordinateSwitch] = []
     evaluations = 0
     switch_now = False  # the last segment ended at the switching event
@@ -183,7 +183,7 @@ def simulate_reduced(
         if solution.status == -1:
             raise LinkageError(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
                                f"({solution.message})")
-        end = _collect(collected, partition, solution, start)
+        end = collect_segment(collected, partition, solution, start)
         q, qdot, t = end.q, end.qdot, float(solution.t[-1])
         if solution.status == 0:
             collected.add(end, partition.name, last=True)
@@ -235,68 +235,3 @@ def _share_event(partition: Partition, limit: float):
     share_above_limit.terminal = True  # type: ignore[attr-defined]
     share_above_limit.direction = -1  # type: ignore[attr-defined]
     return share_above_limit
-
-
-class _Samples:
-    """The run's samples as they are computed, segment after segment."""
-
-    def __init__(self, times: np.ndarray) -> None:
-        self.times = times
-        self.states: list[ReducedState] = []
-        self.coordinate: list[str] = []
-
-    def wanted(self, t_from: float, t_to: float, include_end: bool) -> np.ndarray:
-        done = len(self.states)
-        pending = self.times[done:]
-        return pending[(pending >= t_from) & ((pending <= t_to) if include_end else (pending < t_to))]
-
-    def add(self, state: ReducedState, name: str, last: bool = False) -> None:
-        if len(self.states) < self.times.size and (not last or state.t >= self.times[len(self.states)]):
-            self.states.append(state)
-            self.coordinate.append(name)
-
-    def run(self, dae: MechanismDAE) -> MechanismRun:
-        constraints = dae.constraints
-        q = np.array([state.q for state in self.states])
-        qdot = np.array([state.qdot for state in self.states])
-        reactions, kinetic, potential, residual, trace = [], [], [], [], []
-        for state in self.states:
-            jacobian = constraints.jacobian(state.q)
-            unbalanced = dae.mass_diagonal * state.qddot - dae.applied(state.qdot)  # = Phi_q^T lambda
-            reactions.append(np.linalg.lstsq(jacobian.T, unbalanced, rcond=None)[0])
-            energy = dae.energy(state.q, state.qdot)
-            kinetic.append(energy[0])
-            potential.append(energy[1])
-            residual.append(float(np.max(np.abs(constraints.residual(state.q, state.t)), initial=0.0)))
-            trace.append(_trace(dae, state.q))
-        return MechanismRun(
-            t=self.times.copy(), q=q, qdot=qdot, reactions=np.array(reactions), kinetic=np.array(kinetic),
-            potential=np.array(potential), residual=np.array(residual), trace_xy=np.array(trace),
-            row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
-        )
-
-
-def _trace(dae: MechanismDAE, q: np.ndarray) -> np.ndarray:
-    mechanism = dae.mechanism
-    if mechanism.trace is None:
-        return np.full(2, math.nan)
-    body, _, point = mechanism.trace.partition(".")
-    index = dae.constraints.body_index[body]
-    return dae.constraints.body_point(q, index, mechanism.body(body).points[point])
-
-
-def _collect(collected: _Samples, partition: Partition, solution, start: ReducedState) -> ReducedState:
-    """Record the samples of one segment, walking through every accepted step in order so each pose is solved
-    from the one just before (the branch is kept); return the state at the segment's end."""
-    t_from, t_to = float(solution.t[0]), float(solution.t[-1])
-    wanted = collected.wanted(t_from, t_to, include_end=False)
-    walk = np.union1d(solution.t, wanted)
-    keep = np.isin(walk, wanted)
-    y = solution.sol(walk)
-    partition.reset(start.q, start.t)
-    state = start
-    for k, t in enumerate(walk):
-        state = start if k == 0 else partition.state(float(t), float(y[0, k]), float(y[1, k]))
-        if keep[k]:
-            collected.add(state, partition.name)
-    return partition.state(t_to, float(solution.y[0, -1]), float(solution.y[1, -1]))
