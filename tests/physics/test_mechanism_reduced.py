@@ -63,6 +63,16 @@ def driven_five_bar() -> Mechanism:
     )
 
 
+def motored_damped_slider_crank() -> Mechanism:
+    """The slider-crank with a torque motor on its crank and viscous damping in the rod's pins: applied forces
+    that depend on the velocities."""
+    preset = MECHANISM_PRESETS["slider-crank"]()
+    joints = [joint.model_copy(update={"damping": 0.002}) if joint.name in ("A", "B") else joint
+              for joint in preset.joints]
+    return Mechanism.model_validate({**preset.model_dump(), "joints": [j.model_dump() for j in joints],
+                                     "drivers": [{"joint": "O", "torque": 0.05}]})
+
+
 def consistent_velocity(mechanism: Mechanism, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """A random velocity that satisfies the constraints: along the null vector of their Jacobian."""
     jacobian = MechanismDAE(mechanism).constraints.jacobian(q)
@@ -130,11 +140,12 @@ def test_reduced_run_agrees_with_the_dae_run(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("make", "coordinate", "t_end"),
-                         [(quick_return, "slide", 0.3), (quick_return, None, 2.0), (driven_five_bar, None, 2.0)])
+                         [(quick_return, "slide", 0.3), (quick_return, None, 2.0), (driven_five_bar, None, 2.0),
+                          (motored_damped_slider_crank, None, 2.0)])
 def test_a_moving_guide_and_a_motor_agree_with_the_dae_run(make, coordinate, t_end):
     """A slider on a turning guide (in its travel until just before that travel's first dead centre, at 0.34 s,
-    so the travel's curvature is at work; and in the best joints), and a motor on a two-degree-of-freedom
-    five-bar (velocities ``B sdot + D`` with ``D`` from the motor)."""
+    so the travel's curvature is at work; and in the best joints), a motor on a two-degree-of-freedom
+    five-bar (velocities ``B sdot + D`` with ``D`` from the motor), and a torque motor with damped pins."""
     mechanism = make()
     options = dict(rtol=1e-12, atol=1e-12)
     reduced = simulate_reduced(mechanism, t_end, 41, coordinate=coordinate, switching=coordinate is None, **options)
