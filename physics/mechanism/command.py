@@ -6,8 +6,8 @@
     python -m physics mechanism --preset slider-crank --t-end 2 --method lagrange --stabilization baumgarte
 
 With ``--out`` (or ``--t-end``) the mechanism is simulated (``--method``: the maximal-coordinate DAE, the
-default, or Lagrange or Newton–Euler on a spanning tree; ``--stabilization``: projection, the default,
-Baumgarte or none) and a CSV of ``t``, the traced point, the energies, the largest constraint residual and
+default, or Lagrange or Newton–Euler on a spanning tree, or ``reduced``: one joint coordinate with
+coordinate switching, for mobility 1; ``--stabilization``: projection, the default, Baumgarte or none) and a CSV of ``t``, the traced point, the energies, the largest constraint residual and
 every joint reaction of that formulation is written atomically. Bad input is one line and exit 2 (printed by :mod:`physics.cli`).
 """
 
@@ -23,10 +23,10 @@ from ..errors import LinkageError
 from ..outputs import check_output_path, write_output
 from .assembly import assemble
 from .files import load_mechanism
-from .formulations import METHODS, STABILIZATIONS
+from .formulations import STABILIZATIONS
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
-from .simulate import MechanismRun, run_options, simulate_mechanism
+from .simulate import RUN_METHODS, MechanismRun, run_options, simulate_mechanism
 
 MAX_SAMPLES = 100_000
 
@@ -76,7 +76,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--t-end", type=float, default=None, help="simulate this many seconds (0 < t_end <= 1e4)")
     parser.add_argument("--samples", type=int, default=201, help=f"samples of the run (2..{MAX_SAMPLES})")
     parser.add_argument("--out", default=None, help="write the run as CSV to this file")
-    parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(METHODS)}")
+    parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(RUN_METHODS)}")
     parser.add_argument("--stabilization", default="projection",
                         help=f"how the loops are held: {', '.join(STABILIZATIONS)}")
     args = parser.parse_args(argv)

@@ -13,7 +13,7 @@ chosen formulation gives the accelerations, the reactions and the motor torque.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -25,32 +25,14 @@ from .assembly import assemble, kinematics
 from .dae import MechanismDAE
 from .formulations import METHODS, STABILIZATIONS, formulation
 from .model import Mechanism
+from .reduced import simulate_reduced
+from .run import MechanismRun
 from .stepper import Stepper
 
+__all__ = ["MechanismRun", "RUN_METHODS", "project_velocity", "run_options", "simulate_mechanism"]
 
-@dataclass(frozen=True)
-class MechanismRun:
-    """Samples of a run: ``t (T,)``, ``q, qdot (T, 3 B)``, ``reactions (T, rows)``, ``kinetic, potential
-    (T,)``, ``residual (T,)`` (largest constraint residual), ``trace_xy (T, 2)`` (the traced point, if any)."""
-
-    t: np.ndarray
-    q: np.ndarray
-    qdot: np.ndarray
-    reactions: np.ndarray
-    kinetic: np.ndarray
-    potential: np.ndarray
-    residual: np.ndarray
-    trace_xy: np.ndarray
-    row_names: tuple[str, ...]
-    method: str = "dae"  # the formulation integrated and whose reactions these are
-    stabilization: str = "projection"
-    integrated: bool = True  # False: every sample by position analysis (the motors fix every body)
-    steps: int = 0  # accepted integration steps
-    evaluations: int = 0  # right-hand sides evaluated
-
-    @property
-    def energy(self) -> np.ndarray:
-        return self.kinetic + self.potential
+# the formulations, and the reduced model in one joint coordinate (mobility 1: physics/mechanism/reduced.py)
+RUN_METHODS = (*METHODS, "reduced")
 
 
 def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
@@ -72,7 +54,7 @@ class RunOptions(BaseModel):
     t_end: float = Field(gt=0.0, le=1e4)
     samples: int = Field(ge=2, le=1_000_000)
     t_start: float = Field(ge=-1e6, le=1e6)
-    method: Literal["dae", "lagrange", "newton_euler"]
+    method: Literal["dae", "lagrange", "newton_euler", "reduced"]
     stabilization: Literal["none", "baumgarte", "projection"]
     rtol: float = Field(ge=1e-14, le=1e-2)
     atol: float = Field(ge=1e-16, le=1e-2)
@@ -82,7 +64,7 @@ ALLOWED = {
     "t_end": "allowed range 0 < t_end <= 1e4 (the run's duration from t_start, s)",
     "samples": "allowed range 2 <= samples <= 1000000",
     "t_start": "allowed range -1e6 <= t_start <= 1e6 (s)",
-    "method": f"allowed values {', '.join(METHODS)}",
+    "method": f"allowed values {', '.join(RUN_METHODS)}",
     "stabilization": f"allowed values {', '.join(STABILIZATIONS)}",
     "rtol": "allowed range 1e-14 <= rtol <= 1e-2",
     "atol": "allowed range 1e-16 <= atol <= 1e-2",
@@ -126,6 +108,8 @@ def simulate_mechanism(
                           stabilization=stabilization, rtol=rtol, atol=atol)
     q0, qdot0 = (_state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
+    if options.method == "reduced":
+        return _reduced(mechanism, options, q0, qdot0, integrate)
     dae = MechanismDAE(mechanism)
     constraints = dae.constraints
     assembled = assemble(mechanism, q0, options.t_start)
@@ -176,6 +160,19 @@ def simulate_mechanism(
         method=options.method, stabilization=options.stabilization, integrated=not driven,
         steps=0 if stepper is None else stepper.steps, evaluations=0 if stepper is None else stepper.evaluations,
     )
+
+
+def _reduced(mechanism: Mechanism, options: RunOptions, q0, qdot0, integrate: bool | None) -> MechanismRun:
+    """The reduced model's run (mobility 1), its closures held by position analysis at every evaluation: no
+    stabilisation applies, and a mechanism its motors fix has no free coordinate to reduce to."""
+    if options.stabilization != "projection":
+        raise LinkageError(f"stabilization = {options.stabilization!r}: does not apply to method 'reduced' (its "
+                           f"positions come from position analysis, so the loops close exactly); leave it out")
+    if integrate is False:
+        raise LinkageError("integrate = False: does not apply to method 'reduced' (it always integrates)")
+    reduced = simulate_reduced(mechanism, options.t_end, options.samples, q0=q0, qdot0=qdot0,
+                               t_start=options.t_start, rtol=options.rtol, atol=options.atol)
+    return replace(reduced.run, method="reduced", stabilization="position analysis", integrated=True)
 
 
 def _state_vector(value, name: str, size: int) -> np.ndarray | None:

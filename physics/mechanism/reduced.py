@@ -1,0 +1,237 @@
+"""The reduced model of a one-degree-of-freedom mechanism: one joint coordinate integrated as one ODE, with
+coordinate switching at its dead centres.
+
+The maximal-coordinate DAE (:mod:`physics.mechanism.dae`) integrates ``3 B`` positions and velocities and
+projects them back onto the constraints. A mechanism of mobility 1 needs only one coordinate ``s``: a pin's
+relative angle or a slider's travel (:mod:`physics.mechanism.reduced_coordinates`). Every other position comes
+from position analysis, so the constraints hold to rounding by construction, and the equation of motion is the
+scalar ``(B^T M B) sddot = B^T (Q - M a0)`` (:mod:`physics.mechanism.reduced_partition`), integrated by scipy's
+DOP853 in ``(s, sdot)``.
+
+**Which coordinate.** Along the motion every joint moves at a rate proportional to ``sdot``; counting an angle's
+rate times the mechanism's size as a speed, the coordinate's *share* is its speed divided by the fastest
+joint's. With the share ``kappa``, no dependent joint moves faster than ``1 / kappa`` times the coordinate
+(the velocity transformation is that well conditioned), and ``kappa = 0`` is a dead centre: the coordinate
+stands still while the mechanism moves, the bordered Jacobian is singular and the dependent positions are not
+functions of it (two branches meet). The run starts in the fastest joint (share 1) unless told otherwise, and an
+integrator event switches when the share falls below :data:`SWITCH_SHARE`: the new coordinate is the fastest
+joint at that instant, its value and rate are read off the exact state (nothing is integrated across the
+switch), and the switch is recorded. With ``switching=False`` the coordinate is kept and the run is refused
+when its share falls below :data:`DEAD_CENTRE_SHARE`, naming the joint and the time.
+
+A mechanism its motors fully determine (mobility 0) has no free coordinate; it is refused, and
+:func:`physics.mechanism.simulate.simulate_mechanism` moves it by kinematics alone. Mobility 2 or more needs
+more than one coordinate and is refused as well.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from scipy.integrate import solve_ivp
+
+from ..errors import LinkageError
+from .assembly import assemble, sketch_size
+from .dae import MechanismDAE
+from .model import Mechanism
+from .reduced_coordinates import JointCoordinates
+from .reduced_partition import Partition, ReducedState
+from .reduced_samples import Samples, collect_segment
+from .run import MechanismRun
+
+# Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
+# faster than it. The new coordinate starts at share 1, so switches cannot chatter.
+SWITCH_SHARE = 0.1
+# Without switching, a share below this counts as the dead centre itself (the run is refused there).
+DEAD_CENTRE_SHARE = 1e-3
+# A safety net against a run that switches without end (a mechanism passing a singular pose).
+MAX_SWITCHES = 10_000
+
+_ALLOWED = {
+    "t_end": "0 < t_end <= 1e4 s",
+    "samples": "2 <= samples <= 1000000",
+    "t_start": "-1e6 <= t_start <= 1e6 s",
+    "rtol": "1e-13 <= rtol <= 0.1",
+    "atol": "0 < atol <= 1",
+}
+
+
+class ReducedSettings(BaseModel):
+    """The run's numbers, checked at the boundary."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    t_end: float = Field(gt=0.0, le=1e4, description="duration from t_start, s")
+    samples: int = Field(ge=2, le=1_000_000)
+    t_start: float = Field(0.0, ge=-1e6, le=1e6)
+    rtol: float = Field(1e-10, ge=1e-13, le=0.1)
+    atol: float = Field(1e-10, gt=0.0, le=1.0)
+
+
+@dataclass(frozen=True)
+class CoordinateSwitch:
+    """At time ``t`` the integrated coordinate changed from joint ``from_joint`` (whose share had fallen to
+    ``share``) to joint ``to_joint``."""
+
+    t: float
+    from_joint: str
+    to_joint: str
+    share: float
+
+
+@dataclass(frozen=True)
+class ReducedRun:
+    """A reduced run: ``run`` has the fields of the DAE's run; ``switches`` every coordinate switch in order;
+    ``coordinate`` the joint integrated at each sample; ``rhs_evaluations`` how often the reduced equation was
+    evaluated."""
+
+    run: MechanismRun
+    switches: tuple[CoordinateSwitch, ...]
+    coordinate: tuple[str, ...]
+    rhs_evaluations: int
+
+
+def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, atol: float) -> ReducedSettings:
+    """The validated settings; one line naming the field, the value and the allowed range otherwise."""
+    try:
+        return ReducedSettings(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
+    except ValidationError as error:
+        first = error.errors()[0]
+        field = str(first["loc"][0]) if first["loc"] else "settings"
+        message = str(first["msg"]).removeprefix("Value error, ")
+        raise LinkageError(f"{field} = {first.get('input')!r}: {message} (allowed: {_ALLOWED.get(field, '')})") from None
+
+
+def _start_vector(value: np.ndarray | None, size: int, name: str, meaning: str) -> np.ndarray | None:
+    if value is None:
+        return None
+    array = np.asarray(value, dtype=float)
+    if array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise LinkageError(f"{name}: expected {size} finite numbers ({meaning}), got shape {array.shape}"
+                           + ("" if array.shape != (size,) else " with a non-finite entry"))
+    return array
+
+
+def simulate_reduced(
+    mechanism: Mechanism,
+    t_end: float,
+    samples: int,
+    *,
+    q0: np.ndarray | None = None,
+    qdot0: np.ndarray | None = None,
+    t_start: float = 0.0,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    coordinate: str | None = None,
+    switching: bool = True,
+) -> ReducedRun:
+    """Integrate a mobility-1 mechanism for ``t_end`` s from ``t_start``, from the assembled sketch (or ``q0``)
+    at rest (or the consistent velocity nearest ``qdot0`` in kinetic energy, as the DAE run projects it).
+    ``coordinate``: the joint to start in (default: the fastest); ``switching=False`` keeps it throughout.
+    Samples are ``samples`` equally spaced times from ``t_start`` to ``t_start + t_end``."""
+    settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
+    dae = MechanismDAE(mechanism)
+    size = dae.constraints.size
+    q_start = _start_vector(q0, size, "q0", "x, y, phi per body")
+    qdot_start = _start_vector(qdot0, size, "qdot0", "xdot, ydot, phidot per body")
+    assembled = assemble(mechanism, q_start, settings.t_start)
+    if assembled.mobility != 1:
+        raise LinkageError(_mobility_refusal(mechanism, assembled.mobility))
+    coordinates = JointCoordinates(mechanism, dae.constraints)
+    if coordinate is not None and coordinate not in coordinates.names:
+        raise LinkageError(f"coordinate = {coordinate!r}: no joint of that name (joints: {', '.join(coordinates.names)})")
+    length = sketch_size(mechanism)
+    q = assembled.q
+    t = settings.t_start
+    if coordinate is None:
+        which = _fastest_joint(coordinates, dae, q)
+    else:
+        which = coordinates.index(coordinate)
+    partition = Partition(dae, coordinates, which, q, t, length)
+    at_rest = partition.state(t, coordinates.value(q, which), 0.0)
+    qdot = _nearest_velocity(dae, at_rest, qdot_start)
+    times = settings.t_start + np.linspace(0.0, settings.t_end, settings.samples)
+    t_final = float(times[-1])
+    collected = Samples(times)
+    switches: list[CoordinateSwitch] = []
+    evaluations = 0
+    switch_now = False  # the last segment ended at the switching event
+    while True:
+        s, sdot = partition.coordinate_of(q, qdot)
+        start = partition.state(t, s, sdot)
+        share = partition.share(start)
+        if switching and (switch_now or share < SWITCH_SHARE):
+            switch_now = False
+            if len(switches) >= MAX_SWITCHES:
+                raise LinkageError(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
+                                   "the mechanism is near a singular pose where no joint is a good coordinate")
+            new = Partition(dae, coordinates, _fastest_joint(coordinates, dae, q, start.velocity_map), q, t, length)
+            switches.append(CoordinateSwitch(t=t, from_joint=partition.name, to_joint=new.name, share=share))
+            evaluations += partition.evaluations
+            partition = new
+            continue
+        if share < DEAD_CENTRE_SHARE:
+            raise LinkageError(_dead_centre_refusal(partition, t, share))
+        if t >= t_final:
+            collected.add(start, partition.name)
+            break
+        event = _share_event(partition, SWITCH_SHARE if switching else DEAD_CENTRE_SHARE)
+        solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=settings.rtol,
+                             atol=settings.atol, events=[event], dense_output=True)
+        if solution.status == -1:
+            raise LinkageError(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
+                               f"({solution.message})")
+        end = collect_segment(collected, partition, solution, start)
+        q, qdot, t = end.q, end.qdot, float(solution.t[-1])
+        if solution.status == 0:
+            collected.add(end, partition.name, last=True)
+            break
+        if not switching:
+            raise LinkageError(_dead_centre_refusal(partition, t, partition.share(end)))
+        switch_now = True
+    evaluations += partition.evaluations
+    return ReducedRun(run=collected.run(dae), switches=tuple(switches), coordinate=tuple(collected.coordinate),
+                      rhs_evaluations=evaluations)
+
+
+def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:
+    if mobility == 0:
+        return (f"{mechanism.name}: mobility 0: its motors fix every body, so there is no free coordinate to "
+                "integrate; the reduced model needs mobility 1 (simulate_mechanism moves it by kinematics)")
+    return (f"{mechanism.name}: mobility {mobility}: the reduced model integrates one coordinate and needs "
+            "mobility 1; use the DAE (simulate_mechanism), or add motors")
+
+
+def _dead_centre_refusal(partition: Partition, t: float, share: float) -> str:
+    return (f"joint {partition.name!r} stopped being a valid coordinate at t = {t:.6g} s: a dead centre (its "
+            f"speed share fell to {share:.2g}, limit {DEAD_CENTRE_SHARE:g}); run with switching=True")
+
+
+def _fastest_joint(coordinates: JointCoordinates, dae: MechanismDAE, q: np.ndarray,
+                   direction: np.ndarray | None = None) -> int:
+    """The joint with speed share 1 along ``direction`` (default: the null vector of the constraint Jacobian)."""
+    if direction is None:
+        direction = np.linalg.svd(dae.constraints.jacobian(q))[2][-1]
+    return int(np.argmax(coordinates.speed_shares(q, direction)))
+
+
+def _nearest_velocity(dae: MechanismDAE, at_rest: ReducedState, qdot0: np.ndarray | None) -> np.ndarray:
+    """The consistent velocity ``B sdot + D`` nearest ``qdot0`` (default: rest) in the kinetic-energy metric."""
+    motor_velocity = at_rest.qdot
+    if qdot0 is None:
+        qdot0 = np.zeros_like(motor_velocity)
+    mass, velocity_map = dae.mass_diagonal, at_rest.velocity_map
+    sdot = float(velocity_map @ (mass * (qdot0 - motor_velocity))) / at_rest.generalised_mass
+    return velocity_map * sdot + motor_velocity
+
+
+def _share_event(partition: Partition, limit: float):
+    def share_above_limit(t: float, y: np.ndarray) -> float:
+        return partition.share(partition.state(t, float(y[0]), float(y[1]))) - limit
+
+    # scipy's solve_ivp reads these attributes off the event function (its documented protocol)
+    share_above_limit.terminal = True  # type: ignore[attr-defined]
+    share_above_limit.direction = -1  # type: ignore[attr-defined]
+    return share_above_limit
