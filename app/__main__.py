@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from physics import METHOD_NAMES, LinkageError, preset_names
+from physics.mechanism import MECHANISM_PRESETS
 
 from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, MAX_SESSIONS_LIMIT, is_loopback
 
@@ -31,8 +33,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "anything else exposes the app to the network)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT,
                         help=f"port (default {DEFAULT_PORT}; 0 picks a free one; a busy port moves to the next)")
-    parser.add_argument("--preset", default=DEFAULT_PRESET, choices=preset_names(), metavar="NAME",
-                        help="mechanism every new session starts with: " + ", ".join(preset_names()))
+    parser.add_argument("--preset", default=DEFAULT_PRESET, choices=[*preset_names(), *MECHANISM_PRESETS],
+                        metavar="NAME", help="mechanism every new session starts with: "
+                        + ", ".join([*preset_names(), *MECHANISM_PRESETS]))
+    parser.add_argument("--mechanism", default=None, metavar="FILE",
+                        help="a mechanism file (TOML or JSON, docs/mechanisms.md) every new session starts with")
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain")
     parser.add_argument("--method", default=None, choices=METHOD_NAMES, metavar="METHOD",
                         help="formulation to start with: " + ", ".join(METHOD_NAMES))
@@ -78,9 +83,22 @@ def main(argv: list[str] | None = None) -> int:
         from . import warm  # noqa: PLC0415 - the warm-up starts before viser is imported (below)
         from .parameters import SessionParameters  # noqa: PLC0415 - same reason
 
+        mechanism, label = None, None
+        if args.mechanism is not None or args.preset in MECHANISM_PRESETS:
+            from physics.mechanism.files import load_mechanism  # noqa: PLC0415 - only for a mechanism
+
+            from .mechanism_runs import start_state  # noqa: PLC0415 - same reason
+
+            if args.mechanism is not None:
+                mechanism, label = load_mechanism(args.mechanism), Path(args.mechanism).name
+            else:
+                mechanism, label = MECHANISM_PRESETS[args.preset](), args.preset
+            start_state(mechanism)  # it must assemble: one line naming the joint that stays open
+            args.preset = DEFAULT_PRESET  # the chain a switch from it starts with
         SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
         setup = read_setup(args.state, args.preset, args.links) if args.state else []
-        warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser is imported
+        if mechanism is None:
+            warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser imports
         from .processes import default_processes  # noqa: PLC0415 - imports viser: after the warm-up started
         from .server import LabServer  # noqa: PLC0415 - same reason
 
@@ -95,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
             warm=False,  # started above
             processes=default_processes() if args.processes is None else args.processes,
             setup=setup,
+            mechanism=mechanism,
+            mechanism_label=label,
         )
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)

@@ -154,12 +154,14 @@ def measure_browser_start() -> dict:
 def measure_latency(samples: int = 40) -> dict:
     """Median and worst slider-to-pose latencies, in milliseconds."""
     from .server import LabServer
+    from .session import Session
     from .wsclient import BackgroundClient
 
     server = LabServer(port=0)
     client = BackgroundClient(server.url)
     try:
         session = server.wait_for_sessions(1, timeout=600)[0]
+        assert isinstance(session, Session), "the latency benchmark drives a chain session"
         session.player.wait_idle(600)
         angle = session.controls._angle_handles[0]
         mass = session.controls._bar_handles[0]["m"]

@@ -37,11 +37,13 @@ class TrajectoryRing:
     Arrays returned by :meth:`window` are copies in time order.
     """
 
-    def __init__(self, n: int, pinned: bool, capacity: int, dt: float) -> None:
+    def __init__(self, n: int, pinned: bool, capacity: int, dt: float,
+                 fields: dict[str, tuple[int, ...]] | None = None) -> None:
         if capacity < 2:
             raise ValueError(f"capacity = {capacity}: need at least 2 samples")
         self.n, self.pinned, self.capacity, self.dt = n, pinned, capacity, dt
-        self._data = {name: np.zeros((capacity,) + shape) for name, shape in _fields(n, pinned).items()}
+        shapes = _fields(n, pinned) if fields is None else {"t": (), **fields}  # a mechanism's own fields
+        self._data = {name: np.zeros((capacity,) + shape) for name, shape in shapes.items()}
         self._start = 0  # physical index of the oldest sample
         self._count = 0
 
@@ -105,6 +107,9 @@ class TrajectoryRing:
     def sample(self, i: int) -> dict[str, np.ndarray]:
         p = self._phys(i)
         return {name: array[p].copy() for name, array in self._data.items()}
+
+    def has(self, name: str) -> bool:
+        return name in self._data
 
     def get(self, name: str, i: int) -> np.ndarray:
         return self._data[name][self._phys(i)]

@@ -19,6 +19,7 @@ import numpy as np
 
 import physics
 from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
 from physics.model import FIXED_STEP_INTEGRATORS
 
 from . import share
@@ -243,7 +244,8 @@ class Controls:
         )
         self.tabs = gui.add_tab_group()
         with self.tabs.add_tab("Mechanism"):
-            self.mechanism = gui.add_dropdown("Mechanism", physics.preset_names(), initial_value=p.preset)
+            self.mechanism = gui.add_dropdown("Mechanism", [*physics.preset_names(), *MECHANISM_PRESETS],
+                                              initial_value=p.preset)
             self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
             self.description = gui.add_markdown("")  # what the chosen preset is and teaches (physics.presets)
             self.preset_defaults = gui.add_button("Reset to the preset's values",

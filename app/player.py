@@ -20,17 +20,13 @@ from typing import Callable
 
 import numpy as np
 
-from .buffers import TrajectoryRing
 from .runs import (
     Frame,
     Restart,
     Run,
     RunFrame,
     RunSpec,
-    chunk_dict,
-    com_ratio,
     finite_prefix,
-    kinematic_sample,
 )
 
 SAMPLE_RATE = 60.0  # samples per simulated second; also the display's frames per wall-clock second
@@ -222,6 +218,7 @@ class Player:
             if not self.runs or len(self.runs[0].ring) < 2:
                 return None
             ring = self.runs[0].ring
+            x_name, v_name = self.runs[0].spec.state_fields
             if not ring.t_first <= t <= ring.t_last:
                 return None
             i = min(ring.index_at(t), len(ring) - 2)
@@ -230,9 +227,9 @@ class Player:
                 if min(frac, 1.0 - frac) > EXACT_SAMPLE:
                     return None
                 i, frac = (i, 0.0) if frac <= EXACT_SAMPLE else (i + 1, 0.0)
-                return ring.get("theta", i).copy(), ring.get("omega", i).copy()
-            theta = ring.get("theta", i) + frac * (ring.get("theta", i + 1) - ring.get("theta", i))
-            omega = ring.get("omega", i) + frac * (ring.get("omega", i + 1) - ring.get("omega", i))
+                return ring.get(x_name, i).copy(), ring.get(v_name, i).copy()
+            theta = ring.get(x_name, i) + frac * (ring.get(x_name, i + 1) - ring.get(x_name, i))
+            omega = ring.get(v_name, i) + frac * (ring.get(v_name, i + 1) - ring.get(v_name, i))
             return np.array(theta), np.array(omega)
 
     def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
@@ -245,8 +242,9 @@ class Player:
             if not self.runs or len(self.runs[0].ring) == 0:
                 return None
             ring = self.runs[0].ring
+            x_name, v_name = self.runs[0].spec.state_fields
             i = ring.index_at(self.display_time)
-            return ring.t_first + i * ring.dt, ring.get("theta", i).copy(), ring.get("omega", i).copy()
+            return ring.t_first + i * ring.dt, ring.get(x_name, i).copy(), ring.get(v_name, i).copy()
 
     def real_time_factor(self) -> float:
         """Simulated seconds shown per wall-clock second over the last two seconds."""
@@ -334,8 +332,7 @@ class Player:
                 if (
                     pending.keep_history
                     and prev is not None
-                    and prev.spec.n == spec.n
-                    and prev.spec.pinned == spec.pinned
+                    and prev.spec.layout == spec.layout
                     and len(prev.ring)
                 ):
                     ring = prev.ring
@@ -343,9 +340,9 @@ class Player:
                     # the start state replaces the stored sample at t0 (e.g. a re-assembled loop)
                     ring.truncate_after(len(ring) - 2)
                 else:
-                    ring = TrajectoryRing(spec.n, spec.pinned, capacity, SAMPLE_DT)
+                    ring = spec.new_ring(capacity, SAMPLE_DT)
                 ring.append(sample)
-                runs.append(Run(spec=spec, ring=ring, com_ratio=com_ratio(spec.chain), failed=failed))
+                runs.append(Run(spec=spec, ring=ring, com_ratio=spec.com_ratio(), failed=failed))
             self.runs = runs
             self._failure_reported = False
             self.generation += 1
@@ -369,19 +366,20 @@ class Player:
         else:
             message = traj.message
         if traj is not None and len(traj.t) > 0:
-            chunk = {k: v[:1] for k, v in chunk_dict(traj, spec.n, spec.pinned).items()}
-            if finite_prefix(chunk) == 1:
+            chunk = {k: v[:1] for k, v in spec.chunk(traj).items()}
+            if finite_prefix(chunk, spec.state_fields) == 1:
                 failed = message if (traj.status < 0 and len(traj.t) < 2) else None
                 return chunk, failed
-        return kinematic_sample(spec, t0, theta0, omega0), message or "the start state could not be evaluated"
+        return spec.still_sample(t0, theta0, omega0), message or "the start state could not be evaluated"
 
     def _simulate_chunk(self, spec: RunSpec, t0: float, theta0, omega0, steps: int, continuing: bool = False):
         """Simulate ``steps`` sample intervals from ``t0``; ``steps = 0`` evaluates the start state only."""
         horizon = max(steps, 1) * SAMPLE_DT
         settings = self._make_settings(spec.settings, horizon, max(steps, 1) + 1)
+        simulate = spec.simulate or self._simulate
         if continuing:
-            return self._simulate(spec.chain, theta0, omega0, settings, t_start=t0, continuing=True)
-        return self._simulate(spec.chain, theta0, omega0, settings, t_start=t0)
+            return simulate(spec.chain, theta0, omega0, settings, t_start=t0, continuing=True)
+        return simulate(spec.chain, theta0, omega0, settings, t_start=t0)
 
     def _needs_more(self, run: Run) -> bool:
         if run.failed is not None or len(run.ring) == 0:
@@ -402,8 +400,8 @@ class Player:
             generation = self.generation
             i = len(run.ring) - 1
             t0 = run.ring.t_last
-            theta0 = run.ring.get("theta", i).copy()
-            omega0 = run.ring.get("omega", i).copy()
+            theta0 = run.ring.get(run.spec.state_fields[0], i).copy()
+            omega0 = run.ring.get(run.spec.state_fields[1], i).copy()
             seconds = run.chunk_seconds
             spec = run.spec
         steps = max(1, int(round(seconds * SAMPLE_RATE)))
@@ -420,9 +418,9 @@ class Player:
             if generation != self.generation or run not in self.runs:
                 return True  # a restart happened meanwhile: this chunk belongs to the past
             run.compute_seconds += elapsed
-            chunk = chunk_dict(traj, spec.n, spec.pinned)
+            chunk = spec.chunk(traj)
             chunk = {k: v[1:] for k, v in chunk.items()}  # the first sample is the stored start
-            good = finite_prefix(chunk)
+            good = finite_prefix(chunk, spec.state_fields)
             run.ring.append({k: v[:good] for k, v in chunk.items()})
             run.simulated_seconds += good * SAMPLE_DT
             if traj.status < 0:
@@ -489,12 +487,17 @@ class Player:
                     continue
                 i = ring.index_at(self.display_time)
                 joints = ring.get("joints", i)
+                com = ring.get("com", i) if ring.has("com") else None  # a mechanism stores its centres of mass
                 if i + 1 < len(ring):
                     frac = (self.display_time - (ring.t_first + i * ring.dt)) / ring.dt
                     frac = min(max(frac, 0.0), 1.0)
                     joints = joints + frac * (ring.get("joints", i + 1) - joints)
+                    if com is not None:
+                        com = com + frac * (ring.get("com", i + 1) - com)
                 joints = np.array(joints)
-                com = joints[:-1] + run.com_ratio[:, None] * (joints[1:] - joints[:-1])
+                if com is None:
+                    com = joints[:-1] + run.com_ratio[:, None] * (joints[1:] - joints[:-1])
+                com = np.array(com)
                 frames.append(RunFrame(run.spec.label, i, joints, com))
             self.frame_counter += 1
             frame = Frame(self.display_time, frames, restarted, self._restart_time, self.frame_counter)

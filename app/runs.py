@@ -7,6 +7,7 @@ and the read-outs read them.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, ClassVar
 
 import numpy as np
 
@@ -20,11 +21,19 @@ FIRST_CHUNK_SECONDS = 0.25  # short first chunk after a restart, so the first ne
 
 @dataclass
 class RunSpec:
-    """What one run simulates: a validated chain, settings (``t_end``/``samples`` are set per chunk), a label."""
+    """What one run simulates: a validated chain, settings (``t_end``/``samples`` are set per chunk), a label.
+
+    The player reaches the run's model only through the members below, which a general mechanism's run
+    (:class:`app.mechanism_runs.MechanismSpec`) implements too: the ring's layout and fields, the state's field
+    names, a chunk's samples, a sample from kinematics alone, and the simulating function (None: the player's
+    injected ``physics.simulate``)."""
 
     label: str
     chain: Chain
     settings: Settings
+
+    state_fields: ClassVar[tuple[str, str]] = ("theta", "omega")  # the ring's fields a chunk continues from
+    simulate: ClassVar[Callable | None] = None  # None: the player's own (physics.simulate, injected for tests)
 
     @property
     def n(self) -> int:
@@ -33,6 +42,23 @@ class RunSpec:
     @property
     def pinned(self) -> bool:
         return self.chain.pinned
+
+    @property
+    def layout(self) -> tuple:
+        """Runs with equal layouts can share a ring (a parameter change keeps the history)."""
+        return ("chain", self.n, self.pinned)
+
+    def new_ring(self, capacity: int, dt: float) -> TrajectoryRing:
+        return TrajectoryRing(self.n, self.pinned, capacity, dt)
+
+    def com_ratio(self) -> np.ndarray:
+        return com_ratio(self.chain)
+
+    def chunk(self, traj) -> dict[str, np.ndarray]:
+        return chunk_dict(traj, self.n, self.pinned)
+
+    def still_sample(self, t0: float, theta0: np.ndarray, omega0: np.ndarray) -> dict[str, np.ndarray]:
+        return kinematic_sample(self, t0, theta0, omega0)
 
 
 @dataclass
@@ -125,8 +151,9 @@ def kinematic_sample(spec: RunSpec, t0: float, theta0: np.ndarray, omega0: np.nd
     }
 
 
-def finite_prefix(chunk: dict[str, np.ndarray]) -> int:
-    """Number of leading samples whose state is finite."""
-    ok = np.all(np.isfinite(chunk["theta"]), axis=1) & np.all(np.isfinite(chunk["omega"]), axis=1)
+def finite_prefix(chunk: dict[str, np.ndarray], fields: tuple[str, str] = ("theta", "omega")) -> int:
+    """Number of leading samples whose state (the two ``fields``) is finite."""
+    x_name, v_name = fields
+    ok = np.all(np.isfinite(chunk[x_name]), axis=1) & np.all(np.isfinite(chunk[v_name]), axis=1)
     bad = np.flatnonzero(~ok)
     return int(bad[0]) if bad.size else len(ok)

@@ -91,6 +91,22 @@ def part_instance(name: str) -> tuple[str, int | None]:
     return name, None
 
 
+def bar_instances(starts_xy: np.ndarray, ends_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Batched positions and orientations (float32) of unit boxes drawn from ``starts_xy`` to ``ends_xy``
+    (each (k, 2), physics plane): the box's x axis along the bar, centred between the ends."""
+    starts_xy, ends_xy = np.asarray(starts_xy, dtype=float), np.asarray(ends_xy, dtype=float)
+    middle = 0.5 * (starts_xy + ends_xy)
+    delta = ends_xy - starts_xy
+    # a rotation by phi about world y maps the box's x axis to (cos phi, 0, -sin phi); the bar runs along
+    # (dx, 0, dy) in the world, hence phi = atan2(-dy, dx) (0 for a bar of zero length)
+    half_phi = 0.5 * np.arctan2(-delta[:, 1], delta[:, 0])
+    positions = np.zeros((len(middle), 3), np.float32)
+    positions[:, 0], positions[:, 2] = middle[:, 0], middle[:, 1]
+    wxyzs = np.zeros((len(middle), 4), np.float32)
+    wxyzs[:, 0], wxyzs[:, 2] = np.cos(half_phi), np.sin(half_phi)
+    return positions, wxyzs
+
+
 @dataclass(frozen=True)
 class Layout:
     """What decides the set of nodes: rebuild only when this changes."""
@@ -265,15 +281,7 @@ class LinkageScene:
         """Batched positions and orientations (float32) of the bars and spheres for one frame."""
         joints_xy = np.asarray(joints_xy, dtype=float)
         n = len(joints_xy) - 1
-        middle = 0.5 * (joints_xy[:-1] + joints_xy[1:])
-        delta = joints_xy[1:] - joints_xy[:-1]
-        # a rotation by phi about world y maps the box's x axis to (cos phi, 0, -sin phi); the bar runs along
-        # (dx, 0, dy) in the world, hence phi = atan2(-dy, dx) (0 for a bar of zero length)
-        half_phi = 0.5 * np.arctan2(-delta[:, 1], delta[:, 0])
-        bar_positions = np.zeros((n, 3), np.float32)
-        bar_positions[:, 0], bar_positions[:, 2] = middle[:, 0], middle[:, 1]
-        bar_wxyzs = np.zeros((n, 4), np.float32)
-        bar_wxyzs[:, 0], bar_wxyzs[:, 2] = np.cos(half_phi), np.sin(half_phi)
+        bar_positions, bar_wxyzs = bar_instances(joints_xy[:-1], joints_xy[1:])
         sphere_positions = np.zeros((2 * n + 1, 3), np.float32)
         sphere_positions[0::2, 0], sphere_positions[0::2, 2] = joints_xy[:, 0], joints_xy[:, 1]
         sphere_positions[1::2, 0], sphere_positions[1::2, 2] = com_xy[:, 0], com_xy[:, 1]

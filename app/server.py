@@ -22,12 +22,15 @@ import time
 import traceback
 
 from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS, Mechanism
 
 from . import processes as server_processes
 from . import replay, share, viser_compat
 from . import warm as warm_up
 from .commands import CONTROL
 from .logs import quietly
+from .mechanism_runs import start_state
+from .mechanism_session import MechanismSession, is_mechanism
 from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
 from .session import Session
@@ -101,6 +104,8 @@ class LabServer:
         reuse_port: bool = False,
         setup: list[tuple[str, str]] | None = None,
         presenter: bool = True,
+        mechanism: Mechanism | None = None,
+        mechanism_label: str | None = None,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -109,6 +114,13 @@ class LabServer:
                 f"--max-sessions {max_sessions}: allowed range 1 <= max-sessions <= {MAX_SESSIONS_LIMIT} "
                 "(own sessions each integrate in this process; use --shared for a larger audience)"
             )
+        # a general mechanism to start with: a file (--mechanism) or a preset of physics.mechanism
+        if mechanism is None and is_mechanism(preset):
+            mechanism, mechanism_label = MECHANISM_PRESETS[preset](), preset
+        self.mechanism, self.mechanism_label = mechanism, mechanism_label
+        if mechanism is not None:
+            start_state(mechanism)  # it must assemble (LinkageError naming the joint that stays open)
+            preset, warm = DEFAULT_PRESET, False  # the chain a switch from it starts with
         # validate the start mechanism once, before anything listens (raises LinkageError naming the field)
         SessionParameters.from_preset(preset, links=links, method=method)
         if not 1 <= int(processes) <= server_processes.MAX_PROCESSES:
@@ -141,10 +153,10 @@ class LabServer:
         self.viser.scene.set_up_direction("+z")
         self.viser.gui.configure_theme(control_width="large", show_share_button=False)
         self._lock = threading.Lock()
-        self.sessions: dict[int, Session] = {}  # this process's own sessions
+        self.sessions: dict[int, Session | MechanismSession] = {}  # this process's own sessions
         self.turned_away: set[int] = set()
         self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
-        self.shared_session: Session | None = None
+        self.shared_session: Session | MechanismSession | None = None
         self.closed_sessions = 0
         # --shared: only the browser that opened the presenter's secret address may change anything
         self.presenter_path: str | None = None
@@ -153,17 +165,16 @@ class LabServer:
             if add_alias(name):
                 self.presenter_path = "/" + name
         if shared:
-            self.shared_session = Session(self.viser, preset=preset, links=links, method=method, shared=True)
-            if self.presenter_path is not None:
-                self.shared_session.is_presenter = self.is_presenter
-            if self.setup:
+            self.shared_session = self._start_session(self.viser, preset, links, shared=True)
+            if self.setup and isinstance(self.shared_session, Session):
                 self.shared_session.load_setup(self.setup, "the setup file")
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
         self.siblings: server_processes.Siblings | None = None
         if processes > 1:
             options = {"host": host, "preset": preset, "links": links, "method": method,
-                       "max_sessions": max_sessions, "warm": warm, "setup": self.setup}
+                       "max_sessions": max_sessions, "warm": warm, "setup": self.setup,
+                       "mechanism": mechanism, "mechanism_label": mechanism_label}
             try:
                 self.siblings = server_processes.start_siblings(processes - 1, self.port, options, self.seats)
             except BaseException:
@@ -201,8 +212,11 @@ class LabServer:
         try:
             setup, refused = self._setup_of(client)
             preset, links, not_started = share.start_of(setup, self.preset, self.links)
-            session = Session(client, preset=preset, links=links, method=self.method)
-            refused += not_started + share.apply_setup(setup, lambda name, text: session.set(name, text, CONTROL))
+            session = self._start_session(client, preset, links, shared=False)
+            if isinstance(session, Session):
+                chain_session = session
+                refused += not_started + share.apply_setup(
+                    setup, lambda name, text: chain_session.set(name, text, CONTROL))
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
         except Exception as error:  # never let one browser's start take the server down
@@ -223,6 +237,42 @@ class LabServer:
                     with self._lock:
                         self.closed_sessions += 1
             self._rebalance()
+
+    def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
+                       mechanism: str | None = None) -> Session | MechanismSession:
+        """A chain session, or a mechanism session when the server starts with one (``--mechanism``, a
+        mechanism preset) or ``mechanism`` names one; either can hand its browser to the other kind."""
+        if mechanism is None and self.mechanism is not None:
+            session: Session | MechanismSession = MechanismSession(
+                target, self.mechanism, label=self.mechanism_label, shared=shared)
+        elif mechanism is not None:
+            session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
+        else:
+            session = Session(target, preset=preset, links=links, method=self.method, shared=shared)
+        if shared and self.presenter_path is not None:
+            session.is_presenter = self.is_presenter
+        session.on_switch = lambda name, old=session: self._switch(target, old, name, shared)
+        return session
+
+    def _switch(self, target, old: Session | MechanismSession, name: str, shared: bool) -> None:
+        """The mechanism menu chose the other kind of session: remove the old one's panel and scene from the
+        browser (``target``) and start the new one there, in the same seat."""
+        old.close(clean=True)
+        if isinstance(old, Session):  # to a general mechanism
+            new = self._start_session(target, self.preset, self.links, shared=shared, mechanism=name)
+        else:  # back to a chain preset
+            new = Session(target, preset=name, method=self.method, shared=shared)
+            if shared and self.presenter_path is not None:
+                new.is_presenter = self.is_presenter
+            new.on_switch = lambda other, old=new: self._switch(target, old, other, shared)
+        with self._lock:
+            if shared:
+                self.shared_session = new
+            elif target.client_id in self.sessions:
+                self.sessions[target.client_id] = new
+            else:  # the browser left meanwhile
+                new.close()
+        self._rebalance()
 
     def is_presenter(self, client_id: int) -> bool:
         """Whether this browser opened the presenter's address (asked on each change, so that a change sent
@@ -285,11 +335,11 @@ class LabServer:
                 self.closed_sessions += 1
         self._rebalance()
 
-    def session_for(self, client_id: int) -> Session | None:
+    def session_for(self, client_id: int) -> Session | MechanismSession | None:
         with self._lock:
             return self.sessions.get(client_id)
 
-    def wait_for_sessions(self, count: int, timeout: float = 30.0) -> list[Session]:
+    def wait_for_sessions(self, count: int, timeout: float = 30.0) -> list[Session | MechanismSession]:
         """Block until ``count`` sessions exist (tests); returns them."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:

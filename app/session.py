@@ -30,6 +30,7 @@ import numpy as np
 
 import physics
 from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
 from physics.model import validated
 
 from . import commands, delivery, export, readout, share, warm
@@ -98,6 +99,8 @@ class Session:
         self._lock = threading.RLock()
         # --shared with a presenter: whether a browser (client id) may change anything (None: every browser may)
         self.is_presenter: Callable[[int], bool] | None = None
+        # a general mechanism's preset chosen in the menu: the server replaces this session (app/server.py)
+        self.on_switch: Callable[[str], None] | None = None
         self._told_viewer: dict[int, float] = {}
         self.params = SessionParameters.from_preset(preset, links=links, method=method)
         self._user_paused = not autoplay
@@ -346,9 +349,15 @@ class Session:
             self._restart_fresh()
 
     def set_mechanism(self, name: str, links: int | None = None) -> None:
-        """Load a preset (``links`` for ``chain``), keeping the integration choices where they apply."""
+        """Load a preset (``links`` for ``chain``), keeping the integration choices where they apply. A general
+        mechanism's preset (``jansen-leg``, ...) hands the browser to a mechanism session (``on_switch``, given
+        by the server: app/mechanism_session.py)."""
+        if isinstance(name, str) and name in MECHANISM_PRESETS and self.on_switch is not None:
+            self.on_switch(name)
+            return
         if not isinstance(name, str) or name not in physics.preset_names():
-            raise LinkageError(f"mechanism = {name!r}: allowed {', '.join(physics.preset_names())}")
+            allowed = [*physics.preset_names(), *(MECHANISM_PRESETS if self.on_switch is not None else ())]
+            raise LinkageError(f"mechanism = {name!r}: allowed {', '.join(allowed)}")
         with self._lock:
             old = self.params
             new = SessionParameters.from_preset(name, links=links if name == "chain" else None)
@@ -588,8 +597,9 @@ class Session:
         return readout.snapshot(self)
 
     # ================================================================== lifetime
-    def close(self) -> None:
-        """Stop the player and drop the scene (the server calls this when the browser goes away)."""
+    def close(self, clean: bool = False) -> None:
+        """Stop the player and drop the scene (the server calls this when the browser goes away); with
+        ``clean`` remove every node and control too (the browser stays: a switch to a mechanism session)."""
         if self.closed:
             return
         self.closed = True
@@ -599,7 +609,7 @@ class Session:
         self.controls.close()
         self.analysis.remove()
         self.report.remove()
-        if self.shared:  # the server's scene and panel outlive this session: clean them
+        if self.shared or clean:  # the scene and panel outlive this session: clean them
             self.view.remove()
             self.controls.remove()
             if self.view.divergence is not None:

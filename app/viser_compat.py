@@ -178,7 +178,14 @@ def check_gui_updates(
     handlers = getattr(interface, "_incoming_handlers", {}).get(GuiUpdateMessage) if interface is not None else None
     original = getattr(gui, "_handle_gui_updates", None)
     controls = getattr(gui, "_gui_input_handle_from_uuid", None)
-    if not handlers or original is None or controls is None or original not in handlers:
+    installed = getattr(gui, "_linkage_lab_checker", None)  # a previous session's on this GUI (a switch)
+    if installed is not None and handlers and installed in handlers:
+        slot = handlers.index(installed)
+    elif handlers and original is not None and original in handlers:
+        slot = handlers.index(original)
+    else:
+        slot = None
+    if slot is None or handlers is None or original is None or controls is None:
         warn_once("updates", "cannot check a browser's control values before viser casts them")
         return False
 
@@ -202,7 +209,8 @@ def check_gui_updates(
         except Exception:  # the event loop's boundary: a refusal never raises into viser
             log_once("viser_compat:refuse", "could not show a refused control value")
 
-    handlers[handlers.index(original)] = checked
+    handlers[slot] = checked
+    gui._linkage_lab_checker = checked
     return True
 
 

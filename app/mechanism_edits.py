@@ -1,0 +1,152 @@
+"""The panel's values of a general mechanism, generated from its description, and edits through its models.
+
+Every control of a mechanism session is a :class:`Knob`: a name (``mass:crank``, ``size:coupler``,
+``speed:O2``, ``g``), a label with units, a range and the value in force. :func:`apply_edit` returns the edited
+mechanism, validated again by ``physics.mechanism``'s pydantic models and assembled, or raises LinkageError
+naming the body or joint, the field, the value and the allowed range. Plain data; no viser.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import ValidationError
+
+from physics import LinkageError
+from physics.mechanism import Body, Driver, Mechanism
+from physics.mechanism.assembly import assemble
+
+
+@dataclass(frozen=True)
+class Knob:
+    """One generated control: ``name`` (what :func:`apply_edit` takes), ``label`` (with units), its range."""
+
+    name: str
+    label: str
+    low: float
+    high: float
+    step: float
+    value: float
+    hint: str
+    geometry: bool  # changing it moves points: the run starts again from the re-assembled sketch
+
+
+def body_size(body: Body) -> float:
+    """A body's size: the largest distance between two of its points (a bar's length)."""
+    points = np.array(list(body.points.values()), dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return 0.0
+    gaps = points[:, None, :] - points[None, :, :]
+    return float(np.max(np.hypot(gaps[..., 0], gaps[..., 1])))
+
+
+def _step(value: float) -> float:
+    """A slider step about a hundredth of ``value``, rounded to 1, 2 or 5 times a power of ten."""
+    if value <= 0 or not math.isfinite(value):
+        return 0.01
+    exponent = math.floor(math.log10(value / 100.0))
+    return 10.0 ** exponent
+
+
+def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob]:
+    """The controls of ``mechanism``: per body its size (bodies with two or more points), mass and inertia;
+    per motor its speed (°/s) or torque (N·m); gravity. Ranges come from ``reference`` (the preset or file
+    as loaded), so a slider's range does not move as it is dragged."""
+    reference = reference or mechanism
+    out: list[Knob] = []
+    for body, ref in zip(mechanism.bodies, reference.bodies):
+        size, ref_size = body_size(body), body_size(ref)
+        if ref_size > 0:
+            out.append(Knob(f"size:{body.name}", f"{body.name}: size (m)", round(0.25 * ref_size, 6),
+                            round(3.0 * ref_size, 6), _step(ref_size), size,
+                            "The largest distance between its points; the body is scaled about its first point "
+                            "and the mechanism re-assembled (its inertia scales with the square)", True))
+        mass_top = max(10.0 * ref.mass, 1.0)
+        out.append(Knob(f"mass:{body.name}", f"{body.name}: m (kg)", 0.0, mass_top, _step(mass_top / 10), body.mass,
+                        "Mass of the body", False))
+        inertia_top = max(10.0 * ref.inertia, 1e-4)
+        out.append(Knob(f"inertia:{body.name}", f"{body.name}: I (kg·m²)", 0.0, inertia_top,
+                        _step(inertia_top / 10), body.inertia, "Centroidal moment of inertia of the body", False))
+    for driver in mechanism.drivers:
+        if driver.speed is not None:
+            out.append(Knob(f"speed:{driver.joint}", f"motor {driver.joint}: speed (°/s)", -720.0, 720.0, 5.0,
+                            math.degrees(driver.speed), "Constant relative angular speed the motor holds", False))
+        else:
+            torque = float(driver.torque or 0.0)
+            top = max(10.0 * abs(torque), 1.0)
+            out.append(Knob(f"torque:{driver.joint}", f"motor {driver.joint}: torque (N·m)", -top, top,
+                            _step(top / 10), torque, "Constant torque the motor applies", False))
+    out.append(Knob("g", "g (m/s²)", 0.0, 30.0, 0.01, mechanism.g, "Gravitational acceleration, along -y", False))
+    return out
+
+
+def _scaled(body: Body, factor: float) -> Body:
+    """``body`` scaled by ``factor`` about its first point (a crank keeps its pivot), inertia by factor²."""
+    origin = np.array(next(iter(body.points.values())), dtype=float)
+
+    def move(xy) -> list[float]:
+        return [float(v) for v in origin + factor * (np.array(xy, dtype=float) - origin)]
+
+    data = body.model_dump()
+    data["points"] = {name: move(xy) for name, xy in body.points.items()}
+    if body.com is not None:
+        data["com"] = move(body.com)
+    data["inertia"] = body.inertia * factor**2
+    return Body.model_validate(data)
+
+
+def _number(name: str, value: object) -> float:
+    if isinstance(value, bool):
+        raise LinkageError(f"{name} = {value!r}: expected a number")
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise LinkageError(f"{name} = {value!r}: expected a number") from None
+    if not math.isfinite(number):
+        raise LinkageError(f"{name} = {value!r}: expected a finite number")
+    return number
+
+
+def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechanism | None = None) -> Mechanism:
+    """``mechanism`` with the control ``name`` set to ``value`` (SI units except a motor speed in °/s),
+    validated and assembled; LinkageError naming the element, the field and the allowed range otherwise."""
+    knob = next((k for k in knobs(mechanism, reference) if k.name == name), None)
+    if knob is None:
+        raise LinkageError(f"{name!r}: not a control of {mechanism.name} "
+                           f"(controls: {', '.join(k.name for k in knobs(mechanism, reference))})")
+    number = _number(knob.label, value)
+    if not knob.low <= number <= knob.high:
+        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    kind, _, element = name.partition(":")
+    data = mechanism.model_dump()
+    try:
+        if kind == "g":
+            data["g"] = number
+        elif kind in ("mass", "inertia", "size"):
+            index = [body.name for body in mechanism.bodies].index(element)
+            body = mechanism.bodies[index]
+            if kind == "size":
+                if number <= 0:
+                    raise LinkageError(f"body {element!r}: size = {number:g}: must be above 0 m")
+                new = _scaled(body, number / body_size(body))
+            else:
+                new = Body.model_validate({**body.model_dump(), kind: number})
+            data["bodies"][index] = new.model_dump()
+        else:  # speed or torque of a motor
+            index = [driver.joint for driver in mechanism.drivers].index(element)
+            driver = mechanism.drivers[index]
+            field = "speed" if kind == "speed" else "torque"
+            update = math.radians(number) if kind == "speed" else number
+            data["drivers"][index] = Driver.model_validate({**driver.model_dump(), field: update}).model_dump()
+        edited = Mechanism.model_validate(data)
+    except ValidationError as error:
+        detail = error.errors()[0]
+        raise LinkageError(f"{knob.label} = {number:g}: {detail['msg']}") from None
+    if knob.geometry:
+        try:
+            assemble(edited)
+        except LinkageError as error:
+            raise LinkageError(f"{knob.label} = {number:g}: the mechanism cannot be assembled ({error})") from None
+    return edited

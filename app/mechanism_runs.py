@@ -1,0 +1,254 @@
+"""A general mechanism's run as the player sees it: samples in a ring, chunks from ``simulate_mechanism``.
+
+The player (app/player.py) drives chains and mechanisms alike through the members of a run specification
+(:class:`app.runs.RunSpec`); :class:`MechanismSpec` gives them for any planar mechanism of
+``physics.mechanism``: its state is the maximal coordinates ``q, qdot`` (x, y, phi of every body's centre of
+mass), its drawn points are every named point of every body (:class:`Drawing`), and each chunk continues the
+run from the last stored sample (``q0, qdot0, t_start``). Plain data and numpy; no viser, no thread.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from physics import LinkageError
+from physics.mechanism import Mechanism, Prismatic, Revolute
+from physics.mechanism.assembly import assemble
+from physics.mechanism.simulate import simulate_mechanism
+
+from .buffers import TrajectoryRing
+
+
+class MechanismSettings(BaseModel):
+    """A run's options (``t_end`` and ``samples`` are set per chunk by the player)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
+    stabilization: Literal["none", "baumgarte", "projection"] = "projection"
+    trace: str | None = None  # "body.point" whose path is drawn
+    t_end: float = Field(1.0, gt=0.0)
+    samples: int = Field(2, ge=2)
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """What to draw of a mechanism, by index into its list of points.
+
+    ``labels[k]`` is ``"body.point"`` of drawn point k (every named point of every body, in the description's
+    order); ``owner[k]`` its body's number and ``offset[k]`` its place relative to that body's centre of mass in
+    the sketch. ``segments`` are pairs of point indices drawn as bars, with ``segment_body`` their body: a body
+    with two points is one bar, a plate of three or more the edges of its outline (convex hull). ``joints``
+    holds the points where a revolute joint sits (a body's side of it), ``ground`` the fixed points and the
+    sliders' guides on the ground (``guides``: pairs of world points)."""
+
+    labels: tuple[str, ...]
+    owner: np.ndarray
+    offset: np.ndarray
+    segments: np.ndarray
+    segment_body: np.ndarray
+    joints: np.ndarray
+    ground: np.ndarray
+    guides: np.ndarray
+    size: float
+
+
+def _outline(points: np.ndarray) -> list[int]:
+    """Indices of ``points`` around their convex hull, counter-clockwise (all of them when collinear)."""
+    order = sorted(range(len(points)), key=lambda k: (points[k, 0], points[k, 1]))
+
+    def cross(o, a, b) -> float:
+        return float((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+                     - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+
+    lower: list[int] = []
+    for k in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], k) <= 0:
+            lower.pop()
+        lower.append(k)
+    upper: list[int] = []
+    for k in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], k) <= 0:
+            upper.pop()
+        upper.append(k)
+    hull = lower[:-1] + upper[:-1]
+    return hull if len(hull) >= 3 else order
+
+
+def drawing(mechanism: Mechanism) -> Drawing:
+    """The drawing of ``mechanism`` (see :class:`Drawing`)."""
+    labels: list[str] = []
+    owner: list[int] = []
+    offset: list[np.ndarray] = []
+    segments: list[tuple[int, int]] = []
+    segment_body: list[int] = []
+    for b, body in enumerate(mechanism.bodies):
+        first = len(labels)
+        centre = np.array(body.centre)
+        sketch = np.array(list(body.points.values()), dtype=float).reshape(-1, 2)
+        for name, xy in body.points.items():
+            labels.append(f"{body.name}.{name}")
+            owner.append(b)
+            offset.append(np.array(xy) - centre)
+        if len(sketch) == 2:
+            segments.append((first, first + 1))
+            segment_body.append(b)
+        elif len(sketch) >= 3:
+            ring = _outline(sketch)
+            closed = len(ring) >= 3
+            pairs = zip(ring, ring[1:] + ring[:1]) if closed else zip(ring, ring[1:])
+            for i, j in pairs:
+                segments.append((first + i, first + j))
+                segment_body.append(b)
+    index = {label: k for k, label in enumerate(labels)}
+    joint_points = sorted({index[side] for joint in mechanism.joints if isinstance(joint, Revolute)
+                           for side in (joint.a, joint.b) if side in index})
+    guides = []
+    points = [xy for body in mechanism.bodies for xy in body.points.values()] + list(mechanism.ground.values())
+    xs, ys = zip(*points)
+    size = max(max(xs) - min(xs), max(ys) - min(ys), 1e-3)
+    for joint in mechanism.joints:
+        if isinstance(joint, Prismatic) and joint.on == "ground":
+            through = np.array(mechanism.ground[joint.through])
+            u = np.array(joint.direction) / np.hypot(*joint.direction)
+            guides.append((through - 0.75 * size * u, through + 0.75 * size * u))
+    return Drawing(
+        labels=tuple(labels), owner=np.array(owner, dtype=int), offset=np.array(offset, dtype=float).reshape(-1, 2),
+        segments=np.array(segments, dtype=int).reshape(-1, 2), segment_body=np.array(segment_body, dtype=int),
+        joints=np.array(joint_points, dtype=int), ground=np.array(list(mechanism.ground.values()),
+                                                                  dtype=float).reshape(-1, 2),
+        guides=np.array(guides, dtype=float).reshape(-1, 2, 2), size=float(size),
+    )
+
+
+def points_at(draw: Drawing, q: np.ndarray) -> np.ndarray:
+    """Every drawn point at poses ``q`` (..., 3 B) -> (..., P, 2): ``r_b + R(phi_b) s``."""
+    q = np.asarray(q, dtype=float)
+    x, y, phi = q[..., 0::3], q[..., 1::3], q[..., 2::3]
+    cos, sin = np.cos(phi[..., draw.owner]), np.sin(phi[..., draw.owner])
+    sx, sy = draw.offset[:, 0], draw.offset[:, 1]
+    return np.stack([x[..., draw.owner] + cos * sx - sin * sy, y[..., draw.owner] + sin * sx + cos * sy], axis=-1)
+
+
+def centres_at(q: np.ndarray) -> np.ndarray:
+    """Every body's centre of mass at poses ``q`` (..., 3 B) -> (..., B, 2)."""
+    q = np.asarray(q, dtype=float)
+    return np.stack([q[..., 0::3], q[..., 1::3]], axis=-1)
+
+
+def torque_rows(row_names: tuple[str, ...]) -> list[int]:
+    """Reaction rows that are a speed motor's torque (``"O2: driven angle"``)."""
+    return [k for k, name in enumerate(row_names) if name.endswith(": driven angle")]
+
+
+@dataclass
+class MechanismChunk:
+    """One chunk as the player reads a physics trajectory: ``status``, ``message``, work counts, the run."""
+
+    run: object
+    status: int = 0
+    message: str = ""
+    n_rhs: int = 0
+    n_steps: int = 0
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.run.t  # type: ignore[attr-defined]
+
+
+@dataclass
+class MechanismSpec:
+    """A mechanism's run for the player (the members of :class:`app.runs.RunSpec`)."""
+
+    label: str
+    chain: Mechanism  # the player's name for "the model"; here a general mechanism
+    settings: MechanismSettings
+    row_names: tuple[str, ...] = ()
+    draw: Drawing = field(init=False)
+
+    state_fields = ("q", "qdot")
+    pinned = False
+
+    def __post_init__(self) -> None:
+        self.draw = drawing(self.chain)
+        if not self.row_names:
+            from physics.mechanism.constraints import Constraints  # noqa: PLC0415 - cheap, numpy only
+
+            self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
+
+    @property
+    def mechanism(self) -> Mechanism:
+        return self.chain
+
+    @property
+    def n(self) -> int:
+        """The number of bodies (the player scales its chunk lengths by it)."""
+        return len(self.chain.bodies)
+
+    @property
+    def layout(self) -> tuple:
+        return ("mechanism", self.draw.labels, self.row_names)
+
+    def fields(self) -> dict[str, tuple[int, ...]]:
+        size = 3 * self.n
+        return {
+            "q": (size,), "qdot": (size,), "joints": (len(self.draw.labels), 2), "com": (self.n, 2),
+            "trace_xy": (2,), "kinetic": (), "potential": (), "energy": (), "residual": (),
+            "reactions": (len(self.row_names),),
+        }
+
+    def new_ring(self, capacity: int, dt: float) -> TrajectoryRing:
+        return TrajectoryRing(self.n, False, capacity, dt, fields=self.fields())
+
+    def com_ratio(self) -> np.ndarray:
+        return np.zeros(0)
+
+    def trace_index(self) -> int | None:
+        trace = self.settings.trace or self.chain.trace
+        return self.draw.labels.index(trace) if trace in self.draw.labels else None
+
+    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions) -> dict[str, np.ndarray]:
+        points = points_at(self.draw, q)
+        k = self.trace_index()
+        trace = points[:, k] if k is not None else centres_at(q)[:, 0]
+        return {
+            "t": np.asarray(t, dtype=float), "q": q, "qdot": qdot, "joints": points, "com": centres_at(q),
+            "trace_xy": trace, "kinetic": kinetic, "potential": potential, "energy": kinetic + potential,
+            "residual": residual, "reactions": reactions,
+        }
+
+    def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
+        run = traj.run
+        return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
+                             run.reactions)  # type: ignore[attr-defined]
+
+    def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
+        """The start pose alone (a start that cannot move): no energies or reactions."""
+        q = np.where(np.isfinite(q0), q0, 0.0)[None, :]
+        zero = np.zeros(1)
+        return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))))
+
+    def simulate(self, mechanism: Mechanism, q0, qdot0, settings: MechanismSettings, t_start: float = 0.0,
+                 continuing: bool = False) -> MechanismChunk:
+        """One chunk: ``settings.samples`` samples over ``settings.t_end`` from ``t_start``. A failure midway
+        (a singular pose, a blow-up) raises LinkageError, which the player turns into the run's end."""
+        run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0, t_start=t_start,
+                                 method=settings.method, stabilization=settings.stabilization)
+        return MechanismChunk(run=run, n_rhs=run.evaluations, n_steps=run.steps)
+
+
+def start_state(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int]:
+    """The assembled start (nearest the sketch) at rest, and the mobility; LinkageError naming the open joint."""
+    assembled = assemble(mechanism)
+    return assembled.q, np.zeros_like(assembled.q), assembled.mobility
+
+
+def check_method(method: str, mobility: int) -> None:
+    """The reduced model needs one free coordinate; say so in the words of the menu."""
+    if method == "reduced" and mobility != 1:
+        raise LinkageError(f"method = reduced: needs a mechanism of mobility 1 (this one has {mobility}); "
+                           "choose dae, lagrange or newton_euler")

@@ -1,0 +1,155 @@
+"""The 3D picture of a general mechanism: every body's bars, its points and centres of mass, the ground.
+
+The same batched nodes as :class:`app.scene.LinkageScene`, under the same root, so a frame is two messages
+whatever the mechanism and the tools that count frames (app/wsclient.py) see no difference::
+
+    {root}/bars        one batched box mesh: instance k is segment k of the drawing (a bar body is one segment,
+                       a plate the edges of its outline), coloured by body
+    {root}/spheres     one batched sphere mesh: instances 0..P-1 the drawn points (joints larger), then one per
+                       centre of mass
+    {root}/ground_k    the fixed points; {root}/guides the sliders' guides on the ground (static)
+
+Part names for :meth:`poses`: ``bar_k`` (segment k, 1-based), ``joint_k`` (point k, 0-based, as the chain's
+joints) and ``com_k`` (body k, 1-based).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .logs import quietly
+from .mechanism_runs import Drawing
+from .scene import (
+    BAR_COLORS,
+    BAR_WIDTH_FRACTION,
+    COM_COLOR,
+    COM_RADIUS_FRACTION,
+    GROUND_COLOR,
+    JOINT_COLOR,
+    JOINT_RADIUS_FRACTION,
+    bar_instances,
+    instance_colors,
+    to_world,
+)
+from .shapes import UNIT_BOX, UNIT_SPHERE
+from .viser_compat import update_node_props
+
+POINT_COLOR = (150, 150, 150)  # a body's point that is not a joint (a traced point, a plate's corner)
+
+
+class MechanismScene:
+    """Nodes of one mechanism under ``root``; :meth:`build` once per drawing, :meth:`show` every frame."""
+
+    def __init__(self, target, root: str = "/linkage") -> None:
+        self.target = target
+        self.root = root.rstrip("/")
+        self.draw: Drawing | None = None
+        self._handles: list = []
+        self._bars = None
+        self._spheres = None
+        self._bar_positions = np.zeros((0, 3), np.float32)
+        self._bar_wxyzs = np.zeros((0, 4), np.float32)
+        self._sphere_positions = np.zeros((0, 3), np.float32)
+        self._widths = np.zeros(0)
+
+    @property
+    def reach(self) -> float:
+        return self.draw.size if self.draw is not None else 1.0
+
+    def build(self, draw: Drawing, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
+        """Create every node for ``draw``, standing at ``points_xy`` (P, 2) and ``com_xy`` (B, 2)."""
+        self.remove()
+        scene = self.target.scene
+        self.draw = draw
+        width = BAR_WIDTH_FRACTION * draw.size
+        common = {"cast_shadow": False, "receive_shadow": False}
+        for k, xy in enumerate(draw.ground):
+            self._handles.append(scene.add_box(f"{self.root}/ground_{k}", color=GROUND_COLOR,
+                                               dimensions=(2.5 * width, 1.5 * width, 2.5 * width),
+                                               position=tuple(to_world(xy)), **common))
+        if len(draw.guides):
+            self._handles.append(scene.add_line_segments(
+                f"{self.root}/guides", points=to_world(draw.guides).astype(np.float32), colors=GROUND_COLOR,
+                thickness=0.4 * width))
+        bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
+        lengths = self._lengths(points_xy)
+        scales = np.full((len(lengths), 3), width, dtype=np.float32)
+        scales[:, 0] = np.maximum(lengths, 1e-6)
+        # a plate's edges are thinner than a bar, so the outline reads as one body
+        plate = np.bincount(draw.segment_body, minlength=int(draw.owner.max(initial=0)) + 1)[draw.segment_body] > 1
+        scales[plate, 1:] *= 0.6
+        box_vertices, box_faces = UNIT_BOX
+        colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body]
+        if len(bar_positions):
+            self._bars = scene.add_batched_meshes_simple(
+                f"{self.root}/bars", box_vertices, box_faces, batched_wxyzs=bar_wxyzs,
+                batched_positions=bar_positions, batched_scales=scales, batched_colors=instance_colors(colors),
+                flat_shading=True, lod="off", **common)
+            self._handles.append(self._bars)
+        points = len(draw.labels)
+        radii = np.full(points + len(com_xy), COM_RADIUS_FRACTION * draw.size, dtype=np.float32)
+        radii[:points] = 0.6 * JOINT_RADIUS_FRACTION * draw.size
+        radii[draw.joints] = JOINT_RADIUS_FRACTION * draw.size
+        sphere_colors = [POINT_COLOR] * points + [COM_COLOR] * len(com_xy)
+        for k in draw.joints:
+            sphere_colors[k] = JOINT_COLOR
+        sphere_vertices, sphere_faces = UNIT_SPHERE
+        self._spheres = scene.add_batched_meshes_simple(
+            f"{self.root}/spheres", sphere_vertices, sphere_faces,
+            batched_wxyzs=np.tile(np.array([1.0, 0.0, 0.0, 0.0], dtype=np.float32), (len(radii), 1)),
+            batched_positions=sphere_positions, batched_scales=radii,
+            batched_colors=instance_colors(sphere_colors), lod="off", **common)
+        self._handles.append(self._spheres)
+        self._bar_positions, self._bar_wxyzs, self._sphere_positions = bar_positions, bar_wxyzs, sphere_positions
+
+    def _lengths(self, points_xy: np.ndarray) -> np.ndarray:
+        assert self.draw is not None
+        a, b = points_xy[self.draw.segments[:, 0]], points_xy[self.draw.segments[:, 1]]
+        return np.hypot(*(b - a).T) if len(a) else np.zeros(0)
+
+    def _instances(self, points_xy: np.ndarray, com_xy: np.ndarray):
+        assert self.draw is not None
+        points_xy = np.asarray(points_xy, dtype=float)
+        segments = self.draw.segments
+        bar_positions, bar_wxyzs = bar_instances(points_xy[segments[:, 0]], points_xy[segments[:, 1]])
+        spheres = np.concatenate([points_xy, np.asarray(com_xy, dtype=float)])
+        return bar_positions, bar_wxyzs, to_world(spheres).astype(np.float32)
+
+    def show(self, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
+        """Move every part to one frame (two messages at most; bodies are rigid, so no bar changes length)."""
+        if self.draw is None or self._spheres is None:
+            return
+        bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
+        if self._bars is not None:
+            updates = {}
+            if not np.array_equal(bar_positions, self._bar_positions):
+                updates["batched_positions"] = self._bar_positions = bar_positions
+            if not np.array_equal(bar_wxyzs, self._bar_wxyzs):
+                updates["batched_wxyzs"] = self._bar_wxyzs = bar_wxyzs
+            if updates:
+                update_node_props(self._bars, updates)
+        if not np.array_equal(sphere_positions, self._sphere_positions):
+            self._sphere_positions = sphere_positions
+            update_node_props(self._spheres, {"batched_positions": sphere_positions})
+
+    def poses(self) -> dict[str, dict]:
+        """Every part's pose by part name (JSON-able), as :meth:`app.scene.LinkageScene.poses`."""
+        out: dict[str, dict] = {}
+        if self.draw is None:
+            return out
+        for k in range(len(self._bar_positions)):
+            out[f"{self.root}/bar_{k + 1}"] = {"position": [float(v) for v in self._bar_positions[k]],
+                                               "wxyz": [float(v) for v in self._bar_wxyzs[k]], "visible": True}
+        points = len(self.draw.labels)
+        for k in range(len(self._sphere_positions)):
+            name = f"joint_{k}" if k < points else f"com_{k - points + 1}"
+            out[f"{self.root}/{name}"] = {"position": [float(v) for v in self._sphere_positions[k]],
+                                          "wxyz": [1.0, 0.0, 0.0, 0.0], "visible": True}
+        return out
+
+    def remove(self) -> None:
+        for handle in self._handles:
+            quietly(handle.remove, "removing a scene node")
+        self._handles = []
+        self._bars = self._spheres = None
+        self.draw = None

@@ -1,0 +1,513 @@
+"""One browser's (or, with ``--shared``, one lecture's) general mechanism: a slider-crank, a six-bar, a Jansen leg.
+
+A :class:`MechanismSession` is what a :class:`app.session.Session` is for chains, for any mechanism of
+``physics.mechanism``: the same player (app/player.py, through :class:`app.mechanism_runs.MechanismSpec`), the
+same batched scene nodes, notices, presenter lock and delivery pacing, and a panel generated from the
+mechanism's description (app/mechanism_edits.py): per body its size, mass and inertia, per motor its speed or
+torque, gravity; the formulation (DAE, Lagrange, Newton-Euler on a spanning tree, or the reduced model for
+mobility 1) and the stabilisation; the traced point (any named point of any body); reaction arrows at the
+pins; energy and, for a speed motor, the driving torque over time.
+
+Choosing a chain preset in its mechanism menu hands the browser back to a chain session (``on_switch``, given
+by the server). Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or
+joint, the field and the allowed range, and the session goes on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from typing import Any, Callable, cast
+
+import numpy as np
+
+from physics import LinkageError, preset_names
+from physics.mechanism import MECHANISM_PRESETS, Mechanism
+
+from . import delivery
+from .camera import CameraDirector
+from .logs import quietly
+from .mechanism_edits import Knob, apply_edit, knobs
+from .mechanism_runs import (
+    MechanismSettings,
+    MechanismSpec,
+    centres_at,
+    check_method,
+    points_at,
+    start_state,
+    torque_rows,
+)
+from .mechanism_scene import MechanismScene
+from .notices import NOTICE_SECONDS, Notices
+from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
+from .page import READY_HTML
+from .player import Frame, Player
+from .text import markdown_literal
+from .viser_compat import check_gui_updates, connection_open, resend_value
+
+METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
+           "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
+STABILIZATIONS = ("projection", "baumgarte", "none")
+TRACE_SECONDS = 4.0
+PLOT_SECONDS = 20.0
+PLOT_EVERY = 10  # frames between plot updates
+STATUS_EVERY = 15
+ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
+VIEWER_NOTICE_SECONDS = 4.0
+PREPARE_NOTICE_DELAY = 1.0
+
+
+def mechanism_names() -> list[str]:
+    return list(MECHANISM_PRESETS)
+
+
+def is_mechanism(name: str) -> bool:
+    return name in MECHANISM_PRESETS
+
+
+class MechanismSession:
+    """A general mechanism shown in one browser (``target`` a client) or in all (``shared``, the server)."""
+
+    def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
+                 autoplay: bool = True, on_switch: Callable[[str], None] | None = None) -> None:
+        self.target = target
+        self.shared = shared
+        self.closed = False
+        self.label = label or mechanism.name  # the menu's entry: a preset's name or the file's
+        self.reference = mechanism  # as loaded: the sliders' ranges and "Reset to the preset's values"
+        self.mechanism = mechanism
+        self.settings = MechanismSettings(trace=mechanism.trace)
+        self.on_switch = on_switch
+        self.is_presenter: Callable[[int], bool] | None = None
+        self.id = id(self)
+        self._told_viewer: dict[int, float] = {}
+        self._lock = threading.RLock()
+        self.reactions_on = False
+        self.frames_sent = 0
+        self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
+        self.energy_ref: float | None = None
+        self.player = Player(
+            simulate=lambda *args, **kwargs: None,  # every run carries its own (MechanismSpec.simulate)
+            make_settings=lambda settings, horizon, samples: settings.model_copy(
+                update={"t_end": horizon, "samples": samples}),
+            on_frame=self._on_frame, on_failure=self._on_failure, prepare=cast(Any, self._prepare),
+            name="mechanism-player",
+            ready_for_frame=None if shared else (lambda: delivery.caught_up(target)),
+        )
+        try:
+            self.notices = Notices(self._clients, self._refresh_status, self._connection_open)
+            self.scene = MechanismScene(target)
+            self.camera = CameraDirector(target, shared)
+            self.trace = TraceLine(target.scene, "/linkage/trace")
+            self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
+            self._build_panel()
+            check_gui_updates(target.gui, self._refuse_update, self.may_change, self._tell_viewer)
+            self._new_mechanism(mechanism, play=autoplay)
+            target.gui.add_html(READY_HTML)
+        except BaseException:
+            self.player.stop()
+            raise
+
+    # ------------------------------------------------------------------ the panel
+    def _build_panel(self) -> None:
+        gui = self.target.gui
+        self._gui: list = []
+        self._knob_handles: dict[str, Any] = {}
+        self._syncing = False
+
+        def keep(handle):
+            self._gui.append(handle)
+            return handle
+
+        self.status = keep(gui.add_markdown(""))
+        self.menu = keep(gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
+                                          hint="A chain preset or a planar mechanism"))
+        self.menu.on_update(lambda event: self.guard(lambda: self.choose(str(self.menu.value))))
+        self.description = keep(gui.add_markdown(""))
+        self.facts = keep(gui.add_markdown(""))
+        self.method = keep(gui.add_dropdown("Method", list(METHODS), initial_value="dae",
+                                            hint="Formulation integrated; its reactions are shown"))
+        self.method.on_update(lambda event: self.guard(lambda: self.set_method(str(self.method.value))))
+        self.stabilization = keep(gui.add_dropdown("Stabilisation", list(STABILIZATIONS),
+                                                   initial_value="projection",
+                                                   hint="How the loops are held closed"))
+        self.stabilization.on_update(
+            lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
+        self.play_button = keep(gui.add_button("Pause"))
+        self.play_button.on_click(lambda event: self.guard(self.toggle_play))
+        self.reset_button = keep(gui.add_button("Reset", hint="Start again from the assembled sketch at rest"))
+        self.reset_button.on_click(lambda event: self.guard(self.reset))
+        self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
+        self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
+        self.trace_menu = keep(gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
+                                                hint="Any named point of any body"))
+        self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
+        self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
+        self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
+        self.knob_folder = keep(gui.add_folder("Bodies and motors"))
+        self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
+                                [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
+        self._gui.append(self.energy_plot.handle)
+        self.torque_plot: Plot | None = None
+
+    def _menu_entries(self) -> list[str]:
+        entries = list(preset_names()) + mechanism_names()
+        return entries if self.label in entries else entries + [self.label]
+
+    def _build_knobs(self) -> None:
+        for handle in self._knob_handles.values():
+            quietly(handle.remove, "removing a control")
+        self._knob_handles = {}
+        with self.knob_folder:
+            for knob in knobs(self.mechanism, self.reference):
+                handle = self.target.gui.add_slider(knob.label, min=knob.low, max=knob.high, step=knob.step,
+                                                    initial_value=min(max(knob.value, knob.low), knob.high),
+                                                    hint=knob.hint)
+                handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
+                self._knob_handles[knob.name] = handle
+        if self.torque_plot is not None:
+            self.torque_plot.remove()
+            self.torque_plot = None
+        motors = [self._row_names[k].split(":")[0] for k in torque_rows(self._row_names)]
+        if motors:
+            colors = [METHOD_COLORS["dae"], METHOD_COLORS["lagrange"], METHOD_COLORS["reduced"]]
+            self.torque_plot = Plot(self.target.gui, "Driving torque (inverse dynamics)",
+                                    [f"motor {m}" for m in motors], colors[: len(motors)], y_label="N·m")
+
+    def _knob_moved(self, knob: Knob, handle) -> None:
+        if self._syncing:
+            return
+        self.guard(lambda: self.set(knob.name, handle.value))
+
+    def sync_all(self) -> None:
+        """Put every control on the value in force (after a refusal, or a viewer's attempt)."""
+        self._syncing = True
+        try:
+            for knob in knobs(self.mechanism, self.reference):
+                handle = self._knob_handles.get(knob.name)
+                if handle is not None and handle.value != knob.value:
+                    handle.value = min(max(knob.value, knob.low), knob.high)
+            for handle, value in ((self.method, self.settings.method),
+                                  (self.stabilization, self.settings.stabilization),
+                                  (self.menu, self.label)):
+                if handle.value != value:
+                    handle.value = value
+        finally:
+            self._syncing = False
+
+    # ------------------------------------------------------------------ boundary and notices
+    def guard(self, action: Callable[[], object]) -> object:
+        """Run one GUI action; a refused value is a notice and the controls go back to the values in force."""
+        if self._syncing:
+            return None
+        try:
+            return action()
+        except LinkageError as error:
+            self.show_notice("Not applied", str(error), color="yellow")
+            quietly(self.sync_all, "putting the controls back")
+        except Exception as error:  # the boundary: nothing escapes into viser's callback thread
+            traceback.print_exc()
+            quietly(self.player.pause, "pausing after an error")
+            self.show_notice("Session paused", f"{type(error).__name__}: {error}. Press Reset to start again.",
+                             color="red", seconds=None)
+        return None
+
+    def may_change(self, client_id: int) -> bool:
+        return self.is_presenter is None or self.is_presenter(client_id)
+
+    def _tell_viewer(self, client_id: int, handle) -> None:
+        client = self.target.get_clients().get(client_id) if self.shared else None
+        if client is None:
+            return
+        resend_value(client, handle)
+        now = time.monotonic()
+        if now - self._told_viewer.get(client_id, -1e9) > VIEWER_NOTICE_SECONDS:
+            self._told_viewer[client_id] = now
+            client.add_notification("The presenter controls this session", "Changes from this browser are not "
+                                    "applied.", color="blue", auto_close_seconds=VIEWER_NOTICE_SECONDS)
+
+    def _refuse_update(self, handle, problem: str) -> None:
+        self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
+        quietly(self.sync_all, "putting the controls back after a refused value")
+
+    def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
+        self.notices.show(title, body, color=color, seconds=seconds)
+
+    def _clients(self) -> list:
+        return list(self.target.get_clients().values()) if self.shared else [self.target]
+
+    def _connection_open(self) -> bool:
+        return self.shared or connection_open(self.target)
+
+    # ------------------------------------------------------------------ edits
+    def set(self, name: str, value: object) -> None:
+        """Set a generated control (``mass:crank``, ``size:coupler``, ``speed:O2`` in °/s, ``g``): geometry starts
+        again from the re-assembled sketch; masses, inertias, motors and gravity go on from the displayed state
+        (the constraints do not depend on them)."""
+        with self._lock:
+            edited = apply_edit(self.mechanism, name, value, self.reference)
+            geometry = name.startswith("size:")
+            if geometry:
+                self._new_mechanism(edited, play=None)
+            else:
+                self.mechanism = edited
+                self._continue()
+
+    def set_method(self, method: str) -> None:
+        with self._lock:
+            if method not in METHODS:
+                raise LinkageError(f"method = {method!r}: allowed values {', '.join(METHODS)}")
+            check_method(method, self.mobility)
+            self.settings = self.settings.model_copy(update={"method": method})
+            self._continue()
+
+    def set_stabilization(self, stabilization: str) -> None:
+        with self._lock:
+            if stabilization not in STABILIZATIONS:
+                raise LinkageError(f"stabilization = {stabilization!r}: allowed values {', '.join(STABILIZATIONS)}")
+            if self.settings.method == "reduced" and stabilization != "projection":
+                raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
+                                   "choose another method first")
+            self.settings = self.settings.model_copy(update={"stabilization": stabilization})
+            self._continue()
+
+    def set_trace(self, label: str) -> None:
+        with self._lock:
+            labels = self.spec.draw.labels
+            if label != "(none)" and label not in labels:
+                raise LinkageError(f"traced point = {label!r}: allowed values {', '.join(labels)}")
+            self.settings = self.settings.model_copy(update={"trace": None if label == "(none)" else label})
+            self._continue()
+
+    def set_reactions(self, on: bool) -> None:
+        self.reactions_on = bool(on)
+        if not on:
+            self.arrows.hide()
+        self.player.touch()
+
+    def choose(self, name: str) -> None:
+        """The mechanism menu: another mechanism preset here, a chain preset through the server."""
+        if name == self.label:
+            return
+        if is_mechanism(name):
+            with self._lock:
+                mechanism = MECHANISM_PRESETS[name]()
+                self.label, self.reference = name, mechanism
+                self.settings = MechanismSettings(trace=mechanism.trace)
+                self._new_mechanism(mechanism, play=True)
+            return
+        if name not in preset_names():
+            raise LinkageError(f"mechanism = {name!r}: allowed values {', '.join(self._menu_entries())}")
+        if self.on_switch is None:
+            raise LinkageError(f"mechanism = {name!r}: this page shows mechanisms only")
+        self.on_switch(name)
+
+    def reset(self) -> None:
+        with self._lock:
+            self._new_mechanism(self.mechanism, play=True)
+
+    def reset_to_reference(self) -> None:
+        with self._lock:
+            self._new_mechanism(self.reference, play=True)
+
+    def toggle_play(self) -> None:
+        if self.player.playing:
+            self.pause()
+        else:
+            self.play()
+
+    def play(self) -> None:
+        self.player.play()
+        self.play_button.label = "Pause"
+
+    def pause(self) -> None:
+        self.player.pause()
+        self.play_button.label = "Play"
+
+    # ------------------------------------------------------------------ runs
+    def _spec(self) -> MechanismSpec:
+        return MechanismSpec("main", self.mechanism, self.settings)
+
+    def _restart(self, t0: float, q0: np.ndarray, qdot0: np.ndarray, *, keep_history: bool,
+                 play: bool | None = None) -> None:
+        # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
+        self.player.restart([cast(Any, self.spec)], t0, [(q0, qdot0)], keep_history=keep_history, play=play)
+
+    def _new_mechanism(self, mechanism: Mechanism, play: bool | None) -> None:
+        """Assemble ``mechanism`` (LinkageError naming the open joint), rebuild the scene and the panel's
+        generated controls, and start at t = 0 from the assembled sketch at rest."""
+        q0, qdot0, mobility = start_state(mechanism)
+        if self.settings.method == "reduced" and mobility != 1:  # a new mechanism without a free coordinate
+            self.settings = self.settings.model_copy(update={"method": "dae"})
+        self.mechanism, self.q0, self.qdot0, self.mobility = mechanism, q0, qdot0, mobility
+        self.spec = self._spec()
+        self._row_names = self.spec.row_names
+        draw = self.spec.draw
+        self.scene.build(draw, points_at(draw, q0), centres_at(q0))
+        self.trace.update(np.zeros((0, 2)))
+        self.arrows.hide()
+        self._build_knobs()
+        self._show_facts()
+        self._frame_camera(points_at(draw, q0))
+        self.energy_ref = None
+        self.energy_plot.clear()
+        self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
+        if play is not False:
+            self.play_button.label = "Pause"
+        self.sync_all()
+
+    def _continue(self) -> None:
+        """New physics from the displayed state on (the history up to it is kept)."""
+        state = self.player.current_state()
+        self.spec = self._spec()
+        if state is None:
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+            return
+        t, q, qdot = state
+        self.energy_ref = None
+        self._restart(t, q, qdot, keep_history=True)
+
+    def _show_facts(self) -> None:
+        m = self.mechanism
+        motors = ", ".join(f"{d.joint} ({'speed' if d.speed is not None else 'torque'})" for d in m.drivers)
+        self.description.content = "*" + markdown_literal(m.description or m.name) + "*"
+        self.facts.content = markdown_literal(
+            f"{len(m.bodies)} bodies, {len(m.joints)} joints, mobility {self.mobility}"
+            + (f", motors: {motors}" if motors else ", no motor"))
+        self.trace_menu.options = ["(none)", *self.spec.draw.labels]
+        self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
+        methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
+        self.method.options = methods
+
+    def frame_camera(self, force: bool = False, client=None) -> None:
+        """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""
+        if self.camera.disc is not None:
+            self.camera.frame(np.array([self.camera.disc[1]]), None, force=force, client=client)
+
+    def _frame_camera(self, points_xy: np.ndarray) -> None:
+        draw = self.spec.draw
+        everything = np.concatenate([points_xy, draw.ground]) if len(draw.ground) else points_xy
+        low, high = everything.min(axis=0), everything.max(axis=0)
+        centre = 0.5 * (low + high)
+        radius = 1.3 * max(float(np.max(np.hypot(*(everything - centre).T))), 0.05)
+        self.camera.disc = (centre, radius)
+        self.camera.frame(np.array([radius]), None, force=True)
+
+    # ------------------------------------------------------------------ frames
+    def _on_frame(self, frame: Frame) -> None:
+        if self.closed or not self._connection_open() or not frame.runs:
+            return
+        run = self.player.runs[0] if self.player.runs else None
+        if run is None or cast(Any, run.spec).layout != self.spec.layout:
+            return
+        rf = frame.runs[0]
+        ring = run.ring
+        with self.target.atomic():
+            if len(rf.joints) == len(self.spec.draw.labels):
+                self.scene.show(rf.joints, rf.com)
+            if frame.restarted or frame.counter % 2 == 0:
+                first = ring.index_at(frame.t - TRACE_SECONDS)
+                self.trace.update(ring.window(first, rf.index, ["trace_xy"])["trace_xy"])
+            if self.reactions_on:
+                self._update_arrows(run, rf)
+        quietly(self.target.flush, "flushing a frame")
+        self.frames_sent += 1
+        if frame.restarted or frame.counter % PLOT_EVERY == 0:
+            self._update_plots(ring, rf.index)
+        if frame.restarted or frame.counter % STATUS_EVERY == 0:
+            self._show_status(frame.t, ring, rf.index)
+
+    def _update_arrows(self, run, rf) -> None:
+        names = self._row_names
+        sample = run.ring.get("reactions", rf.index)
+        points, forces = [], []
+        index = {label: k for k, label in enumerate(self.spec.draw.labels)}
+        for joint in self.mechanism.joints:
+            if joint.kind != "revolute":
+                continue
+            try:
+                row = names.index(f"{joint.name}: x gap")
+            except ValueError:
+                continue
+            side = joint.a if joint.a in index else joint.b
+            if side not in index:
+                continue
+            points.append(rf.joints[index[side]])
+            forces.append(sample[row:row + 2])
+        if not forces:
+            self.arrows.hide()
+            return
+        forces_xy = np.array(forces)
+        largest = float(np.max(np.hypot(*forces_xy.T))) or 1.0
+        scale = ARROW_FRACTION * self.spec.draw.size / largest
+        self.arrows.update(np.array(points), forces_xy, scale, 0.006 * self.spec.draw.size)
+
+    def _update_plots(self, ring, index: int) -> None:
+        first = ring.index_at(ring.get("t", index) - PLOT_SECONDS)
+        stride = max(1, (index - first) // 300)
+        data = ring.window(first, index, ["t", "kinetic", "potential", "energy", "reactions"], stride=stride)
+        self.energy_plot.update(data["t"], data["kinetic"], data["potential"], data["energy"])
+        rows = torque_rows(self._row_names)
+        if self.torque_plot is not None and rows:
+            self.torque_plot.update(data["t"], *(data["reactions"][:, k] for k in rows))
+
+    def _show_status(self, t: float, ring, index: int) -> None:
+        energy = float(ring.get("energy", index))
+        if self.energy_ref is None and len(ring):
+            self.energy_ref = float(ring.get("energy", 0))
+        scale = sum(b.mass for b in self.mechanism.bodies) * max(self.mechanism.g, 1e-9) * self.spec.draw.size
+        driven = bool(self.mechanism.drivers)
+        drift = None if driven or self.energy_ref is None else float(
+            relative_drift(np.array([energy]), self.energy_ref, scale)[0])
+        residual = float(ring.get("residual", index))
+        label = f"{METHODS.get(self.settings.method, self.settings.method)} · DOP853"
+        text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
+                               self.notices.text)
+        if self.status.content != text:
+            self.status.content = text
+
+    def _refresh_status(self) -> None:
+        if self.closed or not self.player.runs or not len(self.player.runs[0].ring):
+            return
+        ring = self.player.runs[0].ring
+        quietly(lambda: self._show_status(self.player.display_time, ring, ring.index_at(self.player.display_time)),
+                "refreshing the status line")
+
+    def _prepare(self, spec: MechanismSpec, q0: np.ndarray, qdot0: np.ndarray) -> None:
+        """Derive the chosen formulation before the first chunk (the tree formulations take sympy about a
+        second for a six-bar), with a progress notice when it takes longer than PREPARE_NOTICE_DELAY."""
+        shown: list = []
+        timer = threading.Timer(PREPARE_NOTICE_DELAY, lambda: shown.extend(self.notices.progress(
+            "Deriving equations...", f"{METHODS.get(spec.settings.method)} for {spec.chain.name}: sympy derives "
+            "them and LLVM compiles them (a second or two).")))
+        timer.start()
+        try:
+            spec.simulate(spec.chain, q0, qdot0, spec.settings.model_copy(update={"t_end": 1e-3, "samples": 2}),
+                          t_start=0.0)
+        except LinkageError:
+            pass  # the run's own first chunk reports it
+        finally:
+            timer.cancel()
+            self.notices.dismiss(shown)
+
+    def _on_failure(self, message: str) -> None:
+        self.show_notice("Simulation stopped", f"{message}. Press Reset to start again.", color="red", seconds=None)
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self, clean: bool = False) -> None:
+        """Stop the player; with ``clean`` (or shared) remove every node and control (a switch to a chain)."""
+        if self.closed:
+            return
+        self.closed = True
+        self.notices.closed = True
+        self.camera.closed = True
+        self.player.stop()
+        if self.shared or clean:
+            for part in (self.scene, self.trace, self.arrows):
+                quietly(part.remove, "removing a scene part")
+            for handle in [*self._knob_handles.values(), *self._gui]:
+                quietly(handle.remove, "removing a control")
+            if self.torque_plot is not None:
+                self.torque_plot.remove()
+

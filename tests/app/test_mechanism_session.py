@@ -1,0 +1,207 @@
+"""General mechanisms in the app (issue 16): the selector, generated controls, any-point trace, the driving
+torque, switching to and from chains, a user's file from the command line, refusals as notices."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from app.mechanism_edits import apply_edit, body_size, knobs
+from app.mechanism_runs import MechanismSettings, MechanismSpec, drawing, points_at, torque_rows
+from app.mechanism_session import MechanismSession
+from app.server import LabServer
+from app.session import Session
+from app.wsclient import BackgroundClient
+from conftest import wait_until
+from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.assembly import assemble, track
+from physics.mechanism.constraints import Constraints
+from physics.mechanism.files import load_mechanism
+from physics.mechanism.simulate import simulate_mechanism
+
+
+@pytest.fixture(scope="module")
+def jansen_lab():
+    server = LabServer(port=0, warm=False, preset="jansen-leg")
+    yield server
+    server.stop()
+
+
+def _moving(session, seconds: float = 0.5) -> bool:
+    first = session.player.display_time
+    return wait_until(lambda: session.player.display_time > first + seconds, timeout=60)
+
+
+# ---------------------------------------------------------------------------------------------- pure parts
+def test_drawing_points_follow_the_bodies_exactly():
+    """Every drawn point at a pose is where the physics puts it (constraints.body_point), for every preset."""
+    for name, make in MECHANISM_PRESETS.items():
+        mechanism = make()
+        q = assemble(mechanism).q
+        draw = drawing(mechanism)
+        constraints = Constraints(mechanism)
+        points = points_at(draw, q)
+        for k, label in enumerate(draw.labels):
+            body, _, point = label.partition(".")
+            index = [b.name for b in mechanism.bodies].index(body)
+            expected = constraints.body_point(q, index, mechanism.body(body).points[point])
+            assert np.allclose(points[k], expected, atol=1e-12), (name, label)
+        # a pin's two sides are drawn at the same place
+        index = {label: k for k, label in enumerate(draw.labels)}
+        for joint in mechanism.joints:
+            if joint.kind == "revolute" and joint.a in index and joint.b in index:
+                assert np.allclose(points[index[joint.a]], points[index[joint.b]], atol=1e-9), (name, joint.name)
+
+
+def test_a_plate_is_drawn_as_its_outline():
+    mechanism = MECHANISM_PRESETS["jansen-leg"]()
+    draw = drawing(mechanism)
+    for b, body in enumerate(mechanism.bodies):
+        count = int(np.sum(draw.segment_body == b))
+        assert count == (1 if len(body.points) == 2 else len(body.points)), body.name
+
+
+def test_generated_controls_cover_every_body_and_motor():
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    names = {knob.name for knob in knobs(mechanism)}
+    for body in mechanism.bodies:
+        assert {f"size:{body.name}", f"mass:{body.name}", f"inertia:{body.name}"} <= names
+    assert "speed:O2" in names and "g" in names
+    speed = next(k for k in knobs(mechanism) if k.name == "speed:O2")
+    assert speed.value == pytest.approx(np.degrees(mechanism.drivers[0].speed))
+
+
+def test_edits_go_through_the_models_and_name_the_element():
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    heavier = apply_edit(mechanism, "mass:coupler", 0.7)
+    assert heavier.body("coupler").mass == 0.7 and heavier.body("crank").mass == mechanism.body("crank").mass
+    faster = apply_edit(mechanism, "speed:O2", 720.0)
+    assert faster.drivers[0].speed == pytest.approx(4 * np.pi)
+    longer = apply_edit(mechanism, "size:crank", 1.2 * body_size(mechanism.body("crank")))
+    assert body_size(longer.body("crank")) == pytest.approx(1.2 * body_size(mechanism.body("crank")))
+    assert longer.body("crank").inertia == pytest.approx(1.44 * mechanism.body("crank").inertia)
+    assemble(longer)  # still closes
+    for name, value, words in [
+        ("mass:coupler", -1.0, "coupler: m (kg) = -1: allowed range 0 to"),
+        ("mass:coupler", "abc", "coupler: m (kg) = 'abc': expected a number"),
+        ("inertia:rocker", float("nan"), "rocker: I (kg·m²) = nan: expected a finite number"),
+        ("speed:O2", 1e9, "motor O2: speed (°/s) = 1e+09: allowed range -720 to 720"),
+        ("mass:nobody", 1.0, "'mass:nobody': not a control of crank-rocker"),
+    ]:
+        with pytest.raises(LinkageError) as error:
+            apply_edit(mechanism, name, value)
+        assert words in str(error.value), str(error.value)
+    # a coupler three times as long cannot close this four-bar: refused, naming the body and the open joint
+    with pytest.raises(LinkageError) as error:
+        apply_edit(mechanism, "size:coupler", 2.99 * body_size(mechanism.body("coupler")))
+    message = str(error.value)
+    assert "coupler: size (m)" in message and "cannot be assembled" in message and "joint 'O4'" in message
+
+
+def test_chunks_continue_one_run_exactly():
+    """The player's chunks (each continuing from the last stored sample) give the run of one call."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    spec = MechanismSpec("main", mechanism, MechanismSettings())
+    q0 = assemble(mechanism).q
+    whole = simulate_mechanism(mechanism, 0.5, 31, q0=q0)
+    first = spec.simulate(mechanism, q0, None, MechanismSettings(t_end=0.25, samples=16))
+    second = spec.simulate(mechanism, first.run.q[-1], first.run.qdot[-1], MechanismSettings(t_end=0.25, samples=16),
+                           t_start=0.25)
+    assert np.allclose(second.run.q[-1], whole.q[-1], atol=1e-7)
+    chunk = spec.chunk(second)
+    assert chunk["joints"].shape == (16, len(spec.draw.labels), 2)
+    assert np.allclose(chunk["trace_xy"], chunk["joints"][:, spec.draw.labels.index("piston.B")])
+
+
+# ---------------------------------------------------------------------------------------------- in the server
+def test_a_mechanism_preset_animates_with_its_foot_traced_and_its_torque_plotted(jansen_lab, connect):
+    client, session = connect(jansen_lab)
+    assert isinstance(session, MechanismSession)
+    assert _moving(session)
+    assert wait_until(lambda: session.frames_sent > 20, timeout=30)
+    assert wait_until(lambda: session.trace.points_shown > 10, timeout=30)
+    # the traced foot is where plain position analysis puts it at that time
+    ring = session.player.runs[0].ring
+    i = len(ring) - 1
+    t = float(ring.get("t", i))
+    mechanism = session.mechanism
+    pose = track(mechanism, np.linspace(0.0, t, max(int(t * 120), 2)))[-1]  # branch followed in small steps
+    foot = Constraints(mechanism).body_point(pose, [b.name for b in mechanism.bodies].index("foot"),
+                                             mechanism.body("foot").points["F"])
+    assert np.allclose(ring.get("trace_xy", i), foot, atol=1e-7)
+    assert session.torque_plot is not None
+    assert wait_until(lambda: session.torque_plot.points_shown > 5, timeout=30)
+    rows = torque_rows(session.spec.row_names)
+    assert rows and np.isfinite(ring.get("reactions", i)[rows[0]])
+    assert len(client.counts.watched) > 0  # the browser received frames of /linkage/bars
+
+
+def test_controls_edit_trace_and_method(jansen_lab, connect):
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.choose("slider-crank"))
+    assert session.label == "slider-crank" and session.mobility == 1
+    assert "reduced" in session.method.options
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.set("mass:rod", 0.5))
+    assert session.mechanism.body("rod").mass == 0.5 and session.notices.text is None
+    session.guard(lambda: session.set_method("lagrange"))
+    assert wait_until(lambda: session.player.runs and session.player.runs[0].spec.settings.method == "lagrange",
+                      timeout=60)
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.set_trace("crank.A"))
+    assert session.player.runs[0].spec.settings.trace == "crank.A" or session.player.restart_pending
+    session.guard(lambda: session.set("mass:rod", -3))
+    assert session.notices.text is not None and "rod: m (kg) = -3" in session.notices.text
+    assert session.mechanism.body("rod").mass == 0.5  # unchanged
+    session.guard(lambda: session.set_reactions(True))
+    assert wait_until(lambda: session.arrows.handle is not None and session.arrows.count == 3, timeout=30)
+    session.guard(lambda: session.choose("jansen-leg"))
+    assert "reduced" not in session.method.options  # mobility 0
+    session.guard(lambda: session.set_method("reduced"))
+    assert "mobility 1" in (session.notices.text or "")
+
+
+def test_switching_between_chains_and_mechanisms_in_one_browser(lab, connect):
+    client, session = connect(lab)
+    assert isinstance(session, Session)
+    client_id = next(k for k, v in lab.sessions.items() if v is session)
+    session.guard(lambda: session.set_mechanism("watt-six-bar"))
+    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), MechanismSession), timeout=30)
+    mechanism_session = lab.sessions[client_id]
+    assert session.closed and session.player.alive is False
+    assert _moving(mechanism_session, 0.2)
+    mechanism_session.guard(lambda: mechanism_session.choose("double"))
+    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), Session), timeout=30)
+    back = lab.sessions[client_id]
+    assert mechanism_session.closed and back.params.preset == "double"
+    assert back.player.wait_idle(60) and _moving(back, 0.2)
+
+
+def test_a_mechanism_file_from_the_command_line(tmp_path):
+    good = tmp_path / "rocker.json"
+    good.write_text(MECHANISM_PRESETS["crank-rocker"]().model_dump_json())
+    server = LabServer(port=0, warm=False, mechanism=load_mechanism(good), mechanism_label="rocker.json")
+    try:
+        client = BackgroundClient(server.url)
+        try:
+            (session,) = server.wait_for_sessions(1)
+            assert isinstance(session, MechanismSession) and session.label == "rocker.json"
+            assert "rocker.json" in session.menu.options
+            assert _moving(session, 0.2)
+        finally:
+            client.close()
+    finally:
+        server.stop()
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n[[bodies]]\nname = "rod"\nmass = -1\ninertia = 1\npoints = { A = [0, 0] }\n'
+                   '[[joints]]\nkind = "revolute"\nname = "A"\na = "ground.O"\nb = "rod.A"\n')
+    done = subprocess.run([sys.executable, "-m", "app", "--port", "0", "--mechanism", str(bad)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "body 'rod': mass" in lines[0], done.stderr
+

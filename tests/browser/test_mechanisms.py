@@ -1,0 +1,60 @@
+"""A general mechanism in a real browser (issue 16): chosen in the mechanism menu, drawn, its generated controls
+shown, and back to a chain, all in one page."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .conftest import wait_until
+
+
+def _saturated_pixels(image: np.ndarray, right: float) -> int:
+    """Coloured pixels (the bars) left of ``right`` (the panel's left edge), below the notification strip."""
+    canvas = image[:, : int(right)].astype(int)
+    spread = canvas.max(axis=2) - canvas.min(axis=2)
+    return int(np.sum(spread > 80))
+
+
+def test_choosing_the_jansen_leg_draws_it_with_its_controls_and_a_chain_comes_back(start_lab):
+    from app.mechanism_session import MechanismSession
+    from app.session import Session
+
+    lab = start_lab(preset="single")
+    page = lab.open_page()
+    client_id = page.client_id
+    page.show_time(0.5)
+    single = page.picture("mechanism-menu-single")
+    right = page.panel_box()["x"]
+    before = _saturated_pixels(single, right)
+
+    page.choose("Mechanism", "jansen-leg")
+    wait_until(lambda: isinstance(lab.server.session_for(client_id), MechanismSession),
+               message="the page's session to become the Jansen leg's")
+    session = lab.server.session_for(client_id)
+    wait_until(lambda: session.frames_sent > 30 and session.trace.points_shown > 20,
+               message="the leg to move and its foot's path to be drawn")
+    session.pause()
+    panel = page.page.locator(".mantine-Paper-root").first
+    panel_text = page.page.inner_text("body")
+    assert "7 bodies, 10 joints, mobility 0, motors: O (speed)" in panel_text
+    assert "Bodies and motors" in panel_text and "crank: m (kg)" in panel_text
+    assert "motor O: speed (°/s)" in panel_text
+    assert "Driving torque (inverse dynamics)" in panel_text
+    assert panel is not None
+    leg = page.picture("mechanism-jansen-leg")
+    drawn = _saturated_pixels(leg, right)
+    # seven bodies in seven colours, far more coloured area than the single pendulum's one bar
+    assert drawn > 3 * max(before, 1) and drawn > 3000, (before, drawn)
+
+    # a refused value typed into a generated control: one notice naming the body, the field and the range
+    session.guard(lambda: session.set("mass:crank", -2))
+    wait_until(lambda: any("crank: m (kg) = -2" in text for text in page.notification_texts()),
+               message="the refusal's notice in the page")
+
+    page.choose("Mechanism", "double")
+    wait_until(lambda: isinstance(lab.server.session_for(client_id), Session),
+               message="the page's session to become a chain's again")
+    wait_until(lambda: "Bodies and motors" not in page.page.inner_text("body"),
+               message="the mechanism's controls to leave the panel")
+    back = lab.server.session_for(client_id)
+    assert back.params.preset == "double" and session.closed
