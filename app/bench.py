@@ -13,8 +13,9 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
 * latency: in-process server, one client, session paused; an initial-angle slider is set on the server
   (``handle.value = ...``, the browser's path) and the time to (a) the first pose of the new start queued by
   the server and (b) that pose arriving at the client is recorded; also (a) for a mass slider while playing.
-* cpu: the server as a subprocess animating the triple pendulum for one client; CPU time of that process
-  over wall time (1.00 = one core), and the frames per second the client received.
+* cpu: the server as a subprocess (one process) animating ``--preset`` (the triple pendulum by default; any
+  general mechanism, e.g. ``jansen-leg``) for one client; CPU time of that process over wall time (1.00 = one
+  core), and the frames per second the client received (60: the motion keeps up with real time).
 * load: in-process server (with ``--processes K``, this process and K - 1 siblings on the same port:
   app/processes.py), N clients in a subprocess (``python -m app.wsclient``; ``--client-processes J`` splits them
   over J subprocesses) for S seconds, some leaving early;
@@ -214,7 +215,7 @@ def measure_latency(samples: int = 40) -> dict:
 def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
     from .wsclient import BackgroundClient
 
-    proc, url, _ = _start_server(["--preset", preset], dict(os.environ))
+    proc, url, _ = _start_server(["--preset", preset, "--processes", "1"], dict(os.environ))
     client = BackgroundClient(url)
     try:
         client.wait_for(lambda c: c.bar_updates() >= 30, timeout=600)
@@ -393,6 +394,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--client-processes", type=int, default=1,
                         help="load generators the clients of the load part are split over")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
+    parser.add_argument("--preset", default="triple-a",
+                        help="mechanism of the cpu part (a chain preset or a general mechanism, e.g. jansen-leg)")
     args = parser.parse_args(argv)
     out: dict = {}
     if args.part in ("all", "start"):
@@ -412,7 +415,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.part in ("all", "latency"):
         out["latency"] = measure_latency()
     if args.part in ("all", "cpu"):
-        out["cpu"] = measure_cpu()
+        out["cpu"] = measure_cpu(preset=args.preset)
     if args.part in ("all", "load"):
         load = measure_load(args.clients, args.seconds, early=args.early, shared=args.shared,
                             processes=args.processes, client_processes=args.client_processes)

@@ -22,6 +22,13 @@ from physics.mechanism.simulate import simulate_mechanism
 
 from .buffers import TrajectoryRing
 
+# A chunk's work in the player's unit, a compiled chain right-hand side (about 2.7 us: CHUNK_WORK_BUDGET = 3000
+# of them is about 8 ms), measured for the presets with one-off timings: one right-hand side of a mechanism
+# (the DOP853 stepper's Python around machine code) costs about 6 units, and one sample (position analysis or
+# projection, velocities, reactions and energies in numpy) about 75 units per body.
+EVALUATION_WORK = 6
+SAMPLE_WORK = 75
+
 
 class MechanismSettings(BaseModel):
     """A run's options (``t_end`` and ``samples`` are set per chunk by the player)."""
@@ -190,6 +197,11 @@ class MechanismSpec:
         return len(self.chain.bodies)
 
     @property
+    def work_n(self) -> int:
+        """The player's chunk budget is the triple pendulum's: the work units above are measured in it."""
+        return 3
+
+    @property
     def layout(self) -> tuple:
         return ("mechanism", self.draw.labels, self.row_names)
 
@@ -238,7 +250,10 @@ class MechanismSpec:
         (a singular pose, a blow-up) raises LinkageError, which the player turns into the run's end."""
         run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0, t_start=t_start,
                                  method=settings.method, stabilization=settings.stabilization)
-        return MechanismChunk(run=run, n_rhs=run.evaluations, n_steps=run.steps)
+        # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
+        # under a frame of compute and the frames keep their pace
+        work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
+        return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps)
 
 
 def start_state(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int]:

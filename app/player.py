@@ -429,7 +429,7 @@ class Player:
                 run.failed = f"the state became non-finite at t = {t0 + (good + 1) * SAMPLE_DT:.4g} s"
             elif len(chunk["t"]) < steps:
                 run.failed = traj.message or "the simulation stopped early"
-            run.chunk_seconds = next_chunk_seconds(run.chunk_seconds, _chunk_work(traj), spec.n)
+            run.chunk_seconds = next_chunk_seconds(run.chunk_seconds, _chunk_work(traj), spec.work_n)
         return True
 
     def _available_until(self) -> float:

@@ -44,6 +44,11 @@ class RunSpec:
         return self.chain.pinned
 
     @property
+    def work_n(self) -> int:
+        """The chain length the player's chunk budget is scaled for (app/player.py, next_chunk_seconds)."""
+        return self.n
+
+    @property
     def layout(self) -> tuple:
         """Runs with equal layouts can share a ring (a parameter change keeps the history)."""
         return ("chain", self.n, self.pinned)
