@@ -18,12 +18,14 @@ from __future__ import annotations
 import threading
 import time
 import traceback
+from pathlib import Path
 from typing import Any, Callable, cast
 
 import numpy as np
 
 from physics import LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
+from physics.mechanism.files import mechanism_from_bytes
 
 from . import delivery
 from .camera import CameraDirector
@@ -56,6 +58,12 @@ STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
 VIEWER_NOTICE_SECONDS = 4.0
 PREPARE_NOTICE_DELAY = 1.0
+
+
+def _choice(field: str, value: object, allowed: list[str]) -> None:
+    """A menu's value: one of ``allowed`` (a client may send anything: a list, None, markup)."""
+    if not isinstance(value, str) or value not in allowed:
+        raise LinkageError(f"{field} = {value!r}: allowed values {', '.join(allowed)}")
 
 
 def mechanism_names() -> list[str]:
@@ -140,6 +148,10 @@ class MechanismSession:
         self.reset_button.on_click(lambda event: self.guard(self.reset))
         self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
         self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
+        self.upload = keep(gui.add_upload_button("Load a mechanism file (TOML or JSON)",
+                                                 hint="The format of docs/mechanisms.md; at most 1 MB"))
+        self.upload.on_upload(lambda event: self.guard(lambda: self.load_file(
+            getattr(event, "client_id", None), self.upload.value.name, self.upload.value.content)))
         self.trace_menu = keep(gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
                                                 hint="Any named point of any body"))
         self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
@@ -256,16 +268,14 @@ class MechanismSession:
 
     def set_method(self, method: str) -> None:
         with self._lock:
-            if method not in METHODS:
-                raise LinkageError(f"method = {method!r}: allowed values {', '.join(METHODS)}")
+            _choice("method", method, list(METHODS))
             check_method(method, self.mobility)
             self.settings = self.settings.model_copy(update={"method": method})
             self._continue()
 
     def set_stabilization(self, stabilization: str) -> None:
         with self._lock:
-            if stabilization not in STABILIZATIONS:
-                raise LinkageError(f"stabilization = {stabilization!r}: allowed values {', '.join(STABILIZATIONS)}")
+            _choice("stabilization", stabilization, list(STABILIZATIONS))
             if self.settings.method == "reduced" and stabilization != "projection":
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
@@ -274,9 +284,7 @@ class MechanismSession:
 
     def set_trace(self, label: str) -> None:
         with self._lock:
-            labels = self.spec.draw.labels
-            if label != "(none)" and label not in labels:
-                raise LinkageError(f"traced point = {label!r}: allowed values {', '.join(labels)}")
+            _choice("traced point", label, ["(none)", *self.spec.draw.labels])
             self.settings = self.settings.model_copy(update={"trace": None if label == "(none)" else label})
             self._continue()
 
@@ -288,6 +296,7 @@ class MechanismSession:
 
     def choose(self, name: str) -> None:
         """The mechanism menu: another mechanism preset here, a chain preset through the server."""
+        _choice("mechanism", name, self._menu_entries())
         if name == self.label:
             return
         if is_mechanism(name):
@@ -297,11 +306,24 @@ class MechanismSession:
                 self.settings = MechanismSettings(trace=mechanism.trace)
                 self._new_mechanism(mechanism, play=True)
             return
-        if name not in preset_names():
-            raise LinkageError(f"mechanism = {name!r}: allowed values {', '.join(self._menu_entries())}")
         if self.on_switch is None:
             raise LinkageError(f"mechanism = {name!r}: this page shows mechanisms only")
         self.on_switch(name)
+
+    def load_file(self, client_id: int | None, name: object, content: object) -> None:
+        """A mechanism file chosen in the browser: validated and assembled, or one notice naming the element."""
+        if client_id is not None and not self.may_change(client_id):
+            raise LinkageError("mechanism file: the presenter controls this session")
+        label = Path(str(name)).name[:60] or "mechanism file"
+        if not isinstance(content, bytes):
+            raise LinkageError(f"{label}: expected the file's content")
+        mechanism = mechanism_from_bytes(content, label)
+        with self._lock:
+            start_state(mechanism)  # LinkageError naming the joint that stays open; nothing changed yet
+            self.label, self.reference = label, mechanism
+            self.settings = MechanismSettings(trace=mechanism.trace)
+            self.menu.options = self._menu_entries()
+            self._new_mechanism(mechanism, play=True)
 
     def reset(self) -> None:
         with self._lock:

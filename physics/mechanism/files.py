@@ -72,7 +72,25 @@ def load_mechanism(path: str | Path) -> Mechanism:
         raise LinkageError(f"{path}: not UTF-8 text") from None
     except OSError as error:
         raise LinkageError(f"{path}: cannot read it ({error.strerror})") from None
-    suffix = path.suffix.lower()
+    return mechanism_from_text(text, str(path))
+
+
+def mechanism_from_bytes(content: bytes, name: str) -> Mechanism:
+    """A file's content as uploaded (the app): the same checks as :func:`load_mechanism`, ``name`` its file
+    name (its suffix chooses TOML or JSON)."""
+    if len(content) > MAX_FILE_BYTES:
+        raise LinkageError(f"{name}: {len(content)} bytes; a mechanism file may hold at most {MAX_FILE_BYTES}")
+    try:
+        text = content.decode("utf-8")
+    except UnicodeDecodeError:
+        raise LinkageError(f"{name}: not UTF-8 text") from None
+    return mechanism_from_text(text, name)
+
+
+def mechanism_from_text(text: str, name: str) -> Mechanism:
+    """Parse ``text`` as TOML or JSON by the suffix of ``name`` (a path or file name) and validate it."""
+    path = name
+    suffix = Path(name).suffix.lower()
     try:
         if suffix == ".json":
             document = json.loads(text)

@@ -5,16 +5,18 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 
+from app import viser_compat
 from app.mechanism_edits import apply_edit, body_size, knobs
 from app.mechanism_runs import MechanismSettings, MechanismSpec, drawing, points_at, torque_rows
 from app.mechanism_session import MechanismSession
 from app.server import LabServer
 from app.session import Session
-from app.wsclient import BackgroundClient
+from app.wsclient import BackgroundClient, send_values
 from conftest import wait_until
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS
@@ -205,3 +207,69 @@ def test_a_mechanism_file_from_the_command_line(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "body 'rod': mass" in lines[0], done.stderr
 
+
+
+# ---------------------------------------------------------------------------------------------- shared, hostile
+def test_shared_mechanism_viewer_changes_nothing_and_the_presenter_does(tmp_path):
+    server = LabServer(port=0, warm=False, shared=True, preset="crank-rocker")
+    try:
+        session = server.shared_session
+        assert isinstance(session, MechanismSession) and session.is_presenter is not None
+        handle = session._knob_handles["mass:coupler"]
+        before = session.mechanism.body("coupler").mass
+        viewer = BackgroundClient(server.url)
+        try:
+            assert wait_until(lambda: len(server.viser.get_clients()) >= 1, timeout=30)
+            send_values(server.url, [(viser_compat.control_id(handle), before + 0.5)])
+            time.sleep(0.5)
+            assert session.mechanism.body("coupler").mass == before, "a viewer's change was applied"
+            send_values(server.presenter_url, [(viser_compat.control_id(handle), before + 0.5)])
+            assert wait_until(lambda: session.mechanism.body("coupler").mass == pytest.approx(before + 0.5),
+                              timeout=30)
+        finally:
+            viewer.close()
+    finally:
+        server.stop()
+
+
+HOSTILE = ["<iframe srcdoc='<script>document.title=1</script>'>", None, [1, 2], {"a": 1}, float("nan"), 1e308,
+           -1e308, "", "1e3", True]
+
+
+def test_hostile_values_to_every_generated_control_are_refused_and_the_session_goes_on(jansen_lab, connect):
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.choose("slider-crank"))
+    assert _moving(session, 0.2)
+    mechanism = session.mechanism
+    for name in list(session._knob_handles):
+        for value in HOSTILE:
+            session.guard(lambda name=name, value=value: session.set(name, value))
+            text = session.notices.text or ""
+            assert "Session paused" not in text, (name, value, text)
+    for value in HOSTILE:
+        for action in (session.set_method, session.set_stabilization, session.set_trace, session.choose):
+            session.guard(lambda action=action, value=value: action(value))  # type: ignore[arg-type]
+            assert "Session paused" not in (session.notices.text or ""), (action, value)
+    assert session.mechanism == mechanism  # nothing applied
+    assert "<iframe" not in session.status.content  # the notice on the status line is escaped
+    assert _moving(session, 0.2) and session.player.error is None
+
+
+def test_a_file_chosen_in_the_browser_loads_or_is_one_notice_naming_the_element(jansen_lab, connect):
+    _, session = connect(jansen_lab)
+    rocker = MECHANISM_PRESETS["crank-rocker"]().model_dump_json().encode()
+    session.guard(lambda: session.load_file(None, "my-rocker.json", rocker))
+    assert session.label == "my-rocker.json" and "my-rocker.json" in session.menu.options
+    assert session.notices.text is None and _moving(session, 0.2)
+    bad = b'name = "x"\n[[bodies]]\nname = "rod"\nmass = -1\ninertia = 1\npoints = { A = [0, 0] }\n'
+    for name, content, words in [
+        ("bad.toml", bad, "bad.toml: body 'rod': mass"),
+        ("latin.json", "{\"name\": \"é\"}".encode("latin-1"), "latin.json: not UTF-8 text"),
+        ("big.json", b" " * 1_000_001, "big.json: 1000001 bytes"),
+        ("x.txt", b"{}", "x.txt: expected a .toml or .json file"),
+        ("<b>x</b>.json", b"[1]", "expected a table"),
+    ]:
+        session.guard(lambda name=name, content=content: session.load_file(None, name, content))
+        assert words in (session.notices.text or ""), (name, session.notices.text)
+        assert session.label == "my-rocker.json"  # nothing changed
+    assert "<b>" not in session.status.content
