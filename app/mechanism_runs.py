@@ -209,7 +209,7 @@ class MechanismSpec:
         size = 3 * self.n
         return {
             "q": (size,), "qdot": (size,), "joints": (len(self.draw.labels), 2), "com": (self.n, 2),
-            "trace_xy": (2,), "kinetic": (), "potential": (), "energy": (), "residual": (),
+            "trace_xy": (2,), "kinetic": (), "potential": (), "energy": (), "residual": (), "condition": (),
             "reactions": (len(self.row_names),),
         }
 
@@ -223,7 +223,7 @@ class MechanismSpec:
         trace = self.settings.trace or self.chain.trace
         return self.draw.labels.index(trace) if trace in self.draw.labels else None
 
-    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions) -> dict[str, np.ndarray]:
+    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None) -> dict[str, np.ndarray]:
         points = points_at(self.draw, q)
         k = self.trace_index()
         trace = points[:, k] if k is not None else centres_at(q)[:, 0]
@@ -231,12 +231,13 @@ class MechanismSpec:
             "t": np.asarray(t, dtype=float), "q": q, "qdot": qdot, "joints": points, "com": centres_at(q),
             "trace_xy": trace, "kinetic": kinetic, "potential": potential, "energy": kinetic + potential,
             "residual": residual, "reactions": reactions,
+            **({"condition": condition} if condition is not None and len(condition) == len(q) else {}),
         }
 
     def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
         run = traj.run
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
-                             run.reactions)  # type: ignore[attr-defined]
+                             run.reactions, run.condition)  # type: ignore[attr-defined]
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""

@@ -26,6 +26,7 @@ import numpy as np
 from physics import LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.mechanism.files import mechanism_from_bytes
+from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
 from . import delivery
 from .camera import CameraDirector
@@ -486,6 +487,9 @@ class MechanismSession:
         label = f"{METHODS.get(self.settings.method, self.settings.method)} · DOP853"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
+        condition = float(ring.get("condition", index))
+        if condition > NEAR_SINGULAR_CONDITION:  # a change point or a dead centre is close
+            text += f"\n\nnear a singular pose: Jacobian condition {condition:.2g}"
         if self.status.content != text:
             self.status.content = text
 

@@ -27,6 +27,7 @@ from .formulations import STABILIZATIONS
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
 from .simulate import RUN_METHODS, MechanismRun, run_options, simulate_mechanism
+from .singularity import NEAR_SINGULAR_CONDITION
 
 MAX_SAMPLES = 100_000
 
@@ -97,6 +98,8 @@ def main(argv: list[str]) -> int:
             "stabilization": run.stabilization,
             "max_constraint_residual": float(np.max(run.residual)),
             "energy_change": float(run.energy[-1] - run.energy[0]),
+            # how near the run came to a singular pose (physics/mechanism/singularity.py); null: reduced model
+            "max_jacobian_condition": float(np.max(run.condition)) if run.condition.size else None,
         }
         if args.out:
             write_output(args.out, run_csv(run))
@@ -110,4 +113,8 @@ def main(argv: list[str]) -> int:
     if run is not None:
         print(f"  ran {run.t[-1]:g} s ({run.method}, {run.stabilization}): constraint residual at most {np.max(run.residual):.2g}, "
               f"energy change {run.energy[-1] - run.energy[0]:.3g} J" + (f"; wrote {args.out}" if args.out else ""))
+        if run.condition.size and np.max(run.condition) > NEAR_SINGULAR_CONDITION:
+            worst = int(np.argmax(run.condition))
+            print(f"  passed near a singular pose at t = {run.t[worst]:.4g} s (Jacobian condition "
+                  f"{run.condition[worst]:.2g}): a change point or a dead centre")
     return 0

@@ -78,6 +78,10 @@ class DaeFormulation:
             v = v - self.inverse_mass * (jacobian.T @ solve(weighted @ jacobian.T, gap))
         return x, v
 
+    def sample_pose(self, t: float, x: np.ndarray) -> np.ndarray:
+        """The pose ``q`` (x, y, phi per body) of state ``x``."""
+        return np.array(x, dtype=float)
+
     def sample(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         solution = self.dae.solve(x, v)  # refuses a singular pose in one line
         return x, v, solution.reactions
@@ -142,6 +146,11 @@ class TreeFormulation:
         jacobian = self._jacobian(x)
         gap = jacobian @ v - self.velocity_target
         return x, v - jacobian.T @ np.linalg.solve(jacobian @ jacobian.T, gap)
+
+    def sample_pose(self, t: float, x: np.ndarray) -> np.ndarray:
+        """The pose ``q`` (x, y, phi per body) of tree coordinates ``x``."""
+        zero = np.zeros(self.size)
+        return np.asarray(self.tree.motion(x, zero, zero), dtype=float).reshape(-1, 9)[:, 0:3].ravel()
 
     def sample(self, t: float, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         matrix, rhs = self._system(t, x, v, stabilised=False)

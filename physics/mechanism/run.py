@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -10,7 +10,8 @@ import numpy as np
 @dataclass(frozen=True)
 class MechanismRun:
     """Samples of a run: ``t (T,)``, ``q, qdot (T, 3 B)``, ``reactions (T, rows)``, ``kinetic, potential
-    (T,)``, ``residual (T,)`` (largest constraint residual), ``trace_xy (T, 2)`` (the traced point, if any)."""
+    (T,)``, ``residual (T,)`` (largest constraint residual), ``trace_xy (T, 2)`` (the traced point, if any),
+    ``condition (T,)`` (how near each pose is to a singular one)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -26,6 +27,9 @@ class MechanismRun:
     integrated: bool = True  # False: every sample by position analysis (the motors fix every body)
     steps: int = 0  # accepted integration steps
     evaluations: int = 0  # right-hand sides evaluated
+    # (T,) condition of the constraint Jacobian at each sample (physics/mechanism/singularity.py); empty for
+    # the reduced model's runs, whose positions come from position analysis
+    condition: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def energy(self) -> np.ndarray:

@@ -27,6 +27,7 @@ from .formulations import METHODS, STABILIZATIONS, formulation
 from .model import Mechanism
 from .reduced import simulate_reduced
 from .run import MechanismRun
+from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
 from .stepper import Stepper
 
 __all__ = ["MechanismRun", "RUN_METHODS", "project_velocity", "run_options", "simulate_mechanism"]
@@ -134,6 +135,7 @@ def simulate_mechanism(
                           project if options.stabilization == "projection" else None)
 
     out_q, out_qdot, out_reactions, kinetic, potential, residual, trace_xy = [], [], [], [], [], [], []
+    condition = []
     for k, t in enumerate(times):
         if k > 0 and driven:
             q = assemble(mechanism, q, float(t)).q
@@ -142,9 +144,20 @@ def simulate_mechanism(
             try:
                 y = stepper.advance_to(float(t))
             except LinkageError as error:
+                # at or next to a singular pose the step size collapses, or a solve finds the matrix singular:
+                # say where and which joints, from the stepper's last accepted state
+                last_q = equations.sample_pose(stepper.t, stepper.y[:size])
+                if "singular pose" in str(error) or jacobian_condition(constraints, last_q) > NEAR_SINGULAR_CONDITION:
+                    raise LinkageError(f"{mechanism.name}: {singular_message(constraints, last_q, stepper.t)}; "
+                                       f"{error}") from None
                 raise LinkageError(f"{mechanism.name}: {error}") from None
             x, v = y[:size], y[size:]
-        q, qdot, reactions = equations.sample(float(t), x, v)
+        try:
+            q, qdot, reactions = equations.sample(float(t), x, v)
+        except LinkageError:
+            pose = equations.sample_pose(float(t), x)
+            raise LinkageError(f"{mechanism.name}: {singular_message(constraints, pose, float(t))}") from None
+        condition.append(jacobian_condition(constraints, q))
         out_q.append(q)
         out_qdot.append(qdot)
         out_reactions.append(reactions)
@@ -159,6 +172,7 @@ def simulate_mechanism(
         trace_xy=np.array(trace_xy), row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
         method=options.method, stabilization=options.stabilization, integrated=not driven,
         steps=0 if stepper is None else stepper.steps, evaluations=0 if stepper is None else stepper.evaluations,
+        condition=np.array(condition),
     )
 
 
