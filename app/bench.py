@@ -15,7 +15,8 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
   the server and (b) that pose arriving at the client is recorded; also (a) for a mass slider while playing.
 * cpu: the server as a subprocess (one process) animating ``--preset`` (the triple pendulum by default; any
   general mechanism, e.g. ``jansen-leg``) for one client; CPU time of that process over wall time (1.00 = one
-  core), and the frames per second the client received (60: the motion keeps up with real time).
+  core), the same for its child processes (a general mechanism's workers, app/mechanism_workers.py), and the
+  frames per second the client received (60: the motion keeps up with real time).
 * load: in-process server (with ``--processes K``, this process and K - 1 siblings on the same port:
   app/processes.py), N clients in a subprocess (``python -m app.wsclient``; ``--client-processes J`` splits them
   over J subprocesses) for S seconds, some leaving early;
@@ -56,6 +57,32 @@ def _cpu_seconds(pid: int) -> float:
         fields = f.read().rsplit(")", 1)[1].split()
     ticks = os.sysconf("SC_CLK_TCK")
     return (int(fields[11]) + int(fields[12])) / ticks  # utime + stime
+
+
+def _children(pid: int) -> list[int]:
+    """Live child processes of ``pid`` (a mechanism session's worker processes, app/mechanism_workers.py)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(entry))
+    return out
+
+
+def _children_cpu_seconds(pids: list[int]) -> float:
+    total = 0.0
+    for pid in pids:
+        try:
+            total += _cpu_seconds(pid)
+        except OSError:  # it left
+            pass
+    return total
 
 
 def _own_cpu_seconds() -> float:
@@ -221,14 +248,18 @@ def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
         client.wait_for(lambda c: c.bar_updates() >= 30, timeout=600)
         time.sleep(1.0)
         frames0 = client.counts.bar_updates()
-        cpu0, wall0 = _cpu_seconds(proc.pid), time.perf_counter()
+        workers = _children(proc.pid)
+        cpu0, wall0, worker0 = _cpu_seconds(proc.pid), time.perf_counter(), _children_cpu_seconds(workers)
         time.sleep(seconds)
-        cpu1, wall1 = _cpu_seconds(proc.pid), time.perf_counter()
+        cpu1, wall1, worker1 = _cpu_seconds(proc.pid), time.perf_counter(), _children_cpu_seconds(workers)
         frames1 = client.counts.bar_updates()
         return {
             "preset": preset,
             "seconds": seconds,
             "server_cpu_cores": round((cpu1 - cpu0) / (wall1 - wall0), 3),
+            # a general mechanism's chunks are computed by worker processes (app/mechanism_workers.py)
+            "worker_processes": len(workers),
+            "worker_cpu_cores": round((worker1 - worker0) / (wall1 - wall0), 3),
             "client_fps": round((frames1 - frames0) / (wall1 - wall0), 1),
             "server_rss_mb": round(_rss_mb(proc.pid), 1),
         }

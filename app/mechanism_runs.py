@@ -10,7 +10,7 @@ run from the last stored sample (``q0, qdot0, t_start``). Plain data and numpy; 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Callable, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import assemble
-from physics.mechanism.simulate import simulate_mechanism
+from physics.mechanism.run import MechanismRun
 
 from .buffers import TrajectoryRing
 
@@ -175,6 +175,9 @@ class MechanismSpec:
     chain: Mechanism  # the player's name for "the model"; here a general mechanism
     settings: MechanismSettings
     row_names: tuple[str, ...] = ()
+    # computes a chunk elsewhere (app/mechanism_workers.py: a worker process), with simulate_mechanism's
+    # arguments; None: in this interpreter
+    runner: Callable[..., object] | None = None
     draw: Drawing = field(init=False)
 
     state_fields = ("q", "qdot")
@@ -249,8 +252,14 @@ class MechanismSpec:
                  continuing: bool = False) -> MechanismChunk:
         """One chunk: ``settings.samples`` samples over ``settings.t_end`` from ``t_start``. A failure midway
         (a singular pose, a blow-up) raises LinkageError, which the player turns into the run's end."""
-        run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0, t_start=t_start,
-                                 method=settings.method, stabilization=settings.stabilization)
+        if self.runner is not None:
+            run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
+                                            t_start, settings.method, settings.stabilization)
+        else:  # in this interpreter: the formulations (sympy, scipy) load only here
+            from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
+
+            run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
+                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization)
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples

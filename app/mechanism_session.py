@@ -42,6 +42,7 @@ from .mechanism_runs import (
     torque_rows,
 )
 from .mechanism_scene import MechanismScene
+from .mechanism_workers import POOL
 from .notices import NOTICE_SECONDS, Notices
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
@@ -95,6 +96,7 @@ class MechanismSession:
         self.reactions_on = False
         self.frames_sent = 0
         self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
+        self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
         self.energy_ref: float | None = None
         self.player = Player(
             simulate=lambda *args, **kwargs: None,  # every run carries its own (MechanismSpec.simulate)
@@ -116,6 +118,7 @@ class MechanismSession:
             target.gui.add_html(READY_HTML)
         except BaseException:
             self.player.stop()
+            POOL.release(self.worker)
             raise
 
     # ------------------------------------------------------------------ the panel
@@ -350,7 +353,11 @@ class MechanismSession:
 
     # ------------------------------------------------------------------ runs
     def _spec(self) -> MechanismSpec:
-        return MechanismSpec("main", self.mechanism, self.settings)
+        if self.worker is not None and not self.worker.alive:  # it died: a new one for the next run
+            POOL.release(self.worker)
+            self.worker = POOL.acquire()
+        runner = self.worker.run if self.worker is not None else None
+        return MechanismSpec("main", self.mechanism, self.settings, runner=runner)
 
     def _restart(self, t0: float, q0: np.ndarray, qdot0: np.ndarray, *, keep_history: bool,
                  play: bool | None = None) -> None:
@@ -529,6 +536,7 @@ class MechanismSession:
         self.notices.closed = True
         self.camera.closed = True
         self.player.stop()
+        POOL.release(self.worker)
         if self.shared or clean:
             for part in (self.scene, self.trace, self.arrows):
                 quietly(part.remove, "removing a scene part")

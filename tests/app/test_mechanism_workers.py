@@ -1,0 +1,85 @@
+"""A general mechanism's chunks are computed in worker processes, never in the server's interpreter.
+
+Position analysis, projection and reactions are numpy and Python, and the tree formulations are derived by
+sympy on first use: in the server they would hold the interpreter lock and take frames from every other
+session. The test runs a server in a fresh interpreter, plays the slider-crank with Lagrange's and
+Newton-Euler's tree formulations, and checks that the server never imported sympy or the formulations while
+the workers did the work; then that a worker that dies is reported and replaced.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.mechanism_workers import WorkerPool
+from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
+
+ROOT = Path(__file__).resolve().parents[2]
+
+SCRIPT = """
+import json, sys, time
+from app.server import LabServer
+from app.wsclient import BackgroundClient
+server = LabServer(port=0, warm=False, preset="slider-crank")
+client = BackgroundClient(server.url)
+(session,) = server.wait_for_sessions(1)
+def moved(seconds):
+    start = session.player.display_time
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and session.player.display_time < start + seconds:
+        time.sleep(0.02)
+    return session.player.display_time >= start + seconds
+ok = moved(0.3)
+for method in ("lagrange", "newton_euler"):
+    session.guard(lambda: session.set_method(method))
+    session.player.wait_idle(60)
+    ok = ok and moved(0.3) and session.player.runs[0].spec.settings.method == method
+workers = [w.process.pid for w in __import__("app.mechanism_workers", fromlist=["POOL"]).POOL.workers]
+print(json.dumps({"moved": ok, "notice": session.notices.text, "workers": len(workers),
+                  "sympy": "sympy" in sys.modules,
+                  "formulations": any(name.startswith("physics.mechanism.lagrange") or
+                                      name.startswith("physics.mechanism.newton_euler") for name in sys.modules)}))
+client.close()
+server.stop()
+"""
+
+
+def test_the_server_never_derives_or_integrates_a_mechanism_itself():
+    done = subprocess.run([sys.executable, "-c", SCRIPT], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result == {"moved": True, "notice": None, "workers": 1, "sympy": False, "formulations": False}, (
+        result, done.stderr[-2000:])
+
+
+def test_a_worker_computes_what_the_server_would_and_a_dead_one_is_reported_and_replaced():
+    pool = WorkerPool(count=1)
+    try:
+        worker = pool.acquire()
+        assert worker is not None
+        mechanism = MECHANISM_PRESETS["slider-crank"]()
+        here = simulate_mechanism(mechanism, 0.2, 13, method="lagrange")
+        there = worker.run(mechanism, 0.2, 13, None, None, 0.0, "lagrange", "projection")
+        assert np.array_equal(here.q, there.q) and np.array_equal(here.reactions, there.reactions)  # bit for bit
+        with pytest.raises(LinkageError, match="method = 'euler'"):
+            worker.run(mechanism, 0.2, 13, None, None, 0.0, "euler", "projection")  # refused, the worker goes on
+        assert worker.alive
+        worker.process.kill()
+        worker.process.wait(10)
+        with pytest.raises(LinkageError, match="worker process stopped"):
+            worker.run(mechanism, 0.2, 13, None, None, 0.0, "dae", "projection")
+        pool.release(worker)
+        fresh = pool.acquire()
+        assert fresh is not worker and fresh is not None and fresh.alive
+        assert len(fresh.run(mechanism, 0.2, 13, None, None, 0.0, "dae", "projection").t) == 13
+    finally:
+        pool.stop()
+    assert not pool.workers
