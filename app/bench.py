@@ -80,8 +80,8 @@ def _children_cpu_seconds(pids: list[int]) -> float:
     for pid in pids:
         try:
             total += _cpu_seconds(pid)
-        except OSError:  # it left
-            pass
+        except OSError:  # it left: its time is no longer in /proc
+            continue
     return total
 
 

@@ -15,6 +15,8 @@ joints) and ``com_k`` (body k, 1-based).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .logs import quietly
@@ -57,7 +59,17 @@ class MechanismScene:
         return self.draw.size if self.draw is not None else 1.0
 
     def build(self, draw: Drawing, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
-        """Create every node for ``draw``, standing at ``points_xy`` (P, 2) and ``com_xy`` (B, 2)."""
+        """Create every node for ``draw``, standing at ``points_xy`` (P, 2) and ``com_xy`` (B, 2). The same
+        drawing with other sizes (a body resized on its slider) only rescales the bars and moves the parts."""
+        if self._same_layout(draw):
+            assert self.draw is not None
+            # widths and radii stay those of the first build (the guides' lengths too): only the bars' lengths
+            self.draw = dataclasses.replace(draw, size=self.draw.size, guides=self.draw.guides)
+            scales = self._scales(points_xy)
+            if self._bars is not None:
+                update_node_props(self._bars, {"batched_scales": scales})
+            self.show(points_xy, com_xy)
+            return
         self.remove()
         scene = self.target.scene
         self.draw = draw
@@ -72,12 +84,7 @@ class MechanismScene:
                 f"{self.root}/guides", points=to_world(draw.guides).astype(np.float32), colors=GROUND_COLOR,
                 thickness=0.4 * width))
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
-        lengths = self._lengths(points_xy)
-        scales = np.full((len(lengths), 3), width, dtype=np.float32)
-        scales[:, 0] = np.maximum(lengths, 1e-6)
-        # a plate's edges are thinner than a bar, so the outline reads as one body
-        plate = np.bincount(draw.segment_body, minlength=int(draw.owner.max(initial=0)) + 1)[draw.segment_body] > 1
-        scales[plate, 1:] *= 0.6
+        scales = self._scales(points_xy)
         box_vertices, box_faces = UNIT_BOX
         colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body]
         if len(bar_positions):
@@ -101,6 +108,24 @@ class MechanismScene:
             batched_colors=instance_colors(sphere_colors), lod="off", **common)
         self._handles.append(self._spheres)
         self._bar_positions, self._bar_wxyzs, self._sphere_positions = bar_positions, bar_wxyzs, sphere_positions
+
+    def _same_layout(self, draw: Drawing) -> bool:
+        old = self.draw
+        return (old is not None and self._spheres is not None and old.labels == draw.labels
+                and np.array_equal(old.segments, draw.segments) and np.array_equal(old.ground, draw.ground)
+                and old.guides.shape == draw.guides.shape)
+
+    def _scales(self, points_xy: np.ndarray) -> np.ndarray:
+        """Each bar's box: its length along x, the width across (a plate's edges thinner, so its outline reads
+        as one body)."""
+        assert self.draw is not None
+        lengths = self._lengths(points_xy)
+        scales = np.full((len(lengths), 3), BAR_WIDTH_FRACTION * self.draw.size, dtype=np.float32)
+        scales[:, 0] = np.maximum(lengths, 1e-6)
+        draw = self.draw
+        plate = np.bincount(draw.segment_body, minlength=int(draw.owner.max(initial=0)) + 1)[draw.segment_body] > 1
+        scales[plate, 1:] *= 0.6
+        return scales
 
     def _lengths(self, points_xy: np.ndarray) -> np.ndarray:
         assert self.draw is not None

@@ -265,7 +265,7 @@ class MechanismSession:
             edited = apply_edit(self.mechanism, name, value, self.reference)
             geometry = name.startswith("size:")
             if geometry:
-                self._new_mechanism(edited, play=None)
+                self._new_mechanism(edited, play=None, same_kind=True)
             else:
                 self.mechanism = edited
                 self._continue()
@@ -364,9 +364,11 @@ class MechanismSession:
         # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
         self.player.restart([cast(Any, self.spec)], t0, [(q0, qdot0)], keep_history=keep_history, play=play)
 
-    def _new_mechanism(self, mechanism: Mechanism, play: bool | None) -> None:
+    def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False) -> None:
         """Assemble ``mechanism`` (LinkageError naming the open joint), rebuild the scene and the panel's
-        generated controls, and start at t = 0 from the assembled sketch at rest."""
+        generated controls, and start at t = 0 from the assembled sketch at rest. ``same_kind``: a size dragged
+        on a slider: the controls stay (the one under the mouse is not replaced), the bars are resized in
+        place and the camera moves only when the size changed noticeably."""
         q0, qdot0, mobility = start_state(mechanism)
         if self.settings.method == "reduced" and mobility != 1:  # a new mechanism without a free coordinate
             self.settings = self.settings.model_copy(update={"method": "dae"})
@@ -377,9 +379,10 @@ class MechanismSession:
         self.scene.build(draw, points_at(draw, q0), centres_at(q0))
         self.trace.update(np.zeros((0, 2)))
         self.arrows.hide()
-        self._build_knobs()
+        if not same_kind:
+            self._build_knobs()
         self._show_facts()
-        self._frame_camera(points_at(draw, q0))
+        self._frame_camera(points_at(draw, q0), force=not same_kind)
         self.energy_ref = None
         self.energy_plot.clear()
         self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
@@ -415,14 +418,14 @@ class MechanismSession:
         if self.camera.disc is not None:
             self.camera.frame(np.array([self.camera.disc[1]]), None, force=force, client=client)
 
-    def _frame_camera(self, points_xy: np.ndarray) -> None:
+    def _frame_camera(self, points_xy: np.ndarray, force: bool = True) -> None:
         draw = self.spec.draw
         everything = np.concatenate([points_xy, draw.ground]) if len(draw.ground) else points_xy
         low, high = everything.min(axis=0), everything.max(axis=0)
         centre = 0.5 * (low + high)
         radius = 1.3 * max(float(np.max(np.hypot(*(everything - centre).T))), 0.05)
         self.camera.disc = (centre, radius)
-        self.camera.frame(np.array([radius]), None, force=True)
+        self.camera.frame(np.array([radius]), None, force=force)
 
     # ------------------------------------------------------------------ frames
     def _on_frame(self, frame: Frame) -> None:

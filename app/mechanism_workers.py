@@ -116,9 +116,9 @@ class Worker:
     def stop(self) -> None:
         try:
             with self._lock:
-                self._connection.send(None)
-        except (OSError, ValueError):
-            pass
+                self._connection.send(None)  # asks it to finish
+        except (OSError, ValueError):  # its end is closed: it has finished already, the wait below returns
+            self.process.poll()
         try:
             self.process.wait(2.0)
         except subprocess.TimeoutExpired:

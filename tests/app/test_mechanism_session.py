@@ -274,3 +274,19 @@ def test_a_file_chosen_in_the_browser_loads_or_is_one_notice_naming_the_element(
         assert words in (session.notices.text or ""), (name, session.notices.text)
         assert session.label == "my-rocker.json"  # nothing changed
     assert "<b>" not in session.status.content
+
+
+def test_dragging_a_size_keeps_the_controls_and_the_nodes(jansen_lab, connect):
+    """A size slider dragged step by step: the mechanism is re-assembled each step, but the slider under the
+    mouse is not replaced and the scene's nodes are resized in place (no node removed and added again)."""
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.choose("crank-rocker"))
+    handles = dict(session._knob_handles)
+    bars = session.scene._bars
+    base = body_size(session.mechanism.body("crank"))
+    for factor in (1.05, 1.1, 1.15):
+        session.guard(lambda factor=factor: session.set("size:crank", base * factor))
+        assert session.notices.text is None, session.notices.text
+    assert session._knob_handles == handles and session.scene._bars is bars
+    assert body_size(session.mechanism.body("crank")) == pytest.approx(1.15 * base)
+    assert _moving(session, 0.2)
