@@ -60,6 +60,25 @@ STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
 VIEWER_NOTICE_SECONDS = 4.0
 PREPARE_NOTICE_DELAY = 1.0
+MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
+ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
+guide. The magenta line is the traced point's last 4 s.
+
+**Mechanism:** a chain preset brings the chain panel back; a mechanism preset or your file (below) starts
+here. The line under it gives the bodies, joints, mobility and motors.
+
+**Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
+cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
+stay closed. Both go on from the displayed state.
+
+**Bodies and motors:** size (m: the body is scaled about its first point and the mechanism re-assembled; the
+run starts again), m (kg), I (kg·m²), a motor's speed (°/s) or torque (N·m), g (m/s²). A value that cannot be
+used is refused with a notice naming the body, the field and the range.
+
+**Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give
+(inverse dynamics). The status line shows the energy error of an undriven mechanism, the largest constraint
+residual, and warns near a singular pose (a change point or a dead centre).
+"""
 
 
 def _choice(field: str, value: object, allowed: list[str]) -> None:
@@ -162,6 +181,9 @@ class MechanismSession:
         self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
         self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
         self.knob_folder = keep(gui.add_folder("Bodies and motors"))
+        self.help = keep(gui.add_folder("Help", expand_by_default=False))
+        with self.help:
+            gui.add_markdown(MECHANISM_HELP)
         self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
                                 [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
         self._gui.append(self.energy_plot.handle)

@@ -39,7 +39,7 @@ def test_choosing_the_jansen_leg_draws_it_with_its_controls_and_a_chain_comes_ba
     assert "7 bodies, 10 joints, mobility 0, motors: O (speed)" in panel_text
     assert "Bodies and motors" in panel_text and "crank: m (kg)" in panel_text
     assert "motor O: speed (°/s)" in panel_text
-    assert "Driving torque (inverse dynamics)" in panel_text
+    assert "Driving torque (inverse dynamics)" in panel_text and "Help" in panel_text
     assert panel is not None
     leg = page.picture("mechanism-jansen-leg")
     drawn = _saturated_pixels(leg, right)
