@@ -313,3 +313,32 @@ def test_any_value_for_any_generated_control_is_applied_valid_or_refused_in_one_
         return
     assemble(edited)
     assert not isinstance(value, (bool, list, type(None))) and knob.low <= float(value) <= knob.high  # numbers, "5"
+
+
+def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect):
+    """Rapid changes (issue 13) on a mechanism: 120 method, stabilisation, mass and size edits 5 ms apart are
+    applied as their last values, and the session moves again within seconds of the last one, without error."""
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.choose("slider-crank"))
+    base = body_size(session.mechanism.body("crank"))
+    methods = ["lagrange", "dae", "newton_euler", "reduced"]
+    for i in range(120):
+        kind = i % 4
+        if kind == 0:
+            session.guard(lambda i=i: session.set_method(methods[(i // 4) % 4]))
+        elif kind == 1:
+            session.guard(lambda i=i: session.set("mass:rod", 0.1 + 0.01 * (i % 7)))
+        elif kind == 2:
+            session.guard(lambda i=i: session.set("size:crank", base * (1.0 + 0.01 * (i % 5))))
+        else:
+            session.guard(lambda i=i: session.set_stabilization(["projection", "baumgarte"][(i // 4) % 2]
+                                                                if session.settings.method != "reduced"
+                                                                else "projection"))
+        time.sleep(0.005)
+    started = time.monotonic()
+    assert session.player.wait_idle(30)
+    assert _moving(session, 0.3)
+    assert time.monotonic() - started < 20
+    assert session.player.error is None and "paused" not in (session.notices.text or "")
+    run = session.player.runs[0]
+    assert run.spec.settings.method == session.settings.method and run.spec.chain == session.mechanism
