@@ -315,6 +315,9 @@ def test_any_value_for_any_generated_control_is_applied_valid_or_refused_in_one_
     assert not isinstance(value, (bool, list, type(None))) and knob.low <= float(value) <= knob.high  # numbers, "5"
 
 
+RESUME_SECONDS = 1.0  # after the last edit of a burst, as for chains (measured 0.3 s: a new size is derived again)
+
+
 def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect):
     """Rapid changes (issue 13) on a mechanism: 120 method, stabilisation, mass and size edits 5 ms apart are
     applied as their last values, and the session moves again within seconds of the last one, without error."""
@@ -337,8 +340,12 @@ def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect)
         time.sleep(0.005)
     started = time.monotonic()
     assert session.player.wait_idle(30)
+    shown = session.player.display_time
+    assert wait_until(lambda: session.player.display_time > shown, timeout=30)
+    resumed = time.monotonic() - started
+    print(f"\nresumed {resumed:.2f} s after the last of 120 edits")
+    assert resumed < RESUME_SECONDS, resumed  # the last mechanism's equations derived in its worker meanwhile
     assert _moving(session, 0.3)
-    assert time.monotonic() - started < 20
     assert session.player.error is None and "paused" not in (session.notices.text or "")
     run = session.player.runs[0]
     assert run.spec.settings.method == session.settings.method and run.spec.chain == session.mechanism

@@ -264,3 +264,43 @@ def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behin
         assert rss1 <= 1.10 * rss0, (rss0, rss1)
     finally:
         server.stop()
+
+
+def test_twenty_mechanism_browsers_come_and_go_and_leave_no_thread_process_or_memory_behind():
+    """The same for general mechanisms (app/mechanism_session.py): their worker processes are a pool of at most
+    one per core, kept for the next session, so the count of child processes does not grow either."""
+    server = LabServer(port=0, warm=False, preset="slider-crank")
+    try:
+
+        def cycle() -> None:
+            client = BrowserStandIn(server.url)
+            assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+            assert client.wait_for(lambda c: c.bar_updates() >= 20, timeout=60)
+            session = next(iter(server.sessions.values()))
+            session.guard(lambda: session.set_method("lagrange"))
+            session.guard(lambda: session.set_reactions(True))
+            poses = sum(client.counts.pose_updates.values())
+            assert client.wait_for(lambda c: sum(c.pose_updates.values()) >= poses + 60, timeout=60)
+            client.close()
+            assert wait_until(lambda: not server.sessions and server.seats.count == 0, timeout=30)
+
+        def settled() -> tuple[int, int, float]:
+            gc.collect()
+            time.sleep(0.5)
+            return threading.active_count(), len(_children()), _rss_mb()
+
+        for _ in range(2):  # the first sessions start the workers and fill caches: not a leak
+            cycle()
+        threads0, children0, rss0 = settled()
+        for _ in range(20):
+            cycle()
+        assert wait_until(lambda: threading.active_count() <= threads0, timeout=10), (
+            threading.active_count(), threads0, [t.name for t in threading.enumerate()])
+        threads1, children1, rss1 = settled()
+        print(f"\nmechanism lifetime: threads {threads0} -> {threads1}, child processes {children0} -> {children1}, "
+              f"RSS {rss0:.1f} -> {rss1:.1f} MB after 20 connect/disconnect cycles")
+        assert threads1 <= threads0
+        assert children1 <= children0
+        assert rss1 <= 1.10 * rss0, (rss0, rss1)
+    finally:
+        server.stop()
