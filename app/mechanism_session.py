@@ -211,7 +211,8 @@ class MechanismSession:
         if motors:
             colors = [METHOD_COLORS["dae"], METHOD_COLORS["lagrange"], METHOD_COLORS["reduced"]]
             self.torque_plot = Plot(self.target.gui, "Driving torque (inverse dynamics)",
-                                    [f"motor {m}" for m in motors], colors[: len(motors)], y_label="N·m")
+                                    [f"motor {m}" for m in motors], colors[: len(motors)], y_label="N·m",
+                                    height=220)  # taller: a torque of ±0.4 N·m gets ticks besides 0
 
     def _knob_moved(self, knob: Knob, handle) -> None:
         if self._syncing:
@@ -485,11 +486,13 @@ class MechanismSession:
                 row = names.index(f"{joint.name}: x gap")
             except ValueError:
                 continue
-            side = joint.a if joint.a in index else joint.b
+            # the multipliers are the force ON body a BY body b; a pin to the ground (a = ground) is drawn at
+            # the body's point with the force the ground exerts on the body, -(force on the ground)
+            side, sign = (joint.a, 1.0) if joint.a in index else (joint.b, -1.0)
             if side not in index:
                 continue
             points.append(rf.joints[index[side]])
-            forces.append(sample[row:row + 2])
+            forces.append(sign * sample[row:row + 2])
         if not forces:
             self.arrows.hide()
             return

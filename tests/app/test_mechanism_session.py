@@ -349,3 +349,28 @@ def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect)
     assert session.player.error is None and "paused" not in (session.notices.text or "")
     run = session.player.runs[0]
     assert run.spec.settings.method == session.settings.method and run.spec.chain == session.mechanism
+
+
+def test_the_arrow_at_a_ground_pin_is_the_force_the_ground_exerts_on_the_body(jansen_lab, connect):
+    """The crank-rocker held still by its motor (speed 0): the ground pins carry the weight, so the forces the
+    ground exerts on the crank and the rocker point up, add up to the weight, and their arrows are drawn up."""
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.choose("crank-rocker"))
+    session.guard(lambda: session.set("speed:O2", 0.0))  # the motor holds the crank still: a static pose
+    session.guard(lambda: session.set_reactions(True))
+    assert wait_until(lambda: session.arrows.handle is not None and session.arrows.count == 4, timeout=30)
+    run = session.player.runs[0]
+    reactions = run.ring.get("reactions", len(run.ring) - 1)
+    names = session.spec.row_names
+    on_bodies = {}
+    for joint in ("O2", "O4"):
+        row = names.index(f"{joint}: x gap")
+        on_bodies[joint] = -reactions[row:row + 2]  # a = ground: the force on the body is minus the multiplier
+    weight = sum(b.mass for b in session.mechanism.bodies) * session.mechanism.g
+    assert on_bodies["O2"][1] > 0 and on_bodies["O4"][1] > 0
+    assert on_bodies["O2"][1] + on_bodies["O4"][1] == pytest.approx(weight, rel=1e-6)
+    arrows = np.asarray(session.arrows.handle.points)  # (pins, start/end, world xyz) in the joints' order
+    joints = [joint.name for joint in session.mechanism.joints]
+    for joint in ("O2", "O4"):
+        start, end = arrows[joints.index(joint)]
+        assert end[2] > start[2], (joint, start, end)  # world z is the physics y: up
