@@ -59,8 +59,10 @@ def _cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / ticks  # utime + stime
 
 
-def _children(pid: int) -> list[int]:
-    """Live child processes of ``pid`` (a mechanism session's worker processes, app/mechanism_workers.py)."""
+def child_processes(pid: int | None = None) -> list[int]:
+    """Live child processes of ``pid`` (this process by default; zombies left out): a server's siblings and a
+    mechanism session's worker processes (app/mechanism_workers.py). The tests of sessions' lifetime use it."""
+    pid = pid or os.getpid()
     out = []
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
@@ -70,7 +72,7 @@ def _children(pid: int) -> list[int]:
                 fields = f.read().rsplit(")", 1)[1].split()
         except OSError:
             continue
-        if int(fields[1]) == pid:
+        if int(fields[1]) == pid and fields[0] != "Z":
             out.append(int(entry))
     return out
 
@@ -248,7 +250,7 @@ def measure_cpu(seconds: float = 20.0, preset: str = "triple-a") -> dict:
         client.wait_for(lambda c: c.bar_updates() >= 30, timeout=600)
         time.sleep(1.0)
         frames0 = client.counts.bar_updates()
-        workers = _children(proc.pid)
+        workers = child_processes(proc.pid)
         cpu0, wall0, worker0 = _cpu_seconds(proc.pid), time.perf_counter(), _children_cpu_seconds(workers)
         time.sleep(seconds)
         cpu1, wall1, worker1 = _cpu_seconds(proc.pid), time.perf_counter(), _children_cpu_seconds(workers)

@@ -43,7 +43,7 @@ def body_size(body: Body) -> float:
 
 
 def _step(value: float) -> float:
-    """A slider step about a hundredth of ``value``, rounded to 1, 2 or 5 times a power of ten."""
+    """A slider step about a hundredth of ``value``: the power of ten at or below it."""
     if value <= 0 or not math.isfinite(value):
         return 0.01
     exponent = math.floor(math.log10(value / 100.0))

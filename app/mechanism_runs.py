@@ -17,7 +17,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
-from physics.mechanism.assembly import assemble
+from physics.mechanism.assembly import assemble, sketch_size
+from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.run import MechanismRun
 
 from .buffers import TrajectoryRing
@@ -115,9 +116,7 @@ def drawing(mechanism: Mechanism) -> Drawing:
     joint_points = sorted({index[side] for joint in mechanism.joints if isinstance(joint, Revolute)
                            for side in (joint.a, joint.b) if side in index})
     guides = []
-    points = [xy for body in mechanism.bodies for xy in body.points.values()] + list(mechanism.ground.values())
-    xs, ys = zip(*points)
-    size = max(max(xs) - min(xs), max(ys) - min(ys), 1e-3)
+    size = max(sketch_size(mechanism), 1e-3)
     for joint in mechanism.joints:
         if isinstance(joint, Prismatic) and joint.on == "ground":
             through = np.array(mechanism.ground[joint.through])
@@ -133,18 +132,34 @@ def drawing(mechanism: Mechanism) -> Drawing:
 
 
 def points_at(draw: Drawing, q: np.ndarray) -> np.ndarray:
-    """Every drawn point at poses ``q`` (..., 3 B) -> (..., P, 2): ``r_b + R(phi_b) s``."""
-    q = np.asarray(q, dtype=float)
-    x, y, phi = q[..., 0::3], q[..., 1::3], q[..., 2::3]
-    cos, sin = np.cos(phi[..., draw.owner]), np.sin(phi[..., draw.owner])
-    sx, sy = draw.offset[:, 0], draw.offset[:, 1]
-    return np.stack([x[..., draw.owner] + cos * sx - sin * sy, y[..., draw.owner] + sin * sx + cos * sy], axis=-1)
+    """Every drawn point at poses ``q`` (..., 3 B) -> (..., P, 2) (the physics: ``points_at_poses``)."""
+    return points_at_poses(q, draw.owner, draw.offset)
 
 
 def centres_at(q: np.ndarray) -> np.ndarray:
     """Every body's centre of mass at poses ``q`` (..., 3 B) -> (..., B, 2)."""
     q = np.asarray(q, dtype=float)
     return np.stack([q[..., 0::3], q[..., 1::3]], axis=-1)
+
+
+def pin_arrows(mechanism: Mechanism, draw: Drawing,
+               row_names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each pin's reaction arrow is drawn, computed once per mechanism (not per frame): the drawn point,
+    the reaction row of its x component (y is the next) and a sign. The multipliers are the force ON body a BY
+    body b; a pin to the ground (a = ground) is drawn at the body's point with the force the ground exerts on
+    the body, minus the multiplier."""
+    index = {label: k for k, label in enumerate(draw.labels)}
+    points, rows, signs = [], [], []
+    for joint in mechanism.joints:
+        name = f"{joint.name}: x gap"
+        if not isinstance(joint, Revolute) or name not in row_names:
+            continue
+        side, sign = (joint.a, 1.0) if joint.a in index else (joint.b, -1.0)
+        if side in index:
+            points.append(index[side])
+            rows.append(row_names.index(name))
+            signs.append(sign)
+    return np.array(points, dtype=int), np.array(rows, dtype=int), np.array(signs, dtype=float)
 
 
 def torque_rows(row_names: tuple[str, ...]) -> list[int]:
@@ -175,6 +190,7 @@ class MechanismSpec:
     chain: Mechanism  # the player's name for "the model"; here a general mechanism
     settings: MechanismSettings
     row_names: tuple[str, ...] = ()
+    pin_arrows: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False)  # see pin_arrows()
     # computes a chunk elsewhere (app/mechanism_workers.py: a worker process), with simulate_mechanism's
     # arguments; None: in this interpreter
     runner: Callable[..., object] | None = None
@@ -186,9 +202,8 @@ class MechanismSpec:
     def __post_init__(self) -> None:
         self.draw = drawing(self.chain)
         if not self.row_names:
-            from physics.mechanism.constraints import Constraints  # noqa: PLC0415 - cheap, numpy only
-
             self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
+        self.pin_arrows = pin_arrows(self.chain, self.draw, self.row_names)
 
     @property
     def mechanism(self) -> Mechanism:

@@ -16,7 +16,6 @@ joint, the field and the allowed range, and the session goes on.
 from __future__ import annotations
 
 import threading
-import time
 import traceback
 from pathlib import Path
 from typing import Any, Callable, cast
@@ -43,12 +42,13 @@ from .mechanism_runs import (
 )
 from .mechanism_scene import MechanismScene
 from .mechanism_workers import POOL
-from .notices import NOTICE_SECONDS, Notices
+from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
 from .player import Frame, Player
+from .scene import pose_disc
 from .text import markdown_literal
-from .viser_compat import check_gui_updates, connection_open, resend_value
+from .viser_compat import check_gui_updates, connection_open
 
 METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
            "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
@@ -58,7 +58,6 @@ PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
-VIEWER_NOTICE_SECONDS = 4.0
 PREPARE_NOTICE_DELAY = 1.0
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
@@ -110,7 +109,6 @@ class MechanismSession:
         self.on_switch = on_switch
         self.is_presenter: Callable[[int], bool] | None = None
         self.id = id(self)
-        self._told_viewer: dict[int, float] = {}
         self._lock = threading.RLock()
         self.reactions_on = False
         self.frames_sent = 0
@@ -132,7 +130,7 @@ class MechanismSession:
             self.trace = TraceLine(target.scene, "/linkage/trace")
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
             self._build_panel()
-            check_gui_updates(target.gui, self._refuse_update, self.may_change, self._tell_viewer)
+            check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             self._new_mechanism(mechanism, play=autoplay)
             target.gui.add_html(READY_HTML)
         except BaseException:
@@ -254,17 +252,6 @@ class MechanismSession:
 
     def may_change(self, client_id: int) -> bool:
         return self.is_presenter is None or self.is_presenter(client_id)
-
-    def _tell_viewer(self, client_id: int, handle) -> None:
-        client = self.target.get_clients().get(client_id) if self.shared else None
-        if client is None:
-            return
-        resend_value(client, handle)
-        now = time.monotonic()
-        if now - self._told_viewer.get(client_id, -1e9) > VIEWER_NOTICE_SECONDS:
-            self._told_viewer[client_id] = now
-            client.add_notification("The presenter controls this session", "Changes from this browser are not "
-                                    "applied.", color="blue", auto_close_seconds=VIEWER_NOTICE_SECONDS)
 
     def _refuse_update(self, handle, problem: str) -> None:
         self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
@@ -443,10 +430,7 @@ class MechanismSession:
 
     def _frame_camera(self, points_xy: np.ndarray, force: bool = True) -> None:
         draw = self.spec.draw
-        everything = np.concatenate([points_xy, draw.ground]) if len(draw.ground) else points_xy
-        low, high = everything.min(axis=0), everything.max(axis=0)
-        centre = 0.5 * (low + high)
-        radius = 1.3 * max(float(np.max(np.hypot(*(everything - centre).T))), 0.05)
+        centre, radius = pose_disc(np.concatenate([points_xy, draw.ground]), margin=1.3)
         self.camera.disc = (centre, radius)
         self.camera.frame(np.array([radius]), None, force=force)
 
@@ -475,31 +459,16 @@ class MechanismSession:
             self._show_status(frame.t, ring, rf.index)
 
     def _update_arrows(self, run, rf) -> None:
-        names = self._row_names
-        sample = run.ring.get("reactions", rf.index)
-        points, forces = [], []
-        index = {label: k for k, label in enumerate(self.spec.draw.labels)}
-        for joint in self.mechanism.joints:
-            if joint.kind != "revolute":
-                continue
-            try:
-                row = names.index(f"{joint.name}: x gap")
-            except ValueError:
-                continue
-            # the multipliers are the force ON body a BY body b; a pin to the ground (a = ground) is drawn at
-            # the body's point with the force the ground exerts on the body, -(force on the ground)
-            side, sign = (joint.a, 1.0) if joint.a in index else (joint.b, -1.0)
-            if side not in index:
-                continue
-            points.append(rf.joints[index[side]])
-            forces.append(sign * sample[row:row + 2])
-        if not forces:
+        points, rows, signs = self.spec.pin_arrows
+        if not len(rows):
             self.arrows.hide()
             return
-        forces_xy = np.array(forces)
-        largest = float(np.max(np.hypot(*forces_xy.T))) or 1.0
+        sample = run.ring.get("reactions", rf.index)
+        forces = signs[:, None] * np.stack([sample[rows], sample[rows + 1]], axis=1)
+        points_xy = rf.joints[points]
+        largest = float(np.max(np.hypot(*forces.T))) or 1.0
         scale = ARROW_FRACTION * self.spec.draw.size / largest
-        self.arrows.update(np.array(points), forces_xy, scale, 0.006 * self.spec.draw.size)
+        self.arrows.update(points_xy, forces, scale, 0.006 * self.spec.draw.size)
 
     def _update_plots(self, ring, index: int) -> None:
         first = ring.index_at(ring.get("t", index) - PLOT_SECONDS)

@@ -13,8 +13,10 @@ import time
 from typing import Callable
 
 from .logs import quietly
+from .viser_compat import resend_value
 
 NOTICE_SECONDS = 8.0
+VIEWER_NOTICE_SECONDS = 4.0
 
 
 class Notices:
@@ -74,3 +76,25 @@ class Notices:
     def dismiss(handles: list) -> None:
         for handle in handles:
             quietly(handle.remove, "removing a progress notification")
+
+
+class ViewerRefusals:
+    """A viewer of a presenter's session (``--shared``) moved a control: nothing is applied, its control is put
+    back in its page, and it is told why, at most once every VIEWER_NOTICE_SECONDS (a dragged slider sends a
+    value per step). Called as ``refusals(client_id, handle)`` (``check_gui_updates``' ``refuse_sender``)."""
+
+    def __init__(self, target, shared: bool) -> None:
+        self._target, self._shared = target, shared
+        self._told: dict[int, float] = {}
+
+    def __call__(self, client_id: int, handle) -> None:
+        client = self._target.get_clients().get(client_id) if self._shared else None
+        if client is None:
+            return
+        resend_value(client, handle)
+        now = time.monotonic()
+        if now - self._told.get(client_id, -1e9) > VIEWER_NOTICE_SECONDS:
+            self._told[client_id] = now
+            client.add_notification("The presenter controls this session",
+                                    "Changes from this browser are not applied.", color="blue",
+                                    auto_close_seconds=VIEWER_NOTICE_SECONDS)

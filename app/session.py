@@ -42,7 +42,7 @@ from .divergence import DivergencePlots, reference_spec
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
 from .free_body_view import FreeBodyView
 from .logs import quietly
-from .notices import NOTICE_SECONDS, Notices
+from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
 from .page import READY_HTML
 from .parameters import (
     METHOD_LABELS,
@@ -55,7 +55,7 @@ from .parameters import (
 )
 from .player import Frame, Player, RunSpec
 from .report_tab import ReportTab
-from .viser_compat import check_gui_updates, connection_open, resend_value
+from .viser_compat import check_gui_updates, connection_open
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
 # under a second; a new mechanism derives and compiles in a few seconds (the very first run of an installation
@@ -70,7 +70,6 @@ warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection"
 _ids = itertools.count(1)
 
 
-VIEWER_NOTICE_SECONDS = 4.0
 
 
 def _settings_for_chunk(settings, horizon: float, samples: int):
@@ -101,7 +100,6 @@ class Session:
         self.is_presenter: Callable[[int], bool] | None = None
         # a general mechanism's preset chosen in the menu: the server replaces this session (app/server.py)
         self.on_switch: Callable[[str], None] | None = None
-        self._told_viewer: dict[int, float] = {}
         self.params = SessionParameters.from_preset(preset, links=links, method=method)
         self._user_paused = not autoplay
         self._start_params: SessionParameters | None = None  # parameters of the latest start (t = 0)
@@ -120,7 +118,7 @@ class Session:
             self.view = FrameView(target, self.player.lock, lambda: self.notices.text)
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
-            check_gui_updates(target.gui, self._refuse_update, self.may_change, self._tell_viewer)
+            check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             self.view.panel = self.controls
             self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)
@@ -222,20 +220,6 @@ class Session:
 
     def may_change(self, client_id: int) -> bool:
         return self.is_presenter is None or self.is_presenter(client_id)
-
-    def _tell_viewer(self, client_id: int, handle) -> None:
-        """A viewer of a presenter's session moved a control: nothing is applied, its control is put back, and
-        it is told why (at most once every few seconds, so a dragged slider does not pile up notices)."""
-        client = self.target.get_clients().get(client_id) if self.shared else None
-        if client is None:
-            return
-        resend_value(client, handle)
-        now = time.monotonic()
-        if now - self._told_viewer.get(client_id, -1e9) > VIEWER_NOTICE_SECONDS:
-            self._told_viewer[client_id] = now
-            client.add_notification("The presenter controls this session",
-                                    "Changes from this browser are not applied.", color="blue",
-                                    auto_close_seconds=VIEWER_NOTICE_SECONDS)
 
     def _refuse_update(self, handle, problem: str) -> None:
         """A value no browser sends for this control (a hostile client's): a notice, and the controls put back

@@ -32,6 +32,17 @@ def rotation(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def points_at_poses(q: np.ndarray, body: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Points fixed in bodies at poses ``q`` (..., 3 B): point k of body ``body[k]`` at ``offset[k]`` from its
+    centre of mass in the sketch is at ``r + R(phi) offset`` -> (..., K, 2). The batched form of
+    :meth:`Constraints.body_point` (a drawing's every point over a chunk of samples in one pass)."""
+    q = np.asarray(q, dtype=float)
+    x, y, phi = q[..., 0::3], q[..., 1::3], q[..., 2::3]
+    cos, sin = np.cos(phi[..., body]), np.sin(phi[..., body])
+    sx, sy = offset[:, 0], offset[:, 1]
+    return np.stack([x[..., body] + cos * sx - sin * sy, y[..., body] + sin * sx + cos * sy], axis=-1)
+
+
 def _perp(vectors: np.ndarray) -> np.ndarray:
     """Each row turned by +90 degrees."""
     return np.column_stack([-vectors[:, 1], vectors[:, 0]])

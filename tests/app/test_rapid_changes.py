@@ -18,6 +18,7 @@ import threading
 import time
 from pathlib import Path
 
+from app.bench import child_processes
 from app.player import Player, RunSpec
 from app.server import LabServer
 from conftest import BrowserStandIn, wait_until
@@ -26,23 +27,6 @@ from physics.kernels.disk_cache import kernels_folder
 
 ROOT = Path(__file__).resolve().parents[2]
 RESUME_SECONDS = 1.0  # after the last edit of a burst, with the code built, the motion goes on within this
-
-
-def _children(pid: int | None = None) -> list[int]:
-    """Live child processes of ``pid`` (this process by default)."""
-    pid = pid or os.getpid()
-    found = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid and fields[0] != "Z":
-            found.append(int(entry))
-    return found
 
 
 def _rss_mb() -> float:
@@ -227,6 +211,30 @@ def test_a_build_no_longer_wanted_is_killed_and_the_next_one_succeeds(tmp_path):
     assert result["built_again"] is True and result["generated"] is True, result
 
 
+def _settled() -> tuple[int, int, float]:
+    gc.collect()
+    time.sleep(0.5)
+    return threading.active_count(), len(child_processes()), _rss_mb()
+
+
+def leaves_nothing_behind(cycle, label: str, warm_up: int = 2, cycles: int = 20) -> None:
+    """After ``warm_up`` cycles (code loaded, caches and pools filled: not a leak), ``cycles`` more connect and
+    disconnect cycles leave as many threads and child processes as before and resident memory within 10 %."""
+    for _ in range(warm_up):
+        cycle()
+    threads0, children0, rss0 = _settled()
+    for _ in range(cycles):
+        cycle()
+    assert wait_until(lambda: threading.active_count() <= threads0, timeout=10), (
+        threading.active_count(), threads0, [t.name for t in threading.enumerate()])
+    threads1, children1, rss1 = _settled()
+    print(f"\n{label}: threads {threads0} -> {threads1}, child processes {children0} -> {children1}, "
+          f"RSS {rss0:.1f} -> {rss1:.1f} MB after {cycles} connect/disconnect cycles")
+    assert threads1 <= threads0
+    assert children1 <= children0
+    assert rss1 <= 1.10 * rss0, (rss0, rss1)
+
+
 def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behind():
     server = LabServer(port=0, warm=False)
     try:
@@ -244,24 +252,7 @@ def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behin
             client.close()
             assert wait_until(lambda: not server.sessions and server.seats.count == 0, timeout=30)
 
-        def settled() -> tuple[int, int, float]:
-            gc.collect()
-            time.sleep(0.5)
-            return threading.active_count(), len(_children()), _rss_mb()
-
-        for _ in range(2):  # the first sessions load code, fill caches and pools: not a leak
-            cycle()
-        threads0, children0, rss0 = settled()
-        for _ in range(20):
-            cycle()
-        assert wait_until(lambda: threading.active_count() <= threads0, timeout=10), (
-            threading.active_count(), threads0, [t.name for t in threading.enumerate()])
-        threads1, children1, rss1 = settled()
-        print(f"\nlifetime: threads {threads0} -> {threads1}, child processes {children0} -> {children1}, "
-              f"RSS {rss0:.1f} -> {rss1:.1f} MB after 20 connect/disconnect cycles")
-        assert threads1 <= threads0
-        assert children1 <= children0
-        assert rss1 <= 1.10 * rss0, (rss0, rss1)
+        leaves_nothing_behind(cycle, "lifetime")  # the first cycles load code, fill caches and pools
     finally:
         server.stop()
 
@@ -284,23 +275,6 @@ def test_twenty_mechanism_browsers_come_and_go_and_leave_no_thread_process_or_me
             client.close()
             assert wait_until(lambda: not server.sessions and server.seats.count == 0, timeout=30)
 
-        def settled() -> tuple[int, int, float]:
-            gc.collect()
-            time.sleep(0.5)
-            return threading.active_count(), len(_children()), _rss_mb()
-
-        for _ in range(2):  # the first sessions start the workers and fill caches: not a leak
-            cycle()
-        threads0, children0, rss0 = settled()
-        for _ in range(20):
-            cycle()
-        assert wait_until(lambda: threading.active_count() <= threads0, timeout=10), (
-            threading.active_count(), threads0, [t.name for t in threading.enumerate()])
-        threads1, children1, rss1 = settled()
-        print(f"\nmechanism lifetime: threads {threads0} -> {threads1}, child processes {children0} -> {children1}, "
-              f"RSS {rss0:.1f} -> {rss1:.1f} MB after 20 connect/disconnect cycles")
-        assert threads1 <= threads0
-        assert children1 <= children0
-        assert rss1 <= 1.10 * rss0, (rss0, rss1)
+        leaves_nothing_behind(cycle, "mechanism lifetime")  # the first cycles start the workers
     finally:
         server.stop()
