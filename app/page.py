@@ -39,14 +39,23 @@ def viser_page() -> Path:
     return Path(list(spec.submodule_search_locations)[0]) / "client" / "build" / "index.html"
 
 
+CONTENT_SECURITY_POLICY = "connect-src 'self' data: blob:"
+"""The page connects (websocket, fetch) to the server that served it and to nothing else: a link that names
+another server (viser's ``?websocket=``) cannot make this origin run what that server sends."""
+POLICY_META = f'<meta http-equiv="Content-Security-Policy" content="{CONTENT_SECURITY_POLICY}">'
+
+
 def with_loading_screen(page: str, screen: str) -> str:
-    """``page`` (viser's index.html) with ``screen`` as the first thing in its body."""
-    marker = "<body>"
-    at = page.find(marker)
-    if at < 0:
-        raise ValueError("viser's page has no <body>")
-    at += len(marker)
-    return page[:at] + "\n" + screen + page[at:]
+    """``page`` (viser's index.html) with :data:`POLICY_META` as the first thing in its head (a policy in a
+    meta element counts only there, and only for what is loaded after it) and ``screen`` as the first thing
+    in its body."""
+    head, body = "<head>", "<body>"
+    at_head, at_body = page.find(head), page.find(body)
+    if at_head < 0 or at_body < at_head:
+        raise ValueError("viser's page has no <head> before its <body>")
+    at_head += len(head)
+    at_body += len(body)
+    return page[:at_head] + POLICY_META + page[at_head:at_body] + "\n" + screen + page[at_body:]
 
 
 def page_folder() -> Path | None:
