@@ -12,6 +12,7 @@ from pathlib import Path
 from physics import METHOD_NAMES, LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS
 
+from . import lifetime
 from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, MAX_SESSIONS_LIMIT, is_loopback
 
 
@@ -72,6 +73,23 @@ def read_setup(path: str, preset: str, links: int | None) -> list[tuple[str, str
     return pairs
 
 
+def _announce(args, server) -> None:
+    """The address really served, and warnings about it."""
+    if not is_loopback(args.host):
+        print(f"linkage-lab: warning: listening on {args.host}, not loopback: anyone who can reach this "
+              "machine can open the app", file=sys.stderr)
+    if args.port not in (0, server.port):
+        print(f"linkage-lab: port {args.port} is busy; using {server.port}", file=sys.stderr)
+    count = len(server.pids)
+    mode = "one shared session" if args.shared else (
+        f"up to {args.max_sessions} sessions" + (f" in {count} processes" if count > 1 else ""))
+    print(f"Linkage Lab serving at {server.url}  ({mode}; Ctrl+C to stop)", flush=True)
+    if server.presenter_url is not None:
+        print(f"Presenter (only this browser can change anything; keep it to yourself): {server.presenter_url}",
+              flush=True)
+        print(f"Viewers: {server.url}", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "snapshot":
@@ -79,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
 
         return snapshot.main(argv[1:]) or 0
     args = build_parser().parse_args(argv)
+    lifetime.end_on_signals()  # SIGTERM and SIGHUP stop the server as Ctrl+C does (also as PID 1 in a container)
     try:
         from . import warm  # noqa: PLC0415 - the warm-up starts before viser is imported (below)
         from .parameters import SessionParameters  # noqa: PLC0415 - same reason
@@ -119,20 +138,16 @@ def main(argv: list[str] | None = None) -> int:
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)
         return 2
-    if not is_loopback(args.host):
-        print(f"linkage-lab: warning: listening on {args.host}, not loopback: anyone who can reach this "
-              "machine can open the app", file=sys.stderr)
-    if args.port not in (0, server.port):
-        print(f"linkage-lab: port {args.port} is busy; using {server.port}", file=sys.stderr)
-    count = len(server.pids)
-    mode = "one shared session" if args.shared else (
-        f"up to {args.max_sessions} sessions" + (f" in {count} processes" if count > 1 else ""))
-    print(f"Linkage Lab serving at {server.url}  ({mode}; Ctrl+C to stop)", flush=True)
-    if server.presenter_url is not None:
-        print(f"Presenter (only this browser can change anything; keep it to yourself): {server.presenter_url}",
-              flush=True)
-        print(f"Viewers: {server.url}", flush=True)
-    server.serve_forever()
+    except KeyboardInterrupt:  # a signal while starting: what was started ends with this process
+        return 130
+    try:
+        _announce(args, server)
+        server.serve_forever()  # until Ctrl+C, SIGTERM or SIGHUP: stops the sessions and the sibling processes
+    except KeyboardInterrupt:  # a signal before serving began
+        server.stop()
+    stop_workers = getattr(sys.modules.get("app.mechanism_workers"), "POOL", None)
+    if stop_workers is not None:  # a general mechanism's worker processes, if any session started them
+        stop_workers.stop()
     return 0
 
 

@@ -86,8 +86,9 @@ class Worker:
 
     def __init__(self) -> None:
         mine, theirs = socket.socketpair()
-        self.process = subprocess.Popen([sys.executable, "-m", "app.mechanism_workers", str(theirs.fileno())],
-                                        pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "app.mechanism_workers", str(theirs.fileno()), str(os.getpid())],
+            pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
         theirs.close()
         self._connection = Connection(mine.detach())
         self._lock = threading.Lock()
@@ -166,4 +167,12 @@ POOL = WorkerPool()
 
 if __name__ == "__main__":  # a worker: serve the server process that started it, on the socket it passed
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the server decides
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)  # so does a closed terminal
+    if len(sys.argv) > 2:
+        # a worker ends with its server, even one killed in the middle of a chunk (the socket's end is seen
+        # only between chunks). Not the kernel's PR_SET_PDEATHSIG: its "parent" is the player thread that
+        # started the worker, which ends with its session while the worker serves others.
+        from app.lifetime import watch_parent  # noqa: PLC0415 - the worker's own import
+
+        watch_parent(int(sys.argv[2]))
     _serve(Connection(int(sys.argv[1])))

@@ -32,6 +32,8 @@ import time
 
 import websockets.asyncio.server as ws_server
 
+from . import lifetime
+
 # Sibling processes get this long to start and bind (imports, warm-up of the compiled code in the background).
 SIBLING_START_TIMEOUT = 120.0
 SIBLING_STOP_TIMEOUT = 5.0
@@ -216,8 +218,12 @@ def start_siblings(count: int, port: int, options: dict, seats: Seats) -> Siblin
 
 
 def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) -> None:
-    """One more server process: serve until the first process stops it or goes away."""
+    """One more server process: serve until the first process stops it (SIGTERM) or goes away (the kernel's
+    SIGTERM when its starting thread ends, app/lifetime.py, or the check below every second)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the first process decides
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)  # so does a closed terminal
+    lifetime.end_on_signals(signals=(signal.SIGTERM,))  # stop the sessions and workers, then end
+    lifetime.die_with_parent(signal.SIGTERM, parent)
     try:
         from .server import LabServer  # noqa: PLC0415 - app.server imports this module: a cycle otherwise
 
@@ -225,6 +231,8 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
         if server.port != port:  # viser moved on: the shared port was not ours to join
             server.stop()
             raise OSError(f"bound {server.port} instead of {port}")
+    except KeyboardInterrupt:  # stopped while starting
+        return
     except Exception as error:  # reported to the first process, which serves on
         ready.put(f"{type(error).__name__}: {error}")
         return
@@ -232,6 +240,11 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
     try:
         while os.getppid() == parent:
             time.sleep(ORPHAN_CHECK_SECONDS)
+    except KeyboardInterrupt:  # SIGTERM (app/lifetime.py): stop as the first process asked
+        pass
     finally:
         server.stop()
+        from .mechanism_workers import POOL  # noqa: PLC0415 - imported by the server already
+
+        POOL.stop()
         sys.stdout.flush()

@@ -1,0 +1,78 @@
+"""No process of the app outlives the command that started it, whichever signal ends that command.
+
+Why: ``python -m app`` starts server processes (app/processes.py) and mechanism workers
+(app/mechanism_workers.py). Without handlers, SIGTERM (``kill``, systemd, ``docker stop``) and SIGHUP (a closed
+terminal) end the first process at once, and what it started stays behind holding the port or a core; as
+PID 1 in a container a process without a handler does not even end on SIGTERM. So:
+
+* the command turns SIGTERM and SIGHUP into what Ctrl+C already is (:func:`end_on_signals`): the server stops
+  its sessions, siblings and workers, and a stop that hangs is cut short after a grace period;
+* every child asks the kernel to end it when its parent ends (:func:`die_with_parent`, Linux
+  ``PR_SET_PDEATHSIG``), and checks its parent itself as well (:func:`watch_parent`), so that even a
+  ``kill -9`` of the command leaves nothing serving.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import sys
+import threading
+import time
+
+ENDING_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+STOP_GRACE_SECONDS = 8.0  # a stop that takes longer (a hung session) is cut short; the children end with us
+PARENT_CHECK_SECONDS = 0.5
+_PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(sig: int = signal.SIGTERM, parent: int | None = None) -> bool:
+    """Ask the kernel to send ``sig`` to this process when the thread that started it ends (Linux only; False
+    elsewhere). ``parent``: the pid that started us; if it has already gone, end now (the race the kernel
+    cannot cover). Call it in a child started from a thread that lives as long as its process (the main
+    thread): the kernel's "parent" is that thread, not the process."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        ok = libc.prctl(_PR_SET_PDEATHSIG, int(sig), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+    if parent is not None and os.getppid() != parent:
+        os._exit(0)
+    return ok
+
+
+def watch_parent(parent: int, interval: float = PARENT_CHECK_SECONDS) -> threading.Thread:
+    """A daemon thread that ends this process (``os._exit``) once ``parent`` is no longer its parent: a child
+    whose parent was killed is adopted by init (or a subreaper) and would otherwise go on serving."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(interval)
+        os._exit(0)
+
+    thread = threading.Thread(target=watch, name="parent-watch", daemon=True)
+    thread.start()
+    return thread
+
+
+def end_on_signals(grace: float = STOP_GRACE_SECONDS, signals: tuple[int, ...] = ENDING_SIGNALS) -> None:
+    """In the command's main thread: SIGTERM and SIGHUP end it as Ctrl+C does (a ``KeyboardInterrupt``, so the
+    server's own stop runs), and once any of them arrived, the process ends within ``grace`` seconds whatever
+    the stop is doing (its children end with it: :func:`die_with_parent`). A second signal ends it at once."""
+    state = {"ending": False}
+
+    def handler(signum, frame) -> None:
+        if state["ending"]:
+            os._exit(128 + signum)
+        state["ending"] = True
+        timer = threading.Timer(grace, lambda: os._exit(128 + signum))
+        timer.daemon = True
+        timer.start()
+        raise KeyboardInterrupt
+
+    for sig in signals:
+        signal.signal(sig, handler)
