@@ -47,6 +47,8 @@ INTEGRATORS: dict[str, IntegratorSpec] = {
     for spec in (
         IntegratorSpec("RK45", 5, True, (COMPILED, SCIPY), kernel="integrate_rk45", scipy_solver="RK45"),
         IntegratorSpec("DOP853", 8, True, (COMPILED, SCIPY), kernel="integrate_dop853", scipy_solver="DOP853"),
+        # MATLAB's ode45: RK45's pair with MATLAB's controller, error norm and output (physics/kernels/ode45.py)
+        IntegratorSpec("ode45", 5, True, (COMPILED,), kernel="integrate_ode45"),
         IntegratorSpec("Radau", 5, True, (SCIPY,), scipy_solver="Radau"),
         IntegratorSpec("LSODA", None, True, (SCIPY,), scipy_solver="LSODA"),
         IntegratorSpec("midpoint", 2, False, (COMPILED,), kernel="integrate_midpoint"),

@@ -207,6 +207,28 @@ class CompiledSystem:
                                             _c(params), rtol, atol, alpha, beta, project, max_steps, y_out,
                                             cond_out)
 
+    def integrate_ode45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
+                        y_out, cond_out):
+        from ..kernels import ode45  # noqa: PLC0415  (compiled on first use only: few runs ask for it)
+
+        return ode45.integrate_ode45(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval), _c(params),
+                                     rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
+
+    def integrate_ode45_refined(self, y0, t0, t_end, params, rtol, atol, alpha=0.0, beta=0.0, project=True,
+                                refine=4, max_steps=100_000):
+        """MATLAB's ``ode45(f, [t0 t_end], y0)`` output: ``refine`` points per step (``Refine``, default 4).
+
+        Returns ``(t, y, status, n_steps)``: the start and ``refine`` rows per accepted step."""
+        from ..kernels import ode45  # noqa: PLC0415
+
+        rows = ode45.refined_rows(max_steps, refine)
+        t_out = np.empty(rows)
+        y_out = np.empty((rows, len(y0)))
+        status, n_steps, _, _, filled = ode45.integrate_ode45_refined(
+            self.assemble_function, self.layout, _c(y0), t0, t_end, _c(params), rtol, atol, alpha, beta, project,
+            refine, t_out, y_out)
+        return t_out[:filled], y_out[:filled], int(status), int(n_steps)
+
     def integrate_midpoint(self, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
         return midpoint.integrate_midpoint(self.assemble_function, self.layout, _c(y0), t0, t_end, h, _c(t_eval),
                                            _c(params), alpha, beta, project, y_out, cond_out)

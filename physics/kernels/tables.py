@@ -204,3 +204,23 @@ DOP853_D[3, 12] = -0.43533456590011143754432175058e2
 DOP853_D[3, 13] = 0.96324553959188282948394950600e2
 DOP853_D[3, 14] = -0.39177261675615439165231486172e2
 DOP853_D[3, 15] = -0.14972683625798562581422125276e3
+
+# MATLAB's ode45 (Shampine & Reichelt 1997; ode45.m and ntrp45.m as distributed with MATLAB): the same
+# Dormand-Prince 5(4) tableau as RK45 above (its ``A``/``B`` arrays hold it column-wise), its error weights
+# ``E`` (the negative of scipy's, the norm takes absolute values) and its own continuous extension ``BI``:
+# y(t + s h) = y + h * sum_r K[r] * (BI[r, 0] s + BI[r, 1] s^2 + BI[r, 2] s^3 + BI[r, 3] s^4).
+ODE45_N_STAGES = 6  # stages before y_new; the 7th row of K is f(y_new) (first same as last)
+ODE45_ERROR_EXPONENT = 1 / 5  # MATLAB's ``pow``
+ODE45_E = np.array([71 / 57600, 0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40], dtype=np.float64)
+ODE45_BI = np.array(
+    [
+        [1, -183 / 64, 37 / 12, -145 / 128],
+        [0, 0, 0, 0],
+        [0, 1500 / 371, -1000 / 159, 1000 / 371],
+        [0, -125 / 32, 125 / 12, -375 / 64],
+        [0, 9477 / 3392, -729 / 106, 25515 / 6784],
+        [0, -11 / 7, 11 / 3, -55 / 28],
+        [0, 3 / 2, -4, 5 / 2],
+    ],
+    dtype=np.float64,
+)
