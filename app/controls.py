@@ -320,8 +320,9 @@ class Controls:
     def show_link(self) -> None:
         """The share link for the current setup (app/share.py), as a link to open or copy."""
         query = share.link_query(self.port.setup)
-        self.share_link.content = (f"[Open this setup]({query}) (right-click to copy the link), or add this to "
-                                   f"the server's address:\n\n`{query}`")
+        # on the server's root address, never relative to this page's: a presenter's page has a secret path
+        self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
+                                   f"the server's address:\n\n`/{query}`")
 
     def _transport(self, button) -> None:
         actions = {"Play": self.port.play, "Pause": self.port.pause, "Step": self.port.step, "Reset": self.port.reset}
@@ -571,7 +572,8 @@ class Controls:
             except Exception as error:  # shown in the panel; the session goes on
                 html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
             if self._equations_key == key:
-                self.equations.content = html
+                if not self.port.closed:  # the session (and its panel) may have gone while deriving
+                    quietly(lambda: setattr(self.equations, "content", html), "showing the equations")
             elif self._equations_key is not None and not self.port.closed:
                 self._equations_job = None
                 self.show_equations()  # the method changed while deriving: show the one in force

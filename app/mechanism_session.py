@@ -250,8 +250,9 @@ class MechanismSession:
                              color="red", seconds=None)
         return None
 
-    def may_change(self, client_id: int) -> bool:
-        return self.is_presenter is None or self.is_presenter(client_id)
+    def may_change(self, client_id: int | None) -> bool:
+        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
+        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
 
     def _refuse_update(self, handle, problem: str) -> None:
         self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
@@ -326,7 +327,7 @@ class MechanismSession:
 
     def load_file(self, client_id: int | None, name: object, content: object) -> None:
         """A mechanism file chosen in the browser: validated and assembled, or one notice naming the element."""
-        if client_id is not None and not self.may_change(client_id):
+        if not self.may_change(client_id):
             raise LinkageError("mechanism file: the presenter controls this session")
         label = Path(str(name)).name[:60] or "mechanism file"
         if not isinstance(content, bytes):

@@ -150,6 +150,7 @@ class LabServer:
         page = viser_compat.serving_page_from(page_folder())  # the loading screen from the first paint
         with contextlib.redirect_stdout(io.StringIO()), binding, page:  # viser's banner: we print the real URL
             self.viser = viser.ViserServer(host=host, port=int(port), label="Linkage Lab", verbose=False)
+        viser_compat.refuse_share_tunnel(self.viser)  # before any browser can ask for it
         self.viser.scene.set_up_direction("+z")
         self.viser.gui.configure_theme(control_width="large", show_share_button=False)
         self._lock = threading.Lock()
@@ -160,6 +161,7 @@ class LabServer:
         self.closed_sessions = 0
         # --shared: only the browser that opened the presenter's secret address may change anything
         self.presenter_path: str | None = None
+        self._presenters: set[int] = set()  # browsers seen connected on the presenter's address
         if shared and presenter:
             name = f"presenter-{secrets.token_urlsafe(18)}.html"
             if add_alias(name):
@@ -274,11 +276,20 @@ class LabServer:
                 new.close()
         self._rebalance()
 
-    def is_presenter(self, client_id: int) -> bool:
-        """Whether this browser opened the presenter's address (asked on each change, so that a change sent
-        before the connection was announced is judged too). A viser that hides the path locks nobody out."""
-        path = viser_compat.connection_path(self.viser, client_id)
-        return path is None or path == self.presenter_path
+    def is_presenter(self, client_id: int | None) -> bool:
+        """Whether this browser opened the presenter's address. Fails closed: an unknown sender, a connection
+        that is already gone (an upload finished after its sender left) or a viser that hides the path is no
+        presenter. A browser seen on the presenter's address while connected stays one until it leaves."""
+        if client_id is None or self.presenter_path is None:
+            return False
+        with self._lock:
+            if client_id in self._presenters:
+                return True
+        if viser_compat.connection_path(self.viser, client_id) != self.presenter_path:
+            return False
+        with self._lock:
+            self._presenters.add(client_id)
+        return True
 
     def _seat_in_audience(self, client) -> None:
         """A browser of the shared session other than the presenter's is a viewer: its controls are drawn
@@ -328,6 +339,7 @@ class LabServer:
         with self._lock:
             session = self.sessions.pop(client.client_id, None)
             self.turned_away.discard(client.client_id)
+            self._presenters.discard(client.client_id)
         if session is not None:
             session.close()
             self.seats.release()

@@ -214,12 +214,13 @@ class Session:
 
     def upload_setup(self, client_id: int | None, name: str, content: bytes) -> None:
         """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one)."""
-        if client_id is not None and not self.may_change(client_id):
+        if not self.may_change(client_id):
             raise LinkageError("setup file: the presenter controls this session")
         self.load_setup(share.pairs_from_state(content, f"setup file {name[:60]!r}"), f"setup file {name[:60]!r}")
 
-    def may_change(self, client_id: int) -> bool:
-        return self.is_presenter is None or self.is_presenter(client_id)
+    def may_change(self, client_id: int | None) -> bool:
+        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
+        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
 
     def _refuse_update(self, handle, problem: str) -> None:
         """A value no browser sends for this control (a hostile client's): a notice, and the controls put back

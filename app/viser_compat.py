@@ -12,6 +12,7 @@ when the installed viser makes the fast path fall back, so an upgrade cannot slo
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 from pathlib import Path
 from typing import Any, Callable, Iterator
@@ -39,6 +40,10 @@ except ImportError:  # pragma: no cover - another viser layout
     _wire = None  # type: ignore[assignment]
 SceneNodeUpdateMessage: Any = getattr(_wire, "SceneNodeUpdateMessage", None)
 GuiUpdateMessage: Any = getattr(_wire, "GuiUpdateMessage", None)
+FileTransferStartUpload: Any = getattr(_wire, "FileTransferStartUpload", None)
+FileTransferPart: Any = getattr(_wire, "FileTransferPart", None)
+ShareUrlRequest: Any = getattr(_wire, "ShareUrlRequest", None)
+ShareUrlDisconnect: Any = getattr(_wire, "ShareUrlDisconnect", None)
 
 
 def warn_once(key: str, text: str) -> None:
@@ -211,6 +216,135 @@ def check_gui_updates(
 
     handlers[slot] = checked
     gui._linkage_lab_checker = checked
+    guard_uploads(gui, refuse, allowed)  # an upload is a control's update too: bounded and checked alike
+    return True
+
+
+# ------------------------------------------------------------------------------------------ uploads
+UPLOAD_LIMIT_BYTES = 1_000_000
+"""The largest file any upload button of the app reads (a mechanism file; a setup file is at most 64 KiB)."""
+UPLOAD_PART_BYTES = 512 * 1024  # viser's browser client sends a file in parts of this size (UploadButton.tsx)
+UPLOADS_PER_CLIENT = 2  # transfers one browser may have in flight on one GUI
+
+
+def upload_problem(size_bytes: object, part_count: object) -> str | None:
+    """Why an announced upload is refused before a byte of it is kept, or None. A browser announces the size
+    and the number of parts first; both are checked against the app's limit and viser's part size, so what a
+    transfer can hold is bounded by its announcement."""
+    if not isinstance(size_bytes, int) or isinstance(size_bytes, bool) or size_bytes < 0:
+        return f"an upload announced a size of {_shown(size_bytes)}"
+    if size_bytes > UPLOAD_LIMIT_BYTES:
+        return (f"the file has {size_bytes:,} bytes; a file loaded here is at most {UPLOAD_LIMIT_BYTES:,} bytes "
+                "(1 MB)")
+    expected = -(-size_bytes // UPLOAD_PART_BYTES)
+    if not isinstance(part_count, int) or isinstance(part_count, bool) or part_count != expected:
+        return f"an upload of {size_bytes} bytes announced {_shown(part_count)} parts (a browser sends {expected})"
+    return None
+
+
+def _live_connection(gui, client_id: int):
+    """The websocket connection of ``client_id`` on the server that owns ``gui`` (None when gone)."""
+    owner = getattr(gui, "_owner", None)
+    server = getattr(owner, "_viser_server", owner)
+    websock = getattr(server, "_websock_server", None)
+    return getattr(websock, "_live_connections", {}).get(client_id)
+
+
+def _cut_off(gui, client_id: int, reason: str) -> None:
+    """Close one browser's websocket (it sent what no browser sends); runs on viser's event loop."""
+    connection = _live_connection(gui, client_id)
+    if connection is not None:
+        asyncio.get_running_loop().create_task(connection.close(1008, reason[:120]))
+    log_once(f"viser_compat:cut_off:{reason[:40]}", "closed a browser's connection: %s", reason)
+
+
+def guard_uploads(
+    gui,
+    refuse: Callable[[Any, str], None],
+    allowed: Callable[[int], bool] | None = None,
+) -> bool:
+    """Put a bound in front of viser's upload handlers for ``gui`` (a ``GuiApi``). viser buffers the parts of
+    an upload in memory with no limit of its own; here a transfer is refused when it is announced (a sender
+    for which ``allowed`` is False, a size over :data:`UPLOAD_LIMIT_BYTES`, a part count no browser sends, or
+    more than :data:`UPLOADS_PER_CLIENT` in flight), and a browser whose parts overrun what it announced is
+    cut off and its transfer dropped. So the memory that uploads hold is bounded by the announcements this
+    function let through. False when this viser has another shape."""
+    interface = getattr(gui, "_websock_interface", None) if VERSION_TESTED else None
+    handlers = getattr(interface, "_incoming_handlers", None) if interface is not None else None
+    start = getattr(gui, "_handle_file_transfer_start", None)
+    part = getattr(gui, "_handle_file_transfer_part", None)
+    states = getattr(gui, "_current_file_upload_states", None)
+    controls = getattr(gui, "_gui_input_handle_from_uuid", None)
+    if getattr(gui, "_linkage_lab_uploads", None) is not None:
+        gui._linkage_lab_uploads = (refuse, allowed)  # a switch: the guard stays, the new session answers
+        return True
+    starts = handlers.get(FileTransferStartUpload) if handlers is not None else None
+    parts = handlers.get(FileTransferPart) if handlers is not None else None
+    if (starts is None or parts is None or start not in starts or part not in parts or states is None
+            or controls is None):
+        warn_once("uploads", "cannot bound uploads before viser buffers them")
+        return False
+
+    def checked_start(client_id, message) -> None:
+        refuse, allowed = gui._linkage_lab_uploads
+        handle = controls.get(getattr(message, "source_component_uuid", None))
+        if handle is None:
+            return
+        if allowed is not None and not allowed(client_id):
+            return  # a viewer of a presenter's session: nothing of its file is kept
+        problem = upload_problem(getattr(message, "size_bytes", None), getattr(message, "part_count", None))
+        in_flight = sum(1 for state in list(states.values()) if state.get("client_id") == client_id)
+        if problem is None and in_flight >= UPLOADS_PER_CLIENT:
+            problem = f"at most {UPLOADS_PER_CLIENT} uploads at a time from one browser"
+        if problem is None:
+            start(client_id, message)
+            return
+        try:
+            refuse(handle, problem)
+        except Exception:  # the event loop's boundary: a refusal never raises into viser
+            log_once("viser_compat:refuse_upload", "could not show a refused upload")
+
+    def checked_part(client_id, message) -> None:
+        state = states.get(getattr(message, "transfer_uuid", None))
+        if state is None:
+            return
+        content = getattr(message, "content", b"")
+        index = getattr(message, "part_index", None)
+        overrun = (state.get("client_id") != client_id or not isinstance(content, bytes)
+                   or len(content) > UPLOAD_PART_BYTES
+                   or state["transferred_bytes"] + len(content) > state["total_bytes"]
+                   or not isinstance(index, int) or index in state["parts"])
+        if overrun:
+            states.pop(message.transfer_uuid, None)
+            _cut_off(gui, client_id, "an upload sent more than it announced")
+            return
+        part(client_id, message)
+
+    starts[starts.index(start)] = checked_start
+    parts[parts.index(part)] = checked_part
+    gui._linkage_lab_uploads = (refuse, allowed)
+    return True
+
+
+# ------------------------------------------------------------------------------------------ share tunnel
+def refuse_share_tunnel(server) -> bool:
+    """viser opens a public share tunnel (an outbound connection to its share host, publishing this server at
+    a public address) when any client sends ``ShareUrlRequest``; hiding the share button does not stop a hostile
+    client. Nothing a client sends may open an outbound connection: the handlers are removed and the method
+    they call refuses. True when both are done (on any viser the method is replaced)."""
+
+    def refused(*args, **kwargs) -> None:
+        log_once("viser_compat:share", "a browser asked for viser's public share link; refused")
+
+    server.request_share_url = refused
+    server.disconnect_share_url = lambda *args, **kwargs: None
+    websock = getattr(server, "_websock_server", None)
+    handlers = getattr(websock, "_incoming_handlers", None) if VERSION_TESTED else None
+    if handlers is None or ShareUrlRequest is None:
+        warn_once("share", "cannot remove viser's share-link handlers; its share method is replaced")
+        return False
+    handlers.pop(ShareUrlRequest, None)
+    handlers.pop(ShareUrlDisconnect, None)
     return True
 
 
@@ -229,11 +363,13 @@ def connection_path(server, client_id: int) -> str | None:
     viser's client connects to its page's own address without the query (``/`` or ``/presenter-....html``).
     None when this viser has another shape."""
     websock = getattr(server, "_websock_server", None) if VERSION_TESTED else None
-    connection = getattr(websock, "_live_connections", {}).get(client_id) if websock is not None else None
-    request = getattr(connection, "request", None)
+    connections = getattr(websock, "_live_connections", None) if websock is not None else None
+    if connections is not None and client_id not in connections:
+        return None  # the browser has left (its last messages may still be handled): no address
+    request = getattr(connections.get(client_id) if connections is not None else None, "request", None)
     path = getattr(request, "path", None)
     if path is None:
-        warn_once("path", "cannot see which address a browser opened; --shared has no presenter")
+        warn_once("path", "cannot see which address a browser opened; nobody can change a --shared session")
         return None
     return str(path).partition("?")[0]
 

@@ -62,10 +62,15 @@ def camera_message() -> bytes:
 
 
 def decode_frame(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
+    return msgspec.msgpack.decode(frame_payload(raw, decompressor)[0])["messages"]
+
+
+def frame_payload(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> tuple[bytes, bytes]:
+    """A server frame's msgpack part (decompressed) and its binary buffers: every byte the frame carries."""
     inner_length = int.from_bytes(raw[0:8], "little")
     compressed_length = int.from_bytes(raw[8:16], "little")
     inner = decompressor.decompress(raw[16 : 16 + compressed_length], max_output_size=inner_length)
-    return msgspec.msgpack.decode(inner)["messages"]
+    return inner, raw[16 + compressed_length :]
 
 
 class Counts:
@@ -84,6 +89,7 @@ class Counts:
         self.watch = BARS
         self.watched: collections.deque = collections.deque(maxlen=4096)  # (perf_counter, message) of ``watch``
         self.gui_updates: collections.deque = collections.deque(maxlen=4096)  # (uuid, updates) of control updates
+        self.payloads: list[bytes] | None = None  # every frame's bytes, decompressed, when a test sets a list
 
     def add(self, messages: list[dict], nbytes: int) -> None:
         self.frames += 1
@@ -133,7 +139,10 @@ async def run_client(
             except asyncio.TimeoutError:
                 continue
             if isinstance(raw, bytes):
-                counts.add(decode_frame(raw, decompressor), len(raw))
+                inner, buffers = frame_payload(raw, decompressor)
+                counts.add(msgspec.msgpack.decode(inner)["messages"], len(raw))
+                if counts.payloads is not None:
+                    counts.payloads.append(inner + buffers)
 
 
 async def _load(url: str, clients: int, seconds: float, early: int, early_seconds: float) -> dict:
@@ -196,9 +205,13 @@ class BackgroundClient:
 
     def send_value(self, uuid: str, value) -> None:
         """Send a control update as this client, as a browser (or a hostile script in its page) would."""
+        self.send(gui_update_message(uuid, value))
+
+    def send(self, raw: bytes) -> None:
+        """Send any encoded message (:func:`encode`) as this client."""
         outbox = self._outbox
         assert outbox is not None, "the client is not running"
-        self._loop.call_soon_threadsafe(outbox.put_nowait, gui_update_message(uuid, value))
+        self._loop.call_soon_threadsafe(outbox.put_nowait, raw)
 
     def close(self) -> None:
         if self._stop is not None:
@@ -217,30 +230,55 @@ class BackgroundClient:
 
 def gui_update_message(uuid: str, value) -> bytes:
     """What a browser sends when a control changes; a test sends any value a hostile client could."""
-    return msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}})
+    return encode({"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}})
 
 
-async def _send_values(url: str, updates: list[tuple[str, object]], pause: float) -> None:
+def encode(message: dict) -> bytes:
+    """Any message of viser's protocol (a dict with its ``type``), as a browser's websocket sends it."""
+    return msgspec.msgpack.encode(message)
+
+
+def upload_messages(uuid: str, name: str, content: bytes, transfer: str = "t1",
+                    part_bytes: int = 512 * 1024) -> list[bytes]:
+    """What a browser sends to upload ``content`` through the upload button ``uuid`` (viser's UploadButton)."""
+    parts = [content[at : at + part_bytes] for at in range(0, len(content), part_bytes)]
+    start = {"type": "FileTransferStartUpload", "source_component_uuid": uuid, "transfer_uuid": transfer,
+             "filename": name, "mime_type": "application/octet-stream", "part_count": len(parts),
+             "size_bytes": len(content)}
+    return [encode(start)] + [
+        encode({"type": "FileTransferPart", "source_component_uuid": uuid, "transfer_uuid": transfer,
+                "part_index": index, "content": part}) for index, part in enumerate(parts)]
+
+
+async def _send_raw(url: str, messages: list[bytes], pause: float) -> None:
     ws_url = url.replace("http://", "ws://")
     async with websockets.connect(
         ws_url, subprotocols=[Subprotocol(f"viser-v{viser.__version__}")], max_size=None, compression=None, open_timeout=60
     ) as ws:
         await ws.send(camera_message())
-        for uuid, value in updates:
-            await ws.send(gui_update_message(uuid, value))
+        for raw in messages:
+            await ws.send(raw)
+            if pause:
+                await asyncio.sleep(pause)
+        if pause:
             await asyncio.sleep(pause)
-        await asyncio.sleep(pause)
 
 
 def send_values(url: str, updates: list[tuple[str, object]], pause: float = 0.05) -> None:
     """Connect as a client of its own, send ``(control uuid, value)`` pairs as GUI updates, disconnect.
 
     Runs in a thread of its own, so that it works beside another event loop (playwright's, in tests)."""
+    send_messages(url, [gui_update_message(uuid, value) for uuid, value in updates], pause)
+
+
+def send_messages(url: str, messages: list[bytes], pause: float = 0.05) -> None:
+    """Connect as a client of its own, send encoded messages (:func:`encode`), disconnect; with ``pause``
+    0 it closes at once after the last one (a browser that leaves mid-action)."""
     errors: list[BaseException] = []
 
     def run() -> None:
         try:
-            asyncio.run(_send_values(url, updates, pause))
+            asyncio.run(_send_raw(url, messages, pause))
         except BaseException as error:  # handed to the caller below
             errors.append(error)
 

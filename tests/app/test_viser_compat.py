@@ -125,7 +125,10 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
     original = page.viser_page().read_text(encoding="utf-8")
     body = served.index("<body>") + len("<body>")
     assert served[body:].lstrip().startswith("<style>") and '<div id="linkage-lab-loading"' in served[body:]
-    assert served.replace("\n" + page.ADDITIONS.read_text(encoding="utf-8"), "", 1) == original
+    head = served.index("<head>") + len("<head>")
+    assert served[head:].startswith(page.POLICY_META)  # the policy first, before anything it governs
+    assert served.replace("\n" + page.ADDITIONS.read_text(encoding="utf-8"), "", 1).replace(
+        page.POLICY_META, "", 1) == original
     assert page.READY_ID in served  # the screen waits for the session's marker
     assert (folder.stat().st_mode & 0o077) == 0  # a private folder
 
