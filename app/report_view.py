@@ -39,26 +39,46 @@ def _g(value, digits: int = 3) -> str:
     return "n/a" if value is None else f"{value:.{digits}g}"
 
 
+def _scipy(doc: dict, *keys: str):
+    """The same number from the replay with scipy's RK45 (``scipy_rk45``), or None in an older document."""
+    value = doc.get("scipy_rk45")
+    for key in keys:
+        if not isinstance(value, dict):
+            return None
+        value = value.get(key)
+    return value
+
+
+def _methods(doc: dict) -> tuple[str, str]:
+    settings = doc.get("settings", {})
+    return settings.get("report_integrator", "ode45"), settings.get("scipy_integrator", "RK45")
+
+
 def _tip_path(case: str, note: str) -> Callable[[dict], str]:
     def verdict(doc: dict) -> str:
         c = doc["triple"][case]
+        ours, scipy = _methods(doc)
+        other = _scipy(doc, "triple", case, "departure_time")
         if c["departure_time"] is not None:
-            return (f"Shows the true path only up to t = {_g(c['departure_time'], 4)} s: after that the report's "
-                    f"tip leaves a converged run (by up to {_g(c['tip_error_max'])}). Chaos amplifies the 1e-6 "
-                    "tolerance until it is as large as the pendulum. Fix: draw the path only as far as a converged "
-                    "reference confirms it.")
+            return (f"Shows the true path only up to t = {_g(c['departure_time'], 4)} s with {ours} (the report's "
+                    f"method; {_g(other, 4)} s with {scipy}): after that the report's tip leaves a converged run "
+                    f"(by up to {_g(c['tip_error_max'])}). Chaos amplifies the 1e-6 tolerance until it is as large "
+                    "as the pendulum; the controller moves the departure, never removes it. Fix: draw the path "
+                    "only as far as a converged reference confirms it.")
         return (f"The true path: the report's tip stays within {_g(c['tip_error_max'])} of a converged run over "
-                f"{_g(c['t_end'])} s. {note}")
+                f"{_g(c['t_end'])} s with {ours} ({_g(_scipy(doc, 'triple', case, 'tip_error_max'))} with "
+                f"{scipy}). {note}")
     return verdict
 
 
 def _differences(case: str) -> Callable[[dict], str]:
     def verdict(doc: dict) -> str:
         c = doc["triple"][case]
+        ours, _ = _methods(doc)
         wrong = max(c["x_error_max"].values())
         return (f"The methods differ by at most {_g(max(c['ne_minus_dae_max'], c['ne_minus_lagrange_max']), 2)} "
-                f"(grey): rounding, since all three take the same {c['steps']['newton_euler']} RK45 steps. Each is "
-                f"off a converged run by up to {_g(wrong)} in x (coloured): that is the method error. The app's "
+                f"(grey): rounding, since all three take the same {c['steps']['newton_euler']} {ours} steps. Each "
+                f"is off a converged run by up to {_g(wrong)} in x (coloured): that is the method error. The app's "
                 "compare mode plots the honest version (each method against a converged reference).")
     return verdict
 
@@ -66,10 +86,15 @@ def _differences(case: str) -> Callable[[dict], str]:
 def _four_bar(doc: dict) -> str:
     r = doc["four_bar"]["report"]
     p = doc["four_bar"]["projected"]
-    return (f"At the report's settings the loop comes apart: the tip ends {_g(r['pin_gap_max'], 2)} off its pin, "
-            f"the energy drifts by {_g(100 * r['energy_error_max'], 2)} %, and theta1 is more than 0.01 rad off "
-            f"a converged run from t = {_g(r['theta1_departure'], 4)} s. Projection at the same tolerance keeps "
-            f"the pin to {_g(p['pin_gap_max'], 1)} and theta1 right until {_g(p['theta1_departure'], 4)} s.")
+    ours, scipy = _methods(doc)
+    scipy_energy = _scipy(doc, "four_bar", "report", "energy_error_max")
+    return (f"At the report's settings ({ours}) the loop comes apart: the tip ends {_g(r['pin_gap_max'], 2)} off "
+            f"its pin ({_g(_scipy(doc, 'four_bar', 'report', 'pin_gap_max'), 2)} with {scipy}), the energy drifts "
+            f"by {_g(100 * r['energy_error_max'], 2)} % "
+            f"({_g(None if scipy_energy is None else 100 * scipy_energy, 2)} % with {scipy}), "
+            f"and theta1 is more than 0.01 rad off a converged run from t = {_g(r['theta1_departure'], 4)} s. "
+            f"Projection after every step at the same tolerance keeps the pin to {_g(p['pin_gap_max'], 1)} and "
+            f"theta1 right until {_g(p['theta1_departure'], 4)} s.")
 
 
 def _free_body(doc: dict) -> str:
@@ -79,8 +104,8 @@ def _free_body(doc: dict) -> str:
 
 FIGURES = (
     ReportFigure("Figure 9 (case A): tip path", "figure-9-case-a.svg",
-                 _tip_path("A", "It holds only just: at this tolerance case A leaves the true motion at about "
-                                "21.6 s.")),
+                 _tip_path("A", "It holds only just: at this tolerance (RK45) case A leaves the true motion at "
+                                "about 21.6 s (stability.md, case 5).")),
     ReportFigure("Figure 10 (case B): tip path", "figure-10-case-b.svg",
                  _tip_path("B", "The report's tolerance is ample here (a regular, not chaotic, motion).")),
     ReportFigure("Figure 11 (case C): tip path", "figure-11-case-c.svg", _tip_path("C", "")),
@@ -136,8 +161,9 @@ class SeedReportPanel:
         self.document = load_document(folder)
         self.folder_handle = gui.add_folder("Seed report, replayed")
         with self.folder_handle:
-            gui.add_markdown("The course report's figures at its own settings (RK45, tolerance 1e-6) beside a "
-                             "converged run, and what each shows. Made by `" + COMMAND + "`.")
+            gui.add_markdown("The course report's figures at its own settings (MATLAB's ode45 controller, "
+                             "tolerance 1e-6; scipy's RK45 drawn beside it) with a converged run, and what each "
+                             "shows. Made by `" + COMMAND + "`.")
             labels = tuple(f.label for f in FIGURES)
             self.choice = gui.add_dropdown("Figure", labels, initial_value=labels[0])
             self.figure = gui.add_html(figure_html(FIGURES[0], folder, self.document))

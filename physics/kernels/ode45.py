@@ -283,6 +283,23 @@ def integrate_ode45(
 
 
 @njit(cache=True, error_model="numpy")
+def integrate_ode45_htspan(
+    assemble, layout, y0, t0, t_end, t_eval, htspan, params, rtol, atol, alpha, beta, project, max_steps, y_out,
+    cond_out
+):
+    """The steps of ``ode45(f, tspan, y0, ...)`` for a ``tspan`` whose first spacing is ``htspan`` (its only
+    effect on the steps, rule 3), sampled at ``t_eval`` instead: how the seed report's runs on
+    ``linspace(0, dur, 200)`` are read on a finer grid. Otherwise as ``integrate_ode45``."""
+    system = make_system(assemble, layout)
+    check_arguments(system[1], y0, t0, t_end, t_eval, params, y_out, cond_out)
+    if not htspan > 0.0:
+        raise ValueError("htspan must be positive")
+    t_out = np.empty(0)
+    return _ode45(system, y0, t0, t_end, t_eval, htspan, 0, params, rtol, atol, alpha, beta, project, max_steps,
+                  t_out, y_out, cond_out)
+
+
+@njit(cache=True, error_model="numpy")
 def integrate_ode45_refined(assemble, layout, y0, t0, t_end, params, rtol, atol, alpha, beta, project, refine,
                             t_out, y_out):
     """``ode45(f, [t0 t_end], y0, odeset(..., 'Refine', refine))``: ``refine`` outputs per step (rule 7).
@@ -305,4 +322,4 @@ def refined_rows(max_steps: int, refine: int = DEFAULT_REFINE) -> int:
     return 1 + refine * max_steps
 
 
-__all__ = ["integrate_ode45", "integrate_ode45_refined", "ntrp45", "refined_rows", "tspan_step"]
+__all__ = ["integrate_ode45", "integrate_ode45_htspan", "integrate_ode45_refined", "ntrp45", "refined_rows", "tspan_step"]

@@ -21,6 +21,11 @@ def test_every_figure_is_shown_as_a_panel_wide_image_with_the_numbers_of_the_jso
     assert f"t = {departure:.4g} s" in report_view.figure_html(case_c, document=document)
     four_bar = report_view.figure_html(report_view.FIGURES[6], document=document)
     assert f"{document['four_bar']['report']['theta1_departure']:.4g} s" in four_bar
+    # Both controllers: the report's ode45 and scipy's RK45, each number read from the JSON.
+    rk45 = document["scipy_rk45"]
+    assert f"{rk45['triple']['C']['departure_time']:.4g} s with RK45" in report_view.figure_html(case_c,
+                                                                                               document=document)
+    assert f"{rk45['four_bar']['report']['pin_gap_max']:.2g} with RK45" in four_bar
 
 
 def test_a_missing_figure_points_to_the_command(tmp_path):
