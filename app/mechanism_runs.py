@@ -290,5 +290,6 @@ def start_state(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int]:
 def check_method(method: str, mobility: int) -> None:
     """The reduced model needs one free coordinate; say so in the words of the menu."""
     if method == "reduced" and mobility != 1:
-        raise LinkageError(f"method = reduced: needs a mechanism of mobility 1 (this one has {mobility}); "
+        raise LinkageError(f"method = reduced: needs 1 degree of freedom left free by the motors (this one has "
+                           f"{mobility} free); "
                            "choose dae, lagrange or newton_euler")

@@ -24,6 +24,7 @@ import numpy as np
 
 from physics import LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
+from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
@@ -417,8 +418,8 @@ class MechanismSession:
         motors = ", ".join(f"{d.joint} ({'speed' if d.speed is not None else 'torque'})" for d in m.drivers)
         self.description.content = "*" + markdown_literal(m.description or m.name) + "*"
         self.facts.content = markdown_literal(
-            f"{len(m.bodies)} bodies, {len(m.joints)} joints, mobility {self.mobility}"
-            + (f", motors: {motors}" if motors else ", no motor"))
+            f"{len(m.bodies)} bodies, {len(m.joints)} joints; {mobility_text_for(m, self.mobility)}"
+            + (f" (motors: {motors})" if motors else ""))
         self.trace_menu.options = ["(none)", *self.spec.draw.labels]
         self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
         methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]

@@ -35,6 +35,52 @@ class Assembled:
     grubler_mobility: int
     mobility: int  # 3 B minus the rank of the constraint Jacobian at q
     topology: Topology
+    speed_motors: int = 0  # motors that prescribe their joint's speed: each fixes one coordinate
+    torque_motors: int = 0  # motors that apply a torque: they fix no coordinate
+
+    # ``mobility`` and ``grubler_mobility`` count what the motors leave free (the scripts' contract); the
+    # mechanism's own mobility, the textbook's Grübler-Kutzbach number, counts before the motors.
+    @property
+    def mechanism_mobility(self) -> int:
+        """Degrees of freedom of the linkage itself (rank count), before its speed motors fix any."""
+        return self.mobility + self.speed_motors
+
+    @property
+    def grubler_mechanism_mobility(self) -> int:
+        """The textbook Grübler-Kutzbach count 3 B - 2 J (a four-bar: 1, Jansen's leg: 1)."""
+        return self.grubler_mobility + self.speed_motors
+
+    def mobility_text(self) -> str:
+        """``mobility 1 (Grübler count 1); driven by 1 motor; 0 free``: the mechanism, then its motors."""
+        return mobility_text(self.mechanism_mobility, self.grubler_mechanism_mobility, self.speed_motors,
+                             self.torque_motors, self.mobility)
+
+
+def mobility_text_for(mechanism: Mechanism, free: int) -> str:
+    """``Assembled.mobility_text`` from the mechanism and the rank count ``free`` a caller already holds (the app)."""
+    speed = sum(1 for driver in mechanism.drivers if driver.speed is not None)
+    torque = len(mechanism.drivers) - speed
+    grubler = analyse_or_refuse(mechanism).mobility
+    return mobility_text(free + speed, grubler + speed, speed, torque, free)
+
+
+def _count(number: int, noun: str) -> str:
+    return f"{number} {noun}" + ("" if number == 1 else "s")
+
+
+def mobility_text(mechanism_mobility: int, grubler: int, speed_motors: int, torque_motors: int, free: int) -> str:
+    """The mobility stated both ways: the mechanism's (rank count, with the Grübler-Kutzbach count), then the
+    motors and the degrees of freedom they leave free. A torque motor drives without fixing a coordinate."""
+    if speed_motors and torque_motors:
+        motors = (f"driven by {_count(speed_motors, 'speed motor')} and {_count(torque_motors, 'torque motor')} "
+                  "(a torque fixes no coordinate)")
+    elif speed_motors:
+        motors = f"driven by {_count(speed_motors, 'motor')}"
+    elif torque_motors:
+        motors = f"driven by {_count(torque_motors, 'torque motor')} (a torque fixes no coordinate)"
+    else:
+        motors = "no motor"
+    return f"mobility {mechanism_mobility} (Grübler count {grubler}); {motors}; {free} free"
 
 
 def sketch_size(mechanism: Mechanism) -> float:
@@ -77,6 +123,8 @@ def assemble(mechanism: Mechanism, q_guess: np.ndarray | None = None, t: float =
         grubler_mobility=topology.mobility,
         mobility=constraints.size - rank,
         topology=topology,
+        speed_motors=sum(1 for driver in mechanism.drivers if driver.speed is not None),
+        torque_motors=sum(1 for driver in mechanism.drivers if driver.speed is None),
     )
 
 

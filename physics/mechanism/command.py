@@ -1,6 +1,6 @@
 """``python -m physics mechanism``: check, assemble and simulate any planar mechanism from a preset or a file.
 
-    python -m physics mechanism --preset jansen-leg                 # topology, mobility, loops (text)
+    python -m physics mechanism --preset jansen-leg                 # topology, mobility and motors, loops
     python -m physics mechanism --file my.toml --json               # the same as JSON
     python -m physics mechanism --preset crank-rocker --t-end 2 --samples 201 --out run.csv
     python -m physics mechanism --preset slider-crank --t-end 2 --method lagrange --stabilization baumgarte
@@ -50,8 +50,15 @@ def summary(mechanism: Mechanism) -> dict:
         "joints": [joint.name for joint in mechanism.joints],
         "drivers": [driver.model_dump(exclude_none=True) for driver in mechanism.drivers],
         "loops": [list(loop.joints) for loop in assembled.topology.loops],
+        # after the motors (what they leave free; scripts rely on these two) ...
         "grubler_mobility": assembled.grubler_mobility,
         "mobility": assembled.mobility,
+        # ... and before them: the linkage's own mobility (the textbook's), and its motors
+        "mechanism_mobility": assembled.mechanism_mobility,
+        "grubler_mechanism_mobility": assembled.grubler_mechanism_mobility,
+        "motors": len(mechanism.drivers),
+        "speed_motors": assembled.speed_motors,
+        "mobility_text": assembled.mobility_text(),
         "assembly_residual": assembled.residual,
         "newton_steps": assembled.newton_steps,
     }
@@ -106,8 +113,8 @@ def main(argv: list[str]) -> int:
     if args.json:
         print(json.dumps(report))
         return 0
-    counts = f"{len(report['bodies'])} bodies, {len(report['joints'])} joints, {len(report['drivers'])} motors"
-    print(f"{report['name']}: {counts}; mobility {report['mobility']} (Grübler count {report['grubler_mobility']})")
+    counts = f"{len(report['bodies'])} bodies, {len(report['joints'])} joints"
+    print(f"{report['name']}: {counts}; {report['mobility_text']}")
     for loop in report["loops"]:
         print("  loop " + " - ".join(loop))
     if run is not None:

@@ -19,7 +19,7 @@ joint at that instant, its value and rate are read off the exact state (nothing 
 switch), and the switch is recorded. With ``switching=False`` the coordinate is kept and the run is refused
 when its share falls below :data:`DEAD_CENTRE_SHARE`, naming the joint and the time.
 
-A mechanism its motors fully determine (mobility 0) has no free coordinate; it is refused, and
+A mechanism its motors fully determine (0 free) has no free coordinate; it is refused, and
 :func:`physics.mechanism.simulate.simulate_mechanism` moves it by kinematics alone. Mobility 2 or more needs
 more than one coordinate and is refused as well.
 """
@@ -33,7 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from scipy.integrate import solve_ivp
 
 from ..errors import LinkageError
-from .assembly import assemble, sketch_size
+from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
 from .model import Mechanism
 from .reduced_coordinates import JointCoordinates
@@ -197,11 +197,13 @@ def simulate_reduced(
 
 
 def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:
+    """``mobility`` is what the motors leave free; the message states the mechanism's own mobility first."""
+    stated = mobility_text_for(mechanism, mobility)
     if mobility == 0:
-        return (f"{mechanism.name}: mobility 0: its motors fix every body, so there is no free coordinate to "
-                "integrate; the reduced model needs mobility 1 (simulate_mechanism moves it by kinematics)")
-    return (f"{mechanism.name}: mobility {mobility}: the reduced model integrates one coordinate and needs "
-            "mobility 1; use the DAE (simulate_mechanism), or add motors")
+        return (f"{mechanism.name}: {stated}: its motors fix every body, so there is no free coordinate to "
+                "integrate; the reduced model needs 1 free (simulate_mechanism moves it by kinematics)")
+    return (f"{mechanism.name}: {stated}: the reduced model integrates one coordinate and needs 1 free; use the "
+            "DAE (simulate_mechanism), or add motors")
 
 
 def _dead_centre_refusal(partition: Partition, t: float, share: float) -> str:

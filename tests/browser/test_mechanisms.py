@@ -36,7 +36,8 @@ def test_choosing_the_jansen_leg_draws_it_with_its_controls_and_a_chain_comes_ba
     session.pause()
     panel = page.page.locator(".mantine-Paper-root").first
     panel_text = page.page.inner_text("body")
-    assert "7 bodies, 10 joints, mobility 0, motors: O (speed)" in panel_text
+    assert "7 bodies, 10 joints; mobility 1 (Grübler count 1); driven by 1 motor; 0 free (motors: O (speed))" \
+        in panel_text
     assert "Bodies and motors" in panel_text and "crank: m (kg)" in panel_text
     assert "motor O: speed (°/s)" in panel_text
     assert "Driving torque (inverse dynamics)" in panel_text and "Help" in panel_text

@@ -321,9 +321,10 @@ def open_two_bar_chain() -> Mechanism:
 @pytest.mark.parametrize(
     ("make", "kwargs", "fragment"),
     [
-        (MECHANISM_PRESETS["crank-rocker"], {}, "mobility 0: its motors fix every body"),
-        (MECHANISM_PRESETS["jansen-leg"], {}, "mobility 0"),
-        (open_two_bar_chain, {}, "mobility 2: the reduced model integrates one coordinate"),
+        (MECHANISM_PRESETS["crank-rocker"], {},
+         r"mobility 1 \(Grübler count 1\); driven by 1 motor; 0 free: its motors fix every body"),
+        (MECHANISM_PRESETS["jansen-leg"], {}, "0 free"),
+        (open_two_bar_chain, {}, r"mobility 2 \(Grübler count 2\); no motor; 2 free: the reduced model integrates one"),
         (MECHANISM_PRESETS["slider-crank"], {"t_end": math.nan}, "t_end = nan: .*allowed: 0 < t_end <= 1e4"),
         (MECHANISM_PRESETS["slider-crank"], {"t_end": -1.0}, "t_end = -1.0: .*allowed"),
         (MECHANISM_PRESETS["slider-crank"], {"samples": 1}, "samples = 1: .*allowed: 2 <= samples"),
