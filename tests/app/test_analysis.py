@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION
+from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, follows_on
 from conftest import wait_until
 from physics.studies import chaos_map as chaos
 
@@ -100,3 +100,14 @@ def test_the_ensemble_stays_on_the_displayed_pendulum_and_shows_its_spread(conne
     assert plot.handle.visible and plot.points_shown > 10
     spread = np.asarray(plot.handle.data[1])
     assert spread[-1] > spread[0]  # the fan opens (log10 of the spread)
+
+
+def test_a_slow_frame_advances_the_ensemble_and_a_jump_back_restarts_it():
+    """A loaded server draws fewer frames, so each advances the display further (4x speed at 2 frames/s is 2 s
+    a frame): the ensemble must follow, not start again from the displayed state, or it never fans out (the
+    browser test of the ensemble failed on a loaded machine for this)."""
+    fastest_speed, slow_server_fps = 8.0, 2.0
+    assert follows_on(fastest_speed / slow_server_fps)
+    assert follows_on(0.0) and follows_on(1.0 / 60.0)
+    assert not follows_on(-1e-3)  # the timeline dragged back
+    assert not follows_on(60.0)  # or far ahead

@@ -51,12 +51,16 @@ def test_ensemble_fans_out_and_is_drawn(start_lab):
     wait_until(lambda: analysis.ensemble_node is not None, timeout_s=ANALYSIS_TIMEOUT_S,
                message="the ensemble's node on the server")
     assert analysis.ensemble.count == 100
+    built = analysis._ensemble_generation
     # Chaos takes the copies (1e-9 rad apart) visibly apart after some 20-30 s of simulated time: play fast.
     session.set("speed", 4.0)
     session.play()
     wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 30.0, timeout_s=ANALYSIS_TIMEOUT_S,
                message="30 s of ensemble time")
     session.pause()
+    # the same ensemble all along, however slowly the server drew (a slow frame once restarted it, so on a
+    # loaded machine the copies were put back together again and again)
+    assert analysis._ensemble_generation == built, "the ensemble was restarted while playing"
     joints = analysis.ensemble.joints()  # (copies, n + 1, 2)
     spread = float(np.ptp(joints[:, -1, :], axis=0).max())
     assert spread > 0.5, f"the copies' tips are only {spread:.3g} apart after 30 s"
