@@ -112,10 +112,11 @@ def import_playwright():
     return sync_playwright
 
 
-def launch_chromium(playwright: Any, executable: str | None = None) -> Any:
-    """A headless Chromium with software WebGL. Never downloads a browser (no ``playwright install``)."""
+def launch_chromium(playwright: Any, executable: str | None = None, env: dict[str, str] | None = None) -> Any:
+    """A headless Chromium with software WebGL. Never downloads a browser (no ``playwright install``).
+    ``env``: the browser's environment (default: this process's)."""
     return playwright.chromium.launch(
-        executable_path=executable or find_chromium(), headless=True, args=list(CHROMIUM_ARGS)
+        executable_path=executable or find_chromium(), headless=True, args=list(CHROMIUM_ARGS), env=env
     )
 
 
@@ -439,12 +440,12 @@ def labelled(png: bytes, caption: str | None, stamp: str | None) -> bytes:
 
 
 @contextlib.contextmanager
-def chromium() -> Iterator[Any]:
-    """A headless Chromium for the length of the block."""
+def chromium(env: dict[str, str] | None = None) -> Iterator[Any]:
+    """A headless Chromium for the length of the block (``env``: its environment, default this process's)."""
     sync_playwright = import_playwright()
     executable = find_chromium()
     with sync_playwright() as playwright:
-        browser = launch_chromium(playwright, executable)
+        browser = launch_chromium(playwright, executable, env=env)
         try:
             yield browser
         finally:

@@ -57,11 +57,12 @@ def chromium_executable() -> str:
 
 
 @pytest.fixture(scope="session")
-def browser(chromium_executable):
+def browser(chromium_executable, tmp_path_factory):
     sync_playwright = snap.import_playwright()
     playwright = sync_playwright().start()
     try:
-        chromium = snap.launch_chromium(playwright, chromium_executable)
+        env = pictures.pinned_font_environment(tmp_path_factory.mktemp("fonts"))
+        chromium = snap.launch_chromium(playwright, chromium_executable, env=env)
     except Exception as error:  # a broken browser install is the same as none
         playwright.stop()
         _unavailable(f"Chromium at {chromium_executable} did not start: {str(error).splitlines()[0]}")

@@ -21,6 +21,7 @@ bar's colour (``references_spec.bars_drawn``, ``assert_mechanism_drawn``).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -140,3 +141,30 @@ def _hsv(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ) * 60.0
     saturation = np.where(high > 0, spread / np.where(high > 0, high, 1.0), 0.0)
     return np.where(spread > 0, hue, 0.0), saturation, high
+
+
+# The reference pictures hold text (the panel, the figures' labels). Which fonts a machine has installed changes
+# it (Debian's `apt-get install chromium` brings the Liberation fonts, `--no-install-recommends` does not, and the
+# Report tab came out 899 px high instead of 895), so the browser of the tests sees only the DejaVu fonts, which
+# every Debian machine with fontconfig has (fonts-dejavu-core comes with fontconfig-config).
+PINNED_FONTS = Path("/usr/share/fonts/truetype/dejavu")
+FONTS_CONF = """<?xml version="1.0"?>
+<!DOCTYPE fontconfig SYSTEM "fonts.dtd">
+<fontconfig>
+  <dir>{fonts}</dir>
+  <cachedir>{cache}</cachedir>
+  <alias><family>sans-serif</family><prefer><family>DejaVu Sans</family></prefer></alias>
+  <alias><family>serif</family><prefer><family>DejaVu Serif</family></prefer></alias>
+  <alias><family>monospace</family><prefer><family>DejaVu Sans Mono</family></prefer></alias>
+</fontconfig>
+"""
+
+
+def pinned_font_environment(folder: Path) -> dict[str, str] | None:
+    """This process's environment with a fontconfig file (written into ``folder``) that offers the browser only
+    :data:`PINNED_FONTS`; None (the machine's fonts) when that folder is missing."""
+    if not PINNED_FONTS.is_dir():
+        return None
+    conf = folder / "fonts.conf"
+    conf.write_text(FONTS_CONF.format(fonts=PINNED_FONTS, cache=folder / "font-cache"), encoding="utf-8")
+    return {**os.environ, "FONTCONFIG_FILE": str(conf)}

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -40,7 +41,8 @@ def main(argv: list[str]) -> int:
     REFERENCES.mkdir(parents=True, exist_ok=True)
     manifest_path = REFERENCES / "manifest.json"
     manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
-    with snap.chromium() as browser:
+    fonts = Path(tempfile.mkdtemp(prefix="linkage-lab-fonts-"))  # the fonts the tests' browser sees
+    with snap.chromium(env=pictures.pinned_font_environment(fonts)) as browser:
         version = browser.version
         for name in names:
             started = time.perf_counter()
