@@ -16,7 +16,7 @@ from pydantic import ValidationError
 
 from physics import LinkageError
 from physics.mechanism import Body, Driver, Mechanism
-from physics.mechanism.assembly import assemble
+from physics.mechanism.validation import MIN_INERTIA, MIN_MASS, check_runnable
 
 
 @dataclass(frozen=True)
@@ -64,10 +64,10 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
                             "The largest distance between its points; the body is scaled about its first point "
                             "and the mechanism re-assembled (its inertia scales with the square)", True))
         mass_top = max(10.0 * ref.mass, 1.0)
-        out.append(Knob(f"mass:{body.name}", f"{body.name}: m (kg)", 0.0, mass_top, _step(mass_top / 10), body.mass,
-                        "Mass of the body", False))
+        out.append(Knob(f"mass:{body.name}", f"{body.name}: m (kg)", MIN_MASS, mass_top, _step(mass_top / 10),
+                        body.mass, "Mass of the body", False))
         inertia_top = max(10.0 * ref.inertia, 1e-4)
-        out.append(Knob(f"inertia:{body.name}", f"{body.name}: I (kg·m²)", 0.0, inertia_top,
+        out.append(Knob(f"inertia:{body.name}", f"{body.name}: I (kg·m²)", MIN_INERTIA, inertia_top,
                         _step(inertia_top / 10), body.inertia, "Centroidal moment of inertia of the body", False))
     for driver in mechanism.drivers:
         if driver.speed is not None:
@@ -102,16 +102,19 @@ def _number(name: str, value: object) -> float:
         raise LinkageError(f"{name} = {value!r}: expected a number")
     try:
         number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise LinkageError(f"{name} = {value!r}: expected a number") from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond any float (10**400)
+        shown = repr(value)
+        raise LinkageError(f"{name} = {shown if len(shown) <= 40 else shown[:39] + '…'}: expected a number") from None
     if not math.isfinite(number):
         raise LinkageError(f"{name} = {value!r}: expected a finite number")
     return number
 
 
-def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechanism | None = None) -> Mechanism:
+def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechanism | None = None,
+               sample_interval: float | None = None) -> Mechanism:
     """``mechanism`` with the control ``name`` set to ``value`` (SI units except a motor speed in °/s),
-    validated and assembled; LinkageError naming the element, the field and the allowed range otherwise."""
+    validated, assembled and checked to run (motors followed at ``sample_interval``); LinkageError naming the
+    element, the field and the allowed range otherwise."""
     knob = next((k for k in knobs(mechanism, reference) if k.name == name), None)
     if knob is None:
         raise LinkageError(f"{name!r}: not a control of {mechanism.name} "
@@ -144,9 +147,9 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
     except ValidationError as error:
         detail = error.errors()[0]
         raise LinkageError(f"{knob.label} = {number:g}: {detail['msg']}") from None
-    if knob.geometry:
-        try:
-            assemble(edited)
-        except LinkageError as error:
-            raise LinkageError(f"{knob.label} = {number:g}: the mechanism cannot be assembled ({error})") from None
+    try:  # the whole still runs (physics/mechanism/validation.py), as a file must before it is shown
+        check_runnable(edited, sample_interval)
+    except LinkageError as error:
+        reason = "the mechanism cannot be assembled" if knob.geometry else "the mechanism cannot run"
+        raise LinkageError(f"{knob.label} = {number:g}: {reason} ({error})") from None
     return edited

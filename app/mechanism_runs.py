@@ -17,11 +17,13 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
-from physics.mechanism.assembly import assemble, sketch_size
+from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.run import MechanismRun
+from physics.mechanism.validation import check_runnable
 
 from .buffers import TrajectoryRing
+from .player import SAMPLE_DT
 
 # A chunk's work in the player's unit, a compiled chain right-hand side (about 2.7 us: CHUNK_WORK_BUDGET = 3000
 # of them is about 8 ms), measured for the presets with one-off timings: one right-hand side of a mechanism
@@ -195,12 +197,15 @@ class MechanismSpec:
     # arguments; None: in this interpreter
     runner: Callable[..., object] | None = None
     draw: Drawing = field(init=False)
+    # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
+    structure: str = field(init=False)
 
     state_fields = ("q", "qdot")
     pinned = False
 
     def __post_init__(self) -> None:
         self.draw = drawing(self.chain)
+        self.structure = structure_of(self.chain)
         if not self.row_names:
             self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
         self.pin_arrows = pin_arrows(self.chain, self.draw, self.row_names)
@@ -259,6 +264,9 @@ class MechanismSpec:
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""
+        if np.shape(q0) != (3 * self.n,):
+            raise LinkageError(f"a start of {np.size(q0) // 3} bodies cannot be drawn as {self.chain.name} "
+                               f"({self.n} bodies)")
         q = np.where(np.isfinite(q0), q0, 0.0)[None, :]
         zero = np.zeros(1)
         return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))))
@@ -281,9 +289,19 @@ class MechanismSpec:
         return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps)
 
 
+def structure_of(mechanism: Mechanism) -> str:
+    """The geometry a state ``q, qdot`` of ``mechanism`` belongs to: the bodies' points and the joints, not
+    the masses, motors or gravity, which an edit changes while the run goes on from the displayed state."""
+    bodies = [(body.name, body.points, body.com) for body in mechanism.bodies]
+    return repr((bodies, mechanism.ground, [joint.model_dump() for joint in mechanism.joints]))
+
+
 def start_state(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int]:
-    """The assembled start (nearest the sketch) at rest, and the mobility; LinkageError naming the open joint."""
-    assembled = assemble(mechanism)
+    """The assembled start (nearest the sketch) at rest, and the mobility, of a mechanism that can run
+    (physics.mechanism.validation: masses, motors the player's samples can follow, joints that close, equations
+    that can be solved); LinkageError naming the body, joint or motor otherwise. Every way a mechanism enters
+    the app goes through here (``--mechanism``, a preset, an upload, Reset) before anything shown changes."""
+    assembled = check_runnable(mechanism, SAMPLE_DT)
     return assembled.q, np.zeros_like(assembled.q), assembled.mobility
 
 

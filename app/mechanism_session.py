@@ -46,7 +46,7 @@ from .mechanism_workers import POOL
 from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
-from .player import Frame, Player
+from .player import SAMPLE_DT, Frame, Player
 from .scene import pose_disc
 from .text import markdown_literal
 from .viser_compat import check_gui_updates, connection_open
@@ -274,7 +274,7 @@ class MechanismSession:
         again from the re-assembled sketch; masses, inertias, motors and gravity go on from the displayed state
         (the constraints do not depend on them)."""
         with self._lock:
-            edited = apply_edit(self.mechanism, name, value, self.reference)
+            edited = apply_edit(self.mechanism, name, value, self.reference, SAMPLE_DT)
             geometry = name.startswith("size:")
             if geometry:
                 self._new_mechanism(edited, play=None, same_kind=True)
@@ -404,12 +404,13 @@ class MechanismSession:
 
     def _continue(self) -> None:
         """New physics from the displayed state on (the history up to it is kept)."""
-        state = self.player.current_state()
+        state = self.player.current_start()
         self.spec = self._spec()
-        if state is None:
+        if state is None or getattr(state[0], "structure", None) != self.spec.structure:
+            # nothing shown yet, or the state shown is another mechanism's (a menu choice not drawn yet)
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
             return
-        t, q, qdot = state
+        _, t, q, qdot = state
         self.energy_ref = None
         self._restart(t, q, qdot, keep_history=True)
 
@@ -441,18 +442,19 @@ class MechanismSession:
         if self.closed or not self._connection_open() or not frame.runs:
             return
         run = self.player.runs[0] if self.player.runs else None
-        if run is None or cast(Any, run.spec).layout != self.spec.layout:
-            return
+        spec = self.spec  # read once: a menu choice may replace it meanwhile (another thread)
+        if run is None or cast(Any, run.spec).structure != spec.structure:
+            return  # a frame of the mechanism shown before: never drawn with another's parts
         rf = frame.runs[0]
         ring = run.ring
         with self.target.atomic():
-            if len(rf.joints) == len(self.spec.draw.labels):
+            if len(rf.joints) == len(spec.draw.labels):
                 self.scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % 2 == 0:
                 first = ring.index_at(frame.t - TRACE_SECONDS)
                 self.trace.update(ring.window(first, rf.index, ["trace_xy"])["trace_xy"])
             if self.reactions_on:
-                self._update_arrows(run, rf)
+                self._update_arrows(run, rf, spec)
         quietly(self.target.flush, "flushing a frame")
         self.frames_sent += 1
         if frame.restarted or frame.counter % PLOT_EVERY == 0:
@@ -460,8 +462,8 @@ class MechanismSession:
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
             self._show_status(frame.t, ring, rf.index)
 
-    def _update_arrows(self, run, rf) -> None:
-        points, rows, signs = self.spec.pin_arrows
+    def _update_arrows(self, run, rf, spec: MechanismSpec) -> None:
+        points, rows, signs = spec.pin_arrows
         if not len(rows):
             self.arrows.hide()
             return
@@ -469,8 +471,8 @@ class MechanismSession:
         forces = signs[:, None] * np.stack([sample[rows], sample[rows + 1]], axis=1)
         points_xy = rf.joints[points]
         largest = float(np.max(np.hypot(*forces.T))) or 1.0
-        scale = ARROW_FRACTION * self.spec.draw.size / largest
-        self.arrows.update(points_xy, forces, scale, 0.006 * self.spec.draw.size)
+        scale = ARROW_FRACTION * spec.draw.size / largest
+        self.arrows.update(points_xy, forces, scale, 0.006 * spec.draw.size)
 
     def _update_plots(self, ring, index: int) -> None:
         first = ring.index_at(ring.get("t", index) - PLOT_SECONDS)

@@ -234,17 +234,24 @@ class Player:
 
     def current_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
         """``(t, theta, omega)`` of the first run at the sample at or before the displayed time."""
+        found = self.current_start()
+        return None if found is None else found[1:]
+
+    def current_start(self) -> tuple[RunSpec, float, np.ndarray, np.ndarray] | None:
+        """``(spec, t, theta, omega)``: :meth:`current_state` with the run it belongs to, read in one step, so
+        that a caller never goes on from a state of another mechanism than the one it asks about."""
         with self.lock:
             request = self._pending or self._installing
             if request is not None:  # a restart not shown yet: its start is the state to go on from
                 theta, omega = request.starts[0]
-                return request.t0, np.array(theta, dtype=float), np.array(omega, dtype=float)
+                return request.specs[0], request.t0, np.array(theta, dtype=float), np.array(omega, dtype=float)
             if not self.runs or len(self.runs[0].ring) == 0:
                 return None
-            ring = self.runs[0].ring
-            x_name, v_name = self.runs[0].spec.state_fields
+            run = self.runs[0]
+            ring = run.ring
+            x_name, v_name = run.spec.state_fields
             i = ring.index_at(self.display_time)
-            return ring.t_first + i * ring.dt, ring.get(x_name, i).copy(), ring.get(v_name, i).copy()
+            return run.spec, ring.t_first + i * ring.dt, ring.get(x_name, i).copy(), ring.get(v_name, i).copy()
 
     def real_time_factor(self) -> float:
         """Simulated seconds shown per wall-clock second over the last two seconds."""

@@ -1,0 +1,113 @@
+"""Whether a mechanism can run at all, checked before anything accepts it (a file, an upload, an edit).
+
+Why a check of its own: the pydantic models check each field alone (a mass within 0..1e6 kg, a motor within
+±1000 rad/s); a mechanism can pass all of them and still not run: a sketch whose joints cannot close, a body
+whose mass is 5e-324 kg (``1/m`` overflows and the solver's SVD fails), every body massless, or a motor
+turning so fast that the pose cannot be followed from one sample to the next. :func:`check_runnable` finds
+those up front and raises one LinkageError naming the body, joint or motor, the field and the allowed range.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import LinkageError
+from .assembly import Assembled, assemble
+from .constraints import Constraints
+from .model import Mechanism
+
+MIN_MASS = 1e-6  # kg: a milligram; every body needs mass for the equations of motion (the DAE divides by it)
+MIN_INERTIA = 1e-9  # kg m^2: a milligram at a millimetre's radius of gyration (mm^2 mg = 1e-12; with margin)
+# m: a sketch spans at most kilometres (a chain of the app: 12 bars of at most 1000 m); far beyond, squares of
+# distances overflow (a point at 1e300 m made the framing and the sliders' ranges infinite)
+MAX_COORDINATE = 1e4
+MAX_MASS = 1e6  # kg, as the model
+MAX_INERTIA = 1e6  # kg m^2, as the model
+# The augmented matrix [[M, J^T], [J, 0]] at the start pose, scaled to unit diagonal where possible: beyond
+# this condition number its solve loses every digit (a body whose motion nothing determines).
+MAX_CONDITION = 1e13
+# A motor may turn at most this angle between two samples of a run: assembly follows the pose from one
+# sample to the next by Newton's method and loses it beyond (measured: the crank-rocker followed 1.7 rad per
+# sample and lost 5 rad).
+MAX_TURN_PER_SAMPLE = 0.5  # rad
+
+
+def check_extent(mechanism: Mechanism) -> None:
+    """Every point of the sketch within MAX_COORDINATE of the origin; LinkageError naming the first beyond."""
+    named = [(f"ground point {name!r}", xy) for name, xy in mechanism.ground.items()]
+    for body in mechanism.bodies:
+        named += [(f"body {body.name!r}: point {name!r}", xy) for name, xy in body.points.items()]
+        if body.com is not None:
+            named.append((f"body {body.name!r}: com", body.com))
+    for what, (x, y) in named:
+        if not (abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE):
+            raise LinkageError(f"{what} = [{x:g}, {y:g}] m: allowed coordinates -{MAX_COORDINATE:g} <= x, y <= "
+                               f"{MAX_COORDINATE:g} m")
+
+
+def max_motor_speed(sample_interval: float) -> float:
+    """The fastest motor (rad/s) a run sampled every ``sample_interval`` seconds can follow."""
+    return MAX_TURN_PER_SAMPLE / sample_interval
+
+
+def check_masses(mechanism: Mechanism) -> None:
+    """Every body's mass and inertia within the physically meaningful range; LinkageError naming the first
+    that is not."""
+    for body in mechanism.bodies:
+        for field, value, low, high, unit in (("mass", body.mass, MIN_MASS, MAX_MASS, "kg"),
+                                              ("inertia", body.inertia, MIN_INERTIA, MAX_INERTIA, "kg m^2")):
+            if not (math.isfinite(value) and low <= value <= high):
+                raise LinkageError(f"body {body.name!r}: {field} = {value:g} {unit}: allowed range "
+                                   f"{low:g} <= {field} <= {high:g} {unit} (every body needs mass and inertia "
+                                   "for the equations of motion)")
+
+
+def check_motors(mechanism: Mechanism, sample_interval: float | None) -> None:
+    """Every speed motor slow enough for a run sampled every ``sample_interval`` seconds (None: no limit)."""
+    if sample_interval is None:
+        return
+    fastest = max_motor_speed(sample_interval)
+    for driver in mechanism.drivers:
+        if driver.speed is not None and abs(driver.speed) > fastest:
+            raise LinkageError(
+                f"motor {driver.joint!r}: speed = {driver.speed:g} rad/s: allowed range -{fastest:g} <= speed <= "
+                f"{fastest:g} rad/s (it turns {abs(driver.speed) * sample_interval:.3g} rad between samples "
+                f"{sample_interval:.3g} s apart; the pose cannot be followed beyond {MAX_TURN_PER_SAMPLE} rad)")
+
+
+def check_solvable(mechanism: Mechanism, q: np.ndarray) -> None:
+    """The equations of motion at pose ``q`` have one solution: the augmented matrix is well conditioned."""
+    constraints = Constraints(mechanism)
+    mass = np.array([v for body in mechanism.bodies for v in (body.mass, body.mass, body.inertia)], dtype=float)
+    jacobian = constraints.jacobian(q)
+    size, rows = len(mass), jacobian.shape[0]
+    matrix = np.zeros((size + rows, size + rows))
+    matrix[:size, :size] = np.diag(mass)
+    matrix[:size, size:] = jacobian.T
+    matrix[size:, :size] = jacobian
+    scale = np.ones(size + rows)
+    scale[:size] = 1.0 / np.sqrt(mass)  # each body's coordinates in units of its own mass: a fair condition
+    scaled = scale[:, None] * matrix * scale[None, :]
+    with np.errstate(all="ignore"):
+        try:
+            condition = float(np.linalg.cond(scaled)) if np.all(np.isfinite(scaled)) else math.inf
+        except np.linalg.LinAlgError:
+            condition = math.inf
+    if not condition <= MAX_CONDITION:
+        raise LinkageError(f"{mechanism.name}: its equations of motion have no unique solution at the start "
+                           f"(condition {condition:.3g} > {MAX_CONDITION:g}); check the bodies' masses and "
+                           "inertias and that every body is held by joints or has mass")
+
+
+def check_runnable(mechanism: Mechanism, sample_interval: float | None = None) -> Assembled:
+    """The assembled start of ``mechanism`` once it is known to run: points within reach, masses and inertias
+    in range, motors that can be followed at ``sample_interval``, joints that close, equations of motion that
+    can be solved. LinkageError (one line naming the body, joint or motor) otherwise."""
+    check_extent(mechanism)
+    check_masses(mechanism)
+    check_motors(mechanism, sample_interval)
+    assembled = assemble(mechanism)
+    check_solvable(mechanism, assembled.q)
+    return assembled
