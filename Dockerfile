@@ -30,7 +30,8 @@ USER lab
 WORKDIR /home/lab
 
 # Derive, generate and compile the equations once, at build time and as the user that runs the app,
-# so the container's first page load is a warm start.
+# so the container's first page load is a warm start. This also makes the key that authenticates the cache's
+# files (/home/lab/.config/linkage-lab/cache.key, 0600): lab's, like the cache (docs/reliability.md, "Planted files").
 RUN /opt/linkage-lab/bin/python -m physics warm
 
 EXPOSE 8080

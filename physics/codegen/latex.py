@@ -1,14 +1,15 @@
 """The derived equations as LaTeX, for the app's equations panel and the docs (sympy: never on a hot path).
 
 Each row of ``A x = b`` is printed as ``sum_j A_ij x_j = b_i`` after a light ``trigsimp`` per entry, with
-the row's label (which balance or constraint it is). Results are cached beside the generated code.
+the row's label (which balance or constraint it is). Results are cached beside the generated code, with an
+HMAC of their name and content under the user's key (:mod:`physics.cache_folder`): the app shows them.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 
+from ..cache_folder import UntrustedFile, discard, mac, mac_matches, read_trusted, warn
 from .cache import _write_atomically, cache_dir, generator_digest
 
 MAX_TERMS_SIMPLIFIED = 60  # entries larger than this are printed as derived, without trigsimp
@@ -17,17 +18,24 @@ MAX_TERMS_SIMPLIFIED = 60  # entries larger than this are printed as derived, wi
 def equations_latex(formulation: str, n: int, pinned: bool = False) -> dict:
     """``{"title", "unknowns": [latex], "rows": [{"label", "latex"}], "shape": [k, k]}`` for the system."""
     path = cache_dir() / f"latex-{formulation}-n{n}-{'pinned' if pinned else 'open'}-{generator_digest()}.json"
-    if path.exists():
-        try:
-            stored = json.loads(path.read_text())
-            body = json.dumps(stored["data"], sort_keys=True)
-            if hashlib.sha256(body.encode()).hexdigest() == stored["sha256"]:
-                return stored["data"]
-        except (OSError, ValueError, KeyError):
-            pass
+    try:
+        stored = json.loads(read_trusted(path))
+        body = json.dumps(stored["data"], sort_keys=True)
+        if mac_matches(path.name, body.encode(), str(stored["hmac"])):
+            return stored["data"]
+        problem = "MAC differs"
+    except FileNotFoundError:
+        problem = None
+    except UntrustedFile as error:
+        problem = str(error)
+    except (ValueError, KeyError, TypeError, RecursionError):  # not UTF-8, not JSON, not our shape
+        problem = "not a complete entry"
+    if problem is not None:
+        warn(f"cached equations {path} are not trusted ({problem}); discarded and rebuilt")
+        discard(path)
     data = _derive_latex(formulation, n, pinned)
     body = json.dumps(data, sort_keys=True)
-    _write_atomically(path, json.dumps({"data": data, "sha256": hashlib.sha256(body.encode()).hexdigest()}))
+    _write_atomically(path, json.dumps({"data": data, "hmac": mac(path.name, body.encode())}))
     return data
 
 

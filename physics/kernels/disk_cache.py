@@ -1,45 +1,55 @@
-"""numba's on-disk cache for Linkage Lab's kernels: kept in the private cache folder, and never trusted
-blindly.
+"""numba's on-disk cache for Linkage Lab's kernels: kept in the private cache folder, and never trusted.
 
-numba keeps compiled machine code as pickles (``.nbi`` index, ``.nbc`` data) and loads them without a check:
-a truncated, emptied or garbled file ends every later run with a traceback, and a planted one runs its
-author's code. So, for the kernels' functions only (generated code keeps no machine code on disk):
+numba keeps compiled machine code as pickles (``.nbi`` index, ``.nbc`` data) and unpickles them without a
+check: a damaged file ends every later run with a traceback, and a planted one runs its author's code. So, for
+the kernels' functions only (generated code keeps no machine code on disk):
 
 * a cache locator puts the kernels' files under ``<cache folder>/numba/kernels-<digest>/`` (the folder
-  :mod:`physics.cache_folder` has checked to be private), whatever folder the package is installed in;
-* each file gets a ``.sha256`` sidecar once it is known to be complete (its digest, size and modification time);
-  before numba reads a group of files, :func:`verify` checks every sidecar: a file whose size and time are
-  unchanged is taken as recorded (one ``stat``, as git's index does), any other is hashed again; a file without a
-  sidecar must at least be a complete pickle (its opcodes walked without executing them). A file that fails is
-  removed with one line on stderr, and numba compiles afresh.
+  :mod:`physics.cache_folder` has checked to be private; these two subfolders are checked the same way, and one
+  that is not this user's or is writable by others is discarded). It takes every kernel, falling back to a
+  private temporary folder, so numba never falls back to its own unchecked places (``__pycache__`` beside the
+  source, ``NUMBA_CACHE_DIR``);
+* numba's reader and writer of those files are replaced (:class:`AuthenticatedCacheFile`): each file is written
+  with a trailer holding an HMAC-SHA256 of its name and bytes under the user's secret key, in the same atomic
+  rename as the file (so a file and its tag can never come from two different writers); each read takes the
+  file's bytes once, through :func:`physics.cache_folder.read_trusted` (a regular file of this user that group
+  and others cannot write), and checks the tag on the very bytes that are then unpickled. A file that fails
+  (planted with or without a tag, truncated, garbled, a tag that is not even text) is removed with the rest of
+  its function's files, with one line on stderr, and numba compiles that function afresh.
 
-numba writes its files under a temporary name and renames them, so a killed process leaves at most a stray
-``*.tmp.*`` file, which is never read; stale ones are removed.
+numba writes under a temporary name and renames, so a killed process leaves at most a stray ``*.tmp.*`` file,
+which is never read; stale ones are removed.
 """
 
 from __future__ import annotations
 
 import atexit
+import glob
 import hashlib
+import io
 import os
 import pickle
-import pickletools
 import shutil
+import tempfile
 import threading
 import time
+import uuid
 from pathlib import Path
 
 import numba
 from numba.core import caching
 
-from ..cache_folder import cache_dir, warn
+from ..cache_folder import UntrustedFile, cache_dir, check_folder, discard, mac, mac_matches, read_trusted, warn
 
 _KERNELS = Path(__file__).resolve().parent
-SIDECAR = ".sha256"
+MAC_MAGIC = b"\nlinkage-lab-hmac-sha256:"
+_TRAILER_BYTES = len(MAC_MAGIC) + 64 + 1  # the magic, 64 hex digits, a newline
 STALE_TEMPORARY_SECONDS = 3600.0
 _lock = threading.Lock()
-_verified: set[tuple[str, str]] = set()
 _ensured: set[str] = set()
+_private_paths: set[str] = set()  # folders whose files AuthenticatedCacheFile reads and writes
+_usable: dict[str, str] = {}  # the kernels folder as configured -> the folder actually used
+_reported: set[tuple[str, str]] = set()
 
 
 def numba_folder() -> Path:
@@ -65,13 +75,59 @@ def kernels_folder() -> Path:
     return numba_folder() / f"kernels-{KERNELS_DIGEST}"
 
 
+def _private_temporary() -> str:
+    folder = tempfile.mkdtemp(prefix="linkage-lab-kernels-")  # mode 0700, owned by us
+    atexit.register(shutil.rmtree, folder, True)
+    return folder
+
+
+def _check_or_make(folders: tuple[Path, ...]) -> None:
+    for folder in folders:
+        try:
+            folder.mkdir(mode=0o700, exist_ok=True)
+        except OSError as error:
+            raise UntrustedFile(f"folder {folder} cannot be created ({error.strerror or error})") from None
+        check_folder(folder)
+
+
+def usable_kernels_folder() -> str:
+    """The folder the kernels' files go to: ``kernels_folder()`` once it and ``numba/`` are checked to be this
+    user's and not writable by others (a foreign or open one, planted while the cache folder was open, is
+    discarded and made again); if that fails too, a private temporary folder for this run."""
+    wanted = kernels_folder()
+    with _lock:
+        if str(wanted) in _usable:
+            return _usable[str(wanted)]
+        folders = (wanted.parent, wanted)
+        try:
+            _check_or_make(folders)
+            chosen = str(wanted)
+        except UntrustedFile as first:
+            for folder in folders:
+                try:
+                    check_folder(folder)
+                except UntrustedFile:
+                    discard(folder)
+                    break
+            try:
+                _check_or_make(folders)
+                chosen = str(wanted)
+                warn(f"compiled-code cache: {first}; discarded and rebuilt")
+            except UntrustedFile as second:
+                chosen = _private_temporary()
+                warn(f"compiled-code cache: {second}; using a private temporary folder for this run (slower)")
+        _usable[str(wanted)] = chosen
+        _private_paths.add(chosen)
+        return chosen
+
+
 class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
     """numba cache locator for the kernels' files: ``<cache folder>/numba/kernels-<digest>/``."""
 
     def __init__(self, py_func, py_file):
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
-        self._cache_path = str(kernels_folder())
+        self._cache_path = usable_kernels_folder()
 
     def get_cache_path(self):
         return self._cache_path
@@ -88,148 +144,132 @@ class PrivateCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
             source = Path(py_file).resolve()
         except (OSError, TypeError):
             return None
-        if not source.exists():
-            return None
-        if not source.is_relative_to(_KERNELS):
+        if not source.exists() or not source.is_relative_to(_KERNELS):
             return None
         locator = cls(py_func, py_file)
         try:
             locator.ensure_cache_path()
-        except OSError:  # cannot write there: numba compiles without a disk cache
-            return None
+        except OSError:  # cannot write there: this run's own folder, never numba's unchecked ones
+            locator._cache_path = _private_temporary()
+            _private_paths.add(locator._cache_path)
         return locator
 
 
-def install_locator() -> None:
-    """Put :class:`PrivateCacheLocator` first among numba's locators (it declines every other file)."""
-    locators = caching.CacheImpl._locator_classes
-    if PrivateCacheLocator not in locators:
-        locators.insert(0, PrivateCacheLocator)
+class _Discarded(OSError):
+    """A cache file that failed its checks and was removed (an OSError: numba's ``load`` then recompiles)."""
 
 
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _record(path: Path) -> str:
-    """The sidecar's text: digest, size and modification time (ns) of ``path``."""
-    info = path.stat()
-    return f"{_digest(path)} {info.st_size} {info.st_mtime_ns}"
-
-
-def _matches(path: Path, sidecar: Path) -> bool:
-    """Whether ``path`` is still the file its sidecar recorded (a stat when nothing changed, else a hash)."""
-    fields = sidecar.read_text().split()
-    if len(fields) != 3:  # an older sidecar held the digest alone
-        return bool(fields) and _digest(path) == fields[0]
-    digest, size, mtime_ns = fields
-    info = path.stat()
-    if str(info.st_size) == size and str(info.st_mtime_ns) == mtime_ns:
-        return True
-    return _digest(path) == digest
-
-
-def _well_formed(path: Path) -> bool:
-    """Whether ``path`` is a complete numba cache file, checked without executing any of it."""
-    try:
-        data = path.read_bytes()
-        if path.suffix == ".nbi":
-            # a version string pickled alone, then the pickled (stamp, overloads)
-            first_end = None
-            for opcode, _arg, position in pickletools.genops(data):
-                if opcode.name == "STOP" and position is not None:
-                    first_end = position + 1
-                    break
-            if first_end is None:
-                return False
-            version = pickle.loads(data[:first_end])  # a str: safe to load
-            if not isinstance(version, str):
-                return False
-            data = data[first_end:]
-        last = None
-        for opcode, _arg, _position in pickletools.genops(data):
-            last = opcode.name
-        return last == "STOP"
-    except Exception:  # any parse failure is a damaged file
-        return False
+def _tag_problem(name: str, data: bytes) -> str | None:
+    """Why ``data`` (a whole file as read) does not carry a valid MAC trailer, or None when it does."""
+    if len(data) < _TRAILER_BYTES or not data.endswith(b"\n") or not data[-_TRAILER_BYTES:].startswith(MAC_MAGIC):
+        return "no MAC: not written by this user's Linkage Lab, or cut short"
+    if not mac_matches(name, data[:-_TRAILER_BYTES], data[-_TRAILER_BYTES + len(MAC_MAGIC) : -1]):
+        return "MAC differs: changed, or not written by this user's Linkage Lab"
+    return None
 
 
 def _remove_group(folder: Path, stem: str, reason: str) -> None:
-    """Remove one function's index, data and sidecars: numba recompiles it on next use."""
-    for path in folder.glob(f"{stem}.*"):
+    """Remove one function's index and data files: numba recompiles it on next use."""
+    for path in folder.glob(f"{glob.escape(stem)}.*"):
+        discard(path)
+    if (str(folder), stem) not in _reported:
+        _reported.add((str(folder), stem))
+        warn(f"compiled-code cache file for {stem} is damaged or not trusted ({reason}); discarded and rebuilt")
+
+
+class AuthenticatedCacheFile(caching.IndexDataCacheFile):
+    """numba's index-and-data cache file, with every file of the kernels' folders authenticated (files of other
+    folders, for functions outside the kernels, are left to numba as they were)."""
+
+    def __init__(self, cache_path, filename_base, source_stamp):
+        super().__init__(cache_path, filename_base, source_stamp)
+        self._filename_base = filename_base
+        self._authenticated = str(cache_path) in _private_paths
+
+    def _read(self, path: str) -> bytes:
+        """The file's bytes without the trailer, once checked; FileNotFoundError, or _Discarded after removal."""
+        file = Path(path)
         try:
-            path.unlink()
-        except OSError:
-            pass
-    warn(f"damaged compiled-code cache file for {stem} ({reason}) removed; rebuilding it")
+            data = read_trusted(file)
+            problem = _tag_problem(file.name, data)
+        except UntrustedFile as error:
+            problem = str(error)
+        if problem is None:
+            return data[:-_TRAILER_BYTES]
+        self._discard(f"{file.name}: {problem}")
+        raise _Discarded(problem)
 
+    def _discard(self, reason: str) -> None:
+        _remove_group(Path(self._cache_path), self._filename_base, reason)
 
-def verify(folder: Path, prefix: str) -> None:
-    """Check numba's files in ``folder`` whose names start with ``prefix``; remove any group that fails.
-
-    Runs once per (folder, prefix) in a process, before numba reads them."""
-    key = (str(folder), prefix)
-    with _lock:
-        if key in _verified or not folder.is_dir():
-            _verified.add(key)
-            return
-        now = time.time()
-        groups: dict[str, list[Path]] = {}
-        for path in folder.glob(f"{prefix}*"):
-            name = path.name
-            if ".tmp." in name:
-                try:
-                    if now - path.stat().st_mtime > STALE_TEMPORARY_SECONDS:
-                        path.unlink()
-                except OSError:
-                    pass
-                continue
-            if name.endswith(SIDECAR) or not (name.endswith(".nbi") or name.endswith(".nbc")):
-                continue
-            stem = name.split(".py")[0]  # "<module>.<function>-<line>"
-            groups.setdefault(stem, []).append(path)
-        for stem, paths in groups.items():
-            for path in paths:
-                sidecar = path.with_name(path.name + SIDECAR)
-                try:
-                    if sidecar.exists():
-                        ok = _matches(path, sidecar)
-                        reason = "checksum differs"
-                    else:
-                        ok = _well_formed(path)
-                        reason = "not a complete pickle"
-                except OSError as error:
-                    ok, reason = False, f"unreadable: {error.strerror or error}"
-                if not ok:
-                    _remove_group(folder, stem, f"{path.name}: {reason}")
-                    break
-        _verified.add(key)
-
-
-def seal(folder: Path, prefix: str) -> None:
-    """Write a sidecar for every complete file with ``prefix`` that has none (or a stale one)."""
-    if not folder.is_dir():
-        return
-    for path in folder.glob(f"{prefix}*"):
-        name = path.name
-        if ".tmp." in name or not (name.endswith(".nbi") or name.endswith(".nbc")):
-            continue
-        sidecar = path.with_name(name + SIDECAR)
+    def _write(self, path: str, payload: bytes) -> None:
+        """``payload`` and its MAC trailer, written 0600 under a temporary name and renamed into place."""
+        name = os.path.basename(path)
+        temporary = f"{path}.tmp.{uuid.uuid4().hex[:16]}"
+        fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
         try:
-            if sidecar.exists() and _matches(path, sidecar):
-                continue
-            if not _well_formed(path):
-                continue
-            temporary = sidecar.with_name(f"{sidecar.name}.tmp.{os.getpid()}")
-            temporary.write_text(_record(path) + "\n")
-            os.replace(temporary, sidecar)
-        except OSError:
-            pass
+            with os.fdopen(fd, "wb") as stream:
+                stream.write(payload + MAC_MAGIC + mac(name, payload).encode() + b"\n")
+            os.replace(temporary, path)
+        except BaseException:
+            try:
+                os.unlink(temporary)
+            except OSError:
+                pass
+            raise
+
+    def _load_index(self):
+        if not self._authenticated:
+            return super()._load_index()
+        try:
+            payload = self._read(self._index_path)
+        except OSError:  # none yet, or discarded
+            return {}
+        try:
+            stream = io.BytesIO(payload)
+            version = pickle.load(stream)  # authenticated: written by this user's Linkage Lab
+            if version != self._version:
+                return {}
+            stamp, overloads = pickle.loads(stream.read())
+        except Exception as error:  # authenticated but unreadable (another numba's format): start again
+            self._discard(f"{os.path.basename(self._index_path)}: unreadable ({type(error).__name__})")
+            return {}
+        return overloads if stamp == self._source_stamp else {}
+
+    def _save_index(self, overloads):
+        if not self._authenticated:
+            return super()._save_index(overloads)
+        payload = pickle.dumps(self._version, protocol=-1) + self._dump((self._source_stamp, overloads))
+        self._write(self._index_path, payload)
+
+    def _load_data(self, name):
+        if not self._authenticated:
+            return super()._load_data(name)
+        payload = self._read(self._data_path(name))  # an OSError makes numba's load() compile afresh
+        try:
+            return pickle.loads(payload)  # authenticated: written by this user's Linkage Lab
+        except Exception as error:
+            self._discard(f"{name}: unreadable ({type(error).__name__})")
+            raise _Discarded(str(error)) from None
+
+    def _save_data(self, name, data):
+        if not self._authenticated:
+            return super()._save_data(name, data)
+        self._write(self._data_path(name), self._dump(data))
+
+
+def install() -> None:
+    """Put :class:`PrivateCacheLocator` first among numba's locators (it declines every other file), and make
+    numba's caches use :class:`AuthenticatedCacheFile` (numba looks the class up when it creates each cache)."""
+    locators = caching.CacheImpl._locator_classes
+    if PrivateCacheLocator not in locators:
+        locators.insert(0, PrivateCacheLocator)
+    caching.IndexDataCacheFile = AuthenticatedCacheFile  # type: ignore[misc]
 
 
 def kernel_folders() -> list[Path]:
     """Where numba keeps this package's own compiled functions."""
-    return [kernels_folder()]
+    return [Path(usable_kernels_folder())]
 
 
 STALE_KERNELS_SECONDS = 7 * 24 * 3600.0
@@ -247,20 +287,22 @@ def _remove_stale_kernels() -> None:
             pass
 
 
-def verify_kernels() -> None:
-    _remove_stale_kernels()
-    for folder in kernel_folders():
-        verify(folder, "")
-
-
-def seal_kernels() -> None:
-    for folder in kernel_folders():
+def _remove_stale_temporaries(folder: Path) -> None:
+    """Temporary files of writers killed midway, older than an hour (a live writer renames its file at once)."""
+    now = time.time()
+    for path in folder.glob("*.tmp.*"):
         try:
-            seal(folder, "")
-        except Exception:  # at exit: never a traceback
+            if now - path.lstat().st_mtime > STALE_TEMPORARY_SECONDS:
+                path.unlink()
+        except OSError:
             pass
 
 
-install_locator()
-verify_kernels()
-atexit.register(seal_kernels)
+def tidy() -> None:
+    _remove_stale_kernels()
+    for folder in kernel_folders():
+        _remove_stale_temporaries(folder)
+
+
+install()
+tidy()

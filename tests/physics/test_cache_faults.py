@@ -103,8 +103,11 @@ def test_damaged_compiled_code_is_detected_and_rebuilt(cache, name, suffix, dama
     path.write_bytes(DAMAGES[damage](path.read_bytes()))
     result = _run(folder)
     assert _answer(result) == answer
-    _one_warning(result.stderr)
-    assert "damaged compiled-code cache file" in result.stderr
+    if name == "system.solve_states":  # the command's entry kernel: its files are read, checked and rebuilt
+        _one_warning(result.stderr)
+        assert f"compiled-code cache file for {name}" in result.stderr
+    else:  # its machine code is inside the entry kernel's file: this file is never read, so does no harm
+        assert result.stderr == ""
     again = _run(folder)
     assert _answer(again) == answer and again.stderr == ""
 
