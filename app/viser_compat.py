@@ -280,8 +280,8 @@ def guard_uploads(
         return True
     starts = handlers.get(FileTransferStartUpload) if handlers is not None else None
     parts = handlers.get(FileTransferPart) if handlers is not None else None
-    if (starts is None or parts is None or start not in starts or part not in parts or states is None
-            or controls is None):
+    if (start is None or part is None or starts is None or parts is None or start not in starts
+            or part not in parts or states is None or controls is None):
         warn_once("uploads", "cannot bound uploads before viser buffers them")
         return False
 
@@ -296,7 +296,7 @@ def guard_uploads(
         in_flight = sum(1 for state in list(states.values()) if state.get("client_id") == client_id)
         if problem is None and in_flight >= UPLOADS_PER_CLIENT:
             problem = f"at most {UPLOADS_PER_CLIENT} uploads at a time from one browser"
-        if problem is None:
+        if problem is None and start is not None:
             start(client_id, message)
             return
         try:
@@ -318,7 +318,8 @@ def guard_uploads(
             states.pop(message.transfer_uuid, None)
             _cut_off(gui, client_id, "an upload sent more than it announced")
             return
-        part(client_id, message)
+        if part is not None:
+            part(client_id, message)
 
     starts[starts.index(start)] = checked_start
     parts[parts.index(part)] = checked_part
