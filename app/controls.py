@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import threading
-from pathlib import Path
 
 import numpy as np
 
@@ -30,9 +29,8 @@ from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS, driving_count, method_label, methods_for, wrap_degrees
 from .phase_view import BAR_COLORS, phase_picture
 from .ports import SessionPort
+from .resources import STATIC
 from .text import html_literal, markdown_literal
-
-STATIC = Path(__file__).resolve().parent.parent / "static"
 
 BAR_SLIDERS = {
     "L": SliderSpec("L", 0.05, 3.0, 0.01),

@@ -22,8 +22,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
-STATIC = Path(__file__).resolve().parent.parent / "static"
-ADDITIONS = STATIC / "page.html"
+from .resources import STATIC
+
+ADDITIONS = STATIC / "page.html"  # app/resources.py: the installed app/static, else the repository's static/
 READY_ID = "linkage-lab-ready"
 READY_HTML = f'<span id="{READY_ID}" hidden></span>'
 """Added to a browser's panel when its session is shown (or it is told the server is full)."""
