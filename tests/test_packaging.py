@@ -35,7 +35,7 @@ import physics
 ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
 FIRST_PARTY = {"app", "physics"}
-OPTIONAL_IMPORTS = {"playwright": ("snapshot", "playwright"), "distributed": ("dask", "dask[distributed]")}
+OPTIONAL_IMPORTS = {"playwright": ("snapshot", "playwright"), "distributed": ("dask", "distributed")}
 """Modules the code imports only inside the function that needs them: the extra and the requirement in it that
 brings each."""
 
