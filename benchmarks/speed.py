@@ -1,6 +1,10 @@
 """Speed of Linkage Lab's physics against the seed's approach, measured side by side in one run.
 
-    python -m benchmarks.speed [--quick] [--out /tmp/linkage-lab-speed.json] [--sections seed,rhs,derive,process]
+    python -m benchmarks.speed [--quick] [--out speed.json] [--sections seed,rhs,derive,process]
+
+Without ``--out`` the JSON goes into a new private temporary folder (mkdtemp: mode 0700, a fresh name), never
+to a fixed name in the shared temporary folder, where another user could have planted a file or a link; the
+last line names the file.
 
 Sections (BENCHMARKS.md quotes their output with the command and the machine):
 
@@ -618,11 +622,16 @@ def print_tables(results: dict) -> None:
               f"{p['in_process'].get('sympy_imported')}; import costs: {p['top_level_import_costs_s']}")
 
 
+def default_out() -> Path:
+    """``speed.json`` in a folder made for this run alone (see the module's docstring)."""
+    return Path(tempfile.mkdtemp(prefix="linkage-lab-speed-")) / "speed.json"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.speed", description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats; derivation for n = 1..4 only")
-    parser.add_argument("--out", default=str(Path(tempfile.gettempdir()) / "linkage-lab-speed.json"),
-                        help="where to write the JSON results")
+    parser.add_argument("--out", default=None,
+                        help="where to write the JSON results (default: speed.json in a new private temporary folder)")
     parser.add_argument("--sections", default=",".join(SECTIONS), help=f"comma-separated subset of {SECTIONS}")
     parser.add_argument("--max-links", type=int, default=None, help="largest n for the derive section")
     parser.add_argument("--timeout", type=float, default=CHILD_TIMEOUT_S, help="per-subprocess limit (s)")
@@ -658,8 +667,9 @@ def main(argv=None) -> int:
     results["machine"]["load_average_at_end"] = os.getloadavg()
     results["wall_s"] = time.perf_counter() - started
     print_tables(results)
-    Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
-    print(f"\nwrote {args.out}")
+    out = Path(args.out) if args.out else default_out()
+    out.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"\nwrote {out}")
     return 0
 
 

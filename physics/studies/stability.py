@@ -2,7 +2,8 @@
 functions (one per case of docs/stability.md); their figures are drawn by physics.studies.stability_figures
 (the "cheapest model" measurements are physics.studies.models).
 
-``python -m physics.stability --out docs/stability [--case 1,2,3,4,5] [--quick]`` writes every figure (SVG)
+``python -m physics.stability --out FOLDER [--case 1,2,3,4,5] [--quick]`` (``--out`` required; each file written is
+printed; ``--out docs/stability`` refreshes the docs' own) writes every figure (SVG)
 and ``stability.json``; docs/stability.md shows them with their numbers. Each case function takes its sizes
 as arguments, so the tests run the same code on shorter horizons.
 
@@ -302,7 +303,10 @@ def _strip_series(result):
     return result
 
 
-def run_cases(cases, out: Path, quick: bool = False, progress: bool = True) -> dict:
+def run_cases(cases, out: Path, quick: bool = False, progress: bool = True, written: list[Path] | None = None) -> dict:
+    """Run ``cases`` and write their figures and ``stability.json`` into ``out``; each path written is appended
+    to ``written`` (the command prints them: the default folder holds tracked files)."""
+    written = [] if written is None else written
     out.mkdir(parents=True, exist_ok=True)
     bar = Progress(len(cases), "stability", progress)
     # A partial run (--case 2) updates its cases and keeps the others' numbers.
@@ -334,16 +338,20 @@ def run_cases(cases, out: Path, quick: bool = False, progress: bool = True) -> d
             figures = {"case5-divergence.svg": figure_divergence(result), "case5-horizon.svg": figure_horizon(result)}
         for name, svg in figures.items():
             (out / name).write_text(svg)
+            written.append(out / name)
         summary[f"case{case}"] = _strip_series(result)
         bar.step(f"case {case}")
     bar.close()
     (out / "stability.json").write_text(json.dumps(summary, indent=1))
+    written.append(out / "stability.json")
     return summary
 
 
 def main(argv=None) -> int:
     parser = Parser(prog="python -m physics.stability", description="the stability study: figures and JSON")
-    parser.add_argument("--out", default="docs/stability")
+    # No default: the study's own folder, docs/stability, holds tracked files; a run names where it writes.
+    parser.add_argument("--out", required=True, metavar="FOLDER",
+                        help="folder for the figures and stability.json (docs/stability to refresh the docs' own)")
     parser.add_argument("--case", default="1,2,3,4,5", help="comma-separated case numbers 1..5")
     parser.add_argument("--quick", action="store_true", help="shorter horizons and fewer cells")
     parser.add_argument("--no-progress", action="store_true")
@@ -355,7 +363,10 @@ def main(argv=None) -> int:
             raise LinkageError(f"--case = {args.case!r}: expected numbers 1..5, e.g. --case 1,3") from None
         if not all(1 <= c <= 5 for c in cases):
             raise LinkageError(f"--case = {args.case!r}: allowed range 1 <= case <= 5")
-        run_cases(cases, Path(args.out), args.quick, not args.no_progress)
+        written: list[Path] = []
+        run_cases(cases, Path(args.out), args.quick, not args.no_progress, written)
+        for path in written:
+            print(f"wrote {path}")
     except LinkageError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

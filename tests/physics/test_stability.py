@@ -136,3 +136,22 @@ def test_a_partial_run_keeps_the_other_cases_numbers(tmp_path, monkeypatch):
     assert stored == summary
     assert stored["case3"] == {"kept": True} and stored["case1"] == {"case": 1, "new": True}
     assert (tmp_path / "case1-drift.svg").read_text() == "<svg></svg>"
+
+
+def test_cli_needs_out_and_writes_nothing_without_it(tmp_path):
+    """The study's default folder held tracked files (docs/stability): a run without --out is refused with one
+    line before any work, and writes nothing."""
+    result = subprocess.run([sys.executable, "-m", "physics.stability", "--case", "1"],
+                            capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr, result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_prints_every_file_it_writes(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(stability, "closed_loop_drift", lambda t_end: {"case": 1, "new": True})
+    monkeypatch.setattr(stability, "figure_drift", lambda result: "<svg></svg>")
+    assert stability.main(["--case", "1", "--out", str(tmp_path), "--no-progress"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed == [f"wrote {tmp_path / 'case1-drift.svg'}", f"wrote {tmp_path / 'stability.json'}"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["case1-drift.svg", "stability.json"]
