@@ -200,14 +200,16 @@ def test_the_installed_wheel_runs_the_cli_and_the_app(wheel, tmp_path):
     outside = tmp_path / "elsewhere"  # not the repository: `python -m` puts the working folder first on sys.path
     outside.mkdir()
     env = {key: value for key, value in os.environ.items() if key not in ("PYTHONPATH", "PYTHONHOME")}
-    where = subprocess.run([str(python), "-c", "import app, physics, app.resources as r; "
-                            "print(app.__file__); print(physics.__file__); print(r.static_folder())"],
+    where = subprocess.run([str(python), "-c", "import app, physics, app.resources as r, app.controls as c; "
+                            "print(app.__file__); print(physics.__file__); print(r.static_folder()); "
+                            "print((c.STATIC / 'help.md').is_file())"],
                            cwd=outside, env=env, capture_output=True, text=True, timeout=120)
     assert where.returncode == 0, where.stderr
-    app_file, physics_file, static = where.stdout.split()
+    app_file, physics_file, static, help_found = where.stdout.split()
     installed = str(tmp_path / "venv")
     assert app_file.startswith(installed) and physics_file.startswith(installed), where.stdout
     assert static.startswith(installed) and static.endswith("app/static"), static
+    assert help_found == "True", "the Help tab's text (app/static/help.md) is missing from the installed copy"
 
     presets = subprocess.run([str(python), "-m", "physics", "presets"], cwd=outside, env=env,
                              capture_output=True, text=True, timeout=300)
