@@ -80,6 +80,7 @@ class _JointArrays:
         self.slide_body, self.slide_sp = np.array([body(s[1]) for s in slides], dtype=int), arms(slides, 2)
         self.slide_on, self.slide_st = np.array([body(s[3]) for s in slides], dtype=int), arms(slides, 4)
         self.slide_m = arms(slides, 5)
+        self.slide_u = arms(slides, 6)  # the guide's direction in the sketch (slide_m is it turned by +90 degrees)
         self.motor_rows = np.array([m[0] for m in motors], dtype=int)
         self.motor_a = np.array([body(m[1]) for m in motors], dtype=int)
         self.motor_b = np.array([body(m[2]) for m in motors], dtype=int)
@@ -147,7 +148,7 @@ class Constraints:
                 s_p = self._relative(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
                 s_t = self._relative(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
                 u = np.array(joint.direction) / np.hypot(*joint.direction)
-                self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u))
+                self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u, u))
                 rows += [Row(joint.name, "offset across the guide"), Row(joint.name, "relative rotation")]
         self.rows = tuple(rows)
         self._arrays = _JointArrays(self._items, len(mechanism.bodies))
@@ -227,6 +228,29 @@ class Constraints:
         if arrays.motor_rows.size:
             out[arrays.motor_rows, 3 * arrays.motor_b + 2] += 1.0
             out[arrays.motor_rows, 3 * arrays.motor_a + 2] -= 1.0
+        return out[:, : self.size]
+
+    def sliding_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """``(S, 3 B)``: for each slider (in joint order) the gradient of its sliding coordinate, the distance of
+        the sliding point from the guide's through point along the guide, ``u_j . (p_i(s_p) - p_j(s_t))`` with
+        ``u_j = R(phi_j) u``. Its product with ``qdot`` is the sliding speed (the speed of the sliding point
+        relative to the guide's body, along the guide); a viscous slider's force is ``-c`` times it along the
+        guide, ``-c J_s^T J_s qdot`` as a generalised force, whose power is ``-c (J_s qdot)^2``."""
+        frame = _Frame(self._arrays, q)
+        arrays = self._arrays
+        out = np.zeros((arrays.slide_rows.size, self.size + 3))
+        if arrays.slide_rows.size:
+            rows = np.arange(arrays.slide_rows.size)
+            body, on = arrays.slide_body, arrays.slide_on
+            along = frame.turned(on, arrays.slide_u)
+            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
+            np.add.at(out, (rows, 3 * body), along[:, 0])
+            np.add.at(out, (rows, 3 * body + 1), along[:, 1])
+            np.add.at(out, (rows, 3 * body + 2), np.sum(along * _perp(frame.turned(body, arrays.slide_sp)), axis=1))
+            np.add.at(out, (rows, 3 * on), -along[:, 0])
+            np.add.at(out, (rows, 3 * on + 1), -along[:, 1])
+            np.add.at(out, (rows, 3 * on + 2),
+                      np.sum(_perp(along) * gap - along * _perp(frame.turned(on, arrays.slide_st)), axis=1))
         return out[:, : self.size]
 
     def velocity_rhs(self) -> np.ndarray:

@@ -41,9 +41,6 @@ class MechanismDAE:
     """Mass matrix, applied forces and the augmented system of one mechanism."""
 
     def __init__(self, mechanism: Mechanism) -> None:
-        for joint in mechanism.joints:
-            if isinstance(joint, Prismatic) and joint.damping:
-                raise LinkageError(f"joint {joint.name!r}: damping: sliders take no damping yet (set it to 0)")
         self.mechanism = mechanism
         self.constraints = Constraints(mechanism)
         bodies = mechanism.bodies
@@ -67,10 +64,23 @@ class MechanismDAE:
                 a_name, b_name = joint.a.split(".")[0], joint.b.split(".")[0]
                 self._dampers.append((index.get(a_name, -1) if a_name != GROUND else -1,
                                       index.get(b_name, -1) if b_name != GROUND else -1, joint.damping))
+        # viscous sliders: their damping per row of Constraints.sliding_jacobian (sliders in joint order)
+        self.slide_damping = np.array([joint.damping for joint in mechanism.joints if isinstance(joint, Prismatic)])
 
-    def applied(self, qdot: np.ndarray) -> np.ndarray:
-        """``Q``: gravity, motor torques and joint damping torques."""
-        forces = self.gravity.copy()
+    def slider_damping_force(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """The generalised force of viscous sliders, ``-J_s^T (c * J_s qdot)`` (``Constraints.sliding_jacobian``):
+        ``-c v`` along each guide on the slider's body at its sliding point, and the opposite on the guide's."""
+        if not np.any(self.slide_damping):
+            return np.zeros(self.constraints.size)
+        along = self.constraints.sliding_jacobian(q)
+        return -along.T @ (self.slide_damping * (along @ qdot))
+
+    def applied(self, qdot: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """``Q``: gravity, motor torques, pin damping torques and slider damping forces (these depend on ``q``:
+        the guide turns with its body, so ``q`` is needed when a slider has damping)."""
+        if q is None and np.any(self.slide_damping):
+            raise ValueError("applied: a viscous slider's force depends on the pose; pass q")
+        forces = self.gravity + (self.slider_damping_force(q, qdot) if q is not None else 0.0)
         for a, b, torque in self._torques:
             if b >= 0:
                 forces[3 * b + 2] += torque
@@ -93,7 +103,7 @@ class MechanismDAE:
         matrix[:size, :size] = np.diag(self.mass_diagonal)
         matrix[:size, size:] = -jacobian.T
         matrix[size:, :size] = jacobian
-        rhs = np.concatenate([self.applied(qdot), self.constraints.acceleration_rhs(q, qdot)])
+        rhs = np.concatenate([self.applied(qdot, q), self.constraints.acceleration_rhs(q, qdot)])
         if 1.0 / np.linalg.cond(matrix) < SINGULAR_RCOND:
             raise LinkageError(f"{self.mechanism.name}: singular pose (a dead centre or a redundant constraint)")
         x = np.linalg.solve(matrix, rhs)

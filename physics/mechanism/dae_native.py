@@ -63,7 +63,7 @@ def _compile(description: str) -> tuple[NativeSystem, NativeSystem]:
             rows += [gap[0], gap[1]]
             speeds += [0.0, 0.0]
         elif item[0] == "slide":
-            _, i, s_p, j, s_t, m = item
+            _, i, s_p, j, s_t, m, _ = item
             normal = _rotation(angle(j)) * sp.Matrix([float(m[0]), float(m[1])])
             rows += [(normal.T * (point(i, s_p) - point(j, s_t)))[0], angle(i) - angle(j)]
             speeds += [0.0, 0.0]
@@ -89,6 +89,13 @@ def _compile(description: str) -> tuple[NativeSystem, NativeSystem]:
             applied[3 * b + 2] -= damping * relative
         if a >= 0:
             applied[3 * a + 2] += damping * relative
+    # viscous sliders: -c (grad s . qdot) grad s, s the sliding point's distance along the guide
+    sliders = [item for item in constraints._items if item[0] == "slide"]
+    for (_, i, s_p, j, s_t, _, u), damping in zip(sliders, dae.slide_damping):
+        if damping:
+            along = _rotation(angle(j)) * sp.Matrix([float(u[0]), float(u[1])])
+            gradient = sp.Matrix([(along.T * (point(i, s_p) - point(j, s_t)))[0]]).jacobian(q)
+            applied -= gradient.T * (float(damping) * (gradient * qdot)[0])
     count = len(rows)
     matrix = sp.zeros(size + count, size + count)
     for k in range(size):

@@ -34,6 +34,7 @@ from .tree import (
     flat,
     native_builder,
     reactions_from_motion,
+    sliding_coordinate,
     tree_poses,
     vector_call,
 )
@@ -112,7 +113,7 @@ def _derive(description: str) -> TreeLagrange:
     mass = sp.hessian(kinetic, sd)
     momentum = sp.Matrix([sp.diff(lagrangian, v) for v in sd])
     force = sp.Matrix([sp.diff(lagrangian, q) for q in s]) - momentum.jacobian(s) * sd
-    force += _joint_torques(mechanism, joints, angle, s, sd)
+    force += _joint_torques(mechanism, joints, angle, s, sd, poses)
 
     rows, row_joints, speeds, kinds = closure_rows(poses)
     phi = sp.Matrix(rows) if rows else sp.zeros(0, 1)
@@ -160,8 +161,8 @@ def _motion_call(function: Callable) -> Callable:
     return lambda s, sd, sdd: np.array(function(list(s), list(sd), list(sdd)), dtype=float)
 
 
-def _joint_torques(mechanism, joints, angle, s, sd) -> sp.Matrix:
-    """Generalised forces of motor torques and pin damping, by virtual power."""
+def _joint_torques(mechanism, joints, angle, s, sd, poses) -> sp.Matrix:
+    """Generalised forces of motor torques, pin damping and slider damping, by virtual power."""
     out = sp.zeros(len(s), 1)
     for driver in mechanism.drivers:
         if driver.torque is None:
@@ -176,7 +177,9 @@ def _joint_torques(mechanism, joints, angle, s, sd) -> sp.Matrix:
             rate = (gradient.T * sd)[0]
             out -= gradient * joint.damping * rate
         elif isinstance(joint, Prismatic) and joint.damping:
-            raise LinkageError(f"joint {joint.name!r}: damping: sliders take no damping yet (set it to 0)")
+            coordinate, _, _ = sliding_coordinate(poses, joint)
+            gradient = sp.Matrix([sp.diff(coordinate, q) for q in s])
+            out -= gradient * joint.damping * (gradient.T * sd)[0]
     return out
 
 

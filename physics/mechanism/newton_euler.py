@@ -36,6 +36,7 @@ from .tree import (
     native_builder,
     reactions_from_motion,
     rotation,
+    sliding_coordinate,
     tree_poses,
     vector_call,
 )
@@ -162,7 +163,11 @@ def _derive(description: str) -> TreeNewtonEuler:
             add_torque(b_body, -joint.damping * relative)
             add_torque(a_body, joint.damping * relative)
         elif isinstance(joint, Prismatic) and joint.damping:
-            raise LinkageError(f"joint {joint.name!r}: damping: sliders take no damping yet (set it to 0)")
+            # -c v along the guide on the slider at its sliding point, the opposite on the guide's body there
+            coordinate, along, sliding = sliding_coordinate(poses, joint)
+            speed = (sp.Matrix([coordinate]).jacobian(s) * sd)[0]
+            add_force(joint.body, -joint.damping * speed * along, sliding)
+            add_force(joint.on, joint.damping * speed * along, sliding)
 
     balances: list[sp.Expr] = []
     subtrees = _subtrees(poses)

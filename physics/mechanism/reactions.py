@@ -82,10 +82,11 @@ class TreeReactions:
         return centres[k] + _turn(float(angles[k]), drawn - self.drawn_centres[body])
 
     def solve(self, centres: np.ndarray, angles: np.ndarray, rates: np.ndarray, accelerations: np.ndarray,
-              angular_accelerations: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+              angular_accelerations: np.ndarray, multipliers: np.ndarray,
+              velocities: np.ndarray | None = None) -> np.ndarray:
         """Every reaction row at one state. ``centres (B, 2)``, ``angles (B,)``, ``rates (B,)`` (angular),
         ``accelerations (B, 2)`` (of the centres), ``angular_accelerations (B,)``, ``multipliers`` (the
-        formulation's cut-joint and motor rows)."""
+        formulation's cut-joint and motor rows), ``velocities (B, 2)`` of the centres (needed by viscous sliders)."""
         mechanism = self.mechanism
         count = len(self.names)
         force = np.zeros((count, 2))  # known loads on each body, excluding its own tree joint
@@ -141,6 +142,13 @@ class TreeReactions:
                     rates[self.index[a_body]] if a_body != GROUND else 0.0)
                 torque(b_body, -joint.damping * relative)
                 torque(a_body, joint.damping * relative)
+            elif isinstance(joint, Prismatic) and joint.damping:
+                assert velocities is not None, "a viscous slider's force needs the bodies' velocities"
+                along, sliding = self._along(joint, angles), self._guide(joint, centres, angles)[1]
+                speed = float(along @ (self._velocity(joint.body, sliding, centres, rates, velocities)
+                                       - self._velocity(joint.on, sliding, centres, rates, velocities)))
+                load(joint.body, -joint.damping * speed * along, sliding)
+                load(joint.on, joint.damping * speed * along, sliding)
         force[:, 1] -= self.mass * mechanism.g
 
         for body in reversed(self.order):  # children first: their joints' forces are known when a parent comes
@@ -166,6 +174,20 @@ class TreeReactions:
 
     def _drawn(self, reference: str, joint) -> tuple[float, float]:
         return self.mechanism.point_of(reference, joint.name)
+
+    def _along(self, joint: Prismatic, angles: np.ndarray) -> np.ndarray:
+        """The guide's unit direction, turned with ``on``."""
+        u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
+        return _turn(0.0 if joint.on == GROUND else float(angles[self.index[joint.on]]), u)
+
+    def _velocity(self, body: str, at: np.ndarray, centres: np.ndarray, rates: np.ndarray,
+                  velocities: np.ndarray) -> np.ndarray:
+        """Velocity of the material point of ``body`` at world position ``at`` (zero on the ground)."""
+        if body == GROUND:
+            return np.zeros(2)
+        k = self.index[body]
+        arm = at - centres[k]
+        return velocities[k] + rates[k] * np.array([-arm[1], arm[0]])
 
     def _guide(self, joint: Prismatic, centres: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The guide's unit normal (perpendicular to its direction, turned with ``on``) and the sliding point."""

@@ -143,7 +143,7 @@ class Partition:
         drift = inverse @ curvature
         mass = self.dae.mass_diagonal
         generalised_mass = float(velocity_map @ (mass * velocity_map))
-        generalised_force = float(velocity_map @ (self.dae.applied(qdot) - mass * drift))
+        generalised_force = float(velocity_map @ (self.dae.applied(qdot, q) - mass * drift))
         sddot = generalised_force / generalised_mass
         self._inverse = inverse
         self._cached = ReducedState(t=float(t), s=float(s), sdot=float(sdot), q=q, qdot=qdot,

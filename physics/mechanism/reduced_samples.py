@@ -45,7 +45,7 @@ class Samples:
         reactions, kinetic, potential, residual, trace = [], [], [], [], []
         for state in self.states:
             jacobian = constraints.jacobian(state.q)
-            unbalanced = dae.mass_diagonal * state.qddot - dae.applied(state.qdot)  # = Phi_q^T lambda
+            unbalanced = dae.mass_diagonal * state.qddot - dae.applied(state.qdot, state.q)  # = Phi_q^T lambda
             reactions.append(np.linalg.lstsq(jacobian.T, unbalanced, rcond=None)[0])
             energy = dae.energy(state.q, state.qdot)
             kinetic.append(energy[0])

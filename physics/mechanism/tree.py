@@ -47,6 +47,17 @@ class TreePoses:
         return self.centre[body] + rotation(self.angle[body]) * (drawn - self.drawn_centres[body])
 
 
+def sliding_coordinate(poses: TreePoses, joint: Prismatic) -> tuple[sp.Expr, sp.Matrix, sp.Matrix]:
+    """A slider's sliding coordinate in the tree coordinates (the distance of its sliding point from the guide's
+    through point, along the guide), the guide's unit direction and the sliding point, both in the world."""
+    mechanism = poses.mechanism
+    u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
+    along = rotation(poses.angle[joint.on]) * sp.Matrix([float(u[0]), float(u[1])])
+    sliding = poses.world(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
+    through = poses.world(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
+    return (along.T * (sliding - through))[0], along, sliding
+
+
 def tree_poses(mechanism: Mechanism) -> TreePoses:
     topology = analyse(mechanism)
     joints = {joint.name: joint for joint in mechanism.joints}
@@ -217,7 +228,7 @@ def reactions_from_motion(tree_reactions, motion: np.ndarray, multipliers: np.nd
     accelerations per body) and its multipliers (:class:`physics.mechanism.reactions.TreeReactions`)."""
     motion = np.asarray(motion, dtype=float).reshape(-1, 9)
     return tree_reactions.solve(motion[:, 0:2], motion[:, 2], motion[:, 5], motion[:, 6:8], motion[:, 8],
-                                np.asarray(multipliers, dtype=float))
+                                np.asarray(multipliers, dtype=float), velocities=motion[:, 3:5])
 
 
 BAUMGARTE_GAINS = sp.symbols("baumgarte_alpha baumgarte_beta", real=True)
