@@ -2,7 +2,7 @@
 
 Each sketch is computed from the mechanism's link lengths by intersecting circles (one dyad at a time), so the
 drawing is exactly assembled and on the branch the textbooks show; the bodies are uniform bars (mass
-proportional to length, ``I = m L^2 / 12``) or uniform triangular plates (``I = m (a^2 + b^2 + c^2) / 36``).
+proportional to length, ``I = m L^2 / 12``) or triangular plates of one stated model (:data:`PLATE_MODEL`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,12 @@ from .model import Body, Driver, Mechanism, Prismatic, Revolute
 
 Point = tuple[float, float]
 LINEAR_DENSITY = 1.0  # kg per metre of bar
+# A ternary plate's mass model, one of PLATE_MODELS: "frame", its three edges as uniform bars of LINEAR_DENSITY
+# (the presets' plates: the same mass as the three bars it replaces, and the same stock as every other link), or
+# "lamina", a uniform triangle of AREAL_DENSITY. Mass, centre of mass and inertia all follow from the one model.
+PLATE_MODELS = ("frame", "lamina")
+PLATE_MODEL = "frame"
+AREAL_DENSITY = 10.0  # kg per square metre of lamina (a steel sheet about 1.3 mm thick)
 
 
 def circle_intersection(centre_a: Point, radius_a: float, centre_b: Point, radius_b: float, side: int) -> Point:
@@ -42,13 +48,31 @@ def bar(name: str, first: tuple[str, Point], second: tuple[str, Point], extra: d
     return Body(name=name, points=points, mass=mass, com=centre, inertia=mass * length**2 / 12)
 
 
-def plate(name: str, corners: dict[str, Point]) -> Body:
-    """A uniform triangular plate through three named points; its mass is that of its three edges as bars."""
-    a, b, c = corners.values()
-    sides = (math.dist(a, b), math.dist(b, c), math.dist(c, a))
-    mass = LINEAR_DENSITY * sum(sides)
-    centre = ((a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3)
-    return Body(name=name, points=dict(corners), mass=mass, com=centre, inertia=mass * sum(s * s for s in sides) / 36)
+def plate(name: str, corners: dict[str, Point], model: str = PLATE_MODEL) -> Body:
+    """A triangular plate through three named points, its mass, centre of mass and centroidal inertia from one
+    model: ``"frame"``, three uniform bars along its edges (each ``m_k = LINEAR_DENSITY L_k`` with ``I = m_k L_k^2 /
+    12`` about its midpoint ``c_k``; G is the length-weighted mean of the midpoints and ``I_G = sum (m_k L_k^2 / 12
+    + m_k |c_k - G|^2)``), or ``"lamina"``, a uniform triangle (``m = AREAL_DENSITY * area``, G the mean of the
+    corners, ``I_G = m (a^2 + b^2 + c^2) / 36``)."""
+    a, b, c = (tuple(map(float, xy)) for xy in corners.values())
+    edges = ((a, b), (b, c), (c, a))
+    lengths = [math.dist(p, q) for p, q in edges]
+    if model == "frame":
+        masses = [LINEAR_DENSITY * length for length in lengths]
+        mass = sum(masses)
+        midpoints = [((p[0] + q[0]) / 2, (p[1] + q[1]) / 2) for p, q in edges]
+        centre = (sum(m * x for m, (x, _) in zip(masses, midpoints)) / mass,
+                  sum(m * y for m, (_, y) in zip(masses, midpoints)) / mass)
+        inertia = sum(m * length**2 / 12 + m * math.dist(mid, centre) ** 2
+                      for m, length, mid in zip(masses, lengths, midpoints))
+    elif model == "lamina":
+        area = abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) / 2
+        mass = AREAL_DENSITY * area
+        centre = ((a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3)
+        inertia = mass * sum(length * length for length in lengths) / 36
+    else:
+        raise ValueError(f"plate model = {model!r}: allowed {', '.join(PLATE_MODELS)}")
+    return Body(name=name, points=dict(corners), mass=mass, com=centre, inertia=inertia)
 
 
 def pin(name: str, a: str, b: str) -> Revolute:
