@@ -169,7 +169,7 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
     session.guard(lambda: session.choose("jansen-leg"))
     assert "reduced" not in session.method.options  # mobility 0
     session.guard(lambda: session.set_method("reduced"))
-    assert "mobility 1" in (session.notices.text or "")
+    assert "needs 1 degree of freedom left free by the motors (this one has 0 free)" in (session.notices.text or "")
 
 
 def test_switching_between_chains_and_mechanisms_in_one_browser(lab, connect):
