@@ -87,8 +87,8 @@ def test_the_command_prints_the_presenter_and_viewer_addresses():
     try:
         lines = [proc.stdout.readline() for _ in range(3)]
     finally:
-        proc.terminate()
-        proc.wait(10)
+        proc.terminate()  # a graceful stop (app/lifetime.py); its speed is tests/app/test_signals.py's to check
+        proc.wait(120)
     assert lines[0].startswith("Linkage Lab serving at http://127.0.0.1:"), lines
     viewer_url = lines[0].split()[4]
     assert lines[1].startswith("Presenter (only this browser can change anything") and \
