@@ -15,6 +15,7 @@ import math
 import threading
 
 import numpy as np
+import viser
 
 import physics
 from physics import LinkageError
@@ -22,7 +23,7 @@ from physics.mechanism import MECHANISM_PRESETS
 from physics.model import FIXED_STEP_INTEGRATORS
 
 from . import share
-from .commands import options_of, split_name
+from .commands import check_control, options_of, split_name
 from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
 from .overlays import METHOD_COLORS, Plot
@@ -59,6 +60,21 @@ ANGLE_DEG = (ANGLE_SLIDER.ui_min, ANGLE_SLIDER.ui_max, ANGLE_SLIDER.step)
 LINKS_MAX_ON_SLIDER = physics.model.MAX_LINKS
 INTEGRATOR_OPTIONS = options_of("integrator")
 STABILIZATION_OPTIONS = options_of("stabilization")
+
+
+def accepted_values(handle) -> dict:
+    """What a control offers, as keywords of :func:`app.commands.check_control`: a dropdown or button group its
+    options, a checkbox true or false, a slider a finite number within its range (one step of slack for a
+    range the server has just moved; a whole number on a slider of whole steps)."""
+    if isinstance(handle, (viser.GuiDropdownHandle, viser.GuiButtonGroupHandle)):
+        return {"options": tuple(handle.options)}
+    if isinstance(handle, viser.GuiCheckboxHandle):
+        return {"flag": True}
+    if isinstance(handle, viser.GuiSliderHandle):
+        step = float(handle.step or 0.0)
+        whole = step == int(step) and float(handle.min) == int(handle.min) and step > 0
+        return {"number": True, "whole": whole, "low": float(handle.min) - step, "high": float(handle.max) + step}
+    return {}
 
 
 def _round_to(value: float, step: float) -> float:
@@ -142,13 +158,32 @@ class Controls:
         """Replace a dropdown's options without running its callback (viser picks options[0] if needed)."""
         self._quiet(lambda: setattr(handle, "options", tuple(options)))
 
-    def bind(self, handle, action) -> None:
-        """Attach ``action(value, event)`` to a control, inside the session's error boundary."""
+    def bind(self, handle, action, accepts: dict | None = None) -> None:
+        """Attach ``action(value, event)`` to a control, inside the session's error boundary. The value is
+        checked first against what the control offers (:func:`accepted_values`, or ``accepts``: keywords of
+        :func:`app.commands.check_control`); a value it does not offer is refused with a notice and the control
+        put back on the last value it accepted, so that nothing reads a value outside its options."""
+        accepted = [handle.value]
+
+        def checked(value, event) -> None:
+            try:
+                check_control(str(getattr(handle, "label", "control")), value,
+                              **(accepted_values(handle) if accepts is None else accepts))
+            except LinkageError:
+                previous = accepted[0]
+                options = getattr(handle, "options", None)
+                if options is not None and previous not in options and options:
+                    previous = options[0]
+                self._set(handle, previous)
+                raise
+            accepted[0] = value
+            action(value, event)
 
         def callback(event) -> None:
             if self.muted:
                 return
-            self.port.guard(lambda: action(handle.value, event))
+            value = handle.value
+            self.port.guard(lambda: checked(value, event))
 
         if hasattr(handle, "on_click") and not hasattr(handle, "on_update"):
             handle.on_click(callback)
@@ -218,7 +253,7 @@ class Controls:
         # the run so far: drag back to look again (pauses there); Play goes on from the time shown
         self.timeline = gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
                                        initial_value=0.0, hint="Drag to go back through the run so far (pauses)")
-        self.bind(self.timeline, lambda value, event: s.scrub(value))
+        self.bind(self.timeline, lambda value, event: s.scrub(value), accepts={"number": True})
         self._timeline_end = 0.0
         # beside Playback, not in a tab: a lecturer switches views often (and the F key presses it)
         self.camera_view = gui.add_button_group("View", ("Front", "3D"),
@@ -494,13 +529,14 @@ class Controls:
 
     @property
     def plot_kind(self) -> str:
-        """``energy``, ``angles`` or ``phase``: which plot the frame view keeps up to date."""
-        return ("energy", "angles", "phase")[PLOT_CHOICES.index(self.plot_choice.value)]
+        """``energy``, ``angles`` or ``phase``: which plot the frame view keeps up to date (the last choice
+        accepted, never the dropdown's raw value: a client may have stored anything there)."""
+        return getattr(self, "_plot_kind", "energy")
 
     def choose_plot(self, label) -> None:
-        if label not in PLOT_CHOICES:
+        if not isinstance(label, str) or label not in PLOT_CHOICES:
             raise LinkageError(f"plot = {label!r}: allowed {', '.join(PLOT_CHOICES)}")
-        kind = self.plot_kind
+        self._plot_kind = kind = ("energy", "angles", "phase")[PLOT_CHOICES.index(label)]
         self.energy_plot.set_visible(kind == "energy")
         self.drift_plot.set_visible(kind == "energy")
         if self.angle_plot is not None:

@@ -1,0 +1,141 @@
+"""A Hypothesis property over every control of both kinds of session: any value a client sends is applied
+or refused in one notice line; the session never dies, pauses on an internal error, or logs a traceback.
+
+Each value goes the way a browser's does on viser 1.1 (``_gui_api._handle_gui_updates``): the app's check in
+front of viser (:func:`app.viser_compat.update_problem`), viser's cast to the type of the control's value, the
+value stored, then every callback of the control (called here in order rather than in viser's thread pool, so
+that an example is finished when its assertions run). Controls with a value only: buttons (their value is
+always a click) and upload buttons (tests/app/test_security.py) are not drawn.
+
+Seeded (``derandomize``) with a modest count in CI; ``LINKAGE_LAB_CONTROL_EXAMPLES=10000`` for the long run
+(docs/reliability.md gives the command).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import pytest
+import viser
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.mechanism_session import MechanismSession
+from app.server import LabServer
+from app.viser_compat import update_problem
+from conftest import BrowserStandIn, wait_until
+
+EXAMPLES = int(os.environ.get("LINKAGE_LAB_CONTROL_EXAMPLES", "40"))
+FATAL = ("Session paused", "Simulation stopped", "Could not start")
+
+
+def _controls(session) -> list:
+    """Every control of the session that carries a value (see the module's docstring)."""
+    handles = session.target.gui._gui_input_handle_from_uuid.values()  # the test reads viser's registry
+    return sorted((h for h in handles if not isinstance(h, (viser.GuiButtonHandle, viser.GuiUploadButtonHandle))
+                   and not h._impl.removed), key=lambda h: h._impl.uuid)
+
+
+def deliver(session, handle, value) -> str | None:
+    """What viser does with a browser's update of ``handle`` to ``value``; the refusal's reason if refused."""
+    impl = handle._impl
+    problem = update_problem(impl.value, {"value": value})
+    if problem is not None:
+        session._refuse_update(handle, problem)
+        return problem
+    current = impl.value
+    cast = tuple(type(current[0])(v) for v in value) if isinstance(current, tuple) else type(current)(value)
+    if cast == current:
+        return None
+    impl.value = cast
+    for callback in list(impl.update_cb):
+        callback(viser.GuiEvent(session.target, session.target.client_id, handle))
+    return None
+
+
+ANYTHING = st.one_of(
+    st.none(), st.booleans(), st.text(max_size=12), st.lists(st.integers(), max_size=3),
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**30, 10**30),
+    st.sampled_from([5e-324, -5e-324, 1e300, -1e300, 1e-300, 0, -0.0, "1e999", "", "<b>x</b>"]),
+)
+# How a value is made for the control drawn, independent of the session's state (Hypothesis must be able to
+# draw the same data again): its own option, a number within its range, just outside it, or anything at all.
+PICKS = st.tuples(st.sampled_from(["own", "inside", "outside", "anything"]), st.integers(0, 10**6),
+                  st.floats(0.0, 1.0), ANYTHING)
+
+
+def value_for(handle, pick):
+    """A value a hostile client might send to ``handle``: its own options and range, their neighbours, and
+    anything else msgpack carries."""
+    how, index, fraction, anything = pick
+    options = tuple(getattr(handle, "options", ()) or ())
+    if how == "own" and options:
+        return options[index % len(options)]
+    if how in ("own", "inside", "outside") and isinstance(handle, viser.GuiSliderHandle):
+        low, high = float(handle.min), float(handle.max)
+        if how == "outside":
+            return (low - 1.0 - fraction) if index % 2 else (high + 1.0 + fraction)
+        return low + fraction * (high - low)
+    return anything
+
+
+@pytest.fixture(scope="module", params=["chain", "mechanism"])
+def seat(request):
+    """A server and one browser stand-in; the session is looked up afresh (a menu may switch its kind)."""
+    server = LabServer(port=0, warm=False, preset="triple-a" if request.param == "chain" else "crank-rocker")
+    client = BrowserStandIn(server.url)
+    (session,) = server.wait_for_sessions(1, 60)
+    assert session.player.wait_idle(60)
+    yield server, client, next(iter(server.sessions))
+    client.close()
+    server.stop()
+
+
+@settings(max_examples=EXAMPLES, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture,
+                                 HealthCheck.data_too_large])
+@given(data=st.data())
+def test_any_value_to_any_control_is_applied_or_refused_and_the_session_lives(seat, capfd, data):
+    server, client, client_id = seat
+    session = server.sessions[client_id]
+    assert session.player.wait_idle(60)
+    controls = _controls(session)
+    handle = controls[data.draw(st.integers(0, 10**6), label="control index") % len(controls)]
+    label = handle.label
+    value = value_for(handle, data.draw(PICKS, label="value"))
+    note = f"{type(session).__name__}: {label} <- {value!r}"
+    notes: list[str] = []
+    show = session.show_notice
+    session.show_notice = lambda title, body, **kw: (notes.append(f"{title}: {body}"), show(title, body, **kw))
+    try:
+        deliver(session, handle, value)
+    finally:
+        session.show_notice = show
+    session = server.sessions[client_id]  # the Mechanism menu may have handed the seat to the other kind
+    assert not session.closed and session.player.alive, (note)
+    assert session.player.wait_idle(60), (note)
+    assert session.player.error is None, (note, session.player.error)
+    assert not [n for n in notes if n.startswith(FATAL)], (note, notes)
+    assert all("\n" not in n.split(": ", 1)[1] for n in notes), notes  # one line each
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, (note, err[-3000:])
+
+
+def test_after_the_property_the_seat_still_animates(seat):
+    server, client, client_id = seat
+    session = server.sessions[client_id]
+    # the preset's own values: an edit may legitimately have left a linkage its motor cannot turn (a run that
+    # stops with its reason is not a dead session)
+    if isinstance(session, MechanismSession):
+        session.guard(session.reset_to_reference)
+    else:
+        session.guard(session.controls.reset_to_preset)
+    assert session.player.wait_idle(60)
+    session.guard(session.play)
+    start = session.player.display_time
+    # the property may have left the playback speed at its least (0.01x): 0.05 s shown takes 5 s
+    assert wait_until(lambda: session.player.display_time > start + 0.05, timeout=60), (
+        "the seat stopped", type(session).__name__, session.player.playing, session.notices.text,
+        [(run.failed, len(run.ring)) for run in session.player.runs])
+    assert math.isfinite(session.player.display_time)
