@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Optional
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, field_validator, model_validator
 
 from .errors import LinkageError
+from .files import read_limited
 from .model import MAX_LINKS
 
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -93,18 +93,11 @@ def _case_error(index: int, error: ValidationError) -> LinkageError:
 
 def read_cases(path: str) -> list[Case]:
     """The validated cases of the file at ``path``; LinkageError (one line) for anything else."""
-    file = Path(path)
+    content = read_limited(path, MAX_FILE_BYTES, f"--input {path}")
     try:
-        size = file.stat().st_size
-        if not file.is_file():
-            raise LinkageError(f"--input {path}: not a file")
-        if size > MAX_FILE_BYTES:
-            raise LinkageError(f"--input {path}: {size} bytes, more than the {MAX_FILE_BYTES} allowed")
-        text = file.read_bytes().decode("utf-8")
+        text = content.decode("utf-8")
     except UnicodeDecodeError as error:
         raise LinkageError(f"--input {path}: not UTF-8 text (byte {error.start}); save the file as UTF-8") from None
-    except OSError as error:
-        raise LinkageError(f"--input {path}: {error.strerror or error}") from None
     try:
         data = json.loads(text)
     except json.JSONDecodeError as error:

@@ -28,6 +28,7 @@ from .errors import LinkageError
 from .evaluate import accelerations
 from .kernels.constants import RK4_WORK_ROWS
 from .kinematics import joint_positions
+from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .outputs import check_output_path, write_output
 from .presets import get_preset, preset_names
@@ -36,11 +37,11 @@ from .registry import (
     COMPILED_INTEGRATORS,
     FORMULATION_NAMES,
     INTEGRATOR_NAMES,
-    INTEGRATORS,
     METHOD_NAMES,
     integrators_for,
 )
 from .simulate import simulate
+from .simulate.run import check_assembled
 from .studies.charts import fan_picture, png_bytes
 
 EXIT_BAD_INPUT = 2
@@ -77,7 +78,7 @@ def _close_loop(chain, theta, omega, args, overrides):
 
 def _settings(args, chain):
     trace = None
-    if args.trace:
+    if args.trace is not None:
         values = parse_floats(args.trace, "--trace")
         if len(values) not in (2, 3) or values[0] != int(values[0]):
             raise LinkageError(f"--trace {args.trace!r}: expected BAR,ALONG[,ACROSS], e.g. --trace 2,0.5,0.1")
@@ -129,9 +130,11 @@ def cmd_simulate(args) -> int:
     if args.t_end is None:
         args.t_end = preset.t_end
     settings = _settings(args, chain)
-    if args.out:
+    if args.out is not None:
         check_output_path(args.out)
-    trajectory = simulate(chain, theta, omega, settings)
+        check_output_path(f"{args.out}.partial", "--out (its .partial file)")
+    # estimated up front, progress on stderr for a long run, Ctrl+C keeps what was computed (physics.long_run)
+    trajectory = simulate_in_segments(chain, theta, omega, settings)
     fmt = args.format or ("json" if args.out and args.out.endswith(".json") else "csv")
     if trajectory.success:
         _write_table(trajectory.columns(), fmt, args.out)
@@ -161,6 +164,15 @@ def _case_chain(case, pinned_default: bool, index: int):
     return chain, case.theta, omega
 
 
+def _check_on_loop(chain, theta, field: str) -> None:
+    """A closed chain's state must close its loop (as a run's start must, physics.simulate.run): the
+    accelerations of a state 2 m off the loop are numbers for a mechanism that does not exist."""
+    try:
+        check_assembled(chain, np.asarray(theta, float))
+    except LinkageError as error:
+        raise LinkageError(f"{field}: {error}") from None
+
+
 def _with_grashof(result: dict, chain) -> dict:
     if chain.pinned and chain.n == 3:
         info = grashof(chain.array("L"), np.asarray(chain.pin))
@@ -175,6 +187,7 @@ def cmd_accelerations(args) -> int:
         results = []
         for index, case in enumerate(cases):
             chain, theta, omega = _case_chain(case, pinned_default, index)
+            _check_on_loop(chain, theta, f"case {index}")
             try:
                 result = accelerations(chain, theta, omega, args.method)
             except LinkageError as error:
@@ -183,11 +196,15 @@ def cmd_accelerations(args) -> int:
         print(json.dumps(results))
         return 0
     chain, theta, omega, _ = _build_setup(args)
-    if args.state:
+    if args.state is not None:
         values = parse_floats(args.state, "--state", 2 * chain.n)
         theta, omega = np.array(values[: chain.n]), np.array(values[chain.n :])
+        _check_on_loop(chain, theta, "--state")
     print(json.dumps(_with_grashof(accelerations(chain, theta, omega, args.method), chain)))
     return 0
+
+
+ENSEMBLE_SUFFIXES = (".json", ".csv", ".png")  # what `ensemble --out` writes, chosen by the file's suffix
 
 
 def cmd_ensemble(args) -> int:
@@ -202,15 +219,16 @@ def cmd_ensemble(args) -> int:
     step = DEFAULT_STEP if args.step is None else args.step
     if not (math.isfinite(step) and step > 0.0):
         raise LinkageError(f"--step = {step}: must be a positive number of seconds")
-    copy_steps = args.count * math.ceil(t_end / step)
-    if copy_steps > MAX_ENSEMBLE_COPY_STEPS:
+    steps = t_end / step  # a float: 1e5 / 1e-320 is infinite, not an integer
+    copy_steps = args.count * (math.ceil(steps) if math.isfinite(steps) else steps)
+    if not copy_steps <= MAX_ENSEMBLE_COPY_STEPS:
         raise LinkageError(
-            f"--count {args.count} x (t_end / step = {math.ceil(t_end / step):.3g}) = {copy_steps:.3g} copy-steps, more "
+            f"--count {args.count} x (t_end / step = {steps:.3g}) = {copy_steps:.3g} copy-steps, more "
             f"than the {MAX_ENSEMBLE_COPY_STEPS:.0e} allowed (about {copy_steps / 1e6 / 60:.3g} min at 1e6 copy-steps/s); "
             "fewer copies, a shorter --t-end or a larger --step"
         )
-    if args.out:
-        check_output_path(args.out)
+    if args.out is not None:
+        check_output_path(args.out, suffixes=ENSEMBLE_SUFFIXES)
     ensemble = Ensemble(chain, theta0, omega0, args.method, args.count, args.spread, step=step,
                         damping=args.damping)
     energy0 = ensemble.energy()
@@ -226,9 +244,9 @@ def cmd_ensemble(args) -> int:
                      else float("nan"))
     columns = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
     out = args.out or ""
-    if out.endswith(".png"):
+    if out.lower().endswith(".png"):
         write_output(out, png_bytes(fan_picture(ensemble.joints(), ensemble.alive)))
-    elif out.endswith(".csv"):
+    elif out.lower().endswith(".csv"):
         _write_table(columns, "csv", out)
     else:
         document = {"preset": args.preset, "method": args.method, "count": ensemble.count, "spread": ensemble.spread,
@@ -267,9 +285,9 @@ def cmd_warm(args) -> int:
             compiled = load_compiled(method, n, pinned)
             # Every kernel this formulation can run (the variational one needs a Lagrangian).
             for integrator in integrators_for(method, COMPILED_INTEGRATORS):
-                options = {"step": warm_step} if INTEGRATORS[integrator].fixed_step else {}
+                # step: the fixed-step kernels' step; the adaptive ones do not read it
                 simulate(preset.chain, preset.theta0, preset.omega0,
-                         Settings(method=method, integrator=integrator, t_end=0.05, samples=3, **options))
+                         Settings(method=method, integrator=integrator, t_end=0.05, samples=3, step=warm_step))
             compiled.rk4_batch_step(np.array([preset.theta0]), np.array([preset.omega0]), preset.chain.params(),
                                     1e-3, 0.0, 0.0, np.empty((RK4_WORK_ROWS, n)), np.empty(1))
             print(f"{method} n={n} {'pinned' if pinned else 'open'}: {time.perf_counter() - start:.2f} s "
@@ -426,10 +444,22 @@ def _mechanism_arguments(argv: list[str]) -> list[str]:
     return out
 
 
+def refuse_empty_values(argv: list[str]) -> None:
+    """``--trace=``, ``--state ''``, ``--out ''``: an option given an empty value is a mistake (a shell variable
+    that was not set), not a request for the default; no option of any subcommand takes an empty value."""
+    for position, item in enumerate(argv):
+        if item.startswith("--") and "=" in item and not item.split("=", 1)[1].strip():
+            raise LinkageError(f"{item.split('=', 1)[0]}: empty value; give one or leave the option out")
+        if not item.strip():
+            before = argv[position - 1] if position and argv[position - 1].startswith("--") else "an argument"
+            raise LinkageError(f"{before}: empty value; give one or leave the option out")
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     start_numba_without_blas()
     try:
+        refuse_empty_values(argv)
         if argv[:1] == ["simulate"] and any(a == "--mechanism" or a.startswith("--mechanism=") for a in argv):
             argv = ["mechanism", *_mechanism_arguments(argv[1:])]
         if argv and argv[0] in _EXTERNAL:

@@ -80,11 +80,13 @@ SINGULAR_MASS_RTOL = 1e-12
 
 def _finite(name: str, value) -> float:
     """Checked before the range checks, so NaN is reported as "not finite" rather than "not >= 0"."""
-    if isinstance(value, bool):
-        raise ValueError(f"{name} = {value}: must be a number")
+    # Strict: a number, never text ("1") or a boolean (true is not 1 kg); the command line parses its text
+    # options into numbers before they get here.
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} = {value!r}: must be a number, got {type(value).__name__}")
     try:
         number = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} = {value!r}: must be a number") from None
     if not math.isfinite(number):
         raise ValueError(f"{name} = {value}: must be a finite number")
@@ -120,9 +122,10 @@ class TracePoint(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    bar: int = Field(ge=1, le=MAX_LINKS)
-    along: float
-    across: float = 0.0
+    bar: int = Field(ge=1, le=MAX_LINKS, strict=True)
+    # within a sketch's reach (the bars are at most MAX_LENGTH long): 1e308 would overflow the traced path
+    along: float = Field(ge=-MAX_LENGTH, le=MAX_LENGTH)
+    across: float = Field(0.0, ge=-MAX_LENGTH, le=MAX_LENGTH)
 
     @field_validator("along", "across", mode="before")
     @classmethod
@@ -176,6 +179,8 @@ class Chain(BaseModel):
 
 DEFAULT_MAX_STEPS = 10_000_000  # about 20 s of integration for a triple pendulum
 MAX_STEPS_LIMIT = 1_000_000_000  # about an hour: beyond it a request is out of proportion for this tool
+MIN_RTOL = 1e-14
+MIN_ATOL = 1e-16
 
 
 class Settings(BaseModel):
@@ -186,17 +191,19 @@ class Settings(BaseModel):
     method: MethodName = "lagrange"
     integrator: IntegratorName = "DOP853"
     backend: BackendName = DEFAULT_BACKEND
-    rtol: float = Field(1e-10, gt=0.0, le=0.1)
-    atol: float = Field(1e-10, gt=0.0, le=0.1)
+    # Below 1e-14 relative (about 50 ulp) no step meets the tolerance and the step size collapses, which used to
+    # be reported as a singular position; refused with the range instead.
+    rtol: float = Field(1e-10, ge=MIN_RTOL, le=0.1)
+    atol: float = Field(1e-10, ge=MIN_ATOL, le=0.1)
     t_end: float = Field(20.0, gt=0.0, le=1e6)
-    samples: int = Field(201, ge=2, le=10_000_000)
+    samples: int = Field(201, ge=2, le=10_000_000, strict=True)
     stabilization: StabilizationName = "projection"
     baumgarte_alpha: float = Field(BAUMGARTE_ALPHA, ge=0.0, le=1e4)
     baumgarte_beta: float = Field(BAUMGARTE_BETA, ge=0.0, le=1e4)
     damping: float = Field(0.0, ge=0.0, le=1e3, description="viscous damping torque per unit relative joint speed")
     step: float = Field(1e-3, gt=0.0, le=1.0, description="fixed step of the midpoint and variational integrators")
     trace: Optional[TracePoint] = None
-    max_steps: int = Field(DEFAULT_MAX_STEPS, ge=1, le=MAX_STEPS_LIMIT,
+    max_steps: int = Field(DEFAULT_MAX_STEPS, ge=1, le=MAX_STEPS_LIMIT, strict=True,
                            description="integration steps allowed before a run is stopped")
 
     @field_validator("rtol", "atol", "t_end", "step", "baumgarte_alpha", "baumgarte_beta", "damping", mode="before")
@@ -234,11 +241,13 @@ _FIELD_RANGE = {
     "m": f"0 <= m <= {MAX_MASS:g} kg",
     "I": f"0 <= I <= {MAX_INERTIA:g} kg m^2",
     "g": f"0 <= g <= {MAX_GRAVITY:g} m/s^2",
-    "rtol": "0 < rtol <= 0.1",
-    "atol": "0 < atol <= 0.1",
+    "rtol": f"{MIN_RTOL:g} <= rtol <= 0.1",
+    "atol": f"{MIN_ATOL:g} <= atol <= 0.1",
     "t_end": "0 < t_end <= 1e6",
     "samples": "2 <= samples",
     "step": "0 < step <= 1",
+    "along": f"-{MAX_LENGTH:g} <= along <= {MAX_LENGTH:g} m",
+    "across": f"-{MAX_LENGTH:g} <= across <= {MAX_LENGTH:g} m",
 }
 
 

@@ -16,9 +16,8 @@ import sys
 from pathlib import Path
 
 from .arguments import Parser
-from .errors import LinkageError
 from .fbd import MAX_FBD_TIME, fbd_svg, free_body_at
-from .outputs import check_output_path, write_output
+from .outputs import check_output_folder, check_output_path, write_output
 from .presets import get_preset, preset_names
 from .rest_positions import rest_positions
 from .seed_report import print_summary, write_study
@@ -41,8 +40,8 @@ def fbd_main(argv: list[str]) -> int:
     parser.add_argument("--json", action="store_true", help="print the forces and the balance as JSON")
     args = parser.parse_args(argv)
     preset = get_preset(args.preset, args.links)
-    if args.out:
-        check_output_path(args.out)
+    if args.out is not None:
+        check_output_path(args.out, suffixes=(".svg",))
     body = free_body_at(preset.chain, preset.theta0, preset.omega0, args.time, args.bar)
     if args.out:
         title = f"{preset.name}: bar {body.bar} at t = {body.time:g} s"
@@ -90,11 +89,8 @@ def seed_report_main(argv: list[str]) -> int:
     parser.add_argument("--out", default="docs/seed-report", help="folder for the SVG figures and seed-report.json")
     parser.add_argument("--quick", action="store_true", help="short horizons (a check that it runs, not the figures)")
     args = parser.parse_args(argv)
+    check_output_folder(args.out)
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise LinkageError(f"--out {args.out}: is a file; give a folder")
-    if not out.parent.is_dir():
-        raise LinkageError(f"--out {args.out}: folder {out.parent} does not exist")
     document = write_study(out, quick=args.quick)
     print_summary(document, sys.stdout)
     return 0

@@ -15,21 +15,25 @@ from __future__ import annotations
 
 import io
 import json
+import sys
 
 import numpy as np
 
 from ..arguments import Parser
 from ..errors import LinkageError
+from ..long_run import simulate_mechanism_in_segments
 from ..outputs import check_output_path, write_output
+from .acceptance import check_mechanism
 from .assembly import assemble
 from .files import load_mechanism
 from .formulations import STABILIZATIONS
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
-from .simulate import RUN_METHODS, MechanismRun, run_options, simulate_mechanism
+from .simulate import RUN_METHODS, MechanismRun, run_options
 from .singularity import NEAR_SINGULAR_CONDITION
 
 MAX_SAMPLES = 100_000
+EXIT_RUN_STOPPED = 3  # as physics.cli's runs that stop midway: what was computed is in OUT.partial
 
 
 def _mechanism(args) -> Mechanism:
@@ -90,16 +94,26 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     run_options(t_end=2.0 if args.t_end is None else args.t_end, samples=max(args.samples, 2), t_start=0.0,
                 method=args.method, stabilization=args.stabilization, rtol=1e-10, atol=1e-10)
-    mechanism = _mechanism(args)
-    if args.out:
-        check_output_path(args.out)
     if not 2 <= args.samples <= MAX_SAMPLES:
         raise LinkageError(f"--samples {args.samples}: allowed range 2..{MAX_SAMPLES}")
+    mechanism = _mechanism(args)
+    check_mechanism(mechanism)  # assembles through its motion, masses and motors in range (mechanism.acceptance)
+    if args.out is not None:
+        check_output_path(args.out)
+        check_output_path(f"{args.out}.partial", "--out (its .partial file)")
     report = summary(mechanism)
     run = None
     if args.out or args.t_end is not None:
-        run = simulate_mechanism(mechanism, t_end=2.0 if args.t_end is None else args.t_end, samples=args.samples,
-                                 method=args.method, stabilization=args.stabilization)
+        # estimated up front, progress on stderr for a long run, Ctrl+C keeps what was computed (physics.long_run)
+        run, interrupted = simulate_mechanism_in_segments(mechanism, 2.0 if args.t_end is None else args.t_end,
+                                                          args.samples, args.method, args.stabilization)
+        if interrupted:
+            partial = f"{args.out}.partial" if args.out else None
+            if partial:
+                write_output(partial, run_csv(run))
+            where = f"; the {len(run.t)} samples up to t = {run.t[-1]:.6g} s are in {partial}" if partial else ""
+            print(f"error: {interrupted}{where}", file=sys.stderr)
+            return EXIT_RUN_STOPPED
         report["run"] = {
             "t_end": float(run.t[-1]), "samples": len(run.t), "method": run.method,
             "stabilization": run.stabilization,

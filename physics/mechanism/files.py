@@ -15,7 +15,8 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..errors import LinkageError
-from .model import Mechanism
+from ..files import read_limited
+from .model import Body, Driver, Mechanism, Prismatic, Revolute
 
 MAX_FILE_BYTES = 1_000_000
 
@@ -54,24 +55,47 @@ def mechanism_from_document(document: Any, source: str = "mechanism") -> Mechani
         item = error.errors()[0]
         where = _element_name(document, tuple(item.get("loc", ())))
         message = str(item.get("msg", "invalid")).removeprefix("Value error, ")
+        if item.get("type") in ("finite_number", "float_type"):
+            message = _number_message(tuple(item.get("loc", ())), item.get("input"), message)
         raise LinkageError(f"{source}: {where + ': ' if where else ''}{message}") from None
 
 
+_MODELS = (Body, Revolute, Prismatic, Driver, Mechanism)
+
+
+def _allowed_range(field: str) -> str:
+    """``0 <= mass <= 1e+06`` from the models' own bounds (the first model with that field)."""
+    for model in _MODELS:
+        info = model.model_fields.get(field)
+        if info is None:
+            continue
+        low = next((getattr(m, "ge") for m in info.metadata if hasattr(m, "ge")), None)
+        high = next((getattr(m, "le") for m in info.metadata if hasattr(m, "le")), None)
+        if low is not None and high is not None:
+            return f"{low:g} <= {field} <= {high:g}"
+    return ""
+
+
+def _number_message(location: tuple, value: Any, message: str) -> str:
+    """NaN, infinity, text or a boolean where a number belongs: say it must be a finite number, with the range
+    (pydantic's own words for NaN compared it with the upper bound)."""
+    field = next((str(part) for part in reversed(location) if isinstance(part, str) and part not in
+                  ("revolute", "prismatic", "float")), "")
+    allowed = _allowed_range(field)
+    got = f"got {value!r}" if not isinstance(value, (dict, list)) else f"got {type(value).__name__}"
+    return f"must be a finite number ({got})" + (f"; allowed range {allowed}" if allowed else "")
+
+
 def load_mechanism(path: str | Path) -> Mechanism:
-    """Read ``path`` (``.toml`` or ``.json``); one-line LinkageError for every problem."""
+    """Read ``path`` (``.toml`` or ``.json``); one-line LinkageError for every problem. A device (``/dev/zero``),
+    a FIFO or a folder is refused, and at most MAX_FILE_BYTES + 1 bytes are read whatever ``stat`` says
+    (physics.files.read_limited): the command line and ``python -m app --mechanism`` both read through here."""
     path = Path(path)
+    content = read_limited(path, MAX_FILE_BYTES, str(path))
     try:
-        size = path.stat().st_size
-    except OSError as error:
-        raise LinkageError(f"{path}: cannot read it ({error.strerror})") from None
-    if size > MAX_FILE_BYTES:
-        raise LinkageError(f"{path}: {size} bytes; a mechanism file may hold at most {MAX_FILE_BYTES}")
-    try:
-        text = path.read_text(encoding="utf-8")
+        text = content.decode("utf-8")
     except UnicodeDecodeError:
         raise LinkageError(f"{path}: not UTF-8 text") from None
-    except OSError as error:
-        raise LinkageError(f"{path}: cannot read it ({error.strerror})") from None
     return mechanism_from_text(text, str(path))
 
 
@@ -79,7 +103,7 @@ def mechanism_from_bytes(content: bytes, name: str) -> Mechanism:
     """A file's content as uploaded (the app): the same checks as :func:`load_mechanism`, ``name`` its file
     name (its suffix chooses TOML or JSON)."""
     if len(content) > MAX_FILE_BYTES:
-        raise LinkageError(f"{name}: {len(content)} bytes; a mechanism file may hold at most {MAX_FILE_BYTES}")
+        raise LinkageError(f"{name}: {len(content)} bytes, more than the {MAX_FILE_BYTES} a mechanism file may hold")
     try:
         text = content.decode("utf-8")
     except UnicodeDecodeError:

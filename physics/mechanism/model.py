@@ -48,9 +48,9 @@ class Body(BaseModel):
 
     name: str = Field(min_length=1, max_length=40, pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")
     points: dict[str, Point] = Field(min_length=1, max_length=MAX_POINTS_PER_BODY)
-    mass: float = Field(ge=0.0, le=1e6, description="kg")
+    mass: float = Field(ge=0.0, le=1e6, strict=True, allow_inf_nan=False, description="kg")
     com: Point | None = Field(None, description="centre of mass in the sketch; default: mean of the points")
-    inertia: float = Field(ge=0.0, le=1e6, description="centroidal moment of inertia, kg m^2")
+    inertia: float = Field(ge=0.0, le=1e6, strict=True, allow_inf_nan=False, description="centroidal moment of inertia, kg m^2")
 
     @field_validator("points", mode="before")
     @classmethod
@@ -86,7 +86,7 @@ class Revolute(BaseModel):
     name: str = Field(min_length=1, max_length=40)
     a: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
     b: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
-    damping: float = Field(0.0, ge=0.0, le=1e4, description="viscous torque per unit relative angular speed")
+    damping: float = Field(0.0, ge=0.0, le=1e4, strict=True, allow_inf_nan=False, description="viscous torque per unit relative angular speed")
 
 
 class Prismatic(BaseModel):
@@ -102,7 +102,7 @@ class Prismatic(BaseModel):
     on: str = Field(GROUND, description="the body (or ground) that carries the guide")
     through: str = Field(min_length=1, description="a point of `on` on the guide line")
     direction: Point = Field(description="direction of the guide in the sketch")
-    damping: float = Field(0.0, ge=0.0, le=1e4, description="viscous force per unit sliding speed")
+    damping: float = Field(0.0, ge=0.0, le=1e4, strict=True, allow_inf_nan=False, description="viscous force per unit sliding speed")
 
     @field_validator("direction", mode="before")
     @classmethod
@@ -119,8 +119,8 @@ class Driver(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     joint: str = Field(min_length=1)
-    speed: float | None = Field(None, ge=-1e3, le=1e3, description="rad/s")
-    torque: float | None = Field(None, ge=-1e6, le=1e6, description="N m")
+    speed: float | None = Field(None, ge=-1e3, le=1e3, strict=True, allow_inf_nan=False, description="rad/s")
+    torque: float | None = Field(None, ge=-1e6, le=1e6, strict=True, allow_inf_nan=False, description="N m")
 
     @model_validator(mode="after")
     def _one_kind(self) -> Driver:
@@ -136,7 +136,7 @@ class Mechanism(BaseModel):
 
     name: str = Field("mechanism", max_length=80)
     description: str = Field("", max_length=4000)
-    g: float = Field(9.81, ge=0.0, le=1e3, description="gravity, m/s^2, along -y")
+    g: float = Field(9.81, ge=0.0, le=1e3, strict=True, allow_inf_nan=False, description="gravity, m/s^2, along -y")
     ground: dict[str, Point] = Field(default_factory=dict, description="fixed points, name = [x, y]")
     bodies: list[Body] = Field(min_length=1, max_length=MAX_BODIES)
     joints: list[Revolute | Prismatic] = Field(min_length=1, max_length=4 * MAX_BODIES)

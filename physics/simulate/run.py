@@ -119,6 +119,7 @@ def simulate(
     trajectory.message = status_message(status, t_reached, detail)
     trajectory.n_steps = int(n_steps)
     trajectory.n_rhs = int(n_rhs)
+    trajectory.stats["t_reached"] = t_reached  # where the integrator stopped (the CLI's estimate of a long run)
     return trajectory
 
 

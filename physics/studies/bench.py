@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ..arguments import Parser, parse_names
 from ..errors import LinkageError
+from ..outputs import check_output_folder
 from ..registry import INTEGRATOR_NAMES
 from . import chaos_map, ensemble_bench, models
 from .work_precision import ALL_CASES, FORMULATIONS, FULL, QUICK, work_precision
@@ -63,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    check_output_folder(args.out)  # before any work: a benchmark is minutes of it
     out = Path(args.out)
     progress = not args.no_progress
     suites = ("work-precision", "ensemble", "chaos", "models") if args.suite == "all" else (args.suite,)

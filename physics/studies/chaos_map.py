@@ -19,6 +19,7 @@ within ``t_max`` are "not within t_max". Colour: log of the flip time, from ``st
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -35,8 +36,9 @@ from ..codegen import load_compiled
 from ..errors import LinkageError
 from ..kinematics import energies
 from ..model import FORMULATION_NAMES
+from ..outputs import check_output_path, write_output
 from ..presets import get_preset, preset_names
-from .charts import colormap, write_png
+from .charts import colormap, png_bytes, write_png
 from .report import Progress, machine_note
 
 DEFAULT_T_MAX = 30.0
@@ -239,13 +241,89 @@ def build_parser() -> Parser:
     return parser
 
 
+# Bytes held per pixel at the peak (measured: 8 for the flip times, about 105 while colouring and encoding the
+# PNG), rounded up; and what one local worker process holds (its own numpy, numba and compiled code).
+BYTES_PER_PIXEL = 120
+BYTES_PER_WORKER = 80e6
+# Pixel-steps (pixels x t_max / step, an upper bound: many pixels stop early) one machine is asked for at most:
+# about a day of one core at the measured 1.3e6 pixel-steps a second. A Dask cluster (--scheduler) is the fix.
+MAX_LOCAL_PIXEL_STEPS = 1e11
+MAX_STEPS_PER_PIXEL = 1e9
+
+
+def available_memory() -> float:
+    """Bytes the machine can still give (MemAvailable of /proc/meminfo; elsewhere the physical memory)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return math.inf
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its affinity), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_machine_bounds(resolution: int, t_max: float, step: float, workers: int, scheduler: str | None) -> None:
+    """Refuse, before any work, a map this machine cannot hold or a local run out of proportion: one line with
+    the estimate, the limit and the fix."""
+    cores = usable_cores()
+    if scheduler is None and workers > cores:
+        raise LinkageError(f"--workers = {workers}: this machine gives {cores} cores; allowed range 1 <= workers <= "
+                           f"{cores} (more processes only share the cores, each holding about "
+                           f"{BYTES_PER_WORKER / 1e6:.0f} MB)")
+    local_workers = 0 if scheduler else (workers if workers > 1 else 0)
+    needed = resolution**2 * BYTES_PER_PIXEL + local_workers * BYTES_PER_WORKER
+    budget = 0.5 * available_memory()
+    if needed > budget:
+        largest = int(math.sqrt(max(budget - local_workers * BYTES_PER_WORKER, 0.0) / BYTES_PER_PIXEL))
+        raise LinkageError(f"--resolution = {resolution}: the map needs about {needed / 1e9:.3g} GB, more than half "
+                           f"the {2 * budget / 1e9:.3g} GB this machine has free; use --resolution {largest} or less")
+    steps_per_pixel = t_max / step
+    if not steps_per_pixel <= MAX_STEPS_PER_PIXEL:
+        raise LinkageError(f"--t-max {t_max:g} / --step {step:g} = {steps_per_pixel:.3g} steps per pixel, more than the "
+                           f"{MAX_STEPS_PER_PIXEL:.0e} allowed; raise --step or lower --t-max")
+    pixel_steps = resolution**2 * math.ceil(steps_per_pixel - 1e-9)
+    if scheduler is None and pixel_steps > MAX_LOCAL_PIXEL_STEPS:
+        raise LinkageError(f"--resolution {resolution}, --t-max {t_max:g}, --step {step:g}: up to {pixel_steps:.3g} "
+                           f"pixel-steps, more than the {MAX_LOCAL_PIXEL_STEPS:.0e} one machine takes (about a day of "
+                           "one core); lower --resolution or --t-max, raise --step, or use a Dask cluster (--scheduler)")
+
+
+def data_path(data: str) -> str:
+    """Where ``--data`` goes: numpy's ``.npy`` file, the suffix added when missing (as ``np.save`` does), except
+    for a device such as ``/dev/full`` or ``/dev/stdout``, written as named (``np.save`` used to write
+    ``/dev/full.npy`` instead and exit 0)."""
+    path = Path(data)
+    try:
+        device = path.exists() and not path.is_file()
+    except OSError:  # a name too long, say: check_output_path reports it
+        device = False
+    return data if data.endswith(".npy") or device else data + ".npy"
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    if args.workers is not None and not 1 <= args.workers <= 1024:
-        raise LinkageError(f"--workers = {args.workers}: allowed range 1 <= workers <= 1024")
+    if args.workers is not None and args.workers < 1:
+        raise LinkageError(f"--workers = {args.workers}: allowed range 1 <= workers <= {usable_cores()}")
     preset = get_preset(args.preset, args.links)
     check_map_arguments(preset.chain, args.method, args.resolution, args.t_max, args.step)
-    executor, close = make_executor(args.workers, args.scheduler)
+    workers = usable_cores() if args.workers is None else args.workers
+    check_machine_bounds(args.resolution, args.t_max, args.step, workers, args.scheduler)
+    check_output_path(args.out, suffixes=(".png",))
+    if args.data is not None:
+        check_output_path(data_path(args.data), "--data")
+    executor, close = make_executor(workers, args.scheduler)
     start = time.perf_counter()
     try:
         times = compute_map(preset.chain, args.method, args.resolution, args.t_max, args.step, executor,
@@ -253,12 +331,11 @@ def main(argv=None) -> int:
     finally:
         close()
     elapsed = time.perf_counter() - start
-    try:
-        write_png(args.out, to_rgb(times, args.t_max, args.step))
-        if args.data:
-            np.save(args.data, times)
-    except OSError as error:
-        raise LinkageError(f"--out {args.out}: cannot write ({error.strerror or error})") from None
+    write_output(args.out, png_bytes(to_rgb(times, args.t_max, args.step)))
+    if args.data is not None:
+        buffer = io.BytesIO()
+        np.save(buffer, times)
+        write_output(data_path(args.data), buffer.getvalue(), "--data")
     info = summary(times)
     info.update(seconds=elapsed, pixels_per_second=times.size / elapsed, out=args.out, preset=args.preset,
                 t_max=args.t_max, step=args.step)

@@ -10,18 +10,28 @@ from __future__ import annotations
 
 import json
 import os
+import signal
+from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from physics.cli import main
+from physics.mechanism import MECHANISM_PRESETS
 
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 settings.register_profile("long", max_examples=2000, deadline=None,
                           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+# The long fuzz run (docs/reliability.md): LINKAGE_LAB_FUZZ_EXAMPLES=10000 runs that many random examples of
+# each property test here instead of CI's seeded 40.
+if os.environ.get("LINKAGE_LAB_FUZZ_EXAMPLES"):
+    settings.register_profile("fuzz", max_examples=int(os.environ["LINKAGE_LAB_FUZZ_EXAMPLES"]), deadline=None,
+                              suppress_health_check=list(HealthCheck))
+    settings.load_profile("fuzz")
+else:
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 GOOD_CASE = {"links": 2, "params": {"L1": 1, "L2": 1, "d1": 0.5, "d2": 0.5, "m1": 1, "m2": 1, "I1": 0.1, "I2": 0.1},
              "theta": [0.3, -0.2], "omega": [0.0, 0.1]}
@@ -175,3 +185,143 @@ def test_property_any_simulate_options_give_a_run_or_one_line(capsys, argv, valu
 def test_options_that_do_not_apply_are_refused(capsys):
     refused(capsys, "simulate", "--preset", "triple-a", "--pin", "1,1", needle="open chain")
     refused(capsys, "simulate", "--preset", "triple-a", "--links", "5", needle="applies to preset 'chain' only")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Every subcommand, its options and the files it reads: any mix gives a result, or exit 2 with one line, or
+# exit 3 with what was computed; never a traceback, never a hang (an alarm ends an example after 300 s).
+# Left out: runs that only do long work when valid (bench and seed-report get unwritable --out paths only,
+# warm only lengths that are cached or refused, cache never --clear).
+
+HOSTILE_NUMBERS = ["", "nan", "inf", "-inf", "-1", "0", "1e308", "-1e308", "abc", "1.5", "0x10", "1e-320", "2",
+                   "3", "0.1"]
+
+
+def _hostile_files(folder: Path) -> dict[str, str]:
+    """name -> path: a good mechanism and case file, and every kind of bad one."""
+    files = {}
+    good = MECHANISM_PRESETS["slider-crank"]().model_dump_json()
+    for name, text in {
+        "good.json": good, "nan.json": good.replace('"mass":', '"mass": NaN, "x":', 1),
+        "text.json": good.replace('"g":9.81', '"g":"9.81"'), "bool.json": good.replace('"g":9.81', '"g":true'),
+        "broken.json": good[: len(good) // 2], "deep.json": "[" * 50000 + "]" * 50000, "empty.json": "",
+        "cases.json": json.dumps([GOOD_CASE]), "list.json": "[1, 2, 3]", "plain.txt": "hello",
+        "bad.toml": "name = [", "good.toml": 'name = "x"\n',
+    }.items():
+        (folder / name).write_text(text)
+        files[name] = str(folder / name)
+    (folder / "latin1.json").write_bytes(b"\xe9t\xe9")
+    with open(folder / "huge.json", "wb") as handle:  # sparse: 20 MB by stat, nothing on disk
+        handle.truncate(20_000_000)
+    os.mkfifo(folder / "fifo.json")
+    (folder / "link.json").symlink_to(folder / "good.json")
+    files.update({name: str(folder / name) for name in ("latin1.json", "huge.json", "fifo.json", "link.json")})
+    files.update({"zero": "/dev/zero", "folder": str(folder), "missing": str(folder / "missing.json"), "": ""})
+    return files
+
+
+def _hostile_outputs(folder: Path) -> list[str]:
+    (folder / "target.csv").write_text("keep\n")
+    if not (folder / "link.csv").exists():
+        (folder / "link.csv").symlink_to(folder / "target.csv")
+    return [str(folder / "out.csv"), str(folder / "out.json"), str(folder / "out.png"), str(folder / "x.gif"),
+            str(folder), str(folder / "no" / "out.csv"), "/dev/full", "/dev/null", str(folder / "link.csv"),
+            str(folder / ("x" * 300)), "", str(folder / "out.npy"), str(folder / "out.svg")]
+
+
+CHAIN_PRESETS = ["single", "double", "triple-a", "four-bar", "change-point", "chain", "nope"]
+COMMANDS = {
+    # command: (fixed leading arguments, {option: values or a marker for files/outputs})
+    "simulate": (["--preset", "single", "--t-end", "0.2", "--samples", "3"], {
+        "--preset": CHAIN_PRESETS, "--links": ["1", "2", "3", "0", "13", "1.5"],
+        "--method": ["lagrange", "dae", "newton_euler", "reduced", "x"],
+        "--integrator": ["DOP853", "RK45", "Radau", "midpoint", "variational", "x"],
+        "--backend": ["compiled", "scipy", "x"], "--rtol": HOSTILE_NUMBERS, "--atol": HOSTILE_NUMBERS,
+        "--step": HOSTILE_NUMBERS + ["1e-9"], "--max-steps": ["1", "5", "2000000000", "-3", "abc"],
+        "--t-end": HOSTILE_NUMBERS + ["1e6"], "--samples": ["1", "2", "3", "-1", "abc", "100000000"],
+        "--stabilization": ["none", "baumgarte", "projection", "x"], "--damping": HOSTILE_NUMBERS,
+        "--trace": ["", "1,0.5", "9,1", "1,1e308", "1,nan", "a,b", "1.5,1"],
+        "--set": ["", "L1=2", "m1=nan", "m1=true", "L1=1e308", "x=1", "m1=0", "theta1=1e5", "noequals"],
+        "--pin": ["", "1,1", "nan,1", "1", "1e308,0"], "--format": ["csv", "json", "x"], "--out": "OUT",
+        "--mechanism": "FILE"}),
+    "accelerations": (["--preset", "single"], {
+        "--preset": CHAIN_PRESETS, "--method": ["lagrange", "dae", "newton_euler", "reduced"],
+        "--state": ["", "0,0", "0.3,0.5,1,0,0,0", "nan,0", "1e308,0", "0,0,0,0,0,0", "1,2,3"],
+        "--input": "FILE", "--set": ["m1=0", "I1=0", "g=nan", "L1=0"]}),
+    "ensemble": (["--count", "3", "--t-end", "0.2", "--samples", "3"], {
+        "--preset": CHAIN_PRESETS, "--count": ["0", "-1", "3", "2000000", "abc"], "--spread": HOSTILE_NUMBERS,
+        "--step": HOSTILE_NUMBERS, "--t-end": HOSTILE_NUMBERS, "--samples": ["1", "2", "200000", "abc"],
+        "--damping": HOSTILE_NUMBERS, "--out": "OUT"}),
+    "presets": ([], {}),
+    "fbd": (["--preset", "single"], {
+        "--preset": CHAIN_PRESETS, "--time": HOSTILE_NUMBERS + ["2000"], "--bar": ["0", "1", "2", "9", "abc"],
+        "--out": "OUT", "--json": None}),
+    "equilibrium": ([], {"--preset": CHAIN_PRESETS, "--links": ["1", "2", "3", "0", "13"], "--json": None}),
+    "mechanism": (["--preset", "slider-crank"], {
+        "--preset": sorted(MECHANISM_PRESETS) + ["nope"], "--file": "FILE", "--json": None,
+        "--t-end": HOSTILE_NUMBERS, "--samples": ["1", "2", "3", "100001", "abc"], "--out": "OUT",
+        "--method": ["dae", "lagrange", "newton_euler", "reduced", "x"],
+        "--stabilization": ["projection", "baumgarte", "none", "x"]}),
+    "chaos-map": (["--resolution", "2", "--t-max", "0.1", "--workers", "1", "--no-progress"], {
+        "--preset": CHAIN_PRESETS, "--resolution": ["0", "-1", "2", "20000", "abc"],
+        "--t-max": HOSTILE_NUMBERS, "--step": HOSTILE_NUMBERS, "--workers": ["0", "1", "1025", "abc"],
+        "--method": ["lagrange", "dae", "x"], "--out": "OUT", "--data": "OUT"}),
+    "cache": ([], {"--info": None, "--json": None}),
+    "warm": (["--links", "13"], {"--links": ["0", "13", "abc", "1.5", "", "1,99"]}),
+    "bench": (["--quick", "--out", "/dev/full"], {"--out": ["/dev/full", "", "/nonexistent/x/y"],
+                                                   "--suite": ["chaos", "x"], "--repeats": ["0", "101", "x"]}),
+    "seed-report": (["--quick", "--out", "/dev/full"], {"--out": ["/dev/full", "", "/nonexistent/x/y"]}),
+}
+
+
+@st.composite
+def command_lines(draw, files: dict[str, str], outputs: list[str]):
+    command = draw(st.sampled_from(sorted(COMMANDS)))
+    leading, options = COMMANDS[command]
+    argv = [command, *leading]
+    if options:
+        for option in draw(st.lists(st.sampled_from(sorted(options)), max_size=4)):
+            values = options[option]
+            if values is None:
+                argv.append(option)
+                continue
+            value = draw(st.sampled_from(sorted(files.values()) if values == "FILE" else outputs if values == "OUT"
+                                         else values))
+            argv += [f"{option}={value}"] if draw(st.booleans()) else [option, value]
+    return argv
+
+
+class _Hang(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise _Hang("no answer within 300 s")
+
+
+@pytest.fixture(scope="module")
+def hostile(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("hostile")
+    return _hostile_files(folder), _hostile_outputs(folder)
+
+
+@given(data=st.data())
+def test_property_every_subcommand_answers_any_arguments_and_files(capsys, hostile, data):
+    files, outputs = hostile
+    argv = data.draw(command_lines(files, outputs))
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(300)
+    try:
+        code, out, err = run(capsys, *argv)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    lines = [line for line in err.splitlines() if line.strip()]
+    event(f"{argv[0]} exit {code}")
+    assert "Traceback" not in err, (argv, err)
+    assert code in (0, 2, 3), (argv, code, err)
+    if code == 2:
+        assert len(lines) == 1 and lines[0].startswith("error: "), (argv, err)
+    if code == 3:
+        assert lines and lines[-1].startswith("error: "), (argv, err)
+    assert Path(outputs[8]).is_symlink() and Path(outputs[8]).read_text() == "keep\n"  # a link is never replaced
