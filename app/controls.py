@@ -622,7 +622,11 @@ class Controls:
 
     def remove(self) -> None:
         self.close()
-        for handle in [self.status, self.transport, self.tabs]:
+        # every control made outside the tabs too: one left behind after a switch to a mechanism session acted
+        # on this closed session (found by tests/app/test_every_control.py)
+        for handle in [self.status, self.transport, self.timeline, self.camera_view, self.plot_choice,
+                       self.phase_image, self.tabs]:
             quietly(handle.remove, "removing a control")
-        for plot in (self.energy_plot, self.drift_plot, self.constraint_plot, self.divergence_plot):
-            plot.remove()
+        for plot in (self.energy_plot, self.drift_plot, self.constraint_plot, self.divergence_plot, self.angle_plot):
+            if plot is not None:
+                plot.remove()
