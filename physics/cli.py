@@ -383,6 +383,7 @@ _EXTERNAL = {
     "equilibrium": ("physics.report_commands", "equilibrium_main"),
     "seed-report": ("physics.report_commands", "seed_report_main"),
     "mechanism": ("physics.mechanism.command", "main"),
+    "export": ("physics.export_command", "main"),  # other tools' formats (docs/mechanisms.md)
 }
 
 

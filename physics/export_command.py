@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 from .arguments import Parser
 from .errors import LinkageError
+from .files import read_limited
 from .mechanism.chains import chain_mechanism
 from .mechanism.files import MAX_FILE_BYTES, load_mechanism
 from .mechanism.mjcf import MAX_TIMESTEP, MJCF_TIMESTEP, to_mjcf
@@ -37,19 +37,13 @@ PYLINKAGE_EXPORT_NOTE = ("note: pylinkage's JSON holds no masses, inertias, damp
 
 
 def read_pylinkage(path: str) -> Mechanism:
-    """A pylinkage JSON file as a Mechanism (size and encoding bounded as for our own files)."""
-    file = Path(path)
+    """A pylinkage JSON file as a Mechanism (read as our own files are: a regular file of at most MAX_FILE_BYTES,
+    never a device or a FIFO, UTF-8)."""
+    content = read_limited(path, MAX_FILE_BYTES, f"--pylinkage {path}")
     try:
-        size = file.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise LinkageError(f"--pylinkage {path}: {size} bytes; a file may hold at most {MAX_FILE_BYTES}")
-        text = file.read_text(encoding="utf-8")
+        document = json.loads(content.decode("utf-8"))
     except UnicodeDecodeError:
         raise LinkageError(f"--pylinkage {path}: not UTF-8 text") from None
-    except OSError as error:
-        raise LinkageError(f"--pylinkage {path}: cannot read it ({error.strerror})") from None
-    try:
-        document = json.loads(text)
     except (ValueError, RecursionError) as error:
         first = str(error).splitlines()[0] if str(error) else type(error).__name__
         raise LinkageError(f"--pylinkage {path}: not valid JSON ({first})") from None
