@@ -109,6 +109,10 @@ def reserve_port(host: str, port: int) -> int:
     family = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)[0][0]
     for candidate in ([0] if port == 0 else range(port, min(port + 1000, 65536))):
         with socket.socket(family, socket.SOCK_STREAM) as probe:
+            # as the server's own listening socket does (asyncio sets it): a port whose last connections are
+            # in TIME_WAIT after a stop is free to serve again, so a restart keeps the address an open tab
+            # knows; a port another socket listens on still refuses the bind
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             try:
                 probe.bind((host, candidate))
             except OSError:

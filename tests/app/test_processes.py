@@ -124,3 +124,24 @@ def test_by_default_one_process_per_core_and_one_more(monkeypatch):
     assert processes.default_processes() == 3
     monkeypatch.setattr(processes.os, "sched_getaffinity", lambda pid: set(range(64)))
     assert processes.default_processes() == processes.MAX_PROCESSES
+
+
+def test_a_port_left_in_time_wait_is_served_again():
+    """A restart within a minute of Ctrl+C kept moving to the next port: the stopped server's connections
+    linger in TIME_WAIT, and the probe refused the port where the server's own socket would bind."""
+    listener = socket.socket()
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    port = listener.getsockname()[1]
+    client = socket.create_connection(("127.0.0.1", port))
+    accepted, _ = listener.accept()
+    accepted.close()  # the server side closes first: its end of the connection enters TIME_WAIT
+    client.close()
+    listener.close()
+    assert processes.reserve_port("127.0.0.1", port) == port
+    with socket.socket() as holder:  # a port another socket listens on is still refused
+        holder.bind(("127.0.0.1", 0))
+        holder.listen()
+        held = holder.getsockname()[1]
+        assert processes.reserve_port("127.0.0.1", held) != held
