@@ -30,7 +30,7 @@ from .kernels.constants import RK4_WORK_ROWS
 from .kinematics import joint_positions
 from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
-from .outputs import check_output_path, write_output
+from .outputs import check_output_path, check_partial_path, write_output
 from .presets import get_preset, preset_names
 from .registry import (
     BACKENDS,
@@ -132,7 +132,7 @@ def cmd_simulate(args) -> int:
     settings = _settings(args, chain)
     if args.out is not None:
         check_output_path(args.out)
-        check_output_path(f"{args.out}.partial", "--out (its .partial file)")
+        check_partial_path(args.out)
     # estimated up front, progress on stderr for a long run, Ctrl+C keeps what was computed (physics.long_run)
     trajectory = simulate_in_segments(chain, theta, omega, settings)
     fmt = args.format or ("json" if args.out and args.out.endswith(".json") else "csv")

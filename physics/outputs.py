@@ -69,6 +69,18 @@ def check_output_path(out: str, option: str = "--out", suffixes: Sequence[str] |
                            f"({error.strerror or error})") from None
 
 
+def check_partial_path(out: str) -> None:
+    """``OUT.partial``, where a run that stops midway writes what it computed, must be writable too (checked with
+    ``OUT``, before any work); a device (``--out /dev/null``) has none: what stops is written to the device."""
+    path = Path(out)
+    try:
+        device = path.exists() and not path.is_file()
+    except OSError:
+        device = False
+    if not device:
+        check_output_path(f"{out}.partial", "--out (its .partial file)")
+
+
 def check_output_folder(out: str, option: str = "--out") -> None:
     """Refuse, before any work, an output folder that cannot take files: not a folder, a missing parent, or a
     folder where a file cannot be created (tried with a temporary file, removed at once)."""

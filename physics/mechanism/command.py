@@ -22,7 +22,7 @@ import numpy as np
 from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
-from ..outputs import check_output_path, write_output
+from ..outputs import check_output_path, check_partial_path, write_output
 from .acceptance import check_mechanism
 from .assembly import assemble
 from .files import load_mechanism
@@ -100,7 +100,7 @@ def main(argv: list[str]) -> int:
     check_mechanism(mechanism)  # assembles through its motion, masses and motors in range (mechanism.acceptance)
     if args.out is not None:
         check_output_path(args.out)
-        check_output_path(f"{args.out}.partial", "--out (its .partial file)")
+        check_partial_path(args.out)
     report = summary(mechanism)
     run = None
     if args.out or args.t_end is not None:

@@ -75,6 +75,9 @@ BAD_CASES = {
     "unknown param": ({**GOOD_CASE, "params": {**GOOD_CASE["params"], "Q7": 1}}, "params: unknown Q7"),
     "negative length": ({**GOOD_CASE, "params": {**GOOD_CASE["params"], "L1": -1}}, "case 0: "),
     "not an object": (7, "case 0: expected an object"),
+    "a mass true": ({**GOOD_CASE, "params": {**GOOD_CASE["params"], "m1": True}}, "m1 must be a number, got bool"),
+    "a mass as text": ({**GOOD_CASE, "params": {**GOOD_CASE["params"], "m1": "1"}}, "m1 must be a number, got str"),
+    "an angle true": ({**GOOD_CASE, "theta": [True, 0.2]}, "theta[0] must be a number, got bool"),
 }
 
 
