@@ -11,6 +11,7 @@ from pathlib import Path
 
 from physics import METHOD_NAMES, LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS
+from physics.program import program_name, version_text
 
 from . import lifetime
 from .server import DEFAULT_HOST, DEFAULT_MAX_SESSIONS, DEFAULT_PORT, DEFAULT_PRESET, MAX_SESSIONS_LIMIT, is_loopback
@@ -24,12 +25,15 @@ class _OneLineParser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    """``prog`` defaults to the name typed: ``linkage-lab`` for the console script, else ``python -m app``."""
+    prog = prog or program_name("linkage-lab", "python -m app")
     parser = _OneLineParser(
-        prog="linkage-lab",
+        prog=prog,
         description="Serve Linkage Lab: animate planar linkages live in the browser. "
-        "'linkage-lab snapshot --help' renders pictures instead.",
+        f"'{prog} snapshot --help' renders pictures instead.",
     )
+    parser.add_argument("--version", action="version", version=version_text())
     parser.add_argument("--host", default=DEFAULT_HOST, help=f"address to listen on (default {DEFAULT_HOST}; "
                         "anything else exposes the app to the network)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT,

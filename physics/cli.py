@@ -32,6 +32,7 @@ from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .outputs import check_output_path, check_partial_path, write_output
 from .presets import get_preset, preset_names
+from .program import program_name, version_text
 from .registry import (
     BACKENDS,
     COMPILED_INTEGRATORS,
@@ -316,9 +317,15 @@ def _common(parser, method_required=False):
     parser.add_argument("--pin", default=None, metavar="X,Y", help="pin the tip of a closed chain at this point")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = Parser(prog="python -m physics", description="Linkage Lab physics: derive, simulate, compare.")
-    sub = parser.add_subparsers(dest="command", parser_class=Parser)
+CONSOLE_SCRIPT = "linkage-physics"  # [project.scripts] in pyproject.toml
+MODULE_PROG = "python -m physics"
+
+
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    parser = Parser(prog=prog or program_name(CONSOLE_SCRIPT, MODULE_PROG),
+                    description="Linkage Lab physics: derive, simulate, compare.")
+    parser.add_argument("--version", action="version", version=version_text())
+    sub = parser.add_subparsers(dest="command", parser_class=Parser, metavar="COMMAND")
 
     sim = sub.add_parser("simulate", help="integrate a preset and print or write the trajectory")
     _common(sim)
@@ -371,6 +378,11 @@ def build_parser() -> argparse.ArgumentParser:
     action.add_argument("--clear", action="store_true", help="remove everything in it")
     cache.add_argument("--json", action="store_true", help="--info as JSON")
     cache.set_defaults(func=cmd_cache)
+
+    for name, description in EXTERNAL_HELP.items():  # listed for --help; main() dispatches them before parsing
+        external = sub.add_parser(name, help=description, add_help=False, prefix_chars="\0")  # all its own
+        external.add_argument("arguments", nargs=argparse.REMAINDER)
+        external.set_defaults(func=lambda args, name=name: run_external(name, args.arguments))
     return parser
 
 
@@ -385,6 +397,24 @@ _EXTERNAL = {
     "mechanism": ("physics.mechanism.command", "main"),
     "export": ("physics.export_command", "main"),  # other tools' formats (docs/mechanisms.md)
 }
+
+# Their one-line descriptions for ``--help``, written here so that listing them imports none of them
+# (tests/physics/test_cli_conventions.py checks this table names exactly the commands of _EXTERNAL).
+EXTERNAL_HELP = {
+    "mechanism": "check, assemble and simulate a planar mechanism file (docs/mechanisms.md)",
+    "export": "write a mechanism as MJCF (MuJoCo), pylinkage's JSON or TOML/JSON, or read pylinkage's JSON",
+    "fbd": "forces on one bar at one instant (gravity, joint reactions, pin reaction)",
+    "equilibrium": "rest positions of a chain: angles, stability, potential energy",
+    "seed-report": "the seed report's figures at its own settings, beside converged runs",
+    "bench": "work-precision diagrams and speed suites (ensemble, chaos, models) for BENCHMARKS.md",
+    "chaos-map": "time-to-first-flip map of initial angles (PNG and data)",
+}
+
+
+def run_external(name: str, argv: list[str]) -> int:
+    """Import the module of a subcommand implemented apart and run it on its own arguments."""
+    module_name, func = _EXTERNAL[name]
+    return int(getattr(importlib.import_module(module_name), func)(argv) or 0)
 
 
 class _NoScipyLinalg:
@@ -464,8 +494,7 @@ def main(argv=None) -> int:
         if argv[:1] == ["simulate"] and any(a == "--mechanism" or a.startswith("--mechanism=") for a in argv):
             argv = ["mechanism", *_mechanism_arguments(argv[1:])]
         if argv and argv[0] in _EXTERNAL:
-            module_name, func = _EXTERNAL[argv[0]]
-            return int(getattr(importlib.import_module(module_name), func)(argv[1:]) or 0)
+            return run_external(argv[0], argv[1:])
         parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
