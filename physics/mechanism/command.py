@@ -23,7 +23,6 @@ from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
 from ..outputs import check_output_path, check_partial_path, write_output
-from .acceptance import check_mechanism
 from .assembly import assemble
 from .files import load_mechanism
 from .formulations import STABILIZATIONS
@@ -31,6 +30,7 @@ from .model import Mechanism
 from .presets import MECHANISM_PRESETS
 from .simulate import RUN_METHODS, MechanismRun, run_options
 from .singularity import NEAR_SINGULAR_CONDITION
+from .validation import check_runnable
 
 MAX_SAMPLES = 100_000
 EXIT_RUN_STOPPED = 3  # as physics.cli's runs that stop midway: what was computed is in OUT.partial
@@ -97,7 +97,7 @@ def main(argv: list[str]) -> int:
     if not 2 <= args.samples <= MAX_SAMPLES:
         raise LinkageError(f"--samples {args.samples}: allowed range 2..{MAX_SAMPLES}")
     mechanism = _mechanism(args)
-    check_mechanism(mechanism)  # assembles through its motion, masses and motors in range (mechanism.acceptance)
+    check_runnable(mechanism)  # assembles through its motion, masses and motors in range (mechanism.validation)
     if args.out is not None:
         check_output_path(args.out)
         check_partial_path(args.out)

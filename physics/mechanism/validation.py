@@ -1,10 +1,13 @@
-"""Whether a mechanism can run at all, checked before anything accepts it (a file, an upload, an edit).
+"""Whether a mechanism can run at all, checked before anything accepts it (the command line, a file, an
+upload, an edit in the app): one check for every door.
 
 Why a check of its own: the pydantic models check each field alone (a mass within 0..1e6 kg, a motor within
 ±1000 rad/s); a mechanism can pass all of them and still not run: a sketch whose joints cannot close, a body
-whose mass is 5e-324 kg (``1/m`` overflows and the solver's SVD fails), every body massless, or a motor
-turning so fast that the pose cannot be followed from one sample to the next. :func:`check_runnable` finds
-those up front and raises one LinkageError naming the body, joint or motor, the field and the allowed range.
+whose mass is 5e-324 kg (``1/m`` overflows and the solver's SVD fails), every body massless, a fully driven
+linkage that assembles at the start and locks a quarter turn later (``mechanism --file`` printed "mobility 0"
+and exit 0), or a motor turning so fast that the pose cannot be followed from one sample to the next.
+:func:`check_runnable` finds those up front and raises one LinkageError naming the body, joint or motor, the
+field and the allowed range.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import math
 import numpy as np
 
 from ..errors import LinkageError
-from .assembly import Assembled, assemble
+from .assembly import Assembled, assemble, sketch_size
 from .constraints import Constraints
 from .model import Mechanism
 
@@ -32,6 +35,10 @@ MAX_CONDITION = 1e13
 # sample to the next by Newton's method and loses it beyond (measured: the crank-rocker followed 1.7 rad per
 # sample and lost 5 rad).
 MAX_TURN_PER_SAMPLE = 0.5  # rad
+MAX_MOTOR_SPEED = 100.0  # rad/s, about 16 turns a second, whatever the sampling (a file may write up to 1e3)
+MIN_MASS_RATIO = 1e-12  # smallest mass (or inertia / size^2) allowed beside the largest: a nonsingular matrix
+SWEEP_POSES_PER_TURN = 72  # poses per turn of the fastest motor when a fully driven mechanism is swept
+MAX_SWEEP_POSES = 2000
 
 
 def check_extent(mechanism: Mechanism) -> None:
@@ -62,13 +69,29 @@ def check_masses(mechanism: Mechanism) -> None:
                 raise LinkageError(f"body {body.name!r}: {field} = {value:g} {unit}: allowed range "
                                    f"{low:g} <= {field} <= {high:g} {unit} (every body needs mass and inertia "
                                    "for the equations of motion)")
+    size = sketch_size(mechanism)
+    scaled = np.array([[body.mass, body.inertia / size**2] for body in mechanism.bodies])
+    smallest = np.unravel_index(int(np.argmin(scaled)), scaled.shape)
+    if scaled[smallest] < MIN_MASS_RATIO * float(np.max(scaled)):
+        body = mechanism.bodies[int(smallest[0])]
+        field, value, unit = ("mass", body.mass, "kg") if smallest[1] == 0 else ("inertia", body.inertia, "kg m^2")
+        raise LinkageError(
+            f"body {body.name!r}: {field} = {value:g} {unit} is negligible beside the heaviest body (below "
+            f"{MIN_MASS_RATIO:g} of it): the mass matrix is singular in double precision; give it at least "
+            f"{MIN_MASS_RATIO * float(np.max(scaled)) * (1.0 if smallest[1] == 0 else size**2):.3g} {unit}"
+        )
 
 
 def check_motors(mechanism: Mechanism, sample_interval: float | None) -> None:
-    """Every speed motor slow enough for a run sampled every ``sample_interval`` seconds (None: no limit)."""
+    """Every speed motor within :data:`MAX_MOTOR_SPEED` and slow enough for a run sampled every
+    ``sample_interval`` seconds (None: a run's own sampling, checked as it goes)."""
     if sample_interval is None:
+        for driver in mechanism.drivers:
+            if driver.speed is not None and abs(driver.speed) > MAX_MOTOR_SPEED:
+                raise LinkageError(f"motor {driver.joint!r}: speed = {driver.speed:g} rad/s: allowed range "
+                                   f"-{MAX_MOTOR_SPEED:g} <= speed <= {MAX_MOTOR_SPEED:g} rad/s")
         return
-    fastest = max_motor_speed(sample_interval)
+    fastest = min(MAX_MOTOR_SPEED, max_motor_speed(sample_interval))
     for driver in mechanism.drivers:
         if driver.speed is not None and abs(driver.speed) > fastest:
             raise LinkageError(
@@ -110,4 +133,23 @@ def check_runnable(mechanism: Mechanism, sample_interval: float | None = None) -
     check_motors(mechanism, sample_interval)
     assembled = assemble(mechanism)
     check_solvable(mechanism, assembled.q)
+    if assembled.mobility == 0:
+        check_sweep(mechanism, assembled)
     return assembled
+
+
+def check_sweep(mechanism: Mechanism, assembled: Assembled) -> None:
+    """Follow a fully driven mechanism through one turn of its slowest motor, each pose assembled from the one
+    before (as its run does); the first pose that does not close is refused with its time."""
+    speeds = [abs(driver.speed) for driver in mechanism.drivers if driver.speed]
+    if not speeds:
+        return
+    period = 2.0 * math.pi / min(speeds)
+    poses = min(MAX_SWEEP_POSES, SWEEP_POSES_PER_TURN * math.ceil(max(speeds) / min(speeds)))
+    q = assembled.q
+    for t in np.linspace(0.0, period, poses + 1)[1:]:
+        try:
+            q = assemble(mechanism, q, float(t)).q
+        except LinkageError as error:
+            raise LinkageError(f"{mechanism.name}: the motors cannot drive it through a turn (it locks at t = "
+                               f"{t:.3g} s of {period:.3g} s): {error}") from None
