@@ -34,3 +34,10 @@ class MechanismRun:
     @property
     def energy(self) -> np.ndarray:
         return self.kinetic + self.potential
+
+    def __repr__(self) -> str:
+        """One line for a notebook or a log, not every array (those stay on the attributes)."""
+        span = f"{float(self.t[0]):g}..{float(self.t[-1]):g} s" if self.t.size else "none"
+        how = f"stabilization={self.stabilization!r}, steps={self.steps}" if self.integrated else "position analysis"
+        return (f"MechanismRun(method={self.method!r}, bodies={self.q.shape[1] // 3 if self.q.ndim == 2 else 0}, "
+                f"samples={self.t.shape[0]}, t={span}, {how})")

@@ -45,6 +45,17 @@ class Trajectory:
     def success(self) -> bool:
         return self.status == Status.OK
 
+    def __repr__(self) -> str:
+        """One line for a notebook or a log (the dataclass's own repr printed every array: 48,777 characters
+        for 201 samples); the arrays stay on the attributes and in :meth:`columns`."""
+        try:
+            status = Status(self.status).name.lower()
+        except ValueError:
+            status = str(self.status)
+        extra = f", message={self.message!r}" if self.message and status != "ok" else ""
+        return (f"Trajectory(method={self.method!r}, integrator={self.integrator!r}, links={self.n}, "
+                f"samples={self.t.shape[0]}, t={time_span(self.t)}, status={status}{extra})")
+
     @property
     def n(self) -> int:
         return self.theta.shape[1]
@@ -88,3 +99,8 @@ class Trajectory:
             cols["trace_x"] = self.trace_xy[:, 0]
             cols["trace_y"] = self.trace_xy[:, 1]
         return cols
+
+
+def time_span(t: np.ndarray) -> str:
+    """``0..20 s`` for the reprs of run results; ``none`` when there are no samples."""
+    return f"{float(t[0]):g}..{float(t[-1]):g} s" if t.size else "none"
