@@ -12,6 +12,8 @@ field and the allowed range.
 
 from __future__ import annotations
 
+import functools
+import json
 import math
 
 import numpy as np
@@ -140,16 +142,45 @@ def check_runnable(mechanism: Mechanism, sample_interval: float | None = None) -
 
 def check_sweep(mechanism: Mechanism, assembled: Assembled) -> None:
     """Follow a fully driven mechanism through one turn of its slowest motor, each pose assembled from the one
-    before (as its run does); the first pose that does not close is refused with its time."""
+    before (as its run does); the first pose that does not close is refused with its time.
+
+    A sweep costs a few tenths of a second and depends on the geometry and the ratios of the motors' speeds
+    only, so it is kept per geometry: an edit of a mass, an inertia, g or a motor's speed (a slider dragged in
+    the app) sweeps nothing."""
     speeds = [abs(driver.speed) for driver in mechanism.drivers if driver.speed]
     if not speeds:
         return
+    slowest = min(speeds)
+    document = mechanism.model_dump(mode="json", include={"ground": True, "joints": True, "drivers": True,
+                                                           "bodies": {"__all__": {"name", "points"}}})
+    for driver in document["drivers"]:  # the poses of a turn depend on the speeds' ratios, not on the speeds
+        if driver["speed"] is None:
+            driver["torque"] = 0.0
+        else:
+            driver["speed"] /= slowest
+    failure = _sweep_failure(json.dumps(document, sort_keys=True), tuple(float(x) for x in assembled.q))
+    if failure is not None:
+        fraction, reason = failure
+        period = 2.0 * math.pi / slowest
+        raise LinkageError(f"{mechanism.name}: the motors cannot drive it through a turn (it locks at t = "
+                           f"{fraction * period:.3g} s of {period:.3g} s): {reason}")
+
+
+@functools.lru_cache(maxsize=64)
+def _sweep_failure(geometry: str, q0: tuple[float, ...]) -> tuple[float, str] | None:
+    """Where in a turn of the slowest motor (a fraction) ``geometry`` (its slowest motor at 1 rad/s) fails to
+    assemble from ``q0``, and why; None when it turns through."""
+    document = json.loads(geometry)
+    for body in document["bodies"]:  # the sweep is kinematics: unit masses make a valid description
+        body["mass"], body["inertia"] = 1.0, 1.0
+    mechanism = Mechanism.model_validate(document)
+    speeds = [abs(driver.speed) for driver in mechanism.drivers if driver.speed]
     period = 2.0 * math.pi / min(speeds)
     poses = min(MAX_SWEEP_POSES, SWEEP_POSES_PER_TURN * math.ceil(max(speeds) / min(speeds)))
-    q = assembled.q
+    q = np.array(q0)
     for t in np.linspace(0.0, period, poses + 1)[1:]:
         try:
             q = assemble(mechanism, q, float(t)).q
         except LinkageError as error:
-            raise LinkageError(f"{mechanism.name}: the motors cannot drive it through a turn (it locks at t = "
-                               f"{t:.3g} s of {period:.3g} s): {error}") from None
+            return float(t) / period, str(error)
+    return None

@@ -27,7 +27,7 @@ from physics import long_run
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.files import read_limited, write_atomically
-from physics.mechanism import MECHANISM_PRESETS, Mechanism
+from physics.mechanism import MECHANISM_PRESETS, Mechanism, validation
 from physics.mechanism import simulate as mechanism_simulate
 from physics.mechanism.validation import MAX_MOTOR_SPEED, check_runnable
 from physics.model import Settings, make_chain, validated
@@ -383,3 +383,19 @@ def test_a_long_mechanism_run_is_estimated_reported_and_stopped(tmp_path, capsys
     assert code == 3 and not (tmp_path / "stopped.csv").exists()
     kept = np.loadtxt(tmp_path / "stopped.csv.partial", delimiter=",", skiprows=1, ndmin=2)
     assert 1 <= len(kept) < 11 and "interrupted (Ctrl+C)" in err.splitlines()[-1]
+
+
+def test_an_edit_of_masses_or_motor_speed_sweeps_nothing_again():
+    """The sweep through a turn depends on the geometry and the motors' speed ratios only: a slider dragged in
+    the app (a mass, g, the motor's speed) reuses it; a new geometry sweeps again."""
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    check_runnable(mechanism)
+    before = validation._sweep_failure.cache_info()
+    heavier = Mechanism.model_validate({**mechanism.model_dump(mode="json"), "g": 3.0})
+    faster = _crank_rocker(speed=2.5 * mechanism.drivers[0].speed)
+    check_runnable(heavier)
+    check_runnable(faster)
+    after = validation._sweep_failure.cache_info()
+    assert (after.misses, after.hits) == (before.misses, before.hits + 2)
+    check_runnable(_crank_rocker(0.11))  # another crank: swept
+    assert validation._sweep_failure.cache_info().misses == after.misses + 1
