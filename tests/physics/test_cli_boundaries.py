@@ -265,7 +265,7 @@ COMMANDS = {
         "--t-end": HOSTILE_NUMBERS, "--samples": ["1", "2", "3", "100001", "abc"], "--out": "OUT",
         "--method": ["dae", "lagrange", "newton_euler", "reduced", "x"],
         "--stabilization": ["projection", "baumgarte", "none", "x"]}),
-    "chaos-map": (["--resolution", "2", "--t-max", "0.1", "--workers", "1", "--no-progress"], {
+    "chaos-map": (["--resolution", "2", "--t-max", "0.1", "--workers", "1", "--no-progress", "--out", "/dev/null"], {
         "--preset": CHAIN_PRESETS, "--resolution": ["0", "-1", "2", "20000", "abc"],
         "--t-max": HOSTILE_NUMBERS, "--step": HOSTILE_NUMBERS, "--workers": ["0", "1", "1025", "abc"],
         "--method": ["lagrange", "dae", "x"], "--out": "OUT", "--data": "OUT"}),
