@@ -10,7 +10,9 @@ import sys
 from pathlib import Path
 
 from physics import METHOD_NAMES, LinkageError, preset_names
+from physics.files import read_limited
 from physics.mechanism import MECHANISM_PRESETS
+from physics.notices import install_stderr_lines
 from physics.program import program_name, version_text
 
 from . import lifetime
@@ -64,11 +66,8 @@ def read_setup(path: str, preset: str, links: int | None) -> list[tuple[str, str
     """``--state FILE``: the saved setup's pairs, checked as a whole (LinkageError naming what is wrong)."""
     from . import share  # noqa: PLC0415 - imports the models: after the argument check, as the rest of main
 
-    try:
-        with open(path, "rb") as file:
-            data = file.read(share.MAX_STATE_BYTES + 1)
-    except OSError as error:
-        raise LinkageError(f"--state {path}: {error.strerror or error}") from None
+    # the real size of a file over the limit, and never a read that blocks (a FIFO) or never ends (/dev/zero)
+    data = read_limited(path, share.MAX_STATE_BYTES, f"--state {path}")
     pairs = share.pairs_from_state(data, f"--state {path}")
     try:
         share.check_setup(pairs, preset, links)
@@ -96,6 +95,7 @@ def _announce(args, server) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    install_stderr_lines()  # physics' notices (a cache file rebuilt, ...) one line each on stderr, as before
     if argv and argv[0] == "snapshot":
         from . import snapshot  # noqa: PLC0415 - playwright and the browser helpers only for snapshots
 

@@ -27,10 +27,11 @@ import hmac
 import os
 import shutil
 import stat
-import sys
 import tempfile
 import threading
 from pathlib import Path
+
+from .notices import notify
 
 _lock = threading.Lock()
 _resolved: dict[str, tuple[Path, bytes]] = {}
@@ -49,8 +50,9 @@ def configured_path() -> Path:
 
 
 def warn(message: str) -> None:
-    """One line on stderr: the cache's only way of speaking (never a traceback)."""
-    print(f"linkage-lab: {message}", file=sys.stderr, flush=True)
+    """One line on stderr, through logging (physics.notices: ``physics.cache`` at WARNING, shown by default):
+    the cache's only way of speaking (never a traceback)."""
+    notify(f"linkage-lab: {message}", "physics.cache")
 
 
 def _problem(path: Path) -> str | None:

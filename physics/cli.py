@@ -30,6 +30,7 @@ from .kernels.constants import RK4_WORK_ROWS
 from .kinematics import joint_positions
 from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
+from .notices import install_stderr_lines
 from .outputs import check_output_path, check_partial_path, write_output
 from .presets import get_preset, preset_names
 from .program import program_name, version_text
@@ -488,6 +489,7 @@ def refuse_empty_values(argv: list[str]) -> None:
 
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    install_stderr_lines()  # the library's notices (physics.notices) as the one-line stderr text they always were
     start_numba_without_blas()
     try:
         refuse_empty_values(argv)

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time
 from typing import Any, TextIO
 
@@ -25,6 +24,7 @@ import numpy as np
 from .codegen import load_compiled
 from .errors import LinkageError
 from .model import MAX_STEPS_LIMIT, Chain, Settings
+from .notices import notify
 from .registry import INTEGRATORS, METHODS
 from .simulate import simulate
 from .simulate.trajectory import Trajectory
@@ -55,7 +55,7 @@ class ProgressLine:
     def __init__(self, total: float, what: str = "simulated", stream: TextIO | None = None):
         self.total = total
         self.what = what
-        self.stream = stream if stream is not None else sys.stderr
+        self.stream = stream  # None: through logging ("physics.long_run", physics.notices), one line each
         self.start = time.perf_counter()
         self.last = self.start
         self.printed = 0
@@ -69,8 +69,11 @@ class ProgressLine:
             rate = done / max(now - self.start, 1e-9)
             seconds_left = (self.total - done) / rate if rate > 0 else math.inf
         left = f", about {duration_text(seconds_left)} left" if math.isfinite(seconds_left) else ""
-        print(f"{self.what} {done:.6g} of {self.total:.6g} s ({100.0 * done / self.total:.2f} %){left}",
-              file=self.stream, flush=True)
+        line = f"{self.what} {done:.6g} of {self.total:.6g} s ({100.0 * done / self.total:.2f} %){left}"
+        if self.stream is None:
+            notify(line, "physics.long_run")
+        else:
+            print(line, file=self.stream, flush=True)
         self.printed += 1
 
 
@@ -100,7 +103,8 @@ def _estimate_refusal(settings: Settings, steps: float, reached: float, seconds_
 
 def simulate_in_segments(chain: Chain, theta0, omega0, settings: Settings, stream: TextIO | None = None) -> Trajectory:
     """``physics.simulate`` for the command line: the same samples, estimated up front, progress on ``stream``
-    (stderr) for long runs, Ctrl+C answered with the samples so far (status failed, message "interrupted").
+    (default: the ``physics.long_run`` logger, physics.notices, which the command prints on stderr) for long
+    runs, Ctrl+C answered with the samples so far (status failed, message "interrupted").
     Raises LinkageError when the estimate exceeds ``settings.max_steps``."""
     spec = INTEGRATORS[settings.integrator]
     times = np.linspace(0.0, settings.t_end, settings.samples)
