@@ -168,8 +168,8 @@ def state_document(params: SessionParameters) -> bytes:
 
 def pairs_from_state(data: bytes, where: str = "setup file") -> list[tuple[str, str]]:
     """The ``(name, value)`` pairs of a saved setup; LinkageError (one line naming what is wrong) otherwise."""
-    if len(data) > MAX_STATE_BYTES:
-        raise LinkageError(f"{where}: {len(data)} bytes; a setup file is at most {MAX_STATE_BYTES}")
+    if len(data) > MAX_STATE_BYTES:  # the reader stops one byte past the limit: the size is not known here
+        raise LinkageError(f"{where}: over {MAX_STATE_BYTES} bytes; a setup file is at most {MAX_STATE_BYTES}")
     try:
         document = json.loads(data.decode("utf-8"))
     except UnicodeDecodeError:

@@ -46,9 +46,9 @@ def test_slider_ranges_sit_inside_the_model_bounds(spec):
 def test_log_and_millisecond_sliders_map_inside_the_settings_bounds():
     rtol = physics.Settings.model_fields["rtol"].metadata
     lo_exp, hi_exp, _ = controls.TOLERANCE_LOG10
-    gt = next(m.gt for m in rtol if hasattr(m, "gt"))
+    ge = next(m.ge for m in rtol if hasattr(m, "ge"))  # rtol's floor is inclusive (1e-14, physics.model)
     le = next(m.le for m in rtol if hasattr(m, "le"))
-    assert gt < 10.0**lo_exp and 10.0**hi_exp <= le
+    assert ge <= 10.0**lo_exp and 10.0**hi_exp <= le
     step = physics.Settings.model_fields["step"].metadata
     gt = next(m.gt for m in step if hasattr(m, "gt"))
     le = next(m.le for m in step if hasattr(m, "le"))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import urllib.parse
@@ -12,11 +13,13 @@ import urllib.parse
 import pytest
 
 from app import commands, share
+from app.__main__ import read_setup
 from app.commands import CONTROL
 from app.parameters import SessionParameters
 from app.server import LabServer
 from app.wsclient import BackgroundClient
 from conftest import wait_until
+from physics import LinkageError
 
 
 def _path(query: str) -> str:
@@ -172,3 +175,26 @@ def test_a_setup_file_loaded_in_a_session_and_refused_to_a_viewer(connect):
             session.upload_setup(7, "s.json", b'{"linkage_lab_setup": 1, "values": {"g": 3}}')
     finally:
         session.is_presenter = None
+
+
+@pytest.mark.parametrize("make, needle", [
+    (lambda folder: _write(folder / "big.json", b" " * 70_000), "70000 bytes, more than the 65536 allowed"),
+    (lambda folder: "/dev/zero", "is a device, not a regular file"),
+    (lambda folder: _fifo(folder / "pipe.json"), "is a pipe (FIFO), not a regular file"),
+])
+def test_a_state_file_is_read_with_a_limit_and_never_blocks(tmp_path, make, needle):
+    """``--state FILE``: a 70 KB file was reported as "65537 bytes" (what was read, not its size), and /dev/zero
+    or a FIFO would be read forever or block."""
+    with pytest.raises(LinkageError) as error:
+        read_setup(str(make(tmp_path)), "triple-a", None)
+    assert needle in str(error.value)
+
+
+def _write(path, data: bytes):
+    path.write_bytes(data)
+    return path
+
+
+def _fifo(path):
+    os.mkfifo(path)
+    return path
