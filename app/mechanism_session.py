@@ -28,7 +28,7 @@ from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
-from . import delivery, wire_guard
+from . import delivery, viser_compat
 from .camera import CameraDirector
 from .logs import quietly
 from .mechanism_edits import Knob, apply_edit, knobs
@@ -132,7 +132,7 @@ class MechanismSession:
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
             self._build_panel()
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
-            wire_guard.install()  # malformed messages dropped before viser reads them (one log line)
+            viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
             target.gui.add_html(READY_HTML)
         except BaseException:

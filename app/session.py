@@ -33,7 +33,7 @@ from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS
 from physics.model import validated
 
-from . import commands, delivery, export, readout, share, warm, wire_guard
+from . import commands, delivery, export, readout, share, viser_compat, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -119,7 +119,7 @@ class Session:
             self.camera = CameraDirector(target, shared)
             self.controls = Controls(self, target.gui)
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
-            wire_guard.install()  # malformed messages dropped before viser reads them (one log line)
+            viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self.view.panel = self.controls
             self.view.divergence = DivergencePlots(target.gui, COMPARE_METHODS, self.controls.divergence_plot)
             self.analysis = Analysis(self, self.controls, target.scene)

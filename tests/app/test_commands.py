@@ -50,7 +50,7 @@ VALID_AND_REFUSED = [
     ("g", "9.81", lambda p: p.g, 9.81, "1e6", "g = 1e+06 m/s²: outside the allowed range 0 <= g <= 1000 m/s²"),
     ("theta1", "45", lambda p: p.theta0[0], math.radians(45), "abc", "theta1 = 'abc': not a number"),
     ("omega2", "90", lambda p: p.omega0[1], math.radians(90), "inf", "omega2 = inf: must be a finite number"),
-    ("rtol", "1e-6", lambda p: p.settings.rtol, 1e-6, "0.5", "0 < rtol <= 0.1"),
+    ("rtol", "1e-6", lambda p: p.settings.rtol, 1e-6, "0.5", "1e-14 <= rtol <= 0.1"),
     ("step", "2.5", lambda p: p.step, 2.5e-3, "0", "0 < step <= 1000 ms"),
     ("baumgarte_alpha", "20", lambda p: p.baumgarte_alpha, 20.0, "1e5", "0 <= baumgarte_alpha <= 10000 1/s"),
     ("baumgarte_beta", "5", lambda p: p.baumgarte_beta, 5.0, "-1", "0 <= baumgarte_beta <= 10000 1/s"),

@@ -1,4 +1,4 @@
-"""A hostile client's messages never kill a session or print a traceback (app/wire_guard.py, app/controls.py).
+"""A hostile client's messages never kill a session or print a traceback (app/viser_compat.py, guard_messages, app/controls.py).
 
 Sent through a raw websocket client (app/wsclient.py) as a script in a page could: messages that do not
 decode, an unknown type, a missing field, a control id that is a list, NaN or infinity for the integer
@@ -12,7 +12,7 @@ import math
 
 import pytest
 
-from app import viser_compat, wire_guard
+from app import viser_compat
 from app.wsclient import encode, gui_update_message
 from conftest import wait_until
 
@@ -42,7 +42,7 @@ def _frames_go_on(client, session) -> bool:
 def test_a_malformed_message_is_dropped_quietly_and_the_session_goes_on(connect, capfd, kind):
     client, session = connect()
     capfd.readouterr()
-    n, dropped = session.params.n, wire_guard.dropped
+    n, dropped = session.params.n, viser_compat.dropped_messages
     client.send(_malformed(session)[kind])
     client.send(_malformed(session)[kind])  # twice: still at most one line for the kind
     assert _frames_go_on(client, session), "the session stopped sending frames"
@@ -52,7 +52,7 @@ def test_a_malformed_message_is_dropped_quietly_and_the_session_goes_on(connect,
     assert "Traceback" not in err and "Task exception" not in err, err[-3000:]
     assert len([line for line in err.splitlines() if line.strip()]) <= 1, err
     if kind not in ("unknown id", "values a list"):  # viser ignores an unknown id; a bad table gets a notice
-        assert wire_guard.dropped >= dropped + 2
+        assert viser_compat.dropped_messages >= dropped + 2
 
 
 def test_a_value_outside_the_plot_dropdown_is_refused_and_the_plot_stays(connect, capfd):

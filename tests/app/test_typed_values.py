@@ -34,7 +34,7 @@ FIELDS = [
     ("d1", "0.2", lambda p: p.d[0], 0.2, "5", ["d1 = 5 m", "0 <= d1 <= 1 m"]),
     ("g", "1e1", lambda p: p.g, 10.0, "", ["g: the box is empty", "m/s²"]),
     ("theta2", "30", lambda p: p.theta0[1], math.radians(30), "NaN", ["theta2", "finite"]),
-    ("rtol", "1e-7", lambda p: p.tolerance, 1e-7, "1", ["rtol = 1", "0 < rtol <= 0.1"]),
+    ("rtol", "1e-7", lambda p: p.tolerance, 1e-7, "1", ["rtol = 1", "1e-14 <= rtol <= 0.1"]),
     ("damping", "0.1", lambda p: p.damping, 0.1, "-1", ["damping = -1 N·m·s", "0 <= damping <= 1000 N·m·s"]),
 ]
 
