@@ -415,10 +415,75 @@ def measure_load(clients: int = 30, seconds: float = 60.0, early: int = 5, early
         server.stop()
 
 
+SETTLE_SECONDS = 3.0  # after the last session closed: a sibling's trimmer collects and trims 0.5 s after it
+
+
+def measure_cycles(clients: int = 50, cycles: int = 6, processes: int = 3, seconds: float = 10.0) -> dict:
+    """Server memory over cycles of ``clients`` browsers joining and leaving together (issue 23's figure).
+
+    In-process server (and its siblings) as in :func:`measure_load`; each cycle, ``clients`` websocket clients in
+    a subprocess (``python -m app.wsclient``) stay ``seconds`` and leave; once every session of every process has
+    closed (the shared seat count is 0) and SETTLE_SECONDS have passed, the resident memory of every server
+    process is read. One line per cycle goes to stderr as it is measured."""
+    from .server import LabServer
+
+    server = LabServer(port=0, max_sessions=min(clients + 5, 100), processes=processes)
+    try:
+        if server._warm_thread is not None:
+            server._warm_thread.join(600)
+        if server.siblings is not None and not server.siblings.wait_ready():
+            raise RuntimeError(f"server processes failed to start: {server.siblings.failures}")
+        pids = server.pids
+        time.sleep(SETTLE_SECONDS)  # the siblings' own warm-up (loading compiled code) is under way meanwhile
+        fresh = [round(_rss_mb(pid), 1) for pid in pids]
+        print(f"fresh: {sum(fresh):.1f} MB {fresh}", file=sys.stderr, flush=True)
+        after: list[list[float]] = []
+        received: list[int] = []
+        for cycle in range(1, cycles + 1):
+            done = subprocess.run(
+                [sys.executable, "-m", "app.wsclient", server.url, "--clients", str(clients), "--seconds",
+                 str(seconds)],
+                cwd=ROOT, capture_output=True, text=True, timeout=seconds + 600, check=False,
+            )
+            if done.returncode != 0:
+                raise RuntimeError(f"cycle {cycle}: the clients failed: {done.stderr[-2000:]}")
+            per_client = json.loads(done.stdout)["per_client"]
+            received.append(sum(1 for c in per_client if c["bar_updates"] > 0))
+            deadline = time.monotonic() + 120
+            while server.seats.count and time.monotonic() < deadline:
+                time.sleep(0.05)
+            trimmer = getattr(server, "trimmer", None)  # absent from servers older than app/memory.py
+            if trimmer is not None:
+                trimmer.wait_settled(60)
+            time.sleep(SETTLE_SECONDS)
+            after.append([round(_rss_mb(pid), 1) for pid in pids])
+            print(f"cycle {cycle}: {sum(after[-1]):.1f} MB {after[-1]}; {received[-1]} of {clients} clients "
+                  f"received frames; sessions left {server.seats.count}", file=sys.stderr, flush=True)
+        totals = [round(sum(each), 1) for each in after]
+        return {
+            "clients": clients,
+            "cycles": cycles,
+            "processes": len(pids),
+            "seconds_per_cycle": seconds,
+            "clients_with_frames": received,
+            "rss_mb": {
+                "fresh": round(sum(fresh), 1),
+                "after_cycle": totals,
+                "per_process_fresh": fresh,
+                "per_process_after_cycle": after,
+            },
+            # the target of docs/reliability.md: the last cycle within 10 % of the first
+            "last_over_first": round(totals[-1] / totals[0], 3) if totals else None,
+            "sessions_at_end": server.seats.count,
+        }
+    finally:
+        server.stop()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("part", choices=["all", "start", "browser-start", "latency", "cpu", "load"], nargs="?", default="all")
+    parser.add_argument("part", choices=["all", "start", "browser-start", "latency", "cpu", "load", "cycles"], nargs="?", default="all")
     parser.add_argument("--clients", type=int, default=30)
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--shared", action="store_true")
@@ -427,9 +492,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--client-processes", type=int, default=1,
                         help="load generators the clients of the load part are split over")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache start (it derives everything)")
+    parser.add_argument("--cycles", type=int, default=6, help="join-and-leave cycles of the cycles part")
+    parser.add_argument("--cycle-seconds", type=float, default=10.0,
+                        help="seconds the clients of the cycles part stay in each cycle")
     parser.add_argument("--preset", default="triple-a",
                         help="mechanism of the cpu part (a chain preset or a general mechanism, e.g. jansen-leg)")
     args = parser.parse_args(argv)
+    if args.part == "cycles":
+        for name, value, low, high in (("--clients", args.clients, 1, 100), ("--cycles", args.cycles, 1, 100),
+                                       ("--cycle-seconds", args.cycle_seconds, 1.0, 600.0),
+                                       ("--processes", args.processes, 1, 16)):
+            if not low <= value <= high:  # NaN fails both comparisons
+                print(f"python -m app.bench cycles: {name} {value}: allowed range {low} <= {name[2:]} <= {high}",
+                      file=sys.stderr)
+                return 2
     out: dict = {}
     if args.part in ("all", "start"):
         runs = [measure_start(cold=False) for _ in range(3)]
@@ -455,6 +531,8 @@ def main(argv: list[str] | None = None) -> int:
         load.pop("per_client")
         load.pop("samples")
         out["load"] = load
+    if args.part == "cycles":  # not in "all": it measures memory over minutes of joining and leaving
+        out["cycles"] = measure_cycles(args.clients, args.cycles, args.processes, seconds=args.cycle_seconds)
     print(json.dumps(out, indent=2))
     return 0
 

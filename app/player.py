@@ -300,6 +300,16 @@ class Player:
                     traceback.print_exc()
                 self._wake.wait(0.5)
                 self._wake.clear()
+        self._release()
+
+    def _release(self) -> None:
+        """Drop the samples when the thread ends (the session closed): a closed session's objects are freed
+        only by Python's cyclic collector, often minutes later, but its rings (the bulk of its memory) go now,
+        so a server's memory follows its audience (app/memory.py)."""
+        with self.lock:
+            self.runs = []
+            self._pending = None
+            self._installing = None
 
     def _apply_restart(self) -> None:
         with self.lock:

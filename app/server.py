@@ -24,8 +24,8 @@ import traceback
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 
+from . import memory, replay, share, viser_compat
 from . import processes as server_processes
-from . import replay, share, viser_compat
 from . import warm as warm_up
 from .commands import CONTROL
 from .logs import quietly
@@ -159,6 +159,7 @@ class LabServer:
         self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
         self.shared_session: Session | MechanismSession | None = None
         self.closed_sessions = 0
+        self.trimmer = memory.Trimmer()  # returns what closed sessions freed to the system (app/memory.py)
         # --shared: only the browser that opened the presenter's secret address may change anything
         self.presenter_path: str | None = None
         self._presenters: set[int] = set()  # browsers seen connected on the presenter's address
@@ -238,6 +239,7 @@ class LabServer:
                     session.close()
                     with self._lock:
                         self.closed_sessions += 1
+                    self.trimmer.request()
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
@@ -260,6 +262,7 @@ class LabServer:
         """The mechanism menu chose the other kind of session: remove the old one's panel and scene from the
         browser (``target``) and start the new one there, in the same seat."""
         old.close(clean=True)
+        self.trimmer.request()
         if isinstance(old, Session):  # to a general mechanism
             new = self._start_session(target, self.preset, self.links, shared=shared, mechanism=name)
         else:  # back to a chain preset
@@ -278,8 +281,9 @@ class LabServer:
 
     def is_presenter(self, client_id: int | None) -> bool:
         """Whether this browser opened the presenter's address. Fails closed: an unknown sender, a connection
-        that is already gone (an upload finished after its sender left) or a viser that hides the path is no
-        presenter. A browser seen on the presenter's address while connected stays one until it leaves."""
+        never seen open on that address (a viewer's upload finishing after it left) or a viser that hides the
+        path is no presenter. A browser seen connected on the presenter's address stays one, so that what it
+        sent just before leaving is still its own (viser never reuses a client id within a server)."""
         if client_id is None or self.presenter_path is None:
             return False
         with self._lock:
@@ -339,12 +343,12 @@ class LabServer:
         with self._lock:
             session = self.sessions.pop(client.client_id, None)
             self.turned_away.discard(client.client_id)
-            self._presenters.discard(client.client_id)
         if session is not None:
             session.close()
             self.seats.release()
             with self._lock:
                 self.closed_sessions += 1
+            self.trimmer.request()
         self._rebalance()
 
     def session_for(self, client_id: int) -> Session | MechanismSession | None:
@@ -383,6 +387,7 @@ class LabServer:
         with contextlib.redirect_stdout(io.StringIO()):
             self.viser.stop()
         replay.stop_recorder()
+        self.trimmer.stop()
 
     def serve_forever(self) -> None:
         try:
