@@ -371,7 +371,7 @@ def _apply_choice(params: SessionParameters, name: str, value) -> Edit:
 
 
 # ------------------------------------------------------------------------------------------ control values
-def shown_value(value: object, limit: int = 40) -> str:
+def shown_value(value: object, limit: int = 80) -> str:
     """A value as a refusal quotes it: its repr, cut at ``limit`` characters (a hostile client's 10**400)."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 1] + "…"

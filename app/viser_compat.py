@@ -124,7 +124,7 @@ def client_caught_up(client) -> bool:
 
 
 # ------------------------------------------------------------------------------------------ incoming values
-SHOWN_VALUE_CHARS = 40  # a refused value is quoted in a notice up to this many characters
+SHOWN_VALUE_CHARS = 80  # a refused value is quoted in a notice up to this many characters (as commands.shown_value)
 
 
 def _shown(value: object) -> str:

@@ -10,7 +10,7 @@ import pytest
 
 from app import viser_compat
 from app.server import LabServer
-from app.viser_compat import update_problem
+from app.viser_compat import SHOWN_VALUE_CHARS, update_problem
 from app.wsclient import send_values
 from conftest import BrowserStandIn, wait_until
 
@@ -36,7 +36,7 @@ HOSTILE = ("abc", None, [1, 2], {"a": 1}, "1e999", True, "<b>x</b>")
         (1.0, {"value": 1.0, "disabled": False}, "a browser sets only a control's value (got ['disabled', 'value'])"),
         (1.0, {"visible": False}, "a browser sets only a control's value (got ['visible'])"),
         (1.0, "value", "a browser sets only a control's value (got 'value')"),
-        (1.0, {"value": "x" * 1000}, "'" + "x" * 38 + "… is not a number"),
+        (1.0, {"value": "x" * 1000}, "'" + "x" * (SHOWN_VALUE_CHARS - 2) + "… is not a number"),
     ],
 )
 def test_what_a_browser_can_send_for_each_kind_of_control(current, updates, problem):
