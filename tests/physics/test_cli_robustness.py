@@ -399,11 +399,3 @@ def test_an_edit_of_masses_or_motor_speed_sweeps_nothing_again():
     assert (after.misses, after.hits) == (before.misses, before.hits + 2)
     check_runnable(_crank_rocker(0.11))  # another crank: swept
     assert validation._sweep_failure.cache_info().misses == after.misses + 1
-
-
-def test_a_run_sampled_too_sparsely_for_its_motor_is_refused_with_the_samples_it_needs(capsys):
-    """Jansen's leg for 1e4 s in 201 samples turned its crank 100 rad between samples and lost its pose midway
-    ("joint 'T' cannot be assembled"): refused up front, naming the samples that would do."""
-    refused(capsys, "mechanism", "--preset", "jansen-leg", "--t-end", "1e4",
-            needle="(it turns 100 rad between samples 50 s apart; the pose cannot be followed beyond 0.5 rad); "
-                   "use --samples 40001 or more, or a shorter --t-end")
