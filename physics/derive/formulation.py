@@ -35,6 +35,17 @@ class LinearSystem:
     # (n, n) and the force dL/d theta + Q (n,) with Q the damping's generalized force (no loop reaction).
     mass_matrix: sp.Matrix | None = None
     lagrangian_force: sp.Matrix | None = None
+    # The constraints the integrator holds (a pinned chain's tip, a mechanism's closures and speed motors), for
+    # the kernels' generic Baumgarte terms, projection and singularity test (docs/architecture.md):
+    # (A x - b)[constraint_rows[i]] is the second time derivative of constraint[i].
+    constraint_rows: tuple = ()
+    constraint: sp.Matrix | None = None  # phi (r,), in the coordinates, the parameters and possibly t
+    constraint_jacobian: sp.Matrix | None = None  # d phi / d theta (r, n)
+    constraint_rate: sp.Matrix | None = None  # phi_dot = J omega + d phi / d t (r,)
+    multiplier_index: tuple = ()  # where each constraint row's multiplier sits in x
+    time_index: int | None = None  # index of t in symbols.params (the kernels write it), None if nothing uses t
+    # tree coordinates only: every body's (x, y, phi) in them, d pose / d theta, and the bias d(J)/dt omega
+    kinematics: tuple | None = None
 
 
 def _split_linear(expr, unknowns: frozenset):
