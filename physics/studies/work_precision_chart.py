@@ -15,10 +15,19 @@ SEED_BASELINE = "seed-baseline"  # the backend field of the seed-style baseline'
 # Colour by integrator, dash and marker by method: one entry per registry name, in registry order.
 _INTEGRATOR_COLOURS = {name: k for k, name in enumerate(INTEGRATOR_NAMES)}
 _FORMULATION_DASH = {"newton_euler": 1, "lagrange": 0, "dae": 2, "reduced": 3}
+# A general mechanism's curves (physics.studies.mechanism_work_precision) also name their stabilisation: colour
+# by it there (one integrator today); the chain's curves have no such key and keep their colours.
+_STABILIZATION_COLOURS = {"none": 2, "baumgarte": 0, "projection": 4, "position analysis": 6}
 
 
 def probe_name(case: dict) -> str:
     return case.get("probe", "tip")
+
+
+def _note(case: dict, narrow: bool) -> str:
+    if any("stabilization" in curve for curve in case["curves"]):
+        return "colour: stabilisation; dash/marker: method"
+    return "colour: integrator; dash/marker: formulation" + ("" if narrow else "; black crosses: seed-style baseline")
 
 
 def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
@@ -29,6 +38,10 @@ def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
         points = [p for p in curve["points"] if p["error"] is not None]
         if curve["backend"] == SEED_BASELINE:
             color, dash, marker = "#222222", DASHES[_FORMULATION_DASH[curve["formulation"]]], "cross"
+        elif "stabilization" in curve:
+            color = PALETTE[_STABILIZATION_COLOURS.get(curve["stabilization"], 8)]
+            dash = DASHES[_FORMULATION_DASH[curve["formulation"]]]
+            marker = MARKERS[_FORMULATION_DASH[curve["formulation"]] % len(MARKERS)]
         else:
             color = PALETTE[_INTEGRATOR_COLOURS[curve["integrator"]]]
             dash = DASHES[_FORMULATION_DASH[curve["formulation"]]]
@@ -50,6 +63,6 @@ def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
         width=380 if narrow else 980,
         height=330 if narrow else 560,
         hlines=[(max(uncertainty, 1e-16), "reference uncertainty")],
-        note="colour: integrator; dash/marker: formulation" + ("" if narrow else "; black crosses: seed-style baseline"),
+        note=_note(case, narrow),
         legend_below=narrow,
     )

@@ -1,0 +1,126 @@
+"""What every study of a general mechanism shares: which mechanism (a preset or a file), its mobility, the
+point whose path a study measures, and one run whose failure comes back as a status instead of an exception.
+
+Why here and not in the core: the studies run a mechanism only through
+:func:`physics.mechanism.simulate.simulate_mechanism` and read only its :class:`MechanismRun`, so they keep working
+whichever engine is under that function. A run that stops midway raises ``LinkageError`` today; a study records
+it as a failed cell with its message (the chain studies' ``Status``), as a sweep must go on past a failure.
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import LinkageError
+from ..mechanism.assembly import assemble
+from ..mechanism.files import load_mechanism
+from ..mechanism.model import Mechanism
+from ..mechanism.presets import MECHANISM_PRESETS
+from ..mechanism.simulate import MechanismRun, simulate_mechanism
+from ..mechanism.validation import check_runnable
+from ..status import Status
+
+# The methods of a mechanism's run: the three formulations, and the reduced model where the mobility is 1.
+FORMULATIONS = ("newton_euler", "lagrange", "dae")
+REDUCED = "reduced"
+STABILIZATIONS = ("none", "baumgarte", "projection")
+# The engine's integrators: DOP853 alone until simulate_mechanism takes an ``integrator`` (then each is swept).
+TAKES_INTEGRATOR = "integrator" in inspect.signature(simulate_mechanism).parameters
+MECHANISM_INTEGRATORS = ("RK45", "DOP853") if TAKES_INTEGRATOR else ("DOP853",)
+
+
+def mechanism_names() -> tuple[str, ...]:
+    """The mechanism presets, in the table's order."""
+    return tuple(MECHANISM_PRESETS)
+
+
+def load_case(preset: str | None = None, file: str | None = None) -> Mechanism:
+    """The mechanism of ``--preset NAME`` or ``--mechanism FILE`` (exactly one), checked to run
+    (:func:`physics.mechanism.validation.check_runnable`: the same check as every other door)."""
+    if (preset is None) == (file is None):
+        raise LinkageError("give one of --preset NAME (a mechanism preset) or --mechanism FILE.toml|.json")
+    if file is not None:
+        mechanism = load_mechanism(file)
+    else:
+        if preset not in MECHANISM_PRESETS:
+            raise LinkageError(f"--preset {preset!r}: not a mechanism preset; allowed {', '.join(MECHANISM_PRESETS)}")
+        mechanism = MECHANISM_PRESETS[preset]()
+    check_runnable(mechanism)
+    return mechanism
+
+
+def mobility(mechanism: Mechanism) -> int:
+    """Degrees of freedom the motors leave free (rank count at the assembled sketch)."""
+    return assemble(mechanism).mobility
+
+
+def methods_for(mechanism: Mechanism, formulations=FORMULATIONS) -> tuple[str, ...]:
+    """``formulations``, with the reduced model where the mechanism has exactly one free coordinate."""
+    return tuple(formulations) + ((REDUCED,) if mobility(mechanism) == 1 else ())
+
+
+def probe_reference(mechanism: Mechanism) -> str:
+    """``body.point`` whose path a study measures: the traced point, else the last body's last point (a chain
+    written as a mechanism: its tip)."""
+    if mechanism.trace is not None and not mechanism.trace.startswith("ground."):
+        return mechanism.trace
+    last = mechanism.bodies[-1]
+    return f"{last.name}.{list(last.points)[-1]}"
+
+
+def point_path(mechanism: Mechanism, q: np.ndarray, reference: str) -> np.ndarray:
+    """Where the point ``body.point`` is at every pose of ``q (T, 3 B)``: shape ``(T, 2)``. A body's ``q`` is
+    its centre of mass and its rotation from the sketch, so a point drawn at ``p`` moves to ``r + R(phi) (p - c)``."""
+    name, _, point = reference.partition(".")
+    k = [body.name for body in mechanism.bodies].index(name)
+    body = mechanism.body(name)
+    arm = np.subtract(body.points[point], body.centre)
+    q = np.atleast_2d(q)
+    x, y, phi = q[:, 3 * k], q[:, 3 * k + 1], q[:, 3 * k + 2]
+    c, s = np.cos(phi), np.sin(phi)
+    return np.column_stack([x + c * arm[0] - s * arm[1], y + s * arm[0] + c * arm[1]])
+
+
+@dataclass
+class Outcome:
+    """One run of a study: the run (None when it stopped), its status and message (the engine's sentence),
+    wall time, and the probe's path. ``success``, ``status``, ``message``, ``n_rhs``, ``tip_xy`` are what the
+    work-precision points read from a chain's Trajectory."""
+
+    run: MechanismRun | None
+    status: Status
+    message: str
+    seconds: float
+    tip_xy: np.ndarray
+
+    @property
+    def success(self) -> bool:
+        return self.status == Status.OK
+
+    @property
+    def n_rhs(self) -> int | None:
+        return None if self.run is None else int(self.run.evaluations)
+
+
+def failure_status(message: str) -> Status:
+    """The chain studies' status for a mechanism run's failure sentence."""
+    return Status.SINGULAR if "singular" in message else Status.INTEGRATOR_FAILED
+
+
+def run_case(mechanism: Mechanism, t_end: float, samples: int, *, probe: str | None = None, **options) -> Outcome:
+    """:func:`simulate_mechanism` with ``options`` (method, stabilization, rtol, atol, q0, qdot0, integrator
+    where the engine takes one), timed; a LinkageError midway comes back as a failed Outcome."""
+    if not TAKES_INTEGRATOR:
+        options.pop("integrator", None)
+    probe = probe or probe_reference(mechanism)
+    start = time.perf_counter()
+    try:
+        run = simulate_mechanism(mechanism, t_end, samples, **options)
+    except LinkageError as error:
+        return Outcome(None, failure_status(str(error)), str(error), time.perf_counter() - start, np.zeros((0, 2)))
+    seconds = time.perf_counter() - start
+    return Outcome(run, Status.OK, "ok", seconds, point_path(mechanism, run.q, probe))

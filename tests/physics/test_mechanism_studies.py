@@ -1,0 +1,142 @@
+"""The studies for a general mechanism (issue 24, "every study for every mechanism"): work-precision, the
+stability study, the chaos map and the ensemble, each on a mechanism preset or a mechanism file. Runs are short
+(a fraction of a second of simulated time, a few tolerances, a few pixels or copies); speed is never asserted."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics.errors import LinkageError
+from physics.mechanism.presets import MECHANISM_PRESETS
+from physics.studies import bench, mechanism_cases
+from physics.studies.mechanism_work_precision import mechanism_case
+from physics.studies.work_precision_chart import chart
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# A double pendulum written as a mechanism file, hanging straight down in its sketch (so each body's rotation
+# from the sketch is its angle from the downward vertical): two bodies, two pins, mobility 2.
+DOUBLE_PENDULUM = {
+    "name": "double-pendulum",
+    "g": 9.81,
+    "ground": {"O": [0.0, 0.0]},
+    "bodies": [
+        {"name": "upper", "points": {"O": [0.0, 0.0], "A": [0.0, -1.0]}, "mass": 1.0, "com": [0.0, -0.5],
+         "inertia": 1.0 / 12},
+        {"name": "lower", "points": {"A": [0.0, -1.0], "B": [0.0, -2.0]}, "mass": 1.0, "com": [0.0, -1.5],
+         "inertia": 1.0 / 12},
+    ],
+    "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "upper.O"},
+               {"kind": "revolute", "name": "A", "a": "upper.A", "b": "lower.A"}],
+    "trace": "lower.B",
+}
+
+
+@pytest.fixture(scope="module")
+def double_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("mechanisms") / "double.json"
+    path.write_text(json.dumps(DOUBLE_PENDULUM))
+    return path
+
+
+def _physics(*args, timeout=300):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "physics", *args], capture_output=True, text=True, cwd=ROOT,
+                          env=env, timeout=timeout)
+
+
+# ------------------------------------------------------------------------------------------------
+# The shared pieces
+
+
+def test_a_case_is_a_preset_or_a_file_and_a_bad_one_is_one_line(double_file):
+    assert mechanism_cases.load_case(preset="slider-crank").name == "slider-crank"
+    assert mechanism_cases.load_case(file=str(double_file)).name == "double-pendulum"
+    with pytest.raises(LinkageError, match="not a mechanism preset"):
+        mechanism_cases.load_case(preset="triple-a")
+    with pytest.raises(LinkageError, match="give one of"):
+        mechanism_cases.load_case()
+
+
+def test_the_probe_path_is_the_traced_point_of_every_pose():
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    outcome = mechanism_cases.run_case(mechanism, 0.2, 5, method="dae")
+    assert outcome.success and outcome.tip_xy.shape == (5, 2)
+    np.testing.assert_allclose(outcome.tip_xy, outcome.run.trace_xy, atol=1e-12)
+
+
+def test_a_failed_run_comes_back_as_a_status_not_an_exception():
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    outcome = mechanism_cases.run_case(mechanism, 0.2, 5, method="reduced", stabilization="none")
+    assert not outcome.success and outcome.run is None and "stabilization" in outcome.message
+
+
+# ------------------------------------------------------------------------------------------------
+# 1. Work-precision
+
+
+def test_work_precision_of_the_slider_crank_sweeps_every_method_and_stabilisation():
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    case = mechanism_case(mechanism, horizon=0.3, stabilizations=("none", "projection"), tolerances=(1e-4, 1e-8),
+                          repeats=1, budget=0.05)
+    assert case["mobility"] == 1 and case["probe"] == "point piston.B"
+    assert case["reference"]["uncertainty"] < 1e-9
+    labels = {(c["formulation"], c["stabilization"]) for c in case["curves"]}
+    assert labels == {(m, s) for m in ("newton_euler", "lagrange", "dae") for s in ("none", "projection")} | {
+        ("reduced", "position analysis")}
+    for curve in case["curves"]:
+        errors = [p["error"] for p in curve["points"]]
+        assert all(p["status"] == 0 and p["seconds"] > 0 for p in curve["points"]), curve["label"]
+        assert errors[1] < 1e-2 * errors[0], (curve["label"], errors)  # tightening the tolerance buys accuracy
+    svg = chart("slider-crank", case)
+    assert svg.startswith("<svg") and "colour: stabilisation" in svg and svg.count('<path d="M') >= len(labels)
+
+
+def test_work_precision_of_a_driven_mechanism_is_checked_against_its_position_analysis():
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    case = mechanism_case(mechanism, horizon=0.2, formulations=("dae",), stabilizations=("projection",),
+                          tolerances=(1e-6,), repeats=1, budget=0.05)
+    assert case["mobility"] == 0 and "position_analysis" in case["reference"]["checks"]
+    assert case["reference"]["checks"]["position_analysis"] < 1e-8
+    assert [c["formulation"] for c in case["curves"]] == ["dae"]  # no reduced model without a free coordinate
+
+
+def test_bench_command_writes_a_mechanism_report(tmp_path, double_file):
+    out = tmp_path / "bench"
+    result = _physics("bench", "--preset", "slider-crank", "--mechanism", str(double_file), "--formulations", "dae",
+                      "--stabilizations", "none,projection", "--tolerances", "1e-4,1e-7", "--repeats", "1",
+                      "--quick", "--no-progress", "--out", str(out))
+    assert result.returncode == 0, result.stderr[-2000:]
+    document = json.loads((out / "work_precision.json").read_text())
+    assert set(document["cases"]) == {"slider-crank", "double-pendulum"}
+    assert [c["label"] for c in document["cases"]["double-pendulum"]["curves"]] == [
+        "dae / DOP853 (none)", "dae / DOP853 (projection)"]  # mobility 2: no reduced model
+    for name in ("slider-crank", "double-pendulum"):
+        assert (out / f"work_precision_{name}.svg").read_text().startswith("<svg")
+        assert f"**{name}**" in result.stdout
+    assert "Headline" not in (out / "work_precision.html").read_text()  # no chain case, no seed baseline
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--preset", "slider-crank", "--stabilizations", "tight"], "--stabilizations"),
+    (["--mechanism", "/nonexistent/m.toml"], "m.toml"),
+    (["--preset", "slider-crank", "--integrators", "midpoint"], "--integrators"),
+    (["--suite", "ensemble", "--preset", "slider-crank"], "--suite ensemble"),
+])
+def test_bench_refuses_what_does_not_apply_to_a_mechanism(args, needle, tmp_path):
+    with pytest.raises(LinkageError, match=needle):
+        bench.main([*args, "--out", str(tmp_path / "out"), "--no-progress"])
+
+
+def test_bench_refusal_is_one_line_on_the_command_line(tmp_path):
+    result = _physics("bench", "--preset", "slider-crank", "--stabilizations", "tight", "--out", str(tmp_path / "o"),
+                      timeout=120)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1 and "--stabilizations" in lines[0], result.stderr
