@@ -153,3 +153,34 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
         reason = "the mechanism cannot be assembled" if knob.geometry else "the mechanism cannot run"
         raise LinkageError(f"{knob.label} = {number:g}: {reason} ({error})") from None
     return edited
+
+
+MAX_TYPED = 60  # characters: longer is no number a person typed
+
+
+def shown_value(value: float) -> str:
+    """A value in force as its box shows it (``0.001``, ``25``, ``1e-09``): the chain panel's format."""
+    return f"{value:.6g}"
+
+
+def typed_number(knob: Knob, text: object) -> float:
+    """What a person typed into ``knob``'s box, read as Python reads a number (``2.5e1``, ``1e-3``, ``-0``,
+    ``1_000``, a typographic minus), never as the browser's number box does (which drops the exponent: 2.51);
+    LinkageError naming the field otherwise (``1,5`` is no number: a decimal comma is refused, not read as 15).
+    The range is the model's, checked by :func:`apply_edit`."""
+    unit = knob.label[knob.label.rfind("(") + 1: -1] if knob.label.endswith(")") else ""
+    example = f"type a number{' in ' + unit if unit else ''}, e.g. 1.5 or 1e-3"
+    if not isinstance(text, str):
+        raise LinkageError(f"{knob.label} = {text!r}: not a number; {example}")
+    cleaned = text.strip().replace("\u2212", "-")
+    if not cleaned:
+        raise LinkageError(f"{knob.label}: the box is empty; {example}")
+    if len(cleaned) > MAX_TYPED:
+        raise LinkageError(f"{knob.label}: {len(cleaned)} characters is not a number; {example}")
+    try:
+        number = float(cleaned)
+    except ValueError:
+        raise LinkageError(f"{knob.label} = {cleaned!r}: not a number; {example}") from None
+    if not math.isfinite(number):
+        raise LinkageError(f"{knob.label} = {cleaned}: must be a finite number")
+    return number

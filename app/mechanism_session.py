@@ -31,7 +31,7 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from . import delivery, viser_compat
 from .camera import CameraDirector
 from .logs import quietly
-from .mechanism_edits import Knob, apply_edit, knobs
+from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
 from .mechanism_runs import (
     MechanismSettings,
     MechanismSpec,
@@ -44,6 +44,7 @@ from .mechanism_runs import (
 from .mechanism_scene import MechanismScene
 from .mechanism_workers import POOL
 from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
+from .number_inputs import TYPING_PAUSE_S
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
 from .player import SAMPLE_DT, Frame, Player
@@ -145,6 +146,9 @@ class MechanismSession:
         gui = self.target.gui
         self._gui: list = []
         self._knob_handles: dict[str, Any] = {}
+        self._typed_boxes: dict[str, Any] = {}
+        self._typing: dict[str, threading.Timer] = {}
+        self._typing_lock = threading.Lock()
         self._syncing = False
 
         def keep(handle):
@@ -194,16 +198,26 @@ class MechanismSession:
         return entries if self.label in entries else entries + [self.label]
 
     def _build_knobs(self) -> None:
-        for handle in self._knob_handles.values():
+        for timer in self._typing.values():
+            timer.cancel()
+        self._typing = {}
+        for handle in [*self._knob_handles.values(), *self._typed_boxes.values()]:
             quietly(handle.remove, "removing a control")
-        self._knob_handles = {}
+        self._knob_handles, self._typed_boxes = {}, {}
+        gui = self.target.gui
         with self.knob_folder:
             for knob in knobs(self.mechanism, self.reference):
-                handle = self.target.gui.add_slider(knob.label, min=knob.low, max=knob.high, step=knob.step,
-                                                    initial_value=min(max(knob.value, knob.low), knob.high),
-                                                    hint=knob.hint)
+                handle = gui.add_slider(knob.label, min=knob.low, max=knob.high, step=knob.step,
+                                        initial_value=min(max(knob.value, knob.low), knob.high), hint=knob.hint)
                 handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
                 self._knob_handles[knob.name] = handle
+                # the box a value is typed in, read by the server as written (the slider's own box is the
+                # browser's, which reads 2.5e1 as 2.51): as the chain panel's (app/number_inputs.py)
+                box = gui.add_text(f"type {knob.label}", initial_value=shown_value(knob.value),
+                                   hint=f"Type a value for {knob.label} (e.g. 1.5 or 1e-3); applied when you stop "
+                                   "typing")
+                box.on_update(lambda event, name=knob.name: None if self._syncing else self._typed(name))
+                self._typed_boxes[knob.name] = box
         if self.torque_plot is not None:
             self.torque_plot.remove()
             self.torque_plot = None
@@ -219,6 +233,46 @@ class MechanismSession:
             return
         self.guard(lambda: self.set(knob.name, handle.value))
 
+    def _typed(self, name: str) -> None:
+        """A keystroke in a typed box: the value is applied once typing has paused (TYPING_PAUSE_S); then the
+        box shows the value in force, applied or refused (one notice naming the field and its range)."""
+        box = self._typed_boxes.get(name)
+        if box is None:
+            return
+        text = box.value
+
+        def commit() -> None:
+            if self.closed or self._typed_boxes.get(name) is not box:
+                return
+            self.guard(lambda: self.set_typed(name, text))
+            quietly(self.sync_all, "showing the value in force")
+
+        with self._typing_lock:
+            if name in self._typing:
+                self._typing[name].cancel()
+            timer = threading.Timer(TYPING_PAUSE_S, commit)
+            timer.daemon = True
+            self._typing[name] = timer
+            timer.start()
+
+    def typing(self) -> bool:
+        """True while a typed value waits for its pause (tests wait for this to end)."""
+        with self._typing_lock:
+            return any(timer.is_alive() for timer in self._typing.values())
+
+    def typed_box(self, name: str):
+        """The typed box of a generated control (``mass:crank``, ``speed:O``, ``g``)."""
+        return self._typed_boxes[name]
+
+    def set_typed(self, name: str, text: object) -> None:
+        """A value typed (or in a share link) for a generated control, in the panel's units (°/s for a motor's
+        speed): read as written (:func:`app.mechanism_edits.typed_number`), then set as by its slider."""
+        knob = next((k for k in knobs(self.mechanism, self.reference) if k.name == name), None)
+        if knob is None:
+            self.set(name, text)  # names the controls there are
+            return
+        self.set(name, typed_number(knob, text))
+
     def sync_all(self) -> None:
         """Put every control on the value in force (after a refusal, or a viewer's attempt)."""
         self._syncing = True
@@ -227,6 +281,9 @@ class MechanismSession:
                 handle = self._knob_handles.get(knob.name)
                 if handle is not None and handle.value != knob.value:
                     handle.value = min(max(knob.value, knob.low), knob.high)
+                box = self._typed_boxes.get(knob.name)
+                if box is not None and box.value != shown_value(knob.value):
+                    box.value = shown_value(knob.value)
             for handle, value in ((self.method, self.settings.method),
                                   (self.stabilization, self.settings.stabilization),
                                   (self.menu, self.label)):
@@ -375,6 +432,7 @@ class MechanismSession:
     def _restart(self, t0: float, q0: np.ndarray, qdot0: np.ndarray, *, keep_history: bool,
                  play: bool | None = None) -> None:
         # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
+        self.notices.clear()  # a run goes on: a stopped run's notice is about the run it replaces
         self.player.restart([cast(Any, self.spec)], t0, [(q0, qdot0)], keep_history=keep_history, play=play)
 
     def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False) -> None:
@@ -527,7 +585,8 @@ class MechanismSession:
             self.notices.dismiss(shown)
 
     def _on_failure(self, message: str) -> None:
-        self.show_notice("Simulation stopped", f"{message}. Press Reset to start again.", color="red", seconds=None)
+        hint = "" if "press Reset" in message else " Press Reset to start again."
+        self.show_notice("Simulation stopped", f"{message}.{hint}", color="red", seconds=None)
 
     # ------------------------------------------------------------------ lifetime
     def close(self, clean: bool = False) -> None:
@@ -539,10 +598,12 @@ class MechanismSession:
         self.camera.closed = True
         self.player.stop()
         POOL.release(self.worker)
+        for timer in self._typing.values():
+            timer.cancel()
         if self.shared or clean:
             for part in (self.scene, self.trace, self.arrows):
                 quietly(part.remove, "removing a scene part")
-            for handle in [*self._knob_handles.values(), *self._gui]:
+            for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")
             if self.torque_plot is not None:
                 self.torque_plot.remove()

@@ -58,10 +58,23 @@ class Notices:
         self._on_change()
 
     def clear(self) -> None:
-        """Forget the status line's notice (a new start); the notification closes by itself."""
+        """Forget the status line's notice (a new start, the run goes on). A notification that closes by itself
+        is left to do so; one that stays until dealt with (a stopped run, a paused session) is removed: the run
+        it was about has been replaced."""
         with self._lock:
             self.text = None
             self._shown = None
+            if self._until == float("inf"):
+                old, self._handles = self._handles, []
+                self._until = 0.0
+                for handle in old:
+                    quietly(handle.remove, "removing a notification")
+
+    @property
+    def sticky(self) -> bool:
+        """Whether a notification that stays until dealt with (no auto close) is on screen."""
+        with self._lock:
+            return bool(self._handles) and self._until == float("inf")
 
     def progress(self, title: str, body: str) -> list:
         """A notification with a spinner and no close button (work under way); dismiss it with :meth:`dismiss`."""

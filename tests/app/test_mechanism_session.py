@@ -376,3 +376,57 @@ def test_the_arrow_at_a_ground_pin_is_the_force_the_ground_exerts_on_the_body(ja
     for joint in ("O2", "O4"):
         start, end = arrows[joints.index(joint)]
         assert end[2] > start[2], (joint, start, end)  # world z is the physics y: up
+
+
+def test_reset_after_a_stopped_run_clears_the_stopped_notice_while_it_plays_on(jansen_lab, connect):
+    """Issue 24: the red "Simulation stopped" notice (it never closes by itself) stayed on screen and on the
+    status line after Reset while the leg walked again. It goes as soon as the run goes on."""
+    _, session = connect(jansen_lab)
+    assert _moving(session, 0.2)
+    session.worker.process.kill()  # the next chunk is lost: the run stops with its reason
+    session.worker.process.wait(10)
+    assert wait_until(lambda: (session.notices.text or "").startswith("Simulation stopped"), timeout=60)
+    assert session.notices.sticky, "the stopped notice is shown until it is dealt with"
+    session.guard(session.reset)
+    assert _moving(session, 0.3)
+    assert session.player.playing and session.player.runs[0].failed is None
+    assert session.notices.text is None, session.notices.text
+    assert not session.notices.sticky, "the red notice stays in the page while the mechanism plays"
+    assert "Simulation stopped" not in session.status.content
+
+
+@pytest.mark.parametrize("name, text, expected", [
+    ("g", "2.5e1", 25.0), ("g", "1e-3", 1e-3), ("g", "-0", -0.0), ("g", "1_0", 10.0), ("speed:O", " \u221215 ", -15.0),
+    ("mass:crank", "2.5e-1", 0.25), ("speed:O", "-1.2e2", -120.0),
+])
+def test_a_typed_box_reads_the_number_as_written(jansen_lab, connect, name, text, expected):
+    """Issue 24: the mechanism panel's number boxes read 2.5e1 as 2.51 (the browser's box drops the exponent).
+    Each generated control has a box whose text the server reads, as the chain panel's."""
+    _, session = connect(jansen_lab)
+    session.typed_box(name).value = text
+    assert wait_until(lambda: not session.typing(), timeout=10)
+    value = next(k.value for k in knobs(session.mechanism, session.reference) if k.name == name)
+    assert value == pytest.approx(expected, rel=1e-12) and session.notices.text is None, (value, session.notices.text)
+    assert session.typed_box(name).value == f"{expected:.6g}"  # the value in force
+
+
+@pytest.mark.parametrize("name, text, words", [
+    ("g", "1,5", ["g (m/s²) = '1,5'", "not a number", "in m/s²"]),
+    ("g", "1_000", ["g (m/s²) = 1000", "allowed range 0 to 30"]),
+    ("mass:crank", "-0", ["crank: m (kg) = -0", "allowed range 1e-06"]),
+    ("g", "", ["g (m/s²): the box is empty"]),
+    ("g", "nan", ["g (m/s²) = nan", "finite"]),
+])
+def test_a_typed_box_refuses_with_one_notice_naming_the_field_and_range(jansen_lab, connect, name, text, words):
+    _, session = connect(jansen_lab)
+    before = next(k.value for k in knobs(session.mechanism, session.reference) if k.name == name)
+    session.typed_box(name).value = text
+    assert wait_until(lambda: not session.typing(), timeout=10)
+    after = next(k.value for k in knobs(session.mechanism, session.reference) if k.name == name)
+    assert after == before
+    notice = session.notices.text or ""
+    assert notice.startswith("Not applied"), notice
+    for word in words:
+        assert word in notice, (word, notice)
+    assert session.typed_box(name).value == f"{before:.6g}"  # the box shows the value in force again
+    assert session.player.alive and not session.closed
