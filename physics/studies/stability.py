@@ -4,7 +4,9 @@ functions (one per case of docs/stability.md); their figures are drawn by physic
 
 ``python -m physics.stability --out FOLDER [--case 1,2,3,4,5] [--quick]`` (``--out`` required; each file written is
 printed; ``--out docs/stability`` refreshes the docs' own) writes every figure (SVG)
-and ``stability.json``; docs/stability.md shows them with their numbers. Each case function takes its sizes
+and ``stability.json``; docs/stability.md shows them with their numbers. With ``--preset NAME`` (a mechanism
+preset) or ``--mechanism FILE`` the study of a general mechanism runs instead (cases 1 and 3,
+physics.studies.mechanism_stability) and writes ``stability-mechanism.json`` beside its figures. Each case function takes its sizes
 as arguments, so the tests run the same code on shorter horizons.
 
 1. :func:`closed_loop_drift`: the four-bar's tip distance from its pin over 100 s without stabilisation,
@@ -347,24 +349,59 @@ def run_cases(cases, out: Path, quick: bool = False, progress: bool = True, writ
     return summary
 
 
+def _run_mechanism_study(args, cases: list[int], written: list[Path]) -> None:
+    """Cases 1 and 3 for a general mechanism (physics.studies.mechanism_stability), written into ``--out``."""
+    from . import mechanism_stability  # noqa: PLC0415 - loaded only for a mechanism's study
+    from .mechanism_cases import load_case  # noqa: PLC0415
+
+    other = [c for c in cases if c not in mechanism_stability.MECHANISM_CASES]
+    if other:
+        raise LinkageError(f"--case {other[0]}: a mechanism's study has cases 1 (residual drift per stabilisation) "
+                           "and 3 (a singular pose); cases 2, 4 and 5 are the chains'")
+    mechanism = load_case(args.preset, args.mechanism)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    bar = Progress(len(cases), "stability", not args.no_progress)
+    summary, figures = {}, {}
+    for case in cases:
+        one, drawn = mechanism_stability.run_mechanism_cases(mechanism, [case], args.quick)
+        summary.update(one)
+        figures.update(drawn)
+        bar.step(f"case {case}")
+    bar.close()
+    for name, svg in figures.items():
+        (out / name).write_text(svg)
+        written.append(out / name)
+    path = out / "stability-mechanism.json"
+    path.write_text(json.dumps({"mechanism": mechanism.name, **_strip_series(summary)}, indent=1))
+    written.append(path)
+
+
 def main(argv=None) -> int:
     parser = Parser(prog="python -m physics.stability", description="the stability study: figures and JSON")
     # No default: the study's own folder, docs/stability, holds tracked files; a run names where it writes.
     parser.add_argument("--out", required=True, metavar="FOLDER",
                         help="folder for the figures and stability.json (docs/stability to refresh the docs' own)")
-    parser.add_argument("--case", default="1,2,3,4,5", help="comma-separated case numbers 1..5")
+    parser.add_argument("--case", default=None, help="comma-separated case numbers 1..5 (a mechanism: 1, 3)")
+    parser.add_argument("--preset", default=None, help="a mechanism preset: its study instead of the chains'")
+    parser.add_argument("--mechanism", default=None, metavar="FILE", help="a mechanism file: its study")
     parser.add_argument("--quick", action="store_true", help="shorter horizons and fewer cells")
     parser.add_argument("--no-progress", action="store_true")
     try:
         args = parser.parse_args(argv)
+        mechanism_study = args.preset is not None or args.mechanism is not None
+        text = args.case or ("1,3" if mechanism_study else "1,2,3,4,5")
         try:
-            cases = [int(c) for c in args.case.split(",")]
+            cases = [int(c) for c in text.split(",")]
         except ValueError:
-            raise LinkageError(f"--case = {args.case!r}: expected numbers 1..5, e.g. --case 1,3") from None
+            raise LinkageError(f"--case = {text!r}: expected numbers 1..5, e.g. --case 1,3") from None
         if not all(1 <= c <= 5 for c in cases):
-            raise LinkageError(f"--case = {args.case!r}: allowed range 1 <= case <= 5")
+            raise LinkageError(f"--case = {text!r}: allowed range 1 <= case <= 5")
         written: list[Path] = []
-        run_cases(cases, Path(args.out), args.quick, not args.no_progress, written)
+        if mechanism_study:
+            _run_mechanism_study(args, cases, written)
+        else:
+            run_cases(cases, Path(args.out), args.quick, not args.no_progress, written)
         for path in written:
             print(f"wrote {path}")
     except LinkageError as error:

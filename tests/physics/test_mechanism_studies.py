@@ -15,7 +15,13 @@ import pytest
 
 from physics.errors import LinkageError
 from physics.mechanism.presets import MECHANISM_PRESETS
-from physics.studies import bench, mechanism_cases
+from physics.studies import bench, mechanism_cases, stability
+from physics.studies.mechanism_stability import (
+    change_point_mechanism,
+    figure_mechanism_drift,
+    mechanism_drift,
+    mechanism_singular_approach,
+)
 from physics.studies.mechanism_work_precision import mechanism_case
 from physics.studies.work_precision_chart import chart
 
@@ -140,3 +146,41 @@ def test_bench_refusal_is_one_line_on_the_command_line(tmp_path):
                       timeout=120)
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2 and len(lines) == 1 and "--stabilizations" in lines[0], result.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# 2. The stability study
+
+
+def test_drift_of_the_slider_crank_without_and_with_stabilisation():
+    result = mechanism_drift(MECHANISM_PRESETS["slider-crank"](), t_end=1.0, samples=21, methods=("dae", "lagrange"))
+    runs = {(r["method"], r["stabilization"]): r for r in result["runs"]}
+    assert len(runs) == 6 and all(r["status"] == 0 and r["t_reached"] == 1.0 for r in runs.values())
+    for method in ("dae", "lagrange"):
+        none, baumgarte, projection = (runs[method, s]["max_residual"] for s in ("none", "baumgarte", "projection"))
+        assert projection < 1e-11 and none > 10 * projection and baumgarte < none, (method, none, baumgarte, projection)
+        assert runs[method, "none"]["energy_drift"] < 1e-5  # no motor: energy is conserved up to the tolerance
+        assert runs[method, "none"]["peak_condition"] > 1
+    svg = figure_mechanism_drift(result)
+    assert svg.startswith("<svg") and "slider-crank" in svg and svg.count('<path d="M') >= 6
+
+
+def test_the_change_point_mechanism_nears_its_singular_pose_as_its_release_does():
+    mechanism, theta = change_point_mechanism(1e-3)
+    assert mechanism_cases.mobility(mechanism) == 1 and len(mechanism.bodies) == 3
+    result = mechanism_singular_approach(distances=(0.05, 1e-3), t_end=0.2, samples=5, methods=("dae", "reduced"))
+    dae = {r["distance"]: r for r in result["runs"] if r["method"] == "dae"}
+    # The condition grows as 1 / distance (the links' misalignment): 50x closer, 50x worse conditioned.
+    assert dae[1e-3]["peak_condition"] / dae[0.05]["peak_condition"] == pytest.approx(50, rel=0.05)
+    assert [c["method"] for c in result["curves"]] == ["dae"]  # the reduced model has no maximal-coordinate Jacobian
+    assert all(r["status"] == 0 for r in result["runs"])
+
+
+def test_stability_command_runs_a_mechanism_and_refuses_a_chain_only_case(tmp_path):
+    assert stability.main(["--preset", "slider-crank", "--case", "1", "--quick", "--no-progress",
+                           "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "stability-mechanism.json").read_text())
+    assert document["mechanism"] == "slider-crank" and len(document["case1"]["runs"]) == 9
+    assert (tmp_path / "mechanism-drift-slider-crank.svg").read_text().startswith("<svg")
+    assert not (tmp_path / "stability.json").exists()  # the chains' summary is left alone
+    assert stability.main(["--preset", "slider-crank", "--case", "2", "--out", str(tmp_path)]) == 2
