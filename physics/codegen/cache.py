@@ -40,12 +40,14 @@ _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "model.py")
+_GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py")  # a mechanism's derivations
 MAX_LINKS = 12
 _MAC_PREFIX = b"# hmac-sha256: "
 
 
 def _generator_sources() -> list[Path]:
     files = [path for folder in _GENERATOR_FOLDERS for path in sorted((_PACKAGE_ROOT / folder).glob("*.py"))]
+    files += [path for pattern in _GENERATOR_PATTERNS for path in sorted(_PACKAGE_ROOT.glob(pattern))]
     return files + [_PACKAGE_ROOT / rel for rel in _GENERATOR_FILES]
 
 
@@ -121,8 +123,11 @@ class CompiledSystem:
         if "layout" not in self._functions:
             m = self.module
             solve = self._native("solve") if m.STRUCTURED else 0
+            constraints = self._native("constraints") if m.CONSTRAINT_ROWS else 0
             self._functions["layout"] = make_layout(
-                m.N_LINKS, m.N_UNKNOWNS, m.PINNED, m.TIP_ROWS, m.THETA_DDOT_INDEX, m.SYMMETRIC, solve
+                m.N_LINKS, m.N_UNKNOWNS, m.THETA_DDOT_INDEX, n_parameters=m.N_PARAMETERS, symmetric=m.SYMMETRIC,
+                solve_address=solve, constraint_rows=m.CONSTRAINT_ROWS, constraint_address=constraints,
+                time_index=None if m.TIME_INDEX < 0 else m.TIME_INDEX,
             )
         return self._functions["layout"]
 
@@ -247,13 +252,46 @@ class CompiledSystem:
         return batch.rk4_batch_step(self.assemble_function, self.layout, theta, omega, _c(params), h, alpha, beta,
                                     work, cond_out)
 
-    @staticmethod
-    def project_position(theta, params):
-        return projection.project_position(theta, params)
+    @property
+    def constraint_count(self) -> int:
+        return len(self.module.CONSTRAINT_ROWS)
 
-    @staticmethod
-    def project_velocity(theta, omega, params):
-        return projection.project_velocity(theta, omega, params)
+    @property
+    def multiplier_index(self) -> np.ndarray:
+        return np.array(self.module.MULTIPLIER_INDEX, dtype=np.int64)
+
+    def constraint_states(self, t, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The held constraints at states (K, n) and times (K,): ``J`` (K, r, n), ``phi`` (K, r), ``phi_dot`` (K, r)."""
+        theta = np.atleast_2d(_c(theta))
+        r = self.constraint_count
+        matrix = np.zeros((theta.shape[0], r, theta.shape[1]))
+        vector = np.zeros((theta.shape[0], 2 * r))
+        if r:
+            system.native_states(self._native("constraints"), self.layout, _c(np.broadcast_to(t, theta.shape[:1])),
+                                 theta, np.atleast_2d(_c(omega)), _c(params), matrix, vector)
+        return matrix, vector[:, :r], vector[:, r:]
+
+    def kinematics_states(self, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Tree coordinates' kinematics at states (K, n): ``d pose/d theta`` (K, 3B, n), ``pose`` (K, 3B) and the
+        bias (K, 3B) with ``qddot = J theta_ddot + bias``."""
+        theta = np.atleast_2d(_c(theta))
+        size = int(self.module.POSE_SIZE)
+        matrix = np.zeros((theta.shape[0], size, theta.shape[1]))
+        vector = np.zeros((theta.shape[0], 2 * size))
+        system.native_states(self._native("kinematics"), self.layout, np.zeros(theta.shape[0]), theta,
+                             np.atleast_2d(_c(omega)), _c(params), matrix, vector)
+        return matrix, vector[:, :size], vector[:, size:]
+
+    def project(self, theta, omega, params, t=0.0) -> float:
+        """Project ``theta``, ``omega`` (n,) in place onto the held constraints (positions, then velocities) at
+        time ``t``; returns the position residual left (0 when nothing is held)."""
+        theta_rows = np.ascontiguousarray(theta, dtype=np.float64).reshape(1, -1)
+        omega_rows = np.ascontiguousarray(omega, dtype=np.float64).reshape(1, -1)
+        residual = projection.project_states(self.assemble_function, self.layout, np.array([float(t)]), theta_rows,
+                                             omega_rows, _c(params))
+        theta[...] = theta_rows[0]
+        omega[...] = omega_rows[0]
+        return float(residual)
 
 
 _loaded: dict = {}
@@ -285,16 +323,22 @@ def _write_atomically(path: Path, text: str) -> None:
     write_atomically(path, text, mode=0o600)
 
 
-def _build_source(formulation: str, n: int, pinned: bool, digest: str, name: str) -> str:
-    """The generated module's text, ending in its MAC line (``name``: the file name the MAC binds it to)."""
-    # sympy boundary: the derivations and the emitter import sympy, so they are loaded only on a cache miss.
+def _chain_system(formulation: str, n: int, pinned: bool):
+    """A chain's derivation and its description for the generated file's header."""
+    # sympy boundary: the derivations import sympy, so they are loaded only on a cache miss.
     from ..derive import FORMULATIONS  # noqa: PLC0415
-    from .emit import emit_module  # noqa: PLC0415
 
-    system = FORMULATIONS[formulation]().derive(n, pinned)
+    return FORMULATIONS[formulation]().derive(n, pinned), f"n = {n}, {'tip pinned' if pinned else 'open chain'}"
+
+
+def _build_source(derive, formulation: str, digest: str, name: str) -> str:
+    """The generated module's text, ending in its MAC line (``name``: the file name the MAC binds it to);
+    ``derive()`` returns the symbolic system and a few words saying what it is."""
+    from .emit import emit_module  # noqa: PLC0415  (imports sympy: only on a cache miss)
+
+    system, what = derive()
     header = (
-        f'"""Generated by Linkage Lab from the {formulation} derivation: n = {n}, '
-        f'{"tip pinned" if pinned else "open chain"}.\n\n'
+        f'"""Generated by Linkage Lab from the {formulation} derivation: {what}.\n\n'
         f"Unknowns x = {[str(u) for u in system.unknowns]}.\n"
         f"Generator digest {digest}. Do not edit: the file is authenticated and rebuilt when in doubt.\n"
         '"""'
@@ -341,20 +385,31 @@ def _remove_bytecode(folder: Path) -> None:
             discard(pycache)
 
 
-def _generate(path: Path, formulation: str, n: int, pinned: bool, digest: str) -> bytes:
+def _generate(path: Path, derive, formulation: str, digest: str) -> bytes:
     """Derive, write (atomically, 0600) and return the generated module's bytes."""
-    text = _build_source(formulation, n, pinned, digest, path.name)
+    text = _build_source(derive, formulation, digest, path.name)
     _write_atomically(path, text)
     return text.encode()
 
 
 def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSystem:
-    """Ready numeric functions for a formulation; derived and generated only when the cache lacks them."""
+    """Ready numeric functions for a chain's formulation; derived and generated only when the cache lacks them."""
     if formulation not in FORMULATION_NAMES:
         raise LinkageError(f"method = {formulation!r}: allowed {', '.join(FORMULATION_NAMES)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= MAX_LINKS:
         raise LinkageError(f"links = {n!r}: allowed an integer 1 <= links <= {MAX_LINKS}")
-    key = _key(formulation, int(n), bool(pinned))
+    return _load(_key(formulation, int(n), bool(pinned)), formulation, int(n), bool(pinned),
+                 lambda: _chain_system(formulation, int(n), bool(pinned)))
+
+
+def load_generated(key: str, formulation: str, derive) -> CompiledSystem:
+    """Ready numeric functions for any generated system (a mechanism of one structure), cached under ``key``
+    (letters, digits and dashes); ``derive()`` returns ``(LinearSystem, description)`` on a cache miss."""
+    return _load(key, formulation, -1, False, derive)
+
+
+def _load(key: str, formulation: str, n: int, pinned: bool, derive) -> CompiledSystem:
+    """The loaded system of ``key``; ``n < 0``: read the number of coordinates from the generated module."""
     with _lock:
         if key in _loaded:
             return _loaded[key]
@@ -369,19 +424,19 @@ def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSys
             warn(f"generated file {path} is not trusted ({problem}); discarded and rebuilt")
             discard(path)
         if source is None:
-            source = _generate(path, formulation, int(n), bool(pinned), digest)
+            source = _generate(path, derive, formulation, digest)
             _remove_stale(folder, key, path)
         module_name = f"linkage_lab_generated_{key.replace('-', '_')}_{digest}"
         try:
             module = _execute(source, path, module_name)
         except Exception:  # a file that passed its MAC but does not run: rebuild once
             warn(f"generated file {path} did not import; rebuilding it")
-            module = _execute(_generate(path, formulation, int(n), bool(pinned), digest), path, module_name)
+            module = _execute(_generate(path, derive, formulation, digest), path, module_name)
             from_cache = False
         compiled = CompiledSystem(
             formulation=formulation,
-            n=int(n),
-            pinned=bool(pinned),
+            n=n if n >= 0 else int(module.N_LINKS),
+            pinned=pinned,
             module=module,
             path=path,
             from_cache=from_cache,
@@ -398,11 +453,15 @@ def clear_memory_cache() -> None:
 
 
 def is_generated(formulation: str, n: int, pinned: bool = False) -> bool:
-    """True if this mechanism's generated file is in the cache and intact: loading it needs no sympy.
+    """True if this chain's generated file is in the cache and intact: loading it needs no sympy.
 
     The app asks before a build, to run the derivation in a worker process (:mod:`physics.codegen.prebuild`)
     rather than in the server's interpreter."""
-    key = _key(formulation, int(n), bool(pinned))
+    return is_generated_key(_key(formulation, int(n), bool(pinned)))
+
+
+def is_generated_key(key: str) -> bool:
+    """True if the generated system cached under ``key`` is loaded or its file is intact (no sympy needed)."""
     with _lock:
         if key in _loaded:
             return True

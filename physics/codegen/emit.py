@@ -38,6 +38,18 @@ def emit_module(system: LinearSystem, header: str) -> str:
                   if system.mass_matrix[i, j] != 0]
         pieces += [(("v", i), system.lagrangian_force[i]) for i in range(n)]
         functions.append(llvm_ir.function_ir("mass_and_force", s, pieces, n, "M", "force"))
+    rows, phi, jacobian, rate = system.held_constraints()
+    if rows:
+        pieces = [((i, j), jacobian[i, j]) for i in range(len(rows)) for j in range(n) if jacobian[i, j] != 0]
+        pieces += [(("v", i), phi[i]) for i in range(len(rows))]
+        pieces += [(("v", len(rows) + i), rate[i]) for i in range(len(rows))]
+        functions.append(llvm_ir.function_ir("constraints", s, pieces, n, "J", "v"))
+    if system.kinematics is not None:  # tree coordinates: every body's pose, d pose / d theta and the bias
+        pose, pose_jacobian, bias = system.kinematics
+        size = len(pose)
+        pieces = [((i, j), pose_jacobian[i, j]) for i in range(size) for j in range(n) if pose_jacobian[i, j] != 0]
+        pieces += [(("v", i), pose[i]) for i in range(size)] + [(("v", size + i), bias[i]) for i in range(size)]
+        functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v"))
     order = llvm_ir.elimination_order(system.A)
     if order is not None:
         functions.append(llvm_ir.structured_solve_ir(system.A, order))
@@ -52,6 +64,11 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append(f"REACTION_INDEX = {_index_literal(flat)}  # pairs (x, y)")
     lines.append(f"TIP_REACTION_INDEX = {_index_literal(system.tip_reaction_index or ())}")
     lines.append(f"TIP_ROWS = {_index_literal(system.tip_rows or ())}")
+    lines.append(f"CONSTRAINT_ROWS = {_index_literal(rows)}  # (A x - b)[row] is phi_i''")
+    lines.append(f"TIME_INDEX = {-1 if system.time_index is None else int(system.time_index)}")
+    lines.append(f"N_PARAMETERS = {len(s.params)}")
+    lines.append(f"MULTIPLIER_INDEX = {_index_literal(system.multiplier_index)}")
+    lines.append(f"POSE_SIZE = {0 if system.kinematics is None else len(system.kinematics[0])}  # kinematics()'s 3 B")
     lines.append(f"HAS_LAGRANGIAN = {system.mass_matrix is not None}")
     # Lagrange's open-chain matrix is the mass matrix itself: symmetric positive definite, solved by Cholesky.
     symmetric = system.mass_matrix is not None and not system.pinned and system.A.is_symmetric(simplify=False)
@@ -62,7 +79,9 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("")
     lines.append("# assemble(theta, omega, params, A, b): A (k x k, row-major, zeroed by the caller) and b (k,) of")
     lines.append("# A x = b at one state; mass_and_force(theta, omega, params, M, force): the Lagrangian's mass matrix")
-    lines.append("# (n x n) and force dL/dtheta + Q (n,); solve(A, b, x) for a sparse A (returns the pivot ratio).")
+    lines.append("# (n x n) and force dL/dtheta + Q (n,); solve(A, b, x) for a sparse A (returns the pivot ratio);")
+    lines.append("# constraints(theta, omega, params, J, v): J (r x n) and v = [phi, phi_dot] of the held constraints;")
+    lines.append("# kinematics(theta, omega, params, J, v): tree coordinates' d pose/d theta (3B x n), v = [pose, bias].")
     lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")
     lines.append('LLVM_IR = """')
     lines.append(llvm_ir.module_ir(functions).rstrip("\n"))

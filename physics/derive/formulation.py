@@ -47,6 +47,22 @@ class LinearSystem:
     # tree coordinates only: every body's (x, y, phi) in them, d pose / d theta, and the bias d(J)/dt omega
     kinematics: tuple | None = None
 
+    def held_constraints(self) -> tuple[tuple, sp.Matrix, sp.Matrix, sp.Matrix]:
+        """``(rows, phi, J, phi_dot)`` of the constraints the integrator holds: a mechanism's own, or a pinned
+        chain's tip on its pin (``phi = tip - pin``, on the rows ``tip_rows``); empty for an open chain."""
+        if self.constraint is not None:
+            return (tuple(self.constraint_rows), self.constraint, self.constraint_jacobian, self.constraint_rate)
+        n = self.n
+        if not self.pinned:
+            return (), sp.zeros(0, 1), sp.zeros(0, n), sp.zeros(0, 1)
+        s = self.symbols
+        tip = sp.Matrix([sum(s.L[i] * sp.sin(s.theta[i]) for i in range(n)) - s.pin_x,
+                         -sum(s.L[i] * sp.cos(s.theta[i]) for i in range(n)) - s.pin_y])
+        jacobian = sp.Matrix(2, n, lambda row, i: s.L[i] * (sp.cos(s.theta[i]) if row == 0 else sp.sin(s.theta[i])))
+        rate = jacobian * sp.Matrix(s.omega)
+        assert self.tip_rows is not None
+        return tuple(self.tip_rows), tip, jacobian, rate
+
 
 def _split_linear(expr, unknowns: frozenset):
     """``(coefficients, rest)`` with ``expr = sum(coefficients[u] * u) + rest`` for an ``expr`` linear in

@@ -7,15 +7,20 @@ call it through :func:`call_native`, so a new mechanism costs only the compilati
 never the integrators again, and a call from Python passes an int (numba's fastest argument type).
 
 * ``assemble(theta, omega, params, A, b)``: fills ``A`` (k x k, row-major, zeroed by the caller) and all of
-  ``b`` (k,) of ``A x = b`` at one state. ``params`` is the layout of docs/architecture.md.
+  ``b`` (k,) of ``A x = b`` at one state. ``params`` is the mechanism's parameter vector (docs/architecture.md).
 * ``mass_and_force(theta, omega, params, M, force)``: the Lagrangian's mass matrix (n x n, row-major, zeroed by
   the caller) and force ``dL/dtheta + Q`` (n,), for the variational integrator (Lagrange only).
+* ``constraints(theta, omega, params, J, v)``: the constraints the integrator holds (a pinned chain's tip, a
+  mechanism's closures and speed motors): their Jacobian ``J`` (r x n, row-major, zeroed by the caller) and
+  ``v = [phi (r), phi_dot (r)]`` with ``phi_dot = J omega + d phi / d t``. Baumgarte terms, projection and the
+  loop's singularity test are written once in the kernels on top of it.
 * ``double solve(A, b, x)``: for a sparse ``A`` (the DAE), Gaussian elimination unrolled over its structural
   non-zeros in a fixed order chosen at generation; returns the pivot ratio (the kernels fall back to a pivoted
   dense solve when it looks singular). Its address travels in the layout (``LAYOUT_SOLVE``).
 
-A mechanism's ``layout`` (an int64 array, :func:`make_layout`) tells the kernels the sizes and where the
-angular accelerations and the tip constraint's rows sit in ``x``.
+A mechanism's ``layout`` (an int64 array, :func:`make_layout`) tells the kernels the sizes, where the
+coordinates' accelerations and the constraints' rows sit in ``x``, where ``t`` goes in ``params``, and the
+addresses of the optional functions.
 """
 
 from __future__ import annotations
@@ -29,24 +34,42 @@ _POINTER = types.CPointer(types.float64)
 ASSEMBLE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
 MASS_AND_FORCE_SIGNATURE = types.void(_POINTER, _POINTER, _POINTER, _POINTER, _POINTER)
 
-# Slots of the layout array.
-LAYOUT_LINKS = 0  # n
-LAYOUT_UNKNOWNS = 1  # k
-LAYOUT_PINNED = 2  # 1 when the tip is pinned
-LAYOUT_TIP_ROW_X = 3  # row of A x = b that states the tip's x acceleration (pinned chains), else -1
-LAYOUT_TIP_ROW_Y = 4
-LAYOUT_SYMMETRIC = 5  # 1 when A is symmetric positive definite (Lagrange's mass matrix): solved by L D L^T
-LAYOUT_SOLVE = 6  # address of the generated structured solve of a sparse A (the DAE), 0 when there is none
-LAYOUT_THETA_DDOT = 7  # n entries: where each angular acceleration sits in x
+# Slots of the layout array. The kernels know nothing of chains or bodies: only sizes, where the coordinates'
+# accelerations and the constraints' rows sit, and the addresses of the generated functions.
+LAYOUT_COORDINATES = 0  # n: coordinates (the state is [theta, omega], 2 n)
+LAYOUT_UNKNOWNS = 1  # k: unknowns of A x = b (accelerations, and multipliers or reactions)
+LAYOUT_CONSTRAINTS = 2  # r: constraints phi(theta, t) = 0 the integrator holds (0: an open tree, no closure)
+LAYOUT_TIME = 3  # index of t in params, written by the integrators before each evaluation; -1: nothing uses t
+LAYOUT_SYMMETRIC = 4  # 1 when A is symmetric positive definite (Lagrange's mass matrix): solved by L D L^T
+LAYOUT_SOLVE = 5  # address of the generated structured solve of a sparse A (the DAE), 0 when there is none
+LAYOUT_CONSTRAINT_FUNCTION = 6  # address of the generated constraints(theta, omega, params, J, v), 0 if r = 0
+LAYOUT_WEIGHTS = 7  # offset in params of 2 n projection weights (positions, then velocities); -1: unit weights
+LAYOUT_PARAMETERS = 8  # number of parameters the generated code reads (params must be at least this long)
+LAYOUT_ACCELERATION = 9  # n entries: where each coordinate's acceleration sits in x; then r constraint rows
 
 
 def make_layout(
-    n: int, n_unknowns: int, pinned: bool, tip_rows, theta_ddot_index, symmetric: bool, solve_address: int = 0
+    n: int,
+    n_unknowns: int,
+    acceleration_index,
+    *,
+    n_parameters: int,
+    symmetric: bool = False,
+    solve_address: int = 0,
+    constraint_rows=(),
+    constraint_address: int = 0,
+    time_index: int | None = None,
+    weights_offset: int | None = None,
 ) -> np.ndarray:
-    """The int64 layout array the kernels read (slots above)."""
-    rows = tuple(tip_rows) if tip_rows is not None and len(tip_rows) else (-1, -1)
-    head = [n, n_unknowns, int(bool(pinned)), int(rows[0]), int(rows[1]), int(bool(symmetric)), int(solve_address)]
-    return np.array(head + [int(i) for i in theta_ddot_index], dtype=np.int64)
+    """The int64 layout array the kernels read (slots above). ``constraint_rows``: the rows of ``A x = b``
+    whose ``(A x - b)[row]`` is the second time derivative of constraint ``i`` (Baumgarte's rows)."""
+    rows = [int(row) for row in constraint_rows]
+    if rows and not constraint_address:
+        raise ValueError("constraint rows need the address of the generated constraints function")
+    head = [n, n_unknowns, len(rows), -1 if time_index is None else int(time_index), int(bool(symmetric)),
+            int(solve_address), int(constraint_address) if rows else 0,
+            -1 if weights_offset is None else int(weights_offset), int(n_parameters)]
+    return np.array(head + [int(i) for i in acceleration_index] + rows, dtype=np.int64)
 
 
 @intrinsic

@@ -5,17 +5,19 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_LINKS
+from .abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS
 from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from .system import solve_accel
+from .system import set_time, solve_accel
 
 
 @njit(cache=True, error_model="numpy")
-def ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
-    """Fill ``dydt = [omega, theta_ddot]`` at state ``y``; return ``(status, condition)``.
+def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """Fill ``dydt = [omega, theta_ddot]`` at time ``t`` and state ``y``; return ``(status, condition)``.
 
     ``theta, omega, theta_ddot`` are scratch arrays of shape ``(n,)``: accel always sees contiguous 1-D arrays.
+    ``params`` is the integrator's own copy: ``t`` is written into its time slot (speed motors).
     """
+    set_time(system, params, t)
     n = theta.shape[0]
     for i in range(n):
         theta[i] = y[i]
@@ -35,8 +37,9 @@ def ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
 
 
 @njit(cache=True, error_model="numpy")
-def sample_condition(system, y, params, alpha, beta, theta, omega, theta_ddot):
-    """Condition estimate of accel at state ``y`` (the value stored in ``cond_out``)."""
+def sample_condition(system, t, y, params, alpha, beta, theta, omega, theta_ddot):
+    """Condition estimate of accel at time ``t`` and state ``y`` (the value stored in ``cond_out``)."""
+    set_time(system, params, t)
     n = theta.shape[0]
     for i in range(n):
         theta[i] = y[i]
@@ -66,11 +69,11 @@ def check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out):
     """Programming errors only (the caller validates user input): wrong shapes or a backward interval."""
     if not (t_end >= t0):
         raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
-    n = layout[LAYOUT_LINKS]
+    n = layout[LAYOUT_COORDINATES]
     if y0.shape[0] != 2 * n:
-        raise ValueError("y0 must have shape (2 n,) for the mechanism's n links")
-    if params.shape[0] < 4 * n + 3:
-        raise ValueError("params must have at least 4 n + 3 entries")
+        raise ValueError("y0 must have shape (2 n,) for the mechanism's n coordinates")
+    if params.shape[0] < layout[LAYOUT_PARAMETERS]:
+        raise ValueError("params is shorter than the parameter vector the generated code reads")
     if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
         raise ValueError("y_out must have shape (len(t_eval), 2 n)")
     if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:

@@ -16,10 +16,11 @@ from .constants import (
     STATUS_STEP_TOO_SMALL,
 )
 from .projection import project_state
-from .system import is_pinned, make_system
+from .system import has_constraints, make_system
 from .tables import (
     DOP853_A,
     DOP853_B,
+    DOP853_C,
     DOP853_D,
     DOP853_E3,
     DOP853_E5,
@@ -29,6 +30,7 @@ from .tables import (
     DOP853_N_STAGES_EXTENDED,
     RK45_A,
     RK45_B,
+    RK45_C,
     RK45_E,
     RK45_ERROR_ORDER,
     RK45_N_STAGES,
@@ -37,7 +39,7 @@ from .tables import (
 
 
 @njit(cache=True, error_model="numpy")
-def _rk_stages(system, t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
+def _rk_stages(system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
     """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop.
 
     Returns ``(status, rhs_evaluations)``.
@@ -49,7 +51,7 @@ def _rk_stages(system, t, y, h, A, n_stages, K, y_stage, params, alpha, beta, th
             for r in range(s):
                 dy += K[r, j] * A[s, r]
             y_stage[j] = y[j] + dy * h
-        status, _ = ode_rhs(system, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
+        status, _ = ode_rhs(system, t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
         if status != STATUS_OK:
             return status, s
     return STATUS_OK, n_stages - 1
@@ -92,7 +94,9 @@ def _dop853_dense_coefficients(
             for r in range(s):
                 dy += K[r, j] * DOP853_A[s, r]
             y_stage[j] = y_old[j] + dy * h
-        status, _ = ode_rhs(system, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
+        status, _ = ode_rhs(
+            system, t_old + DOP853_C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s]
+        )
         evaluations += 1
         if status != STATUS_OK:
             return status, evaluations
@@ -137,18 +141,21 @@ def _integrate_explicit_rk(
     """
     check_arguments(system[1], y0, t0, t_end, t_eval, params, y_out, cond_out)
     use_dop853 = A.shape[0] == DOP853_N_STAGES_EXTENDED
-    projecting = is_pinned(system) and project
+    params = params.copy()  # the integrator writes t into it
+    projecting = has_constraints(system) and project
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     n_samples = t_eval.shape[0]
     if use_dop853:
         B = DOP853_B
+        C = DOP853_C
         n_stages = DOP853_N_STAGES
         n_rows = DOP853_N_STAGES_EXTENDED
         error_exponent = -1.0 / (DOP853_ERROR_ORDER + 1)
         initial_step_exponent = 1.0 / (DOP853_ERROR_ORDER + 1)
     else:
         B = RK45_B
+        C = RK45_C
         n_stages = RK45_N_STAGES
         n_rows = RK45_N_STAGES + 1
         error_exponent = -1.0 / (RK45_ERROR_ORDER + 1)
@@ -173,9 +180,9 @@ def _integrate_explicit_rk(
     t = t0
     n_steps = 0
     n_rhs = 0
-    if projecting and not project_state(y, params, theta, omega):
+    if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -201,7 +208,7 @@ def _integrate_explicit_rk(
     h0 = min(h0, interval_length)
     for j in range(n_state):
         y_stage[j] = y[j] + h0 * f[j]
-    status, _ = ode_rhs(system, y_stage, params, alpha, beta, theta, omega, theta_ddot, f_next)
+    status, _ = ode_rhs(system, t + h0, y_stage, params, alpha, beta, theta, omega, theta_ddot, f_next)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, i_sample
@@ -237,7 +244,7 @@ def _integrate_explicit_rk(
             for j in range(n_state):
                 K[0, j] = f[j]
             status, evaluations = _rk_stages(
-                system, t, y, h, A, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot
+                system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot
             )
             n_rhs += evaluations
             if status != STATUS_OK:
@@ -247,7 +254,7 @@ def _integrate_explicit_rk(
                 for r in range(n_stages):
                     total += K[r, j] * B[r]
                 y_new[j] = y[j] + h * total
-            status, _ = ode_rhs(system, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
+            status, _ = ode_rhs(system, t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -300,10 +307,10 @@ def _integrate_explicit_rk(
             y_next[j] = y_new[j]
             f_next[j] = K[n_stages, j]
         if projecting:
-            if not project_state(y_next, params, theta, omega):
+            if not project_state(system, t_new, y_next, params, theta, omega):
                 status = STATUS_NOT_FINITE
                 break
-            status, _ = ode_rhs(system, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
+            status, _ = ode_rhs(system, t_new, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -324,11 +331,11 @@ def _integrate_explicit_rk(
                 else:
                     _rk45_sample(x, h, y, K, y_stage)
                 if projecting:
-                    project_state(y_stage, params, theta, omega)
+                    project_state(system, t_eval[i_sample], y_stage, params, theta, omega)
                 y_out[i_sample, :] = y_stage
                 if cond_out.shape[0]:  # (0,) = the caller computes it with the reactions, once
                     cond_out[i_sample] = sample_condition(
-                        system, y_stage, params, alpha, beta, theta, omega, theta_ddot
+                        system, t_eval[i_sample], y_stage, params, alpha, beta, theta, omega, theta_ddot
                     )
                 i_sample += 1
 

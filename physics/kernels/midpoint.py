@@ -14,7 +14,7 @@ from .constants import (
 )
 from .linear import lu_factor, lu_factor_solve
 from .projection import project_state
-from .system import is_pinned, make_system
+from .system import has_constraints, make_system
 
 
 @njit(cache=True, error_model="numpy")
@@ -45,10 +45,11 @@ def hermite_samples(
         s = (t_eval[i_sample] - t) / (t_new - t)
         hermite_sample(s, t_new - t, y, f, y_next, f_next, y_sample)
         if project:
-            project_state(y_sample, params, theta, omega)
+            project_state(system, t_eval[i_sample], y_sample, params, theta, omega)
         y_out[i_sample, :] = y_sample
         if cond_out.shape[0]:
-            cond_out[i_sample] = sample_condition(system, y_sample, params, alpha, beta, theta, omega, theta_ddot)
+            cond_out[i_sample] = sample_condition(system, t_eval[i_sample], y_sample, params, alpha, beta, theta,
+                                                  omega, theta_ddot)
         i_sample += 1
     return i_sample
 
@@ -70,7 +71,8 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
     if not (h > 0.0 and h < np.inf):
         raise ValueError("h must be positive and finite")
     system = make_system(assemble, layout)
-    projecting = is_pinned(system) and project
+    params = params.copy()  # the integrator writes t into it
+    projecting = has_constraints(system) and project
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     theta = np.empty(n)
@@ -93,9 +95,9 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
     t = t0
     n_steps = 0
     n_rhs = 0
-    if projecting and not project_state(y, params, theta, omega):
+    if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -118,7 +120,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
                 y_probe[i] = y[i]
             y_probe[j] = y[j] + FD_RELATIVE_STEP * max(1.0, abs(y[j]))
             delta = y_probe[j] - y[j]
-            status, _ = ode_rhs(system, y_probe, params, alpha, beta, theta, omega, theta_ddot, f_probe)
+            status, _ = ode_rhs(system, t, y_probe, params, alpha, beta, theta, omega, theta_ddot, f_probe)
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -136,7 +138,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
         for iteration in range(NEWTON_MAX_ITERATIONS):
             for i in range(n_state):
                 y_mid[i] = 0.5 * (y[i] + y_next[i])
-            status, _ = ode_rhs(system, y_mid, params, alpha, beta, theta, omega, theta_ddot, f_mid)
+            status, _ = ode_rhs(system, 0.5 * (t + t_new), y_mid, params, alpha, beta, theta, omega, theta_ddot, f_mid)
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -160,10 +162,10 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
         if not converged:
             status = STATUS_INTEGRATOR_FAILED
             break
-        if projecting and not project_state(y_next, params, theta, omega):
+        if projecting and not project_state(system, t_new, y_next, params, theta, omega):
             status = STATUS_NOT_FINITE
             break
-        status, _ = ode_rhs(system, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
+        status, _ = ode_rhs(system, t_new, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
         n_rhs += 1
         if status != STATUS_OK:
             break

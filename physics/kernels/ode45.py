@@ -42,7 +42,7 @@ from numba import njit
 from .common import check_arguments, initial_samples, ode_rhs, sample_condition
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL
 from .projection import project_state
-from .system import is_pinned, make_system
+from .system import has_constraints, make_system
 from .tables import ODE45_BI, ODE45_E, ODE45_ERROR_EXPONENT, ODE45_N_STAGES, RK45_A, RK45_B, RK45_C
 
 EPSILON = 2.220446049250313e-16
@@ -81,7 +81,8 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
            t_out, y_out, cond_out):
     """The ode45 loop. ``refine == 0``: samples at ``t_eval`` into ``y_out`` (tspan of more than two entries);
     ``refine >= 1``: ``refine`` outputs per step into ``t_out``/``y_out`` (tspan = [t0, t_end]), row 0 = y0."""
-    projecting = is_pinned(system) and project
+    params = params.copy()  # the integrator writes t into it
+    projecting = has_constraints(system) and project
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     refined = refine >= 1
@@ -104,9 +105,9 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
     t = t0
     n_steps = 0
     n_rhs = 0
-    if projecting and not project_state(y, params, theta, omega):
+    if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
+    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -155,7 +156,8 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                     for r in range(s):
                         dy += K[r, j] * RK45_A[s, r]
                     y_stage[j] = y[j] + h * dy
-                status, _ = ode_rhs(system, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
+                status, _ = ode_rhs(system, t + RK45_C[s] * h, y_stage, params, alpha, beta, theta, omega,
+                                    theta_ddot, K[s])
                 n_rhs += 1
                 if status != STATUS_OK:
                     break
@@ -170,7 +172,8 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                 for r in range(ODE45_N_STAGES):
                     total += K[r, j] * RK45_B[r]
                 y_new[j] = y[j] + h * total
-            status, _ = ode_rhs(system, y_new, params, alpha, beta, theta, omega, theta_ddot, K[ODE45_N_STAGES])
+            status, _ = ode_rhs(system, t_new, y_new, params, alpha, beta, theta, omega, theta_ddot,
+                                K[ODE45_N_STAGES])
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -215,7 +218,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                     for j in range(n_state):
                         y_stage[j] = y_new[j]
                 if projecting:
-                    project_state(y_stage, params, theta, omega)
+                    project_state(system, t_out[i_sample], y_stage, params, theta, omega)
                 y_out[i_sample, :] = y_stage
                 i_sample += 1
         else:
@@ -226,10 +229,10 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                 else:
                     ntrp45((t_eval[i_sample] - t) / h, h, y, K, y_stage)
                 if projecting:
-                    project_state(y_stage, params, theta, omega)
+                    project_state(system, t_eval[i_sample], y_stage, params, theta, omega)
                 y_out[i_sample, :] = y_stage
                 if cond_out.shape[0]:
-                    cond_out[i_sample] = sample_condition(system, y_stage, params, alpha, beta, theta, omega,
+                    cond_out[i_sample] = sample_condition(system, t_eval[i_sample], y_stage, params, alpha, beta, theta, omega,
                                                           theta_ddot)
                 i_sample += 1
 
@@ -247,10 +250,10 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
             K[0, j] = K[ODE45_N_STAGES, j]
         t = t_new
         if projecting:
-            if not project_state(y, params, theta, omega):
+            if not project_state(system, t, y, params, theta, omega):
                 status = STATUS_NOT_FINITE
                 break
-            status, _ = ode_rhs(system, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
+            status, _ = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
             n_rhs += 1
             if status != STATUS_OK:
                 break

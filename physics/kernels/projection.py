@@ -1,94 +1,152 @@
-"""Projection of a pinned chain onto its loop constraint ``tip(theta) = pin`` (positions, then velocities)."""
+"""Projection onto the constraints the integrator holds, ``phi(theta, t) = 0`` (a pinned chain's tip on its pin,
+a mechanism's closed loops and speed motors): positions, then velocities, by the least (weighted) change.
+
+The constraints come from the mechanism's generated ``constraints`` function (:mod:`physics.kernels.abi`):
+``J`` and ``[phi, phi_dot]``. Weights: unit, or the mechanism's own (``LAYOUT_WEIGHTS``: for maximal
+coordinates, rotations weighed by the sketch's size for positions and the inverse mass matrix for velocities,
+so the velocity correction is the one nearest in kinetic energy).
+"""
 
 import math
 
+import numpy as np
 from numba import njit
 
+from .abi import LAYOUT_CONSTRAINTS, LAYOUT_WEIGHTS
 from .common import all_finite
 from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
+from .linear import ldlt_solve
+from .system import constraint_values, make_system, set_time
 
 
 @njit(cache=True, error_model="numpy")
-def _constraint_gram(theta, params):
-    """Entries ``(a, b, c)`` of ``J J^T = [[a, b], [b, c]]`` with ``J[0, i] = L_i cos, J[1, i] = L_i sin``."""
-    a = 0.0
-    b = 0.0
-    c = 0.0
-    for i in range(theta.shape[0]):
-        jx = params[i] * math.cos(theta[i])
-        jy = params[i] * math.sin(theta[i])
-        a += jx * jx
-        b += jx * jy
-        c += jy * jy
-    return a, b, c
+def _weight(params, offset, i):
+    return 1.0 if offset < 0 else params[offset + i]
 
 
 @njit(cache=True, error_model="numpy")
-def project_position(theta, params):
-    """Move ``theta`` (n,) in place onto ``tip(theta) = pin`` by the least change (Gauss-Newton).
+def _correct(system, params, offset, gap, coordinates):
+    """``coordinates -= W J^T (J W J^T)^-1 gap`` with the weights at ``offset`` of params (unit when < 0);
+    left unchanged (returns False) where ``J W J^T`` is singular to working precision."""
+    J = system[6]
+    G = system[8]
+    g = system[9]
+    lam = system[10]
+    r = system[1][LAYOUT_CONSTRAINTS]
+    n = J.shape[1]
+    for i in range(r):
+        for j in range(i, r):
+            total = 0.0
+            for c in range(n):
+                total += J[i, c] * _weight(params, offset, c) * J[j, c]
+            G[i, j] = total
+            G[j, i] = total
+    if r == 2:
+        a = G[0, 0]
+        b = G[0, 1]
+        c2 = G[1, 1]
+        det = a * c2 - b * b
+        if not det > (a + c2) * (a + c2) / SINGULAR_CONDITION_NUMBER:
+            return False
+        lam[0] = (c2 * gap[0] - b * gap[1]) / det
+        lam[1] = (a * gap[1] - b * gap[0]) / det
+    else:
+        for i in range(r):
+            g[i] = gap[i]
+        if not ldlt_solve(G, g, lam) <= SINGULAR_CONDITION_NUMBER:
+            return False
+    for c in range(n):
+        total = 0.0
+        for i in range(r):
+            total += J[i, c] * lam[i]
+        coordinates[c] -= _weight(params, offset, c) * total
+    return True
 
-    Each iteration applies ``dtheta = -J^T (J J^T)^-1 Phi``, ``Phi = tip - pin``; it stops when ``|Phi|`` is below
-    PROJECTION_TOLERANCE or after PROJECTION_MAX_ITERATIONS. Near a singular configuration (all bars parallel,
-    ``J J^T`` with condition above SINGULAR_CONDITION_NUMBER) the correction would be noise, so ``theta`` is left as it is.
-    Returns the final ``|Phi|``.
+
+@njit(cache=True, error_model="numpy")
+def project_position(system, theta, omega, params):
+    """Move ``theta`` (n,) in place onto ``phi(theta, t) = 0`` by the least change (Gauss-Newton).
+
+    Each iteration applies ``dtheta = -W J^T (J W J^T)^-1 phi``; it stops when ``|phi|`` is below
+    PROJECTION_TOLERANCE or after PROJECTION_MAX_ITERATIONS. Near a singular configuration (``J W J^T`` with
+    condition above SINGULAR_CONDITION_NUMBER) the correction would be noise, so ``theta`` is left as it is.
+    Returns the final ``|phi|``.
     """
-    n = theta.shape[0]
-    pin_x = params[4 * n + 1]
-    pin_y = params[4 * n + 2]
+    r = system[1][LAYOUT_CONSTRAINTS]
+    offset = system[1][LAYOUT_WEIGHTS]
+    v = system[7]
     residual = 0.0
     for iteration in range(PROJECTION_MAX_ITERATIONS + 1):
-        phi_x = -pin_x
-        phi_y = -pin_y
-        for i in range(n):
-            phi_x += params[i] * math.sin(theta[i])
-            phi_y -= params[i] * math.cos(theta[i])
-        residual = math.sqrt(phi_x * phi_x + phi_y * phi_y)
+        constraint_values(system, theta, omega, params)
+        total = 0.0
+        for i in range(r):
+            total += v[i] * v[i]
+        residual = math.sqrt(total)
         if residual < PROJECTION_TOLERANCE or iteration == PROJECTION_MAX_ITERATIONS:
             break
-        a, b, c = _constraint_gram(theta, params)
-        det = a * c - b * b
-        if not det > (a + c) * (a + c) / SINGULAR_CONDITION_NUMBER:
+        if not _correct(system, params, offset, v[:r], theta):
             break
-        lambda_x = (c * phi_x - b * phi_y) / det
-        lambda_y = (a * phi_y - b * phi_x) / det
-        for i in range(n):
-            theta[i] -= params[i] * (math.cos(theta[i]) * lambda_x + math.sin(theta[i]) * lambda_y)
     return residual
 
 
 @njit(cache=True, error_model="numpy")
-def project_velocity(theta, omega, params):
-    """Remove from ``omega`` (n,) in place its component that moves the tip: ``omega -= J^T (J J^T)^-1 J omega``.
+def project_velocity(system, theta, omega, params):
+    """Make ``omega`` (n,) satisfy ``phi_dot = J omega + d phi/d t = 0`` by the least (weighted) change:
+    ``omega -= W J^T (J W J^T)^-1 phi_dot``.
 
-    Returns ``|J omega|`` before the projection (the tip's speed it removed). Left unchanged near a singular
-    configuration, as in project_position.
+    Returns ``|phi_dot|`` before the projection. Left unchanged near a singular configuration, as in
+    project_position.
     """
-    n = theta.shape[0]
-    v_x = 0.0
-    v_y = 0.0
-    for i in range(n):
-        v_x += params[i] * math.cos(theta[i]) * omega[i]
-        v_y += params[i] * math.sin(theta[i]) * omega[i]
-    a, b, c = _constraint_gram(theta, params)
-    det = a * c - b * b
-    if det > (a + c) * (a + c) / SINGULAR_CONDITION_NUMBER:
-        lambda_x = (c * v_x - b * v_y) / det
-        lambda_y = (a * v_y - b * v_x) / det
-        for i in range(n):
-            omega[i] -= params[i] * (math.cos(theta[i]) * lambda_x + math.sin(theta[i]) * lambda_y)
-    return math.sqrt(v_x * v_x + v_y * v_y)
+    r = system[1][LAYOUT_CONSTRAINTS]
+    offset = system[1][LAYOUT_WEIGHTS]
+    constraint_values(system, theta, omega, params)
+    v = system[7]
+    total = 0.0
+    for i in range(r):
+        total += v[r + i] * v[r + i]
+    velocity_offset = offset if offset < 0 else offset + theta.shape[0]
+    _correct(system, params, velocity_offset, v[r : 2 * r], omega)
+    return math.sqrt(total)
 
 
 @njit(cache=True, error_model="numpy")
-def project_state(y, params, theta, omega):
-    """Project ``y = [theta, omega]`` in place (positions, then velocities); False if the result is not finite."""
+def project_state(system, t, y, params, theta, omega):
+    """Project ``y = [theta, omega]`` at time ``t`` in place (positions, then velocities); False if the result
+    is not finite. Nothing to do for a system without constraints."""
+    if system[1][LAYOUT_CONSTRAINTS] == 0:
+        return all_finite(y)
+    set_time(system, params, t)
     n = theta.shape[0]
     for i in range(n):
         theta[i] = y[i]
         omega[i] = y[n + i]
-    project_position(theta, params)
-    project_velocity(theta, omega, params)
+    project_position(system, theta, omega, params)
+    project_velocity(system, theta, omega, params)
     for i in range(n):
         y[i] = theta[i]
         y[n + i] = omega[i]
     return all_finite(y)
+
+
+@njit(cache=True, error_model="numpy")
+def project_states(assemble, layout, t, theta, omega, params):
+    """Python's entry point: project rows of ``theta``, ``omega`` (K, n) at times ``t`` (K,) in place (a copy of
+    ``params`` takes each time); returns the largest position residual left."""
+    system = make_system(assemble, layout)
+    local = params.copy()
+    worst = 0.0
+    n = theta.shape[1]
+    theta_row = np.empty(n)
+    omega_row = np.empty(n)
+    for row in range(theta.shape[0]):
+        set_time(system, local, t[row])
+        for i in range(n):
+            theta_row[i] = theta[row, i]
+            omega_row[i] = omega[row, i]
+        if layout[LAYOUT_CONSTRAINTS] != 0:
+            worst = max(worst, project_position(system, theta_row, omega_row, local))
+            project_velocity(system, theta_row, omega_row, local)
+        for i in range(n):
+            theta[row, i] = theta_row[i]
+            omega[row, i] = omega_row[i]
+    return worst

@@ -1,9 +1,9 @@
 """A mechanism's equations ``A x = b`` solved through its generated ``assemble``: the one right-hand side of
 every integrator, and the batched entry points Python calls (accelerations, reactions, matrices).
 
-A *system* is the tuple ``(assemble, layout, A, b, x, col_scale)``: the address of the generated function (see
-:mod:`physics.kernels.abi`), the mechanism's layout array and the scratch arrays the solve reuses, allocated
-once per integration instead of once per call.
+A *system* is the tuple ``(assemble, layout, A, b, x, col_scale, J, v, G, g, lam)``: the address of the
+generated function (see :mod:`physics.kernels.abi`), the mechanism's layout array and the scratch arrays the
+solve and the constraints reuse, allocated once per integration instead of once per call.
 """
 
 import math
@@ -12,13 +12,13 @@ import numpy as np
 from numba import njit
 
 from .abi import (
-    LAYOUT_LINKS,
-    LAYOUT_PINNED,
+    LAYOUT_ACCELERATION,
+    LAYOUT_CONSTRAINT_FUNCTION,
+    LAYOUT_CONSTRAINTS,
+    LAYOUT_COORDINATES,
     LAYOUT_SOLVE,
     LAYOUT_SYMMETRIC,
-    LAYOUT_THETA_DDOT,
-    LAYOUT_TIP_ROW_X,
-    LAYOUT_TIP_ROW_Y,
+    LAYOUT_TIME,
     LAYOUT_UNKNOWNS,
     call_native,
     call_native_solve,
@@ -32,61 +32,97 @@ RESCALE_ABOVE = 1e4
 
 @njit(cache=True, error_model="numpy")
 def make_system(assemble, layout):
-    """The system tuple with fresh scratch arrays for a mechanism of ``layout``."""
+    """The system tuple with fresh scratch arrays for a mechanism of ``layout``: ``A, b, x, col_scale`` of the
+    solve, and ``J (r, n), v (2 r), G (r, r), g (r), lam (r)`` of the constraints (one row at least, so that
+    their pointers are valid when r = 0)."""
     k = layout[LAYOUT_UNKNOWNS]
-    return (assemble, layout, np.zeros((k, k)), np.zeros(k), np.zeros(k), np.ones(k))
+    n = layout[LAYOUT_COORDINATES]
+    r = max(layout[LAYOUT_CONSTRAINTS], 1)
+    return (assemble, layout, np.zeros((k, k)), np.zeros(k), np.zeros(k), np.ones(k),
+            np.zeros((r, n)), np.zeros(2 * r), np.zeros((r, r)), np.zeros(r), np.zeros(r))
 
 
 @njit(cache=True, error_model="numpy")
-def is_pinned(system):
-    return system[1][LAYOUT_PINNED] != 0
+def has_constraints(system):
+    return system[1][LAYOUT_CONSTRAINTS] != 0
+
+
+@njit(cache=True, error_model="numpy")
+def set_time(system, params, t):
+    """Write ``t`` into the parameter slot the generated code reads it from (speed motors), if there is one."""
+    slot = system[1][LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
+
+
+@njit(cache=True, error_model="numpy")
+def constraint_values(system, theta, omega, params):
+    """The generated ``constraints`` into the system's ``J`` (r, n) and ``v = [phi, phi_dot]`` (2 r)."""
+    layout = system[1]
+    J = system[6]
+    v = system[7]
+    J[:, :] = 0.0
+    call_native(layout[LAYOUT_CONSTRAINT_FUNCTION], data_pointer(theta), data_pointer(omega), data_pointer(params),
+                data_pointer(J), data_pointer(v))
 
 
 @njit(cache=True, error_model="numpy")
 def assemble_into(system, theta, omega, params, alpha, beta):
-    """``A`` and ``b`` of the system at one state, with Baumgarte terms on a pinned chain's tip rows.
+    """``A`` and ``b`` of the system at one state, with Baumgarte terms on the constraints' rows:
+    ``b[row_i] -= 2 alpha phi_dot_i + beta^2 phi_i``.
 
     ``theta``, ``omega``, ``params`` must be C-contiguous (the generated code reads them through pointers)."""
-    assemble, layout, A, b, x, col_scale = system
+    assemble, layout, A, b = system[0], system[1], system[2], system[3]
     A[:, :] = 0.0
     call_native(
         assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A), data_pointer(b)
     )
-    if layout[LAYOUT_PINNED] != 0 and (alpha != 0.0 or beta != 0.0):
-        n = layout[LAYOUT_LINKS]
-        tip_x = 0.0
-        tip_y = 0.0
-        vel_x = 0.0
-        vel_y = 0.0
-        for i in range(n):
-            s = math.sin(theta[i])
-            c = math.cos(theta[i])
-            tip_x += params[i] * s
-            tip_y -= params[i] * c
-            vel_x += params[i] * c * omega[i]
-            vel_y += params[i] * s * omega[i]
-        b[layout[LAYOUT_TIP_ROW_X]] -= 2.0 * alpha * vel_x + beta * beta * (tip_x - params[4 * n + 1])
-        b[layout[LAYOUT_TIP_ROW_Y]] -= 2.0 * alpha * vel_y + beta * beta * (tip_y - params[4 * n + 2])
+    r = layout[LAYOUT_CONSTRAINTS]
+    if r != 0 and (alpha != 0.0 or beta != 0.0):
+        constraint_values(system, theta, omega, params)
+        v = system[7]
+        first_row = LAYOUT_ACCELERATION + layout[LAYOUT_COORDINATES]
+        for i in range(r):
+            b[layout[first_row + i]] -= 2.0 * alpha * v[r + i] + beta * beta * v[i]
 
 
 @njit(cache=True, error_model="numpy")
-def loop_ratio(theta, params):
-    """sigma_max / sigma_min of the 2 x n loop Jacobian d(tip)/d(theta); inf when it loses rank."""
-    jxx = 0.0
-    jyy = 0.0
-    jxy = 0.0
-    for i in range(theta.shape[0]):
-        cx = params[i] * math.cos(theta[i])
-        sy = params[i] * math.sin(theta[i])
-        jxx += cx * cx
-        jyy += sy * sy
-        jxy += cx * sy
-    half_trace = 0.5 * (jxx + jyy)
-    gap = math.sqrt(max(0.0, half_trace * half_trace - (jxx * jyy - jxy * jxy)))
-    smallest = half_trace - gap
-    if not smallest > 0.0:
+def constraint_ratio(system, theta, omega, params):
+    """sigma_max / sigma_min of the constraints' Jacobian (its rank lost: inf): a closed loop's geometric
+    singularity, judged on the loop itself rather than on the (scaled) system. Exact for two rows (a pinned
+    chain's tip); for more, the square root of the pivot ratio of ``J J^T``."""
+    constraint_values(system, theta, omega, params)
+    J = system[6]
+    r = system[1][LAYOUT_CONSTRAINTS]
+    n = J.shape[1]
+    if r == 2:
+        jxx = 0.0
+        jyy = 0.0
+        jxy = 0.0
+        for i in range(n):
+            jxx += J[0, i] * J[0, i]
+            jyy += J[1, i] * J[1, i]
+            jxy += J[0, i] * J[1, i]
+        half_trace = 0.5 * (jxx + jyy)
+        gap = math.sqrt(max(0.0, half_trace * half_trace - (jxx * jyy - jxy * jxy)))
+        smallest = half_trace - gap
+        if not smallest > 0.0:
+            return np.inf
+        return math.sqrt((half_trace + gap) / smallest)
+    G = system[8]
+    g = system[9]
+    lam = system[10]
+    for i in range(r):
+        g[i] = 1.0
+        for j in range(r):
+            total = 0.0
+            for c in range(n):
+                total += J[i, c] * J[j, c]
+            G[i, j] = total
+    ratio = ldlt_solve(G, g, lam)
+    if not ratio < np.inf:
         return np.inf
-    return math.sqrt((half_trace + gap) / smallest)
+    return math.sqrt(ratio)
 
 
 @njit(cache=True, error_model="numpy")
@@ -94,11 +130,12 @@ def solve_system(system, theta, omega, params, alpha, beta):
     """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
 
     The fast path is the mechanism's generated structured elimination for a sparse matrix (the DAE), L D L^T
-    for a symmetric positive definite one (Lagrange's mass matrix), a pivoted LU otherwise; only when its pivot ratio looks singular is the system rebuilt and solved again equilibrated,
-    so that a mere difference of scale (a very light tip, a stiff mass ratio) is not mistaken for a singular
-    position. A closed chain's geometric singularity (all links lined up) is judged on the loop Jacobian.
+    for a symmetric positive definite one (Lagrange's mass matrix), a pivoted LU otherwise; only when its pivot
+    ratio looks singular is the system rebuilt and solved again equilibrated, so that a mere difference of scale
+    (a very light tip, a stiff mass ratio) is not mistaken for a singular position. A closed loop's geometric
+    singularity (a four-bar's links lined up, a dead centre) is judged on the constraints' Jacobian.
     """
-    assemble, layout, A, b, x, col_scale = system
+    layout, A, b, x, col_scale = system[1], system[2], system[3], system[4], system[5]
     assemble_into(system, theta, omega, params, alpha, beta)
     if layout[LAYOUT_SOLVE] != 0:
         ratio = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(A), data_pointer(b), data_pointer(x))
@@ -109,8 +146,8 @@ def solve_system(system, theta, omega, params, alpha, beta):
     if not ratio <= RESCALE_ABOVE:
         assemble_into(system, theta, omega, params, alpha, beta)
         ratio = lu_solve_equilibrated(A, b, x, col_scale)
-    if layout[LAYOUT_PINNED] != 0:
-        ratio = max(ratio, loop_ratio(theta, params))
+    if layout[LAYOUT_CONSTRAINTS] != 0:
+        ratio = max(ratio, constraint_ratio(system, theta, omega, params))
     return ratio
 
 
@@ -121,7 +158,7 @@ def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
     layout = system[1]
     x = system[4]
     for i in range(theta_ddot.shape[0]):
-        theta_ddot[i] = x[layout[LAYOUT_THETA_DDOT + i]]
+        theta_ddot[i] = x[layout[LAYOUT_ACCELERATION + i]]
     return ratio
 
 
@@ -211,3 +248,28 @@ def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
         lagrangian_pieces(mass_and_force, theta_row, omega_row, params, M, force)
         M_out[row, :, :] = M
         force_out[row, :] = force
+
+
+@njit(cache=True, error_model="numpy")
+def native_states(function, layout, t, theta, omega, params, matrix_out, vector_out):
+    """A generated function of the common signature (``constraints``, ``kinematics``) at the states ``theta``,
+    ``omega`` (K, n) and times ``t`` (K,): its matrix into ``matrix_out`` (K, rows, columns; zeroed first, as the
+    function writes only its structural non-zeros) and its vector into ``vector_out`` (K, m)."""
+    local = params.copy()
+    slot = layout[LAYOUT_TIME]
+    n = theta.shape[1]
+    theta_row = np.empty(n)
+    omega_row = np.empty(n)
+    matrix = np.empty((matrix_out.shape[1], matrix_out.shape[2]))
+    vector = np.empty(vector_out.shape[1])
+    for row in range(theta.shape[0]):
+        if slot >= 0:
+            local[slot] = t[row]
+        for i in range(n):
+            theta_row[i] = theta[row, i]
+            omega_row[i] = omega[row, i]
+        matrix[:, :] = 0.0
+        call_native(function, data_pointer(theta_row), data_pointer(omega_row), data_pointer(local),
+                    data_pointer(matrix), data_pointer(vector))
+        matrix_out[row, :, :] = matrix
+        vector_out[row, :] = vector

@@ -1,10 +1,11 @@
-"""Fixed-step variational integrator in ``(theta, p)``: midpoint discrete Lagrangian, RATTLE for a pinned tip."""
+"""Fixed-step variational integrator in ``(theta, p)``: midpoint discrete Lagrangian, RATTLE for the constraints
+(a pinned chain's tip, a mechanism's closed loops)."""
 
-import math
 
 import numpy as np
 from numba import njit
 
+from .abi import LAYOUT_CONSTRAINTS
 from .common import all_finite, check_arguments, fixed_steps, initial_samples, ode_rhs
 from .constants import (
     EPSILON,
@@ -15,22 +16,22 @@ from .constants import (
     STATUS_NOT_FINITE,
     STATUS_OK,
 )
-from .linear import lu_factor, lu_factor_solve
+from .linear import ldlt_solve, lu_factor, lu_factor_solve
 from .midpoint import hermite_samples
 from .projection import project_state
-from .system import is_pinned, lagrangian_pieces, make_system
+from .system import constraint_values, has_constraints, lagrangian_pieces, make_system, set_time
 
 
 @njit(cache=True, error_model="numpy")
 def _del_residual(
-    system, mass_and_force, theta0, momentum0, unknowns, step, params, theta_mid, velocity, M, force, residual
+    system, mass_and_force, theta0, J0, momentum0, unknowns, step, params, theta_mid, velocity, M, force, residual
 ):
     """Residual of the discrete Euler-Lagrange equation for the step's increment ``q1 - q0 = unknowns[:n]``.
 
     With ``L_d(q0, q1) = h L((q0 + q1) / 2, (q1 - q0) / h)`` and damping as a midpoint force, the step from
     ``(q0, p0)`` solves ``p0 = -D1 L_d(q0, q1) - (h/2) Q = M v - (h/2) f`` (``f = dL/dq + Q`` at the midpoint).
-    A pinned chain adds the loop force ``G(q0)^T lambda`` and the rows ``tip(q1) = pin``: the position half of
-    RATTLE. The momentum rows are multiplied by ``h`` (and the unknown multiplier is ``h lambda =
+    Constraints add the force ``J(q0)^T lambda`` (``J0``, r x n) and the rows ``phi(q1) = 0``: the position half
+    of RATTLE. The momentum rows are multiplied by ``h`` (and the unknown multiplier is ``h lambda =
     unknowns[n:]``) so that every row and column of the Newton matrix is of order one (``M``, ``G``): unscaled,
     its condition grows like ``1/h`` and rounding keeps Newton from reaching its tolerance. The unknown is the
     increment, not ``q1``, so that ``v = (q1 - q0) / h`` carries the increment's relative precision instead of
@@ -46,24 +47,23 @@ def _del_residual(
         for j in range(n):
             total += M[i, j] * unknowns[j]
         residual[i] = total
-    if is_pinned(system):
-        tip_x = -params[4 * n + 1]
-        tip_y = -params[4 * n + 2]
+    r = system[1][LAYOUT_CONSTRAINTS]
+    if r != 0:
         for i in range(n):
-            c = math.cos(theta0[i])
-            s = math.sin(theta0[i])
-            residual[i] -= params[i] * (c * unknowns[n] + s * unknowns[n + 1])
-            tip_x += params[i] * math.sin(theta0[i] + unknowns[i])
-            tip_y -= params[i] * math.cos(theta0[i] + unknowns[i])
-        residual[n] = tip_x
-        residual[n + 1] = tip_y
+            for c in range(r):
+                residual[i] -= J0[c, i] * unknowns[n + c]
+            theta_mid[i] = theta0[i] + unknowns[i]  # q1, for phi(q1); theta_mid is not read again
+        constraint_values(system, theta_mid, velocity, params)
+        v = system[7]
+        for c in range(r):
+            residual[n + c] = v[c]
 
 
 @njit(cache=True, error_model="numpy")
 def _velocity_from_momentum(system, mass_and_force, theta, momentum, params, M, force, pivots, loop_work, omega):
-    """``omega = M(theta)^-1 p``; for a pinned chain then the velocity half of RATTLE, which removes the part of
-    ``p`` along ``G^T`` so that the tip stays still (``G omega = 0``). ``momentum`` is updated to match;
-    ``loop_work`` (2, n) is scratch. Returns False when the mass matrix is singular."""
+    """``omega = M(theta)^-1 p``; with constraints then the velocity half of RATTLE, which removes the part of
+    ``p`` along ``J^T`` so that ``phi_dot = J omega + d phi/d t = 0``. ``momentum`` is updated to match;
+    ``loop_work`` (r, n) is scratch. Returns False when the mass matrix or ``J M^-1 J^T`` is singular."""
     n = theta.shape[0]
     for i in range(n):
         omega[i] = 0.0
@@ -73,38 +73,33 @@ def _velocity_from_momentum(system, mass_and_force, theta, momentum, params, M, 
     for i in range(n):
         omega[i] = momentum[i]
     lu_factor_solve(M, pivots, omega)
-    if is_pinned(system):
-        # W = M^-1 G^T (two columns), S = G W (2 x 2); mu = S^-1 G omega; omega -= W mu; p -= G^T mu.
-        w_x = loop_work[0]
-        w_y = loop_work[1]
-        for i in range(n):
-            w_x[i] = params[i] * math.cos(theta[i])
-            w_y[i] = params[i] * math.sin(theta[i])
-        lu_factor_solve(M, pivots, w_x)
-        lu_factor_solve(M, pivots, w_y)
-        s_xx = 0.0
-        s_xy = 0.0
-        s_yx = 0.0
-        s_yy = 0.0
-        g_x = 0.0
-        g_y = 0.0
-        for i in range(n):
-            c = params[i] * math.cos(theta[i])
-            s = params[i] * math.sin(theta[i])
-            s_xx += c * w_x[i]
-            s_xy += c * w_y[i]
-            s_yx += s * w_x[i]
-            s_yy += s * w_y[i]
-            g_x += c * omega[i]
-            g_y += s * omega[i]
-        det = s_xx * s_yy - s_xy * s_yx
-        if not abs(det) > 0.0:
+    r = system[1][LAYOUT_CONSTRAINTS]
+    if r != 0:
+        # W = M^-1 J^T (r columns, as rows of loop_work), S = J W (r x r); mu = S^-1 phi_dot; omega -= W mu;
+        # p -= J^T mu.
+        constraint_values(system, theta, omega, params)
+        J = system[6]
+        v = system[7]
+        S = system[8]
+        gap = system[9]
+        mu = system[10]
+        for c in range(r):
+            for i in range(n):
+                loop_work[c, i] = J[c, i]
+            lu_factor_solve(M, pivots, loop_work[c])
+        for a in range(r):
+            gap[a] = v[r + a]
+            for b in range(r):
+                total = 0.0
+                for i in range(n):
+                    total += J[a, i] * loop_work[b, i]
+                S[a, b] = total
+        if not ldlt_solve(S, gap, mu) < np.inf:
             return False
-        mu_x = (s_yy * g_x - s_xy * g_y) / det
-        mu_y = (s_xx * g_y - s_yx * g_x) / det
         for i in range(n):
-            omega[i] -= w_x[i] * mu_x + w_y[i] * mu_y
-            momentum[i] -= params[i] * (math.cos(theta[i]) * mu_x + math.sin(theta[i]) * mu_y)
+            for c in range(r):
+                omega[i] -= loop_work[c, i] * mu[c]
+                momentum[i] -= J[c, i] * mu[c]
     return all_finite(omega)
 
 
@@ -129,7 +124,10 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
     system = make_system(assemble, layout)
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
-    size = n + (2 if is_pinned(system) else 0)
+    params = params.copy()  # the integrator writes t into it
+    r = layout[LAYOUT_CONSTRAINTS]
+    size = n + r
+    J0 = np.zeros((max(r, 1), n))
     theta = np.empty(n)
     omega = np.empty(n)
     theta_ddot = np.empty(n)
@@ -138,7 +136,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
     force = np.empty(n)
     M = np.empty((n, n))
     mass_pivots = np.empty(n, dtype=np.int64)
-    loop_work = np.empty((2, n))
+    loop_work = np.empty((max(r, 1), n))
     momentum = np.empty(n)
     momentum_next = np.empty(n)
     unknowns = np.zeros(size)
@@ -158,7 +156,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
     t = t0
     n_steps = 0
     n_rhs = 0
-    if is_pinned(system) and not project_state(y, params, theta, omega):
+    if has_constraints(system) and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
     for i in range(n):
         theta[i] = y[i]
@@ -170,7 +168,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         for j in range(n):
             total += M[i, j] * omega[j]
         momentum[i] = total
-    status, condition = ode_rhs(system, y, params, 0.0, 0.0, theta, omega, theta_ddot, f)
+    status, condition = ode_rhs(system, t, y, params, 0.0, 0.0, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -184,8 +182,16 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         # Predictor: a Taylor step for the angles; the multiplier keeps its last value (it varies slowly).
         for i in range(n):
             unknowns[i] = step * f[i] + 0.5 * step * step * f[n + i]
+        if r != 0:  # J(q0) for the constraint force, then phi(q1) at the step's end
+            for i in range(n):
+                theta[i] = y[i]
+                omega[i] = y[n + i]
+            set_time(system, params, t)
+            constraint_values(system, theta, omega, params)
+            J0[:, :] = system[6]
+        set_time(system, params, t_new)
         _del_residual(
-            system, mass_and_force, y[:n], momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
+            system, mass_and_force, y[:n], J0, momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
         )
         n_rhs += 1
         for j in range(size):
@@ -198,6 +204,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
                 system,
                 mass_and_force,
                 y[:n],
+                J0,
                 momentum,
                 probe,
                 step,
@@ -234,7 +241,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
                 largest = max(largest, abs(probe[i]))
                 scale = max(scale, abs(unknowns[i]))
             _del_residual(
-                system, mass_and_force, y[:n], momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
+                system, mass_and_force, y[:n], J0, momentum, unknowns, step, params, theta_mid, velocity, M, force, residual
             )
             n_rhs += 1
             if not (np.isfinite(largest) and np.isfinite(scale)):
@@ -267,7 +274,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         for i in range(n):
             y_next[i] = theta[i]
             y_next[n + i] = omega[i]
-        status, _ = ode_rhs(system, y_next, params, 0.0, 0.0, theta, omega, theta_ddot, f_next)
+        status, _ = ode_rhs(system, t_new, y_next, params, 0.0, 0.0, theta, omega, theta_ddot, f_next)
         n_rhs += 1
         if status != STATUS_OK:
             break
@@ -286,7 +293,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
             params,
             0.0,
             0.0,
-            is_pinned(system),
+            has_constraints(system),
             y_sample,
             theta,
             omega,

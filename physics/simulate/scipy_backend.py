@@ -75,8 +75,7 @@ def integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, project
             if project:
                 y = y_out[next_sample - 1].copy()
                 theta, omega = np.ascontiguousarray(y[:n]), np.ascontiguousarray(y[n:])
-                compiled.project_position(theta, params)
-                compiled.project_velocity(theta, omega, params)
+                compiled.project(theta, omega, params, t_eval[next_sample - 1])
                 y = np.concatenate([theta, omega])
                 y_out[next_sample - 1] = y
     except _Singular as stop:

@@ -84,15 +84,40 @@ def pinned_assemble(theta, omega, params, A, b):
         b[4] -= L * math.cos(theta[i]) * omega[i] ** 2
 
 
+# The toy's constraint, written by hand as the generated ``constraints`` of a pinned chain: the tip on the pin
+# (params[13], params[14]), its Jacobian J and v = [phi, J omega].
+def pinned_constraints(theta, omega, params, J, v):
+    tip_x = -params[13]
+    tip_y = -params[14]
+    speed_x = 0.0
+    speed_y = 0.0
+    for i in range(3):
+        L = params[i]
+        J[i] = L * math.cos(theta[i])
+        J[3 + i] = L * math.sin(theta[i])
+        tip_x += L * math.sin(theta[i])
+        tip_y -= L * math.cos(theta[i])
+        speed_x += J[i] * omega[i]
+        speed_y += J[3 + i] * omega[i]
+    v[0] = tip_x
+    v[1] = tip_y
+    v[2] = speed_x
+    v[3] = speed_y
+
+
 class Toy:
     """A hand-written system handed to the kernels exactly as a generated mechanism is."""
 
-    def __init__(self, assemble, n, k, pinned=False, tip_rows=None):
+    def __init__(self, assemble, n, k, constraints=None, rows=()):
         self.N_LINKS = n
         self.RK4_WORK_ROWS = RK4_WORK_ROWS
         self._compiled = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(assemble)  # keeps the code alive
         self.assemble = self._compiled.address
-        self.layout = make_layout(n, k, pinned, tip_rows, range(n), symmetric=False)
+        self._constraints = None if constraints is None else cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(constraints)
+        address = 0 if self._constraints is None else self._constraints.address
+        self.layout = make_layout(n, k, range(n), n_parameters=4 * n + 3, constraint_rows=rows,
+                                  constraint_address=address)
+        self.system = system.make_system(self.assemble, self.layout)
 
     def accel(self, theta, omega, params):
         theta_ddot = np.empty((1, self.N_LINKS))
@@ -113,8 +138,11 @@ class Toy:
     def rk4_batch_step(self, *args):
         return batch.rk4_batch_step(self.assemble, self.layout, *args)
 
-    project_position = staticmethod(projection.project_position)
-    project_velocity = staticmethod(projection.project_velocity)
+    def project_position(self, theta, params):
+        return projection.project_position(self.system, theta, np.zeros_like(theta), params)
+
+    def project_velocity(self, theta, omega, params):
+        return projection.project_velocity(self.system, theta, omega, params)
 
 
 PENDULUM_PARAMS = np.array([1.0, 0.5, 1.0, 0.2, 1.0, 0.0, 0.0])
@@ -129,7 +157,7 @@ def build():
     makers = {
         "pendulum": lambda: Toy(pendulum_assemble, 1, 1),
         "double": lambda: Toy(double_assemble, 2, 2),
-        "pinned": lambda: Toy(pinned_assemble, 3, 5, pinned=True, tip_rows=(3, 4)),
+        "pinned": lambda: Toy(pinned_assemble, 3, 5, pinned_constraints, rows=(3, 4)),
     }
     built = {}
 

@@ -31,10 +31,10 @@ def oscillator_assemble(theta, omega, params, A, b):
 @pytest.fixture(scope="module")
 def oscillator():
     compiled = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(oscillator_assemble)
-    return compiled, compiled.address, make_layout(1, 1, False, None, range(1), symmetric=False)
+    return compiled, compiled.address, make_layout(1, 1, range(1), n_parameters=2)
 
 
-PARAMS = np.zeros(7)  # the kernels ask for at least 4 n + 3 parameters
+PARAMS = np.zeros(7)
 
 
 def params(k, c):
