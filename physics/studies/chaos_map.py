@@ -4,6 +4,9 @@ first flips over (passes the upward vertical), computed with the ensemble path i
 ``python -m physics chaos-map --preset double --resolution 400 --out map.png [--scheduler tcp://host:8786]
 [--workers N]``
 
+A general mechanism of mobility >= 2 (``--mechanism FILE [--coordinates BODY,BODY]``) gets the same map over
+two of its bodies' initial angles, each pixel a run of the general engine (physics.studies.mechanism_chaos).
+
 Why tiles through a ``concurrent.futures.Executor``: every pixel is an independent run, so the map splits
 into row bands that any executor can run: the calling process (``--workers 1``), local processes
 (``ProcessPoolExecutor``, the default), or a Dask cluster (``--scheduler``: ``Client.get_executor()``),
@@ -35,6 +38,7 @@ from ..arguments import Parser
 from ..codegen import load_compiled
 from ..errors import LinkageError
 from ..kinematics import energies
+from ..mechanism.presets import MECHANISM_PRESETS
 from ..model import FORMULATION_NAMES
 from ..outputs import check_output_path, write_output
 from ..presets import get_preset, preset_names
@@ -227,12 +231,20 @@ def make_executor(workers: int | None, scheduler: str | None):
 
 def build_parser() -> Parser:
     parser = Parser(prog="python -m physics chaos-map", description="time-to-first-flip map of initial angles")
-    parser.add_argument("--preset", default="double", choices=preset_names())
+    parser.add_argument("--preset", default=None, choices=preset_names() + tuple(MECHANISM_PRESETS),
+                        help="a chain (default double) or a mechanism preset")
+    parser.add_argument("--mechanism", default=None, metavar="FILE",
+                        help="a mechanism file of mobility >= 2: the map over two of its bodies' angles")
+    parser.add_argument("--coordinates", default=None, metavar="BODY,BODY",
+                        help="for a mechanism: the two bodies whose initial angles span the map (default: the first two)")
     parser.add_argument("--links", type=int, default=None, help="bars for --preset chain")
     parser.add_argument("--method", default="lagrange", choices=FORMULATION_NAMES)
-    parser.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION, help="pixels per side")
-    parser.add_argument("--t-max", type=float, default=DEFAULT_T_MAX, help="longest time followed (s)")
-    parser.add_argument("--step", type=float, default=DEFAULT_STEP, help="RK4 step (s)")
+    parser.add_argument("--resolution", type=int, default=None,
+                        help=f"pixels per side (default {DEFAULT_RESOLUTION}; a mechanism: 16)")
+    parser.add_argument("--t-max", type=float, default=None,
+                        help=f"longest time followed (s; default {DEFAULT_T_MAX:g}; a mechanism: 10)")
+    parser.add_argument("--step", type=float, default=None,
+                        help=f"RK4 step (s; default {DEFAULT_STEP:g}); a mechanism: the sampling interval")
     parser.add_argument("--out", default="chaos-map.png", help="PNG file to write")
     parser.add_argument("--data", default=None, help="also save the flip times (.npy)")
     parser.add_argument("--workers", type=int, default=None, help="local processes (default: all cores; 1 = here)")
@@ -316,6 +328,15 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.workers is not None and args.workers < 1:
         raise LinkageError(f"--workers = {args.workers}: allowed range 1 <= workers <= {usable_cores()}")
+    if args.mechanism is not None or args.preset in MECHANISM_PRESETS:
+        return _mechanism_main(args)
+    if args.coordinates is not None:
+        raise LinkageError("--coordinates: applies to a mechanism (--mechanism FILE or a mechanism preset); a "
+                           "chain's map spans theta1 and theta2")
+    args.preset = args.preset or "double"
+    args.resolution = DEFAULT_RESOLUTION if args.resolution is None else args.resolution
+    args.t_max = DEFAULT_T_MAX if args.t_max is None else args.t_max
+    args.step = DEFAULT_STEP if args.step is None else args.step
     preset = get_preset(args.preset, args.links)
     check_map_arguments(preset.chain, args.method, args.resolution, args.t_max, args.step)
     workers = usable_cores() if args.workers is None else args.workers
@@ -339,6 +360,45 @@ def main(argv=None) -> int:
     info = summary(times)
     info.update(seconds=elapsed, pixels_per_second=times.size / elapsed, out=args.out, preset=args.preset,
                 t_max=args.t_max, step=args.step)
+    print(json.dumps(info))
+    return 0
+
+
+def _mechanism_main(args) -> int:
+    """The map of a general mechanism (physics.studies.mechanism_chaos): the same files and JSON keys, plus the
+    mechanism, its two coordinates and the unreachable and failed pixels."""
+    # the general engine's study, loaded only when a mechanism is mapped
+    from . import mechanism_chaos  # noqa: PLC0415
+    from .mechanism_cases import load_case  # noqa: PLC0415
+
+    if args.preset is not None and args.mechanism is not None:
+        raise LinkageError("give one of --preset NAME or --mechanism FILE")
+    if args.links is not None:
+        raise LinkageError(f"--links = {args.links}: applies to --preset chain only")
+    mechanism = load_case(args.preset, args.mechanism)
+    resolution = mechanism_chaos.DEFAULT_RESOLUTION if args.resolution is None else args.resolution
+    t_max = mechanism_chaos.DEFAULT_T_MAX if args.t_max is None else args.t_max
+    step = mechanism_chaos.DEFAULT_STEP if args.step is None else args.step
+    mechanism_chaos.angle_indices(mechanism, args.coordinates)
+    workers = usable_cores() if args.workers is None else args.workers
+    mechanism_chaos.check_mechanism_map(mechanism, args.method, resolution, t_max, step, workers, args.scheduler)
+    if args.scheduler is None and workers > usable_cores():
+        check_machine_bounds(1, 1.0, 1.0, workers, None)  # the one line naming the cores
+    check_output_path(args.out, suffixes=(".png",))
+    if args.data is not None:
+        check_output_path(data_path(args.data), "--data")
+    executor, close = make_executor(workers, args.scheduler)
+    try:
+        times, info = mechanism_chaos.run_map(mechanism, args.coordinates, args.method, resolution, t_max, step,
+                                              executor, not args.no_progress)
+    finally:
+        close()
+    write_output(args.out, png_bytes(mechanism_chaos.mechanism_rgb(times, t_max, step)))
+    if args.data is not None:
+        buffer = io.BytesIO()
+        np.save(buffer, times)
+        write_output(data_path(args.data), buffer.getvalue(), "--data")
+    info.update(out=args.out, preset=args.preset)
     print(json.dumps(info))
     return 0
 

@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from physics.errors import LinkageError
+from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.presets import MECHANISM_PRESETS
-from physics.studies import bench, mechanism_cases, stability
+from physics.presets import get_preset
+from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability
 from physics.studies.mechanism_stability import (
     change_point_mechanism,
     figure_mechanism_drift,
@@ -184,3 +186,58 @@ def test_stability_command_runs_a_mechanism_and_refuses_a_chain_only_case(tmp_pa
     assert (tmp_path / "mechanism-drift-slider-crank.svg").read_text().startswith("<svg")
     assert not (tmp_path / "stability.json").exists()  # the chains' summary is left alone
     assert stability.main(["--preset", "slider-crank", "--case", "2", "--out", str(tmp_path)]) == 2
+
+
+# ------------------------------------------------------------------------------------------------
+# 3. The chaos map
+
+
+def test_the_double_pendulum_written_as_a_mechanism_flips_where_the_chains_map_says():
+    """The chain's map (its own batched RK4) against the general engine's, pixel by pixel: the same flips at the
+    same times (to a sample or two), and no flip where the chain's energy bound forbids one."""
+    chain = get_preset("double").chain
+    times, messages = mechanism_chaos.compute_mechanism_map(chain_mechanism(chain, np.zeros(2)), resolution=5,
+                                                            t_max=2.0, step=0.01)
+    reference = chaos_map.compute_map(chain, resolution=5, t_max=2.0, step=0.01)
+    assert messages == [] and times.shape == (5, 5)
+    flipped = reference > 0
+    assert flipped.any() and np.array_equal(flipped, times > 0)
+    np.testing.assert_allclose(times[flipped], reference[flipped], atol=0.021)
+    assert np.all(np.isnan(times[reference == chaos_map.FORBIDDEN]))
+
+
+def test_a_closed_pose_holds_the_two_angles_and_closes_every_joint(double_file):
+    mechanism = mechanism_cases.load_case(file=str(double_file))
+    constraints = mechanism_chaos.Constraints(mechanism)
+    q = mechanism_chaos.pose_with_angles(constraints, constraints.sketch_pose(), (2, 5), (1.0, -2.0), 1.0)
+    assert q is not None and q[2] == pytest.approx(1.0) and q[5] == pytest.approx(-2.0)
+    assert np.max(np.abs(constraints.residual(q))) < 1e-12
+    # the tip of the upper bar at (sin 1, -cos 1): the pose is the pendulum's, not just any closed one
+    np.testing.assert_allclose(mechanism_cases.point_path(mechanism, q, "upper.A")[0], [np.sin(1.0), -np.cos(1.0)])
+
+
+def test_chaos_map_of_a_mechanism_file_on_the_command_line(tmp_path, double_file):
+    out, data = tmp_path / "map.png", tmp_path / "map.npy"
+    assert chaos_map.main(["--mechanism", str(double_file), "--coordinates", "lower,upper", "--resolution", "2",
+                           "--t-max", "0.3", "--workers", "1", "--no-progress", "--out", str(out),
+                           "--data", str(data)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and np.load(data).shape == (2, 2)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--preset", "slider-crank"], "mobility 1"),
+    (["--preset", "jansen-leg"], "mobility 0"),
+    (["--coordinates", "upper,upper"], "different bodies"),
+    (["--coordinates", "upper,hip"], "'hip'"),
+    (["--resolution", "3000"], "resolution"),
+    (["--links", "3"], "--links"),
+])
+def test_chaos_map_of_a_mechanism_refuses_in_one_line(args, needle, tmp_path, double_file):
+    source = [] if "--preset" in args else ["--mechanism", str(double_file)]
+    with pytest.raises(LinkageError, match=needle):
+        chaos_map.main([*source, *args, "--workers", "1", "--out", str(tmp_path / "m.png")])
+
+
+def test_chaos_map_refuses_coordinates_for_a_chain(tmp_path):
+    with pytest.raises(LinkageError, match="--coordinates"):
+        chaos_map.main(["--preset", "double", "--coordinates", "bar1,bar2", "--out", str(tmp_path / "m.png")])
