@@ -32,7 +32,7 @@ from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .notices import install_stderr_lines
 from .outputs import check_output_path, check_partial_path, write_output
-from .presets import get_preset, preset_names
+from .presets import get_preset, mechanism_summaries, preset_names
 from .program import program_name, version_text
 from .registry import (
     BACKENDS,
@@ -266,13 +266,18 @@ def cmd_ensemble(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    print(json.dumps([get_preset(name).summary() for name in preset_names()], indent=2))
+    """Every preset in one table: the chains (their keys unchanged), then the mechanisms (``kind: mechanism``)."""
+    entries = [get_preset(name).summary() for name in preset_names()] + mechanism_summaries()
+    print(json.dumps(entries, indent=2))
     return 0
 
 
 def cmd_warm(args) -> int:
     """Derive and compile ahead of time, so the app and the CLI start warm: every integrator kernel once, then
     every mechanism the presets use (or the chains of ``--links``) for the three methods."""
+    if args.preset is not None:
+        raise LinkageError(f"--preset {args.preset}: warm takes a mechanism preset (python -m physics presets); a "
+                           "chain's formulations are warmed by --links N,N or by warm alone")
     if args.links is None:
         targets = sorted({(get_preset(name).chain.n, get_preset(name).chain.pinned) for name in preset_names()})
     else:
@@ -309,8 +314,13 @@ def cmd_cache(args) -> int:
     return 0
 
 
-def _common(parser, method_required=False):
-    parser.add_argument("--preset", default="triple-a", choices=preset_names())
+MECHANISM_HELP = ("a chain preset, or a mechanism preset (python -m physics presets lists both; a mechanism's own "
+                  "options: docs/cli.md)")
+
+
+def _common(parser, method_required=False, mechanisms=False):
+    parser.add_argument("--preset", default="triple-a", choices=preset_names(),
+                        help=MECHANISM_HELP if mechanisms else "a chain preset")
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain (1..12)")
     parser.add_argument("--method", default="lagrange", choices=METHOD_NAMES)
     parser.add_argument("--set", action="append", metavar="NAME=VALUE",
@@ -329,7 +339,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", parser_class=Parser, metavar="COMMAND")
 
     sim = sub.add_parser("simulate", help="integrate a preset and print or write the trajectory")
-    _common(sim)
+    _common(sim, mechanisms=True)
     sim.add_argument("--integrator", default="DOP853", choices=INTEGRATOR_NAMES)
     sim.add_argument("--backend", default="compiled", choices=BACKENDS)
     sim.add_argument("--rtol", type=float, default=1e-10)
@@ -345,12 +355,13 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     sim.add_argument("--out", default=None, help="write to this file (CSV, or JSON if it ends in .json)")
     sim.add_argument("--format", default=None, choices=("csv", "json"))
     sim.add_argument("--mechanism", default=None, metavar="FILE",
-                     help="a mechanism file (.toml or .json, docs/mechanisms.md): run as `python -m physics mechanism "
-                     "--file FILE` runs it; only --t-end, --samples, --out, --method and --stabilization apply with it")
+                     help="a mechanism file (.toml or .json, docs/mechanisms.md), run as the mechanism command runs "
+                     "it, with the options that apply to it (docs/cli.md)")
     sim.set_defaults(func=cmd_simulate)
 
     acc = sub.add_parser("accelerations", help="print the accelerations (and reactions) at one state as JSON")
-    _common(acc)
+    _common(acc, mechanisms=True)
+    acc.add_argument("--mechanism", default=None, metavar="FILE", help="a mechanism file (docs/cli.md)")
     acc.add_argument("--state", default=None, metavar="TH1,..,THN,W1,..,WN")
     acc.add_argument("--input", default=None, metavar="cases.json", help="evaluate a JSON list of cases")
     acc.set_defaults(func=cmd_accelerations)
@@ -371,6 +382,8 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
 
     warm = sub.add_parser("warm", help="derive and compile ahead of time: every preset's mechanisms, or --links")
     warm.add_argument("--links", default=None, metavar="N,N,...", help="open chains of these lengths instead")
+    warm.add_argument("--preset", default=None, metavar="MECHANISM", help="a mechanism preset's formulations instead")
+    warm.add_argument("--mechanism", default=None, metavar="FILE", help="a mechanism file's formulations instead")
     warm.set_defaults(func=cmd_warm)
 
     cache = sub.add_parser("cache", help="show the code cache (where, what, how big) or empty it")
@@ -404,8 +417,8 @@ _EXTERNAL = {
 EXTERNAL_HELP = {
     "mechanism": "check, assemble and simulate a planar mechanism file (docs/mechanisms.md)",
     "export": "write a mechanism as MJCF (MuJoCo), pylinkage's JSON or TOML/JSON, or read pylinkage's JSON",
-    "fbd": "forces on one bar at one instant (gravity, joint reactions, pin reaction)",
-    "equilibrium": "rest positions of a chain: angles, stability, potential energy",
+    "fbd": "forces on one bar (or a mechanism's --body) at one instant: gravity, joint reactions, motors",
+    "equilibrium": "rest positions of a chain or a mechanism: angles, stability, potential energy",
     "seed-report": "the seed report's figures at its own settings, beside converged runs",
     "bench": "work-precision diagrams and speed suites (ensemble, chaos, models) for BENCHMARKS.md",
     "chaos-map": "time-to-first-flip map of initial angles (PNG and data)",
@@ -444,36 +457,32 @@ def start_numba_without_blas() -> None:
         sys.meta_path.remove(hook)
 
 
-MECHANISM_OPTIONS = ("--t-end", "--samples", "--out", "--method", "--stabilization")  # what `simulate --mechanism`
-# passes on to the mechanism command
+MECHANISM_COMMANDS = ("simulate", "accelerations", "fbd", "equilibrium", "warm")  # take a mechanism too
 
 
-def _mechanism_arguments(argv: list[str]) -> list[str]:
-    """``simulate --mechanism FILE [--t-end T] [--samples N] [--out F] [--method M] [--stabilization S]`` as the
-    ``mechanism`` command's own arguments (``--file FILE``, a run of 2 s unless ``--t-end``): one place simulates
-    a general mechanism (physics/mechanism/command.py). The other chain options (``--preset``, ``--integrator``,
-    ...) do not apply to it."""
-    parser = Parser(prog="python -m physics simulate --mechanism",
-                    description="simulate a mechanism file (docs/mechanisms.md)")
-    parser.add_argument("--mechanism", required=True, metavar="FILE", help="a mechanism file, .toml or .json")
-    parser.add_argument("--t-end", default="2", help="seconds to simulate (default 2)")
-    parser.add_argument("--samples", default=None)
-    parser.add_argument("--out", default=None)
-    parser.add_argument("--method", default=None)
-    parser.add_argument("--stabilization", default=None)
-    args, rest = parser.parse_known_args(argv)
-    if rest:
-        raise LinkageError(f"{rest[0]}: does not apply with --mechanism (a mechanism file's run takes "
-                           f"{', '.join(MECHANISM_OPTIONS)})")
-    if not args.mechanism.strip():
-        raise LinkageError("--mechanism: give a mechanism file (.toml or .json)")
-    out = ["--file", args.mechanism, "--t-end", args.t_end]
-    if args.samples is not None:
-        out += ["--samples", args.samples]
-    for option in ("out", "method", "stabilization"):
-        if getattr(args, option) is not None:
-            out += [f"--{option}", getattr(args, option)]
-    return out
+def asks_for_mechanism(argv: list[str]) -> bool:
+    """Whether a chain command's arguments ask for a general mechanism: ``--mechanism FILE``, or ``--preset``
+    naming a mechanism preset (the mechanism presets are imported only then, so a chain's run stays lean)."""
+    for position, item in enumerate(argv):
+        if item == "--mechanism" or item.startswith("--mechanism="):
+            return True
+        name = item.split("=", 1)[1] if item.startswith("--preset=") else (
+            argv[position + 1] if item == "--preset" and position + 1 < len(argv) else None)
+        if name is not None:
+            if name in preset_names():
+                return False
+            from .mechanism.presets import MECHANISM_PRESETS  # noqa: PLC0415
+
+            return name in MECHANISM_PRESETS
+    return False
+
+
+def run_mechanism_command(command: str, argv: list[str]) -> int:
+    """``simulate``, ``accelerations``, ``fbd``, ``equilibrium`` or ``warm`` of a mechanism preset or file
+    (physics/mechanism/cli_runs.py)."""
+    from .mechanism.cli_runs import main as mechanism_main  # noqa: PLC0415
+
+    return mechanism_main(command, argv)
 
 
 def refuse_empty_values(argv: list[str]) -> None:
@@ -493,8 +502,8 @@ def main(argv=None) -> int:
     start_numba_without_blas()
     try:
         refuse_empty_values(argv)
-        if argv[:1] == ["simulate"] and any(a == "--mechanism" or a.startswith("--mechanism=") for a in argv):
-            argv = ["mechanism", *_mechanism_arguments(argv[1:])]
+        if argv[:1] and argv[0] in MECHANISM_COMMANDS and asks_for_mechanism(argv[1:]):
+            return run_mechanism_command(argv[0], argv[1:])
         if argv and argv[0] in _EXTERNAL:
             return run_external(argv[0], argv[1:])
         parser = build_parser()

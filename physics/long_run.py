@@ -219,7 +219,7 @@ def _mechanism_rows(run, keep: slice) -> dict:
 
 
 def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method: str, stabilization: str,
-                                   stream: TextIO | None = None):
+                                   stream: TextIO | None = None, rtol: float = 1e-10, atol: float = 1e-10):
     """``simulate_mechanism`` for the command line: a run estimated (from its first PROBE_SPAN simulated
     seconds) over MAX_MECHANISM_SECONDS is refused with the estimate (LinkageError); a long one runs in segments
     with a progress line on ``stream``; Ctrl+C returns ``(run so far, "interrupted ...")``. Returns
@@ -228,7 +228,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
 
     if t_end <= PROBE_SPAN:  # shorter than the probe: one call
         return simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
-                                  stabilization=stabilization), None
+                                  stabilization=stabilization, rtol=rtol, atol=atol), None
     times = np.linspace(0.0, t_end, samples)
     spacing = float(times[1] - times[0])
 
@@ -243,7 +243,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             if end >= times[index + 1]:
                 end = float(times[target])
         run = simulate_mechanism(mechanism, t_end=end - t_now, samples=count, q0=q, qdot0=qdot, t_start=t_now,
-                                 method=method, stabilization=stabilization)
+                                 method=method, stabilization=stabilization, rtol=rtol, atol=atol)
         return run, (target if end == times[target] else None), end
 
     clock = time.perf_counter()
@@ -265,7 +265,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
         )
     if estimate < SEGMENTED_AFTER:
         return simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
-                                  stabilization=stabilization), None
+                                  stabilization=stabilization, rtol=rtol, atol=atol), None
     pieces = [_mechanism_rows(first, slice(None) if reached is not None else slice(0, 1))]
     index = reached if reached is not None else 0
     t_now, q, qdot = end, first.q[-1], first.qdot[-1]

@@ -189,9 +189,36 @@ def preset_names() -> tuple[str, ...]:
 def get_preset(name: str, links: int | None = None) -> Preset:
     """A preset by name; ``links`` applies to ``chain`` only."""
     if name not in _FACTORIES:
+        from .mechanism.presets import MECHANISM_PRESETS  # noqa: PLC0415 - only to say what the name is
+
+        if name in MECHANISM_PRESETS:
+            raise LinkageError(f"preset = {name!r}: a mechanism preset; this command takes a chain preset "
+                               f"({', '.join(_FACTORIES)})")
         raise LinkageError(f"preset = {name!r}: allowed {', '.join(_FACTORIES)}")
     if name == "chain":
         return chain_preset(CHAIN_DEFAULT_LINKS if links is None else links)
     if links is not None and links != _FACTORIES[name]().chain.n:
         raise LinkageError(f"links = {links}: --links applies to preset 'chain' only (preset {name!r} is fixed)")
     return _FACTORIES[name]()
+
+
+def mechanism_summaries() -> list[dict]:
+    """Every mechanism preset as an entry of ``python -m physics presets``: ``kind: "mechanism"``, then the keys
+    ``python -m physics mechanism --json`` gives them (its bodies, joints, motors and loops, its mobility after
+    the motors, ``mobility``, and before, ``mechanism_mobility``) and the traced point. (A chain's entry,
+    :meth:`Preset.summary`, has no ``kind``: its keys are a contract.)"""
+    from .mechanism import MECHANISM_PRESETS, assemble  # noqa: PLC0415 - the chain commands never load them
+
+    entries = []
+    for name, factory in MECHANISM_PRESETS.items():
+        mechanism = factory()
+        assembled = assemble(mechanism)
+        entries.append({
+            "name": name, "kind": "mechanism", "description": mechanism.description,
+            "bodies": [body.name for body in mechanism.bodies], "joints": [joint.name for joint in mechanism.joints],
+            "drivers": [driver.model_dump(exclude_none=True) for driver in mechanism.drivers],
+            "loops": [list(loop.joints) for loop in assembled.topology.loops],
+            "mobility": assembled.mobility, "mechanism_mobility": assembled.mechanism_mobility,
+            "motors": len(mechanism.drivers), "mobility_text": assembled.mobility_text(), "trace": mechanism.trace,
+        })
+    return entries

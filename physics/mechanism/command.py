@@ -16,6 +16,7 @@ from __future__ import annotations
 import io
 import json
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -68,15 +69,32 @@ def summary(mechanism: Mechanism) -> dict:
     }
 
 
-def run_csv(run: MechanismRun) -> bytes:
+def run_columns(run: MechanismRun) -> dict[str, np.ndarray]:
+    """The columns of a run's table, in order: ``t``, the traced point, the energies, the largest constraint
+    residual and every reaction row as ``lambda[JOINT: row]`` (the names scripts read; docs/mechanisms.md)."""
     columns = {"t": run.t, "trace_x": run.trace_xy[:, 0], "trace_y": run.trace_xy[:, 1], "kinetic": run.kinetic,
                "potential": run.potential, "energy": run.energy, "constraint_residual": run.residual}
     for k, name in enumerate(run.row_names):
         columns[f"lambda[{name}]"] = run.reactions[:, k]
+    return columns
+
+
+def run_table(run: MechanismRun, fmt: str = "csv") -> bytes:
+    """The run as CSV (``fmt = "csv"``) or as JSON with the same names as keys of arrays (``"json"``; a missing
+    traced point, NaN in the CSV, is ``null``): the one writer of a mechanism's samples, for ``mechanism`` and
+    ``simulate``."""
+    columns = run_columns(run)
+    if fmt == "json":
+        document = {name: [float(v) if np.isfinite(v) else None for v in values] for name, values in columns.items()}
+        return (json.dumps(document, allow_nan=False) + "\n").encode("utf-8")
     buffer = io.StringIO()
     buffer.write(",".join(f'"{name}"' if "," in name or ":" in name else name for name in columns) + "\n")
     np.savetxt(buffer, np.column_stack(list(columns.values())), delimiter=",", fmt="%.17g")
     return buffer.getvalue().encode("utf-8")
+
+
+def run_csv(run: MechanismRun) -> bytes:
+    return run_table(run, "csv")
 
 
 def main(argv: list[str]) -> int:
@@ -92,25 +110,55 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--stabilization", default="projection",
                         help=f"how the loops are held: {', '.join(STABILIZATIONS)}")
     args = parser.parse_args(argv)
-    run_options(t_end=2.0 if args.t_end is None else args.t_end, samples=max(args.samples, 2), t_start=0.0,
-                method=args.method, stabilization=args.stabilization, rtol=1e-10, atol=1e-10)
-    if not 2 <= args.samples <= MAX_SAMPLES:
-        raise LinkageError(f"--samples {args.samples}: allowed range 2..{MAX_SAMPLES}")
+    request = RunRequest(t_end=2.0 if args.t_end is None else args.t_end, samples=args.samples, method=args.method,
+                         stabilization=args.stabilization, out=args.out)
+    request.check()
     mechanism = _mechanism(args)
+    return run_and_report(mechanism, request, simulate=bool(args.out) or args.t_end is not None, as_json=args.json)
+
+
+@dataclass(frozen=True)
+class RunRequest:
+    """What a command asks of a run: span, samples, formulation, stabilisation, tolerances, and where the
+    table goes (``out``, in ``fmt``: csv or json). Shared by ``mechanism`` and ``simulate``."""
+
+    t_end: float = 2.0
+    samples: int = 201
+    method: str = "dae"
+    stabilization: str = "projection"
+    rtol: float = 1e-10
+    atol: float = 1e-10
+    out: str | None = None
+    fmt: str = "csv"
+
+    def check(self) -> None:
+        """Every option in range before any work (one line naming the first bad one)."""
+        run_options(t_end=self.t_end, samples=max(self.samples, 2), t_start=0.0, method=self.method,
+                    stabilization=self.stabilization, rtol=self.rtol, atol=self.atol)
+        if not 2 <= self.samples <= MAX_SAMPLES:
+            raise LinkageError(f"--samples {self.samples}: allowed range 2..{MAX_SAMPLES}")
+
+
+def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool, as_json: bool,
+                   table_to_stdout: bool = False) -> int:
+    """Check that ``mechanism`` can run, run it when ``simulate``, write its table to ``request.out`` (or to
+    stdout when ``table_to_stdout``) and print the summary: JSON (``as_json``) or a few lines of text. Exit code
+    0, or 3 when a long run was stopped (what was computed is in ``OUT.partial``)."""
     check_runnable(mechanism)  # assembles through its motion, masses and motors in range (mechanism.validation)
-    if args.out is not None:
-        check_output_path(args.out)
-        check_partial_path(args.out)
+    if request.out is not None:
+        check_output_path(request.out)
+        check_partial_path(request.out)
     report = summary(mechanism)
     run = None
-    if args.out or args.t_end is not None:
+    if simulate:
         # estimated up front, progress on stderr for a long run, Ctrl+C keeps what was computed (physics.long_run)
-        run, interrupted = simulate_mechanism_in_segments(mechanism, 2.0 if args.t_end is None else args.t_end,
-                                                          args.samples, args.method, args.stabilization)
+        run, interrupted = simulate_mechanism_in_segments(mechanism, request.t_end, request.samples, request.method,
+                                                          request.stabilization, rtol=request.rtol,
+                                                          atol=request.atol)
         if interrupted:
-            partial = f"{args.out}.partial" if args.out else None
+            partial = f"{request.out}.partial" if request.out else None
             if partial:
-                write_output(partial, run_csv(run))
+                write_output(partial, run_table(run, request.fmt))
             where = f"; the {len(run.t)} samples up to t = {run.t[-1]:.6g} s are in {partial}" if partial else ""
             print(f"error: {interrupted}{where}", file=sys.stderr)
             return EXIT_RUN_STOPPED
@@ -122,9 +170,12 @@ def main(argv: list[str]) -> int:
             # how near the run came to a singular pose (physics/mechanism/singularity.py); null: reduced model
             "max_jacobian_condition": float(np.max(run.condition)) if run.condition.size else None,
         }
-        if args.out:
-            write_output(args.out, run_csv(run))
-    if args.json:
+        if request.out:
+            write_output(request.out, run_table(run, request.fmt))
+        elif table_to_stdout:
+            sys.stdout.write(run_table(run, request.fmt).decode("utf-8"))
+            return 0
+    if as_json:
         print(json.dumps(report))
         return 0
     counts = f"{len(report['bodies'])} bodies, {len(report['joints'])} joints"
@@ -133,7 +184,7 @@ def main(argv: list[str]) -> int:
         print("  loop " + " - ".join(loop))
     if run is not None:
         print(f"  ran {run.t[-1]:g} s ({run.method}, {run.stabilization}): constraint residual at most {np.max(run.residual):.2g}, "
-              f"energy change {run.energy[-1] - run.energy[0]:.3g} J" + (f"; wrote {args.out}" if args.out else ""))
+              f"energy change {run.energy[-1] - run.energy[0]:.3g} J" + (f"; wrote {request.out}" if request.out else ""))
         if run.condition.size and np.max(run.condition) > NEAR_SINGULAR_CONDITION:
             worst = int(np.argmax(run.condition))
             print(f"  passed near a singular pose at t = {run.t[worst]:.4g} s (Jacobian condition "

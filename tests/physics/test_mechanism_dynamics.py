@@ -151,8 +151,7 @@ def test_a_fully_driven_mechanism_moves_by_kinematics_as_the_integrated_dae_does
 
 def test_simulate_takes_a_mechanism_file(tmp_path):
     """Issue 16: ``python -m physics simulate --mechanism FILE`` runs a mechanism file as the mechanism command
-    does; the chain options other than --method and --stabilization do not apply to it and are refused with one
-    line."""
+    does; a chain option that does not apply to it (--links) is refused with one line naming it and what applies."""
     path = tmp_path / "rocker.json"
     path.write_text(MECHANISM_PRESETS["crank-rocker"]().model_dump_json(), encoding="utf-8")
     out = tmp_path / "run.csv"
@@ -165,8 +164,8 @@ def test_simulate_takes_a_mechanism_file(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(path), "--links", "3"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert bad.returncode == 2 and bad.stderr.strip() == (
-        "error: --links: does not apply with --mechanism (a mechanism file's run takes --t-end, --samples, --out, "
-        "--method, --stabilization)")
+        "error: --links: does not apply to a mechanism (the number of bars of preset chain); a mechanism's run takes "
+        "--t-end, --samples, --method, --stabilization, --rtol, --atol, --set, --out, --format, --json")
     missing = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(tmp_path / "no.toml")],
                              capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "cannot read it" in missing.stderr

@@ -138,8 +138,8 @@ def test_both_commands_take_method_and_stabilization(tmp_path):
         (("simulate", "--mechanism", str(path), "--stabilization", "tight"),
          "error: stabilization = 'tight': allowed values none, baumgarte, projection"),
         (("simulate", "--mechanism", str(path), "--integrator", "RK45"),
-         "error: --integrator: does not apply with --mechanism (a mechanism file's run takes --t-end, --samples, "
-         "--out, --method, --stabilization)"),
+         "error: --integrator RK45: a mechanism's run integrates with DOP853 only (its projection follows each "
+         "accepted step); leave --integrator out"),
     ]:
         bad = _physics(*args)
         assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == line, bad.stderr

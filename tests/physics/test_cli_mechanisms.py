@@ -1,0 +1,282 @@
+"""Every command line for every preset and mechanism file (issue 24, "Every study for every mechanism").
+
+``presets`` lists chains and mechanisms in one table; ``simulate``, ``accelerations``, ``fbd``,
+``equilibrium`` and ``warm`` take a mechanism preset (``--preset jansen-leg``) or a file (``--mechanism
+FILE``). A mechanism run's table is the ``mechanism`` command's, byte for byte; the accelerations of the three
+formulations agree; the forces ``fbd`` lists balance ``m a_G`` and ``I alpha``; the rest poses of
+``equilibrium`` are at rest and the stable ones are minima of the potential. Refusals are one line, exit 2,
+checked in a child process where the exit code and the line are the contract.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics.cli import main
+from physics.errors import LinkageError
+from physics.mechanism import MECHANISM_PRESETS, assemble
+from physics.mechanism.constraints import Constraints
+from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.simulate import simulate_mechanism
+from physics.presets import get_preset, preset_names
+
+ROOT = Path(__file__).resolve().parents[2]
+CHAIN_KEYS = {"name", "description", "links", "params", "theta", "omega", "pin", "trace", "t_end"}
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def child(*argv: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "physics", *argv], capture_output=True, text=True, timeout=600,
+                          cwd=ROOT)
+
+
+def refused_line(result: subprocess.CompletedProcess) -> str:
+    """The one line of a refusal (exit 2, nothing on stdout, one line on stderr)."""
+    assert result.returncode == 2, (result.returncode, result.stderr)
+    assert result.stdout == "" and result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert result.stderr.startswith("error: ")
+    return result.stderr.strip()
+
+
+def test_presets_lists_every_chain_and_mechanism_in_one_table(capsys):
+    code, out, _ = run(capsys, "presets")
+    entries = json.loads(out)
+    names = [entry["name"] for entry in entries]
+    assert code == 0 and names == [*preset_names(), *MECHANISM_PRESETS]
+    for entry in entries[: len(preset_names())]:
+        assert set(entry) - {"grashof"} == CHAIN_KEYS  # a chain's keys are a contract: no new one
+    for entry in entries[len(preset_names()):]:
+        mechanism = MECHANISM_PRESETS[entry["name"]]()
+        assembled = assemble(mechanism)
+        assert entry["kind"] == "mechanism"
+        assert entry["bodies"] == [body.name for body in mechanism.bodies]
+        assert entry["joints"] == [joint.name for joint in mechanism.joints]
+        assert entry["mobility"] == assembled.mobility and entry["mechanism_mobility"] == assembled.mechanism_mobility
+        assert entry["motors"] == len(mechanism.drivers) and entry["trace"] == mechanism.trace
+        _, described, _ = run(capsys, "mechanism", "--preset", entry["name"], "--json")
+        summary = json.loads(described)
+        assert all(entry[key] == summary[key] for key in entry if key not in ("kind", "trace"))
+
+
+def test_simulate_a_mechanism_preset_writes_the_mechanism_commands_table(capsys, tmp_path):
+    """Byte for byte the ``mechanism`` command's CSV; the JSON table has the CSV's names as keys, the same
+    numbers; without --out the table goes to stdout."""
+    argv = ["--t-end", "0.5", "--samples", "6"]
+    assert run(capsys, "simulate", "--preset", "jansen-leg", *argv, "--out", str(tmp_path / "a.csv"))[0] == 0
+    assert run(capsys, "mechanism", "--preset", "jansen-leg", *argv, "--out", str(tmp_path / "b.csv"))[0] == 0
+    table = (tmp_path / "a.csv").read_text()
+    assert table == (tmp_path / "b.csv").read_text()
+    code, out, _ = run(capsys, "simulate", "--preset", "jansen-leg", *argv)
+    assert code == 0 and out == table
+    rows = list(csv.reader(io.StringIO(table)))
+    header = rows[0]
+    assert header[:7] == ["t", "trace_x", "trace_y", "kinetic", "potential", "energy", "constraint_residual"]
+    assert "lambda[O: driven angle]" in header and all(name.startswith("lambda[") for name in header[7:])
+    assert run(capsys, "simulate", "--preset", "jansen-leg", *argv, "--out", str(tmp_path / "a.json"))[0] == 0
+    document = json.loads((tmp_path / "a.json").read_text())
+    assert list(document) == header
+    numbers = np.array(rows[1:], dtype=float)
+    for k, name in enumerate(header):
+        assert np.array(document[name], dtype=float) == pytest.approx(numbers[:, k], rel=1e-15, abs=0)
+
+
+def test_simulate_a_mechanism_file_takes_every_option_that_applies(capsys, tmp_path):
+    path = tmp_path / "slider.json"
+    path.write_text(MECHANISM_PRESETS["slider-crank"]().model_dump_json(), encoding="utf-8")
+    code, out, _ = run(capsys, "simulate", "--mechanism", str(path), "--t-end", "0.3", "--samples", "4", "--method",
+                       "lagrange", "--stabilization", "baumgarte", "--rtol", "1e-9", "--atol", "1e-9",
+                       "--integrator", "DOP853", "--json", "--out", str(tmp_path / "run.csv"))
+    report = json.loads(out)["run"]
+    assert code == 0 and report["method"] == "lagrange" and report["stabilization"] == "baumgarte"
+    assert report["samples"] == 4 and report["t_end"] == pytest.approx(0.3)
+    # the tolerances reach the integrator: a loose run differs from a tight one, both near the truth
+    tight = simulate_mechanism(MECHANISM_PRESETS["slider-crank"](), 0.3, 4, rtol=1e-12, atol=1e-12)
+    loose = {}
+    for rtol in ("1e-4", "1e-12"):
+        _, table, _ = run(capsys, "simulate", "--mechanism", str(path), "--t-end", "0.3", "--samples", "4",
+                          "--rtol", rtol, "--atol", rtol, "--format", "json")
+        loose[rtol] = np.array(json.loads(table)["energy"])
+    assert np.max(np.abs(loose["1e-12"] - tight.energy)) < 1e-10 < np.max(np.abs(loose["1e-4"] - tight.energy))
+
+
+def test_set_changes_the_numbers_of_a_mechanism(capsys):
+    """``--set g=0``: the slider-crank released at rest stays at rest and every reaction vanishes; ``--set
+    crank.mass=...`` changes the crank's weight in the pin reaction at O (the crank at rest at t = 0)."""
+    code, out, _ = run(capsys, "simulate", "--preset", "slider-crank", "--set", "g=0", "--t-end", "0.2",
+                       "--samples", "3", "--format", "json")
+    table = json.loads(out)
+    assert code == 0 and max(table["kinetic"]) == 0.0
+    assert max(abs(v) for name, values in table.items() if name.startswith("lambda[") for v in values) == 0.0
+    masses = {}
+    for mass in ("0.05", "1.05"):
+        _, out, _ = run(capsys, "accelerations", "--preset", "slider-crank", "--method", "dae", "--set",
+                        f"crank.mass={mass}")
+        masses[mass] = json.loads(out)
+    assert masses["0.05"]["methods"]["dae"]["reactions"] != masses["1.05"]["methods"]["dae"]["reactions"]
+
+
+@pytest.mark.parametrize("option, value, needle", [
+    ("--links", "3", "--links: does not apply to a mechanism"),
+    ("--pin", "1,1", "--pin: does not apply to a mechanism"),
+    ("--trace", "1,0.5", "--trace: does not apply to a mechanism"),
+    ("--damping", "0.1", "--set JOINT.damping=C"),
+    ("--backend", "scipy", "--backend: does not apply to a mechanism"),
+    ("--step", "0.01", "--step: does not apply to a mechanism"),
+    ("--max-steps", "5", "--max-steps: does not apply to a mechanism"),
+    ("--integrator", "midpoint", "--integrator midpoint: a mechanism's run integrates with DOP853 only"),
+    ("--set", "crank.colour=2", "--set crank.colour=2: names g, BODY.{mass,inertia}"),
+    ("--set", "crank.mass=nan", "--set crank.mass=nan: expected a finite number"),
+])
+def test_an_option_that_does_not_apply_to_a_mechanism_is_refused_in_one_line(option, value, needle):
+    line = refused_line(child("simulate", "--preset", "slider-crank", option, value))
+    assert needle in line
+
+
+def test_accelerations_of_the_three_methods_agree_with_every_reaction_named_as_the_csv(capsys, tmp_path):
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    run_ = simulate_mechanism(mechanism, 0.3, 2)
+    q, qdot = run_.q[-1], run_.qdot[-1]
+    state = ",".join(repr(float(v)) for v in np.concatenate([q, qdot]))
+    code, out, _ = run(capsys, "accelerations", "--preset", "crank-rocker", f"--state={state}", "--time", "0.3")
+    document = json.loads(out)
+    assert code == 0 and list(document["methods"]) == ["dae", "lagrange", "newton_euler"]
+    assert document["disagreement"]["qddot"] <= 1e-10 and document["disagreement"]["reactions"] <= 1e-10
+    assert list(document["methods"]["dae"]["reactions"]) == [f"lambda[{name}]" for name in run_.row_names]
+    solution = MechanismDAE(mechanism).solve(q, qdot)
+    assert np.allclose(document["methods"]["dae"]["qddot"], solution.qddot, rtol=0, atol=1e-12)
+    assert np.allclose(list(document["methods"]["lagrange"]["reactions"].values()), run_.reactions[-1],
+                       rtol=0, atol=1e-8 * (1 + np.max(np.abs(run_.reactions[-1]))))
+    # without --state: the start of a run, in one method
+    code, out, _ = run(capsys, "accelerations", "--preset", "crank-rocker", "--method", "newton_euler")
+    start = json.loads(out)
+    assert list(start["methods"]) == ["newton_euler"] and np.allclose(start["q"], run_.q[0], atol=1e-12)
+
+
+def test_accelerations_refuse_a_state_off_the_constraints_naming_the_gap():
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    q = assemble(mechanism).q
+    q[3] += 1e-3  # the rod's centre moved 1 mm: joints A and B open
+    state = ",".join(repr(float(v)) for v in np.concatenate([q, np.zeros_like(q)]))
+    line = refused_line(child("accelerations", "--preset", "slider-crank", f"--state={state}"))
+    assert line.startswith("error: --state: the pose is off the constraints: joint 'A' (x gap) is 0.001 from closing")
+    q = assemble(mechanism).q
+    qdot = np.zeros_like(q)
+    qdot[6] = 1.0  # the piston moves alone
+    state = ",".join(repr(float(v)) for v in np.concatenate([q, qdot]))
+    assert "the velocities break the constraints: joint 'B'" in refused_line(
+        child("accelerations", "--preset", "slider-crank", "--state", state))
+    assert "expected 18 comma-separated numbers" in refused_line(
+        child("accelerations", "--preset", "slider-crank", "--state", "0,0"))
+
+
+@pytest.mark.parametrize("method", ["dae", "lagrange"])
+def test_fbd_forces_on_each_body_balance_its_m_a_and_moment(capsys, method):
+    """Every load on each body of the slider-crank at t = 0.1 s sums to ``m a_G`` and its moments about G to
+    ``I alpha``; the guide pushes across itself only (no friction); each pin's forces on its two bodies are
+    equal and opposite (Newton's third law, from two separate diagrams)."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    diagrams = {}
+    for body in mechanism.bodies:
+        code, out, _ = run(capsys, "fbd", "--preset", "slider-crank", "--body", body.name, "--time", "0.1",
+                           "--method", method, "--json")
+        diagram = json.loads(out)
+        assert code == 0 and diagram["body"] == body.name and diagram["method"] == method
+        diagrams[body.name] = diagram
+        net = np.sum([load["force"] for load in diagram["loads"]], axis=0)
+        moment = sum(load["moment"] for load in diagram["loads"])
+        scale = 1.0 + max(load["magnitude"] for load in diagram["loads"])
+        assert np.allclose(net, body.mass * np.array(diagram["com_acceleration"]), rtol=0, atol=1e-9 * scale)
+        assert abs(moment - body.inertia * diagram["alpha"]) <= 1e-9 * scale
+        for load in diagram["loads"]:  # a force's moment about G is r x F
+            if load["kind"] == "pin":
+                arm = np.array(load["at"]) - np.array(diagram["centre"])
+                assert load["moment"] == pytest.approx(arm[0] * load["force"][1] - arm[1] * load["force"][0],
+                                                       abs=1e-12 * scale)
+        assert diagram["loads"][0] == {"name": "gravity", "kind": "gravity", "force": [0.0, -mechanism.g * body.mass],
+                                       "moment": 0.0, "at": diagram["centre"], "magnitude": mechanism.g * body.mass}
+    guide = next(load for load in diagrams["piston"]["loads"] if load["kind"] == "slider")
+    assert guide["force"][0] == 0.0 and abs(guide["force"][1]) > 0.1  # along the guide (x): nothing
+    on_rod = {load["name"].split()[1]: load["force"] for load in diagrams["rod"]["loads"] if load["kind"] == "pin"}
+    on_crank = next(load["force"] for load in diagrams["crank"]["loads"] if load["name"].startswith("pin A"))
+    on_piston = next(load["force"] for load in diagrams["piston"]["loads"] if load["name"].startswith("pin B"))
+    assert np.allclose(on_rod["A"], -np.array(on_crank), atol=1e-12)
+    assert np.allclose(on_rod["B"], -np.array(on_piston), atol=1e-12)
+
+
+def test_fbd_shows_a_speed_motors_torque_and_a_torque_motors(capsys):
+    code, out, _ = run(capsys, "fbd", "--preset", "crank-rocker", "--body", "crank", "--json")
+    loads = {load["name"]: load for load in json.loads(out)["loads"]}
+    _, acc, _ = run(capsys, "accelerations", "--preset", "crank-rocker", "--method", "dae")
+    torque = json.loads(acc)["methods"]["dae"]["reactions"]["lambda[O2: driven angle]"]
+    assert code == 0 and loads["motor O2 (speed, by ground)"]["moment"] == pytest.approx(torque, rel=1e-12)
+    code, out, _ = run(capsys, "fbd", "--preset", "crank-rocker", "--set", "O2.torque=0.25", "--body", "crank",
+                       "--json")
+    diagram = json.loads(out)
+    kinds = {load["kind"]: load for load in diagram["loads"]}
+    assert code == 0 and "motor" not in kinds and kinds["torque motor"]["moment"] == 0.25
+    assert abs(diagram["balance"]["moment_gap"]) <= 1e-12 and diagram["balance"]["force_gap"] <= 1e-12
+
+
+def test_fbd_of_a_mechanism_refuses_a_bar_number_and_an_unknown_body():
+    assert "--bar: does not apply to a mechanism" in refused_line(
+        child("fbd", "--preset", "slider-crank", "--bar", "2", "--body", "rod"))
+    assert refused_line(child("fbd", "--preset", "slider-crank", "--body", "wheel")) == (
+        "error: --body 'wheel': no body of that name (bodies: crank, rod, piston)")
+
+
+def test_equilibrium_finds_the_rest_poses_of_the_slider_crank(capsys):
+    """Four rest poses (the crank straight down or up, the rod on either side): at each the accelerations from
+    rest vanish; the crank down is stable and a minimum of the potential along the motion, the crank up is not."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    dae = MechanismDAE(mechanism)
+    constraints = Constraints(mechanism)
+    code, out, _ = run(capsys, "equilibrium", "--preset", "slider-crank", "--json")
+    poses = json.loads(out)["rest_poses"]
+    assert code == 0 and len(poses) == 4
+    sketch_angle = np.arctan2(*reversed(mechanism.body("crank").points["A"]))  # the crank drawn at 60 degrees
+    for pose in poses:
+        q = np.array(pose["q"])
+        assert np.max(np.abs(constraints.residual(q))) <= 1e-10
+        assert np.max(np.abs(dae.solve(q, np.zeros_like(q)).qddot)) <= 1e-8  # at rest it stays at rest
+        crank = np.degrees(sketch_angle + q[2])
+        down = np.isclose((crank + 90.0) % 360.0, 0.0, atol=1e-6) or np.isclose((crank + 90.0) % 360.0, 360.0)
+        assert pose["stable"] == bool(down), (crank, pose["stable"])
+        # along the motion (a small turn of the crank, the rest assembled), V rises at a stable pose only
+        nearby = []
+        for turn in (-1e-3, 1e-3):
+            guess = q.copy()
+            guess[2] += turn
+            moved = assemble(mechanism, guess).q
+            nearby.append(dae.energy(moved, np.zeros_like(moved))[1] - pose["potential"])
+        assert (min(nearby) > 0) == pose["stable"]
+    assert [pose["stable"] for pose in poses] == [True, True, False, False]  # lowest potential first
+
+
+def test_equilibrium_refuses_a_mechanism_its_motors_fully_drive():
+    line = refused_line(child("equilibrium", "--preset", "jansen-leg"))
+    assert "jansen-leg: its speed motor fixes every body (mobility 0 after 1 speed motor)" in line
+
+
+def test_warm_derives_a_mechanism_presets_three_formulations(capsys):
+    code, out, _ = run(capsys, "warm", "--preset", "slider-crank")
+    assert code == 0 and [line.split(":")[0] for line in out.splitlines()] == [
+        "dae slider-crank", "lagrange slider-crank", "newton_euler slider-crank"]
+
+
+def test_a_chain_study_names_a_mechanism_preset_as_one():
+    """A chain-only study given a mechanism preset says so in one line (not "invalid choice")."""
+    with pytest.raises(LinkageError, match="a mechanism preset; this command takes a chain preset"):
+        get_preset("jansen-leg")
