@@ -14,6 +14,8 @@ steps as fit, carrying the remainder, so the trajectory never depends on the fra
 from __future__ import annotations
 
 import math
+import re
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +24,10 @@ from .codegen import load_compiled
 from .errors import LinkageError
 from .kernels.constants import RK4_WORK_ROWS, SINGULAR_PIVOT_RATIO
 from .kinematics import energies, joint_positions
+
+if TYPE_CHECKING:  # the general engine is loaded only for a mechanism's ensemble (a chain's start stays lean)
+    from .mechanism.model import Mechanism
+    from .mechanism.run import MechanismRun
 from .model import BAUMGARTE_ALPHA, BAUMGARTE_BETA, FORMULATION_NAMES, Chain, check_state
 
 # A copy whose system's pivot ratio exceeds SINGULAR_PIVOT_RATIO (or is non-finite) is marked failed, as
@@ -169,3 +175,160 @@ def initial_states(chain: Chain, theta0, omega0, count: int, spread: float) -> t
             omega[k] = project_velocity(L, theta[k], omega[k])
             previous = theta[k]
     return np.ascontiguousarray(theta), np.ascontiguousarray(omega)
+
+
+# ------------------------------------------------------------------------------------------------
+# Any mechanism (physics.mechanism): copies run one by one through the general engine
+
+MAX_MECHANISM_COUNT = 1000  # each copy is a whole run of simulate_mechanism (about 0.1-1 s for a few seconds)
+_FAILURE_TIME = re.compile(r"t = ([-+0-9.eE]+) s")
+
+
+def probe_reference(mechanism: Mechanism) -> str:
+    """``body.point`` an ensemble (and a study) follows: the traced point, else the last body's last point (a chain
+    written as a mechanism: its tip)."""
+    if mechanism.trace is not None and not mechanism.trace.startswith("ground."):
+        return mechanism.trace
+    last = mechanism.bodies[-1]
+    return f"{last.name}.{list(last.points)[-1]}"
+
+
+def point_path(mechanism: Mechanism, q: np.ndarray, reference: str) -> np.ndarray:
+    """Where the point ``body.point`` is at every pose of ``q (T, 3 B)``: shape ``(T, 2)``. A body's ``q`` is its
+    centre of mass and its rotation from the sketch, so a point drawn at ``p`` moves to ``r + R(phi) (p - c)``."""
+    name, _, point = reference.partition(".")
+    k = [body.name for body in mechanism.bodies].index(name)
+    body = mechanism.body(name)
+    arm = np.subtract(body.points[point], body.centre)
+    q = np.atleast_2d(q)
+    x, y, phi = q[:, 3 * k], q[:, 3 * k + 1], q[:, 3 * k + 2]
+    c, s = np.cos(phi), np.sin(phi)
+    return np.column_stack([x + c * arm[0] - s * arm[1], y + s * arm[0] + c * arm[1]])
+
+
+class MechanismEnsemble:
+    """``count`` copies of any mechanism, copy k started with every body turned ``k * spread`` rad further than
+    the start (``q0``, default the assembled sketch) and closed again by the engine's assembly, at rest or at
+    ``qdot0`` projected onto the constraints; each run by :func:`physics.mechanism.simulate.simulate_mechanism`
+    over ``t_end`` seconds at ``samples`` times.
+
+    Why not the chains' batched RK4: a general mechanism has no batched kernel yet, so each copy is a whole run
+    of the general engine (adaptive DOP853 with the chosen method and stabilisation); the results have the
+    chain ensemble's shape. A mechanism its motors fully drive (mobility 0) has one pose at each instant, so
+    every copy follows the same path and the fan never opens (``note`` says so). A copy whose run stops (a
+    singular pose) is left out of ``alive`` from the time its message names; ``message`` quotes the first.
+    """
+
+    def __init__(self, mechanism: Mechanism, count: int = 20, spread: float = 1e-9, t_end: float = 2.0,
+                 samples: int = 101, method: str = "dae", stabilization: str = "projection", rtol: float = 1e-10,
+                 atol: float = 1e-10, q0=None, qdot0=None):
+        if not (isinstance(count, (int, np.integer)) and 1 <= count <= MAX_MECHANISM_COUNT):
+            raise LinkageError(f"count = {count}: allowed range 1 <= count <= {MAX_MECHANISM_COUNT} for a mechanism "
+                               "(each copy is a whole run of the general engine)")
+        if not (math.isfinite(spread) and abs(spread) <= 1.0):
+            raise LinkageError(f"spread = {spread}: allowed range -1 <= spread <= 1 (radians between copies)")
+        from .mechanism.assembly import assemble as assemble_mechanism  # noqa: PLC0415 - see TYPE_CHECKING above
+        from .mechanism.simulate import run_options  # noqa: PLC0415
+
+        # every other option is checked by the engine's own boundary, with its one line
+        run_options(t_end=t_end, samples=samples, t_start=0.0, method=method, stabilization=stabilization,
+                    rtol=rtol, atol=atol)
+        self.mechanism = mechanism
+        self.count, self.spread = int(count), float(spread)
+        self.options: dict[str, Any] = dict(method=method, stabilization=stabilization, rtol=rtol, atol=atol)
+        if method == "reduced":  # its loops close by position analysis: no stabilisation to pass
+            self.options.pop("stabilization")
+        self.t_end, self.samples = float(t_end), int(samples)
+        start = assemble_mechanism(mechanism, None if q0 is None else np.asarray(q0, dtype=float))
+        self.mobility = start.mobility
+        self.start = start.q
+        self.qdot0 = qdot0
+        self.probe = probe_reference(mechanism)
+        self.t = np.linspace(0.0, self.t_end, self.samples)
+        self.runs: list[MechanismRun | None] = []
+        self.failed_at = np.full(self.count, np.inf)  # the time each copy's run stopped (inf: it did not)
+        self.message = "ok"
+        self.note = ("the motors fix every body (mobility 0): every copy follows the same path"
+                     if self.mobility == 0 else "")
+
+    def start_of(self, k: int) -> np.ndarray:
+        """Copy k's start before assembly: every body turned ``k * spread`` rad."""
+        q = self.start.copy()
+        q[2::3] += k * self.spread
+        return q
+
+    def run(self, progress=None) -> MechanismEnsemble:
+        """Run every copy (``progress(k)`` after each, if given); returns self."""
+        from .mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - see TYPE_CHECKING above
+
+        for k in range(self.count):
+            try:
+                self.runs.append(simulate_mechanism(self.mechanism, self.t_end, self.samples, q0=self.start_of(k),
+                                                    qdot0=self.qdot0, **self.options))
+            except LinkageError as error:
+                self.runs.append(None)
+                found = _FAILURE_TIME.search(str(error))
+                self.failed_at[k] = float(found.group(1)) if found else 0.0
+                if self.message == "ok":
+                    self.message = f"copy {k}: {error}; failed copies are left out of alive from then on"
+            if progress is not None:
+                progress(k)
+        return self
+
+    @property
+    def alive(self) -> np.ndarray:
+        """Copies whose runs reached the end, shape ``(count,)``."""
+        return np.isinf(self.failed_at)
+
+    def alive_counts(self) -> np.ndarray:
+        """Living copies at each sample time, shape ``(samples,)``."""
+        return np.sum(self.t[:, None] < self.failed_at[None, :], axis=1)
+
+    def tips(self) -> np.ndarray:
+        """The probe point of every copy at every sample, ``(count, samples, 2)``; NaN for a failed copy."""
+        out = np.full((self.count, self.samples, 2), np.nan)
+        for k, run in enumerate(self.runs):
+            if run is not None:
+                out[k] = point_path(self.mechanism, run.q, self.probe)
+        return out
+
+    def tip_spread(self) -> np.ndarray:
+        """Largest distance of any living copy's probe point from copy 0's at each sample (NaN if copy 0 failed)."""
+        tips = self.tips()
+        distance = np.hypot(*(tips - tips[0][None, :, :]).transpose(2, 0, 1))
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isnan(distance).all(axis=0), np.nan, np.nanmax(np.where(
+                np.isnan(distance), -np.inf, distance), axis=0)) if self.alive[0] else np.full(self.samples, np.nan)
+
+    def energy_drift(self) -> np.ndarray:
+        """Largest ``|E - E0|`` over the living copies at each sample, over the largest ``|E0|`` (as the chain
+        ensemble's; a motor does work, so a driven mechanism's energy is not conserved)."""
+        energies_ = np.array([run.energy for run in self.runs if run is not None])
+        if energies_.size == 0:
+            return np.full(self.samples, np.nan)
+        scale = max(float(np.max(np.abs(energies_[:, 0]))), 1e-300)
+        return np.max(np.abs(energies_ - energies_[:, :1]), axis=0) / scale
+
+    def outlines(self) -> np.ndarray:
+        """Every body's points in order at the end of each run, ``(count, points, 2)`` (NaN for a failed copy): the
+        polylines :func:`physics.studies.charts.fan_picture` draws."""
+        names = [f"{body.name}.{point}" for body in self.mechanism.bodies for point in body.points]
+        out = np.full((self.count, len(names), 2), np.nan)
+        for k, run in enumerate(self.runs):
+            if run is not None:
+                out[k] = [point_path(self.mechanism, run.q[-1], name)[0] for name in names]
+        return out
+
+    def columns(self) -> dict[str, list]:
+        """The time series the chain ensemble writes: ``t, tip_spread, alive, energy_drift``."""
+        return {"t": self.t.tolist(), "tip_spread": self.tip_spread().tolist(),
+                "alive": self.alive_counts().tolist(), "energy_drift": self.energy_drift().tolist()}
+
+    def document(self) -> dict:
+        """The chain ensemble's JSON keys (``method, count, spread, t, tip_spread, alive, energy_drift, message,
+        final_tips``) with the mechanism's: its name, mobility, stabilisation, the probe point and the note."""
+        tips = self.tips()
+        return {"mechanism": self.mechanism.name, "mobility": self.mobility, "method": self.options["method"],
+                "stabilization": self.options.get("stabilization", "position analysis"), "count": self.count,
+                "spread": self.spread, "t_end": self.t_end, "probe": self.probe, **self.columns(),
+                "message": self.message, "note": self.note, "final_tips": tips[:, -1, :].tolist()}

@@ -3,7 +3,8 @@ point whose path a study measures, and one run whose failure comes back as a sta
 
 Why here and not in the core: the studies run a mechanism only through
 :func:`physics.mechanism.simulate.simulate_mechanism` and read only its :class:`MechanismRun`, so they keep working
-whichever engine is under that function. A run that stops midway raises ``LinkageError`` today; a study records
+whichever engine is under that function. The point a study follows is the ensemble's
+(:func:`physics.ensemble.probe_reference`: the traced point, else the last body's last point). A run that stops midway raises ``LinkageError`` today; a study records
 it as a failed cell with its message (the chain studies' ``Status``), as a sweep must go on past a failure.
 """
 
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..ensemble import point_path, probe_reference
 from ..errors import LinkageError
 from ..mechanism.assembly import assemble
 from ..mechanism.files import load_mechanism
@@ -61,28 +63,6 @@ def mobility(mechanism: Mechanism) -> int:
 def methods_for(mechanism: Mechanism, formulations=FORMULATIONS) -> tuple[str, ...]:
     """``formulations``, with the reduced model where the mechanism has exactly one free coordinate."""
     return tuple(formulations) + ((REDUCED,) if mobility(mechanism) == 1 else ())
-
-
-def probe_reference(mechanism: Mechanism) -> str:
-    """``body.point`` whose path a study measures: the traced point, else the last body's last point (a chain
-    written as a mechanism: its tip)."""
-    if mechanism.trace is not None and not mechanism.trace.startswith("ground."):
-        return mechanism.trace
-    last = mechanism.bodies[-1]
-    return f"{last.name}.{list(last.points)[-1]}"
-
-
-def point_path(mechanism: Mechanism, q: np.ndarray, reference: str) -> np.ndarray:
-    """Where the point ``body.point`` is at every pose of ``q (T, 3 B)``: shape ``(T, 2)``. A body's ``q`` is
-    its centre of mass and its rotation from the sketch, so a point drawn at ``p`` moves to ``r + R(phi) (p - c)``."""
-    name, _, point = reference.partition(".")
-    k = [body.name for body in mechanism.bodies].index(name)
-    body = mechanism.body(name)
-    arm = np.subtract(body.points[point], body.centre)
-    q = np.atleast_2d(q)
-    x, y, phi = q[:, 3 * k], q[:, 3 * k + 1], q[:, 3 * k + 2]
-    c, s = np.cos(phi), np.sin(phi)
-    return np.column_stack([x + c * arm[0] - s * arm[1], y + s * arm[0] + c * arm[1]])
 
 
 @dataclass

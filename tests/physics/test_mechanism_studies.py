@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from physics.ensemble import MechanismEnsemble
 from physics.errors import LinkageError
-from physics.mechanism.chains import chain_mechanism
+from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
 from physics.presets import get_preset
 from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability
 from physics.studies.mechanism_stability import (
@@ -241,3 +243,50 @@ def test_chaos_map_of_a_mechanism_refuses_in_one_line(args, needle, tmp_path, do
 def test_chaos_map_refuses_coordinates_for_a_chain(tmp_path):
     with pytest.raises(LinkageError, match="--coordinates"):
         chaos_map.main(["--preset", "double", "--coordinates", "bar1,bar2", "--out", str(tmp_path / "m.png")])
+
+
+# ------------------------------------------------------------------------------------------------
+# 4. The ensemble
+
+
+def test_an_ensemble_of_the_double_pendulum_as_a_mechanism_fans_open():
+    preset = get_preset("double")
+    mechanism = chain_mechanism(preset.chain, np.zeros(2))
+    q0, qdot0 = chain_state(preset.chain, np.zeros(2), preset.theta0, preset.omega0)
+    ensemble = MechanismEnsemble(mechanism, count=3, spread=1e-9, t_end=8.0, samples=9, q0=q0, qdot0=qdot0).run()
+    spread = ensemble.tip_spread()
+    assert ensemble.alive.all() and list(ensemble.alive_counts()) == [3] * 9
+    assert 0 < spread[0] < 1e-8 and spread[-1] > 10 * spread[0]  # a chaotic start: the fan opens
+    assert np.max(ensemble.energy_drift()) < 1e-8  # no motor: each copy keeps its energy
+    # copy 0 is the plain run from the same start: the ensemble adds nothing to a copy's physics
+    alone = simulate_mechanism(mechanism, 8.0, 9, q0=q0, qdot0=qdot0)
+    np.testing.assert_allclose(ensemble.tips()[0], mechanism_cases.point_path(mechanism, alone.q, "bar2.D"),
+                               atol=1e-12)
+
+
+def test_an_ensemble_document_has_the_chain_ensembles_keys():
+    ensemble = MechanismEnsemble(MECHANISM_PRESETS["slider-crank"](), count=3, spread=1e-6, t_end=0.5,
+                                 samples=6).run()
+    document = ensemble.document()
+    for key in ("method", "count", "spread", "t", "tip_spread", "alive", "energy_drift", "message", "final_tips"):
+        assert key in document, key
+    assert document["probe"] == "piston.B" and document["mobility"] == 1 and document["message"] == "ok"
+    assert len(document["t"]) == len(document["tip_spread"]) == 6 and np.array(document["final_tips"]).shape == (3, 2)
+    assert json.loads(json.dumps(document)) == document
+    outlines = ensemble.outlines()
+    assert outlines.shape == (3, 5, 2) and np.all(np.isfinite(outlines))  # crank O, A; rod A, B; piston B
+
+
+def test_an_ensemble_of_a_fully_driven_mechanism_says_why_its_fan_stays_shut():
+    ensemble = MechanismEnsemble(MECHANISM_PRESETS["jansen-leg"](), count=3, spread=1e-6, t_end=0.5,
+                                 samples=6).run()
+    assert ensemble.mobility == 0 and "mobility 0" in ensemble.note
+    assert np.max(ensemble.tip_spread()) < 1e-9
+
+
+@pytest.mark.parametrize("kwargs, field", [({"count": 0}, "count"), ({"count": 1001}, "count"),
+                                           ({"spread": 2.0}, "spread"), ({"method": "x"}, "method"),
+                                           ({"t_end": -1.0}, "t_end"), ({"samples": 1}, "samples")])
+def test_a_mechanism_ensemble_names_a_bad_argument(kwargs, field):
+    with pytest.raises(LinkageError, match=field):
+        MechanismEnsemble(MECHANISM_PRESETS["slider-crank"](), **kwargs)
