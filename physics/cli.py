@@ -463,9 +463,9 @@ MECHANISM_COMMANDS = ("simulate", "accelerations", "fbd", "equilibrium", "warm")
 def asks_for_mechanism(argv: list[str]) -> bool:
     """Whether a chain command's arguments ask for a general mechanism: ``--mechanism FILE``, or ``--preset``
     naming a mechanism preset (the mechanism presets are imported only then, so a chain's run stays lean)."""
+    if any(item == "--mechanism" or item.startswith("--mechanism=") for item in argv):
+        return True  # with a chain --preset too: the mechanism side refuses the pair in one line
     for position, item in enumerate(argv):
-        if item == "--mechanism" or item.startswith("--mechanism="):
-            return True
         name = item.split("=", 1)[1] if item.startswith("--preset=") else (
             argv[position + 1] if item == "--preset" and position + 1 < len(argv) else None)
         if name is not None:

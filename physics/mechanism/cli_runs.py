@@ -71,7 +71,8 @@ def _parse(parser: Parser, argv: list[str], applies: str):
 def load(args) -> Mechanism:
     """The mechanism of ``--preset NAME`` or ``--mechanism FILE``, with ``--set`` applied."""
     if (args.preset is None) == (args.mechanism is None):
-        raise LinkageError("give one of --preset NAME (a mechanism preset) or --mechanism FILE")
+        raise LinkageError("give one of --preset NAME (a mechanism preset) or --mechanism FILE"
+                           + (", not both" if args.preset is not None else ""))
     if args.mechanism is not None:
         if not args.mechanism.strip():
             raise LinkageError("--mechanism: give a mechanism file (.toml or .json)")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -280,3 +281,37 @@ def test_a_chain_study_names_a_mechanism_preset_as_one():
     """A chain-only study given a mechanism preset says so in one line (not "invalid choice")."""
     with pytest.raises(LinkageError, match="a mechanism preset; this command takes a chain preset"):
         get_preset("jansen-leg")
+
+
+def test_a_chain_preset_with_a_mechanism_file_is_refused_in_one_line():
+    line = refused_line(child("simulate", "--preset", "single", "--mechanism", "docs/examples/slider-crank.toml"))
+    assert line == "error: give one of --preset NAME (a mechanism preset) or --mechanism FILE, not both"
+
+
+def docs_examples() -> list[str]:
+    """The commands of docs/cli.md's first fenced bash block, comments removed."""
+    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
+    block = text.split("```bash\n", 1)[1].split("```", 1)[0]
+    return [" ".join(shlex.split(line, comments=True)) for line in block.splitlines() if line.strip()]
+
+
+def test_the_docs_name_every_mechanism_command():
+    commands = {shlex.split(line)[3] for line in docs_examples()}
+    assert commands == {"presets", "simulate", "accelerations", "fbd", "equilibrium", "warm"}
+
+
+@pytest.mark.slow  # each example is a process of its own
+@pytest.mark.parametrize("line", docs_examples())
+def test_docs_cli_example_runs_as_written(line, tmp_path):
+    words = shlex.split(line)
+    outputs = []
+    for index, word in enumerate(words[:-1]):
+        if word == "--out":
+            outputs.append(tmp_path / Path(words[index + 1]).name)
+            words[index + 1] = str(outputs[-1])
+    words[0] = sys.executable
+    result = subprocess.run(words, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, f"{line}\n{result.stderr}"
+    for output in outputs:
+        assert output.stat().st_size > 0, f"{line} wrote an empty {output.name}"
+    assert result.stdout.strip() or outputs, f"{line} printed nothing"
