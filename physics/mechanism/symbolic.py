@@ -1,0 +1,46 @@
+"""One entry to a mechanism's three symbolic formulations, derived once per structure.
+
+``derive_system(mechanism, method)`` returns the :class:`~physics.derive.formulation.LinearSystem` of ``method``
+(``"dae"``, ``"lagrange"`` or ``"newton_euler"``) written in the structure's symbols: coordinates, rates and the
+parameter vector of :mod:`physics.mechanism.parameters`. Every number is a parameter, so the derivation is cached
+by structure (:func:`~physics.mechanism.parameters.structure_key`) and method: editing a mass, a point, a speed,
+a damper or g derives nothing. Only the equations' readable names are the mechanism's own (its bodies and joints).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+from ..derive.formulation import LinearSystem
+from .model import Mechanism
+from .parameters import Structure, parameter_symbols, structure
+
+METHODS = ("dae", "lagrange", "newton_euler")
+
+
+def derive_system(mechanism: Mechanism, method: str) -> LinearSystem:
+    """``method``'s linear system for ``mechanism``'s structure, with its equations named after its parts."""
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r}: allowed {', '.join(METHODS)}")
+    system = derive_structure(structure(mechanism), method)
+    names = {f"b{k}": body.name for k, body in enumerate(mechanism.bodies)}
+    names.update({f"j{k}": joint.name for k, joint in enumerate(mechanism.joints)})
+    return dataclasses.replace(system, equation_names=[name.format(**names) for name in system.equation_names])
+
+
+@functools.lru_cache(maxsize=64)
+def derive_structure(shape: Structure, method: str) -> LinearSystem:
+    """The derivation itself, once per (structure, method) in a process; names keep ``{bK}``/``{jK}`` fields."""
+    params = parameter_symbols(shape)
+    if method == "dae":
+        from .symbolic_dae import derive_dae  # noqa: PLC0415  (each formulation's module only when asked for)
+
+        return derive_dae(shape, params)
+    if method == "lagrange":
+        from .symbolic_lagrange import derive_lagrange  # noqa: PLC0415
+
+        return derive_lagrange(shape, params)
+    from .symbolic_newton_euler import derive_newton_euler  # noqa: PLC0415
+
+    return derive_newton_euler(shape, params)
