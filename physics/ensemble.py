@@ -263,8 +263,11 @@ class MechanismEnsemble:
 
         for k in range(self.count):
             try:
-                self.runs.append(simulate_mechanism(self.mechanism, self.t_end, self.samples, q0=self.start_of(k),
-                                                    qdot0=self.qdot0, **self.options))
+                run = simulate_mechanism(self.mechanism, self.t_end, self.samples, q0=self.start_of(k),
+                                         qdot0=self.qdot0, **self.options)
+                if int(getattr(run, "status", 0)) != 0:  # an engine that keeps a stopped run's samples
+                    raise LinkageError(f"{getattr(run, 'message', 'stopped')} (t = {float(run.t[-1]):g} s)")
+                self.runs.append(run)
             except LinkageError as error:
                 self.runs.append(None)
                 found = _FAILURE_TIME.search(str(error))

@@ -103,4 +103,8 @@ def run_case(mechanism: Mechanism, t_end: float, samples: int, *, probe: str | N
     except LinkageError as error:
         return Outcome(None, failure_status(str(error)), str(error), time.perf_counter() - start, np.zeros((0, 2)))
     seconds = time.perf_counter() - start
+    status = int(getattr(run, "status", Status.OK))  # an engine that keeps a stopped run's samples says so here
+    if status != Status.OK:
+        message = str(getattr(run, "message", "")) or Status.describe(status, float(run.t[-1]) if run.t.size else 0.0)
+        return Outcome(None, failure_status(message), message, seconds, point_path(mechanism, run.q, probe))
     return Outcome(run, Status.OK, "ok", seconds, point_path(mechanism, run.q, probe))

@@ -32,28 +32,14 @@ from physics.studies.work_precision_chart import chart
 ROOT = Path(__file__).resolve().parents[2]
 
 # A double pendulum written as a mechanism file, hanging straight down in its sketch (so each body's rotation
-# from the sketch is its angle from the downward vertical): two bodies, two pins, mobility 2.
-DOUBLE_PENDULUM = {
-    "name": "double-pendulum",
-    "g": 9.81,
-    "ground": {"O": [0.0, 0.0]},
-    "bodies": [
-        {"name": "upper", "points": {"O": [0.0, 0.0], "A": [0.0, -1.0]}, "mass": 1.0, "com": [0.0, -0.5],
-         "inertia": 1.0 / 12},
-        {"name": "lower", "points": {"A": [0.0, -1.0], "B": [0.0, -2.0]}, "mass": 1.0, "com": [0.0, -1.5],
-         "inertia": 1.0 / 12},
-    ],
-    "joints": [{"kind": "revolute", "name": "O", "a": "ground.O", "b": "upper.O"},
-               {"kind": "revolute", "name": "A", "a": "upper.A", "b": "lower.A"}],
-    "trace": "lower.B",
-}
+# from the sketch is its angle from the downward vertical): two bodies, two pins, mobility 2. The file the docs'
+# chaos-map example names.
+DOUBLE_PENDULUM = ROOT / "docs" / "examples" / "double-pendulum.toml"
 
 
 @pytest.fixture(scope="module")
-def double_file(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("mechanisms") / "double.json"
-    path.write_text(json.dumps(DOUBLE_PENDULUM))
-    return path
+def double_file() -> Path:
+    return DOUBLE_PENDULUM
 
 
 def _physics(*args, timeout=300):
