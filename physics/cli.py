@@ -370,7 +370,8 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     pre.set_defaults(func=cmd_presets)
 
     ens = sub.add_parser("ensemble", help="N copies 1e-9 rad apart, advanced together: how fast the fan opens")
-    _common(ens)
+    _common(ens, mechanisms=True)
+    ens.add_argument("--mechanism", default=None, metavar="FILE", help="a mechanism file (docs/cli.md)")
     ens.add_argument("--count", type=int, default=100, help="number of copies (1..1000000)")
     ens.add_argument("--spread", type=float, default=1e-9, help="radians between neighbouring copies' angles")
     ens.add_argument("--step", type=float, default=None, help="fixed RK4 step (default 1/240 s)")
@@ -457,7 +458,7 @@ def start_numba_without_blas() -> None:
         sys.meta_path.remove(hook)
 
 
-MECHANISM_COMMANDS = ("simulate", "accelerations", "fbd", "equilibrium", "warm")  # take a mechanism too
+MECHANISM_COMMANDS = ("simulate", "accelerations", "fbd", "equilibrium", "warm", "ensemble")  # take a mechanism too
 
 
 def asks_for_mechanism(argv: list[str]) -> bool:
@@ -478,7 +479,7 @@ def asks_for_mechanism(argv: list[str]) -> bool:
 
 
 def run_mechanism_command(command: str, argv: list[str]) -> int:
-    """``simulate``, ``accelerations``, ``fbd``, ``equilibrium`` or ``warm`` of a mechanism preset or file
+    """``simulate``, ``accelerations``, ``fbd``, ``equilibrium``, ``warm`` or ``ensemble`` of a mechanism preset or file
     (physics/mechanism/cli_runs.py)."""
     from .mechanism.cli_runs import main as mechanism_main  # noqa: PLC0415
 

@@ -1,5 +1,5 @@
 """The chain commands of ``python -m physics`` for a mechanism preset or file: ``simulate``, ``accelerations``,
-``fbd``, ``equilibrium`` and ``warm`` with ``--preset NAME`` (a mechanism preset) or ``--mechanism FILE``.
+``fbd``, ``equilibrium``, ``ensemble`` and ``warm`` with ``--preset NAME`` (a mechanism preset) or ``--mechanism FILE``.
 
     python -m physics simulate --preset jansen-leg --t-end 2 --out leg.csv
     python -m physics simulate --mechanism my.toml --method lagrange --set crank.mass=0.2 --format json
@@ -7,6 +7,7 @@
     python -m physics fbd --preset slider-crank --body rod --time 0.1 --json
     python -m physics equilibrium --preset slider-crank
     python -m physics warm --preset jansen-leg
+    python -m physics ensemble --preset slider-crank --count 10 --t-end 1 --out fan.png
 
 Why apart from :mod:`physics.cli`: the chain commands read angles ``theta1..thetan`` and bar numbers, a
 mechanism has named bodies and joints; :mod:`physics.cli` sends a command here when its ``--preset`` names a
@@ -19,13 +20,15 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import time
 
 import numpy as np
 
 from ..arguments import Parser, parse_floats, parse_set
 from ..errors import LinkageError
-from .command import RunRequest, run_and_report
+from ..outputs import check_output_path, write_output
+from .command import EXIT_RUN_STOPPED, RunRequest, run_and_report
 from .files import load_mechanism, mechanism_from_document
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
@@ -42,7 +45,7 @@ CHAIN_ONLY = {
     "--trace": "a chain's BAR,ALONG point; a mechanism traces the point its file names (trace = \"body.point\")",
     "--damping": "a chain's joint damping; give a mechanism joint's with --set JOINT.damping=C",
     "--backend": "the chain's scipy backend",
-    "--step": "the fixed step of the chain's midpoint and variational integrators",
+    "--step": "a chain's fixed step (midpoint, variational, the ensemble's RK4)",
     "--max-steps": "the chain's step budget",
     "--input": "a file of chain cases (links, params, theta)",
     "--bar": "a chain's bar number; a mechanism's bodies are named: --body NAME",
@@ -290,6 +293,74 @@ def equilibrium_main(argv: list[str]) -> int:
     return 0
 
 
+# --- ensemble ---------------------------------------------------------------------------------------------
+
+ENSEMBLE_SUFFIXES = (".json", ".csv", ".png")  # as the chain ensemble's --out
+MAX_ENSEMBLE_SECONDS = 1800.0  # an ensemble estimated (from its first copy) longer than this is stopped
+
+
+def ensemble_main(argv: list[str]) -> int:
+    """``ensemble --preset MECHANISM | --mechanism FILE``: ``--count`` copies, copy k with every body turned
+    ``k * spread`` rad further and closed again, each a run of the general engine
+    (:class:`physics.ensemble.MechanismEnsemble`); the chain ensemble's JSON keys with the mechanism's, its
+    time series as CSV, or a PNG of the copies at the end."""
+    from ..ensemble import MechanismEnsemble  # noqa: PLC0415
+
+    parser = Parser(prog="python -m physics ensemble", description="copies of a mechanism a little apart, run together")
+    _source_options(parser)
+    parser.add_argument("--count", type=int, default=20, help="number of copies (1..1000; each is a whole run)")
+    parser.add_argument("--spread", type=float, default=1e-9, help="radians every body turns between copies")
+    parser.add_argument("--t-end", type=float, default=DEFAULT_T_END, help="seconds to simulate (default 2)")
+    parser.add_argument("--samples", type=int, default=101, help="rows of the time series")
+    parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(RUN_METHODS)}")
+    parser.add_argument("--stabilization", default="projection", help="none, baumgarte or projection")
+    parser.add_argument("--rtol", type=float, default=1e-10)
+    parser.add_argument("--atol", type=float, default=1e-10)
+    parser.add_argument("--out", default=None, help="file: .json, .csv (time series) or .png (the copies at the end)")
+    args = _parse(parser, argv, "a mechanism's ensemble takes --count, --spread, --t-end, --samples, --method, "
+                  "--stabilization, --rtol, --atol, --set, --out")
+    if not 2 <= args.samples <= 100_000:
+        raise LinkageError(f"--samples = {args.samples}: allowed range 2 <= samples <= 100000")
+    if args.out is not None:
+        check_output_path(args.out, suffixes=ENSEMBLE_SUFFIXES)
+    mechanism = load(args)
+    from .validation import check_runnable  # noqa: PLC0415
+
+    check_runnable(mechanism)
+    ensemble = MechanismEnsemble(mechanism, count=args.count, spread=args.spread, t_end=args.t_end,
+                                 samples=args.samples, method=args.method, stabilization=args.stabilization,
+                                 rtol=args.rtol, atol=args.atol)
+    clock = time.perf_counter()
+
+    def estimate(k: int) -> None:
+        if k == 0 and (elapsed := time.perf_counter() - clock) * ensemble.count > MAX_ENSEMBLE_SECONDS:
+            raise LinkageError(
+                f"--count {ensemble.count}: the first copy took {elapsed:.3g} s, so the ensemble would take about "
+                f"{elapsed * ensemble.count / 60:.3g} min, more than the {MAX_ENSEMBLE_SECONDS / 60:g} min allowed; "
+                "fewer copies or a shorter --t-end")
+
+    ensemble.run(progress=estimate)
+    out = args.out or ""
+    if out.lower().endswith(".png"):
+        from ..studies.charts import fan_picture, png_bytes  # noqa: PLC0415
+
+        write_output(out, png_bytes(fan_picture(ensemble.outlines(), ensemble.alive)))
+    elif out.lower().endswith(".csv"):
+        columns = ensemble.columns()
+        lines = [",".join(columns)] + [",".join(repr(float(v)) for v in row) for row in zip(*columns.values())]
+        write_output(out, ("\n".join(lines) + "\n").encode("utf-8"))
+    else:
+        text = json.dumps(ensemble.document())
+        if out:
+            write_output(out, (text + "\n").encode("utf-8"))
+        else:
+            print(text)
+    if not ensemble.alive.all():
+        print(f"error: {ensemble.message}", file=sys.stderr)
+        return EXIT_RUN_STOPPED
+    return 0
+
+
 # --- warm -------------------------------------------------------------------------------------------------
 
 def warm_main(argv: list[str]) -> int:
@@ -312,7 +383,7 @@ def warm_main(argv: list[str]) -> int:
 
 
 COMMANDS = {"simulate": simulate_main, "accelerations": accelerations_main, "fbd": fbd_main,
-            "equilibrium": equilibrium_main, "warm": warm_main}
+            "equilibrium": equilibrium_main, "warm": warm_main, "ensemble": ensemble_main}
 """The chain commands that take a mechanism, by name (physics.cli dispatches to them)."""
 
 

@@ -297,7 +297,7 @@ def docs_examples() -> list[str]:
 
 def test_the_docs_name_every_mechanism_command():
     commands = {shlex.split(line)[3] for line in docs_examples()}
-    assert commands == {"presets", "simulate", "accelerations", "fbd", "equilibrium", "warm"}
+    assert commands == {"presets", "simulate", "accelerations", "fbd", "equilibrium", "warm", "ensemble"}
 
 
 @pytest.mark.slow  # each example is a process of its own
@@ -315,3 +315,28 @@ def test_docs_cli_example_runs_as_written(line, tmp_path):
     for output in outputs:
         assert output.stat().st_size > 0, f"{line} wrote an empty {output.name}"
     assert result.stdout.strip() or outputs, f"{line} printed nothing"
+
+
+def test_ensemble_of_a_mechanism_preset_as_json_csv_and_png(capsys, tmp_path):
+    """``ensemble --preset slider-crank``: the chain ensemble's keys with the mechanism's; copy 0 is the plain run
+    (its probe, the piston, ends where simulate's trace ends); the time series as CSV; the copies as a PNG."""
+    code, out, _ = run(capsys, "ensemble", "--preset", "slider-crank", "--count", "3", "--spread", "1e-6",
+                       "--t-end", "0.4", "--samples", "3")
+    document = json.loads(out)
+    assert code == 0 and document["mechanism"] == "slider-crank" and document["count"] == 3
+    assert {"t", "tip_spread", "alive", "energy_drift", "message", "final_tips", "method"} <= set(document)
+    assert document["alive"] == [3, 3, 3] and document["t"] == pytest.approx([0.0, 0.2, 0.4])
+    _, table, _ = run(capsys, "simulate", "--preset", "slider-crank", "--t-end", "0.4", "--samples", "3",
+                      "--format", "json")
+    trace = json.loads(table)
+    assert document["final_tips"][0] == pytest.approx([trace["trace_x"][-1], trace["trace_y"][-1]], abs=1e-9)
+    assert 0 < max(document["tip_spread"]) < 1e-4  # copies 1e-6 rad apart stay close over 0.4 s
+    assert run(capsys, "ensemble", "--preset", "slider-crank", "--count", "2", "--t-end", "0.2", "--samples", "3",
+               "--out", str(tmp_path / "fan.csv"))[0] == 0
+    rows = list(csv.reader((tmp_path / "fan.csv").open()))
+    assert rows[0] == ["t", "tip_spread", "alive", "energy_drift"] and len(rows) == 4
+    assert run(capsys, "ensemble", "--preset", "slider-crank", "--count", "2", "--t-end", "0.2", "--samples", "3",
+               "--out", str(tmp_path / "fan.png"))[0] == 0
+    assert (tmp_path / "fan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "--step: does not apply to a mechanism" in refused_line(
+        child("ensemble", "--preset", "slider-crank", "--step", "0.01"))
