@@ -26,6 +26,7 @@ from ..errors import LinkageError
 from ..outputs import check_output_folder
 from ..registry import INTEGRATOR_NAMES
 from . import chaos_map, ensemble_bench, models
+from .mechanism_cases import FORMULATIONS as MECHANISM_FORMULATIONS
 from .mechanism_cases import MECHANISM_INTEGRATORS, STABILIZATIONS, load_case, mechanism_names
 from .mechanism_work_precision import MECHANISM_FULL, MECHANISM_QUICK, mechanism_document
 from .work_precision import ALL_CASES, FORMULATIONS, FULL, QUICK, work_precision
@@ -63,7 +64,8 @@ def _mechanism_cases(names, file: str | None) -> dict:
 def _with_mechanisms(options: dict, mechanisms: dict, args, run_chains: bool, progress: bool) -> dict:
     """The document for the mechanisms' cases (and the chains' when named too): one report, one shape."""
     mechanism_options = dict(MECHANISM_QUICK if args.quick else MECHANISM_FULL)
-    mechanism_options["formulations"] = options["formulations"]
+    # every method unless narrowed (the chains' --quick drops newton_euler; a mechanism's report keeps it)
+    mechanism_options["formulations"] = options["formulations"] if args.formulations else MECHANISM_FORMULATIONS
     mechanism_options["stabilizations"] = parse_names(args.stabilizations, STABILIZATIONS,
                                                       "--stabilizations") or STABILIZATIONS
     integrators = [name for name in options["integrators"] if name in MECHANISM_INTEGRATORS]

@@ -104,6 +104,22 @@ def test_work_precision_of_a_driven_mechanism_is_checked_against_its_position_an
     assert [c["formulation"] for c in case["curves"]] == ["dae"]  # no reduced model without a free coordinate
 
 
+def test_bench_quick_keeps_every_method_for_a_mechanism(tmp_path, monkeypatch):
+    seen = {}
+
+    def document(cases, options, progress):
+        seen.update(options, cases=tuple(cases))
+        return {"cases": {}, "elapsed_seconds": 0.0}
+
+    monkeypatch.setattr(bench, "mechanism_document", document)
+    monkeypatch.setattr(bench, "write_outputs", lambda document, out: [])
+    monkeypatch.setattr(bench, "markdown_summary", lambda document: "")
+    assert bench.main(["--preset", "slider-crank", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0
+    assert seen["cases"] == ("slider-crank",) and seen["formulations"] == ("newton_euler", "lagrange", "dae")
+    assert seen["stabilizations"] == ("none", "baumgarte", "projection")
+    assert set(seen["integrators"]) == set(mechanism_cases.MECHANISM_INTEGRATORS)
+
+
 def test_bench_command_writes_a_mechanism_report(tmp_path, double_file):
     out = tmp_path / "bench"
     result = _physics("bench", "--preset", "slider-crank", "--mechanism", str(double_file), "--formulations", "dae",
