@@ -103,14 +103,17 @@ def random_mechanism(rng: np.random.Generator) -> Mechanism:
         joints.append(joint(f"C{extra}", first, second, "revolute" if rng.random() < 0.6 else "prismatic"))
     pins = [j["name"] for j in joints if j["kind"] == "revolute"]
     drivers = []
-    for name in rng.permutation(pins)[: int(rng.integers(0, 3))]:
-        drivers.append({"joint": str(name), "speed": float(rng.uniform(-5, 5))} if rng.random() < 0.5
-                       else {"joint": str(name), "torque": float(rng.uniform(-2, 2))})
-    spec = {"name": "random", "ground": ground, "bodies": bodies, "joints": joints, "drivers": drivers}
-    mechanism = Mechanism.model_validate(spec)
-    speed = sum(1 for d in drivers if "speed" in d)
-    if 3 * count - 2 * len(joints) - speed < 0:  # over-constrained by its count: draw another
+    mobility = 3 * count - 2 * len(joints)
+    if mobility < 0:  # over-constrained by its count: draw another
         return random_mechanism(rng)
+    for name in rng.permutation(pins)[: int(rng.integers(1, 3))]:
+        if mobility > 0 and rng.random() < 0.6:  # a speed motor takes one degree of freedom
+            drivers.append({"joint": str(name), "speed": float(rng.uniform(-5, 5))})
+            mobility -= 1
+        else:
+            drivers.append({"joint": str(name), "torque": float(rng.uniform(-2, 2))})
+    mechanism = Mechanism.model_validate(
+        {"name": "random", "ground": ground, "bodies": bodies, "joints": joints, "drivers": drivers})
     constraints = Constraints(mechanism)
     jacobian = constraints.jacobian(constraints.sketch_pose() + rng.normal(scale=0.1, size=constraints.size))
     if np.linalg.matrix_rank(jacobian) < jacobian.shape[0]:  # redundant (sliders fixing one angle twice): another
@@ -364,3 +367,52 @@ def test_the_constraint_rows_are_the_second_time_derivatives_of_phi(label, metho
     assert rows and np.max(np.abs(residual[rows] - second)) <= 1e-5 * (1 + np.max(np.abs(second)))
     assert system.time_index == (parameter_names(mechanism).index(TIME) if any(
         d.speed is not None for d in mechanism.drivers) else None)
+
+
+def test_the_random_mechanisms_hold_every_case_the_brief_names():
+    """Sliders on moving guides (riding on a body and carrying a guide), cut sliders and pins, motors of both
+    kinds, damped pins and sliders: each appears among the random mechanisms checked above."""
+    from physics.mechanism.model import Prismatic, Revolute  # noqa: PLC0415
+    from physics.mechanism.topology import analyse  # noqa: PLC0415
+
+    seen = set()
+    for mechanism in random_mechanisms():
+        tree = set(analyse(mechanism).tree_joints)
+        for joint in mechanism.joints:
+            if isinstance(joint, Prismatic):
+                seen.add("slider on a moving guide" if joint.on != "ground" else "slider on the ground")
+                seen.add("cut slider" if joint.name not in tree else "tree slider")
+            elif joint.name not in tree:
+                seen.add("cut pin")
+            if isinstance(joint, Revolute) and joint.damping > 0:
+                seen.add("damped pin")
+            if isinstance(joint, Prismatic) and joint.damping > 0:
+                seen.add("damped slider")
+        seen.update("speed motor" if driver.speed is not None else "torque motor" for driver in mechanism.drivers)
+    assert seen >= {"slider on a moving guide", "slider on the ground", "cut slider", "tree slider", "cut pin",
+                    "damped pin", "damped slider", "speed motor", "torque motor"}
+
+
+@pytest.mark.parametrize("label", ["crank-rocker", "watt-six-bar", "jansen-leg"])
+def test_the_lagrangian_pieces_are_the_mass_matrix_and_dL_ds_plus_Q(label):
+    """The variational integrator's pieces: ``mass_matrix`` is the top of ``A``, and ``lagrangian_force``
+    differs from the top of ``b`` by exactly ``M' sd`` (Lagrange: M sdd + M' sd - dT/ds = force - dT/ds):
+    checked with a central difference of the mass matrix along ``sd``."""
+    mechanism = renumbered(dict(CASES)[label], np.random.default_rng(2))
+    system = derive_system(mechanism, "lagrange")
+    s_, n = system.symbols, system.n
+    arguments = [s_.theta, s_.omega, s_.params]
+    mass = sp.lambdify(arguments, system.mass_matrix, cse=True)
+    force = sp.lambdify(arguments, system.lagrangian_force, cse=True)
+    _, pieces = pieces_of(mechanism, "lagrange")
+    rng = np.random.default_rng(4)
+    s = rng.normal(scale=0.7, size=n)
+    sd = rng.choice([-1.0, 1.0], size=n) * rng.uniform(0.5, 1.5, size=n)  # every coordinate moving
+    params = parameter_vector(mechanism, 0.4)
+    assert close(np.array(mass(s, sd, params), float), pieces["A"](s, sd, params)[:n, :n])
+    h = 1e-5
+    rate = (np.array(mass(s + h * sd, sd, params), float) - np.array(mass(s - h * sd, sd, params), float)) / (2 * h)
+    difference = np.ravel(force(s, sd, params)) - pieces["b"](s, sd, params).ravel()[:n]
+    assert np.max(np.abs(difference - rate @ sd)) <= 1e-6 * (1 + np.max(np.abs(rate @ sd)))
+    # the check has something to see: the mass matrix changes along sd by more than 1e-3 of its size
+    assert np.max(np.abs(rate @ sd)) > 1e-3 * np.max(np.abs(mass(s, sd, params))) * np.max(np.abs(sd))
