@@ -240,8 +240,18 @@ def test_each_structure_is_derived_once_whatever_its_numbers():
 # ----------------------------------------------------------------------------------------------- agreement
 
 
+def driven_cut_pin() -> Mechanism:
+    """The crank-rocker driven at its coupler-rocker pin, the joint its spanning tree leaves out: one joint both
+    closed by multipliers (x, y) and driven (its motor's row comes after the cut joints' rows in a tree
+    formulation, right after the pin's own rows in the DAE)."""
+    spec = MECHANISM_PRESETS["crank-rocker"]().model_dump()
+    spec["drivers"] = [{"joint": "B", "speed": 1.5}]
+    return Mechanism.model_validate(spec)
+
+
 def mechanisms_under_test() -> list[tuple[str, Mechanism]]:
     return [(name, make()) for name, make in sorted(MECHANISM_PRESETS.items())] + [
+        ("driven cut pin", driven_cut_pin())] + [
         (f"random {seed}", mechanism) for seed, mechanism in zip(RANDOM_SEEDS, random_mechanisms())]
 
 
