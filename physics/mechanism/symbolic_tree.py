@@ -30,7 +30,8 @@ ORIGIN = (ZERO, ZERO)
 
 
 def plus(*terms):
-    """A sum kept as written (no flattening, sorting or collecting: sympy's costs on long sums)."""
+    """A sum kept as written (no flattening, sorting or collecting: sympy's costs on long sums); the
+    derivations :func:`settle` what they return."""
     kept = [term for term in terms if term != 0]
     if not kept:
         return ZERO
@@ -364,7 +365,8 @@ def settle(matrix: sp.Matrix, memo: dict | None = None) -> sp.Matrix:
 
     The derivations build their sums unevaluated (:func:`plus`, :func:`times`: sympy's flattening and sorting of
     long sums was most of their time); what they hand on is settled, because sympy's ``cse`` (which the code
-    generators run) is not reliable on unevaluated trees: on the Jansen leg it gave wrong numbers."""
+    generators run) is not reliable on unevaluated trees: it gave wrong numbers for a draft of the Jansen leg's
+    Lagrange system and for most random unevaluated sums of products tried, never once settled."""
     memo = {} if memo is None else memo
 
     def one(expr):
