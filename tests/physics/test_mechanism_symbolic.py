@@ -426,3 +426,17 @@ def test_the_lagrangian_pieces_are_the_mass_matrix_and_dL_ds_plus_Q(label):
     assert np.max(np.abs(difference - rate @ sd)) <= 1e-6 * (1 + np.max(np.abs(rate @ sd)))
     # the check has something to see: the mass matrix changes along sd by more than 1e-3 of its size
     assert np.max(np.abs(rate @ sd)) > 1e-3 * np.max(np.abs(mass(s, sd, params))) * np.max(np.abs(sd))
+
+
+@pytest.mark.parametrize("method", ("dae", *TREE_METHODS))
+def test_one_derivation_serves_two_mechanisms_and_names_each_ones_parts(method):
+    """Two mechanisms of one structure with different names share one derivation (the same matrices), and each
+    gets its equations named after its own bodies and joints."""
+    first = MECHANISM_PRESETS["crank-rocker"]()
+    second = MECHANISM_PRESETS["chebyshev-lambda"]()
+    assert structure_key(first) == structure_key(second)
+    one, other = derive_system(first, method), derive_system(second, method)
+    assert one.A is other.A and one.b is other.b
+    assert one.equation_names != other.equation_names and len(one.equation_names) == one.A.shape[0]
+    text = " ".join(other.equation_names)
+    assert "{" not in text and "O2" not in text and "Q" in text  # the lambda linkage's pins are O, A, B, Q
