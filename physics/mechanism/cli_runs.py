@@ -289,7 +289,8 @@ def equilibrium_main(argv: list[str]) -> int:
     print("  " + "  ".join(f"{name[:12]:>12}" for name in names) + f"  {'stable':>6}  {'V':>12}")
     for pose in poses:
         angles = "  ".join(f"{math.degrees(v):12.4f}" for v in pose.q[2::3])
-        print(f"  {angles}  {'yes' if pose.stable else 'no':>6}  {pose.potential:12.6f}")
+        stable = "yes" if pose.stable else "flat" if pose.neutral else "no"
+        print(f"  {angles}  {stable:>6}  {pose.potential:12.6f}")
     return 0
 
 

@@ -17,7 +17,6 @@ a damped pin's ``-c (omega_b - omega_a)`` on ``b``, and a viscous slider's force
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -50,7 +49,8 @@ def evaluate(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, method: str 
              dae: MechanismDAE | None = None) -> Instant:
     """The accelerations and reactions of ``method`` (one of :data:`STATE_METHODS`) at ``(q, qdot)``: the DAE's
     augmented system, or the tree formulation's own solve, its body motions and its reactions (Newton's second
-    law on its own accelerations, :mod:`.reactions`), in the DAE's row layout and signs."""
+    law on its own accelerations), in the DAE's row layout and signs, on the compiled engine
+    (:func:`physics.mechanism.engine.instant`)."""
     q, qdot = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     dae = MechanismDAE(mechanism) if dae is None else dae
     names = reaction_row_names(mechanism)
@@ -60,22 +60,10 @@ def evaluate(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, method: str 
     if method not in STATE_METHODS:
         raise LinkageError(f"method = {method!r}: allowed {', '.join(STATE_METHODS)} (accelerations at one state; "
                            "the reduced model's runs are `simulate --method reduced`)")
-    from .tree import tree_state  # noqa: PLC0415  (sympy only when a tree formulation is asked for)
+    from .engine import instant  # noqa: PLC0415  (the compiled engine only when asked for)
 
-    tree: Any
-    if method == "lagrange":
-        from .lagrange import derive_tree_lagrange  # noqa: PLC0415
-
-        tree = derive_tree_lagrange(mechanism)
-    else:
-        from .newton_euler import derive_tree_newton_euler  # noqa: PLC0415
-
-        tree = derive_tree_newton_euler(mechanism)
-    s, sd = tree_state(mechanism, q, qdot)
-    sdd, multipliers = tree.solve(s, sd)
-    motion = np.asarray(tree.motion(s, sd, sdd), dtype=float).reshape(-1, 9)
-    reactions = np.asarray(tree.reactions(s, sd, sdd, multipliers), dtype=float)
-    return Instant(method, t, q, qdot, motion[:, 6:9].ravel(), reactions, names)
+    qddot, reactions = instant(mechanism, method, q, qdot, t)
+    return Instant(method, t, q, qdot, qddot, reactions, names)
 
 
 def start_state(mechanism: Mechanism, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -276,11 +264,12 @@ class RestPose:
     potential: float
     curvatures: np.ndarray
     stable: bool
+    neutral: bool = False  # the smallest curvature is zero (to rounding): the potential is flat along a motion
 
     def as_dict(self, mechanism: Mechanism) -> dict:
         angles = {body.name: float(np.degrees(self.q[3 * k + 2])) for k, body in enumerate(mechanism.bodies)}
-        return {"q": self.q.tolist(), "angles_deg": angles, "stable": self.stable, "potential": self.potential,
-                "curvatures": self.curvatures.tolist()}
+        return {"q": self.q.tolist(), "angles_deg": angles, "stable": self.stable, "neutral": self.neutral,
+                "potential": self.potential, "curvatures": self.curvatures.tolist()}
 
 
 def refuse_without_rest(mechanism: Mechanism) -> None:
@@ -304,12 +293,17 @@ def rest_poses(mechanism: Mechanism, starts: int = EQUILIBRIUM_STARTS, seed: int
     """Every rest pose the search finds, lowest potential first: stationary points of the potential (gravity and
     constant motor torques) on the constraints, ``grad V = Phi_q^T mu`` with ``Phi = 0``, by Newton's method on
     these equations from ``starts`` random assembled poses; stability from the Hessian of ``V - mu . Phi``
-    projected on the constraints' tangent space (its signature does not depend on the basis)."""
+    projected on the constraints' tangent space (its signature does not depend on the basis): stable when every
+    curvature is positive, neutral when the smallest is zero to rounding (the potential is flat along a motion,
+    and the rest poses form a family of which the search lists those it lands on)."""
     refuse_without_rest(mechanism)
     dae = MechanismDAE(mechanism)
     constraints = Constraints(mechanism)
     size = sketch_size(mechanism)
     gradient = -dae.applied(np.zeros(constraints.size), np.zeros(constraints.size))  # V is linear in q
+    if not np.any(gradient):
+        raise LinkageError(f"{mechanism.name}: no gravity (g = 0) and no torque motor: nothing pulls it, so every "
+                           "pose is at rest (a neutral equilibrium) and none is particular; give g > 0 or a torque")
     scale = 1.0 + float(np.max(np.abs(gradient))) * size
     rng = np.random.default_rng(seed)
     sketch = constraints.sketch_pose()
@@ -328,12 +322,14 @@ def rest_poses(mechanism: Mechanism, starts: int = EQUILIBRIUM_STARTS, seed: int
         if solution is None:
             continue
         q, mu = solution
+        q[2::3] = np.pi - (np.pi - q[2::3]) % (2 * np.pi)  # rotations in (-pi, pi]: the joints repeat every turn
         if any(_same_pose(q, pose.q, size) for pose in found):
             continue
         curvatures = _curvatures(constraints, q, mu, size)
         tolerance = 1e-7 * scale
+        smallest = float(curvatures[0]) if curvatures.size else np.inf
         found.append(RestPose(q=q, potential=_potential(dae, mechanism, q), curvatures=curvatures,
-                              stable=bool(curvatures.size == 0 or curvatures[0] > tolerance)))
+                              stable=smallest > tolerance, neutral=abs(smallest) <= tolerance))
     return sorted(found, key=lambda pose: pose.potential)
 
 

@@ -340,3 +340,31 @@ def test_ensemble_of_a_mechanism_preset_as_json_csv_and_png(capsys, tmp_path):
     assert (tmp_path / "fan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "--step: does not apply to a mechanism" in refused_line(
         child("ensemble", "--preset", "slider-crank", "--step", "0.01"))
+
+
+def test_every_rest_pose_of_the_watt_six_bar_is_at_rest_and_its_stability_is_the_potentials_shape(capsys):
+    """At each rest pose the accelerations from rest vanish, and a small motion along the one free direction
+    (the constraints' tangent, the rest assembled again) raises the potential both ways exactly when the pose is
+    called stable."""
+    mechanism = MECHANISM_PRESETS["watt-six-bar"]()
+    dae = MechanismDAE(mechanism)
+    constraints = Constraints(mechanism)
+    code, out, _ = run(capsys, "equilibrium", "--preset", "watt-six-bar", "--json")
+    poses = json.loads(out)["rest_poses"]
+    assert code == 0 and len(poses) >= 2 and any(p["stable"] for p in poses) and not all(p["stable"] for p in poses)
+    assert [p["potential"] for p in poses] == sorted(p["potential"] for p in poses)
+    for pose in poses:
+        q = np.array(pose["q"])
+        assert np.max(np.abs(dae.solve(q, np.zeros_like(q)).qddot)) <= 1e-8
+        assert np.all(np.abs(q[2::3]) <= np.pi)
+        tangent = np.linalg.svd(constraints.jacobian(q))[2][-1]
+        rises = []
+        for sign in (-1.0, 1.0):
+            moved = assemble(mechanism, q + sign * 1e-3 * tangent / np.max(np.abs(tangent))).q
+            rises.append(dae.energy(moved, np.zeros_like(moved))[1] - pose["potential"] > 0)
+        assert all(rises) == pose["stable"], pose
+
+
+def test_equilibrium_without_anything_pulling_is_refused_in_one_line():
+    line = refused_line(child("equilibrium", "--preset", "slider-crank", "--set", "g=0"))
+    assert line.startswith("error: slider-crank: no gravity (g = 0) and no torque motor")
