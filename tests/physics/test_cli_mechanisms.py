@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from physics.cli import main
 from physics.errors import LinkageError
@@ -368,3 +370,45 @@ def test_every_rest_pose_of_the_watt_six_bar_is_at_rest_and_its_stability_is_the
 def test_equilibrium_without_anything_pulling_is_refused_in_one_line():
     line = refused_line(child("equilibrium", "--preset", "slider-crank", "--set", "g=0"))
     assert line.startswith("error: slider-crank: no gravity (g = 0) and no torque motor")
+
+
+HOSTILE = ["", "nan", "inf", "-1", "0", "1e308", "abc", "0x10", "1e-320", "0.2"]
+MECHANISM_ARGUMENTS = {
+    # command: (leading arguments, {option: values}); the values keep each accepted run short
+    "simulate": (["--preset", "slider-crank", "--t-end", "0.1", "--samples", "3"], {
+        "--t-end": HOSTILE, "--samples": ["1", "2", "abc", "100001"], "--method": ["lagrange", "reduced", "x"],
+        "--stabilization": ["none", "x"], "--rtol": HOSTILE, "--atol": HOSTILE, "--integrator": ["DOP853", "RK45"],
+        "--set": ["g=nan", "g=1", "crank.mass=0", "crank.mass=true", "O.speed=1e4", "x=1", "noequals", "O.torque=1"],
+        "--format": ["csv", "json", "x"], "--json": None, "--links": ["3"], "--pin": ["1,1"], "--step": ["0.1"]}),
+    "accelerations": (["--preset", "crank-rocker"], {
+        "--state": ["", "0,0", "nan," * 17 + "nan", "0," * 17 + "0"], "--method": ["dae", "reduced", "dae,x", ","],
+        "--time": HOSTILE, "--set": ["O2.speed=0", "g=-1"], "--input": ["x.json"]}),
+    "fbd": (["--preset", "slider-crank", "--body", "rod"], {
+        "--body": ["", "crank", "nope"], "--time": HOSTILE, "--method": ["dae", "lagrange", "x"], "--json": None,
+        "--bar": ["1"], "--out": ["x.svg"]}),
+    "equilibrium": (["--preset", "slider-crank"], {"--set": ["g=0", "crank.mass=2", "O.torque=0.01"],
+                                                      "--json": None, "--links": ["2"]}),
+    "ensemble": (["--preset", "slider-crank", "--count", "2", "--t-end", "0.1", "--samples", "3"], {
+        "--count": ["0", "2", "2000", "abc"], "--spread": HOSTILE, "--t-end": HOSTILE,
+        "--samples": ["1", "3", "abc"], "--step": ["0.1"], "--damping": ["1"]}),
+}
+
+
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(data=st.data())
+def test_property_every_mechanism_command_answers_any_arguments(capsys, data):
+    """Any mix of options and hostile values: exit 0, or 2 with one line, or 3 with its line last; never a
+    traceback."""
+    command = data.draw(st.sampled_from(sorted(MECHANISM_ARGUMENTS)))
+    leading, options = MECHANISM_ARGUMENTS[command]
+    argv = [command, *leading]
+    for option in data.draw(st.lists(st.sampled_from(sorted(options)), max_size=3)):
+        if options[option] is None:
+            argv.append(option)
+            continue
+        argv.append(f"{option}={data.draw(st.sampled_from(options[option]))}")
+    code, _, err = run(capsys, *argv)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "Traceback" not in err and code in (0, 2, 3), (argv, code, err)
+    if code == 2:
+        assert len(lines) == 1 and lines[0].startswith("error: "), (argv, err)
