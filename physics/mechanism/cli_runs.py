@@ -248,6 +248,9 @@ def fbd_main(argv: list[str]) -> int:
     if args.method not in STATE_METHODS:
         raise LinkageError(f"--method {args.method!r}: allowed {', '.join(STATE_METHODS)}")
     mechanism = load(args)
+    from .validation import check_runnable  # noqa: PLC0415
+
+    check_runnable(mechanism)  # the run to --time is a run like simulate's: the same check first
     if args.body not in [body.name for body in mechanism.bodies]:
         names = ", ".join(body.name for body in mechanism.bodies)
         raise LinkageError(f"--body {args.body!r}: no body of that name (bodies: {names})")
