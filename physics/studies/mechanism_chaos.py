@@ -41,8 +41,8 @@ DEFAULT_RESOLUTION = 16  # pixels per side: every pixel is a run of the general 
 DEFAULT_T_MAX = 10.0
 DEFAULT_STEP = 0.01  # s between samples: a flip is dated to this
 TOLERANCE = 1e-8  # rtol = atol of each pixel's run
-# Pixel-samples (pixels x t_max / step) one machine is asked for: about a day of one core at the engine's
-# measured 1.5 ms a sample. A Dask cluster (--scheduler) is the fix beyond.
+# Pixel-samples (pixels x t_max / step) one machine is asked for: about a day of one core at the Python-stepped
+# engine's measured 1.5 ms a sample (a few hours on the compiled engine). A Dask cluster (--scheduler) is the fix.
 MAX_LOCAL_PIXEL_SAMPLES = 5e7
 POSE_STEPS = 50
 
