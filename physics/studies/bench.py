@@ -114,6 +114,11 @@ def main(argv=None) -> int:
     out = Path(args.out)
     progress = not args.no_progress
     suites = ("work-precision", "ensemble", "chaos", "models") if args.suite == "all" else (args.suite,)
+    mechanism_asked = args.mechanism is not None or any(name.strip() in mechanism_names()
+                                                        for name in (args.preset or "").split(","))
+    if mechanism_asked and args.suite != "work-precision":  # refused before minutes of other suites' work
+        raise LinkageError(f"--suite {args.suite}: the ensemble, chaos and models suites measure the chains' batched "
+                           "engine; a mechanism's study is --suite work-precision")
     if args.repeats is not None and not 1 <= args.repeats <= 100:
         raise LinkageError(f"--repeats = {args.repeats}: allowed range 1 <= repeats <= 100")
     for suite in suites:
@@ -143,9 +148,6 @@ def main(argv=None) -> int:
             written = write_outputs(document, out)
             print(markdown_summary(document))
         else:
-            if args.mechanism is not None or any(name in mechanism_names() for name in (args.preset or "").split(",")):
-                raise LinkageError(f"--suite {suite}: measures the chains' batched engine; a mechanism's study is "
-                                   "--suite work-precision")
             written = SUITES[suite](out, quick=args.quick, progress=progress)
         for path in written:
             print(f"wrote {path}", file=sys.stderr)

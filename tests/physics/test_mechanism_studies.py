@@ -141,6 +141,7 @@ def test_bench_command_writes_a_mechanism_report(tmp_path, double_file):
     (["--mechanism", "/nonexistent/m.toml"], "m.toml"),
     (["--preset", "slider-crank", "--integrators", "midpoint"], "--integrators"),
     (["--suite", "ensemble", "--preset", "slider-crank"], "--suite ensemble"),
+    (["--suite", "all", "--preset", "slider-crank"], "--suite all"),
 ])
 def test_bench_refuses_what_does_not_apply_to_a_mechanism(args, needle, tmp_path):
     with pytest.raises(LinkageError, match=needle):
