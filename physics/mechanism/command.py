@@ -23,10 +23,10 @@ import numpy as np
 from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
+from ..model import STABILIZATIONS
 from ..outputs import check_output_path, check_partial_path, write_output
 from .assembly import assemble
 from .files import load_mechanism
-from .formulations import STABILIZATIONS
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
 from .simulate import RUN_METHODS, MechanismRun, run_options

@@ -13,7 +13,7 @@ across the guide and the torque that keeps the relative angle, for a speed motor
 
 This module evaluates the system numerically from the constraint equations of
 :mod:`physics.mechanism.constraints`: every sample's reactions, and the check for a singular pose. Between samples
-the integrator calls the same system as machine code (:mod:`physics.mechanism.dae_native`).
+the integrator calls the generated DAE of the same constraints (:mod:`physics.mechanism.symbolic_dae`, run by :mod:`physics.mechanism.engine`).
 """
 
 from __future__ import annotations

@@ -1,14 +1,15 @@
 """Motion of any mechanism: one of its three formulations integrated, its closures held by projection,
 Baumgarte terms or nothing.
 
-DOP853 (:mod:`physics.mechanism.stepper`, scipy's steps without a restart at every sample) integrates the
-chosen formulation's state (:mod:`physics.mechanism.formulations`): the DAE's ``(q, qdot)`` or a tree
-formulation's ``(s, sd)``. With projection (the default, as for the chains) the state is moved back onto the
+The compiled engine (:mod:`physics.mechanism.engine`: the formulation generated once per structure, its numbers a
+parameter vector, the chains' DOP853 kernel with dense output) integrates the chosen formulation's state: the
+DAE's ``(q, qdot)`` or a tree formulation's ``(s, sd)``. With projection (the default, as for the chains) the state is moved back onto the
 constraints after every accepted step, so the residual stays at rounding level over any run. Every sample
 reports the pose and velocities in maximal coordinates and the chosen formulation's own reactions of every
 joint. A mechanism its motors fully determine (mobility 0, like the Jansen leg) needs no integration at all:
-each sample is position analysis from the one before, its velocities follow from the constraints, and the
-chosen formulation gives the accelerations, the reactions and the motor torque.
+each sample is position analysis from the one before (the kernels' projection onto the formulation's own
+constraints), its velocities follow from the constraints, and the chosen formulation gives the accelerations,
+the reactions and the motor torque.
 """
 
 from __future__ import annotations
@@ -20,18 +21,17 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import LinkageError
-from ..model import BAUMGARTE_ALPHA, BAUMGARTE_BETA
-from .assembly import assemble, kinematics
+from ..model import STABILIZATIONS
+from . import engine
+from .assembly import assemble
 from .dae import MechanismDAE
-from .formulations import METHODS, STABILIZATIONS, formulation
 from .model import Mechanism
 from .reduced import simulate_reduced
 from .run import MechanismRun
-from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
-from .stepper import Stepper
 
 __all__ = ["MechanismRun", "RUN_METHODS", "project_velocity", "run_options", "simulate_mechanism"]
 
+METHODS = engine.ENGINE_METHODS
 # the formulations, and the reduced model in one joint coordinate (mobility 1: physics/mechanism/reduced.py)
 RUN_METHODS = (*METHODS, "reduced")
 
@@ -112,68 +112,13 @@ def simulate_mechanism(
     if options.method == "reduced":
         return _reduced(mechanism, options, q0, qdot0, integrate)
     dae = MechanismDAE(mechanism)
-    constraints = dae.constraints
     assembled = assemble(mechanism, q0, options.t_start)
     q = assembled.q
     driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float))
-    gains = (BAUMGARTE_ALPHA, BAUMGARTE_BETA) if options.stabilization == "baumgarte" else (0.0, 0.0)
-    equations = formulation(options.method, dae, *gains)
     times = options.t_start + np.linspace(0.0, options.t_end, options.samples)
-    trace = _trace_point(mechanism)
-    x, v = equations.start(q, qdot)
-    size = equations.size
-    stepper = None
-    if not driven:
-        def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            return np.concatenate([y[size:], equations.accelerations(t, y[:size], y[size:])])
-
-        def project(t: float, y: np.ndarray) -> np.ndarray:
-            return np.concatenate(equations.project(t, y[:size], y[size:]))
-
-        stepper = Stepper(rhs, float(times[0]), np.concatenate([x, v]), options.rtol, options.atol,
-                          project if options.stabilization == "projection" else None)
-
-    out_q, out_qdot, out_reactions, kinetic, potential, residual, trace_xy = [], [], [], [], [], [], []
-    condition = []
-    for k, t in enumerate(times):
-        if k > 0 and driven:
-            q = assemble(mechanism, q, float(t)).q
-            x, v = equations.start(q, kinematics(mechanism, q)[0])
-        elif k > 0 and stepper is not None:
-            try:
-                y = stepper.advance_to(float(t))
-            except LinkageError as error:
-                # at or next to a singular pose the step size collapses, or a solve finds the matrix singular:
-                # say where and which joints, from the stepper's last accepted state
-                last_q = equations.sample_pose(stepper.t, stepper.y[:size])
-                if "singular pose" in str(error) or jacobian_condition(constraints, last_q) > NEAR_SINGULAR_CONDITION:
-                    raise LinkageError(f"{mechanism.name}: {singular_message(constraints, last_q, stepper.t)}; "
-                                       f"{error}") from None
-                raise LinkageError(f"{mechanism.name}: {error}") from None
-            x, v = y[:size], y[size:]
-        try:
-            q, qdot, reactions = equations.sample(float(t), x, v)
-        except LinkageError:
-            pose = equations.sample_pose(float(t), x)
-            raise LinkageError(f"{mechanism.name}: {singular_message(constraints, pose, float(t))}") from None
-        condition.append(jacobian_condition(constraints, q))
-        out_q.append(q)
-        out_qdot.append(qdot)
-        out_reactions.append(reactions)
-        energy = dae.energy(q, qdot)
-        kinetic.append(energy[0])
-        potential.append(energy[1])
-        residual.append(float(np.max(np.abs(constraints.residual(q, float(t))), initial=0.0)))
-        trace_xy.append(constraints.body_point(q, *trace) if trace is not None else np.full(2, np.nan))
-    return MechanismRun(
-        t=times, q=np.array(out_q), qdot=np.array(out_qdot), reactions=np.array(out_reactions),
-        kinetic=np.array(kinetic), potential=np.array(potential), residual=np.array(residual),
-        trace_xy=np.array(trace_xy), row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
-        method=options.method, stabilization=options.stabilization, integrated=not driven,
-        steps=0 if stepper is None else stepper.steps, evaluations=0 if stepper is None else stepper.evaluations,
-        condition=np.array(condition),
-    )
+    return engine.run(mechanism, options.method, q, qdot, times, stabilization=options.stabilization,
+                      rtol=options.rtol, atol=options.atol, driven=driven)
 
 
 def _reduced(mechanism: Mechanism, options: RunOptions, q0, qdot0, integrate: bool | None) -> MechanismRun:

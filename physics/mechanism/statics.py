@@ -17,7 +17,6 @@ a damped pin's ``-c (omega_b - omega_a)`` on ``b``, and a viscous slider's force
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -50,7 +49,8 @@ def evaluate(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, method: str 
              dae: MechanismDAE | None = None) -> Instant:
     """The accelerations and reactions of ``method`` (one of :data:`STATE_METHODS`) at ``(q, qdot)``: the DAE's
     augmented system, or the tree formulation's own solve, its body motions and its reactions (Newton's second
-    law on its own accelerations, :mod:`.reactions`), in the DAE's row layout and signs."""
+    law on its own accelerations), in the DAE's row layout and signs, on the compiled engine
+    (:func:`physics.mechanism.engine.instant`)."""
     q, qdot = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     dae = MechanismDAE(mechanism) if dae is None else dae
     names = reaction_row_names(mechanism)
@@ -60,22 +60,10 @@ def evaluate(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, method: str 
     if method not in STATE_METHODS:
         raise LinkageError(f"method = {method!r}: allowed {', '.join(STATE_METHODS)} (accelerations at one state; "
                            "the reduced model's runs are `simulate --method reduced`)")
-    from .tree import tree_state  # noqa: PLC0415  (sympy only when a tree formulation is asked for)
+    from .engine import instant  # noqa: PLC0415  (the compiled engine only when asked for)
 
-    tree: Any
-    if method == "lagrange":
-        from .lagrange import derive_tree_lagrange  # noqa: PLC0415
-
-        tree = derive_tree_lagrange(mechanism)
-    else:
-        from .newton_euler import derive_tree_newton_euler  # noqa: PLC0415
-
-        tree = derive_tree_newton_euler(mechanism)
-    s, sd = tree_state(mechanism, q, qdot)
-    sdd, multipliers = tree.solve(s, sd)
-    motion = np.asarray(tree.motion(s, sd, sdd), dtype=float).reshape(-1, 9)
-    reactions = np.asarray(tree.reactions(s, sd, sdd, multipliers), dtype=float)
-    return Instant(method, t, q, qdot, motion[:, 6:9].ravel(), reactions, names)
+    qddot, reactions = instant(mechanism, method, q, qdot, t)
+    return Instant(method, t, q, qdot, qddot, reactions, names)
 
 
 def start_state(mechanism: Mechanism, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

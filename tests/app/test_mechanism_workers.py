@@ -45,8 +45,8 @@ for method in ("lagrange", "newton_euler"):
 workers = [w.process.pid for w in __import__("app.mechanism_workers", fromlist=["POOL"]).POOL.workers]
 print(json.dumps({"moved": ok, "notice": session.notices.text, "workers": len(workers),
                   "sympy": "sympy" in sys.modules,
-                  "formulations": any(name.startswith("physics.mechanism.lagrange") or
-                                      name.startswith("physics.mechanism.newton_euler") for name in sys.modules)}))
+                  "formulations": any(name.startswith(("physics.mechanism.symbolic", "physics.mechanism.engine"))
+                                      for name in sys.modules)}))
 client.close()
 server.stop()
 """

@@ -3,7 +3,8 @@ spanning tree against the maximal-coordinate DAE, at random assembled states of 
 slider-cranks of random proportions, driven crank-rockers and Jansen legs at random speeds): every body's angular
 acceleration and every multiplier of the joints they close by constraints (cut joints, motors), within 1e-10; and
 every reaction row of every joint, the tree's own joints included (Newton's second law on each tree formulation's
-own accelerations, physics/mechanism/reactions.py), in the DAE's layout and signs, within 1e-10.
+own accelerations, physics/mechanism/engine.py), in the DAE's layout and signs, within 1e-10. The tree
+formulations run as the engine runs them: generated once per structure, compiled, numbers as parameters.
 """
 
 from __future__ import annotations
@@ -13,14 +14,13 @@ import pytest
 
 from physics import Bar, Chain
 from physics.assembly import tip_position
-from physics.mechanism import MECHANISM_PRESETS, assemble
+from physics.mechanism import MECHANISM_PRESETS, analyse, assemble, engine
 from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.lagrange import derive_tree_lagrange
-from physics.mechanism.newton_euler import derive_tree_newton_euler
+from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.presets import crank_rocker, jansen_leg, slider_crank
 from physics.mechanism.simulate import project_velocity
-from physics.mechanism.tree import tree_state
+from physics.mechanism.tree_coordinates import tree_state
 
 STATES = 12
 
@@ -30,37 +30,24 @@ AGREEMENT = 1e-10
 
 
 def assert_three_way_agreement(mechanism, formulation: str, rng: np.random.Generator, states: int = STATES) -> None:
-    """At ``states`` random assembled states: the tree formulation's body angular accelerations and cut-joint and
-    motor multipliers equal the DAE's."""
+    """At ``states`` random assembled states: the tree formulation's generated code (compiled once per
+    structure, its numbers a parameter vector) maps its tree coordinates back onto the pose, and gives every
+    body's accelerations and every reaction row of the numeric DAE."""
     dae = MechanismDAE(mechanism)
-    tree = (derive_tree_lagrange if formulation == "lagrange" else derive_tree_newton_euler)(mechanism)
-    angle_map = np.array([tree.body_angles(e) - tree.body_angles(np.zeros(len(tree.coordinates)))
-                          for e in np.eye(len(tree.coordinates))]).T  # body angles are linear in s
+    compiled = engine.compiled_system(mechanism, formulation)
+    params = parameter_vector(mechanism)
     checked = 0
     for _ in range(states):
         guess = dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)
         q = assemble(mechanism, guess).q
         qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
         s, sd = tree_state(mechanism, q, qdot)
-        assert np.allclose(tree.body_angles(s), q[2::3], atol=1e-12)
-        if formulation == "lagrange":
-            assert np.allclose(tree.body_centres(s), q.reshape(-1, 3)[:, :2], atol=1e-12)
+        solved = engine.samples(compiled, params, np.zeros(1), s[None, :], sd[None, :])
+        assert np.allclose(solved.q[0], q, atol=1e-12) and np.allclose(solved.qdot[0], qdot, atol=1e-10)
         dae_solution = dae.solve(q, qdot)
-        sdd, multipliers = tree.solve(s, sd)
-        scale = 1.0 + np.max(np.abs(dae_solution.qddot[2::3]))
-        assert np.max(np.abs(angle_map @ sdd - dae_solution.qddot[2::3])) <= AGREEMENT * scale
-        rows = [row.joint for row in dae.constraints.rows]
-        for joint in dict.fromkeys(tree.row_joints):
-            mine = multipliers[[k for k, j in enumerate(tree.row_joints) if j == joint]]
-            theirs = dae_solution.reactions[[k for k, j in enumerate(rows) if j == joint]]
-            if len(mine) == 1 and len(theirs) == 3:  # a motor on a pin: the DAE's third row is its torque
-                theirs = theirs[2:]
-            elif len(theirs) == 3:  # a pin that is both cut and driven: x, y, then the motor
-                theirs = theirs[:2] if len(mine) == 2 else theirs
-            force_scale = 1.0 + np.max(np.abs(dae_solution.reactions))
-            assert np.max(np.abs(mine - theirs)) <= AGREEMENT * force_scale, (joint, mine, theirs)
-        reactions = tree.reactions(s, sd, sdd, multipliers)
-        assert tree.tree_reactions.row_names == tuple(f"{row.joint}: {row.meaning}" for row in dae.constraints.rows)
+        qddot, reactions = engine.instant(mechanism, formulation, q, qdot)
+        scale = 1.0 + np.max(np.abs(dae_solution.qddot))
+        assert np.max(np.abs(qddot - dae_solution.qddot)) <= AGREEMENT * scale
         assert reaction_disagreement(reactions, dae_solution.reactions) <= AGREEMENT, (
             dae.constraints.rows[int(np.argmax(np.abs(reactions - dae_solution.reactions)))])
         checked += 1
@@ -117,15 +104,14 @@ def test_the_reaction_check_sees_any_single_wrong_row(name, formulation):
     the largest reaction fail it, the tree's own joints' rows as much as the multipliers' rows."""
     mechanism = MECHANISM_PRESETS[name]()
     dae = MechanismDAE(mechanism)
-    tree = (derive_tree_lagrange if formulation == "lagrange" else derive_tree_newton_euler)(mechanism)
     rng = np.random.default_rng(7)
     q = assemble(mechanism, dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)).q
     qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
-    s, sd = tree_state(mechanism, q, qdot)
-    reactions = tree.reactions(s, sd, *tree.solve(s, sd))
+    _, reactions = engine.instant(mechanism, formulation, q, qdot)
     theirs = dae.solve(q, qdot).reactions
     assert reaction_disagreement(reactions, theirs) <= AGREEMENT
-    tree_rows = [k for k, row in enumerate(dae.constraints.rows) if row.joint in tree.coordinates]
+    tree_joints = {joint for _body, (joint, _parent) in analyse(mechanism).parent.items()}
+    tree_rows = [k for k, row in enumerate(dae.constraints.rows) if row.joint in tree_joints]
     assert tree_rows  # the tree's own joints are among the rows checked
     for k in range(len(reactions)):
         wrong = reactions.copy()

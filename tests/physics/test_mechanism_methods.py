@@ -148,55 +148,45 @@ def test_both_commands_take_method_and_stabilization(tmp_path):
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", ["slider-crank", "jansen-leg"])
 def test_the_compiled_right_hand_sides_equal_the_formulations(name, method):
-    """The machine code the integrator calls (physics/mechanism/native_system.py) gives each formulation's own
-    accelerations at random states, and with Baumgarte gains exactly ``gamma - 2 alpha Phi' - beta^2 Phi``
-    more on the closures' rows, checked through the accelerations of a formulation written out here."""
-    from physics.mechanism import assemble  # noqa: PLC0415
+    """The generated code the kernels call (physics/mechanism/engine.py, numbers as a parameter vector) gives
+    every body's accelerations of the numeric DAE at random states, for each formulation; and with Baumgarte
+    gains the kernels add exactly ``- 2 alpha Phi' - beta^2 Phi`` to the constraints' rows, checked through the
+    accelerations of the DAE written out here."""
+    from physics.mechanism import assemble, engine  # noqa: PLC0415
     from physics.mechanism.dae import MechanismDAE  # noqa: PLC0415
-    from physics.mechanism.formulations import formulation  # noqa: PLC0415
+    from physics.mechanism.parameters import parameter_vector  # noqa: PLC0415
     from physics.mechanism.simulate import project_velocity  # noqa: PLC0415
+    from physics.mechanism.tree_coordinates import tree_state  # noqa: PLC0415
 
     mechanism = MECHANISM_PRESETS[name]()
     dae = MechanismDAE(mechanism)
-    plain, stabilised = formulation(method, dae, 0.0, 0.0), formulation(method, dae, 3.0, 5.0)
+    compiled = engine.compiled_system(mechanism, method)
     rng = np.random.default_rng(11)
     for _ in range(4):
         q = assemble(mechanism, dae.constraints.sketch_pose() + rng.normal(scale=0.05, size=dae.constraints.size)).q
         qdot = project_velocity(dae, q, rng.normal(size=dae.constraints.size))
-        x, v = plain.start(q, qdot)
         t = float(rng.uniform(0.0, 1.0))
-        compiled = plain.accelerations(t, x, v)
-        if method == "dae":
-            expected = dae.solve(q, qdot).qddot
-        else:
-            expected = plain.tree.solve(x, v)[0]
-        assert np.max(np.abs(compiled - expected)) <= 1e-11 * (1 + np.max(np.abs(expected)))
-        # the Baumgarte terms, written out from the numeric constraints of each formulation, off the constraints
+        params = parameter_vector(mechanism, t=t)
+        x, v = (q, qdot) if method == "dae" else tree_state(mechanism, q, qdot)
+        solved = engine.samples(compiled, params, np.array([t]), x[None, :], v[None, :])
+        expected = dae.solve(q, qdot).qddot
+        assert np.max(np.abs(solved.qddot[0] - expected)) <= 1e-9 * (1 + np.max(np.abs(expected)))
+        np.testing.assert_allclose(solved.q[0], q, atol=1e-12)
+        if method != "dae":
+            continue
+        # the Baumgarte terms, written out from the numeric constraints, off the constraints
         x, v = x + rng.normal(scale=1e-3, size=x.size), v + rng.normal(scale=1e-2, size=v.size)
-        q, qdot = (x, v) if method == "dae" else (q, qdot)
-        compiled = plain.accelerations(t, x, v)
-        if method == "dae":
-            jacobian, residual = dae.constraints.jacobian(q), dae.constraints.residual(q, t)
-            velocity_target, inverse_mass = dae.constraints.velocity_rhs(), 1.0 / dae.mass_diagonal
-            applied = dae.applied(qdot)
-            gamma = dae.constraints.acceleration_rhs(q, qdot) - 2 * 3.0 * (jacobian @ qdot - velocity_target) - (
-                25.0 * residual)
-            weighted = jacobian * inverse_mass
-            multipliers = np.linalg.solve(weighted @ jacobian.T, gamma - weighted @ applied)
-            expected = inverse_mass * (applied + jacobian.T @ multipliers)
-        else:
-            tree = plain.tree
-            jacobian = np.atleast_2d(tree.constraint_jacobian(x)).reshape(len(tree.row_joints), len(x))
-            if not len(tree.row_joints):
-                continue
-            residual = np.ravel(tree.constraint(x, t))
-            extra = 2 * 3.0 * (jacobian @ v - tree.velocity_rhs) + 25.0 * residual
-            matrix, rhs = plain._system(t, x, v)
-            rhs[len(x):] -= extra
-            expected = np.linalg.solve(matrix, rhs)[: len(x)]
-        got = stabilised.accelerations(t, x, v)
+        plain, _ = compiled.accel(x, v, params)
+        jacobian, residual = dae.constraints.jacobian(x), dae.constraints.residual(x, t)
+        velocity_target, inverse_mass = dae.constraints.velocity_rhs(), 1.0 / dae.mass_diagonal
+        applied = dae.applied(v)
+        gamma = dae.constraints.acceleration_rhs(x, v) - 2 * 3.0 * (jacobian @ v - velocity_target) - 25.0 * residual
+        weighted = jacobian * inverse_mass
+        multipliers = np.linalg.solve(weighted @ jacobian.T, gamma - weighted @ applied)
+        expected = inverse_mass * (applied + jacobian.T @ multipliers)
+        got, _ = compiled.accel(x, v, params, 3.0, 5.0)
         assert np.max(np.abs(got - expected)) <= 1e-10 * (1 + np.max(np.abs(expected)))
-        assert np.max(np.abs(got - compiled)) > 1e-6  # the terms did something here
+        assert np.max(np.abs(got - plain)) > 1e-6  # the terms did something here
 
 
 @pytest.mark.parametrize("method", ["lagrange", "newton_euler"])

@@ -5,7 +5,7 @@ kinds, damped pins and sliders), with their numbers changed at random (masses, i
 directions, motor speeds and torques, damping, g) and at random states:
 
 * the symbolic ``A x = b`` of each formulation (lambdified here, in the test) gives the accelerations and
-  multipliers of today's numeric formulations (:class:`MechanismDAE`, :class:`TreeFormulation`) within 1e-9;
+  multipliers of the numeric DAE (:class:`MechanismDAE`) within 1e-9;
 * the three agree with each other on every body's acceleration (the tree ones mapped through their kinematics,
   ``qddot = J sdd + bias``) and on the closures' multipliers;
 * ``phi``, its Jacobian and its rate agree with :class:`Constraints`, and the constraint rows of ``A x = b`` are
@@ -24,10 +24,9 @@ import sympy as sp
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.formulations import formulation
 from physics.mechanism.parameters import TIME, parameter_names, parameter_vector, structure_key
 from physics.mechanism.symbolic import derive_structure, derive_system
-from physics.mechanism.tree import tree_state
+from physics.mechanism.tree_coordinates import tree_state
 
 AGREEMENT = 1e-9  # relative, as the brief of issue 24 asks (measured: about 1e-13 at worst)
 STATES = 3
@@ -288,19 +287,19 @@ def test_the_dae_equals_todays_numeric_dae_and_constraints(label):
     assert checked >= 4
 
 
-@pytest.mark.slow  # today's tree formulations derive each renumbered mechanism again: seconds each
 @pytest.mark.parametrize("method", TREE_METHODS)
 @pytest.mark.parametrize("label", [label for label, _ in CASES])
-def test_the_tree_formulations_equal_todays_and_the_dae(label, method):
-    """At random tree states (s, sd): the multipliers and tree accelerations of today's tree formulation, and
-    every body's acceleration (qddot = J sdd + bias) and the closures' multipliers of the symbolic DAE at the
-    same pose; phi, its Jacobian and rate are the DAE's rows of the cut joints and motors, through the pose."""
+def test_the_tree_formulations_equal_the_dae(label, method):
+    """At random tree states (s, sd): every body's acceleration (qddot = J sdd + bias) equals the numeric DAE's
+    (physics/mechanism/dae.py) and the symbolic DAE's at the same pose, the closures' multipliers the DAE's; the
+    tree coordinates of that pose are (s, sd) again; phi, its Jacobian and rate are the DAE's rows of the cut
+    joints and motors, through the pose."""
     mechanism = dict(CASES)[label]
     rng = np.random.default_rng(zlib.crc32(f"{label} {method}".encode()))
     numbers = renumbered(mechanism, rng)
     system, pieces = pieces_of(numbers, method)
     dae_system, dae = pieces_of(numbers, "dae")
-    today = formulation(method, MechanismDAE(numbers), 0.0, 0.0)
+    numeric = MechanismDAE(numbers)
     constraints = Constraints(numbers)
     rows_of = _closure_rows_in_the_dae(numbers, constraints)
     n = system.n
@@ -314,8 +313,6 @@ def test_the_tree_formulations_equal_todays_and_the_dae(label, method):
             continue
         x = solve(pieces, s, sd, params)
         sdd, multipliers = x[:n], x[n:]
-        matrix, rhs = today._system(t, s, sd, stabilised=False)
-        assert close(x, np.linalg.solve(matrix, rhs))
         # the pose and rates of the DAE at this state, and today's tree coordinates of them
         q = pieces["pose"](s, sd, params).ravel()
         jacobian = pieces["pose_jacobian"](s, sd, params).reshape(3 * len(numbers.bodies), n)
@@ -325,6 +322,7 @@ def test_the_tree_formulations_equal_todays_and_the_dae(label, method):
         assert close(back[0], s) and close(back[1], sd)
         dae_x = solve(dae, q, qdot, params)
         assert close(qddot, dae_x[dae_system.theta_ddot_index])
+        assert close(qddot, numeric.solve(q, qdot).qddot)
         dae_multipliers = dae_x[list(dae_system.multiplier_index)]
         assert close(multipliers, dae_multipliers[rows_of])
         if system.constraint.shape[0]:
@@ -338,7 +336,7 @@ def test_the_tree_formulations_equal_todays_and_the_dae(label, method):
 
 def _closure_rows_in_the_dae(mechanism: Mechanism, constraints: Constraints) -> list[int]:
     """The DAE's rows of the tree formulations' closures: the cut joints' rows in joint order, then the speed
-    motors' rows in driver order (physics.mechanism.tree.closure_rows)."""
+    motors' rows in driver order."""
     from physics.mechanism.topology import analyse  # noqa: PLC0415
 
     tree = set(analyse(mechanism).tree_joints)

@@ -1,0 +1,119 @@
+"""Figures for BENCHMARKS.md, issue "One pipeline": a general mechanism on the chains' compiled engine, side by
+side with another tree (``--before``, a ``git worktree`` of the commit before the work), alternated in one run.
+
+    python -m benchmarks.one_pipeline --before /tmp/before [--repeat 3] [--skip-slow-before]
+
+Each figure is the median of ``--repeat`` whole processes (``python -m physics ...`` started in the tree's
+folder, so it imports that tree's code; the cache folder is the user's, shared, and each tree keeps its own
+generated files because their names carry a digest of the code that made them):
+
+* ``triple-a chain``: ``simulate --preset triple-a --method dae --integrator DOP853 --rtol 1e-10 --atol 1e-10
+  --t-end 2000 --samples 2001``;
+* ``triple pendulum as a mechanism``: ``mechanism --file docs/examples/triple-pendulum.json --method dae
+  --t-end 2000 --samples 2001`` (three bodies, three pins; the mechanism command integrates DOP853 at 1e-10);
+* ``edit``: in one process, after a first run of the slider-crank, a run of one 0.25 s chunk (16 samples) with
+  its crank's mass, g and motor speed changed: what a slider's edit costs the server before its first frame;
+* ``cold Jansen leg``: ``mechanism --preset jansen-leg --t-end 10`` with the mechanism's generated files
+  removed from the cache first (the integrators stay compiled): a new structure's first run.
+
+``--skip-slow-before`` runs the before tree's mechanism file once instead of ``--repeat`` times (about 200 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TRIPLE_FILE = ROOT / "docs" / "examples" / "triple-pendulum.json"
+
+EDIT_SCRIPT = r"""
+import time
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.model import Mechanism
+from physics.mechanism.simulate import simulate_mechanism
+base = MECHANISM_PRESETS["slider-crank"]()
+simulate_mechanism(base, 0.25, 16)
+walls = []
+for k in range(5):
+    data = base.model_dump()
+    data["bodies"][0]["mass"] = data["bodies"][0]["mass"] * (1.1 + 0.1 * k)
+    data["g"] = 9.81 + k
+    for driver in data["drivers"]:
+        if driver.get("speed") is not None:
+            driver["speed"] = driver["speed"] * (1.05 + 0.05 * k)
+    edited = Mechanism.model_validate(data)
+    started = time.perf_counter()
+    simulate_mechanism(edited, 0.25, 16)
+    walls.append(time.perf_counter() - started)
+walls.sort()
+print(walls[len(walls) // 2])
+"""
+
+
+def _whole(tree: Path, argv: list[str]) -> float:
+    started = time.perf_counter()
+    subprocess.run([sys.executable, *argv], cwd=tree, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return time.perf_counter() - started
+
+
+def _cache_folder(tree: Path) -> Path:
+    out = subprocess.run([sys.executable, "-c", "from physics.cache_folder import cache_dir; print(cache_dir())"],
+                         cwd=tree, check=True, capture_output=True, text=True)
+    return Path(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.one_pipeline")
+    parser.add_argument("--before", type=Path, required=True, help="a worktree of the commit before the work")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--skip-slow-before", action="store_true")
+    args = parser.parse_args(argv)
+    trees = {"after": ROOT, "before": args.before.resolve()}
+    out = Path(os.environ.get("TMPDIR", "/tmp"))
+    chain = ["-m", "physics", "simulate", "--preset", "triple-a", "--method", "dae", "--integrator", "DOP853",
+             "--rtol", "1e-10", "--atol", "1e-10", "--t-end", "2000", "--samples", "2001", "--out",
+             str(out / "one-pipeline-chain.csv")]
+    mechanism = ["-m", "physics", "mechanism", "--file", str(TRIPLE_FILE), "--method", "dae", "--t-end", "2000",
+                 "--samples", "2001", "--out", str(out / "one-pipeline-mechanism.csv")]
+    jansen = ["-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end", "10"]
+    print(f"load average at start: {os.getloadavg()[0]:.1f}", flush=True)
+    for tree in trees.values():  # compile and cache what every figure but the cold one reuses
+        _whole(tree, [*chain[:-6], "--t-end", "1", "--samples", "2"])
+        _whole(tree, [*mechanism[:-6], "--t-end", "1", "--samples", "2"])
+    figures: dict[tuple[str, str], list[float]] = {}
+    for _ in range(args.repeat):
+        for label, tree in trees.items():
+            figures.setdefault(("triple-a chain, 2000 s", label), []).append(_whole(tree, chain))
+            slow = label == "before" and args.skip_slow_before and figures.get(("mechanism", label))
+            if not slow:
+                figures.setdefault(("triple pendulum as a mechanism, 2000 s", label), []).append(
+                    _whole(tree, mechanism))
+                figures.setdefault(("mechanism", label), []).append(1.0)
+            edit = subprocess.run([sys.executable, "-c", EDIT_SCRIPT], cwd=tree, check=True, capture_output=True,
+                                  text=True)
+            figures.setdefault(("edit of the slider-crank, one chunk", label), []).append(
+                float(edit.stdout.strip().splitlines()[-1]))
+            for generated in _cache_folder(tree).glob("*mechanism*.py"):
+                generated.unlink()
+            figures.setdefault(("cold Jansen leg, 10 s", label), []).append(_whole(tree, jansen))
+    print("| figure | before (s) | after (s) | before / after |")
+    print("|---|---|---|---|")
+    for name in dict.fromkeys(key[0] for key in figures if key[0] != "mechanism"):
+        before = statistics.median(figures[(name, "before")])
+        after = statistics.median(figures[(name, "after")])
+        print(f"| {name} | {before:.3f} | {after:.3f} | {before / after:.1f}x |")
+    ratio = statistics.median(figures[("triple pendulum as a mechanism, 2000 s", "after")]) / statistics.median(
+        figures[("triple-a chain, 2000 s", "after")])
+    print(f"after: the mechanism file takes {ratio:.2f}x the chain preset's time")
+    print(f"load average at end: {os.getloadavg()[0]:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
