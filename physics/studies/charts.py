@@ -358,7 +358,8 @@ def write_png(path, rgb: np.ndarray) -> None:
 def fan_picture(joints: np.ndarray, alive: np.ndarray, size: int = 600) -> np.ndarray:
     """``(size, size, 3)`` picture of every copy's links from joints ``(N, n + 1, 2)`` (one hue per copy; copies
     not ``alive`` left out), the pivot in the middle: an ensemble's fan, for ``python -m physics ensemble``."""
-    reach = max(float(np.max(np.abs(joints))), 1e-9) * 1.05
+    finite = np.abs(joints[np.isfinite(joints)])  # a failed copy's points may be NaN (it is not drawn)
+    reach = max(float(finite.max()) if finite.size else 0.0, 1e-9) * 1.05
     image = np.full((size, size, 3), 255, dtype=np.uint8)
     count = joints.shape[0]
     samples = np.linspace(0.0, 1.0, 2 * size)[:, None]

@@ -20,6 +20,7 @@ from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 from physics.presets import get_preset
 from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability
+from physics.studies.charts import fan_picture
 from physics.studies.mechanism_stability import (
     change_point_mechanism,
     figure_mechanism_drift,
@@ -278,6 +279,11 @@ def test_an_ensemble_document_has_the_chain_ensembles_keys():
     assert json.loads(json.dumps(document)) == document
     outlines = ensemble.outlines()
     assert outlines.shape == (3, 5, 2) and np.all(np.isfinite(outlines))  # crank O, A; rod A, B; piston B
+    picture = fan_picture(outlines, ensemble.alive, size=100)  # what `ensemble --out fan.png` draws
+    assert picture.shape == (100, 100, 3) and (picture < 255).any()
+    outlines[1] = np.nan  # a failed copy's outline: left out, and the others still drawn to scale
+    np.testing.assert_array_equal(fan_picture(outlines, np.array([True, False, True]), size=100)[:, :, 0] < 255,
+                                  fan_picture(outlines[[0, 2]], np.array([True, True]), size=100)[:, :, 0] < 255)
 
 
 def test_an_ensemble_of_a_fully_driven_mechanism_says_why_its_fan_stays_shut():
