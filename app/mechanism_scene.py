@@ -9,8 +9,10 @@ whatever the mechanism and the tools that count frames (app/wsclient.py) see no 
                        centre of mass
     {root}/ground_k    the fixed points; {root}/guides the sliders' guides on the ground (static)
 
-Part names for :meth:`poses`: ``bar_k`` (segment k, 1-based), ``joint_k`` (point k, 0-based, as the chain's
-joints) and ``com_k`` (body k, 1-based).
+Part names for :meth:`poses`: ``bar_k`` (segment k, 1-based), the instance k - 1 of ``{root}/bars`` as for a
+chain (:func:`app.scene.part_instance`), so that a picture waits for the browser to show the server's poses. The
+spheres are not listed: a chain interleaves joints and centres of mass in its batch, a mechanism lists its points
+then its centres, and ``part_instance`` would look for the wrong instance.
 """
 
 from __future__ import annotations
@@ -165,11 +167,6 @@ class MechanismScene:
         for k in range(len(self._bar_positions)):
             out[f"{self.root}/bar_{k + 1}"] = {"position": [float(v) for v in self._bar_positions[k]],
                                                "wxyz": [float(v) for v in self._bar_wxyzs[k]], "visible": True}
-        points = len(self.draw.labels)
-        for k in range(len(self._sphere_positions)):
-            name = f"joint_{k}" if k < points else f"com_{k - points + 1}"
-            out[f"{self.root}/{name}"] = {"position": [float(v) for v in self._sphere_positions[k]],
-                                          "wxyz": [1.0, 0.0, 0.0, 0.0], "visible": True}
         return out
 
     def remove(self) -> None:

@@ -15,8 +15,10 @@ joint, the field and the allowed range, and the session goes on.
 
 from __future__ import annotations
 
+import math
 import threading
 import traceback
+import urllib.parse
 from pathlib import Path
 from typing import Any, Callable, cast
 
@@ -61,12 +63,17 @@ PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
 PREPARE_NOTICE_DELAY = 1.0
+MAX_GOTO_TIME = 1e5  # as the chain session's
+TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
 
 **Mechanism:** a chain preset brings the chain panel back; a mechanism preset or your file (below) starts
 here. The line under it gives the bodies, joints, mobility and motors.
+
+**Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the assembled sketch at rest, t = 0); the keys
+Space, S and R press them.
 
 **Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
 cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
@@ -149,6 +156,7 @@ class MechanismSession:
         self._typed_boxes: dict[str, Any] = {}
         self._typing: dict[str, threading.Timer] = {}
         self._typing_lock = threading.Lock()
+        self.typed_commits = 0  # typed values applied or refused so far (tests wait for the next one)
         self._syncing = False
 
         def keep(handle):
@@ -169,10 +177,10 @@ class MechanismSession:
                                                    hint="How the loops are held closed"))
         self.stabilization.on_update(
             lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
-        self.play_button = keep(gui.add_button("Pause"))
-        self.play_button.on_click(lambda event: self.guard(self.toggle_play))
-        self.reset_button = keep(gui.add_button("Reset", hint="Start again from the assembled sketch at rest"))
-        self.reset_button.on_click(lambda event: self.guard(self.reset))
+        # as the chain panel's: the page's keys (Space, S, R) press these buttons (static/page.html)
+        self.transport = keep(gui.add_button_group("Playback", TRANSPORT,
+                                                   hint="Reset: start again from the assembled sketch at rest"))
+        self.transport.on_click(lambda event: self.guard(lambda: self.press(self.transport.value)))
         self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
         self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
         self.upload = keep(gui.add_upload_button("Load a mechanism file (TOML or JSON)",
@@ -185,6 +193,12 @@ class MechanismSession:
         self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
         self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
         self.knob_folder = keep(gui.add_folder("Bodies and motors"))
+        self.export_folder = keep(gui.add_folder("Export", expand_by_default=False))
+        with self.export_folder:
+            self.share_button = gui.add_button("Link to this setup")
+            self.share_button.on_click(lambda event: self.guard(self.show_link))
+            self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
+                                               "in a new session (press the button for the current ones).")
         self.help = keep(gui.add_folder("Help", expand_by_default=False))
         with self.help:
             gui.add_markdown(MECHANISM_HELP)
@@ -246,6 +260,8 @@ class MechanismSession:
                 return
             self.guard(lambda: self.set_typed(name, text))
             quietly(self.sync_all, "showing the value in force")
+            with self._typing_lock:
+                self.typed_commits += 1
 
         with self._typing_lock:
             if name in self._typing:
@@ -272,6 +288,18 @@ class MechanismSession:
             self.set(name, text)  # names the controls there are
             return
         self.set(name, typed_number(knob, text))
+
+    def _sync_boxes(self) -> None:
+        """Write the value in force into every typed box that shows another (the sliders are left alone: one
+        may be under the mouse)."""
+        self._syncing = True
+        try:
+            for knob in knobs(self.mechanism, self.reference):
+                box = self._typed_boxes.get(knob.name)
+                if box is not None and box.value != shown_value(knob.value):
+                    box.value = shown_value(knob.value)
+        finally:
+            self._syncing = False
 
     def sync_all(self) -> None:
         """Put every control on the value in force (after a refusal, or a viewer's attempt)."""
@@ -339,6 +367,7 @@ class MechanismSession:
             else:
                 self.mechanism = edited
                 self._continue()
+            self._sync_boxes()  # a slider moved: its box shows the value in force (a resize: the inertia's too)
 
     def set_method(self, method: str) -> None:
         with self._lock:
@@ -403,9 +432,103 @@ class MechanismSession:
         with self._lock:
             self._new_mechanism(self.mechanism, play=True)
 
+    # ------------------------------------------------------------------ share links (app/share.py)
+    def link_query(self) -> str:
+        """The share link's query for this setup: the preset, then the method, stabilisation and traced point
+        where not the preset's, then every control whose value is not the preset's, in the panel's units and in
+        the panel's order (a body's size before its inertia, which the size scales). LinkageError for a
+        mechanism from a file: a link names a preset; the file itself is what to share."""
+        if not is_mechanism(self.label):
+            raise LinkageError(f"link: {self.label!r} was loaded from a file; a link can name a preset only "
+                               "(share the file, and load it with 'Load a mechanism file')")
+        base = MECHANISM_PRESETS[self.label]()
+        pairs: list[tuple[str, str]] = [("preset", self.label)]
+        defaults = MechanismSettings(trace=base.trace)
+        for name in ("method", "stabilization", "trace"):
+            value = getattr(self.settings, name)
+            if value != getattr(defaults, name):
+                pairs.append((name, value or "(none)"))
+        preset_values = {knob.name: knob.value for knob in knobs(base, base)}
+        for knob in knobs(self.mechanism, self.reference):
+            if knob.value != preset_values.get(knob.name):
+                pairs.append((knob.name, f"{knob.value:.12g}"))
+        return "?" + urllib.parse.urlencode(pairs)
+
+    def show_link(self) -> None:
+        """The link for the current setup in the Export folder, on the server's root address."""
+        query = self.link_query()
+        self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
+                                   f"the server's address:\n\n`/{query}`")
+
+    def set_link_value(self, name: str, text: str) -> None:
+        """One value of a share link (or of ``snapshot --set``): a setting by its name, a control by its name,
+        in the panel's units; LinkageError naming it otherwise."""
+        if name == "method":
+            self.set_method(text)
+        elif name == "stabilization":
+            self.set_stabilization(text)
+        elif name == "trace":
+            self.set_trace(text)
+        else:
+            self.set_typed(name, text)
+
+    # ------------------------------------------------------------------ pictures and tests
+    def set_camera_view(self, view: str) -> None:
+        """``"front"`` (the plane of the motion as a drawing) or ``"3d"``: every camera of this session reframed."""
+        self.camera.set_view(view)
+
+    def goto_time(self, t: float, timeout: float = 120.0) -> bool:
+        """Pause at simulated time ``t`` from the start (pictures, tests); True when shown."""
+        if not (math.isfinite(t) and 0.0 <= t <= MAX_GOTO_TIME):
+            raise LinkageError(f"time = {t}: allowed range 0 <= time <= {MAX_GOTO_TIME:g}")
+        with self._lock:
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False, play=False)
+        self.player.wait_idle(timeout)
+        return self.player.seek(t, timeout)
+
+    def snapshot(self) -> dict:
+        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys)."""
+        player = self.player
+        with player.lock:
+            run = player.runs[0] if player.runs else None
+            sample = None
+            if run is not None and len(run.ring):
+                i = run.ring.index_at(player.display_time)
+                sample = {name: run.ring.get(name, i) for name in ("t", "q", "qdot", "joints", "trace_xy",
+                                                                   "kinetic", "potential", "residual")}
+            spec = self.spec
+            nodes = self.scene.poses()
+            return {
+                "session": self.id, "shared": self.shared, "kind": "mechanism", "mechanism": self.label,
+                "bodies": [body.name for body in self.mechanism.bodies], "mobility": self.mobility,
+                "method": self.settings.method, "stabilization": self.settings.stabilization,
+                "trace": self.settings.trace,
+                "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
+                "playing": player.playing, "time": float(player.display_time),
+                "q": None if sample is None else [float(v) for v in sample["q"]],
+                "qdot": None if sample is None else [float(v) for v in sample["qdot"]],
+                "points": list(spec.draw.labels),
+                "joints": None if sample is None else [[float(x), float(y)] for x, y in sample["joints"]],
+                "trace_xy": None if sample is None else [float(v) for v in sample["trace_xy"]],
+                "energy": None if sample is None else {
+                    "kinetic": float(sample["kinetic"]), "potential": float(sample["potential"]),
+                    "total": float(sample["kinetic"] + sample["potential"])},
+                "constraint_residual": None if sample is None else float(sample["residual"]),
+                "failed": None if run is None else run.failed,
+                "notice": self.notices.text, "frames_sent": self.frames_sent,
+                "scene": {"root": self.scene.root, "nodes": nodes, "names": sorted(nodes)},
+            }
+
     def reset_to_reference(self) -> None:
         with self._lock:
             self._new_mechanism(self.reference, play=True)
+
+    def press(self, button: object) -> None:
+        """A button of the Playback row (a client may send anything: refused in one line)."""
+        actions = {"Play": self.play, "Pause": self.pause, "Step": self.step, "Reset": self.reset}
+        if not isinstance(button, str) or button not in actions:
+            raise LinkageError(f"playback = {button!r}: allowed {', '.join(actions)}")
+        actions[button]()
 
     def toggle_play(self) -> None:
         if self.player.playing:
@@ -414,12 +537,22 @@ class MechanismSession:
             self.play()
 
     def play(self) -> None:
+        """Play on; at the end of a run that stopped, say so (Reset or an edit goes on) rather than nothing."""
+        with self.player.lock:
+            runs = list(self.player.runs)
+            stopped = (not self.player.restart_pending and runs and runs[0].failed is not None
+                       and self.player.display_time >= runs[0].ring.t_last - 1e-9)
+        if stopped:
+            raise LinkageError("the simulation stopped here; press Reset (or change a value) to go on")
         self.player.play()
-        self.play_button.label = "Pause"
 
     def pause(self) -> None:
         self.player.pause()
-        self.play_button.label = "Play"
+        self.player.touch()  # the status line says "paused" at once (a paused player draws no new frame)
+
+    def step(self) -> None:
+        """Pause and advance the display by one sample (1/60 s), simulating it first if need be."""
+        self.player.step()
 
     # ------------------------------------------------------------------ runs
     def _spec(self) -> MechanismSpec:
@@ -457,8 +590,6 @@ class MechanismSession:
         self.energy_ref = None
         self.energy_plot.clear()
         self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
-        if play is not False:
-            self.play_button.label = "Pause"
         self.sync_all()
 
     def _continue(self) -> None:

@@ -161,6 +161,14 @@ class WorkerPool:
         for worker in workers:
             worker.stop()
 
+    def stop_idle(self) -> None:
+        """Stop the workers no session holds (a command that served its one session is done with them)."""
+        with self._lock:
+            idle = [w for w in self.workers if w.users == 0]
+            self.workers = [w for w in self.workers if w.users > 0]
+        for worker in idle:
+            worker.stop()
+
 
 POOL = WorkerPool()
 

@@ -104,6 +104,7 @@ class NumberInputs:
         self._muted = muted
         self.controls: dict[str, NumberControl] = {}
         self._lock = threading.Lock()
+        self.commits = 0  # typed values applied or refused so far (tests wait for the next one)
 
     def add(self, name: str, spec: SliderSpec, value_si: float, *, label: str | None = None,
             to_slider: Callable[[float], float] | None = None, from_slider: Callable[[float], float] | None = None,
@@ -141,6 +142,8 @@ class NumberInputs:
                 return
             self.port.guard(lambda: self.port.set_typed(control.name, text))
             self.sync(control.name)  # the box shows the value in force, applied or not
+            with self._lock:
+                self.commits += 1
 
         with self._lock:
             if control.timer is not None:

@@ -214,12 +214,17 @@ class LabServer:
         session = None
         try:
             setup, refused = self._setup_of(client)
-            preset, links, not_started = share.start_of(setup, self.preset, self.links)
-            session = self._start_session(client, preset, links, shared=False)
+            preset, links, not_started = share.start_of(setup, self.preset, self.links, mechanisms=True)
+            named = dict(setup).get("preset") == preset  # the link's own preset wins over the server's start
+            session = self._start_session(client, preset, links, shared=False,
+                                          mechanism=preset if named and is_mechanism(preset) else None,
+                                          chain=named and not is_mechanism(preset))
             if isinstance(session, Session):
                 chain_session = session
                 refused += not_started + share.apply_setup(
                     setup, lambda name, text: chain_session.set(name, text, CONTROL))
+            else:  # a general mechanism: the link's values by the names of its panel (app/mechanism_session.py)
+                refused += not_started + share.apply_setup(setup, session.set_link_value)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
         except Exception as error:  # never let one browser's start take the server down
@@ -243,10 +248,11 @@ class LabServer:
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
-                       mechanism: str | None = None) -> Session | MechanismSession:
+                       mechanism: str | None = None, chain: bool = False) -> Session | MechanismSession:
         """A chain session, or a mechanism session when the server starts with one (``--mechanism``, a
-        mechanism preset) or ``mechanism`` names one; either can hand its browser to the other kind."""
-        if mechanism is None and self.mechanism is not None:
+        mechanism preset) or ``mechanism`` names one; ``chain``: the chain ``preset`` whatever the server
+        starts with (a share link names it). Either kind can hand its browser to the other."""
+        if mechanism is None and self.mechanism is not None and not chain:
             session: Session | MechanismSession = MechanismSession(
                 target, self.mechanism, label=self.mechanism_label, shared=shared)
         elif mechanism is not None:

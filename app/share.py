@@ -18,6 +18,7 @@ from typing import Callable, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError
 
 from physics import LinkageError, preset_names
+from physics.mechanism import MECHANISM_PRESETS
 
 from . import commands
 from .commands import CONTROL, DEG
@@ -44,17 +45,20 @@ def setup_from_path(path: str | None) -> list[tuple[str, str]] | None:
     return pairs
 
 
-def start_of(pairs: list[tuple[str, str]], preset: str, links: int | None) -> tuple[str, int | None, list[str]]:
+def start_of(pairs: list[tuple[str, str]], preset: str, links: int | None,
+             mechanisms: bool = False) -> tuple[str, int | None, list[str]]:
     """The link's mechanism and number of bars (the session is made with them, before anything else), else
-    ``preset`` and ``links``; with the refusals (one line each)."""
+    ``preset`` and ``links``; with the refusals (one line each). ``mechanisms``: a general mechanism's preset
+    (``jansen-leg``) is a start too (a new browser's link; a chain's setup file names chains only)."""
     values = dict(pairs)
     refused = []
+    allowed = [*preset_names(), *(MECHANISM_PRESETS if mechanisms else ())]
     if "preset" in values:
         name = values["preset"]
-        if name in preset_names():
+        if name in allowed:
             preset, links = name, None
         else:
-            refused.append(f"preset = {name!r}: allowed {', '.join(preset_names())}")
+            refused.append(f"preset = {name!r}: allowed {', '.join(allowed)}")
     if "links" in values:
         if preset != "chain":
             refused.append("links: only the 'chain' mechanism has a variable number of bars")

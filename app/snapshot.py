@@ -27,6 +27,7 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 import numpy as np
 
 from physics import METHOD_NAMES, LinkageError, preset_names
+from physics.mechanism import MECHANISM_PRESETS
 
 from .scene import part_instance, pose_disc
 
@@ -351,17 +352,25 @@ def paused_app(
 ) -> Iterator[tuple[Any, Any]]:
     """``(server, session)``: the app on a free loopback port with one shared session (so it exists before
     any browser connects, and ``--json`` needs none), with ``values`` applied by their ``--set`` names."""
+    from .mechanism_session import MechanismSession  # noqa: PLC0415 - viser, as the server below
     from .server import LabServer  # noqa: PLC0415 - viser: not for --json runs that fail on their arguments
 
+    mechanism = preset in MECHANISM_PRESETS  # a general mechanism: its method is set on its session below
     # shared: the session exists before any page connects; no presenter lock (the picture's page is the only one)
-    server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=method, shared=True, warm=False,
-                       presenter=False)
+    server = LabServer(host="127.0.0.1", port=0, preset=preset, links=links, method=None if mechanism else method,
+                       shared=True, warm=False, presenter=False)
     try:
         session = server.shared_session
         assert session is not None  # a shared server makes its session before it serves
         session.pause()
-        for name, value in values:
-            session.set(name, value)
+        if isinstance(session, MechanismSession):  # the names of its panel and share links (mass:crank, g, ...)
+            if method is not None:
+                session.set_link_value("method", method)
+            for name, value in values:
+                session.set_link_value(name, value)
+        else:
+            for name, value in values:
+                session.set(name, value)
         yield server, session
     finally:
         server.stop()
@@ -405,9 +414,14 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     if tight:
         positions = node_positions(session)
         points = np.array([(p[0], p[2]) for p in positions.values()])  # world (x, 0, y) -> the plane
+        if not hasattr(session, "params"):  # a general mechanism: every drawn point (its parts are bars only)
+            points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
         on_page = project_to_page(page, list(positions))
-        session.camera.disc = pose_disc(points)
-        session.camera.frame(session.params.L, session.params.pin, force=True)
+        session.camera.disc = disc = pose_disc(points)
+        if hasattr(session, "params"):  # a chain: framed by its bars and pin, within the disc
+            session.camera.frame(session.params.L, session.params.pin, force=True)
+        else:  # a general mechanism: by the disc alone (as app/mechanism_session.py frames it)
+            session.camera.frame(np.array([disc[1]]), None, force=True)
         deadline = time.monotonic() + CAMERA_WAIT_S  # the camera's move shows as the nodes moving on the page
         while time.monotonic() < deadline and project_to_page(page, list(positions)) == on_page:
             time.sleep(POLL_MS / 1000.0)
@@ -514,15 +528,18 @@ def build_parser() -> argparse.ArgumentParser:
         prog="linkage-lab snapshot",
         description="Render the app's scene headlessly to PNG (needs Chromium), or print the session's JSON state.",
     )
-    parser.add_argument("--preset", default="triple-a", choices=preset_names(), metavar="NAME",
-                        help="mechanism: " + ", ".join(preset_names()) + " (default triple-a)")
+    parser.add_argument("--preset", default="triple-a", choices=[*preset_names(), *MECHANISM_PRESETS],
+                        metavar="NAME",
+                        help="mechanism: " + ", ".join([*preset_names(), *MECHANISM_PRESETS]) + " (default triple-a)")
     parser.add_argument("--links", type=int, default=None, help="number of bars for --preset chain")
     parser.add_argument("--method", default=None, choices=METHOD_NAMES, metavar="METHOD",
                         help="formulation: " + ", ".join(METHOD_NAMES))
     parser.add_argument("--time", type=float, default=0.0, help="simulated time of the (first) picture, s")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="values",
                         help="change a value before the run, by the names of `python -m physics --set` "
-                        "(L1, d2, m3, I1, g, theta1 in radians, omega1, pin_x, pin_y, integrator, rtol, ...); repeatable")
+                        "(L1, d2, m3, I1, g, theta1 in radians, omega1, pin_x, pin_y, integrator, rtol, ...); for a "
+                        "general mechanism the names of its panel and share links (mass:crank, size:rod, speed:O "
+                        "in degrees per second, g, stabilization, trace); repeatable")
     parser.add_argument("--out", type=Path, help="PNG file to write (one picture)")
     parser.add_argument("--frames", type=int, default=None, help="write a sequence of N pictures to --out-dir")
     parser.add_argument("--interval", type=float, default=0.1,
@@ -579,7 +596,15 @@ def _check(args: argparse.Namespace) -> None:
 def main(argv: list[str] | None = None) -> int:
     """``python -m app snapshot ...``: 0 on success; one line on stderr and 2 (bad input) or 3 (cannot
     render: no Chromium, page never drew) otherwise."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    finally:  # a general mechanism's worker processes, if its session started them (none other holds them)
+        pool = getattr(sys.modules.get("app.mechanism_workers"), "POOL", None)
+        if pool is not None:
+            pool.stop_idle()
+
+
+def _main(argv: list[str]) -> int:
     try:
         args = build_parser().parse_args(argv)
         _check(args)

@@ -430,3 +430,35 @@ def test_a_typed_box_refuses_with_one_notice_naming_the_field_and_range(jansen_l
         assert word in notice, (word, notice)
     assert session.typed_box(name).value == f"{before:.6g}"  # the box shows the value in force again
     assert session.player.alive and not session.closed
+
+
+def test_the_playback_row_plays_pauses_steps_and_resets(jansen_lab, connect):
+    """Issue 24: the mechanism panel gets the chain panel's Playback row (Play, Pause, Step, Reset)."""
+    _, session = connect(jansen_lab)
+    assert session.transport.options == ("Play", "Pause", "Step", "Reset")
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.press("Pause"))
+    assert wait_until(lambda: not session.player.playing, timeout=10)
+    paused_at = session.player.display_time
+    session.guard(lambda: session.press("Step"))
+    assert wait_until(lambda: session.player.display_time > paused_at, timeout=30)
+    assert session.player.display_time == pytest.approx(paused_at + 1 / 60, abs=1e-9)
+    assert not session.player.playing
+    session.guard(lambda: session.press("Play"))
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.press("Reset"))
+    assert wait_until(lambda: session.player.display_time < 0.2, timeout=30)
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.press(["Play"]))
+    assert "playback = ['Play']: allowed Play, Pause, Step, Reset" in (session.notices.text or "")
+
+
+def test_a_moved_slider_shows_its_value_in_its_typed_box(jansen_lab, connect):
+    _, session = connect(jansen_lab)
+    session.guard(lambda: session.set("mass:crank", 0.75))
+    assert session.typed_box("mass:crank").value == "0.75"
+    inertia = session.mechanism.body("crank").inertia
+    session.guard(lambda: session.set("size:crank", 0.95 * body_size(session.mechanism.body("crank"))))
+    assert session.notices.text is None, session.notices.text
+    # the inertia scales with the square of the size: its box shows the new value
+    assert session.typed_box("inertia:crank").value == f"{0.95**2 * inertia:.6g}" != f"{inertia:.6g}"

@@ -128,3 +128,34 @@ def test_png_is_the_reference_picture_and_frames_make_a_sequence(chromium_execut
     centres = [np.argwhere(pictures.colour_match(image, BAR_COLORS[0])).mean(axis=0) for image in images]
     steps = [float(np.linalg.norm(b - a)) for a, b in zip(centres, centres[1:])]
     assert min(steps) > 3.0, f"the bar's centre moved by {steps} px between frames"
+
+
+def test_a_general_mechanism_as_json_and_as_a_picture_of_every_body(chromium_executable, tmp_path):
+    """Issue 24: ``snapshot --preset jansen-leg`` was refused. Its JSON holds the leg's state at the time asked,
+    with the panel's names for --set; its picture shows each of the seven bodies in its own colour."""
+    from app.mechanism_runs import drawing, points_at
+    from app.scene import BAR_COLORS
+    from physics.mechanism import MECHANISM_PRESETS
+    from physics.mechanism.assembly import track
+
+    result = snapshot_command("--preset", "jansen-leg", "--time", "0.5", "--set", "mass:crank=2.5e-1", "--json",
+                              env={"LINKAGE_LAB_CHROMIUM": "/nonexistent"})
+    assert result.returncode == 0, result.stderr
+    state = json.loads(result.stdout)
+    assert state["mechanism"] == "jansen-leg" and state["time"] == 0.5 and state["playing"] is False
+    assert state["values"]["mass:crank"] == 0.25 and len(state["bodies"]) == 7
+    # driven fully by its motor: the pose at 0.5 s is the position analysis' (followed in small steps)
+    leg = MECHANISM_PRESETS["jansen-leg"]()
+    pose = track(leg, np.linspace(0.0, 0.5, 61))[-1]
+    np.testing.assert_allclose(state["joints"], points_at(drawing(leg), pose), atol=1e-6)
+
+    out = tmp_path / "leg.png"
+    result = snapshot_command("--preset", "jansen-leg", "--time", "1.0", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    image = pictures.read_png(out)
+    counts = [int(pictures.colour_match(image, BAR_COLORS[b % len(BAR_COLORS)]).sum()) for b in range(7)]
+    assert min(counts) > 100, f"pixels of each body's colour: {counts}"
+    refused = snapshot_command("--preset", "jansen-leg", "--set", "mass:crank=1,5", "--json",
+                               env={"LINKAGE_LAB_CHROMIUM": "/nonexistent"})
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+    assert "crank: m (kg) = '1,5': not a number" in refused.stderr
