@@ -230,19 +230,18 @@ def _state_at(mechanism: Mechanism, time_s: float, method: str) -> tuple[np.ndar
 # --- fbd --------------------------------------------------------------------------------------------------
 
 def fbd_main(argv: list[str]) -> int:
-    """``fbd --preset MECHANISM | --mechanism FILE --body NAME [--time T] [--method M] [--json]``: the loads on
-    one body at one instant of a run, and the balance they must strike."""
+    """``fbd --preset MECHANISM | --mechanism FILE --body NAME [--time T] [--method M] [--json] [--out F.svg]``:
+    the loads on one body at one instant of a run, and the balance they must strike (text, JSON or a drawing)."""
     parser = Parser(prog="python -m physics fbd", description="forces on one body of a mechanism at one instant")
     _source_options(parser)
     parser.add_argument("--body", required=True, help="the body's name (as in the mechanism)")
     parser.add_argument("--time", type=float, default=0.0, help=f"instant of the run, 0..{MAX_FBD_TIME:g} s")
     parser.add_argument("--method", default="dae", help=f"whose reactions: {', '.join(STATE_METHODS)}")
     parser.add_argument("--json", action="store_true", help="print the loads and the balance as JSON")
-    parser.add_argument("--out", default=None)
-    args = _parse(parser, argv, "a mechanism's fbd takes --body, --time, --method, --set, --json")
+    parser.add_argument("--out", default=None, help="draw the diagram into this SVG file")
+    args = _parse(parser, argv, "a mechanism's fbd takes --body, --time, --method, --set, --json, --out")
     if args.out is not None:
-        raise LinkageError("--out: a mechanism's free-body diagram is printed (text, or --json); the SVG drawing "
-                           "is a chain's (--bar)")
+        check_output_path(args.out, suffixes=(".svg",))
     if not (math.isfinite(args.time) and 0.0 <= args.time <= MAX_FBD_TIME):
         raise LinkageError(f"--time = {args.time}: allowed range 0 <= time <= {MAX_FBD_TIME:g} s")
     if args.method not in STATE_METHODS:
@@ -257,8 +256,14 @@ def fbd_main(argv: list[str]) -> int:
     q, qdot = _state_at(mechanism, args.time, args.method)
     body = free_body(mechanism, evaluate(mechanism, q, qdot, args.method, args.time), args.body)
     document = body.as_dict()
+    if args.out:
+        from .fbd_drawing import fbd_svg  # noqa: PLC0415
+
+        write_output(args.out, fbd_svg(mechanism, q, body).encode("utf-8"))
     if args.json:
         print(json.dumps({"mechanism": mechanism.name, **document}))
+        return 0
+    if args.out:
         return 0
     print(f"{mechanism.name}, body {body.body} at t = {body.time:g} s ({body.method}; angle "
           f"{math.degrees(body.angle):.3f} deg from the sketch):")

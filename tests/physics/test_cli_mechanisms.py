@@ -233,6 +233,19 @@ def test_fbd_shows_a_speed_motors_torque_and_a_torque_motors(capsys):
     assert abs(diagram["balance"]["moment_gap"]) <= 1e-12 and diagram["balance"]["force_gap"] <= 1e-12
 
 
+def test_fbd_of_a_mechanism_draws_its_loads_as_svg(capsys, tmp_path):
+    out = tmp_path / "crank.svg"
+    code, printed, _ = run(capsys, "fbd", "--preset", "crank-rocker", "--body", "crank", "--time", "0.1", "--out",
+                           str(out))
+    text = out.read_text()
+    assert code == 0 and printed == "" and text.startswith("<svg") and text.rstrip().endswith("</svg>")
+    for name in ("gravity", "pin O2 (by ground)", "pin A (by coupler)", "motor O2 (speed, by ground)", "m a_G"):
+        assert name in text
+    assert text.count("marker-end=") == 3  # gravity and two pins as arrows; the motor's torque a couple
+    assert refused_line(child("fbd", "--preset", "crank-rocker", "--body", "crank", "--out", "x.png")) == (
+        "error: --out x.png: unknown file type '.png'; allowed .svg")
+
+
 def test_fbd_of_a_mechanism_refuses_a_bar_number_and_an_unknown_body():
     assert "--bar: does not apply to a mechanism" in refused_line(
         child("fbd", "--preset", "slider-crank", "--bar", "2", "--body", "rod"))
@@ -385,7 +398,7 @@ MECHANISM_ARGUMENTS = {
         "--time": HOSTILE, "--set": ["O2.speed=0", "g=-1"], "--input": ["x.json"]}),
     "fbd": (["--preset", "slider-crank", "--body", "rod"], {
         "--body": ["", "crank", "nope"], "--time": HOSTILE, "--method": ["dae", "lagrange", "x"], "--json": None,
-        "--bar": ["1"], "--out": ["x.svg"]}),
+        "--bar": ["1"], "--out": ["/dev/full", "x.png"]}),
     "equilibrium": (["--preset", "slider-crank"], {"--set": ["g=0", "crank.mass=2", "O.torque=0.01"],
                                                       "--json": None, "--links": ["2"]}),
     "ensemble": (["--preset", "slider-crank", "--count", "2", "--t-end", "0.1", "--samples", "3"], {
