@@ -268,7 +268,7 @@ class MechanismEnsemble:
                 if int(getattr(run, "status", 0)) != 0:  # an engine that keeps a stopped run's samples
                     raise LinkageError(f"{getattr(run, 'message', 'stopped')} (t = {float(run.t[-1]):g} s)")
                 self.runs.append(run)
-            except LinkageError as error:
+            except (LinkageError, np.linalg.LinAlgError) as error:  # a copy that stops is a failed copy, not the end
                 self.runs.append(None)
                 found = _FAILURE_TIME.search(str(error))
                 self.failed_at[k] = float(found.group(1)) if found else 0.0

@@ -102,6 +102,10 @@ def run_case(mechanism: Mechanism, t_end: float, samples: int, *, probe: str | N
         run = simulate_mechanism(mechanism, t_end, samples, **options)
     except LinkageError as error:
         return Outcome(None, failure_status(str(error)), str(error), time.perf_counter() - start, np.zeros((0, 2)))
+    except np.linalg.LinAlgError as error:  # an engine's linear algebra giving up (a pose gone non-finite) is a
+        # failed cell of the sweep, named as what it is, not the end of the study
+        message = f"the engine's linear algebra failed ({type(error).__name__}: {error}), not a LinkageError"
+        return Outcome(None, Status.SINGULAR, message, time.perf_counter() - start, np.zeros((0, 2)))
     seconds = time.perf_counter() - start
     status = int(getattr(run, "status", Status.OK))  # an engine that keeps a stopped run's samples says so here
     if status != Status.OK:

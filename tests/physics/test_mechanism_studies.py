@@ -75,6 +75,15 @@ def test_a_failed_run_comes_back_as_a_status_not_an_exception():
     assert not outcome.success and outcome.run is None and "stabilization" in outcome.message
 
 
+def test_an_engine_linear_algebra_failure_is_a_failed_cell_that_says_so(monkeypatch):
+    def fails(*args, **kwargs):
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr(mechanism_cases, "simulate_mechanism", fails)
+    outcome = mechanism_cases.run_case(MECHANISM_PRESETS["slider-crank"](), 0.2, 5, method="dae")
+    assert not outcome.success and "SVD did not converge" in outcome.message and "not a LinkageError" in outcome.message
+
+
 # ------------------------------------------------------------------------------------------------
 # 1. Work-precision
 
