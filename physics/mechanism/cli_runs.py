@@ -375,19 +375,23 @@ def ensemble_main(argv: list[str]) -> int:
 def warm_main(argv: list[str]) -> int:
     """``warm --preset MECHANISM | --mechanism FILE``: derive and compile the mechanism's three formulations
     (the DAE's augmented system, Lagrange and Newton–Euler on its spanning tree) by a short integrated run of
-    each, printing how long each took."""
+    each, printing how long each took and whether its code was already cached (the engine keeps it on disk per
+    structure, so a warmed structure starts warm with any numbers)."""
     parser = Parser(prog="python -m physics warm", description="derive and compile a mechanism's formulations")
     _source_options(parser)
     args = _parse(parser, argv, "a mechanism's warm takes --preset or --mechanism, and --set")
     mechanism = load(args)
+    from .engine import is_compiled  # noqa: PLC0415
     from .simulate import simulate_mechanism  # noqa: PLC0415
     from .validation import check_runnable  # noqa: PLC0415
 
     check_runnable(mechanism)
     for method in STATE_METHODS:
         start = time.perf_counter()
+        cached = is_compiled(mechanism, method)
         simulate_mechanism(mechanism, 1e-3, 2, method=method, integrate=True)
-        print(f"{method} {mechanism.name}: {time.perf_counter() - start:.2f} s", flush=True)
+        print(f"{method} {mechanism.name}: {time.perf_counter() - start:.2f} s ({'cached' if cached else 'derived'})",
+              flush=True)
     return 0
 
 

@@ -290,6 +290,9 @@ def test_warm_derives_a_mechanism_presets_three_formulations(capsys):
     code, out, _ = run(capsys, "warm", "--preset", "slider-crank")
     assert code == 0 and [line.split(":")[0] for line in out.splitlines()] == [
         "dae slider-crank", "lagrange slider-crank", "newton_euler slider-crank"]
+    # warmed once, every formulation of this structure is in the cache, whatever its numbers
+    code, out, _ = run(capsys, "warm", "--preset", "slider-crank", "--set", "crank.mass=0.3", "--set", "g=1")
+    assert code == 0 and all(line.endswith("s (cached)") for line in out.splitlines()), out
 
 
 def test_a_chain_study_names_a_mechanism_preset_as_one():
