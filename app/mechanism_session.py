@@ -373,7 +373,11 @@ class MechanismSession:
         with self._lock:
             _choice("method", method, list(METHODS))
             check_method(method, self.mobility)
-            self.settings = self.settings.model_copy(update={"method": method})
+            update: dict[str, object] = {"method": method}
+            if method == "reduced":  # it closes its loops by position analysis: no stabilisation applies
+                update["stabilization"] = "projection"
+            self.settings = self.settings.model_copy(update=update)
+            self.sync_all()  # the Stabilisation menu shows projection with the reduced model
             self._continue()
 
     def set_stabilization(self, stabilization: str) -> None:

@@ -253,6 +253,11 @@ class CompiledSystem:
                                     work, cond_out)
 
     @property
+    def pose_size(self) -> int:
+        """3 B for tree coordinates (the generated ``kinematics`` gives every body's pose), 0 otherwise."""
+        return int(getattr(self.module, "POSE_SIZE", 0))
+
+    @property
     def constraint_count(self) -> int:
         return len(self.module.CONSTRAINT_ROWS)
 
@@ -275,7 +280,7 @@ class CompiledSystem:
         """Tree coordinates' kinematics at states (K, n): ``d pose/d theta`` (K, 3B, n), ``pose`` (K, 3B) and the
         bias (K, 3B) with ``qddot = J theta_ddot + bias``."""
         theta = np.atleast_2d(_c(theta))
-        size = int(self.module.POSE_SIZE)
+        size = self.pose_size
         matrix = np.zeros((theta.shape[0], size, theta.shape[1]))
         vector = np.zeros((theta.shape[0], 2 * size))
         system.native_states(self._native("kinematics"), self.layout, np.zeros(theta.shape[0]), theta,

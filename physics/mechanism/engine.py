@@ -110,7 +110,7 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
     multipliers = full[:, compiled.multiplier_index]
     _, phi, _ = compiled.constraint_states(times, x, v, params)
     residual = np.max(np.abs(phi), axis=1, initial=0.0)
-    if int(compiled.module.POSE_SIZE) == 0:
+    if compiled.pose_size == 0:
         return Samples(x, v, acceleration, multipliers, residual, condition)
     jacobian, pose, bias = compiled.kinematics_states(x, v, params)
     qdot = np.einsum("kij,kj->ki", jacobian, v)
@@ -162,19 +162,22 @@ def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, time
         steps, evaluations = result.steps, result.evaluations
         if result.status != 0 or result.filled < times.size:
             n = compiled.n
-            last = result.states[max(result.filled - 1, 0)]
+            last = result.states[result.filled - 1] if result.filled else np.concatenate([x0, v0])
             last_q = samples(compiled, params, np.array([result.t_reached]), last[None, :n], last[None, n:]).q[0]
             condition = _condition(constraints, last_q)
-            reason = Status(result.status).message if result.status != 0 else "stopped early"
-            if result.status == int(Status.SINGULAR) or condition > NEAR_SINGULAR_CONDITION:
+            reason = Status.describe(result.status, result.t_reached) if result.status != 0 else "stopped early"
+            if np.all(np.isfinite(last_q)) and (result.status == int(Status.SINGULAR)
+                                                or condition > NEAR_SINGULAR_CONDITION):
                 raise LinkageError(f"{mechanism.name}: {singular_message(constraints, last_q, result.t_reached)}; "
                                    f"{reason}")
-            raise LinkageError(f"{mechanism.name}: the integration failed at t = {result.t_reached:.4g} s: {reason}")
+            raise LinkageError(f"{mechanism.name}: {reason}")
         n = compiled.n
         x, v = result.states[:, :n], result.states[:, n:]
     solved = samples(compiled, params, times, x, v)
     if not np.all(solved.kernel_condition < 1e12) or not np.all(np.isfinite(solved.qddot)):
         bad = int(np.argmax(~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)))
+        if not np.all(np.isfinite(solved.q[bad])):
+            raise LinkageError(f"{mechanism.name}: {Status.describe(int(Status.NOT_FINITE), float(times[bad]))}")
         raise LinkageError(f"{mechanism.name}: {singular_message(constraints, solved.q[bad], float(times[bad]))}")
     reactions = solved.multipliers if not tree else body_reactions(dae, solved)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
@@ -211,7 +214,7 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
 
 def _pose(compiled, params, x, v) -> np.ndarray:
     """Every body's pose (x, y, phi) of the formulation's coordinates ``x``."""
-    if int(compiled.module.POSE_SIZE) == 0:
+    if compiled.pose_size == 0:
         return np.asarray(x, dtype=float)
     return compiled.kinematics_states(x[None, :], v[None, :], params)[1][0]
 
@@ -243,8 +246,11 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
 
 
 def _condition(constraints, q: np.ndarray) -> float:
+    """The constraint Jacobian's condition at ``q``; infinite for a pose that is not finite (a run that blew up)."""
     from .singularity import jacobian_condition  # noqa: PLC0415
 
+    if not np.all(np.isfinite(q)):
+        return float("inf")
     return jacobian_condition(constraints, q)
 
 

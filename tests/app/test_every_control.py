@@ -30,6 +30,16 @@ EXAMPLES = int(os.environ.get("LINKAGE_LAB_CONTROL_EXAMPLES", "40"))
 FATAL = ("Session paused", "Simulation stopped", "Could not start")
 
 
+def fatal(note: str) -> bool:
+    """A notice that means the session died or stopped for a reason of ours. A run that stops because the motion
+    reached a singular position is not one: random edits can leave a change-point linkage (a four-bar whose links
+    line up on its path, as the change-point preset does on purpose), and the run then stops saying so, the
+    session alive and Reset starting again (the long run found one: pin x = 0 after earlier edits)."""
+    if note.startswith("Simulation stopped") and "singular" in note:
+        return False
+    return note.startswith(FATAL)
+
+
 def _controls(session) -> list:
     """Every control of the session that carries a value (see the module's docstring)."""
     handles = session.target.gui._gui_input_handle_from_uuid.values()  # the test reads viser's registry
@@ -116,7 +126,7 @@ def test_any_value_to_any_control_is_applied_or_refused_and_the_session_lives(se
     assert not session.closed and session.player.alive, (note)
     assert session.player.wait_idle(60), (note)
     assert session.player.error is None, (note, session.player.error)
-    assert not [n for n in notes if n.startswith(FATAL)], (note, notes)
+    assert not [n for n in notes if fatal(n)], (note, notes)
     assert all("\n" not in n.split(": ", 1)[1] for n in notes), notes  # one line each
     err = capfd.readouterr().err
     assert "Traceback" not in err, (note, err[-3000:])
