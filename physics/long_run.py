@@ -207,7 +207,7 @@ def _continue(chain: Chain, start: tuple, times: np.ndarray, settings: Settings,
 # (integration and the samples' kernels, or one position analysis per sample), so a short first segment,
 # after the one-time loading, measures it.
 
-PROBE_SPAN = 0.2  # simulated seconds of the first segment of a mechanism run
+PROBE_SPAN = 2.0  # simulated seconds of the first segment of a mechanism run (milliseconds on the compiled engine)
 MAX_MECHANISM_SECONDS = 600.0  # a mechanism run estimated longer than this is refused up front
 SEGMENTED_AFTER = 5.0  # runs estimated shorter than this run in one call, exactly as before
 MAX_MECHANISM_SEGMENT = math.inf  # simulated seconds a segment of a mechanism run covers at most
