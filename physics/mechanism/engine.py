@@ -99,6 +99,7 @@ class Samples:
     multipliers: np.ndarray
     residual: np.ndarray
     kernel_condition: np.ndarray
+    constraint_jacobian: np.ndarray  # (T, r, n): the held constraints' Jacobian in the formulation's coordinates
 
 
 def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: np.ndarray, v: np.ndarray
@@ -108,14 +109,14 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
     full, condition = compiled.solve_full_batch(x, v, params)
     acceleration = full[:, compiled.theta_ddot_index]
     multipliers = full[:, compiled.multiplier_index]
-    _, phi, _ = compiled.constraint_states(times, x, v, params)
+    jacobian_rows, phi, _ = compiled.constraint_states(times, x, v, params)
     residual = np.max(np.abs(phi), axis=1, initial=0.0)
     if compiled.pose_size == 0:
-        return Samples(x, v, acceleration, multipliers, residual, condition)
+        return Samples(x, v, acceleration, multipliers, residual, condition, jacobian_rows)
     jacobian, pose, bias = compiled.kinematics_states(x, v, params)
     qdot = np.einsum("kij,kj->ki", jacobian, v)
     qddot = np.einsum("kij,kj->ki", jacobian, acceleration) + bias
-    return Samples(pose, qdot, qddot, multipliers, residual, condition)
+    return Samples(pose, qdot, qddot, multipliers, residual, condition, jacobian_rows)
 
 
 def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, *,
@@ -187,7 +188,7 @@ def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, time
         potential=potential, residual=solved.residual, trace_xy=_trace(mechanism, constraints, solved.q),
         row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows), method=method,
         stabilization=stabilization, integrated=not driven, steps=steps, evaluations=evaluations,
-        condition=np.array([_condition(constraints, pose) for pose in solved.q]),
+        condition=_conditions(constraints, solved, tree),
     )
 
 
@@ -243,6 +244,24 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
     reactions = solved.multipliers if method == "dae" else body_reactions(MechanismDAE(mechanism), solved)
     return solved.qddot[0], reactions[0]
+
+
+def _conditions(constraints, solved: Samples, tree: bool) -> np.ndarray:
+    """Every sample's condition of the constraint Jacobian ``Phi_q`` (physics/mechanism/singularity.py): for the
+    DAE from the Jacobians its samples already hold (one batched SVD), for tree coordinates per sample."""
+    if tree:
+        return np.array([_condition(constraints, pose) for pose in solved.q])
+    jacobian = solved.constraint_jacobian
+    if jacobian.shape[1] == 0:
+        return np.ones(jacobian.shape[0])
+    if not np.all(np.isfinite(jacobian)):
+        return np.array([_condition(constraints, pose) for pose in solved.q])
+    singular = np.linalg.svd(jacobian, compute_uv=False)
+    if jacobian.shape[1] > jacobian.shape[2]:
+        return np.full(jacobian.shape[0], np.inf)
+    smallest = singular[:, -1]
+    with np.errstate(divide="ignore"):
+        return np.where(smallest > 0, singular[:, 0] / np.where(smallest > 0, smallest, 1.0), np.inf)
 
 
 def _condition(constraints, q: np.ndarray) -> float:
