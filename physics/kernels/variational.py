@@ -16,7 +16,7 @@ from .constants import (
     STATUS_NOT_FINITE,
     STATUS_OK,
 )
-from .linear import ldlt_solve, lu_factor, lu_factor_solve
+from .linear import lu_factor, lu_factor_solve
 from .midpoint import hermite_samples
 from .projection import project_state
 from .system import constraint_values, has_constraints, lagrangian_pieces, make_system, set_time
@@ -94,8 +94,19 @@ def _velocity_from_momentum(system, mass_and_force, theta, momentum, params, M, 
                 for i in range(n):
                     total += J[a, i] * loop_work[b, i]
                 S[a, b] = total
-        if not ldlt_solve(S, gap, mu) < np.inf:
-            return False
+        if r == 2:  # Cramer's rule, refused only when exactly singular (a pinned chain's tip, as it always was)
+            det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+            if not abs(det) > 0.0:
+                return False
+            mu[0] = (S[1, 1] * gap[0] - S[0, 1] * gap[1]) / det
+            mu[1] = (S[0, 0] * gap[1] - S[1, 0] * gap[0]) / det
+        else:
+            for a in range(r):
+                mu[a] = gap[a]
+            row_pivots = np.empty(r, dtype=np.int64)
+            if not lu_factor(S, row_pivots):
+                return False
+            lu_factor_solve(S, row_pivots, mu)
         for i in range(n):
             for c in range(r):
                 omega[i] -= loop_work[c, i] * mu[c]
