@@ -34,9 +34,11 @@ def test_only_the_presenters_page_changes_the_shared_session(start_lab):
     g0 = session.params.chain.g
 
     viewer_line = VIEWER_LINE.split("**")[1]
-    assert viewer.page.get_by_text(viewer_line).first.is_visible()
+    # the panels arrive after the first drawing: wait for them (a loaded machine), then assert
+    wait_until(lambda: viewer.page.get_by_text(viewer_line).count() > 0
+               and viewer.page.get_by_text(viewer_line).first.is_visible(), message="the viewer's line")
+    wait_until(lambda: viewer.slider(GRAVITY).evaluate(POINTER) == "none", message="the viewer's slider locked")
     assert presenter.page.get_by_text(viewer_line).count() == 0
-    assert viewer.slider(GRAVITY).evaluate(POINTER) == "none"
     assert presenter.slider(GRAVITY).evaluate(POINTER) != "none"
 
     viewer.press_on_slider(GRAVITY, "ArrowRight", times=4)  # the keyboard reaches a slider the mouse cannot
