@@ -1,7 +1,8 @@
 """Figures for BENCHMARKS.md, issue "One pipeline": a general mechanism on the chains' compiled engine, side by
 side with another tree (``--before``, a ``git worktree`` of the commit before the work), alternated in one run.
 
-    python -m benchmarks.one_pipeline --before /tmp/before [--repeat 3] [--skip-slow-before]
+    git worktree add ../before 0a304c0
+    python -m benchmarks.one_pipeline --before ../before [--repeat 3] [--skip-slow-before]
 
 Each figure is the median CPU time (user + system: on a shared machine the wall time is mostly waiting for a
 core) of ``--repeat`` whole processes (``python -m physics ...`` started in the tree's

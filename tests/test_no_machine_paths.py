@@ -24,6 +24,7 @@ SCRATCH_EXAMPLES = {
     "Dockerfile": "the build context copied in and removed in one layer",
     "README.md": "the bench command's output folder",
     "docs/physics.md": "a private cache folder for the examples (LINKAGE_LAB_CACHE) and their outputs",
+    "docs/stability.md": "the output folders of the studies' command examples (bench, the stability study)",
     "docs/stability/work-precision.json": "the command that wrote it, as it was run",
 }
 
