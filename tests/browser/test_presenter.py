@@ -48,6 +48,10 @@ def test_only_the_presenters_page_changes_the_shared_session(start_lab):
     assert session.params.chain.g == g0
 
     presenter.press_on_slider(GRAVITY, "ArrowRight", times=4)
-    wait_until(lambda: session.params.chain.g > g0, message="the presenter's change applied")
+    # every press is its own update: wait until the session holds the presenter's last one (under load the first
+    # may be applied while the others are still on their way)
+    wait_until(lambda: session.params.chain.g > g0
+               and session.params.chain.g == pytest.approx(presenter.slider_value(GRAVITY)),
+               message="the presenter's change applied")
     g1 = session.params.chain.g
     wait_until(lambda: viewer.slider_value(GRAVITY) == pytest.approx(g1), message="the viewer sees the new value")
