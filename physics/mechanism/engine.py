@@ -27,7 +27,7 @@ def compiled_system(mechanism: Mechanism, method: str) -> CompiledSystem:
     """The generated system of ``method`` for ``mechanism``'s structure: from memory, from the cache folder, or
     derived (sympy, only on a miss) and cached."""
     shape = structure(mechanism)
-    key = f"{method.replace('_', '')}-mechanism-{structure_key(mechanism)}"
+    key = _cache_key(mechanism, method)
 
     def derive():
         from .symbolic import derive_structure  # noqa: PLC0415  (sympy only on a cache miss)
@@ -42,7 +42,12 @@ def is_compiled(mechanism: Mechanism, method: str) -> bool:
     """True when ``method``'s generated system for this structure is loaded or cached (no sympy needed)."""
     from ..codegen.cache import is_generated_key  # noqa: PLC0415
 
-    return is_generated_key(f"{method.replace('_', '')}-mechanism-{structure_key(mechanism)}")
+    return is_generated_key(_cache_key(mechanism, method))
+
+
+def _cache_key(mechanism: Mechanism, method: str) -> str:
+    """The generated system's name in the cache: its method and its structure, never its numbers."""
+    return f"{method.replace('_', '')}-mechanism-{structure_key(mechanism)}"
 
 
 @dataclass(frozen=True)
