@@ -23,12 +23,14 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-import sympy as sp
 
 from .model import GROUND, Mechanism, Revolute
+
+if TYPE_CHECKING:  # sympy is imported where symbols are made: a run from cached code never needs it
+    import sympy as sp
 
 TIME = "t"
 GRAVITY = "g"
@@ -94,7 +96,9 @@ def structure_key(mechanism: Mechanism) -> str:
 # ----------------------------------------------------------------------------------------------- the symbols
 
 def _real(name: str) -> sp.Symbol:
-    return sp.Symbol(name, real=True)
+    import sympy  # noqa: PLC0415  (sympy boundary: only a derivation makes symbols)
+
+    return sympy.Symbol(name, real=True)
 
 
 @dataclass(frozen=True)

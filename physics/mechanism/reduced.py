@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
-from scipy.integrate import solve_ivp
 
 from ..errors import LinkageError
 from .assembly import assemble, mobility_text_for, sketch_size
@@ -178,6 +177,9 @@ def simulate_reduced(
             collected.add(start, partition.name)
             break
         event = _share_event(partition, SWITCH_SHARE if switching else DEAD_CENTRE_SHARE)
+        # scipy boundary: the reduced model integrates with scipy, imported only when it runs.
+        from scipy.integrate import solve_ivp  # noqa: PLC0415
+
         solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=settings.rtol,
                              atol=settings.atol, events=[event], dense_output=True)
         if solution.status == -1:
