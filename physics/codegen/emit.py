@@ -50,7 +50,7 @@ def emit_module(system: LinearSystem, header: str) -> str:
         pieces = [((i, j), pose_jacobian[i, j]) for i in range(size) for j in range(n) if pose_jacobian[i, j] != 0]
         pieces += [(("v", i), pose[i]) for i in range(size)] + [(("v", size + i), bias[i]) for i in range(size)]
         functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v"))
-    order = llvm_ir.elimination_order(system.A)
+    order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
     if order is not None:
         functions.append(llvm_ir.structured_solve_ir(system.A, order))
 

@@ -46,6 +46,10 @@ class LinearSystem:
     time_index: int | None = None  # index of t in symbols.params (the kernels write it), None if nothing uses t
     # tree coordinates only: every body's (x, y, phi) in them, d pose / d theta, and the bias d(J)/dt omega
     kinematics: tuple | None = None
+    # Parameters that may be zero in a valid model (a guide's direction component, a point's coordinate): an
+    # entry holding one is no safe pivot for the generated elimination (physics/codegen/llvm_ir.py). A chain's
+    # entries hold its lengths, masses and inertias only where they cannot vanish, so it names none.
+    vanishing_parameters: frozenset = frozenset()
 
     def held_constraints(self) -> tuple[tuple, sp.Matrix, sp.Matrix, sp.Matrix]:
         """``(rows, phi, J, phi_dot)`` of the constraints the integrator holds: a mechanism's own, or a pinned

@@ -36,11 +36,16 @@ def derive_structure(shape: Structure, method: str) -> LinearSystem:
     if method == "dae":
         from .symbolic_dae import derive_dae  # noqa: PLC0415  (each formulation's module only when asked for)
 
-        return derive_dae(shape, params)
-    if method == "lagrange":
+        system = derive_dae(shape, params)
+    elif method == "lagrange":
         from .symbolic_lagrange import derive_lagrange  # noqa: PLC0415
 
-        return derive_lagrange(shape, params)
-    from .symbolic_newton_euler import derive_newton_euler  # noqa: PLC0415
+        system = derive_lagrange(shape, params)
+    else:
+        from .symbolic_newton_euler import derive_newton_euler  # noqa: PLC0415
 
-    return derive_newton_euler(shape, params)
+        system = derive_newton_euler(shape, params)
+    # Only masses and inertias are known not to vanish (a body must have mass to run); a point, a centre of
+    # mass or a guide's direction component is zero in many valid mechanisms, so no pivot may rely on one.
+    positive = {symbol for body in params.bodies for symbol in (body.mass, body.inertia)}
+    return dataclasses.replace(system, vanishing_parameters=frozenset(set(params.vector) - positive))
