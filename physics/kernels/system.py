@@ -112,13 +112,25 @@ def constraint_ratio(system, theta, omega, params):
     G = system[8]
     g = system[9]
     lam = system[10]
+    # G = J J^T column by column over each column's non-zeros: a mechanism's constraint touches at most two
+    # bodies, so a column has a few non-zeros and this is about r times cheaper than the dense triple loop
+    # (which cost as much as the whole solve of a six-bar, at every right-hand side). ``lam`` holds the
+    # column's non-zero rows meanwhile (it is the solve's output afterwards).
+    G[:, :] = 0.0
+    for c in range(n):
+        count = 0
+        for i in range(r):
+            if J[i, c] != 0.0:
+                lam[count] = i
+                count += 1
+        for a in range(count):
+            row_a = int(lam[a])
+            value = J[row_a, c]
+            for b in range(count):
+                row_b = int(lam[b])
+                G[row_a, row_b] += value * J[row_b, c]
     for i in range(r):
         g[i] = 1.0
-        for j in range(r):
-            total = 0.0
-            for c in range(n):
-                total += J[i, c] * J[j, c]
-            G[i, j] = total
     ratio = ldlt_solve(G, g, lam)
     if not ratio < np.inf:
         return np.inf
