@@ -24,7 +24,7 @@ from ..errors import LinkageError
 from .assembly import assemble, sketch_size
 from .constraints import Constraints
 from .dae import MechanismDAE
-from .model import GROUND, Mechanism, Prismatic, Revolute
+from .model import GROUND, Gear, Mechanism, Prismatic, Revolute
 from .reactions import reaction_row_names
 
 STATE_METHODS = ("dae", "lagrange", "newton_euler")  # the formulations that give accelerations at one state
@@ -108,7 +108,7 @@ class Load:
     ``moment`` about the body's centre of mass (N m; for a force, the moment of the force)."""
 
     name: str
-    kind: str  # gravity, pin, slider, motor, torque motor, damping
+    kind: str  # gravity, pin, slider, motor, gear, torque motor, damping
     force: tuple[float, float]
     moment: float
     at: tuple[float, float] | None
@@ -175,7 +175,7 @@ def free_body(mechanism: Mechanism, instant: Instant, body_name: str) -> FreeBod
         joint = joints[joint_name]
         for meaning_set, kind in (({"x gap", "y gap"}, "pin"),
                                   ({"offset across the guide", "relative rotation"}, "slider"),
-                                  ({"driven angle"}, "motor")):
+                                  ({"driven angle"}, "motor"), ({"contact torque"}, "gear")):
             rows = [r for r, row in enumerate(constraints.rows) if row.joint == joint_name and row.meaning in meaning_set]
             if not rows:
                 continue
@@ -183,6 +183,9 @@ def free_body(mechanism: Mechanism, instant: Instant, body_name: str) -> FreeBod
             if not np.any(jacobian[rows, columns]):
                 continue  # this joint does not touch the body
             force, moment = (float(generalised[0]), float(generalised[1])), float(generalised[2])
+            if isinstance(joint, Gear):  # a couple: the mesh's torque on this body, ratio-scaled on the first gear
+                loads.append(Load(f"gear {joint_name} ({' - '.join(joint.joints)})", kind, (0.0, 0.0), moment, None))
+                continue
             other = _other_side(joint, body_name)
             if kind == "pin":
                 assert isinstance(joint, Revolute)
