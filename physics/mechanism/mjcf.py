@@ -150,6 +150,9 @@ def to_mjcf(mechanism: Mechanism, timestep: float = MJCF_TIMESTEP) -> str:
     for body in mechanism.bodies:
         if body.name in RESERVED_BODY_NAMES:
             raise LinkageError(f"body {body.name!r}: MuJoCo reserves this name for the fixed frame; rename the body")
+    for joint in mechanism.joints:
+        if not isinstance(joint, (Revolute, Prismatic, Gear)):
+            raise LinkageError(f"joint {joint.name!r}: a {joint.kind} joint has no MJCF counterpart here")
     posed = at_assembled_pose(mechanism)
     parent, cut = spanning_tree(posed)
     drivers = {driver.joint: driver for driver in posed.drivers}

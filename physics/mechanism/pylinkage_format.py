@@ -294,9 +294,10 @@ def to_pylinkage(mechanism: Mechanism) -> dict:
         pin = block_pins[0]
         slots[pin.b if pin.a == sliding else pin.a] = joint
     for joint in posed.joints:
-        if isinstance(joint, Gear):
-            raise LinkageError(f"joint {joint.name!r}: a gear pair has no pylinkage counterpart (pylinkage's joints "
-                               "are pins, cranks and slots)")
+        if not isinstance(joint, (Revolute, Prismatic)):
+            what = "a gear pair" if isinstance(joint, Gear) else f"a {joint.kind} joint"
+            raise LinkageError(f"joint {joint.name!r}: {what} has no pylinkage counterpart (pylinkage's joints are "
+                               "pins, cranks and slots)")
     for driver in posed.drivers:
         if driver.torque is not None:
             raise LinkageError(f"driver on {driver.joint!r}: a torque motor has no pylinkage counterpart (pylinkage "

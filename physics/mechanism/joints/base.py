@@ -87,6 +87,10 @@ class JointKind(ABC):
     def values(self, joint: Any, mechanism: Any) -> list[float]:
         """Its entries of the parameter vector, in the order of ``fields``."""
 
+    def drawn_between(self, joint: Any, mechanism: Any) -> tuple[str, ...]:
+        """The ``body.point`` references its drawing joins (a ground point as ``ground.NAME``)."""
+        return ()
+
     def angle_rows(self, bodies: Sequence[int], values: Sequence[Any]) -> list[AngleRow]:
         """Its rows that hold a sum of body angles, from ``bodies`` (see :meth:`structure_bodies`) and its
         parameter ``values`` (symbols or numbers, the order of ``fields``). None for a kind of point rows."""

@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from .base import AngleRow, JointKind
+from .base import GROUND, AngleRow, JointKind
 
 MAX_RATIO = 1e3
 MAX_OFFSET = 1e3  # rad
@@ -52,7 +52,7 @@ class GearKind(JointKind):
     removed = 1
     fields = ("ratio", "offset")
     symbols = ("ratio", "offset")
-    drawing = "mesh"
+    drawing = "mesh"  # a line between its two pins (app/mechanism_scene.py)
 
     def bodies(self, joint: Gear) -> None:
         return None
@@ -81,6 +81,16 @@ class GearKind(JointKind):
             pin = by_name[name]
             out += [body(pin.a.split(".")[0]), body(pin.b.split(".")[0])]
         return tuple(out)
+
+    def drawn_between(self, joint: Gear, mechanism: Any) -> tuple[str, ...]:
+        """A line between its two pins, each at its moving body's point (a pin's ``b`` side unless that is the
+        ground)."""
+        by_name = {other.name: other for other in mechanism.joints}
+        ends = []
+        for name in joint.joints:
+            pin = by_name[name]
+            ends.append(pin.b if pin.b.split(".")[0] != GROUND else pin.a)
+        return tuple(ends)
 
     def angle_rows(self, bodies, values) -> list[AngleRow]:
         a1, b1, a2, b2 = bodies
