@@ -7,7 +7,8 @@
 * Two geared discs turned by a torque motor: the speed ratio at every sample of a run and the contact torque of
   the torque balance of each disc (``I1 a1 = tau - ratio lambda``, ``I2 a2 = lambda``), in closed form.
 * The geared five-bar preset against a position analysis written here (its cranks' angles from the motor and the
-  gear, the couplers' meeting point by intersecting two circles).
+  gear, the couplers' meeting point by intersecting two circles); free under a torque motor, the same run in the
+  three formulations and the reduced model, with the motor's work the only energy gained.
 * The file format: TOML and JSON, and one-line refusals naming the field and the range.
 """
 
@@ -423,3 +424,23 @@ def test_a_motor_on_a_gear_is_refused():
     text = GEARED_TOML + '\n[[drivers]]\njoint = "mesh"\nspeed = 1.0\n'
     with pytest.raises(LinkageError, match="driver on 'mesh': motors drive revolute joints only"):
         mechanism_from_text(text, "discs.toml")
+
+
+def test_a_free_geared_five_bar_runs_alike_in_every_method_and_its_gear_does_no_work():
+    """The preset with a torque motor instead of its speed motor (one free coordinate): the three formulations
+    and the reduced model give one motion and one set of reactions, the cranks keep the ratio, and the energy
+    gained is the motor's work alone, ``tau * angle(O1)`` (the gear's two torques do no work together)."""
+    spec = MECHANISM_PRESETS["geared-five-bar"]().model_dump()
+    tau = 0.05
+    spec["drivers"] = [{"joint": "O1", "torque": tau}]
+    mechanism = Mechanism.model_validate(spec)
+    runs = {method: simulate_mechanism(mechanism, 1.0, 21, method=method) for method in (*METHODS, "reduced")}
+    reference = runs["dae"]
+    assert abs(reference.q[-1, 2]) > 3.0  # the cranks turn through more than half a turn
+    np.testing.assert_allclose(reference.q[:, 5], -reference.q[:, 2], atol=1e-9)
+    energy = reference.kinetic + reference.potential
+    np.testing.assert_allclose(energy - energy[0], tau * reference.q[:, 2], atol=1e-7)
+    for method, run in runs.items():
+        np.testing.assert_allclose(run.q, reference.q, atol=1e-7, err_msg=method)
+        np.testing.assert_allclose(run.reactions, reference.reactions, atol=1e-6 * np.max(np.abs(reference.reactions)),
+                                   err_msg=method)
