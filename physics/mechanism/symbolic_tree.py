@@ -9,8 +9,11 @@ derivation serves every mechanism of that structure.
 Coordinates as in today's tree (the spanning tree of :func:`physics.mechanism.topology.analyse`, the same
 breadth-first search over joints in order): a pin's is the child's rotation relative to its parent, zero in the
 sketch; a slider's is its travel along the guide from where the sketch draws it. The joints left out of the tree
-(in joint order) and the speed motors (in driver order) are the constraint rows, in the DAE's form, so every
-formulation's multipliers mean the same (a pin's: the force ON body ``a`` BY body ``b``).
+(in joint order; a gear pair, which joins no bodies, is always one) and the speed motors (in driver order) are the
+constraint rows, in the DAE's form, so every formulation's multipliers mean the same (a pin's: the force ON body
+``a`` BY body ``b``). A row that holds a sum of body angles (a motor's, a gear's) comes from its joint kind
+(:meth:`physics.mechanism.joints.JointKind.angle_rows`) as a ``ClosureRow`` of form ``"angle"``; each tree
+formulation differentiates the sum its own way.
 
 Planar vectors are plain ``(x, y)`` tuples of sympy expressions: cheaper to build than matrices.
 """
