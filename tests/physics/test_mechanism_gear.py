@@ -444,3 +444,22 @@ def test_a_free_geared_five_bar_runs_alike_in_every_method_and_its_gear_does_no_
         np.testing.assert_allclose(run.q, reference.q, atol=1e-7, err_msg=method)
         np.testing.assert_allclose(run.reactions, reference.reactions, atol=1e-6 * np.max(np.abs(reference.reactions)),
                                    err_msg=method)
+
+
+def test_the_command_line_sets_a_gears_ratio_and_refuses_a_zero_one(capsys, tmp_path):
+    from physics.cli import main  # noqa: PLC0415
+    from physics.mechanism.cli_runs import with_settings  # noqa: PLC0415
+
+    preset = MECHANISM_PRESETS["geared-five-bar"]()
+    changed = with_settings(preset, {"gears.ratio": "-2", "gears.offset": "0.1"})
+    assert (changed.joints[-1].ratio, changed.joints[-1].offset) == (-2.0, 0.1)
+    argv = ["simulate", "--preset", "geared-five-bar", "--t-end", "0.5", "--samples", "6"]
+    assert main([*argv, "--out", str(tmp_path / "one.csv")]) == 0
+    assert main([*argv, "--set", "gears.ratio=-2", "--out", str(tmp_path / "two.csv")]) == 0
+    one, two = (np.loadtxt(tmp_path / name, delimiter=",", skiprows=1) for name in ("one.csv", "two.csv"))
+    assert np.allclose(one[0, 1:3], two[0, 1:3]) and not np.allclose(one[-1, 1:3], two[-1, 1:3])  # C moves otherwise
+    capsys.readouterr()
+    assert main([*argv, "--set", "gears.ratio=0"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == ("error: --set: joint 'gears': ratio: must not be 0: allowed -1000 <= ratio <= 1000, ratio != 0 "
+                     "(a zero ratio would lock the second joint)")
