@@ -390,6 +390,10 @@ def test_a_gear_reads_from_toml_and_json_alike():
     assert isinstance(gear, Gear) and gear.joints == ("P1", "P2") and gear.ratio == -2.0
     assert analyse(from_toml).mobility == 1
     assert reaction_row_names(from_toml)[-1] == "mesh: contact torque"
+    from physics.mechanism.writer import to_json, to_toml  # noqa: PLC0415
+
+    preset = MECHANISM_PRESETS["geared-five-bar"]()  # written and read back unchanged, both ways
+    assert mechanism_from_text(to_toml(preset), "g5.toml") == preset == mechanism_from_text(to_json(preset), "g5.json")
 
 
 @pytest.mark.parametrize(("change", "message"), [
