@@ -9,6 +9,9 @@ import viser
 
 from app.mechanism_runs import centres_at, drawing, points_at
 from app.mechanism_scene import MESH_WIDTH_SHARE, MechanismScene
+from app.mechanism_session import MechanismSession
+from app.server import LabServer
+from conftest import BrowserStandIn, wait_until
 from physics.mechanism import MECHANISM_PRESETS
 from physics.mechanism.assembly import assemble
 from physics.mechanism.simulate import simulate_mechanism
@@ -48,3 +51,25 @@ def test_the_geared_five_bar_draws_its_gear_as_a_line_between_its_pins(server):
 def test_a_mechanism_without_gears_draws_no_line():
     draw = drawing(MECHANISM_PRESETS["crank-rocker"]())
     assert draw.meshes.shape == (0, 2)
+
+
+def test_a_session_plays_the_geared_five_bar_with_its_gear_line_and_contact_torque():
+    """The app's session of the preset: it plays, the gear's line is among the bars the browser receives, and
+    every sample holds a finite contact torque in the row the CSV names ``gears: contact torque``."""
+    server = LabServer(port=0, warm=False, preset="geared-five-bar")
+    client = BrowserStandIn(server.url)
+    try:
+        assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+        (session,) = server.sessions.values()
+        assert isinstance(session, MechanismSession)
+        assert session.player.wait_idle(60)
+        first = session.player.display_time
+        assert wait_until(lambda: session.player.display_time > first + 0.3, timeout=60)
+        assert session.scene.draw is not None and len(session.scene.draw.meshes) == 1
+        assert len(session.scene.poses()) == len(session.scene.draw.segments) + 1
+        ring = session.player.runs[0].ring
+        row = session.spec.row_names.index("gears: contact torque")
+        assert np.isfinite(ring.get("reactions", len(ring) - 1)[row])
+    finally:
+        client.close()
+        server.stop()
