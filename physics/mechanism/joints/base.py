@@ -16,8 +16,9 @@ than switching on a tag:
   way) and floats for the numeric constraints of assembly and reactions;
 * how it is drawn: ``drawing``, a word the app's scene reads (``"pin"``, ``"guide"``, ``"mesh"``).
 
-The two point rows (a pin's gap, a slider's offset across its turning guide) are primitives of the formulations
-themselves, as the rigid-body kinematics that every kind's rows are written in.
+A pin's rows (the gap between its two points) and a slider's (its offset across the turning guide and its relative
+rotation), with the tree coordinate each carries, are written by each formulation with its own rigid-body
+kinematics (docs/mechanisms.md, "The joint interface").
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from .base import GROUND, AngleRow, JointKind, Point, finite_point
+from .base import GROUND, JointKind, Point, finite_point
 from .revolute import arm
 
 
@@ -62,10 +62,6 @@ class PrismaticKind(JointKind):
         return [*arm(mechanism, f"{joint.body}.{joint.point}", joint.name),
                 *arm(mechanism, f"{joint.on}.{joint.through}", joint.name),
                 joint.direction[0] / length, joint.direction[1] / length, joint.damping]
-
-    def angle_rows(self, bodies, values) -> list[AngleRow]:
-        """Its second row: ``phi_body - phi_on = 0``."""
-        return [AngleRow(((1, bodies[0]), (-1, bodies[1])))]
 
 
 KIND = PrismaticKind()
