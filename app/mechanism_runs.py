@@ -19,6 +19,7 @@ from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
+from physics.mechanism.joints import kind_of
 from physics.mechanism.run import MechanismRun
 from physics.mechanism.validation import check_runnable
 
@@ -65,6 +66,8 @@ class Drawing:
     ground: np.ndarray
     guides: np.ndarray
     size: float
+    # pairs of point indices a coupling joint is drawn between (a gear pair: its two pins)
+    meshes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
 
 
 def _outline(points: np.ndarray) -> list[int]:
@@ -124,7 +127,10 @@ def drawing(mechanism: Mechanism) -> Drawing:
             through = np.array(mechanism.ground[joint.through])
             u = np.array(joint.direction) / np.hypot(*joint.direction)
             guides.append((through - 0.75 * size * u, through + 0.75 * size * u))
+    meshes = [[index[end] for end in kind_of(joint).drawn_between(joint, mechanism)] for joint in mechanism.joints
+              if kind_of(joint).drawing == "mesh"]
     return Drawing(
+        meshes=np.array([pair for pair in meshes if len(pair) == 2], dtype=int).reshape(-1, 2),
         labels=tuple(labels), owner=np.array(owner, dtype=int), offset=np.array(offset, dtype=float).reshape(-1, 2),
         segments=np.array(segments, dtype=int).reshape(-1, 2), segment_body=np.array(segment_body, dtype=int),
         joints=np.array(joint_points, dtype=int), ground=np.array(list(mechanism.ground.values()),

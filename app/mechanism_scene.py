@@ -4,7 +4,8 @@ The same batched nodes as :class:`app.scene.LinkageScene`, under the same root, 
 whatever the mechanism and the tools that count frames (app/wsclient.py) see no difference::
 
     {root}/bars        one batched box mesh: instance k is segment k of the drawing (a bar body is one segment,
-                       a plate the edges of its outline), coloured by body
+                       a plate the edges of its outline), coloured by body, then one thin grey bar per gear
+                       pair between its two pins (the drawing's ``meshes``: a joint kind drawn as ``"mesh"``)
     {root}/spheres     one batched sphere mesh: instances 0..P-1 the drawn points (joints larger), then one per
                        centre of mass
     {root}/ground_k    the fixed points; {root}/guides the sliders' guides on the ground (static)
@@ -39,6 +40,8 @@ from .shapes import UNIT_BOX, UNIT_SPHERE
 from .viser_compat import update_node_props
 
 POINT_COLOR = (150, 150, 150)  # a body's point that is not a joint (a traced point, a plate's corner)
+MESH_COLOR = (120, 120, 120)  # the line between a gear pair's two pins
+MESH_WIDTH_SHARE = 0.35  # of a bar's width: the gear's line reads as a link of another kind than the bodies
 
 
 class MechanismScene:
@@ -88,7 +91,7 @@ class MechanismScene:
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
         scales = self._scales(points_xy)
         box_vertices, box_faces = UNIT_BOX
-        colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body]
+        colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body] + [MESH_COLOR] * len(draw.meshes)
         if len(bar_positions):
             self._bars = scene.add_batched_meshes_simple(
                 f"{self.root}/bars", box_vertices, box_faces, batched_wxyzs=bar_wxyzs,
@@ -115,6 +118,7 @@ class MechanismScene:
         old = self.draw
         return (old is not None and self._spheres is not None and old.labels == draw.labels
                 and np.array_equal(old.segments, draw.segments) and np.array_equal(old.ground, draw.ground)
+                and np.array_equal(old.meshes, draw.meshes)
                 and old.guides.shape == draw.guides.shape)
 
     def _scales(self, points_xy: np.ndarray) -> np.ndarray:
@@ -126,18 +130,25 @@ class MechanismScene:
         scales[:, 0] = np.maximum(lengths, 1e-6)
         draw = self.draw
         plate = np.bincount(draw.segment_body, minlength=int(draw.owner.max(initial=0)) + 1)[draw.segment_body] > 1
-        scales[plate, 1:] *= 0.6
+        scales[: len(plate)][plate, 1:] *= 0.6
+        scales[len(plate):, 1:] *= MESH_WIDTH_SHARE
         return scales
+
+    def _segments(self) -> np.ndarray:
+        """Every bar instance's two point indices: the bodies' segments, then the gears' lines."""
+        assert self.draw is not None
+        return np.concatenate([self.draw.segments, self.draw.meshes.astype(self.draw.segments.dtype)])
 
     def _lengths(self, points_xy: np.ndarray) -> np.ndarray:
         assert self.draw is not None
-        a, b = points_xy[self.draw.segments[:, 0]], points_xy[self.draw.segments[:, 1]]
+        segments = self._segments()
+        a, b = points_xy[segments[:, 0]], points_xy[segments[:, 1]]
         return np.hypot(*(b - a).T) if len(a) else np.zeros(0)
 
     def _instances(self, points_xy: np.ndarray, com_xy: np.ndarray):
         assert self.draw is not None
         points_xy = np.asarray(points_xy, dtype=float)
-        segments = self.draw.segments
+        segments = self._segments()
         bar_positions, bar_wxyzs = bar_instances(points_xy[segments[:, 0]], points_xy[segments[:, 1]])
         spheres = np.concatenate([points_xy, np.asarray(com_xy, dtype=float)])
         return bar_positions, bar_wxyzs, to_world(spheres).astype(np.float32)

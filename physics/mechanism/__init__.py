@@ -1,14 +1,15 @@
-"""Any planar mechanism: rigid bodies, pins, sliders and motors, described by the user or by a preset.
+"""Any planar mechanism: rigid bodies, pins, sliders, gear pairs and motors, described by the user or by a preset.
 
 This package describes a mechanism (:mod:`.model`, :mod:`.files`), checks its topology and counts its degrees
 of freedom (:mod:`.topology`), writes its constraint equations in maximal coordinates (:mod:`.constraints`) and
 assembles it from a rough sketch (:mod:`.assembly`). The chain and four-bar of the rest of Linkage Lab are its
-special cases.
+special cases. Each joint kind is one module of :mod:`.joints` behind one interface (docs/mechanisms.md, "The
+joint interface").
 """
 
 from .assembly import Assembled, assemble
 from .constraints import Constraints
-from .model import Body, Driver, Mechanism, Prismatic, Revolute
+from .model import Body, Driver, Gear, Mechanism, Prismatic, Revolute
 from .presets import MECHANISM_PRESETS
 from .topology import Loop, Topology, analyse
 
@@ -17,6 +18,7 @@ __all__ = [
     "Body",
     "Constraints",
     "Driver",
+    "Gear",
     "Loop",
     "MECHANISM_PRESETS",
     "Mechanism",

@@ -107,14 +107,14 @@ def with_settings(mechanism: Mechanism, overrides: dict[str, str]) -> Mechanism:
         owner, _, what = name.rpartition(".")
         if what in ("mass", "inertia") and owner in bodies:
             bodies[owner][what] = value
-        elif what == "damping" and owner in joints:
-            joints[owner]["damping"] = value
+        elif what in ("damping", "ratio", "offset") and what in joints.get(owner, {}):  # a gear's ratio, offset
+            joints[owner][what] = value
         elif what in ("speed", "torque") and owner in joints:
             drivers = [driver for driver in document.get("drivers", []) if driver["joint"] != owner]
             document["drivers"] = [*drivers, {"joint": owner, what: value}]
         else:
             raise LinkageError(
-                f"--set {name}={text}: names g, BODY.{{mass,inertia}} or JOINT.{{damping,speed,torque}} (bodies: "
+                f"--set {name}={text}: names g, BODY.{{mass,inertia}}, JOINT.{{damping,speed,torque}} or GEAR.{{ratio,offset}} (bodies: "
                 f"{', '.join(bodies)}; joints: {', '.join(joints)})")
     return mechanism_from_document(document, source="--set")
 

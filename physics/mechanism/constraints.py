@@ -10,7 +10,11 @@ equations ``Phi(q, t) = 0``:
   guide ``n_j . (p_i(s_p) - p_j(s_t)) = 0`` with ``n_j = R(phi_j) perp(u)``, and the relative rotation
   ``phi_i - phi_j = 0``;
 * a speed driver on a revolute joint from body i (``a``) to body j (``b``): ``phi_j - phi_i - omega t = 0``
-  (body b turns at ``omega`` relative to body a).
+  (body b turns at ``omega`` relative to body a);
+* a gear pair of joints 1 and 2: ``(phi_b2 - phi_a2) - ratio (phi_b1 - phi_a1) - offset = 0``.
+
+The rows of a sum of body angles (motor, gear, each kind's :meth:`~physics.mechanism.joints.JointKind.angle_rows`)
+come from the joint kinds themselves, the same functions the symbolic derivations call with symbols.
 
 The ground has ``q = 0`` always and no columns. These are the equations position analysis solves and, later,
 the DAE formulation differentiates; numeric here (numpy), with an exact Jacobian.
@@ -22,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import GROUND, Mechanism, Revolute
+from .joints import MOTOR, kind_of
+from .model import GROUND, Mechanism, Prismatic, Revolute
 
 _PERP = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees: d/dphi R(phi) = PERP R(phi)
 
@@ -49,13 +54,15 @@ def _perp(vectors: np.ndarray) -> np.ndarray:
 
 
 class _JointArrays:
-    """The joints of each kind as arrays (body numbers, arms, rows), so that the equations are evaluated for all
-    joints of a kind at once: the integrator evaluates them thousands of times a second. The ground is body
-    number ``B`` here (a spare slot whose pose is always zero)."""
+    """The joints of each form as arrays (body numbers, arms, rows), so that the equations are evaluated for all
+    joints of a form at once: the integrator evaluates them thousands of times a second. The ground is body
+    number ``B`` here (a spare slot whose pose is always zero). Rows that hold a sum of body angles (a speed
+    motor's, a gear's: :class:`~physics.mechanism.joints.AngleRow`) are one sparse matrix ``angle_matrix`` (rows
+    by bodies) with their constants and rates."""
 
     def __init__(self, items: list[tuple], bodies: int) -> None:
         row = 0
-        pins, slides, motors = [], [], []
+        pins, slides, angles = [], [], []
         for item in items:
             if item[0] == "pin":
                 pins.append((row, *item[1:]))
@@ -64,7 +71,7 @@ class _JointArrays:
                 slides.append((row, *item[1:]))
                 row += 2
             else:
-                motors.append((row, *item[1:]))
+                angles.append((row, item[1]))
                 row += 1
 
         def body(k: int) -> int:
@@ -81,10 +88,14 @@ class _JointArrays:
         self.slide_on, self.slide_st = np.array([body(s[3]) for s in slides], dtype=int), arms(slides, 4)
         self.slide_m = arms(slides, 5)
         self.slide_u = arms(slides, 6)  # the guide's direction in the sketch (slide_m is it turned by +90 degrees)
-        self.motor_rows = np.array([m[0] for m in motors], dtype=int)
-        self.motor_a = np.array([body(m[1]) for m in motors], dtype=int)
-        self.motor_b = np.array([body(m[2]) for m in motors], dtype=int)
-        self.motor_speed = np.array([m[3] for m in motors], dtype=float)
+        self.angle_rows = np.array([r for r, _ in angles], dtype=int)
+        self.angle_matrix = np.zeros((len(angles), bodies + 1))
+        for number, (_, angle_row) in enumerate(angles):
+            for c, k in angle_row.terms:
+                self.angle_matrix[number, body(k)] += float(c)
+        self.angle_matrix[:, bodies] = 0.0  # the ground's angle is zero
+        self.angle_constant = np.array([float(r.constant) for _, r in angles], dtype=float)
+        self.angle_rate = np.array([float(r.rate) for _, r in angles], dtype=float)
 
 
 class _Frame:
@@ -135,21 +146,25 @@ class Constraints:
         rows: list[Row] = []
         speeds = {driver.joint: driver.speed for driver in mechanism.drivers if driver.speed is not None}
         for joint in mechanism.joints:
+            kind = kind_of(joint)
+            rows += [Row(joint.name, meaning) for meaning in kind.meanings]
             if isinstance(joint, Revolute):
                 a_body, b_body = joint.a.split(".")[0], joint.b.split(".")[0]
                 s_a = self._relative(a_body, mechanism.point_of(joint.a, joint.name))
                 s_b = self._relative(b_body, mechanism.point_of(joint.b, joint.name))
                 self._items.append(("pin", self._index(a_body), s_a, self._index(b_body), s_b))
-                rows += [Row(joint.name, "x gap"), Row(joint.name, "y gap")]
                 if joint.name in speeds:
-                    self._items.append(("speed", self._index(a_body), self._index(b_body), float(speeds[joint.name])))
-                    rows.append(Row(joint.name, "driven angle"))
-            else:
+                    ends = (self._index(a_body), self._index(b_body))
+                    self._items += [("angle", row) for row in MOTOR.angle_rows(ends, float(speeds[joint.name]))]
+                    rows += [Row(joint.name, meaning) for meaning in MOTOR.meanings]
+            elif isinstance(joint, Prismatic):
                 s_p = self._relative(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
                 s_t = self._relative(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
                 u = np.array(joint.direction) / np.hypot(*joint.direction)
                 self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u, u))
-                rows += [Row(joint.name, "offset across the guide"), Row(joint.name, "relative rotation")]
+            else:
+                bodies = kind.structure_bodies(joint, self._index, mechanism)
+                self._items += [("angle", row) for row in kind.angle_rows(bodies, kind.values(joint, mechanism))]
         self.rows = tuple(rows)
         self._arrays = _JointArrays(self._items, len(mechanism.bodies))
 
@@ -194,9 +209,9 @@ class Constraints:
             gap = frame.points(arrays.slide_body, arrays.slide_sp) - frame.points(arrays.slide_on, arrays.slide_st)
             out[arrays.slide_rows] = np.sum(normal * gap, axis=1)
             out[arrays.slide_rows + 1] = frame.angle[arrays.slide_body] - frame.angle[arrays.slide_on]
-        if arrays.motor_rows.size:
-            out[arrays.motor_rows] = (frame.angle[arrays.motor_b] - frame.angle[arrays.motor_a]
-                                      - arrays.motor_speed * t)
+        if arrays.angle_rows.size:
+            out[arrays.angle_rows] = (arrays.angle_matrix @ frame.angle - arrays.angle_constant
+                                      - arrays.angle_rate * t)
         return out
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
@@ -225,9 +240,8 @@ class Constraints:
                                             axis=1)
             out[rows + 1, 3 * body + 2] += 1.0
             out[rows + 1, 3 * on + 2] -= 1.0
-        if arrays.motor_rows.size:
-            out[arrays.motor_rows, 3 * arrays.motor_b + 2] += 1.0
-            out[arrays.motor_rows, 3 * arrays.motor_a + 2] -= 1.0
+        if arrays.angle_rows.size:
+            out[arrays.angle_rows, 2::3] += arrays.angle_matrix
         return out[:, : self.size]
 
     def sliding_jacobian(self, q: np.ndarray) -> np.ndarray:
@@ -255,15 +269,9 @@ class Constraints:
 
     def velocity_rhs(self) -> np.ndarray:
         """``nu`` with ``Phi_q qdot = nu``: minus the explicit time derivative, non-zero on driven rows only."""
-        out: list[float] = []
-        for item in self._items:
-            if item[0] == "pin":
-                out += [0.0, 0.0]
-            elif item[0] == "slide":
-                out += [0.0, 0.0]
-            else:
-                out.append(item[3])
-        return np.array(out)
+        out = np.zeros(len(self.rows))
+        out[self._arrays.angle_rows] = self._arrays.angle_rate
+        return out
 
     def acceleration_rhs(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """``gamma`` with ``Phi_q qddot = gamma``: the terms of the second time derivative of ``Phi`` that do not

@@ -12,11 +12,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from ..errors import LinkageError
 from ..files import read_limited
-from .model import Body, Driver, Mechanism, Prismatic, Revolute
+from .joints import KINDS
+from .model import Body, Driver, Mechanism
 
 MAX_FILE_BYTES = 1_000_000
 
@@ -38,7 +39,7 @@ def _element_name(document: Any, location: tuple) -> str:
             node = item
             index += 2
             continue
-        if isinstance(key, str) and key not in ("revolute", "prismatic"):
+        if isinstance(key, str) and key not in KINDS:
             parts.append(key)
         node = node.get(key) if isinstance(node, dict) else None
         index += 1
@@ -60,7 +61,7 @@ def mechanism_from_document(document: Any, source: str = "mechanism") -> Mechani
         raise LinkageError(f"{source}: {where + ': ' if where else ''}{message}") from None
 
 
-_MODELS = (Body, Revolute, Prismatic, Driver, Mechanism)
+_MODELS: tuple[type[BaseModel], ...] = (Body, *(kind.model for kind in KINDS.values()), Driver, Mechanism)
 
 
 def _allowed_range(field: str) -> str:
@@ -80,7 +81,7 @@ def _number_message(location: tuple, value: Any, message: str) -> str:
     """NaN, infinity, text or a boolean where a number belongs: say it must be a finite number, with the range
     (pydantic's own words for NaN compared it with the upper bound)."""
     field = next((str(part) for part in reversed(location) if isinstance(part, str) and part not in
-                  ("revolute", "prismatic", "float")), "")
+                  (*KINDS, "float")), "")
     allowed = _allowed_range(field)
     got = f"got {value!r}" if not isinstance(value, (dict, list)) else f"got {type(value).__name__}"
     return f"must be a finite number ({got})" + (f"; allowed range {allowed}" if allowed else "")

@@ -22,6 +22,8 @@ the same bodies, masses and joints, so either tool's run can be checked against 
   control needed); a speed motor is a velocity servo, force ``kv (speed - rate)`` with ``kv`` the driven bodies'
   inertia about the motor over ``SPEED_SERVO_STEPS`` time steps: it follows the speed after a short start from rest,
   not the exact angle our motor prescribes (MuJoCo has no time-dependent equality constraint);
+* a gear pair: an ``<equality><joint>`` between its two hinges (``polycoef`` ``0 ratio 0 0 0``, the ratio
+  signed by which side of each pin is the hinge's child); a geared pin that closes a loop is refused;
 * damping: a joint's ``damping``; contacts: none (every geom ``contype = conaffinity = 0``); every named point
   is a ``site`` named ``body.point`` (``ground.X`` for ground points), so a run can be read by point name.
 """
@@ -32,7 +34,7 @@ import math
 import xml.etree.ElementTree as ET
 
 from ..errors import LinkageError
-from .model import GROUND, Mechanism, Prismatic, Revolute
+from .model import GROUND, Gear, Mechanism, Prismatic, Revolute
 from .posed import at_assembled_pose
 
 MJCF_TIMESTEP = 2e-4  # s: the file's default time step (``timestep=`` or ``--timestep`` for another)
@@ -60,8 +62,18 @@ def _vector(x: float, y: float) -> str:
     return f"{_number(x)} 0 {_number(y)}"
 
 
+def _gears(mechanism: Mechanism) -> list[Gear]:
+    return [joint for joint in mechanism.joints if isinstance(joint, Gear)]
+
+
+def _linking(mechanism: Mechanism) -> list[Revolute | Prismatic]:
+    """The joints that join two bodies (a gear joins none: it couples two pins' angles)."""
+    return [joint for joint in mechanism.joints if isinstance(joint, (Revolute, Prismatic))]
+
+
 def _priority(mechanism: Mechanism, joint: Revolute | Prismatic) -> int:
     driven = {driver.joint for driver in mechanism.drivers}
+    driven |= {name for gear in _gears(mechanism) for name in gear.joints}
     if isinstance(joint, Prismatic):
         return 0
     if joint.name in driven or joint.damping > 0:
@@ -88,7 +100,7 @@ def spanning_tree(mechanism: Mechanism) -> tuple[dict[str, tuple[Revolute | Pris
 
     tree: list[Revolute | Prismatic] = []
     cut: list[Revolute | Prismatic] = []
-    for joint in sorted(mechanism.joints, key=lambda j: _priority(mechanism, j)):
+    for joint in sorted(_linking(mechanism), key=lambda j: _priority(mechanism, j)):
         first, second = (find(end) for end in _ends(joint))
         if first == second:
             cut.append(joint)
@@ -138,10 +150,17 @@ def to_mjcf(mechanism: Mechanism, timestep: float = MJCF_TIMESTEP) -> str:
     for body in mechanism.bodies:
         if body.name in RESERVED_BODY_NAMES:
             raise LinkageError(f"body {body.name!r}: MuJoCo reserves this name for the fixed frame; rename the body")
+    for joint in mechanism.joints:
+        if not isinstance(joint, (Revolute, Prismatic, Gear)):
+            raise LinkageError(f"joint {joint.name!r}: a {joint.kind} joint has no MJCF counterpart here")
     posed = at_assembled_pose(mechanism)
     parent, cut = spanning_tree(posed)
     drivers = {driver.joint: driver for driver in posed.drivers}
+    geared = {name for gear in _gears(posed) for name in gear.joints}
     for joint in cut:
+        if joint.name in geared:
+            raise LinkageError(f"joint {joint.name!r}: a geared pin closes a loop, and MuJoCo gears only joints of "
+                               "its tree; remove a pin of its loop or gear another pin")
         if isinstance(joint, Prismatic):
             raise LinkageError(
                 f"joint {joint.name!r}: a slider that closes a loop has no MJCF counterpart here (MuJoCo closes loops "
@@ -210,7 +229,8 @@ def to_mjcf(mechanism: Mechanism, timestep: float = MJCF_TIMESTEP) -> str:
     for name in children[GROUND]:
         write_body(world, name)
 
-    if cut:
+    gears = _gears(posed)
+    if cut or gears:
         equality = ET.SubElement(root, "equality")
         for joint in cut:
             assert isinstance(joint, Revolute)
@@ -221,14 +241,17 @@ def to_mjcf(mechanism: Mechanism, timestep: float = MJCF_TIMESTEP) -> str:
                           body1="world" if body_a == GROUND else body_a,
                           body2="world" if joint.b.split(".")[0] == GROUND else joint.b.split(".")[0],
                           anchor=_vector(x - ax, y - ay))
+        for pair in gears:
+            ET.SubElement(equality, "joint", name=pair.name, joint1=pair.joints[1], joint2=pair.joints[0],
+                          polycoef=f"0 {_number(_gear_coefficient(posed, parent, pair))} 0 0 0")
     if drivers:
         actuator = ET.SubElement(root, "actuator")
         for name, driver in drivers.items():
-            joint = next(j for j in posed.joints if j.name == name)
-            assert isinstance(joint, Revolute)
+            pin = next(j for j in posed.joints if j.name == name)
+            assert isinstance(pin, Revolute)
             child = next(body for body, (tree_joint, _) in parent.items() if tree_joint.name == name)
             # the hinge turns the child relative to its parent; our motor turns body b relative to body a
-            gear = 1.0 if joint.b.split(".")[0] == child else -1.0
+            gear = 1.0 if pin.b.split(".")[0] == child else -1.0
             if driver.torque is not None:
                 ET.SubElement(actuator, "general", name=f"motor {name}", joint=name, gear=_number(gear),
                               gainprm="0", biastype="affine", biasprm=f"{_number(driver.torque)} 0 0")
@@ -241,6 +264,19 @@ def to_mjcf(mechanism: Mechanism, timestep: float = MJCF_TIMESTEP) -> str:
                               biasprm=f"{_number(gain * driver.speed)} 0 {_number(-gain)}")
     ET.indent(root)
     return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _gear_coefficient(posed: Mechanism, parent, gear: Gear) -> float:
+    """MuJoCo's ``polycoef[1]`` of a gear: its ratio between the two hinges' angles, each hinge turning its child
+    relative to its parent where our joint turns its body ``b`` relative to its ``a`` (offset zero at the
+    assembled pose, MuJoCo's reference)."""
+    coefficient = gear.ratio
+    for name in gear.joints:
+        child = next(body for body, (tree_joint, _) in parent.items() if tree_joint.name == name)
+        joint = next(j for j in posed.joints if j.name == name)
+        assert isinstance(joint, Revolute)
+        coefficient *= 1.0 if joint.b.split(".")[0] == child else -1.0
+    return coefficient
 
 
 def _subtree(name: str, children: dict[str, list[str]]) -> set[str]:

@@ -11,34 +11,22 @@ Every field is validated here, with a message that names the body or joint and t
 
 from __future__ import annotations
 
-import math
-from typing import Literal
-
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-GROUND = "ground"
+from .joints import GROUND, Driver, Gear, Joint, Prismatic, Revolute, finite_point, kind_of
+
 MAX_BODIES = 24
 MAX_POINTS_PER_BODY = 16
 
 Point = tuple[float, float]
-
-
-def _finite_point(value: object, what: str) -> Point:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise ValueError(f"{what}: expected [x, y], got {value!r}")
-    out = []
-    for number in value:
-        if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(float(number)):
-            raise ValueError(f"{what}: coordinates must be finite numbers, got {value!r}")
-        out.append(float(number))
-    return (out[0], out[1])
+__all__ = ["GROUND", "Body", "Driver", "Gear", "Mechanism", "Prismatic", "Revolute"]
 
 
 def _point_table(value: object, table: str, item: str) -> dict[str, Point]:
     """``{name: [x, y]}`` checked point by point; messages name the ``table`` or the ``item`` and its name."""
     if not isinstance(value, dict):
         raise ValueError(f"{table}: expected a table of name = [x, y]")
-    return {str(name): _finite_point(xy, f"{item} {name!r}") for name, xy in value.items()}
+    return {str(name): finite_point(xy, f"{item} {name!r}") for name, xy in value.items()}
 
 
 class Body(BaseModel):
@@ -60,7 +48,7 @@ class Body(BaseModel):
     @field_validator("com", mode="before")
     @classmethod
     def _com(cls, value: object) -> Point | None:
-        return None if value is None else _finite_point(value, "com")
+        return None if value is None else finite_point(value, "com")
 
     @field_validator("name")
     @classmethod
@@ -77,58 +65,6 @@ class Body(BaseModel):
         return (sum(xs) / len(xs), sum(ys) / len(ys))
 
 
-class Revolute(BaseModel):
-    """A pin between a point of one body and a point of another body or of the ground (``"ground.O"``)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    kind: Literal["revolute"] = "revolute"
-    name: str = Field(min_length=1, max_length=40)
-    a: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
-    b: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$", description="body.point")
-    damping: float = Field(0.0, ge=0.0, le=1e4, strict=True, allow_inf_nan=False, description="viscous torque per unit relative angular speed")
-
-
-class Prismatic(BaseModel):
-    """A slider: ``body`` keeps its angle relative to ``on`` and its point ``point`` moves along the line
-    through ``on``'s point ``through`` in direction ``direction`` (both in the sketch)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    kind: Literal["prismatic"] = "prismatic"
-    name: str = Field(min_length=1, max_length=40)
-    body: str = Field(min_length=1)
-    point: str = Field(min_length=1, description="the sliding point, a point of body")
-    on: str = Field(GROUND, description="the body (or ground) that carries the guide")
-    through: str = Field(min_length=1, description="a point of `on` on the guide line")
-    direction: Point = Field(description="direction of the guide in the sketch")
-    damping: float = Field(0.0, ge=0.0, le=1e4, strict=True, allow_inf_nan=False, description="viscous force per unit sliding speed")
-
-    @field_validator("direction", mode="before")
-    @classmethod
-    def _direction(cls, value: object) -> Point:
-        x, y = _finite_point(value, "direction")
-        if math.hypot(x, y) < 1e-12:
-            raise ValueError("direction: must not be the zero vector")
-        return (x, y)
-
-
-class Driver(BaseModel):
-    """A motor on a revolute joint: constant relative angular speed (rad/s), or a constant torque (N m)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    joint: str = Field(min_length=1)
-    speed: float | None = Field(None, ge=-1e3, le=1e3, strict=True, allow_inf_nan=False, description="rad/s")
-    torque: float | None = Field(None, ge=-1e6, le=1e6, strict=True, allow_inf_nan=False, description="N m")
-
-    @model_validator(mode="after")
-    def _one_kind(self) -> Driver:
-        if (self.speed is None) == (self.torque is None):
-            raise ValueError(f"driver on {self.joint!r}: give exactly one of speed (rad/s) or torque (N m)")
-        return self
-
-
 class Mechanism(BaseModel):
     """Bodies, joints and drivers, with gravity ``g`` along -y and named ground points."""
 
@@ -139,7 +75,7 @@ class Mechanism(BaseModel):
     g: float = Field(9.81, ge=0.0, le=1e3, strict=True, allow_inf_nan=False, description="gravity, m/s^2, along -y")
     ground: dict[str, Point] = Field(default_factory=dict, description="fixed points, name = [x, y]")
     bodies: list[Body] = Field(min_length=1, max_length=MAX_BODIES)
-    joints: list[Revolute | Prismatic] = Field(min_length=1, max_length=4 * MAX_BODIES)
+    joints: list[Joint] = Field(min_length=1, max_length=4 * MAX_BODIES)
     drivers: list[Driver] = Field(default_factory=list)
     trace: str | None = Field(None, description="body.point whose path is traced")
 
@@ -159,22 +95,13 @@ class Mechanism(BaseModel):
         if duplicate is not None:
             raise ValueError(f"joint {duplicate!r}: two joints have this name")
         for joint in self.joints:
-            if isinstance(joint, Revolute):
-                for side in (joint.a, joint.b):
-                    self.point_of(side, f"joint {joint.name!r}")
-                if joint.a.split(".")[0] == joint.b.split(".")[0]:
-                    raise ValueError(f"joint {joint.name!r}: joins body {joint.a.split('.')[0]!r} to itself")
-            else:
-                self.point_of(f"{joint.body}.{joint.point}", f"joint {joint.name!r}")
-                self.point_of(f"{joint.on}.{joint.through}", f"joint {joint.name!r}")
-                if joint.body == joint.on:
-                    raise ValueError(f"joint {joint.name!r}: slides body {joint.body!r} on itself")
+            kind_of(joint).check(joint, self)
         by_name = {joint.name: joint for joint in self.joints}
         for driver in self.drivers:
             driven = by_name.get(driver.joint)
             if driven is None:
                 raise ValueError(f"driver: no joint named {driver.joint!r} (joints: {', '.join(by_name)})")
-            if not isinstance(driven, Revolute):
+            if driven.kind != "revolute":
                 raise ValueError(f"driver on {driver.joint!r}: motors drive revolute joints only")
         if len({driver.joint for driver in self.drivers}) != len(self.drivers):
             raise ValueError("drivers: a joint has two drivers")

@@ -10,6 +10,7 @@ joint. Everything else is a number in :func:`parameter_vector`, in the order of 
   ground point as its coordinates), ``damping``;
 * per slider: ``arm_p.x/y`` (the sliding point on ``body``), ``arm_t.x/y`` (the guide's through point on ``on``),
   ``direction.x/y`` (the guide's *unit* direction in the sketch), ``damping``;
+* per gear: ``ratio`` and ``offset``;
 * per driver: ``speed`` (rad/s) or ``torque`` (N m);
 * ``g`` and ``t`` (the time, :data:`TIME`, a slot the integrator writes: speed motors turn with it).
 
@@ -21,13 +22,13 @@ of bodies or joints, so two mechanisms of one structure share one derivation (:f
 from __future__ import annotations
 
 import hashlib
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from .model import GROUND, Mechanism, Revolute
+from .joints import KINDS, MOTOR, kind_of
+from .model import GROUND, Mechanism
 
 if TYPE_CHECKING:  # sympy is imported where symbols are made: a run from cached code never needs it
     import sympy as sp
@@ -38,12 +39,20 @@ GRAVITY = "g"
 
 @dataclass(frozen=True)
 class JointShape:
-    """A joint's kind and bodies by index (-1: the ground): a pin's ``a`` and ``b`` sides in the description's
-    order; a slider's ``a`` is its ``body`` (the sliding point's), ``b`` its ``on`` (the guide's carrier)."""
+    """A joint's kind and the bodies its equations reach, by index (-1: the ground): a pin's ``a`` and ``b``
+    sides in the description's order; a slider's ``a`` is its ``body`` (the sliding point's), ``b`` its ``on``
+    (the guide's carrier); a gear's ``reach`` the bodies of its two joints, ``(a1, b1, a2, b2)``, and its ``a``,
+    ``b`` those of its first joint. ``joins``: the joint is an edge of the mechanism's graph (a gear is not)."""
 
-    kind: Literal["revolute", "prismatic"]
+    kind: str
     a: int
     b: int
+    reach: tuple[int, ...] = ()
+    joins: bool = True
+
+    @property
+    def bodies(self) -> tuple[int, ...]:
+        return self.reach or (self.a, self.b)
 
 
 @dataclass(frozen=True)
@@ -74,13 +83,12 @@ def structure(mechanism: Mechanism) -> Structure:
 
     joints = []
     for joint in mechanism.joints:
-        if isinstance(joint, Revolute):
-            joints.append(JointShape("revolute", body(joint.a.split(".")[0]), body(joint.b.split(".")[0])))
-        else:
-            joints.append(JointShape("prismatic", body(joint.body), body(joint.on)))
+        kind = kind_of(joint)
+        reach = kind.structure_bodies(joint, body, mechanism)
+        joins = kind.bodies(joint) is not None
+        joints.append(JointShape(joint.kind, reach[0], reach[1], () if joins else reach, joins))
     joint_index = {joint.name: k for k, joint in enumerate(mechanism.joints)}
-    drivers = tuple(DriverShape("speed" if d.speed is not None else "torque", joint_index[d.joint])
-                    for d in mechanism.drivers)
+    drivers = tuple(DriverShape(MOTOR.kind(d), joint_index[d.joint]) for d in mechanism.drivers)  # type: ignore[arg-type]
     return Structure(bodies=len(mechanism.bodies), joints=tuple(joints), drivers=drivers)
 
 
@@ -88,7 +96,7 @@ def structure_key(mechanism: Mechanism) -> str:
     """A short digest of the topology and the joint kinds only (no names, numbers, damping or g)."""
     shape = structure(mechanism)
     text = ";".join([f"B{shape.bodies}",
-                     *(f"{j.kind[0]}{j.a},{j.b}" for j in shape.joints),
+                     *(f"{j.kind[0]}{','.join(map(str, j.bodies))}" for j in shape.joints),
                      *(f"{d.kind[0]}@{d.joint}" for d in shape.drivers)])
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -110,13 +118,33 @@ class BodySymbols:
 
 @dataclass(frozen=True)
 class JointSymbols:
-    """A pin: ``arm_a``, ``arm_b`` (``direction`` None). A slider: ``arm_a`` the sliding point's arm on its body,
-    ``arm_b`` the through point's arm on ``on``, ``direction`` the guide's unit direction in the sketch."""
+    """A joint's parameter symbols, ``values`` in its kind's ``fields`` order. A pin: ``arm_a``, ``arm_b``
+    (``direction`` None). A slider: ``arm_a`` the sliding point's arm on its body, ``arm_b`` the through point's
+    arm on ``on``, ``direction`` the guide's unit direction in the sketch. A gear: ``ratio`` and ``offset``."""
 
-    arm_a: tuple[sp.Symbol, sp.Symbol]
-    arm_b: tuple[sp.Symbol, sp.Symbol]
-    direction: tuple[sp.Symbol, sp.Symbol] | None
-    damping: sp.Symbol
+    values: tuple[sp.Symbol, ...]
+    fields: tuple[str, ...]
+
+    def _pair(self, at: int) -> tuple[sp.Symbol, sp.Symbol]:
+        return (self.values[at], self.values[at + 1])
+
+    @property
+    def arm_a(self) -> tuple[sp.Symbol, sp.Symbol]:
+        assert self.fields[0].startswith("arm_"), self.fields
+        return self._pair(0)
+
+    @property
+    def arm_b(self) -> tuple[sp.Symbol, sp.Symbol]:
+        assert self.fields[2].startswith("arm_"), self.fields
+        return self._pair(2)
+
+    @property
+    def direction(self) -> tuple[sp.Symbol, sp.Symbol] | None:
+        return self._pair(self.fields.index("direction.x")) if "direction.x" in self.fields else None
+
+    @property
+    def damping(self) -> sp.Symbol:
+        return self.values[self.fields.index("damping")]
 
 
 @dataclass(frozen=True)
@@ -142,22 +170,15 @@ def parameter_symbols(shape: Structure) -> ParameterSymbols:
                    for k in range(shape.bodies))
     joints = []
     for k, joint in enumerate(shape.joints):
-        if joint.kind == "revolute":
-            joints.append(JointSymbols((_real(f"ax{k}"), _real(f"ay{k}")), (_real(f"bx{k}"), _real(f"by{k}")), None,
-                                       _real(f"c{k}")))
-        else:
-            joints.append(JointSymbols((_real(f"px{k}"), _real(f"py{k}")), (_real(f"tx{k}"), _real(f"ty{k}")),
-                                       (_real(f"ux{k}"), _real(f"uy{k}")), _real(f"c{k}")))
+        kind = KINDS[joint.kind]
+        joints.append(JointSymbols(tuple(_real(f"{stem}{k}") for stem in kind.symbols), kind.fields))
     drivers = tuple(_real(f"{'w' if d.kind == 'speed' else 'tau'}{d.joint}") for d in shape.drivers)
     g, t = _real("g"), _real("t")
     vector: list[sp.Symbol] = []
     for body in bodies:
         vector += [body.mass, body.inertia, *body.centre]
     for joint_symbols in joints:
-        vector += [*joint_symbols.arm_a, *joint_symbols.arm_b]
-        if joint_symbols.direction is not None:
-            vector += list(joint_symbols.direction)
-        vector.append(joint_symbols.damping)
+        vector += list(joint_symbols.values)
     vector += [*drivers, g, t]
     return ParameterSymbols(bodies=bodies, joints=tuple(joints), drivers=drivers, g=g, t=t, vector=tuple(vector))
 
@@ -170,43 +191,20 @@ def parameter_names(mechanism: Mechanism) -> tuple[str, ...]:
     for body in mechanism.bodies:
         names += [f"{body.name}.{field}" for field in ("mass", "inertia", "centre.x", "centre.y")]
     for joint in mechanism.joints:
-        fields: tuple[str, ...]
-        if isinstance(joint, Revolute):
-            fields = ("arm_a.x", "arm_a.y", "arm_b.x", "arm_b.y", "damping")
-            names += [f"pin {joint.name}.{field}" for field in fields]
-        else:
-            fields = ("arm_p.x", "arm_p.y", "arm_t.x", "arm_t.y", "direction.x", "direction.y", "damping")
-            names += [f"slider {joint.name}.{field}" for field in fields]
+        kind = kind_of(joint)
+        names += [f"{kind.label} {joint.name}.{field}" for field in kind.fields]
     for driver in mechanism.drivers:
-        names.append(f"motor {driver.joint}.{'speed' if driver.speed is not None else 'torque'}")
+        names.append(f"{MOTOR.label} {driver.joint}.{MOTOR.kind(driver)}")
     return (*names, GRAVITY, TIME)
 
 
 def parameter_vector(mechanism: Mechanism, t: float = 0.0) -> np.ndarray:
     """Every number the equations use, float64, in :func:`parameter_names`' order (``t`` set to ``t``)."""
-    centres = {body.name: body.centre for body in mechanism.bodies}
-
-    def arm(body: str, sketch_xy) -> list[float]:
-        if body == GROUND:
-            return [float(sketch_xy[0]), float(sketch_xy[1])]
-        return [float(sketch_xy[0]) - centres[body][0], float(sketch_xy[1]) - centres[body][1]]
-
     values: list[float] = []
     for body in mechanism.bodies:
         values += [body.mass, body.inertia, *map(float, body.centre)]
     for joint in mechanism.joints:
-        if isinstance(joint, Revolute):
-            for side in (joint.a, joint.b):
-                values += arm(side.split(".")[0], mechanism.point_of(side, joint.name))
-        else:
-            values += arm(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
-            values += arm(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-            length = math.hypot(*joint.direction)
-            values += [joint.direction[0] / length, joint.direction[1] / length]
-        values.append(joint.damping)
-    for driver in mechanism.drivers:
-        value = driver.speed if driver.speed is not None else driver.torque
-        assert value is not None  # the model gives every driver exactly one of them
-        values.append(value)
+        values += kind_of(joint).values(joint, mechanism)
+    values += [MOTOR.value(driver) for driver in mechanism.drivers]
     values += [mechanism.g, t]
     return np.array(values, dtype=np.float64)

@@ -12,12 +12,13 @@ import numpy as np
 
 from .assembly import assemble
 from .constraints import Constraints
-from .model import Body, Mechanism, Prismatic
+from .model import Body, Gear, Mechanism, Prismatic
 
 
 def at_assembled_pose(mechanism: Mechanism) -> Mechanism:
     """The same mechanism with every body drawn where :func:`assemble` puts it (masses and inertias unchanged;
-    a slider's guide direction turned with the body that carries it)."""
+    a slider's guide direction turned with the body that carries it; a gear's offset zero, its angles now
+    measured from this pose)."""
     assembled = assemble(mechanism)
     constraints = Constraints(mechanism)
     q = assembled.q
@@ -34,6 +35,8 @@ def at_assembled_pose(mechanism: Mechanism) -> Mechanism:
             c, s = np.cos(turn[joint.on]), np.sin(turn[joint.on])
             dx, dy = joint.direction
             joint = joint.model_copy(update={"direction": (float(c * dx - s * dy), float(s * dx + c * dy))})
+        if isinstance(joint, Gear):  # it holds at the assembled pose, where every relative angle is now zero
+            joint = joint.model_copy(update={"offset": 0.0})
         joints.append(joint)
     return mechanism.model_copy(update={"bodies": bodies, "joints": joints})
 

@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .model import Body, Driver, Mechanism, Prismatic, Revolute
+from .model import Body, Driver, Gear, Mechanism, Prismatic, Revolute
 
 Point = tuple[float, float]
 LINEAR_DENSITY = 1.0  # kg per metre of bar
@@ -284,6 +284,44 @@ def jansen_leg(speed: float = 2.0, crank_angle_deg: float = 0.0) -> Mechanism:
     )
 
 
+def geared_five_bar(speed: float = 2 * math.pi, ratio: float = -1.0, crank: float = 0.08,
+                    couplers: tuple[float, float] = (0.28, 0.32), crank_angles_deg: tuple[float, float] = (90.0, 30.0)
+                    ) -> Mechanism:
+    """Two cranks on pivots 0.3 m apart, meshed by a gear pair (``ratio``: the second crank's turn per turn of
+    the first), their couplers pinned together at C; a motor turns the first crank."""
+    o1, o2 = (0.0, 0.0), (0.3, 0.0)
+    first, second = (math.radians(angle) for angle in crank_angles_deg)
+    a = (o1[0] + crank * math.cos(first), o1[1] + crank * math.sin(first))
+    b = (o2[0] + crank * math.cos(second), o2[1] + crank * math.sin(second))
+    c = circle_intersection(a, couplers[0], b, couplers[1], side=+1)
+    return Mechanism(
+        name="geared-five-bar",
+        description=(
+            "A geared five-bar: two cranks on ground pivots 0.3 m apart, meshed by two equal gears (ratio -1: "
+            "they turn opposite ways at one speed), with two couplers pinned together at C. The gear pair makes "
+            "the five-bar's two degrees of freedom one, so one motor drives it and C traces a closed curve. "
+            "Teaches mobility (3 x 4 - 2 x 5 - 1 = 1) and a coupling joint's contact torque."
+        ),
+        ground={"O1": o1, "O2": o2},
+        bodies=[
+            bar("crank1", ("O1", o1), ("A", a)),
+            bar("crank2", ("O2", o2), ("B", b)),
+            bar("coupler1", ("A", a), ("C", c)),
+            bar("coupler2", ("B", b), ("C", c)),
+        ],
+        joints=[
+            pin("O1", "ground.O1", "crank1.O1"),
+            pin("O2", "ground.O2", "crank2.O2"),
+            pin("A", "crank1.A", "coupler1.A"),
+            pin("B", "crank2.B", "coupler2.B"),
+            pin("C", "coupler1.C", "coupler2.C"),
+            Gear(kind="gear", name="gears", joints=("O1", "O2"), ratio=ratio),
+        ],
+        drivers=[Driver(joint="O1", speed=speed)],
+        trace="coupler1.C",
+    )
+
+
 MECHANISM_PRESETS: dict[str, Callable[[], Mechanism]] = {
     "slider-crank": slider_crank,
     "crank-rocker": crank_rocker,
@@ -291,4 +329,5 @@ MECHANISM_PRESETS: dict[str, Callable[[], Mechanism]] = {
     "watt-six-bar": watt_six_bar,
     "stephenson-six-bar": stephenson_six_bar,
     "jansen-leg": jansen_leg,
+    "geared-five-bar": geared_five_bar,
 }

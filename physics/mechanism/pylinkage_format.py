@@ -35,7 +35,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import LinkageError
-from .model import GROUND, Body, Driver, Mechanism, Prismatic, Revolute
+from .model import GROUND, Body, Driver, Gear, Mechanism, Prismatic, Revolute
 from .posed import at_assembled_pose
 from .presets import LINEAR_DENSITY
 
@@ -293,6 +293,11 @@ def to_pylinkage(mechanism: Mechanism) -> dict:
         dropped.add(joint.body)
         pin = block_pins[0]
         slots[pin.b if pin.a == sliding else pin.a] = joint
+    for joint in posed.joints:
+        if not isinstance(joint, (Revolute, Prismatic)):
+            what = "a gear pair" if isinstance(joint, Gear) else f"a {joint.kind} joint"
+            raise LinkageError(f"joint {joint.name!r}: {what} has no pylinkage counterpart (pylinkage's joints are "
+                               "pins, cranks and slots)")
     for driver in posed.drivers:
         if driver.torque is not None:
             raise LinkageError(f"driver on {driver.joint!r}: a torque motor has no pylinkage counterpart (pylinkage "

@@ -1,6 +1,6 @@
 """The names of a mechanism's reaction rows, in the DAE's layout (:mod:`physics.mechanism.constraints`): a pin's
 force ON body ``a`` BY body ``b`` (x, y), a slider's force across the guide and the torque that keeps the relative
-angle, a speed motor's torque on ``b``. Every formulation reports its reactions in these rows
+angle, a speed motor's torque on ``b``, a gear's contact torque. Every formulation reports its reactions in these rows
 (:mod:`physics.mechanism.engine`: the DAE its multipliers, a tree formulation Newton's second law on its own
 accelerations).
 """
@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import Mechanism, Revolute
+from .joints import MOTOR, kind_of
+from .model import Mechanism
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> float:
@@ -26,15 +27,13 @@ def _side(reference: str) -> str:
 
 
 def reaction_row_names(mechanism: Mechanism) -> tuple[str, ...]:
-    """``"joint: meaning"`` of every reaction row, in the layout of the DAE's multipliers: a pin's x and y (and
-    its motor's torque when speed-driven), a slider's force across the guide and its relative-rotation torque."""
+    """``"joint: meaning"`` of every reaction row, in the layout of the DAE's multipliers: each joint's rows as
+    its kind names them (a pin's x and y gap, and its motor's driven angle when speed-driven; a slider's force
+    across the guide and its relative-rotation torque; a gear's contact torque)."""
     speeds = {driver.joint for driver in mechanism.drivers if driver.speed is not None}
     names: list[str] = []
     for joint in mechanism.joints:
-        if isinstance(joint, Revolute):
-            names += [f"{joint.name}: x gap", f"{joint.name}: y gap"]
-            if joint.name in speeds:
-                names.append(f"{joint.name}: driven angle")
-        else:
-            names += [f"{joint.name}: offset across the guide", f"{joint.name}: relative rotation"]
+        names += [f"{joint.name}: {meaning}" for meaning in kind_of(joint).meanings]
+        if joint.name in speeds:
+            names += [f"{joint.name}: {meaning}" for meaning in MOTOR.meanings]
     return tuple(names)

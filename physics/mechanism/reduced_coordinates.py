@@ -1,7 +1,7 @@
 """The joint coordinates of a mechanism as functions of its maximal coordinates: the candidates for the one
 independent coordinate of the reduced model (:mod:`physics.mechanism.reduced`).
 
-Every joint offers one: a pin's relative angle ``phi_b - phi_a`` (body ``b`` relative to body ``a``, zero in the
+Every joint that joins two bodies offers one (a gear couples two pins' angles and offers none): a pin's relative angle ``phi_b - phi_a`` (body ``b`` relative to body ``a``, zero in the
 sketch) and a slider's travel, how far its sliding point has moved along the guide from where the sketch draws
 it, ``U . (p_i(s_p) - p_j(s_t)) - U_0 . (s_p - s_t)`` with ``U = R(phi_j) u`` the guide's direction. The reduced
 model needs each one's value, its gradient ``c_q`` (a row of the bordered Jacobian) and its *curvature*
@@ -16,7 +16,7 @@ import numpy as np
 
 from .assembly import sketch_size
 from .constraints import Constraints, rotation
-from .model import GROUND, Mechanism, Revolute
+from .model import GROUND, Mechanism, Prismatic, Revolute
 
 _PERP = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees
 
@@ -29,8 +29,9 @@ class JointCoordinates:
         self.constraints = constraints
         self.size = constraints.size
         length = sketch_size(mechanism)
-        self.names = tuple(joint.name for joint in mechanism.joints)
-        self.kinds = tuple("angle" if isinstance(joint, Revolute) else "travel" for joint in mechanism.joints)
+        linking = [joint for joint in mechanism.joints if isinstance(joint, (Revolute, Prismatic))]  # a gear has none
+        self.names = tuple(joint.name for joint in linking)
+        self.kinds = tuple("angle" if isinstance(joint, Revolute) else "travel" for joint in linking)
         self.speed_scale = np.array([length if kind == "angle" else 1.0 for kind in self.kinds])
         self._angles: list[tuple[int, int]] = []  # (body a, body b); -1 is the ground
         self._travels: list[tuple[int, np.ndarray, int, np.ndarray, np.ndarray, float]] = []
@@ -43,7 +44,7 @@ class JointCoordinates:
         def relative(k: int, xy: tuple[float, float]) -> np.ndarray:
             return np.array(xy, dtype=float) - (constraints.centres[k] if k >= 0 else 0.0)
 
-        for joint in mechanism.joints:
+        for joint in linking:
             if isinstance(joint, Revolute):
                 self._where.append(("angle", len(self._angles)))
                 self._angles.append((body(joint.a.split(".")[0]), body(joint.b.split(".")[0])))

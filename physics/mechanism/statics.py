@@ -24,6 +24,7 @@ from ..errors import LinkageError
 from .assembly import assemble, sketch_size
 from .constraints import Constraints
 from .dae import MechanismDAE
+from .joints import MOTOR, kind_of
 from .model import GROUND, Mechanism, Prismatic, Revolute
 from .reactions import reaction_row_names
 
@@ -108,7 +109,7 @@ class Load:
     ``moment`` about the body's centre of mass (N m; for a force, the moment of the force)."""
 
     name: str
-    kind: str  # gravity, pin, slider, motor, torque motor, damping
+    kind: str  # gravity, pin, slider, motor, gear, torque motor, damping
     force: tuple[float, float]
     moment: float
     at: tuple[float, float] | None
@@ -173,27 +174,33 @@ def free_body(mechanism: Mechanism, instant: Instant, body_name: str) -> FreeBod
     joints = {joint.name: joint for joint in mechanism.joints}
     for joint_name in dict.fromkeys(row.joint for row in constraints.rows):
         joint = joints[joint_name]
-        for meaning_set, kind in (({"x gap", "y gap"}, "pin"),
-                                  ({"offset across the guide", "relative rotation"}, "slider"),
-                                  ({"driven angle"}, "motor")):
-            rows = [r for r, row in enumerate(constraints.rows) if row.joint == joint_name and row.meaning in meaning_set]
+        # each group of rows as the joint's kind (or its speed motor) names them
+        for meanings, kind in ((kind_of(joint).meanings, kind_of(joint).label), (MOTOR.meanings, MOTOR.label)):
+            rows = [r for r, row in enumerate(constraints.rows) if row.joint == joint_name and row.meaning in meanings]
             if not rows:
                 continue
             generalised = jacobian[rows, columns].T @ instant.reactions[rows]
             if not np.any(jacobian[rows, columns]):
                 continue  # this joint does not touch the body
             force, moment = (float(generalised[0]), float(generalised[1])), float(generalised[2])
-            other = _other_side(joint, body_name)
             if kind == "pin":
                 assert isinstance(joint, Revolute)
+                other = _other_side(joint, body_name)
                 side = joint.a if joint.a.split(".")[0] == body_name else joint.b
                 at = constraints.body_point(q, k, mechanism.point_of(side, joint.name))
                 loads.append(Load(f"pin {joint_name} (by {other})", kind, force, moment, (float(at[0]), float(at[1]))))
             elif kind == "slider":
-                loads.append(Load(f"slider {joint_name} (by {other})", kind, force, moment,
+                assert isinstance(joint, Prismatic)
+                loads.append(Load(f"slider {joint_name} (by {_other_side(joint, body_name)})", kind, force, moment,
                                   (float(centre[0]), float(centre[1]))))
+            elif kind == "motor":
+                assert isinstance(joint, Revolute)
+                loads.append(Load(f"motor {joint_name} (speed, by {_other_side(joint, body_name)})", kind, (0.0, 0.0),
+                                  moment, None))
+            elif not any(force):  # a coupler's couple (a gear's mesh torque on this body)
+                loads.append(Load(f"{kind} {joint_name}", kind, (0.0, 0.0), moment, None))
             else:
-                loads.append(Load(f"motor {joint_name} (speed, by {other})", kind, (0.0, 0.0), moment, None))
+                loads.append(Load(f"{kind} {joint_name}", kind, force, moment, (float(centre[0]), float(centre[1]))))
     dae = MechanismDAE(mechanism)
     explicit = np.zeros(3)
     for driver in mechanism.drivers:

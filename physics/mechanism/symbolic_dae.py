@@ -24,6 +24,7 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
+from .joints import KINDS, MOTOR
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ORIGIN,
@@ -43,8 +44,6 @@ from .symbolic_tree import (
 )
 
 TWO = sp.Integer(2)
-MEANINGS = {"pin": ("x gap", "y gap"), "slide": ("offset across the guide", "relative rotation"),
-            "motor": ("driven angle",)}
 
 
 class _Bodies:
@@ -84,7 +83,8 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
     bodies = _Bodies(shape.bodies)
     size = 3 * shape.bodies
     speed_driven = shape.speed_driven
-    count = sum(2 + (k in speed_driven) for k in range(len(shape.joints)))
+    count = sum(len(KINDS[joint.kind].meanings) + len(MOTOR.meanings) * (k in speed_driven)
+                for k, joint in enumerate(shape.joints))
     lam = list(sp.symbols(f"lam0:{count}", real=True))
     forces: dict[int, list] = {body: [] for body in range(shape.bodies)}
     torques: dict[int, list] = {body: [] for body in range(shape.bodies)}
@@ -99,8 +99,27 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
 
     phi, velocity_rows, acceleration_rows, row_names = [], [], [], []
     row = 0
+
+    def angle_rows(k: int, rows, meanings) -> None:
+        """Rows ``sum c angle(body) - constant - rate t``: a torque ``c lambda`` on each body of the sum."""
+        nonlocal row
+        for part, angle_row in enumerate(rows):
+            for c, body in angle_row.terms:
+                twist(body, times(c, lam[row]))
+            phi.append(plus(*(times(c, bodies.angle(body)) for c, body in angle_row.terms),
+                            negative(angle_row.constant), negative(times(angle_row.rate, params.t))))
+            velocity_rows.append(plus(*(times(c, bodies.spin(body)) for c, body in angle_row.terms),
+                                      negative(angle_row.rate)))
+            acceleration_rows.append(plus(*(times(c, bodies.alpha(body)) for c, body in angle_row.terms)))
+            row_names.append((k, meanings[part]))
+            row += 1
+
     for k, joint in enumerate(shape.joints):
         symbols = params.joints[k]
+        kind = KINDS[joint.kind]
+        if joint.kind not in ("revolute", "prismatic"):
+            angle_rows(k, kind.angle_rows(joint.bodies, symbols.values), kind.meanings)
+            continue
         (p_a, v_a, a_a), (p_b, v_b, a_b) = bodies.point(joint.a, symbols.arm_a), bodies.point(joint.b, symbols.arm_b)
         spin_a, spin_b = bodies.spin(joint.a), bodies.spin(joint.b)
         alpha_a, alpha_b = bodies.alpha(joint.a), bodies.alpha(joint.b)
@@ -111,17 +130,10 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
             phi += list(sub(p_a, p_b))
             velocity_rows += list(sub(v_a, v_b))
             acceleration_rows += list(sub(a_a, a_b))
-            row_names += [(k, "pin", 0), (k, "pin", 1)]
+            row_names += [(k, meaning) for meaning in kind.meanings]
             row += 2
             if k in speed_driven:  # the motor's torque on b, minus on a; holds phi_b - phi_a = speed t
-                speed = params.drivers[speed_driven[k]]
-                twist(joint.b, lam[row])
-                twist(joint.a, negative(lam[row]))
-                phi.append(plus(bodies.angle(joint.b), negative(bodies.angle(joint.a)), negative(times(speed, params.t))))
-                velocity_rows.append(plus(spin_b, negative(spin_a), negative(speed)))
-                acceleration_rows.append(plus(alpha_b, negative(alpha_a)))
-                row_names.append((k, "motor", 0))
-                row += 1
+                angle_rows(k, MOTOR.angle_rows(joint.bodies, params.drivers[speed_driven[k]]), MOTOR.meanings)
             continue
         assert symbols.direction is not None
         normal = turn(bodies.angle(joint.b), perp(tuple(symbols.direction)))
@@ -138,7 +150,7 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
                                    negative(times(spin_b, spin_b, dot(normal, gap))),
                                    times(TWO, spin_b, dot(perp(normal), gap_rate)), dot(normal, gap_acceleration)),
                               plus(alpha_a, negative(alpha_b))]
-        row_names += [(k, "slide", 0), (k, "slide", 1)]
+        row_names += [(k, meaning) for meaning in kind.meanings]
         row += 2
 
     for number, driver in enumerate(shape.drivers):
@@ -148,6 +160,8 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
             twist(joint.a, negative(params.drivers[number]))
     for number, joint in enumerate(shape.joints):
         symbols = params.joints[number]
+        if "damping" not in symbols.fields:
+            continue
         if joint.kind == "revolute":
             relative = plus(bodies.spin(joint.b), negative(bodies.spin(joint.a)))
             twist(joint.b, negative(times(symbols.damping, relative)))
@@ -175,7 +189,7 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
     memo: dict = {}
     A, b = LinearReader(list(bodies.qdd) + lam).system(balances + acceleration_rows)
     jacobian, _ = LinearReader(bodies.qd).system(velocity_rows) if count else (sp.zeros(0, size), None)
-    names += [f"{{j{k}}}: {MEANINGS[kind][part]}''" for k, kind, part in row_names]
+    names += [f"{{j{k}}}: {meaning}''" for k, meaning in row_names]
     return LinearSystem(
         formulation="dae",
         n=size,

@@ -195,18 +195,22 @@ def _closures(geometry: TreeGeometry, calculus: _Calculus, row_names):
     """For every closure row (the order of :meth:`TreeGeometry.closure_rows`): ``(phi, d phi/ds by coordinate,
     gamma = -(phi'' without sdd), phi')``."""
     shape, params = geometry.shape, geometry.params
-    motors = {driver.joint: params.drivers[k] for k, driver in enumerate(shape.drivers) if driver.kind == "speed"}
     n = len(geometry.s)
     for row in row_names:
         joint = shape.joints[row.joint]
         symbols = params.joints[row.joint]
-        if row.kind == "motor" or (row.kind == "slide" and row.part == 1):
-            first, second = (joint.a, joint.b) if row.kind == "motor" else (joint.b, joint.a)
-            gradient = calculus.spin_gradient(first, second)
-            rate = plus(calculus.spin[second], negative(calculus.spin[first]))
-            if row.kind == "motor":
-                rate = plus(rate, negative(motors[row.joint]))
-            yield row, gradient, ZERO, rate
+        if row.kind == "angle":  # sum c angle(body): d/ds_j is the sum of c over the bodies pin j turns
+            assert row.angle is not None
+            gradient: dict = {}
+            for c, body in row.angle.terms:
+                for j in calculus.pins[body]:
+                    gradient[j] = gradient.get(j, ZERO) + c
+            rate = plus(*(times(c, calculus.spin[body]) for c, body in row.angle.terms), negative(row.angle.rate))
+            yield row, {j: v for j, v in gradient.items() if v != 0}, ZERO, rate
+            continue
+        if row.kind == "slide" and row.part == 1:
+            yield row, calculus.spin_gradient(joint.b, joint.a), ZERO, plus(calculus.spin[joint.a],
+                                                                           negative(calculus.spin[joint.b]))
             continue
         gap = geometry.point(joint.a, symbols.arm_a) - geometry.point(joint.b, symbols.arm_b)
         if row.kind == "pin":
@@ -239,6 +243,8 @@ def _generalised_forces(geometry: TreeGeometry, calculus: _Calculus, n: int) -> 
     torques = {driver.joint: params.drivers[k] for k, driver in enumerate(shape.drivers) if driver.kind == "torque"}
     for number, joint in enumerate(shape.joints):
         symbols = params.joints[number]
+        if "damping" not in symbols.fields:
+            continue
         if joint.kind == "revolute":
             gradient = calculus.spin_gradient(joint.a, joint.b)
         else:

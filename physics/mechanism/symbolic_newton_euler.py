@@ -122,18 +122,17 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
             torques[body].append(torque)
 
     velocity_rows, acceleration_rows = [], []
-    motors = {driver.joint: params.drivers[k] for k, driver in enumerate(shape.drivers) if driver.kind == "speed"}
     row = 0
     while row < count:
         closure = row_names[row]
         joint, symbols = shape.joints[closure.joint], params.joints[closure.joint]
-        if closure.kind == "motor":  # its torque on b, minus on a; holds w_b - w_a = speed
-            twist(joint.b, lam[row])
-            twist(joint.a, negative(lam[row]))
-            velocity_rows.append(plus(motion.spin[joint.b] if joint.b >= 0 else ZERO,
-                                      negative(motion.spin[joint.a] if joint.a >= 0 else ZERO),
-                                      negative(motors[closure.joint])))
-            acceleration_rows.append(plus(motion.alpha[joint.b], negative(motion.alpha[joint.a])))
+        if closure.kind == "angle":  # sum c angle(body): a torque c lambda on each body; sum c w = rate
+            assert closure.angle is not None
+            for c, body in closure.angle.terms:
+                twist(body, times(c, lam[row]))
+            velocity_rows.append(plus(*(times(c, motion.spin[body]) for c, body in closure.angle.terms),
+                                      negative(closure.angle.rate)))
+            acceleration_rows.append(plus(*(times(c, motion.alpha[body]) for c, body in closure.angle.terms)))
             row += 1
             continue
         point_a, point_b = geometry.world(joint.a, symbols.arm_a), geometry.world(joint.b, symbols.arm_b)
@@ -169,6 +168,8 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
             twist(joint.a, negative(params.drivers[number]))
     for number, joint in enumerate(shape.joints):
         symbols = params.joints[number]
+        if "damping" not in symbols.fields:
+            continue
         if joint.kind == "revolute":
             relative = plus(motion.spin[joint.b], negative(motion.spin[joint.a]))
             twist(joint.b, negative(times(symbols.damping, relative)))

@@ -9,8 +9,11 @@ derivation serves every mechanism of that structure.
 Coordinates as in today's tree (the spanning tree of :func:`physics.mechanism.topology.analyse`, the same
 breadth-first search over joints in order): a pin's is the child's rotation relative to its parent, zero in the
 sketch; a slider's is its travel along the guide from where the sketch draws it. The joints left out of the tree
-(in joint order) and the speed motors (in driver order) are the constraint rows, in the DAE's form, so every
-formulation's multipliers mean the same (a pin's: the force ON body ``a`` BY body ``b``).
+(in joint order; a gear pair, which joins no bodies, is always one) and the speed motors (in driver order) are the
+constraint rows, in the DAE's form, so every formulation's multipliers mean the same (a pin's: the force ON body
+``a`` BY body ``b``). A row that holds a sum of body angles (a motor's, a gear's) comes from its joint kind
+(:meth:`physics.mechanism.joints.JointKind.angle_rows`) as a ``ClosureRow`` of form ``"angle"``; each tree
+formulation differentiates the sum its own way.
 
 Planar vectors are plain ``(x, y)`` tuples of sympy expressions: cheaper to build than matrices.
 """
@@ -22,6 +25,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from .joints import KINDS, MOTOR, AngleRow
 from .parameters import ParameterSymbols, Structure
 
 ZERO = sp.Integer(0)
@@ -88,12 +92,15 @@ def turn(angle, v):
 
 @dataclass(frozen=True)
 class ClosureRow:
-    """One constraint row of a tree formulation: its joint (index), kind (``"pin"``, ``"slide"``, ``"motor"``)
-    and which of the kind's rows it is (0 or 1)."""
+    """One constraint row of a tree formulation: its joint (index), the form of its equation (``"pin"``: a
+    point's gap, ``"slide"``: an offset across a guide or a relative angle, ``"angle"``: a sum of body angles
+    given by ``angle``, a motor's or a gear's), which of its joint's rows it is and what its reaction means."""
 
     joint: int
     kind: str
     part: int
+    meaning: str = ""
+    angle: AngleRow | None = None
 
 
 @dataclass(frozen=True)
@@ -111,6 +118,8 @@ def spanning_tree(shape: Structure) -> SpanningTree:
     """Breadth-first from the ground over joints in the description's order (as topology.analyse does)."""
     adjacency: dict[int, list[tuple[int, int]]] = {-1: [], **{k: [] for k in range(shape.bodies)}}
     for k, joint in enumerate(shape.joints):
+        if not joint.joins:
+            continue
         adjacency[joint.a].append((k, joint.b))
         adjacency[joint.b].append((k, joint.a))
     parent: dict[int, tuple[int, int]] = {}
@@ -226,26 +235,37 @@ class TreeGeometry:
         return along, perp(along)
 
     def closure_rows(self) -> tuple[list, list[ClosureRow]]:
-        """``phi(s, params, t)`` of the cut joints (joint order) then the speed motors (driver order)."""
+        """``phi(s, params, t)`` of the cut joints (joint order; a gear is always one) then the speed motors
+        (driver order)."""
         rows: list = []
         names: list[ClosureRow] = []
         for k in self.tree.cut:
             joint, symbols = self.shape.joints[k], self.params.joints[k]
-            gap = sub(self.world(joint.a, symbols.arm_a), self.world(joint.b, symbols.arm_b))
+            kind = KINDS[joint.kind]
             if joint.kind == "revolute":
-                rows += list(gap)
-                names += [ClosureRow(k, "pin", 0), ClosureRow(k, "pin", 1)]
-            else:
+                rows += list(sub(self.world(joint.a, symbols.arm_a), self.world(joint.b, symbols.arm_b)))
+                names += [ClosureRow(k, "pin", part, kind.meanings[part]) for part in (0, 1)]
+            elif joint.kind == "prismatic":
+                gap = sub(self.world(joint.a, symbols.arm_a), self.world(joint.b, symbols.arm_b))
                 _, normal = self.guide(k)
                 rows += [dot(normal, gap), plus(self.body_angle(joint.a), negative(self.body_angle(joint.b)))]
-                names += [ClosureRow(k, "slide", 0), ClosureRow(k, "slide", 1)]
+                names += [ClosureRow(k, "slide", part, kind.meanings[part]) for part in (0, 1)]
+            else:
+                for part, row in enumerate(kind.angle_rows(joint.bodies, symbols.values)):
+                    rows.append(self.angle_sum(row))
+                    names.append(ClosureRow(k, "angle", part, kind.meanings[part], row))
         for number, driver in enumerate(self.shape.drivers):
             if driver.kind == "speed":
                 joint = self.shape.joints[driver.joint]
-                rows.append(plus(self.body_angle(joint.b), negative(self.body_angle(joint.a)),
-                                 negative(times(self.params.drivers[number], self.params.t))))
-                names.append(ClosureRow(driver.joint, "motor", 0))
+                for part, row in enumerate(MOTOR.angle_rows(joint.bodies, self.params.drivers[number])):
+                    rows.append(self.angle_sum(row))
+                    names.append(ClosureRow(driver.joint, "angle", part, MOTOR.meanings[part], row))
         return rows, names
+
+    def angle_sum(self, row: AngleRow):
+        """``sum c angle(body) - constant - rate t`` in the tree coordinates."""
+        return plus(*(times(c, self.body_angle(body)) for c, body in row.terms), negative(row.constant),
+                    negative(times(row.rate, self.params.t)))
 
     def body_angle(self, body: int):
         return ZERO if body < 0 else self.angle[body]
@@ -292,9 +312,7 @@ def tree_geometry(shape: Structure, params: ParameterSymbols) -> TreeGeometry:
 
 def names_template(shape: Structure, rows: list[ClosureRow]) -> list[str]:
     """Readable names of closure rows, with ``{jK}`` for joint K's name (filled per mechanism)."""
-    meaning = {("pin", 0): "x gap", ("pin", 1): "y gap", ("slide", 0): "offset across the guide",
-               ("slide", 1): "relative rotation", ("motor", 0): "driven angle"}
-    return [f"closure {{j{row.joint}}}: {meaning[(row.kind, row.part)]}''" for row in rows]
+    return [f"closure {{j{row.joint}}}: {row.meaning}''" for row in rows]
 
 
 class LinearReader:

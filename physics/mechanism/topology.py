@@ -10,19 +10,15 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
-from .model import GROUND, Mechanism, Prismatic, Revolute
-
-# Degrees of freedom each element removes from a planar body.
-REMOVED_BY_JOINT = 2  # a pin (two translations) or a slider (one translation and the rotation)
-REMOVED_BY_SPEED_DRIVER = 1
+from .joints import MOTOR, kind_of
+from .model import GROUND, Mechanism
 
 
-def joint_bodies(joint: Revolute | Prismatic) -> tuple[str, str]:
-    """The two bodies (or ``"ground"``) a joint connects."""
-    if isinstance(joint, Revolute):
-        return joint.a.split(".")[0], joint.b.split(".")[0]
-    return joint.body, joint.on
+def joint_bodies(joint: Any) -> tuple[str, str] | None:
+    """The two bodies (or ``"ground"``) a joint connects; None for a coupler of joints (a gear)."""
+    return kind_of(joint).bodies(joint)
 
 
 @dataclass(frozen=True)
@@ -39,7 +35,8 @@ class Loop:
 @dataclass(frozen=True)
 class Topology:
     """``tree_joints`` reach every body from the ground; ``loops`` are closed by the cut joints;
-    ``mobility`` is the Grübler–Kutzbach count 3 B - 2 J - D (D: speed drivers)."""
+    ``mobility`` is the Grübler–Kutzbach count 3 B - 2 J - G - D (G: gears, D: speed drivers): each kind
+    removes its own count (:mod:`physics.mechanism.joints`)."""
 
     bodies: tuple[str, ...]
     tree_joints: tuple[str, ...]
@@ -55,7 +52,10 @@ def analyse(mechanism: Mechanism) -> Topology:
     for body in mechanism.bodies:
         adjacency[body.name] = []
     for joint in mechanism.joints:
-        first, second = joint_bodies(joint)
+        ends = joint_bodies(joint)
+        if ends is None:
+            continue
+        first, second = ends
         adjacency[first].append((joint.name, second))
         adjacency[second].append((joint.name, first))
     parent: dict[str, tuple[str, str]] = {}
@@ -76,9 +76,10 @@ def analyse(mechanism: Mechanism) -> Topology:
             f"body {unreached[0]!r}: not connected to the ground by any chain of joints "
             f"(unconnected: {', '.join(unreached)})"
         )
-    loops = tuple(_loop(joint, parent) for joint in mechanism.joints if joint.name not in tree)
-    speed_drivers = sum(1 for driver in mechanism.drivers if driver.speed is not None)
-    removed = REMOVED_BY_JOINT * len(mechanism.joints) + REMOVED_BY_SPEED_DRIVER * speed_drivers
+    loops = tuple(_loop(joint, parent) for joint in mechanism.joints
+                  if joint.name not in tree and joint_bodies(joint) is not None)
+    removed = (sum(kind_of(joint).removed for joint in mechanism.joints)
+               + sum(MOTOR.removed(driver) for driver in mechanism.drivers))
     mobility = 3 * len(mechanism.bodies) - removed
     return Topology(
         bodies=tuple(body.name for body in mechanism.bodies),
@@ -99,8 +100,10 @@ def _path_to_ground(body: str, parent: dict[str, tuple[str, str]]) -> list[tuple
     return path
 
 
-def _loop(joint: Revolute | Prismatic, parent: dict[str, tuple[str, str]]) -> Loop:
-    first, second = joint_bodies(joint)
+def _loop(joint: Any, parent: dict[str, tuple[str, str]]) -> Loop:
+    ends = joint_bodies(joint)
+    assert ends is not None
+    first, second = ends
     up_first = _path_to_ground(first, parent)
     up_second = _path_to_ground(second, parent)
     bodies_first = [GROUND] + [body for _, body in reversed(up_first)]

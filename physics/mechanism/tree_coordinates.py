@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import GROUND, Mechanism, Revolute
+from .model import GROUND, Mechanism, Prismatic, Revolute
 from .topology import analyse
 
 
@@ -61,6 +61,7 @@ def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[n
             values.append(phi_c - phi_p)
             rates.append(w_c - w_p)
             continue
+        assert isinstance(joint, Prismatic)  # a tree joint joins two bodies: a pin or a slider
         u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
         sliding, sliding_rate = point(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
         guide, guide_rate = point(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))

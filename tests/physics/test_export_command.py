@@ -146,13 +146,21 @@ def test_what_pylinkage_cannot_hold_is_refused_naming_it():
         to_pylinkage(sc.model_copy(update={"joints": moving_guide}))
 
 
-def test_every_preset_exports_to_every_format_or_says_why(tmp_path):
+# What a format cannot hold, and the one line that says so: pylinkage has no gears.
+REFUSED = {("geared-five-bar", "pylinkage"): "error: joint 'gears': a gear pair has no pylinkage counterpart"}
+
+
+def test_every_preset_exports_to_every_format_or_says_why(tmp_path, capsys):
     """Every mechanism and chain preset writes MJCF and pylinkage's JSON (the undriven ones too: pylinkage keeps
-    their geometry)."""
+    their geometry), except what a format cannot hold (REFUSED), refused in one line."""
     for preset in [*sorted(MECHANISM_PRESETS), *preset_names()]:
         for kind in ("mjcf", "pylinkage"):
-            assert main(["export", "--preset", preset, "--format", kind, "--out", str(tmp_path / "out")]) == 0, (
-                preset, kind)
+            code = main(["export", "--preset", preset, "--format", kind, "--out", str(tmp_path / "out")])
+            error = capsys.readouterr().err.strip()
+            if (preset, kind) in REFUSED:
+                assert code == 2 and error.startswith(REFUSED[preset, kind]) and "\n" not in error, (preset, error)
+            else:
+                assert code == 0, (preset, kind, error)
 
 
 def test_toml_quotes_any_name_and_text(tmp_path):

@@ -172,3 +172,30 @@ def test_pins_that_close_loops_cannot_carry_motors_or_damping():
     damped = [joint.model_copy(update={"damping": 0.01}) for joint in base.joints]
     with pytest.raises(LinkageError, match=r"^joint 'O4': damping on a pin that closes a loop"):
         to_mjcf(base.model_copy(update={"joints": damped, "drivers": []}))
+
+
+def geared_pendulums(reverse_pin: bool) -> Mechanism:
+    """Two pendulums on ground pivots, geared (ratio -0.5), released at rest; ``reverse_pin`` writes the second
+    pin body-first, so the gear's sign in MJCF must follow which side of the pin is the hinge's child."""
+    second = (["pendulum2.O2", "ground.O2"] if reverse_pin else ["ground.O2", "pendulum2.O2"])
+    return Mechanism.model_validate({
+        "name": "geared pendulums", "ground": {"O1": [0.0, 0.0], "O2": [0.3, 0.0]},
+        "bodies": [{"name": "pendulum1", "points": {"O1": [0.0, 0.0], "E": [0.2, -0.1]}, "mass": 0.4,
+                    "inertia": 0.002},
+                   {"name": "pendulum2", "points": {"O2": [0.3, 0.0], "E": [0.3, -0.25]}, "mass": 0.6,
+                    "inertia": 0.004}],
+        "joints": [{"name": "P1", "a": "ground.O1", "b": "pendulum1.O1"},
+                   {"name": "P2", "a": second[0], "b": second[1]},
+                   {"kind": "gear", "name": "mesh", "joints": ["P1", "P2"], "ratio": -0.5}],
+    })
+
+
+@pytest.mark.parametrize("reverse_pin", [False, True], ids=["pins-ground-first", "second-pin-reversed"])
+def test_a_gear_pair_is_a_joint_equality_and_moves_as_ours_in_mujoco(reverse_pin):
+    mechanism = geared_pendulums(reverse_pin)
+    xml = to_mjcf(mechanism, STEP)
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert model.neq == 1 and model.eq_type[0] == mujoco.mjtEq.mjEQ_JOINT
+    miss, travel, size = largest_miss(mechanism, xml)
+    assert travel > 0.05 * size  # the pendulums swing
+    assert miss < LOOP_AGREEMENT * size

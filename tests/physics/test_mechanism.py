@@ -26,9 +26,10 @@ EXPECTED_MOBILITY = {  # after the motors: a driven mechanism has none left
     "watt-six-bar": 1,
     "stephenson-six-bar": 1,
     "jansen-leg": 0,
+    "geared-five-bar": 0,
 }
 EXPECTED_LOOPS = {"slider-crank": 1, "crank-rocker": 1, "chebyshev-lambda": 1, "watt-six-bar": 2,
-                  "stephenson-six-bar": 2, "jansen-leg": 3}
+                  "stephenson-six-bar": 2, "jansen-leg": 3, "geared-five-bar": 1}
 
 
 def _driven(mechanism: Mechanism, joint: str, speed: float) -> Mechanism:

@@ -22,14 +22,18 @@ def cli(*args):
     return result.stdout
 
 
-# Textbook counts written out: 3 (B - 1) - 2 J with the ground among the B links, J pins and sliders.
-TEXTBOOK = {"crank-rocker": 3 * 3 - 2 * 4, "jansen-leg": 3 * 7 - 2 * 10, "slider-crank": 3 * 3 - 2 * 4}
+# Textbook counts written out: 3 (B - 1) - 2 J - G with the ground among the B links, J pins and sliders, G gear
+# pairs (each couples two pins' angles: one more constraint).
+TEXTBOOK = {"crank-rocker": 3 * 3 - 2 * 4, "jansen-leg": 3 * 7 - 2 * 10, "slider-crank": 3 * 3 - 2 * 4,
+            "geared-five-bar": 3 * 4 - 2 * 5 - 1}
 
 
 @pytest.mark.parametrize("name, first_line", [
     ("crank-rocker", "crank-rocker: 3 bodies, 4 joints; mobility 1 (Grübler count 1); driven by 1 motor; 0 free"),
     ("jansen-leg", "jansen-leg: 7 bodies, 10 joints; mobility 1 (Grübler count 1); driven by 1 motor; 0 free"),
     ("slider-crank", "slider-crank: 3 bodies, 4 joints; mobility 1 (Grübler count 1); no motor; 1 free"),
+    ("geared-five-bar",
+     "geared-five-bar: 4 bodies, 6 joints; mobility 1 (Grübler count 1); driven by 1 motor; 0 free"),
 ])
 def test_the_text_states_the_mechanism_then_its_motors(name, first_line):
     assert cli("--preset", name).splitlines()[0] == first_line

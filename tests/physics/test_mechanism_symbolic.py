@@ -38,7 +38,7 @@ TREE_METHODS = ("lagrange", "newton_euler")
 
 def renumbered(mechanism: Mechanism, rng: np.random.Generator) -> Mechanism:
     """The same structure with every number changed: masses, inertias, every point (so every arm and centre of
-    mass), guide directions, damping, motor speeds and torques, g."""
+    mass), guide directions, damping, gear ratios and offsets, motor speeds and torques, g."""
     spec = mechanism.model_dump()
     for body in spec["bodies"]:
         body["mass"] = float(body["mass"] * rng.uniform(0.5, 2.0))
@@ -50,6 +50,10 @@ def renumbered(mechanism: Mechanism, rng: np.random.Generator) -> Mechanism:
     spec["ground"] = {name: [float(x + rng.normal(scale=0.02)), float(y + rng.normal(scale=0.02))]
                       for name, (x, y) in spec["ground"].items()}
     for joint in spec["joints"]:
+        if joint["kind"] == "gear":  # a gear has no damping: its ratio and offset change instead
+            joint["ratio"] = float(joint["ratio"] * rng.uniform(0.6, 1.6))
+            joint["offset"] = float(joint["offset"] + rng.uniform(-0.1, 0.1))
+            continue
         joint["damping"] = float(rng.uniform(0.0, 0.3))
         if joint["kind"] == "prismatic":
             turn = rng.normal(scale=0.3)
