@@ -23,7 +23,7 @@ import numpy as np
 
 from .codegen import load_compiled
 from .errors import LinkageError
-from .model import MAX_STEPS_LIMIT, Chain, Settings
+from .model import DEFAULT_MAX_STEPS, MAX_STEPS_LIMIT, Chain, Settings
 from .notices import notify
 from .registry import INTEGRATORS, METHODS
 from .simulate import simulate
@@ -227,11 +227,12 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
     with a progress line on ``stream``; Ctrl+C returns ``(run so far, "interrupted ...")``, and a run stopped
     midway (a singular pose, the step budget) ``(run up to the stop, its message)``. Returns
     ``(MechanismRun, None)`` when complete. ``options``: simulate_mechanism's integrator, step, max_steps,
-    backend."""
+    backend; ``max_steps`` is the whole run's budget, as for a chain's segments (each segment gets what is left)."""
     from .mechanism.simulate import simulate_mechanism as simulate_whole  # noqa: PLC0415 - chains never load it
+    budget = options.get("max_steps") or DEFAULT_MAX_STEPS
 
     def simulate_mechanism(*args, **keywords):
-        return simulate_whole(*args, **{**keywords, **options})
+        return simulate_whole(*args, **{**options, **keywords})
 
     def outcome(run):
         return run, (None if run.success else run.message)
@@ -253,13 +254,15 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             if end >= times[index + 1]:
                 end = float(times[target])
         run = simulate_mechanism(mechanism, t_end=end - t_now, samples=count, q0=q, qdot0=qdot, t_start=t_now,
-                                 method=method, stabilization=stabilization, rtol=rtol, atol=atol)
+                                 method=method, stabilization=stabilization, rtol=rtol, atol=atol,
+                                 max_steps=budget - used)
         return run, (target if end == times[target] else None), end
 
     # one-time costs first (the structure's generated code derived or loaded, the kernels' machine code): the
     # probe below measures the run's own pace, not them
     simulate_mechanism(mechanism, t_end=1e-3, samples=2, method=method, stabilization=stabilization, rtol=rtol,
                        atol=atol)
+    used = 0  # integration steps the segments have taken, of the run's budget
     clock = time.perf_counter()
     first, reached, end = segment(0.0, 0, PROBE_SPAN, None, None)
     if not first.success:  # stopped within the probe: its rows on the run's sample times, and its reason
@@ -286,10 +289,15 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
     index = reached if reached is not None else 0
     t_now, q, qdot = end, first.q[-1], first.qdot[-1]
     steps, evaluations = first.steps, first.evaluations
+    used = steps
     progress = ProgressLine(t_end, stream=stream)
     interrupted = None
     stopped = None
     while index < samples - 1:
+        if used >= budget:  # the budget is spent: stopped here, as a single run would have been
+            interrupted = f"{mechanism.name}: {Status.describe(int(Status.MAX_STEPS), t_now)}"
+            stopped = dataclasses.replace(first, status=int(Status.MAX_STEPS), message=interrupted)
+            break
         clock = time.perf_counter()
         try:
             span = min(SEGMENT_SECONDS / max(pace, 1e-300), MAX_MECHANISM_SEGMENT)
@@ -299,6 +307,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             break
         pace = max((time.perf_counter() - clock) / (end - t_now), 1e-300)
         steps, evaluations = steps + run.steps, evaluations + run.evaluations
+        used = steps
         if not run.success:  # stopped midway: keep its samples (those on the run's sample times) and its reason
             if reached is not None:
                 pieces.append(_mechanism_rows(run, slice(1, None)))

@@ -209,3 +209,24 @@ def test_every_compiled_integrator_is_reachable_by_a_mechanisms_run():
             module = importlib.import_module(f"physics.kernels.{KERNEL_MODULES[spec.kernel]}")
             assert callable(getattr(module, spec.kernel)), spec.name
     assert SCIPY in {backend for spec in INTEGRATORS.values() for backend in spec.backends}
+
+
+def test_a_segmented_run_spends_one_step_budget_and_keeps_what_it_computed(monkeypatch):
+    """The command line's segmented run (physics/long_run.py): ``max_steps`` is the whole run's budget, as for
+    a chain's segments; the run that spends it stops with MAX_STEPS and keeps its samples on the run's times,
+    close to the unsegmented run's."""
+    from physics import long_run  # noqa: PLC0415
+
+    monkeypatch.setattr(long_run, "PROBE_SPAN", 0.1)
+    monkeypatch.setattr(long_run, "SEGMENTED_AFTER", 0.0)
+    monkeypatch.setattr(long_run, "MAX_MECHANISM_SEGMENT", 0.1)  # ten segments of 0.1 s
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    whole = simulate_mechanism(mechanism, 1.0, 21)
+    complete, message = long_run.simulate_mechanism_in_segments(mechanism, 1.0, 21, "dae", "projection")
+    assert message is None and complete.success and complete.steps > 60
+    np.testing.assert_allclose(complete.q, whole.q, atol=1e-7)
+    run, message = long_run.simulate_mechanism_in_segments(mechanism, 1.0, 21, "dae", "projection", max_steps=60)
+    assert run.status == Status.MAX_STEPS and message == run.message and "reached max_steps" in message
+    assert run.steps <= 60 and 2 <= len(run.t) < 21
+    np.testing.assert_array_equal(run.t, whole.t[:len(run.t)])
+    np.testing.assert_allclose(run.q, whole.q[:len(run.t)], atol=1e-7)
