@@ -201,7 +201,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
                            project=stabilization == "projection")
         steps, evaluations = result.steps, result.evaluations
-        filled = min(result.filled, int(np.count_nonzero(np.all(np.isfinite(result.states), axis=1))))
+        finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
+        filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
         if result.status != 0 or filled < times.size:
             code = result.status if result.status != 0 else int(Status.NOT_FINITE)
             last = result.states[filled - 1] if filled else np.concatenate([x0, v0])
