@@ -230,3 +230,25 @@ def test_a_segmented_run_spends_one_step_budget_and_keeps_what_it_computed(monke
     assert run.steps <= 60 and 2 <= len(run.t) < 21
     np.testing.assert_array_equal(run.t, whole.t[:len(run.t)])
     np.testing.assert_allclose(run.q, whole.q[:len(run.t)], atol=1e-7)
+
+
+def test_a_reduced_run_that_stops_midway_returns_its_status_and_the_samples_before(monkeypatch):
+    """The reduced model through simulate_mechanism: a run that stops midway (here: made to switch its coordinate
+    often, and allowed only one switch) keeps the samples recorded before the stop, equal to the complete
+    run's, with the status and the sentence; simulate_reduced itself still raises (its own API)."""
+    from physics.mechanism import reduced  # noqa: PLC0415
+
+    monkeypatch.setattr(reduced, "SWITCH_SHARE", 0.999)
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    whole = simulate_mechanism(mechanism, 1.0, 21, method="reduced")
+    switched = reduced.simulate_reduced(mechanism, 1.0, 21).switches
+    assert whole.success and whole.integrator == "DOP853" and len(switched) >= 2
+    monkeypatch.setattr(reduced, "MAX_SWITCHES", 1)
+    stopped = simulate_mechanism(mechanism, 1.0, 21, method="reduced")
+    assert stopped.status == Status.SINGULAR and "more than 1 coordinate switches" in stopped.message
+    count = len(stopped.t)
+    assert 1 <= count < 21 and stopped.t[-1] <= switched[1].t
+    np.testing.assert_array_equal(stopped.t, whole.t[:count])
+    np.testing.assert_allclose(stopped.q, whole.q[:count], atol=1e-12)
+    with pytest.raises(LinkageError, match="more than 1 coordinate switches"):
+        reduced.simulate_reduced(mechanism, 1.0, 21)
