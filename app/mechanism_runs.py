@@ -280,7 +280,8 @@ class MechanismSpec:
     def simulate(self, mechanism: Mechanism, q0, qdot0, settings: MechanismSettings, t_start: float = 0.0,
                  continuing: bool = False) -> MechanismChunk:
         """One chunk: ``settings.samples`` samples over ``settings.t_end`` from ``t_start``. A failure midway
-        (a singular pose, a blow-up) raises LinkageError, which the player turns into the run's end."""
+        (a singular pose, a blow-up) comes back as the run's status and message with the samples before it, and
+        a start that cannot move raises LinkageError; the player turns either into the run's end."""
         if self.runner is not None:
             run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
                                             t_start, settings.method, settings.stabilization)
@@ -292,7 +293,7 @@ class MechanismSpec:
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
-        return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps)
+        return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps, status=run.status, message=run.message)
 
 
 def structure_of(mechanism: Mechanism) -> str:

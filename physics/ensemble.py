@@ -213,7 +213,7 @@ class MechanismEnsemble:
     over ``t_end`` seconds at ``samples`` times.
 
     Why not the chains' batched RK4: a general mechanism has no batched kernel yet, so each copy is a whole run
-    of the general engine (adaptive DOP853 with the chosen method and stabilisation); the results have the
+    of the general engine (the chosen integrator, DOP853 by default, method and stabilisation); the results have the
     chain ensemble's shape. A mechanism its motors fully drive (mobility 0) has one pose at each instant, so
     every copy follows the same path and the fan never opens (``note`` says so). A copy whose run stops (a
     singular pose) is left out of ``alive`` from the time its message names; ``message`` quotes the first.
@@ -221,7 +221,8 @@ class MechanismEnsemble:
 
     def __init__(self, mechanism: Mechanism, count: int = 20, spread: float = 1e-9, t_end: float = 2.0,
                  samples: int = 101, method: str = "dae", stabilization: str = "projection", rtol: float = 1e-10,
-                 atol: float = 1e-10, q0=None, qdot0=None):
+                 atol: float = 1e-10, q0=None, qdot0=None, integrator: str = "DOP853", step: float | None = None,
+                 max_steps: int | None = None, backend: str = "compiled"):
         if not (isinstance(count, (int, np.integer)) and 1 <= count <= MAX_MECHANISM_COUNT):
             raise LinkageError(f"count = {count}: allowed range 1 <= count <= {MAX_MECHANISM_COUNT} for a mechanism "
                                "(each copy is a whole run of the general engine)")
@@ -231,11 +232,13 @@ class MechanismEnsemble:
         from .mechanism.simulate import run_options  # noqa: PLC0415
 
         # every other option is checked by the engine's own boundary, with its one line
+        integration: dict[str, Any] = dict(integrator=integrator, step=step, max_steps=max_steps, backend=backend)
         run_options(t_end=t_end, samples=samples, t_start=0.0, method=method, stabilization=stabilization,
-                    rtol=rtol, atol=atol)
+                    rtol=rtol, atol=atol, **integration)
         self.mechanism = mechanism
         self.count, self.spread = int(count), float(spread)
-        self.options: dict[str, Any] = dict(method=method, stabilization=stabilization, rtol=rtol, atol=atol)
+        self.options: dict[str, Any] = dict(method=method, stabilization=stabilization, rtol=rtol, atol=atol,
+                                            **integration)
         if method == "reduced":  # its loops close by position analysis: no stabilisation to pass
             self.options.pop("stabilization")
         self.t_end, self.samples = float(t_end), int(samples)

@@ -23,7 +23,7 @@ import numpy as np
 
 from .codegen import load_compiled
 from .errors import LinkageError
-from .model import MAX_STEPS_LIMIT, Chain, Settings
+from .model import DEFAULT_MAX_STEPS, MAX_STEPS_LIMIT, Chain, Settings
 from .notices import notify
 from .registry import INTEGRATORS, METHODS
 from .simulate import simulate
@@ -213,23 +213,33 @@ SEGMENTED_AFTER = 5.0  # runs estimated shorter than this run in one call, exact
 MAX_MECHANISM_SEGMENT = math.inf  # simulated seconds a segment of a mechanism run covers at most
 
 
-def _mechanism_rows(run, keep: slice) -> dict:
+def _mechanism_rows(run, keep: slice | np.ndarray) -> dict:
     count = len(run.t)
     return {f.name: getattr(run, f.name)[keep] for f in dataclasses.fields(run)
             if isinstance(getattr(run, f.name), np.ndarray) and getattr(run, f.name).shape[:1] == (count,)}
 
 
 def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method: str, stabilization: str,
-                                   stream: TextIO | None = None, rtol: float = 1e-10, atol: float = 1e-10):
+                                   stream: TextIO | None = None, rtol: float = 1e-10, atol: float = 1e-10,
+                                   **options):
     """``simulate_mechanism`` for the command line: a run estimated (from its first PROBE_SPAN simulated
     seconds) over MAX_MECHANISM_SECONDS is refused with the estimate (LinkageError); a long one runs in segments
-    with a progress line on ``stream``; Ctrl+C returns ``(run so far, "interrupted ...")``. Returns
-    ``(MechanismRun, None)`` when complete."""
-    from .mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - the chain commands never load it
+    with a progress line on ``stream``; Ctrl+C returns ``(run so far, "interrupted ...")``, and a run stopped
+    midway (a singular pose, the step budget) ``(run up to the stop, its message)``. Returns
+    ``(MechanismRun, None)`` when complete. ``options``: simulate_mechanism's integrator, step, max_steps,
+    backend; ``max_steps`` is the whole run's budget, as for a chain's segments (each segment gets what is left)."""
+    from .mechanism.simulate import simulate_mechanism as simulate_whole  # noqa: PLC0415 - chains never load it
+    budget = options.get("max_steps") or DEFAULT_MAX_STEPS
+
+    def simulate_mechanism(*args, **keywords):
+        return simulate_whole(*args, **{**options, **keywords})
+
+    def outcome(run):
+        return run, (None if run.success else run.message)
 
     if t_end <= PROBE_SPAN:  # shorter than the probe: one call
-        return simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
-                                  stabilization=stabilization, rtol=rtol, atol=atol), None
+        return outcome(simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
+                                          stabilization=stabilization, rtol=rtol, atol=atol))
     times = np.linspace(0.0, t_end, samples)
     spacing = float(times[1] - times[0])
 
@@ -244,15 +254,19 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             if end >= times[index + 1]:
                 end = float(times[target])
         run = simulate_mechanism(mechanism, t_end=end - t_now, samples=count, q0=q, qdot0=qdot, t_start=t_now,
-                                 method=method, stabilization=stabilization, rtol=rtol, atol=atol)
+                                 method=method, stabilization=stabilization, rtol=rtol, atol=atol,
+                                 max_steps=budget - used)
         return run, (target if end == times[target] else None), end
 
     # one-time costs first (the structure's generated code derived or loaded, the kernels' machine code): the
     # probe below measures the run's own pace, not them
     simulate_mechanism(mechanism, t_end=1e-3, samples=2, method=method, stabilization=stabilization, rtol=rtol,
                        atol=atol)
+    used = 0  # integration steps the segments have taken, of the run's budget
     clock = time.perf_counter()
     first, reached, end = segment(0.0, 0, PROBE_SPAN, None, None)
+    if not first.success:  # stopped within the probe: its rows on the run's sample times, and its reason
+        return dataclasses.replace(first, **_mechanism_rows(first, np.isin(first.t, times))), first.message
     if reached == samples - 1:
         return first, None
     elapsed = time.perf_counter() - clock
@@ -269,15 +283,21 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             "mechanism run may take; shorten --t-end or take fewer --samples"
         )
     if estimate < SEGMENTED_AFTER:
-        return simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
-                                  stabilization=stabilization, rtol=rtol, atol=atol), None
+        return outcome(simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
+                                          stabilization=stabilization, rtol=rtol, atol=atol))
     pieces = [_mechanism_rows(first, slice(None) if reached is not None else slice(0, 1))]
     index = reached if reached is not None else 0
     t_now, q, qdot = end, first.q[-1], first.qdot[-1]
     steps, evaluations = first.steps, first.evaluations
+    used = steps
     progress = ProgressLine(t_end, stream=stream)
     interrupted = None
+    stopped = None
     while index < samples - 1:
+        if used >= budget:  # the budget is spent: stopped here, as a single run would have been
+            interrupted = f"{mechanism.name}: {Status.describe(int(Status.MAX_STEPS), t_now)}"
+            stopped = dataclasses.replace(first, status=int(Status.MAX_STEPS), message=interrupted)
+            break
         clock = time.perf_counter()
         try:
             span = min(SEGMENT_SECONDS / max(pace, 1e-300), MAX_MECHANISM_SEGMENT)
@@ -287,6 +307,12 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             break
         pace = max((time.perf_counter() - clock) / (end - t_now), 1e-300)
         steps, evaluations = steps + run.steps, evaluations + run.evaluations
+        used = steps
+        if not run.success:  # stopped midway: keep its samples (those on the run's sample times) and its reason
+            if reached is not None:
+                pieces.append(_mechanism_rows(run, slice(1, None)))
+            interrupted, stopped = run.message, run
+            break
         if reached is not None:
             pieces.append(_mechanism_rows(run, slice(1, None)))  # its first row is the state it started from
             index = reached
@@ -294,4 +320,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
         progress.update(t_now, (t_end - t_now) * pace)
     fields: dict[str, Any] = {name: np.concatenate([piece[name] for piece in pieces], axis=0) for name in pieces[0]}
     fields["t"] = times[: len(fields["t"])]
-    return dataclasses.replace(first, **fields, steps=steps, evaluations=evaluations), interrupted
+    joined = dataclasses.replace(first, **fields, steps=steps, evaluations=evaluations)
+    if stopped is not None:
+        joined = dataclasses.replace(joined, status=stopped.status, message=stopped.message)
+    return joined, interrupted

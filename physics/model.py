@@ -24,6 +24,7 @@ from .registry import (
     INTEGRATOR_NAMES,
     INTEGRATORS,
     METHOD_NAMES,
+    STABILIZATIONS,
     backend_for,
     incompatibility,
 )
@@ -57,7 +58,6 @@ MAX_INERTIA = 1e12  # kg m^2 (a 1e6 kg bar 1 km long has m L^2 / 12 = 8.3e10)
 MAX_GRAVITY = 1e3  # m/s^2, about 100 g
 MAX_ANGLE = 1e4  # rad, about 1600 turns from the reference direction
 MAX_ANGULAR_SPEED = 1e4  # rad/s
-STABILIZATIONS = ("none", "baumgarte", "projection")
 
 # The allowed values of Settings' name fields, built from the registry (physics.registry) so that a new
 # integrator or formulation is declared once. mypy cannot see through a Literal built at run time.

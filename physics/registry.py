@@ -1,6 +1,7 @@
 """Every formulation and integrator by name, with what each can do: the one place that knows.
 
-The models (``Settings``' allowed values), the simulation, the CLI, the studies and the app ask these tables
+The models (``Settings``' allowed values), the simulation of a chain and of any mechanism, the CLI, the studies
+and the app ask these tables
 (``INTEGRATORS["variational"].needs_lagrangian``, ``METHODS["dae"].has_reactions``) instead of comparing
 names, so adding an integrator or a formulation is one entry here plus its implementation (CONTRIBUTING.md).
 
@@ -16,6 +17,9 @@ COMPILED = "compiled"  # the once-compiled numba kernels (physics.kernels)
 SCIPY = "scipy"  # scipy.integrate's public solver classes, stepped by hand (physics.simulate.scipy_backend)
 BACKENDS = (COMPILED, SCIPY)
 DEFAULT_BACKEND = COMPILED
+# How a closed loop's constraints are held during integration: not at all, by Baumgarte terms in the
+# accelerations, or by projecting the state back onto them after every step (docs/integrators.md).
+STABILIZATIONS = ("none", "baumgarte", "projection")
 
 
 @dataclass(frozen=True)
@@ -101,6 +105,10 @@ FIXED_STEP_INTEGRATORS = tuple(name for name, spec in INTEGRATORS.items() if spe
 COMPILED_INTEGRATORS = tuple(name for name, spec in INTEGRATORS.items() if spec.runs_on(COMPILED))
 # The integrator a reduced method runs with (scipy's DOP853: its own switching right-hand side).
 REDUCED_INTEGRATOR = "DOP853"
+# The methods of a general mechanism's run (physics.mechanism.simulate): every derived formulation, and the
+# reduced model in one joint coordinate, which crosses dead centres by switching the coordinate (a mechanism
+# has no fixed-branch variant). In alphabetical order, the DAE (the mechanism's default) first.
+MECHANISM_METHODS = tuple(sorted(name for name, spec in METHODS.items() if spec.derived or spec.switches_branch))
 
 
 def backend_for(integrator: str, requested: str = DEFAULT_BACKEND) -> str:

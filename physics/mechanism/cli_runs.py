@@ -28,7 +28,7 @@ import numpy as np
 from ..arguments import Parser, parse_floats, parse_set
 from ..errors import LinkageError
 from ..outputs import check_output_path, write_output
-from .command import EXIT_RUN_STOPPED, RunRequest, run_and_report
+from .command import EXIT_RUN_STOPPED, RunRequest, integrator_options, integrator_request, run_and_report
 from .files import load_mechanism, mechanism_from_document
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
@@ -44,9 +44,6 @@ CHAIN_ONLY = {
     "--pin": "where a closed chain's tip is pinned; a mechanism's joints are in its file",
     "--trace": "a chain's BAR,ALONG point; a mechanism traces the point its file names (trace = \"body.point\")",
     "--damping": "a chain's joint damping; give a mechanism joint's with --set JOINT.damping=C",
-    "--backend": "the chain's scipy backend",
-    "--step": "a chain's fixed step (midpoint, variational, the ensemble's RK4)",
-    "--max-steps": "the chain's step budget",
     "--input": "a file of chain cases (links, params, theta)",
     "--bar": "a chain's bar number; a mechanism's bodies are named: --body NAME",
 }
@@ -131,8 +128,8 @@ def _number(name: str, text: str) -> float:
 
 # --- simulate ---------------------------------------------------------------------------------------------
 
-SIMULATE_APPLIES = ("a mechanism's run takes --t-end, --samples, --method, --stabilization, --rtol, --atol, --set, "
-                    "--out, --format, --json")
+SIMULATE_APPLIES = ("a mechanism's run takes --t-end, --samples, --method, --stabilization, --rtol, --atol, "
+                    "--integrator, --step, --max-steps, --backend, --set, --out, --format, --json")
 
 
 def simulate_main(argv: list[str]) -> int:
@@ -145,19 +142,17 @@ def simulate_main(argv: list[str]) -> int:
     parser.add_argument("--samples", type=int, default=201)
     parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(RUN_METHODS)}")
     parser.add_argument("--stabilization", default="projection", help="none, baumgarte or projection")
-    parser.add_argument("--integrator", default=None, help="DOP853, the one a mechanism's run integrates with")
+    integrator_options(parser)
     parser.add_argument("--rtol", type=float, default=1e-10)
     parser.add_argument("--atol", type=float, default=1e-10)
     parser.add_argument("--out", default=None, help="write the table to this file (CSV, or JSON if it ends in .json)")
     parser.add_argument("--format", default=None, choices=("csv", "json"))
     parser.add_argument("--json", action="store_true", help="print the mechanism command's summary as JSON")
     args = _parse(parser, argv, SIMULATE_APPLIES)
-    if args.integrator is not None and args.integrator != "DOP853":
-        raise LinkageError(f"--integrator {args.integrator}: a mechanism's run integrates with DOP853 only "
-                           "(its projection follows each accepted step); leave --integrator out")
     fmt = args.format or ("json" if args.out and args.out.endswith(".json") else "csv")
     request = RunRequest(t_end=args.t_end, samples=args.samples, method=args.method,
-                         stabilization=args.stabilization, rtol=args.rtol, atol=args.atol, out=args.out, fmt=fmt)
+                         stabilization=args.stabilization, rtol=args.rtol, atol=args.atol, out=args.out, fmt=fmt,
+                         **integrator_request(args))
     request.check()
     mechanism = load(args)
     return run_and_report(mechanism, request, simulate=True, as_json=args.json,
@@ -224,6 +219,8 @@ def _state_at(mechanism: Mechanism, time_s: float, method: str) -> tuple[np.ndar
     from .simulate import simulate_mechanism  # noqa: PLC0415
 
     run = simulate_mechanism(mechanism, time_s, 2, method="reduced" if method == "reduced" else "dae")
+    if not run.success:  # the run to --time stopped before it: nothing to draw there
+        raise LinkageError(f"--time = {time_s:g}: {run.message}")
     return run.q[-1], run.qdot[-1]
 
 
@@ -325,9 +322,10 @@ def ensemble_main(argv: list[str]) -> int:
     parser.add_argument("--stabilization", default="projection", help="none, baumgarte or projection")
     parser.add_argument("--rtol", type=float, default=1e-10)
     parser.add_argument("--atol", type=float, default=1e-10)
+    integrator_options(parser)
     parser.add_argument("--out", default=None, help="file: .json, .csv (time series) or .png (the copies at the end)")
     args = _parse(parser, argv, "a mechanism's ensemble takes --count, --spread, --t-end, --samples, --method, "
-                  "--stabilization, --rtol, --atol, --set, --out")
+                  "--stabilization, --rtol, --atol, --integrator, --step, --max-steps, --backend, --set, --out")
     if not 2 <= args.samples <= 100_000:
         raise LinkageError(f"--samples = {args.samples}: allowed range 2 <= samples <= 100000")
     if args.out is not None:
@@ -338,7 +336,7 @@ def ensemble_main(argv: list[str]) -> int:
     check_runnable(mechanism)
     ensemble = MechanismEnsemble(mechanism, count=args.count, spread=args.spread, t_end=args.t_end,
                                  samples=args.samples, method=args.method, stabilization=args.stabilization,
-                                 rtol=args.rtol, atol=args.atol)
+                                 rtol=args.rtol, atol=args.atol, **integrator_request(args))
     clock = time.perf_counter()
 
     def estimate(k: int) -> None:

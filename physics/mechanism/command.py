@@ -7,8 +7,10 @@
 
 With ``--out`` (or ``--t-end``) the mechanism is simulated (``--method``: the maximal-coordinate DAE, the
 default, or Lagrange or Newton–Euler on a spanning tree, or ``reduced``: one joint coordinate with
-coordinate switching, for mobility 1; ``--stabilization``: projection, the default, Baumgarte or none) and a CSV of ``t``, the traced point, the energies, the largest constraint residual and
-every joint reaction of that formulation is written atomically. Bad input is one line and exit 2 (printed by :mod:`physics.cli`).
+coordinate switching, for mobility 1; ``--stabilization``: projection, the default, Baumgarte or none;
+``--integrator``, ``--step``, ``--max-steps``, ``--backend`` as for a chain, default DOP853) and a CSV of ``t``,
+the traced point, the energies, the largest constraint residual and every joint reaction of that formulation is
+written atomically. A run stopped midway writes what it computed to ``OUT.partial`` and exits 3, as a chain's. Bad input is one line and exit 2 (printed by :mod:`physics.cli`).
 """
 
 from __future__ import annotations
@@ -23,8 +25,8 @@ import numpy as np
 from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
-from ..model import STABILIZATIONS
 from ..outputs import check_output_path, check_partial_path, write_output
+from ..registry import BACKENDS, INTEGRATOR_NAMES, STABILIZATIONS
 from .assembly import assemble
 from .files import load_mechanism
 from .model import Mechanism
@@ -109,18 +111,36 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--method", default="dae", help=f"the formulation integrated: {', '.join(RUN_METHODS)}")
     parser.add_argument("--stabilization", default="projection",
                         help=f"how the loops are held: {', '.join(STABILIZATIONS)}")
+    integrator_options(parser)
     args = parser.parse_args(argv)
     request = RunRequest(t_end=2.0 if args.t_end is None else args.t_end, samples=args.samples, method=args.method,
-                         stabilization=args.stabilization, out=args.out)
+                         stabilization=args.stabilization, out=args.out, **integrator_request(args))
     request.check()
     mechanism = _mechanism(args)
     return run_and_report(mechanism, request, simulate=bool(args.out) or args.t_end is not None, as_json=args.json)
 
 
+def integrator_options(parser: Parser) -> None:
+    """``--integrator``, ``--step``, ``--max-steps`` and ``--backend`` of a mechanism's run (the chain's names)."""
+    parser.add_argument("--integrator", default="DOP853",
+                        help=f"{', '.join(INTEGRATOR_NAMES)} (default DOP853; variational needs --method lagrange; "
+                             "a mechanism its motors fully drive is not integrated and ignores it)")
+    parser.add_argument("--step", type=float, default=None, help="fixed step of midpoint and variational, s "
+                                                                  "(default 1e-3)")
+    parser.add_argument("--max-steps", type=int, default=None, help="integration steps before the run is stopped")
+    parser.add_argument("--backend", default="compiled", help=f"{', '.join(BACKENDS)} (Radau and LSODA: scipy)")
+
+
+def integrator_request(args) -> dict:
+    """The run keywords of :func:`integrator_options`, for :class:`RunRequest`."""
+    return {"integrator": args.integrator, "step": args.step, "max_steps": args.max_steps, "backend": args.backend}
+
+
 @dataclass(frozen=True)
 class RunRequest:
-    """What a command asks of a run: span, samples, formulation, stabilisation, tolerances, and where the
-    table goes (``out``, in ``fmt``: csv or json). Shared by ``mechanism`` and ``simulate``."""
+    """What a command asks of a run: span, samples, formulation, stabilisation, tolerances, integrator (and its
+    fixed step, step budget and back end), and where the table goes (``out``, in ``fmt``: csv or json). Shared by
+    ``mechanism`` and ``simulate``."""
 
     t_end: float = 2.0
     samples: int = 201
@@ -130,13 +150,21 @@ class RunRequest:
     atol: float = 1e-10
     out: str | None = None
     fmt: str = "csv"
+    integrator: str = "DOP853"
+    step: float | None = None
+    max_steps: int | None = None
+    backend: str = "compiled"
 
     def check(self) -> None:
         """Every option in range before any work (one line naming the first bad one)."""
         run_options(t_end=self.t_end, samples=max(self.samples, 2), t_start=0.0, method=self.method,
-                    stabilization=self.stabilization, rtol=self.rtol, atol=self.atol)
+                    stabilization=self.stabilization, rtol=self.rtol, atol=self.atol, **self.integrator_options())
         if not 2 <= self.samples <= MAX_SAMPLES:
             raise LinkageError(f"--samples {self.samples}: allowed range 2..{MAX_SAMPLES}")
+
+    def integrator_options(self) -> dict:
+        return {"integrator": self.integrator, "step": self.step, "max_steps": self.max_steps,
+                "backend": self.backend}
 
 
 def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool, as_json: bool,
@@ -154,7 +182,7 @@ def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool,
         # estimated up front, progress on stderr for a long run, Ctrl+C keeps what was computed (physics.long_run)
         run, interrupted = simulate_mechanism_in_segments(mechanism, request.t_end, request.samples, request.method,
                                                           request.stabilization, rtol=request.rtol,
-                                                          atol=request.atol)
+                                                          atol=request.atol, **request.integrator_options())
         if interrupted:
             partial = f"{request.out}.partial" if request.out else None
             if partial:
@@ -169,6 +197,9 @@ def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool,
             "energy_change": float(run.energy[-1] - run.energy[0]),
             # how near the run came to a singular pose (physics/mechanism/singularity.py); null: reduced model
             "max_jacobian_condition": float(np.max(run.condition)) if run.condition.size else None,
+            # what produced the samples: the integrator, or "position analysis" when the motors fix every body
+            # (then --integrator is accepted and not used), and its accepted steps and right-hand sides
+            "integrator": run.integrator, "steps": run.steps, "evaluations": run.evaluations,
         }
         if request.out:
             write_output(request.out, run_table(run, request.fmt))
@@ -183,7 +214,7 @@ def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool,
     for loop in report["loops"]:
         print("  loop " + " - ".join(loop))
     if run is not None:
-        print(f"  ran {run.t[-1]:g} s ({run.method}, {run.stabilization}): constraint residual at most {np.max(run.residual):.2g}, "
+        print(f"  ran {run.t[-1]:g} s ({run.method}, {run.stabilization}, {run.integrator}): constraint residual at most {np.max(run.residual):.2g}, "
               f"energy change {run.energy[-1] - run.energy[0]:.3g} J" + (f"; wrote {request.out}" if request.out else ""))
         if run.condition.size and np.max(run.condition) > NEAR_SINGULAR_CONDITION:
             worst = int(np.argmax(run.condition))

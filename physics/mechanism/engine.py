@@ -4,9 +4,11 @@ A mechanism's formulation (:mod:`physics.mechanism.symbolic`) is derived once pe
 as LLVM IR by :mod:`physics.codegen.emit` and kept in the authenticated cache folder exactly as a chain's is
 (:func:`physics.codegen.cache.load_generated`); masses, inertias, points, motor speeds and torques, damping and
 g reach it as the parameter vector of :mod:`physics.mechanism.parameters`, so editing any of them derives and
-compiles nothing. The once-compiled kernels of :mod:`physics.kernels` integrate it (DOP853 or RK45 with dense
-output, Baumgarte terms and projection onto the constraints written once for every system), and every sample's
-pose, velocities, accelerations and reactions come out of batched kernel calls.
+compiles nothing. Every integrator of :data:`physics.registry.INTEGRATORS` runs it as it runs a chain: the
+once-compiled kernels of :mod:`physics.kernels` (RK45, DOP853 and ode45 with dense output, the fixed-step
+midpoint rule, the variational integrator where the formulation has a Lagrangian; Baumgarte terms and projection
+onto the constraints written once for every system) or scipy's Radau and LSODA on the same right-hand side, and
+every sample's pose, velocities, accelerations and reactions come out of batched kernel calls.
 """
 
 from __future__ import annotations
@@ -19,8 +21,6 @@ from ..codegen.cache import CompiledSystem, load_generated
 from ..kernels.abi import LAYOUT_WEIGHTS
 from .model import Mechanism
 from .parameters import parameter_vector, structure, structure_key
-
-ENGINE_METHODS = ("dae", "lagrange", "newton_euler")
 
 
 def compiled_system(mechanism: Mechanism, method: str) -> CompiledSystem:
@@ -52,16 +52,16 @@ def _cache_key(mechanism: Mechanism, method: str) -> str:
 
 @dataclass(frozen=True)
 class Integration:
-    """What the kernels return: states ``(T, 2 n)`` at the sample times (NaN past a failure), the kernel's
-    condition estimate, the status and the counts."""
+    """What the integrator returns: states ``(T, 2 n)`` at the sample times (NaN past a failure), the status,
+    the counts, where it stopped, how many samples it filled and, for a failure, the solver's own words."""
 
     states: np.ndarray
-    condition: np.ndarray
     status: int
     steps: int
     evaluations: int
     t_reached: float
     filled: int
+    detail: str = ""
 
 
 def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: float, weights: np.ndarray | None):
@@ -76,21 +76,52 @@ def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: floa
     return np.ascontiguousarray(params), layout
 
 
-def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, x0: np.ndarray, v0: np.ndarray,
-              times: np.ndarray, *, integrator: str, rtol: float, atol: float, alpha: float, beta: float,
-              project: bool, max_steps: int = 5_000_000) -> Integration:
-    """Integrate from ``times[0]`` to ``times[-1]`` with samples at ``times``."""
-    from ..kernels import explicit_rk  # noqa: PLC0415  (numba's cached machine code, loaded on first use)
+# The kernel module that holds each compiled integrator (IntegratorSpec.kernel), imported on first use: numba's
+# cached machine code of an integrator nobody asked for is never loaded.
+KERNEL_MODULES = {"integrate_rk45": "explicit_rk", "integrate_dop853": "explicit_rk", "integrate_ode45": "ode45",
+                  "integrate_midpoint": "midpoint", "integrate_variational": "variational"}
 
-    kernel = {"DOP853": explicit_rk.integrate_dop853, "RK45": explicit_rk.integrate_rk45}[integrator]
+
+def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, x0: np.ndarray, v0: np.ndarray,
+              times: np.ndarray, settings, *, alpha: float, beta: float, project: bool) -> Integration:
+    """Integrate from ``times[0]`` to ``times[-1]`` with samples at ``times`` by ``settings.integrator`` on
+    ``settings.backend``, exactly as a chain's run does (physics/simulate/run.py): a compiled kernel with dense
+    output called with the run's own ``layout`` (it carries the DAE's projection weights), or scipy's solver
+    stepped by hand on the same right-hand side. A failure is a status, never an exception."""
+    import importlib  # noqa: PLC0415
+
+    from ..registry import INTEGRATORS, SCIPY  # noqa: PLC0415
+
+    spec = INTEGRATORS[settings.integrator]
     y0 = np.ascontiguousarray(np.concatenate([x0, v0]), dtype=float)
     t_eval = np.ascontiguousarray(times, dtype=float)
+    if settings.backend == SCIPY:
+        from ..simulate.scipy_backend import integrate_scipy  # noqa: PLC0415  (scipy only for this back end)
+
+        y_out, _, status, steps, evaluations, t_reached, detail = integrate_scipy(
+            compiled, y0, t_eval, params, settings, alpha, beta, project, layout=layout)
+        filled = int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
+        return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), filled, detail)
+    assert spec.kernel is not None, spec.name  # Settings sends only compiled-capable integrators here
+    kernel = getattr(importlib.import_module(f"..kernels.{KERNEL_MODULES[spec.kernel]}", __package__), spec.kernel)
     y_out = np.empty((t_eval.size, y0.size))
     cond_out = np.empty(t_eval.size)
-    status, steps, evaluations, t_reached, filled = kernel(
-        compiled.assemble_function, layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, rtol, atol,
-        alpha, beta, project, max_steps, y_out, cond_out)
-    return Integration(y_out, cond_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled))
+    t0, t1 = float(t_eval[0]), float(t_eval[-1])
+    if spec.needs_lagrangian:  # it holds the loops itself (RATTLE): no stabilisation gains
+        result = kernel(compiled.assemble_function, compiled.mass_and_force_function, layout, y0, t0, t1,
+                        settings.step, t_eval, params, y_out, cond_out)
+    elif spec.fixed_step:
+        result = kernel(compiled.assemble_function, layout, y0, t0, t1, settings.step, t_eval, params, alpha, beta,
+                        project, y_out, cond_out)
+    else:
+        result = kernel(compiled.assemble_function, layout, y0, t0, t1, t_eval, params, settings.rtol, settings.atol,
+                        alpha, beta, project, settings.max_steps, y_out, cond_out)
+    status, steps, evaluations, t_reached, filled = result
+    detail = ""
+    if int(status) != 0 and spec.fixed_step:
+        detail = (f"the {spec.name} integrator's Newton iteration did not converge; reduce the step (step = "
+                  f"{settings.step:g})")
+    return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), detail)
 
 
 @dataclass(frozen=True)
@@ -124,20 +155,20 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
     return Samples(pose, qdot, qddot, multipliers, residual, condition, jacobian_rows)
 
 
-def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, *,
-        stabilization: str, rtol: float, atol: float, driven: bool, integrator: str = "DOP853"):
-    """A run of ``mechanism`` by ``method`` from the assembled state ``(q, qdot)`` at ``times[0]``, as a
-    :class:`~physics.mechanism.run.MechanismRun`. ``driven``: the motors fix every body, so each sample is
-    position analysis from the one before and only the formulation's solve is asked for (inverse dynamics).
-    A failure midway raises LinkageError naming where and why (a singular pose names its joints)."""
-    from ..errors import LinkageError  # noqa: PLC0415
-    from ..model import BAUMGARTE_ALPHA, BAUMGARTE_BETA  # noqa: PLC0415
+def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool):
+    """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
+    tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
+    ``times[0]``, as a :class:`~physics.mechanism.run.MechanismRun`. ``driven``: the motors fix every body, so
+    each sample is position analysis from the one before and only the formulation's solve is asked for (inverse
+    dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
+    (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
+    raises LinkageError, as bad input does."""
     from ..status import Status  # noqa: PLC0415
     from .assembly import sketch_size  # noqa: PLC0415
     from .dae import MechanismDAE  # noqa: PLC0415
     from .run import MechanismRun  # noqa: PLC0415
-    from .singularity import NEAR_SINGULAR_CONDITION, singular_message  # noqa: PLC0415
 
+    method, stabilization = settings.method, settings.stabilization
     dae = MechanismDAE(mechanism)  # numbers only: masses, gravity, the constraint rows' names
     constraints = dae.constraints
     compiled = compiled_system(mechanism, method)
@@ -156,35 +187,50 @@ def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, time
         weights = np.concatenate([positions, 1.0 / dae.mass_diagonal])  # velocities: nearest in kinetic energy
     params, layout = run_parameters(mechanism, compiled, float(times[0]), weights)
     steps = evaluations = 0
+    status, message = int(Status.OK), "ok"
     if driven:
-        x, v = _position_analysis(mechanism, compiled, layout, params, times, *to_state(mechanism, q, qdot),
-                                  fallback=lambda x_, v_, t: _assembled_state(mechanism, to_state,
-                                                                              _pose(compiled, params, x_, v_), t))
+        x, v, failure = _position_analysis(
+            mechanism, compiled, layout, params, times, *to_state(mechanism, q, qdot),
+            fallback=lambda x_, v_, t: _assembled_state(mechanism, to_state, _pose(compiled, params, x_, v_), t))
+        if failure is not None:
+            status, message = int(Status.SINGULAR), f"{mechanism.name}: {failure}"
+            times = times[:x.shape[0]]
     else:
         x0, v0 = to_state(mechanism, q, qdot)
-        gains = (BAUMGARTE_ALPHA, BAUMGARTE_BETA) if stabilization == "baumgarte" else (0.0, 0.0)
-        result = integrate(compiled, layout, params, x0, v0, times, integrator=integrator, rtol=rtol, atol=atol,
-                           alpha=gains[0], beta=gains[1], project=stabilization == "projection")
+        gains = (settings.baumgarte_alpha, settings.baumgarte_beta) if stabilization == "baumgarte" else (0.0, 0.0)
+        result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
+                           project=stabilization == "projection")
         steps, evaluations = result.steps, result.evaluations
-        if result.status != 0 or result.filled < times.size:
+        finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
+        filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
+        if result.status != 0 or filled < times.size:
+            code = result.status if result.status != 0 else int(Status.NOT_FINITE)
+            last = result.states[filled - 1] if filled else np.concatenate([x0, v0])
             n = compiled.n
-            last = result.states[result.filled - 1] if result.filled else np.concatenate([x0, v0])
-            last_q = samples(compiled, params, np.array([result.t_reached]), last[None, :n], last[None, n:]).q[0]
-            condition = _condition(constraints, last_q)
-            reason = Status.describe(result.status, result.t_reached) if result.status != 0 else "stopped early"
-            if np.all(np.isfinite(last_q)) and (result.status == int(Status.SINGULAR)
-                                                or condition > NEAR_SINGULAR_CONDITION):
-                raise LinkageError(f"{mechanism.name}: {singular_message(constraints, last_q, result.t_reached)}; "
-                                   f"{reason}")
-            raise LinkageError(f"{mechanism.name}: {reason}")
+            message = _failure(mechanism, compiled, params, constraints, code, result.t_reached, last[:n], last[n:],
+                               result.detail)
+            if filled == 0:
+                _refuse(message)
+            status = code
+            times = times[:filled]
         n = compiled.n
-        x, v = result.states[:, :n], result.states[:, n:]
+        x, v = result.states[:times.size, :n], result.states[:times.size, n:]
     solved = samples(compiled, params, times, x, v)
-    if not np.all(solved.kernel_condition < 1e12) or not np.all(np.isfinite(solved.qddot)):
-        bad = int(np.argmax(~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)))
-        if not np.all(np.isfinite(solved.q[bad])):
-            raise LinkageError(f"{mechanism.name}: {Status.describe(int(Status.NOT_FINITE), float(times[bad]))}")
-        raise LinkageError(f"{mechanism.name}: {singular_message(constraints, solved.q[bad], float(times[bad]))}")
+    bad = ~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        if not np.all(np.isfinite(solved.q[first])):
+            reason = f"{mechanism.name}: {Status.describe(int(Status.NOT_FINITE), float(times[first]))}"
+            code = int(Status.NOT_FINITE)
+        else:
+            from .singularity import singular_message  # noqa: PLC0415
+
+            reason = f"{mechanism.name}: {singular_message(constraints, solved.q[first], float(times[first]))}"
+            code = int(Status.SINGULAR)
+        if first == 0:
+            _refuse(reason)
+        status, message = code, reason
+        times, solved = times[:first], _first(solved, first)
     reactions = solved.multipliers if not tree else body_reactions(dae, solved)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
@@ -194,14 +240,46 @@ def run(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, time
         row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows), method=method,
         stabilization=stabilization, integrated=not driven, steps=steps, evaluations=evaluations,
         condition=_conditions(constraints, solved, tree),
+        integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
+
+
+POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
+
+
+def _failure(mechanism, compiled, params, constraints, code: int, t_reached: float, x, v, detail: str) -> str:
+    """The sentence of a run stopped at ``t_reached`` from the state ``(x, v)`` it last held: a singular pose
+    names the joints whose constraints became dependent, anything else the status's own sentence."""
+    from ..status import Status  # noqa: PLC0415
+    from .singularity import NEAR_SINGULAR_CONDITION, singular_message  # noqa: PLC0415
+
+    last_q = _pose(compiled, params, np.asarray(x, dtype=float), np.asarray(v, dtype=float))
+    reason = Status.describe(code, t_reached, detail)
+    condition = _condition(constraints, last_q)
+    if np.all(np.isfinite(last_q)) and (code == int(Status.SINGULAR) or condition > NEAR_SINGULAR_CONDITION):
+        return f"{mechanism.name}: {singular_message(constraints, last_q, t_reached)}; {reason}"
+    return f"{mechanism.name}: {reason}"
+
+
+def _refuse(message: str):
+    """A start that cannot be evaluated is refused like bad input: no sample of the run exists."""
+    from ..errors import LinkageError  # noqa: PLC0415
+
+    raise LinkageError(message)
+
+
+def _first(solved: Samples, count: int) -> Samples:
+    """The first ``count`` samples."""
+    return Samples(*(getattr(solved, name)[:count] for name in Samples.__dataclass_fields__))
 
 
 def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallback):
     """Every sample of a mechanism its motors fully determine, by position and velocity analysis on the
     formulation's own constraints: from the last sample moved on by its velocity, Gauss-Newton onto
     ``phi(x, t) = 0`` and the velocity that keeps it there (the kernels' projection, a few microseconds per
-    sample). Where Newton has not closed the loops, the sample is assembled again in Python (``fallback``)."""
+    sample). Where Newton has not closed the loops, the sample is assembled again in Python (``fallback``).
+    Returns ``(x, v, None)``, or the samples up to where no pose closes the loops and the reason."""
+    from ..errors import LinkageError  # noqa: PLC0415
     from ..kernels.constants import PROJECTION_TOLERANCE  # noqa: PLC0415
     from ..kernels.projection import project_states  # noqa: PLC0415
 
@@ -212,10 +290,13 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
         omega = vs[-1].copy()[None, :]
         left = project_states(compiled.assemble_function, layout, np.array([float(t)]), theta, omega, params)
         if not left < 100.0 * PROJECTION_TOLERANCE * scale or not np.all(np.isfinite(theta)):
-            theta[0], omega[0] = fallback(xs[-1], vs[-1], float(t))
+            try:
+                theta[0], omega[0] = fallback(xs[-1], vs[-1], float(t))
+            except LinkageError as error:  # the motors drive it where its loops cannot close: the run ends here
+                return np.array(xs), np.array(vs), f"at t = {float(t):.6g} s: {error}"
         xs.append(theta[0])
         vs.append(omega[0])
-    return np.array(xs), np.array(vs)
+    return np.array(xs), np.array(vs), None
 
 
 def _pose(compiled, params, x, v) -> np.ndarray:

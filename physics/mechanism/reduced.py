@@ -26,12 +26,13 @@ more than one coordinate and is refused as well.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import LinkageError
+from ..status import Status
 from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
 from .model import Mechanism
@@ -125,11 +126,15 @@ def simulate_reduced(
     atol: float = 1e-10,
     coordinate: str | None = None,
     switching: bool = True,
+    stop_as_status: bool = False,
 ) -> ReducedRun:
     """Integrate a mobility-1 mechanism for ``t_end`` s from ``t_start``, from the assembled sketch (or ``q0``)
     at rest (or the consistent velocity nearest ``qdot0`` in kinetic energy, as the DAE run projects it).
     ``coordinate``: the joint to start in (default: the fastest); ``switching=False`` keeps it throughout.
-    Samples are ``samples`` equally spaced times from ``t_start`` to ``t_start + t_end``."""
+    Samples are ``samples`` equally spaced times from ``t_start`` to ``t_start + t_end``. A run that stops midway
+    (a dead centre, too many switches, the integration or a position analysis failing) raises LinkageError;
+    with ``stop_as_status`` it returns the samples recorded before the segment that stopped, the run's
+    ``status`` and ``message`` saying why (:func:`physics.mechanism.simulate.simulate_mechanism` asks for this)."""
     settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
     dae = MechanismDAE(mechanism)
     size = dae.constraints.size
@@ -155,7 +160,36 @@ def simulate_reduced(
     t_final = float(times[-1])
     collected = Samples(times)
     switches: list[CoordinateSwitch] = []
-    evaluations = 0
+    evaluations = [0]  # right-hand sides evaluated, counted as the segments go (kept when one stops)
+    try:
+        _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches,
+                   length, switching, evaluations)
+    except (LinkageError, np.linalg.LinAlgError) as error:
+        if not stop_as_status or not collected.states:
+            raise
+        run = replace(collected.run(dae), status=getattr(error, "status", int(Status.INTEGRATOR_FAILED)),
+                      message=str(error) if isinstance(error, LinkageError)
+                      else f"{mechanism.name}: position analysis failed after t = {collected.states[-1].t:.6g} s "
+                           f"({error})")
+        return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate),
+                          rhs_evaluations=evaluations[0])
+    return ReducedRun(run=collected.run(dae), switches=tuple(switches), coordinate=tuple(collected.coordinate),
+                      rhs_evaluations=evaluations[0])
+
+
+class _Stopped(LinkageError):
+    """A reduced run stopped midway, with its status (physics.status.Status)."""
+
+    def __init__(self, message: str, status: Status) -> None:
+        super().__init__(message)
+        self.status = int(status)
+
+
+def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches, length,
+               switching, evaluations: list[int]) -> None:
+    """The reduced run's segments, from coordinate switch to switch, into ``collected`` and ``switches``; the
+    right-hand sides evaluated are added to ``evaluations[0]`` as each partition is left (a run that stops keeps
+    the count of the partitions before the one it stopped in)."""
     switch_now = False  # the last segment ended at the switching event
     while True:
         s, sdot = partition.coordinate_of(q, qdot)
@@ -164,15 +198,16 @@ def simulate_reduced(
         if switching and (switch_now or share < SWITCH_SHARE):
             switch_now = False
             if len(switches) >= MAX_SWITCHES:
-                raise LinkageError(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
-                                   "the mechanism is near a singular pose where no joint is a good coordinate")
+                raise _Stopped(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
+                               "the mechanism is near a singular pose where no joint is a good coordinate",
+                               Status.SINGULAR)
             new = Partition(dae, coordinates, _fastest_joint(coordinates, dae, q, start.velocity_map), q, t, length)
             switches.append(CoordinateSwitch(t=t, from_joint=partition.name, to_joint=new.name, share=share))
-            evaluations += partition.evaluations
+            evaluations[0] += partition.evaluations
             partition = new
             continue
         if share < DEAD_CENTRE_SHARE:
-            raise LinkageError(_dead_centre_refusal(partition, t, share))
+            raise _Stopped(_dead_centre_refusal(partition, t, share), Status.SINGULAR)
         if t >= t_final:
             collected.add(start, partition.name)
             break
@@ -183,19 +218,17 @@ def simulate_reduced(
         solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=settings.rtol,
                              atol=settings.atol, events=[event], dense_output=True)
         if solution.status == -1:
-            raise LinkageError(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
-                               f"({solution.message})")
+            raise _Stopped(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
+                           f"({solution.message})", Status.INTEGRATOR_FAILED)
         end = collect_segment(collected, partition, solution, start)
         q, qdot, t = end.q, end.qdot, float(solution.t[-1])
         if solution.status == 0:
             collected.add(end, partition.name, last=True)
             break
         if not switching:
-            raise LinkageError(_dead_centre_refusal(partition, t, partition.share(end)))
+            raise _Stopped(_dead_centre_refusal(partition, t, partition.share(end)), Status.SINGULAR)
         switch_now = True
-    evaluations += partition.evaluations
-    return ReducedRun(run=collected.run(dae), switches=tuple(switches), coordinate=tuple(collected.coordinate),
-                      rhs_evaluations=evaluations)
+    evaluations[0] += partition.evaluations
 
 
 def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:

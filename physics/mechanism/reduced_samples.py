@@ -53,7 +53,7 @@ class Samples:
             residual.append(float(np.max(np.abs(constraints.residual(state.q, state.t)), initial=0.0)))
             trace.append(traced_point(dae, state.q))
         return MechanismRun(
-            t=self.times.copy(), q=q, qdot=qdot, reactions=np.array(reactions), kinetic=np.array(kinetic),
+            t=self.times[:len(self.states)].copy(), q=q, qdot=qdot, reactions=np.array(reactions), kinetic=np.array(kinetic),
             potential=np.array(potential), residual=np.array(residual), trace_xy=np.array(trace),
             row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
         )

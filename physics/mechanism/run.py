@@ -9,7 +9,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class MechanismRun:
-    """Samples of a run: ``t (T,)``, ``q, qdot (T, 3 B)``, ``reactions (T, rows)``, ``kinetic, potential
+    """Samples of a run (up to where it stopped, if it did: ``status``, ``message``): ``t (T,)``, ``q, qdot (T, 3 B)``, ``reactions (T, rows)``, ``kinetic, potential
     (T,)``, ``residual (T,)`` (largest constraint residual), ``trace_xy (T, 2)`` (the traced point, if any),
     ``condition (T,)`` (how near each pose is to a singular one)."""
 
@@ -30,6 +30,27 @@ class MechanismRun:
     # (T,) condition of the constraint Jacobian at each sample (physics/mechanism/singularity.py); empty for
     # the reduced model's runs, whose positions come from position analysis
     condition: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # the integrator that produced the samples (physics.registry.INTEGRATORS), "position analysis" when the
+    # motors fix every body and nothing is integrated
+    integrator: str = "DOP853"
+    # how the run ended (physics.status.Status, as a chain's Trajectory): 0 ok, < 0 stopped midway, with the
+    # samples up to the stop and ``message`` the sentence that names why and the fix
+    status: int = 0
+    message: str = "ok"
+
+    @property
+    def success(self) -> bool:
+        return self.status == 0
+
+    @property
+    def n_steps(self) -> int:
+        """Accepted integration steps (a chain Trajectory's name for ``steps``)."""
+        return self.steps
+
+    @property
+    def n_rhs(self) -> int:
+        """Right-hand sides evaluated (a chain Trajectory's name for ``evaluations``)."""
+        return self.evaluations
 
     @property
     def energy(self) -> np.ndarray:
@@ -38,6 +59,9 @@ class MechanismRun:
     def __repr__(self) -> str:
         """One line for a notebook or a log, not every array (those stay on the attributes)."""
         span = f"{float(self.t[0]):g}..{float(self.t[-1]):g} s" if self.t.size else "none"
-        how = f"stabilization={self.stabilization!r}, steps={self.steps}" if self.integrated else "position analysis"
+        how = (f"integrator={self.integrator!r}, stabilization={self.stabilization!r}, steps={self.steps}"
+               if self.integrated else "position analysis")
+        if self.status != 0:
+            how += f", status={self.status}"
         return (f"MechanismRun(method={self.method!r}, bodies={self.q.shape[1] // 3 if self.q.ndim == 2 else 0}, "
                 f"samples={self.t.shape[0]}, t={span}, {how})")

@@ -22,17 +22,24 @@ class _Singular(Exception):
     pass
 
 
-def integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, project):
+def integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, project, layout=None):
     """scipy's solvers stepped by hand, so a failure keeps the samples so far and projection can act.
 
     With projection, the solver is restarted from the projected state at every output sample (scipy's
-    solvers keep internal state that a projection would invalidate)."""
+    solvers keep internal state that a projection would invalidate). ``layout``: the kernels' layout of the
+    run when it is not the compiled system's own (a mechanism's run: the DAE's projection weights appended to
+    ``params``); with it the clock is written into the parameter vector before every evaluation (a speed motor
+    follows it), as the compiled kernels do."""
     n = compiled.n
     counter = {"rhs": 0}
+    if layout is None:
+        accel, project_onto = _untimed(compiled)
+    else:
+        accel, project_onto, params = _timed(compiled, layout, params)
 
     def rhs(t, y):
         counter["rhs"] += 1
-        theta_ddot, c = compiled.accel(y[:n], y[n:], params, alpha, beta)
+        theta_ddot, c = accel(y[:n], y[n:], params, alpha, beta, t)
         if not c <= SINGULAR_PIVOT_RATIO:
             raise _Singular(t)
         return np.concatenate([y[n:], theta_ddot])
@@ -75,10 +82,49 @@ def integrate_scipy(compiled, y0, t_eval, params, settings, alpha, beta, project
             if project:
                 y = y_out[next_sample - 1].copy()
                 theta, omega = np.ascontiguousarray(y[:n]), np.ascontiguousarray(y[n:])
-                compiled.project(theta, omega, params, t_eval[next_sample - 1])
+                project_onto(theta, omega, params, t_eval[next_sample - 1])
                 y = np.concatenate([theta, omega])
                 y_out[next_sample - 1] = y
     except _Singular as stop:
         status, t_now = Status.SINGULAR, float(stop.args[0])
     y_out[next_sample:] = np.nan
     return y_out, np.empty(0), status, n_steps, counter["rhs"], t_now, detail
+
+
+def _untimed(compiled):
+    """The compiled system's own ``accel`` (a chain's right-hand side reads no clock) and ``project``."""
+
+    def accel(theta, omega, values, alpha, beta, _t):
+        return compiled.accel(theta, omega, values, alpha, beta)
+
+    return accel, compiled.project
+
+
+def _timed(compiled, layout, params):
+    """``accel(theta, omega, params, alpha, beta, t)`` and ``project(theta, omega, params, t)`` on ``layout``,
+    the clock written into a copy of ``params`` (the layout says where; -1: nothing reads it)."""
+    from ..kernels.abi import LAYOUT_TIME  # noqa: PLC0415
+    from ..kernels.projection import project_states  # noqa: PLC0415
+    from ..kernels.system import accel_states  # noqa: PLC0415
+
+    params = np.array(params, dtype=float)
+    slot = int(layout[LAYOUT_TIME])
+    n = compiled.n
+    theta_ddot, condition = np.empty((1, n)), np.empty(1)
+
+    def accel(theta, omega, values, alpha, beta, t):
+        if slot >= 0:
+            values[slot] = t
+        accel_states(compiled.assemble_function, layout, np.ascontiguousarray(theta).reshape(1, n),
+                     np.ascontiguousarray(omega).reshape(1, n), values, float(alpha), float(beta), theta_ddot,
+                     condition)
+        return theta_ddot[0].copy(), float(condition[0])
+
+    def project(theta, omega, values, t):
+        rows_theta, rows_omega = theta.reshape(1, n), omega.reshape(1, n)
+        left = project_states(compiled.assemble_function, layout, np.array([float(t)]), rows_theta, rows_omega,
+                              values)
+        theta[...], omega[...] = rows_theta[0], rows_omega[0]
+        return float(left)
+
+    return accel, project, params

@@ -10,7 +10,6 @@ it as a failed cell with its message (the chain studies' ``Status``), as a sweep
 
 from __future__ import annotations
 
-import inspect
 import time
 from dataclasses import dataclass
 
@@ -24,15 +23,15 @@ from ..mechanism.model import Mechanism
 from ..mechanism.presets import MECHANISM_PRESETS
 from ..mechanism.simulate import MechanismRun, simulate_mechanism
 from ..mechanism.validation import check_runnable
+from ..registry import STABILIZATIONS as STABILIZATIONS  # the one list, re-exported for the studies
 from ..status import Status
 
 # The methods of a mechanism's run: the three formulations, and the reduced model where the mobility is 1.
 FORMULATIONS = ("newton_euler", "lagrange", "dae")
 REDUCED = "reduced"
-STABILIZATIONS = ("none", "baumgarte", "projection")
-# The engine's integrators: DOP853 alone until simulate_mechanism takes an ``integrator`` (then each is swept).
-TAKES_INTEGRATOR = "integrator" in inspect.signature(simulate_mechanism).parameters
-MECHANISM_INTEGRATORS = ("RK45", "DOP853") if TAKES_INTEGRATOR else ("DOP853",)
+# The integrators a work-precision sweep of a mechanism runs: the adaptive compiled pairs, as a chain's bench
+# (every integrator of the registry runs a mechanism; these are the ones a tolerance sweep compares).
+MECHANISM_INTEGRATORS = ("RK45", "DOP853")
 
 
 def mechanism_names() -> tuple[str, ...]:
@@ -92,10 +91,8 @@ def failure_status(message: str) -> Status:
 
 
 def run_case(mechanism: Mechanism, t_end: float, samples: int, *, probe: str | None = None, **options) -> Outcome:
-    """:func:`simulate_mechanism` with ``options`` (method, stabilization, rtol, atol, q0, qdot0, integrator
-    where the engine takes one), timed; a LinkageError midway comes back as a failed Outcome."""
-    if not TAKES_INTEGRATOR:
-        options.pop("integrator", None)
+    """:func:`simulate_mechanism` with ``options`` (method, stabilization, rtol, atol, q0, qdot0, integrator),
+    timed; a run stopped midway (its status) or refused at its start (LinkageError) is a failed Outcome."""
     probe = probe or probe_reference(mechanism)
     start = time.perf_counter()
     try:

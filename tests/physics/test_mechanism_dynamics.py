@@ -165,7 +165,8 @@ def test_simulate_takes_a_mechanism_file(tmp_path):
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert bad.returncode == 2 and bad.stderr.strip() == (
         "error: --links: does not apply to a mechanism (the number of bars of preset chain); a mechanism's run takes "
-        "--t-end, --samples, --method, --stabilization, --rtol, --atol, --set, --out, --format, --json")
+        "--t-end, --samples, --method, --stabilization, --rtol, --atol, --integrator, --step, --max-steps, --backend, "
+        "--set, --out, --format, --json")
     missing = subprocess.run([sys.executable, "-m", "physics", "simulate", "--mechanism", str(tmp_path / "no.toml")],
                              capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "cannot read it" in missing.stderr

@@ -137,9 +137,12 @@ def test_both_commands_take_method_and_stabilization(tmp_path):
          "error: method = 'euler': allowed values dae, lagrange, newton_euler, reduced"),
         (("simulate", "--mechanism", str(path), "--stabilization", "tight"),
          "error: stabilization = 'tight': allowed values none, baumgarte, projection"),
-        (("simulate", "--mechanism", str(path), "--integrator", "RK45"),
-         "error: --integrator RK45: a mechanism's run integrates with DOP853 only (its projection follows each "
-         "accepted step); leave --integrator out"),
+        (("simulate", "--mechanism", str(path), "--integrator", "variational"),
+         "error: integrator = variational: needs method = lagrange (got dae)"),
+        (("mechanism", "--file", str(path), "--t-end", "1", "--integrator", "midpoint", "--step", "1e-6",
+          "--max-steps", "1000"),
+         "error: integrator = midpoint: t_end / step = 1 / 1e-06 = 1e+06 steps, more than max_steps = 1e+03 (about "
+         "2 s at 2 us a step); use a larger step, a shorter t_end, or raise max_steps (at most 1e+09)"),
     ]:
         bad = _physics(*args)
         assert bad.returncode == 2 and bad.stdout == "" and bad.stderr.strip() == line, bad.stderr
