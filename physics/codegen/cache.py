@@ -40,7 +40,8 @@ _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "model.py")
-_GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py", "mechanism/joints/*.py")  # a mechanism's derivations
+_GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py", "mechanism/joints/*.py",
+                       "mechanism/model.py")  # a mechanism's derivations and the model they read
 MAX_LINKS = 12
 _MAC_PREFIX = b"# hmac-sha256: "
 
