@@ -41,6 +41,7 @@ class MechanismSettings(BaseModel):
     method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
     stabilization: Literal["none", "baumgarte", "projection"] = "projection"
     trace: str | None = None  # "body.point" whose path is drawn
+    rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
 
@@ -277,12 +278,13 @@ class MechanismSpec:
         (a singular pose, a blow-up) raises LinkageError, which the player turns into the run's end."""
         if self.runner is not None:
             run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
-                                            t_start, settings.method, settings.stabilization)
+                                            t_start, settings.method, settings.stabilization, settings.rtol)
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
 
             run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
-                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization)
+                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization,
+                                     rtol=settings.rtol, atol=settings.rtol)
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples

@@ -44,8 +44,8 @@ POINT_COLOR = (150, 150, 150)  # a body's point that is not a joint (a traced po
 class MechanismScene:
     """Nodes of one mechanism under ``root``; :meth:`build` once per drawing, :meth:`show` every frame."""
 
-    def __init__(self, target, root: str = "/linkage") -> None:
-        self.target = target
+    def __init__(self, target, root: str = "/linkage", palette: list | None = None) -> None:
+        self.target, self.palette = target, palette or BAR_COLORS  # compare mode: one colour per method
         self.root = root.rstrip("/")
         self.draw: Drawing | None = None
         self._handles: list = []
@@ -88,7 +88,7 @@ class MechanismScene:
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
         scales = self._scales(points_xy)
         box_vertices, box_faces = UNIT_BOX
-        colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body]
+        colors = [self.palette[b % len(self.palette)] for b in draw.segment_body]
         if len(bar_positions):
             self._bars = scene.add_batched_meshes_simple(
                 f"{self.root}/bars", box_vertices, box_faces, batched_wxyzs=bar_wxyzs,

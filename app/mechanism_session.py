@@ -32,7 +32,9 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
 from . import delivery, viser_compat
 from .camera import CameraDirector
+from .frame_view import COMPARE_METHODS
 from .logs import quietly
+from .mechanism_compare import MechanismCompare, compare_specs
 from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
 from .mechanism_runs import (
     MechanismSettings,
@@ -120,6 +122,7 @@ class MechanismSession:
         self.id = id(self)
         self._lock = threading.RLock()
         self.reactions_on = False
+        self.compare = False  # the three formulations side by side (app/mechanism_compare.py)
         self.frames_sent = 0
         self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
@@ -138,6 +141,7 @@ class MechanismSession:
             self.camera = CameraDirector(target, shared)
             self.trace = TraceLine(target.scene, "/linkage/trace")
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
+            self.compare_view = MechanismCompare(target)
             self._build_panel()
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
@@ -192,6 +196,10 @@ class MechanismSession:
         self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
         self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
         self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
+        self.compare_box = keep(gui.add_checkbox(
+            "Compare formulations", False,
+            hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part"))
+        self.compare_box.on_update(lambda event: self.guard(lambda: self.set_compare(bool(self.compare_box.value))))
         self.knob_folder = keep(gui.add_folder("Bodies and motors"))
         self.export_folder = keep(gui.add_folder("Export", expand_by_default=False))
         with self.export_folder:
@@ -314,7 +322,7 @@ class MechanismSession:
                     box.value = shown_value(knob.value)
             for handle, value in ((self.method, self.settings.method),
                                   (self.stabilization, self.settings.stabilization),
-                                  (self.menu, self.label)):
+                                  (self.menu, self.label), (self.compare_box, self.compare)):
                 if handle.value != value:
                     handle.value = value
         finally:
@@ -400,6 +408,18 @@ class MechanismSession:
         if not on:
             self.arrows.hide()
         self.player.touch()
+
+    def set_compare(self, on: bool) -> None:
+        """Run Newton-Euler, Lagrange and the DAE from the same start (and a converged reference for the
+        divergence plots), drawn as three mechanisms in their colours; starts again at t = 0, as the chain's."""
+        with self._lock:
+            self.compare = bool(on)
+            self.method.disabled = self.compare  # every formulation runs: the menu does not apply
+            self._build_scene(self.q0)
+            self.energy_ref = None
+            self.energy_plot.clear()
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+            self.sync_all()
 
     def choose(self, name: str) -> None:
         """The mechanism menu: another mechanism preset here, a chain preset through the server."""
@@ -501,11 +521,13 @@ class MechanismSession:
                 sample = {name: run.ring.get(name, i) for name in ("t", "q", "qdot", "joints", "trace_xy",
                                                                    "kinetic", "potential", "residual")}
             spec = self.spec
-            nodes = self.scene.poses()
+            nodes = self.compare_view.poses() if self.compare else self.scene.poses()
             return {
                 "session": self.id, "shared": self.shared, "kind": "mechanism", "mechanism": self.label,
                 "bodies": [body.name for body in self.mechanism.bodies], "mobility": self.mobility,
                 "method": self.settings.method, "stabilization": self.settings.stabilization,
+                "compare": self.compare, "runs": [r.spec.label for r in player.runs],
+                "divergence": self.compare_view.passing_times() if self.compare else None,
                 "trace": self.settings.trace,
                 "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
                 "playing": player.playing, "time": float(player.display_time),
@@ -570,7 +592,8 @@ class MechanismSession:
                  play: bool | None = None) -> None:
         # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
         self.notices.clear()  # a run goes on: a stopped run's notice is about the run it replaces
-        self.player.restart([cast(Any, self.spec)], t0, [(q0, qdot0)], keep_history=keep_history, play=play)
+        specs = [self.spec] if not self.compare else compare_specs(self.mechanism, self.settings, self.spec.runner)
+        self.player.restart(cast(Any, specs), t0, [(q0, qdot0)] * len(specs), keep_history=keep_history, play=play)
 
     def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False) -> None:
         """Assemble ``mechanism`` (LinkageError naming the open joint), rebuild the scene and the panel's
@@ -584,7 +607,7 @@ class MechanismSession:
         self.spec = self._spec()
         self._row_names = self.spec.row_names
         draw = self.spec.draw
-        self.scene.build(draw, points_at(draw, q0), centres_at(q0))
+        self._build_scene(q0)
         self.trace.update(np.zeros((0, 2)))
         self.arrows.hide()
         if not same_kind:
@@ -596,10 +619,33 @@ class MechanismSession:
         self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
         self.sync_all()
 
+    def _build_scene(self, q0: np.ndarray) -> None:
+        """The mechanism at ``q0``: one in the bodies' colours, or in compare mode three in the methods'."""
+        draw = self.spec.draw
+        points, centres = points_at(draw, q0), centres_at(q0)
+        if self.compare:
+            self.scene.remove()
+            self.trace.update(np.zeros((0, 2)))
+            self.compare_view.build(draw, points, centres, self._trace_name())
+        else:
+            self.compare_view.remove()
+            self.scene.build(draw, points, centres)
+
+    def _trace_name(self) -> str:
+        """The point compare mode measures the formulations' divergence at (the run's traced point)."""
+        k = self.spec.trace_index()
+        return self.spec.draw.labels[k] if k is not None else f"{self.mechanism.bodies[0].name} (centre of mass)"
+
     def _continue(self) -> None:
-        """New physics from the displayed state on (the history up to it is kept)."""
+        """New physics from the displayed state on (the history up to it is kept); in compare mode every
+        formulation starts again from the start, so that they part from one state."""
         state = self.player.current_start()
         self.spec = self._spec()
+        if self.compare:
+            self._build_scene(self.q0)  # the traced point may be another (the plots say which)
+            self.energy_ref = None
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+            return
         if state is None or getattr(state[0], "structure", None) != self.spec.structure:
             # nothing shown yet, or the state shown is another mechanism's (a menu choice not drawn yet)
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
@@ -642,7 +688,9 @@ class MechanismSession:
         rf = frame.runs[0]
         ring = run.ring
         with self.target.atomic():
-            if len(rf.joints) == len(spec.draw.labels):
+            if self.compare:
+                self.compare_view.show([f for f in frame.runs if len(f.joints) == len(spec.draw.labels)])
+            elif len(rf.joints) == len(spec.draw.labels):
                 self.scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % 2 == 0:
                 first = ring.index_at(frame.t - TRACE_SECONDS)
@@ -653,6 +701,8 @@ class MechanismSession:
         self.frames_sent += 1
         if frame.restarted or frame.counter % PLOT_EVERY == 0:
             self._update_plots(ring, rf.index)
+            if self.compare:
+                self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
             self._show_status(frame.t, ring, rf.index)
 
@@ -686,7 +736,9 @@ class MechanismSession:
         drift = None if driven or self.energy_ref is None else float(
             relative_drift(np.array([energy]), self.energy_ref, scale)[0])
         residual = float(ring.get("residual", index))
-        label = f"{METHODS.get(self.settings.method, self.settings.method)} · DOP853"
+        method = (", ".join(METHODS[m].split(" (")[0] for m in COMPARE_METHODS) if self.compare
+                  else METHODS.get(self.settings.method, self.settings.method))
+        label = ("compare: " if self.compare else "") + f"{method} · DOP853"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
         condition = float(ring.get("condition", index))
@@ -736,7 +788,7 @@ class MechanismSession:
         for timer in self._typing.values():
             timer.cancel()
         if self.shared or clean:
-            for part in (self.scene, self.trace, self.arrows):
+            for part in (self.scene, self.trace, self.arrows, self.compare_view):
                 quietly(part.remove, "removing a scene part")
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")
