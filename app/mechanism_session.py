@@ -36,6 +36,7 @@ from .frame_view import COMPARE_METHODS
 from .logs import quietly
 from .mechanism_compare import MechanismCompare, compare_specs
 from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
+from .mechanism_free_body import MechanismFreeBody
 from .mechanism_runs import (
     MechanismSettings,
     MechanismSpec,
@@ -142,6 +143,7 @@ class MechanismSession:
             self.trace = TraceLine(target.scene, "/linkage/trace")
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
             self.compare_view = MechanismCompare(target)
+            self.free_body = MechanismFreeBody(target.scene, lambda: 1.0, redraw=self.player.touch)
             self._build_panel()
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
@@ -200,6 +202,14 @@ class MechanismSession:
             "Compare formulations", False,
             hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part"))
         self.compare_box.on_update(lambda event: self.guard(lambda: self.set_compare(bool(self.compare_box.value))))
+        self.free_body_box = keep(gui.add_checkbox("Free-body diagram", False,
+                                                   hint="Every load on the chosen body at the displayed time"))
+        self.free_body_box.on_update(
+            lambda event: self.guard(lambda: self.set_free_body(bool(self.free_body_box.value))))
+        self.body_menu = keep(gui.add_dropdown("Body", ["(none)"], initial_value="(none)",
+                                               hint="The body whose free-body diagram is drawn"))
+        self.body_menu.on_update(lambda event: self.guard(lambda: self.set_free_body_body(str(self.body_menu.value))))
+        self.couples = keep(gui.add_markdown(""))
         self.knob_folder = keep(gui.add_folder("Bodies and motors"))
         self.export_folder = keep(gui.add_folder("Export", expand_by_default=False))
         with self.export_folder:
@@ -322,7 +332,8 @@ class MechanismSession:
                     box.value = shown_value(knob.value)
             for handle, value in ((self.method, self.settings.method),
                                   (self.stabilization, self.settings.stabilization),
-                                  (self.menu, self.label), (self.compare_box, self.compare)):
+                                  (self.menu, self.label), (self.compare_box, self.compare),
+                                  (self.free_body_box, self.free_body.on), (self.body_menu, self._body_shown())):
                 if handle.value != value:
                     handle.value = value
         finally:
@@ -408,6 +419,23 @@ class MechanismSession:
         if not on:
             self.arrows.hide()
         self.player.touch()
+
+    def set_free_body(self, on: bool) -> None:
+        """The free-body diagram of the chosen body on or off (app/mechanism_free_body.py)."""
+        self.free_body.set_on(on)
+        if not on:
+            self.couples.content = ""
+
+    def set_free_body_body(self, name: str) -> None:
+        """The body whose diagram is drawn, by its name."""
+        names = [body.name for body in self.mechanism.bodies]
+        _choice("body", name, names)
+        self.free_body.set_bar(names.index(name) + 1)
+        self.player.touch()
+
+    def _body_shown(self) -> str:
+        bodies = self.mechanism.bodies
+        return bodies[self.free_body.bar - 1].name if 1 <= self.free_body.bar <= len(bodies) else "(none)"
 
     def set_compare(self, on: bool) -> None:
         """Run Newton-Euler, Lagrange and the DAE from the same start (and a converged reference for the
@@ -528,6 +556,8 @@ class MechanismSession:
                 "method": self.settings.method, "stabilization": self.settings.stabilization,
                 "compare": self.compare, "runs": [r.spec.label for r in player.runs],
                 "divergence": self.compare_view.passing_times() if self.compare else None,
+                "free_body": None if not self.free_body.on or self.free_body.loads is None
+                else self.free_body.loads.as_dict(),
                 "trace": self.settings.trace,
                 "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
                 "playing": player.playing, "time": float(player.display_time),
@@ -665,6 +695,11 @@ class MechanismSession:
         self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
         methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
         self.method.options = methods
+        names = [body.name for body in m.bodies]
+        if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
+            self.free_body.set_bar(1)  # another mechanism: its first body
+        self.body_menu.options = names
+        self.body_menu.value = names[self.free_body.bar - 1]
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""
@@ -697,6 +732,7 @@ class MechanismSession:
                 self.trace.update(ring.window(first, rf.index, ["trace_xy"])["trace_xy"])
             if self.reactions_on:
                 self._update_arrows(run, rf, spec)
+            self.free_body.update(frame, {r.spec.label: r for r in self.player.runs})
         quietly(self.target.flush, "flushing a frame")
         self.frames_sent += 1
         if frame.restarted or frame.counter % PLOT_EVERY == 0:
@@ -705,6 +741,10 @@ class MechanismSession:
                 self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
             self._show_status(frame.t, ring, rf.index)
+            couples = ("Couples on the body: " + "; ".join(self.free_body.couples)) if self.free_body.on \
+                and self.free_body.couples else ""
+            if self.couples.content != couples:
+                self.couples.content = couples
 
     def _update_arrows(self, run, rf, spec: MechanismSpec) -> None:
         points, rows, signs = spec.pin_arrows
@@ -788,7 +828,7 @@ class MechanismSession:
         for timer in self._typing.values():
             timer.cancel()
         if self.shared or clean:
-            for part in (self.scene, self.trace, self.arrows, self.compare_view):
+            for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body):
                 quietly(part.remove, "removing a scene part")
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")
