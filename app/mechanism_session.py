@@ -30,9 +30,10 @@ from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
-from . import delivery, viser_compat
+from . import delivery, share, viser_compat
 from .camera import CameraDirector
 from .frame_view import COMPARE_METHODS
+from .lab_session import Kind, SessionBase
 from .logs import quietly
 from .mechanism_compare import MechanismCompare, compare_specs
 from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
@@ -48,14 +49,14 @@ from .mechanism_runs import (
 )
 from .mechanism_scene import MechanismScene
 from .mechanism_workers import POOL
-from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
+from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
 from .player import SAMPLE_DT, Frame, Player
 from .scene import pose_disc
 from .text import markdown_literal
-from .viser_compat import check_gui_updates, connection_open
+from .viser_compat import check_gui_updates
 
 METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
            "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
@@ -106,8 +107,10 @@ def is_mechanism(name: str) -> bool:
     return name in MECHANISM_PRESETS
 
 
-class MechanismSession:
+class MechanismSession(SessionBase):
     """A general mechanism shown in one browser (``target`` a client) or in all (``shared``, the server)."""
+
+    kind: Kind = "mechanism"
 
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
                  autoplay: bool = True, on_switch: Callable[[str], None] | None = None) -> None:
@@ -356,22 +359,9 @@ class MechanismSession:
                              color="red", seconds=None)
         return None
 
-    def may_change(self, client_id: int | None) -> bool:
-        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
-        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
-
     def _refuse_update(self, handle, problem: str) -> None:
         self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
         quietly(self.sync_all, "putting the controls back after a refused value")
-
-    def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
-        self.notices.show(title, body, color=color, seconds=seconds)
-
-    def _clients(self) -> list:
-        return list(self.target.get_clients().values()) if self.shared else [self.target]
-
-    def _connection_open(self) -> bool:
-        return self.shared or connection_open(self.target)
 
     # ------------------------------------------------------------------ edits
     def set(self, name: str, value: object) -> None:
@@ -511,6 +501,17 @@ class MechanismSession:
         query = self.link_query()
         self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
                                    f"the server's address:\n\n`/{query}`")
+
+    def set_value(self, name: str, text: str) -> None:
+        """One ``snapshot --set NAME=VALUE``: the names and units of the panel and its share links."""
+        self.set_link_value(name, text)
+
+    def load_setup(self, pairs: list[tuple[str, str]], where: str = "the setup") -> None:
+        """A saved setup's values by the names of this panel (the mechanism itself is the session's start);
+        what is refused is listed in one notice, the rest applied."""
+        refused = share.apply_setup(pairs, self.set_link_value)
+        if refused:
+            self.show_notice(f"Not applied from {where}", "; ".join(refused))
 
     def set_link_value(self, name: str, text: str) -> None:
         """One value of a share link (or of ``snapshot --set``): a setting by its name, a control by its name,
