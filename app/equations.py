@@ -15,8 +15,7 @@ import re
 import sympy as sp
 from sympy.printing.mathml import mathml
 
-from physics.codegen.latex import equations_latex
-from physics.derive import FORMULATIONS
+import physics
 
 from .math_lines import multline
 from .parameters import METHOD_LABELS
@@ -95,7 +94,7 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
             "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
         )
 
-    system = FORMULATIONS[formulation]().derive(n, pinned)
+    system = physics.derived_system(formulation, n, pinned)
     names = _display_names(system)
     unknowns = [names.get(u, u) for u in system.unknowns]
     label = METHOD_LABELS.get(formulation, formulation)
@@ -147,7 +146,7 @@ def equations_tex(formulation: str, n: int, pinned: bool) -> str:
     if formulation.startswith("reduced"):
         raise ValueError("the reduced model has no symbolic system of its own; choose a formulation")
 
-    data = equations_latex(formulation, n, pinned)
+    data = physics.equations_latex(formulation, n, pinned)
     label = METHOD_LABELS.get(formulation, formulation)
     closure = "closed loop (tip pinned)" if pinned else "open chain"
     lines = [
