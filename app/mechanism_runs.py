@@ -19,7 +19,7 @@ from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
-from physics.mechanism.run import MechanismRun
+from physics.mechanism.run import MechanismRun, run_table
 from physics.mechanism.validation import check_runnable
 
 from .buffers import TrajectoryRing
@@ -289,6 +289,18 @@ class MechanismSpec:
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
         return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps)
+
+
+def run_file(spec: MechanismSpec, samples: dict[str, np.ndarray], fmt: str) -> bytes:
+    """The stored ``samples`` of a run (app/readout.py's history) as the ``mechanism`` command writes a run
+    (``csv`` or ``json``: the same columns, ``lambda[JOINT: row]`` and all; docs/mechanisms.md). The traced point
+    is NaN when none is chosen, as there."""
+    trace = samples["trace_xy"] if spec.trace_index() is not None else np.full_like(samples["trace_xy"], np.nan)
+    run = MechanismRun(t=samples["t"], q=samples["q"], qdot=samples["qdot"], reactions=samples["reactions"],
+                       kinetic=samples["kinetic"], potential=samples["potential"], residual=samples["residual"],
+                       trace_xy=trace, row_names=spec.row_names, method=spec.settings.method,
+                       stabilization=spec.settings.stabilization, condition=samples["condition"])
+    return run_table(run, fmt)
 
 
 def structure_of(mechanism: Mechanism) -> str:

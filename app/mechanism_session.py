@@ -30,7 +30,7 @@ from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
-from . import delivery, share, viser_compat
+from . import delivery, readout, share, viser_compat
 from .camera import CameraDirector
 from .frame_view import COMPARE_METHODS
 from .lab_session import Kind, SessionBase
@@ -44,6 +44,7 @@ from .mechanism_runs import (
     centres_at,
     check_method,
     points_at,
+    run_file,
     start_state,
     torque_rows,
 )
@@ -68,7 +69,8 @@ STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
-TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
+TRANSPORT = ("Play", "Pause", "Step", "Reset")
+DOWNLOADS = ("CSV", "JSON")  # the chain panel's Playback row (app/controls.py)
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
@@ -220,6 +222,11 @@ class MechanismSession(SessionBase):
             self.share_button.on_click(lambda event: self.guard(self.show_link))
             self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
                                                "in a new session (press the button for the current ones).")
+            self.download_buttons = gui.add_button_group("Download the run", DOWNLOADS,
+                                                         hint="The run up to the displayed time, as the mechanism "
+                                                         "command writes it")
+            self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
+                str(self.download_buttons.value).lower(), getattr(event, "client", None))))
         self.help = keep(gui.add_folder("Help", expand_by_default=False))
         with self.help:
             gui.add_markdown(MECHANISM_HELP)
@@ -501,6 +508,21 @@ class MechanismSession(SessionBase):
         query = self.link_query()
         self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
                                    f"the server's address:\n\n`/{query}`")
+
+    def download(self, kind: str, client=None) -> None:
+        """Send the run up to the displayed time (``csv`` or ``json``, the columns of ``python -m physics
+        mechanism``; in compare mode the first formulation's) to ``client`` (or this session's browser(s))."""
+        name, content = self.download_file(kind)
+        (client or self.target).send_file_download(name, content)
+
+    def download_file(self, kind: str) -> tuple[str, bytes]:
+        """``(file name, content)`` of a download (see :meth:`download`)."""
+        if kind not in ("csv", "json"):
+            raise LinkageError(f"download = {kind!r}: allowed csv, json")
+        spec = self.player.runs[0].spec if self.player.runs else self.spec
+        samples = readout.history(self.player, spec.label)
+        stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
+        return f"mechanism-{stem}-{spec.settings.method}.{kind}", run_file(cast(Any, spec), samples, kind)
 
     def set_value(self, name: str, text: str) -> None:
         """One ``snapshot --set NAME=VALUE``: the names and units of the panel and its share links."""
