@@ -310,16 +310,18 @@ class FrameView:
             quietly(self.floor.remove, "removing the floor")
 
 
-def compare_key(scene, reach: float) -> list:
+def compare_key(scene, reach: float, centre: tuple[float, float] = (0.0, 0.0)) -> list:
     """The colour key of compare mode in the scene: a ball of each run's colour and its method's name, top left
-    of the disc the mechanism sweeps (where no motion passes); returns the nodes (chains and mechanisms alike)."""
+    of the disc of radius ``reach`` about ``centre`` (the plane's x, y) that the mechanism sweeps (where no motion
+    passes); returns the nodes (chains and mechanisms alike)."""
     handles = []
+    x, y = centre
     for k, method in enumerate(COMPARE_METHODS):
-        z = reach * (0.9 - 0.12 * k)
+        z = y + reach * (0.9 - 0.12 * k)
         handles.append(scene.add_icosphere(f"/compare_key/{method}/ball", radius=0.025 * reach,
-                                           color=METHOD_COLORS[method], position=(-0.85 * reach, 0.0, z)))
+                                           color=METHOD_COLORS[method], position=(x - 0.85 * reach, 0.0, z)))
         handles.append(scene.add_label(f"/compare_key/{method}/name", METHOD_LABELS[method],
-                                       position=(-0.8 * reach, 0.0, z)))
+                                       position=(x - 0.8 * reach, 0.0, z)))
     return handles
 
 

@@ -25,6 +25,7 @@ from .mechanism_scene import MechanismScene
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS
 from .runs import RunFrame
+from .scene import pose_disc
 
 # The chain's visible gap (0.1 m) is for bars of about 1 m; a mechanism's is this fraction of its size
 GAP_FRACTION = 0.1
@@ -85,7 +86,9 @@ class MechanismCompare:
                                                    position=(0.0, COMPARE_DEPTH_STEP * k * reach, 0.0))
             self.scenes[method] = MechanismScene(self.target, f"/compare/{method}", palette=[METHOD_COLORS[method]])
             self.scenes[method].build(draw, points_xy, com_xy)
-        self._key = compare_key(scene, reach)
+        # the key top left of the disc the camera frames (as app/mechanism_session.py frames it)
+        centre, radius = pose_disc(np.concatenate([points_xy, draw.ground]), margin=1.3)
+        self._key = compare_key(scene, radius, (float(centre[0]), float(centre[1])))
         gui = self.target.gui
         noun = f"Traced point {trace_label}"
         self.between = Plot(gui, f"{noun}: divergence from {METHOD_LABELS[COMPARE_METHODS[0]]}",
