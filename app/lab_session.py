@@ -71,8 +71,22 @@ class SessionBase:
 
     target: Any
     shared: bool
+    closed: bool
     is_presenter: Callable[[int], bool] | None
     notices: Notices
+    player: Any
+    camera: Any
+
+    def _stop(self) -> bool:
+        """The start of ``close``: mark the session closed (its notices and camera too) and stop its player;
+        False if it was closed already (nothing to do)."""
+        if self.closed:
+            return False
+        self.closed = True
+        self.notices.closed = True
+        self.camera.closed = True
+        self.player.stop()
+        return True
 
     def may_change(self, client_id: int | None) -> bool:
         """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""

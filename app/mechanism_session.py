@@ -841,12 +841,8 @@ class MechanismSession(SessionBase):
     # ------------------------------------------------------------------ lifetime
     def close(self, clean: bool = False) -> None:
         """Stop the player; with ``clean`` (or shared) remove every node and control (a switch to a chain)."""
-        if self.closed:
+        if not self._stop():
             return
-        self.closed = True
-        self.notices.closed = True
-        self.camera.closed = True
-        self.player.stop()
         POOL.release(self.worker)
         for timer in self._typing.values():
             timer.cancel()

@@ -580,12 +580,8 @@ class Session(SessionBase):
     def close(self, clean: bool = False) -> None:
         """Stop the player and drop the scene (the server calls this when the browser goes away); with
         ``clean`` remove every node and control too (the browser stays: a switch to a mechanism session)."""
-        if self.closed:
+        if not self._stop():
             return
-        self.closed = True
-        self.notices.closed = True
-        self.camera.closed = True
-        self.player.stop()
         self.controls.close()
         self.analysis.remove()
         self.report.remove()
