@@ -32,6 +32,8 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
 from . import delivery, readout, share, viser_compat
 from .camera import CameraDirector
+from .commands import TIMELINE, parse_number
+from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
 from .frame_view import COMPARE_METHODS
 from .lab_session import Kind, SessionBase
 from .logs import quietly
@@ -192,6 +194,13 @@ class MechanismSession(SessionBase):
         self.transport = keep(gui.add_button_group("Playback", TRANSPORT,
                                                    hint="Reset: start again from the assembled sketch at rest"))
         self.transport.on_click(lambda event: self.guard(lambda: self.press(self.transport.value)))
+        # the run so far, as the chain panel's: drag back to look again (pauses there); Play goes on from it
+        self.timeline = keep(gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
+                                            initial_value=0.0, hint="Drag to go back through the run so far (pauses)"))
+        self.timeline.on_update(lambda event: None if self._timeline_writer == threading.get_ident() else self.guard(
+            lambda: self.scrub(self.timeline.value)))
+        self._timeline_end = 0.0
+        self._timeline_writer: int | None = None  # the thread moving the thumb to the time shown (not a scrub)
         self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
         self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
         self.upload = keep(gui.add_upload_button("Load a mechanism file (TOML or JSON)",
@@ -633,6 +642,27 @@ class MechanismSession(SessionBase):
         """Pause and advance the display by one sample (1/60 s), simulating it first if need be."""
         self.player.step()
 
+    def scrub(self, t: object) -> None:
+        """Show time ``t`` of the run so far (the timeline), paused there; Play goes on from it."""
+        number = parse_number("timeline", TIMELINE, t)
+        if not 0.0 <= number <= MAX_GOTO_TIME:
+            raise LinkageError(f"timeline = {number:g} s: allowed range 0 <= timeline <= {MAX_GOTO_TIME:g} s")
+        self.player.seek(number, timeout=0.0)  # returns at once; the player shows it when it can
+
+    def _show_timeline(self, t: float, t_first: float, restarted: bool) -> None:
+        """The timeline's range is the run so far, its thumb the time shown (as the chain panel's)."""
+        self._timeline_end = t if restarted else max(self._timeline_end, t)
+        low, high, value = timeline_window(t, t_first, self._timeline_end)
+        # viser calls on_update for a value set here too: this thread's own write is not a scrub
+        self._timeline_writer = threading.get_ident()
+        try:
+            if (self.timeline.min, self.timeline.max) != (low, high):
+                self.timeline.min, self.timeline.max = low, high
+            if self.timeline.value != value:
+                self.timeline.value = value
+        finally:
+            self._timeline_writer = None
+
     # ------------------------------------------------------------------ runs
     def _spec(self) -> MechanismSpec:
         if self.worker is not None and not self.worker.alive:  # it died: a new one for the next run
@@ -764,6 +794,7 @@ class MechanismSession(SessionBase):
                 self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
             self._show_status(frame.t, ring, rf.index)
+            quietly(lambda: self._show_timeline(frame.t, ring.t_first, frame.restarted), "moving the timeline")
             couples = ("Couples on the body: " + "; ".join(self.free_body.couples)) if self.free_body.on \
                 and self.free_body.couples else ""
             if self.couples.content != couples:
