@@ -15,6 +15,7 @@ joint, the field and the allowed range, and the session goes on.
 
 from __future__ import annotations
 
+import html
 import math
 import threading
 import traceback
@@ -236,6 +237,12 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
+        self.equations_folder = keep(gui.add_folder("Equations", expand_by_default=False))
+        with self.equations_folder:
+            self.equations_button = gui.add_button("Show the equations of the method")
+            self.equations_button.on_click(lambda event: self.guard(self.show_equations))
+            self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
+                                          "for this mechanism (press the button).</p>")
         self.help = keep(gui.add_folder("Help", expand_by_default=False))
         with self.help:
             gui.add_markdown(MECHANISM_HELP)
@@ -517,6 +524,27 @@ class MechanismSession(SessionBase):
         query = self.link_query()
         self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
                                    f"the server's address:\n\n`/{query}`")
+
+    def show_equations(self, wait: bool = False) -> None:
+        """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
+        mechanism in the Equations folder; ``wait``: return once shown (tests)."""
+        mechanism, method, label = self.mechanism, self.settings.method, self.label
+        self.equations.content = f"<p><i>Deriving the {html.escape(METHODS[method])} equations...</i></p>"
+
+        def derive() -> None:
+            from .equations import mechanism_equations_html  # noqa: PLC0415 - sympy: only when asked for
+
+            try:
+                content = mechanism_equations_html(mechanism, method)
+            except Exception as error:  # shown where the equations would be; the session goes on
+                content = f"<p>Could not derive the equations: {html.escape(f'{type(error).__name__}: {error}')}</p>"
+            if not self.closed and self.label == label:  # not another mechanism's meanwhile
+                self.equations.content = content
+
+        worker = threading.Thread(target=derive, daemon=True, name="mechanism-equations")
+        worker.start()
+        if wait:
+            worker.join()
 
     def download(self, kind: str, client=None) -> None:
         """Send the run up to the displayed time (``csv`` or ``json``, the columns of ``python -m physics
