@@ -72,8 +72,8 @@ STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
-TRANSPORT = ("Play", "Pause", "Step", "Reset")
-DOWNLOADS = ("CSV", "JSON")  # the chain panel's Playback row (app/controls.py)
+TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
+DOWNLOADS = ("CSV", "JSON")  # the run, as the mechanism command writes it
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
@@ -82,15 +82,22 @@ guide. The magenta line is the traced point's last 4 s.
 here. The line under it gives the bodies, joints, mobility and motors.
 
 **Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the assembled sketch at rest, t = 0); the keys
-Space, S and R press them.
+Space, S and R press them. **Timeline:** drag back through the run so far (it pauses there).
 
 **Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
 cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
 stay closed. Both go on from the displayed state.
 
+**Compare formulations:** Newton-Euler (blue), Lagrange (orange) and the DAE (green) from the same start;
+under the panel, how far their traced points part, and each one's error against a converged run.
+**Free-body diagram:** every load on the chosen body at the time shown, with its value; couples are listed.
+
 **Bodies and motors:** size (m: the body is scaled about its first point and the mechanism re-assembled; the
 run starts again), m (kg), I (kg·m²), a motor's speed (°/s) or torque (N·m), g (m/s²). A value that cannot be
 used is refused with a notice naming the body, the field and the range.
+
+**Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
+A x = b the chosen method integrates, for this mechanism.
 
 **Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give
 (inverse dynamics). The status line shows the energy error of an undriven mechanism, the largest constraint
