@@ -60,3 +60,44 @@ def test_a_mechanism_in_compare_mode_and_its_free_body_diagram(start_lab):
     assert greenish.sum() > 500 and dark_grey.sum() > 300, (greenish.sum(), dark_grey.sum())
     labels = session.free_body.labels()
     assert len(labels) == 3 and sum(label.startswith("pin ") for label in labels) == 2
+
+
+def test_a_mechanisms_equations_and_its_run_as_a_file_in_the_page(start_lab, tmp_path):
+    """The Equations folder draws the system as maths in the panel; the CSV button hands the browser a file with
+    the ``mechanism`` command's columns."""
+    import csv
+    import io
+    import re
+
+    from physics.mechanism import derived_system
+
+    lab = start_lab(preset="slider-crank")
+    page = lab.open_page()
+    session = page.session
+    page.show_time(0.5)
+
+    page.page.get_by_text("Equations", exact=True).first.click()
+    page.page.get_by_role("button", name="Show the equations of the method").click()
+    system = derived_system(session.mechanism, "dae")
+    wait_until(lambda: f"{system.A.shape[0]} equations" in session.equations.content,
+               message="the equations derived")
+    heading = page.page.get_by_text("LMB crank (x)", exact=False).first
+    heading.wait_for()
+    heading.scroll_into_view_if_needed()
+    assert page.page.locator("math").count() > system.A.shape[0]  # the unknowns and every row, as MathML
+    page.picture("mechanism-equations")
+
+    page.page.get_by_text("Export", exact=True).first.click()
+    page.page.get_by_role("button", name="CSV", exact=True).click()
+    link = page.page.get_by_role("link", name=re.compile(r"mechanism-slider-crank-dae\.csv")).first
+    link.wait_for()  # viser shows the file as a link in a notification: a person clicks it to save it
+    with page.page.expect_download() as download_info:
+        link.click()
+    download = download_info.value
+    assert download.suggested_filename == "mechanism-slider-crank-dae.csv"
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
+    rows = list(csv.reader(io.StringIO(path.read_text())))
+    assert rows[0][:7] == ["t", "trace_x", "trace_y", "kinetic", "potential", "energy", "constraint_residual"]
+    assert any(name.startswith("lambda[") for name in rows[0])
+    assert abs(float(rows[-1][0]) - 0.5) < 1e-12 and len(rows) == 1 + 31  # the run up to the time shown, 1/60 s apart
