@@ -4,26 +4,20 @@ one start, drawn side by side, with the divergence plots of the chain's compare 
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from app.divergence import REFERENCE_LABEL, REFERENCE_TOLERANCE
 from app.frame_view import COMPARE_METHODS
 from app.mechanism_compare import compare_specs, visible_gap
 from app.mechanism_runs import MechanismSettings
 from app.mechanism_session import MechanismSession
-from app.server import LabServer
-from conftest import wait_until
+from conftest import lab_of, wait_until
 from physics.mechanism import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 
 RUNS = [*COMPARE_METHODS, REFERENCE_LABEL]
 
 
-@pytest.fixture(scope="module")
-def crank_lab():
-    server = LabServer(port=0, warm=False, preset="slider-crank")
-    yield server
-    server.stop()
+crank_lab = lab_of("slider-crank")
 
 
 def _compared(session, seconds: float) -> bool:

@@ -10,18 +10,12 @@ import json
 import numpy as np
 import pytest
 
-from app.server import LabServer
-from conftest import wait_until
+from conftest import lab_of, wait_until
 from physics import LinkageError
 from physics.mechanism.command import run_table
 from physics.mechanism.simulate import simulate_mechanism
 
-
-@pytest.fixture(scope="module")
-def crank_lab():
-    server = LabServer(port=0, warm=False, preset="slider-crank")
-    yield server
-    server.stop()
+crank_lab = lab_of("slider-crank")
 
 
 class Receiver:

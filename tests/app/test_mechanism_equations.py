@@ -3,17 +3,10 @@ integrates, derived by physics for this mechanism, its rows named after its bodi
 
 from __future__ import annotations
 
-import pytest
-
-from app.server import LabServer
+from conftest import lab_of
 from physics.mechanism import derived_system
 
-
-@pytest.fixture(scope="module")
-def crank_lab():
-    server = LabServer(port=0, warm=False, preset="slider-crank")
-    yield server
-    server.stop()
+crank_lab = lab_of("slider-crank")
 
 
 def test_the_equations_are_the_methods_system_for_this_mechanism(crank_lab, connect):

@@ -4,19 +4,12 @@ drawn with the chain's arrows; the loads balance the body's motion (Newton's and
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from app.mechanism_session import MechanismSession
-from app.server import LabServer
-from conftest import wait_until
+from conftest import lab_of, wait_until
 from physics.mechanism.statics import evaluate, free_body
 
-
-@pytest.fixture(scope="module")
-def rocker_lab():
-    server = LabServer(port=0, warm=False, preset="crank-rocker")
-    yield server
-    server.stop()
+rocker_lab = lab_of("crank-rocker")
 
 
 def test_the_drawn_loads_are_the_bodys_and_balance_its_motion(rocker_lab, connect):

@@ -6,16 +6,10 @@ from __future__ import annotations
 
 import pytest
 
-from app.server import LabServer
-from conftest import wait_until
+from conftest import lab_of, wait_until
 from physics import LinkageError
 
-
-@pytest.fixture(scope="module")
-def crank_lab():
-    server = LabServer(port=0, warm=False, preset="slider-crank")
-    yield server
-    server.stop()
+crank_lab = lab_of("slider-crank")
 
 
 def test_the_mechanisms_timeline_follows_scrubs_back_and_plays_on(crank_lab, connect):
