@@ -118,6 +118,16 @@ def _degrees(theta: float) -> float:
     return _round_to(wrap_degrees(theta), ANGLE_DEG[2])
 
 
+
+def timeline_window(t: float, t_first: float, t_end: float) -> tuple[float, float, float]:
+    """The timeline slider's ``(min, max, value)``: the run so far, from the oldest sample the rings still hold
+    (``t_first``) to the latest shown (``t_end``), in round steps, with its thumb at the time shown ``t`` (chains
+    and mechanisms alike)."""
+    low = round(max(0.0, math.ceil(t_first / TIMELINE_STEP - 1e-9) * TIMELINE_STEP), 2)
+    high = round(max(math.ceil(t_end / TIMELINE_STEP - 1e-9) * TIMELINE_STEP, low + TIMELINE_MIN_SPAN), 2)
+    value = min(max(round(round(t / TIMELINE_STEP) * TIMELINE_STEP, 2), low), high)
+    return low, high, value
+
 class Controls:
     """GUI of one session. ``rebuild()`` after the mechanism changed; ``sync_*`` after the session changed
     a value itself."""
@@ -557,11 +567,8 @@ class Controls:
         if restarted:
             self._timeline_end = 0.0
         self._timeline_end = max(self._timeline_end, t)
-        low = round(max(0.0, math.ceil(t_first / TIMELINE_STEP - 1e-9) * TIMELINE_STEP), 2)
-        high = round(max(math.ceil(self._timeline_end / TIMELINE_STEP - 1e-9) * TIMELINE_STEP,
-                         low + TIMELINE_MIN_SPAN), 2)
+        low, high, value = timeline_window(t, t_first, self._timeline_end)
         handle = self.timeline
-        value = min(max(round(round(t / TIMELINE_STEP) * TIMELINE_STEP, 2), low), high)
 
         def write() -> None:
             if (handle.min, handle.max) != (low, high):

@@ -47,9 +47,12 @@ def reference_spec(params: SessionParameters, methods: tuple[str, ...]) -> RunSp
     return RunSpec(REFERENCE_LABEL, params.chain, validated(physics.Settings, **{**base, **update}))
 
 
-def aligned_tips(runs: dict, labels: list[str], t_shown: float) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+def aligned_tips(runs: dict, labels: list[str], t_shown: float,
+                 point: str = "joints") -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
     """Time (m,) and each run's tip (m, 2) on the samples every run has, from the oldest stored one up to the
-    displayed time (every ``stride``-th sample, at most :data:`MAX_PLOTTED_SAMPLES`); None if a run is missing."""
+    displayed time (every ``stride``-th sample, at most :data:`MAX_PLOTTED_SAMPLES`); None if a run is missing.
+    ``point``: the ring field the tip is read from: a chain's ``joints`` (its last point, the tip) or a general
+    mechanism's ``trace_xy`` (the traced point)."""
     if any(label not in runs or len(runs[label].ring) < 2 for label in labels):
         return None
     rings = [runs[label].ring for label in labels]
@@ -60,8 +63,8 @@ def aligned_tips(runs: dict, labels: list[str], t_shown: float) -> tuple[np.ndar
     first = [ring.index_at(t0) for ring in rings]
     count = min(ring.index_at(t1) - i0 for ring, i0 in zip(rings, first)) + 1
     stride = max(1, math.ceil(count / MAX_PLOTTED_SAMPLES))
-    windows = [ring.window(i0, i0 + count - 1, names=["t", "joints"], stride=stride) for ring, i0 in zip(rings, first)]
-    tips = {label: data["joints"][:, -1] for label, data in zip(labels, windows)}
+    windows = [ring.window(i0, i0 + count - 1, names=["t", point], stride=stride) for ring, i0 in zip(rings, first)]
+    tips = {label: data[point][:, -1] if point == "joints" else data[point] for label, data in zip(labels, windows)}
     return windows[0]["t"], tips
 
 
@@ -72,14 +75,19 @@ def first_passing(t: np.ndarray, gap: np.ndarray, level: float = VISIBLE_GAP) ->
 
 
 class DivergencePlots:
-    """Feeds the panel's "Tip divergence from Newton-Euler" plot and owns the honest plot below it."""
+    """Feeds the panel's "Tip divergence from Newton-Euler" plot and owns the honest plot below it.
 
-    def __init__(self, gui, methods: tuple[str, ...], between_methods: Plot) -> None:
+    A general mechanism (app/mechanism_compare.py) passes its traced point (``point="trace_xy"``, ``noun``) and a
+    visible gap in proportion to its size (a Jansen leg is far smaller than a chain of 1 m bars)."""
+
+    def __init__(self, gui, methods: tuple[str, ...], between_methods: Plot, *, point: str = "joints",
+                 noun: str = "Tip", gap: float = VISIBLE_GAP) -> None:
         self.methods = methods
         self.between_methods = between_methods
+        self.point, self.noun, self.gap = point, noun, gap
         self.honest = Plot(
-            gui, f"Tip error vs a converged run (DOP853, {REFERENCE_TOLERANCE:g})",
-            [METHOD_LABELS[m] for m in methods] + [f"{VISIBLE_GAP:g} (visible)"],
+            gui, f"{noun} error vs a converged run (DOP853, {REFERENCE_TOLERANCE:g})",
+            [METHOD_LABELS[m] for m in methods] + [f"{gap:g} (visible)"],
             [METHOD_COLORS[m] for m in methods] + [GAP_COLOR], log=True, height=150, y_label="m",
         )
         self.passing = gui.add_markdown("")
@@ -101,20 +109,21 @@ class DivergencePlots:
 
     def update(self, runs: dict, t_shown: float) -> None:
         """Both plots from the stored runs up to ``t_shown`` (player thread, a few times a second)."""
-        aligned = aligned_tips(runs, [*self.methods, REFERENCE_LABEL], t_shown)
+        aligned = aligned_tips(runs, [*self.methods, REFERENCE_LABEL], t_shown, self.point)
         if aligned is None:
             return
         t, tips = aligned
         first = tips[self.methods[0]]
         self.between_methods.update(t, *[np.linalg.norm(first - tips[m], axis=1) for m in self.methods[1:]])
         errors = [np.linalg.norm(tips[m] - tips[REFERENCE_LABEL], axis=1) for m in self.methods]
-        self.honest.update(t, *errors, np.full_like(t, VISIBLE_GAP))
-        self.passing_times = {m: first_passing(t, e) for m, e in zip(self.methods, errors)}
-        self.passing.content = passing_markdown(self.passing_times, float(t[-1]))
+        self.honest.update(t, *errors, np.full_like(t, self.gap))
+        self.passing_times = {m: first_passing(t, e, self.gap) for m, e in zip(self.methods, errors)}
+        self.passing.content = passing_markdown(self.passing_times, float(t[-1]), self.noun, self.gap)
 
 
-def passing_markdown(times: dict[str, float | None], t_last: float) -> str:
+def passing_markdown(times: dict[str, float | None], t_last: float, noun: str = "Tip",
+                     gap: float = VISIBLE_GAP) -> str:
     parts = [f"{METHOD_LABELS[m]} at **{t:.2f} s**" if t is not None else f"{METHOD_LABELS[m]}: not yet"
              for m, t in times.items()]
-    return (f"Tip more than {VISIBLE_GAP:g} from the converged run (the motion drawn is no longer the true one): "
+    return (f"{noun} more than {gap:g} from the converged run (the motion drawn is no longer the true one): "
             + "; ".join(parts) + f" (up to t = {t_last:.1f} s).")

@@ -15,8 +15,8 @@ import re
 import sympy as sp
 from sympy.printing.mathml import mathml
 
-from physics.codegen.latex import equations_latex
-from physics.derive import FORMULATIONS
+import physics
+import physics.mechanism
 
 from .math_lines import multline
 from .parameters import METHOD_LABELS
@@ -95,23 +95,59 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
             "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
         )
 
-    system = FORMULATIONS[formulation]().derive(n, pinned)
-    names = _display_names(system)
-    unknowns = [names.get(u, u) for u in system.unknowns]
+    system = physics.derived_system(formulation, n, pinned)
     label = METHOD_LABELS.get(formulation, formulation)
     closure = "closed loop (tip pinned)" if pinned else "open chain"
+    return _system_html(
+        system, _display_names(system), f"<b>{html.escape(label)}</b>, {n} bars, {closure}",
+        "Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "
+        "θ̈ its angular acceleration; L length, d centre-of-mass distance from the proximal joint, m mass, "
+        "I centroidal inertia, g gravity, c joint damping; R reactions, a centre-of-mass accelerations.",
+        simplify=n <= SIMPLIFY_MAX_LINKS)
+
+
+def mechanism_equations_html(mechanism, method: str) -> str:
+    """HTML (with MathML) of the system ``A x = b`` a general mechanism's run integrates (``physics.mechanism``'s
+    own derivation of ``method``), its coordinates named after its bodies."""
+    if method == "reduced":
+        return ("<p>The <b>reduced</b> model integrates the mechanism in its one free joint coordinate and places "
+                "every body by position analysis; it has no symbolic system of its own to show here. Choose DAE, "
+                "Lagrange or Newton-Euler to see the equations of the mechanism.</p>")
+    system = physics.mechanism.derived_system(mechanism, method)
+    by_name = {}  # q3b, q3b+1, q3b+2 are body b's x, y, phi (qd their rates, qdd their accelerations)
+    for b, body in enumerate(mechanism.bodies):
+        label = re.sub(r"\W", "", body.name) or f"b{b}"
+        for k, coordinate in enumerate(("x", "y", "\u03c6")):
+            for prefix, mark in (("q", ""), ("qd", "\u0307"), ("qdd", "\u0308")):
+                by_name[f"{prefix}{3 * b + k}"] = sp.Symbol(f"{coordinate}{mark}_{label}", real=True)
+    used = system.A.free_symbols | system.b.free_symbols | set(system.unknowns)
+    names = {symbol: by_name[symbol.name] for symbol in used if symbol.name in by_name}
+    label = METHOD_LABELS.get(method, method)
+    return _system_html(
+        system, names, f"<b>{html.escape(label)}</b>, {html.escape(mechanism.name)}, {len(mechanism.bodies)} bodies",
+        "Symbols: x, y the centre of mass of a body and φ its angle, with their rates (a dot) and accelerations "
+        "(two dots); λ (lam) the multipliers of the joints' rows in the order of the headings, whose reactions "
+        "the arrows draw; m, I, cx, cy a body's mass, inertia and centre of mass in its frame (by its number in "
+        "the description), ax, ay, bx, by a joint's points in its two bodies, c its damping, g gravity.",
+        simplify=len(mechanism.bodies) <= SIMPLIFY_MAX_LINKS)
+
+
+def _system_html(system, names: dict, title: str, symbols: str, simplify: bool) -> str:
+    """``A x = b`` of ``system`` as headed rows of MathML lines that fit the panel (chains and mechanisms)."""
+    unknowns = [names.get(u, u) for u in system.unknowns]
     parts = [
-        f"<p><b>{html.escape(label)}</b>, {n} bars, {closure}: {len(unknowns)} equations, linear in the unknowns "
+        f"<p>{title}: {len(unknowns)} equations, linear in the unknowns "
         f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side.</p>",
         "<p>Unknowns <i>x</i>:</p>",
         _math(sp.Matrix(unknowns).T),
     ]
+
     def expand_for_display(expr):
-        return sp.expand(expr) if n <= SIMPLIFY_MAX_LINKS else expr
+        return sp.expand(expr) if simplify else expr
 
     def tidy(expr):
         # display only: products of sines and cosines become sin/cos of angle differences
-        return sp.trigsimp(sp.expand(expr)) if n <= SIMPLIFY_MAX_LINKS else expr
+        return sp.trigsimp(sp.expand(expr)) if simplify else expr
 
     parts.append('<div style="overflow-x:auto">')
     for i, row_name in enumerate(system.equation_names):
@@ -127,11 +163,7 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
             text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
         parts.append(f"<p><b>{i + 1}. {_heading(row_name)}</b></p>{text}")
     parts.append("</div>")
-    parts.append(
-        "<p>Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "
-        "θ̈ its angular acceleration; L length, d centre-of-mass distance from the proximal joint, m mass, "
-        "I centroidal inertia, g gravity, c joint damping; R reactions, a centre-of-mass accelerations.</p>"
-    )
+    parts.append(f"<p>{symbols}</p>")
     return "".join(parts)
 
 
@@ -147,7 +179,7 @@ def equations_tex(formulation: str, n: int, pinned: bool) -> str:
     if formulation.startswith("reduced"):
         raise ValueError("the reduced model has no symbolic system of its own; choose a formulation")
 
-    data = equations_latex(formulation, n, pinned)
+    data = physics.equations_latex(formulation, n, pinned)
     label = METHOD_LABELS.get(formulation, formulation)
     closure = "closed loop (tip pinned)" if pinned else "open chain"
     lines = [

@@ -112,17 +112,8 @@ class FrameView:
                 self.arrows.hide()
 
     def _show_compare_key(self, reach: float) -> None:
-        """The colour key in the scene: a ball of each run's colour and its method's name, top left of the
-        disc the mechanism sweeps (where no motion passes)."""
         self._hide_compare_key()
-        scene = self.target.scene
-        for k, method in enumerate(COMPARE_METHODS):
-            z = reach * (0.9 - 0.12 * k)
-            self._compare_key.append(scene.add_icosphere(
-                f"/compare_key/{method}/ball", radius=0.025 * reach, color=METHOD_COLORS[method],
-                position=(-0.85 * reach, 0.0, z)))
-            self._compare_key.append(scene.add_label(
-                f"/compare_key/{method}/name", METHOD_LABELS[method], position=(-0.8 * reach, 0.0, z)))
+        self._compare_key = compare_key(self.target.scene, reach)
 
     def _hide_compare_key(self) -> None:
         for handle in self._compare_key:
@@ -317,6 +308,21 @@ class FrameView:
                 trace.remove()
             self.arrows.remove()
             quietly(self.floor.remove, "removing the floor")
+
+
+def compare_key(scene, reach: float, centre: tuple[float, float] = (0.0, 0.0)) -> list:
+    """The colour key of compare mode in the scene: a ball of each run's colour and its method's name, top left
+    of the disc of radius ``reach`` about ``centre`` (the plane's x, y) that the mechanism sweeps (where no motion
+    passes); returns the nodes (chains and mechanisms alike)."""
+    handles = []
+    x, y = centre
+    for k, method in enumerate(COMPARE_METHODS):
+        z = y + reach * (0.9 - 0.12 * k)
+        handles.append(scene.add_icosphere(f"/compare_key/{method}/ball", radius=0.025 * reach,
+                                           color=METHOD_COLORS[method], position=(x - 0.85 * reach, 0.0, z)))
+        handles.append(scene.add_label(f"/compare_key/{method}/name", METHOD_LABELS[method],
+                                       position=(x - 0.8 * reach, 0.0, z)))
+    return handles
 
 
 def reactions_available(params: SessionParameters) -> bool:

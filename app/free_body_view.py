@@ -29,6 +29,8 @@ FORCE_COLORS = {  # the colours of physics/fbd.py's SVG, in the order of the lis
     "proximal": (78, 121, 167),
     "distal": (225, 87, 89),
     "pin": (89, 161, 79),
+    "slider": (242, 142, 43),  # a general mechanism's (app/mechanism_free_body.py)
+    "damping": (176, 122, 161),
 }
 LABEL_EVERY = 6  # frames between label-text updates (10 Hz): values stay readable while the arrows move
 
@@ -120,19 +122,21 @@ class FreeBodyView:
             chain, self.bar, ring.get("theta", i), ring.get("joints", i), ring.get("reactions", i),
             ring.get("tip_reaction", i) if chain.pinned else None,
         )
-        self._draw(forces, chain, force_labels=frame.restarted or self._frames % LABEL_EVERY == 0)
+        self._draw(forces, float(chain.bars[self.bar - 1].L), mechanism_reach(chain.array("L"), chain.pin),
+                   force_labels=frame.restarted or self._frames % LABEL_EVERY == 0)
         self._frames += 1
         self.shown = forces
         self.shown_bar = self.bar
         self.shown_t = float(ring.get("t", i))
 
-    def _draw(self, forces: list[DrawnForce], chain, force_labels: bool) -> None:
-        # to scale among themselves, as in physics/fbd.py's SVG: the largest force is one bar length long (times
-        # the display's arrow scale); the labels carry the values
-        length = max(float(chain.bars[self.bar - 1].L), 1e-3)
+    def _draw(self, forces: list[DrawnForce], length: float, reach: float, force_labels: bool) -> None:
+        """``forces`` to scale among themselves, as in physics/fbd.py's SVG: the largest is ``length`` (the
+        body's size) long, times the display's arrow scale; the labels carry the values; ``reach``, the
+        mechanism's size, sets the arrows' thickness."""
+        length = max(length, 1e-3)
         largest = max(max(float(np.hypot(*f.force)) for f in forces), 1e-12)
         scale = self._arrow_scale() * length / largest
-        radius = 0.012 * mechanism_reach(chain.array("L"), chain.pin)
+        radius = 0.012 * reach
         starts = np.array([f.point_xy for f in forces])
         ends = starts + scale * np.array([f.force for f in forces])
         points = np.stack([to_world(starts), to_world(ends)], axis=1).astype(np.float32)

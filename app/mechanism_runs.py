@@ -20,7 +20,7 @@ from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
-from physics.mechanism.run import MechanismRun
+from physics.mechanism.run import MechanismRun, run_table
 from physics.mechanism.validation import check_runnable
 
 from .buffers import TrajectoryRing
@@ -42,6 +42,7 @@ class MechanismSettings(BaseModel):
     method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
     stabilization: Literal["none", "baumgarte", "projection"] = "projection"
     trace: str | None = None  # "body.point" whose path is drawn
+    rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
 
@@ -284,16 +285,29 @@ class MechanismSpec:
         a start that cannot move raises LinkageError; the player turns either into the run's end."""
         if self.runner is not None:
             run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
-                                            t_start, settings.method, settings.stabilization)
+                                            t_start, settings.method, settings.stabilization, settings.rtol)
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
 
             run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
-                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization)
+                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization,
+                                     rtol=settings.rtol, atol=settings.rtol)
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
         return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps, status=run.status, message=run.message)
+
+
+def run_file(spec: MechanismSpec, samples: dict[str, np.ndarray], fmt: str) -> bytes:
+    """The stored ``samples`` of a run (app/readout.py's history) as the ``mechanism`` command writes a run
+    (``csv`` or ``json``: the same columns, ``lambda[JOINT: row]`` and all; docs/mechanisms.md). The traced point
+    is NaN when none is chosen, as there."""
+    trace = samples["trace_xy"] if spec.trace_index() is not None else np.full_like(samples["trace_xy"], np.nan)
+    run = MechanismRun(t=samples["t"], q=samples["q"], qdot=samples["qdot"], reactions=samples["reactions"],
+                       kinetic=samples["kinetic"], potential=samples["potential"], residual=samples["residual"],
+                       trace_xy=trace, row_names=spec.row_names, method=spec.settings.method,
+                       stabilization=spec.settings.stabilization, condition=samples["condition"])
+    return run_table(run, fmt)
 
 
 def structure_of(mechanism: Mechanism) -> str:

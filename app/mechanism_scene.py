@@ -47,8 +47,8 @@ MESH_WIDTH_SHARE = 0.35  # of a bar's width: the gear's line reads as a link of 
 class MechanismScene:
     """Nodes of one mechanism under ``root``; :meth:`build` once per drawing, :meth:`show` every frame."""
 
-    def __init__(self, target, root: str = "/linkage") -> None:
-        self.target = target
+    def __init__(self, target, root: str = "/linkage", palette: list | None = None) -> None:
+        self.target, self.palette = target, palette or BAR_COLORS  # compare mode: one colour per method
         self.root = root.rstrip("/")
         self.draw: Drawing | None = None
         self._handles: list = []
@@ -91,7 +91,7 @@ class MechanismScene:
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
         scales = self._scales(points_xy)
         box_vertices, box_faces = UNIT_BOX
-        colors = [BAR_COLORS[b % len(BAR_COLORS)] for b in draw.segment_body] + [MESH_COLOR] * len(draw.meshes)
+        colors = [self.palette[b % len(self.palette)] for b in draw.segment_body] + [MESH_COLOR] * len(draw.meshes)
         if len(bar_positions):
             self._bars = scene.add_batched_meshes_simple(
                 f"{self.root}/bars", box_vertices, box_faces, batched_wxyzs=bar_wxyzs,

@@ -15,6 +15,7 @@ joint, the field and the allowed range, and the session goes on.
 
 from __future__ import annotations
 
+import html
 import math
 import threading
 import traceback
@@ -30,29 +31,36 @@ from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 
-from . import delivery, viser_compat
+from . import delivery, readout, share, viser_compat
 from .camera import CameraDirector
+from .commands import TIMELINE, parse_number
+from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
+from .frame_view import COMPARE_METHODS
+from .lab_session import Kind, SessionBase
 from .logs import quietly
+from .mechanism_compare import MechanismCompare, compare_specs
 from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
+from .mechanism_free_body import MechanismFreeBody
 from .mechanism_runs import (
     MechanismSettings,
     MechanismSpec,
     centres_at,
     check_method,
     points_at,
+    run_file,
     start_state,
     torque_rows,
 )
 from .mechanism_scene import MechanismScene
 from .mechanism_workers import POOL
-from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
+from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
 from .player import SAMPLE_DT, Frame, Player
 from .scene import pose_disc
 from .text import markdown_literal
-from .viser_compat import check_gui_updates, connection_open
+from .viser_compat import check_gui_updates
 
 METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
            "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
@@ -65,6 +73,7 @@ ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mec
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
 TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
+DOWNLOADS = ("CSV", "JSON")  # the run, as the mechanism command writes it
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
@@ -73,15 +82,22 @@ guide. The magenta line is the traced point's last 4 s.
 here. The line under it gives the bodies, joints, mobility and motors.
 
 **Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the assembled sketch at rest, t = 0); the keys
-Space, S and R press them.
+Space, S and R press them. **Timeline:** drag back through the run so far (it pauses there).
 
 **Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
 cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
 stay closed. Both go on from the displayed state.
 
+**Compare formulations:** Newton-Euler (blue), Lagrange (orange) and the DAE (green) from the same start;
+under the panel, how far their traced points part, and each one's error against a converged run.
+**Free-body diagram:** every load on the chosen body at the time shown, with its value; couples are listed.
+
 **Bodies and motors:** size (m: the body is scaled about its first point and the mechanism re-assembled; the
 run starts again), m (kg), I (kg·m²), a motor's speed (°/s) or torque (N·m), g (m/s²). A value that cannot be
 used is refused with a notice naming the body, the field and the range.
+
+**Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
+A x = b the chosen method integrates, for this mechanism.
 
 **Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give
 (inverse dynamics). The status line shows the energy error of an undriven mechanism, the largest constraint
@@ -103,8 +119,10 @@ def is_mechanism(name: str) -> bool:
     return name in MECHANISM_PRESETS
 
 
-class MechanismSession:
+class MechanismSession(SessionBase):
     """A general mechanism shown in one browser (``target`` a client) or in all (``shared``, the server)."""
+
+    kind: Kind = "mechanism"
 
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
                  autoplay: bool = True, on_switch: Callable[[str], None] | None = None) -> None:
@@ -120,6 +138,7 @@ class MechanismSession:
         self.id = id(self)
         self._lock = threading.RLock()
         self.reactions_on = False
+        self.compare = False  # the three formulations side by side (app/mechanism_compare.py)
         self.frames_sent = 0
         self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
@@ -138,6 +157,8 @@ class MechanismSession:
             self.camera = CameraDirector(target, shared)
             self.trace = TraceLine(target.scene, "/linkage/trace")
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
+            self.compare_view = MechanismCompare(target)
+            self.free_body = MechanismFreeBody(target.scene, lambda: 1.0, redraw=self.player.touch)
             self._build_panel()
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
@@ -181,6 +202,13 @@ class MechanismSession:
         self.transport = keep(gui.add_button_group("Playback", TRANSPORT,
                                                    hint="Reset: start again from the assembled sketch at rest"))
         self.transport.on_click(lambda event: self.guard(lambda: self.press(self.transport.value)))
+        # the run so far, as the chain panel's: drag back to look again (pauses there); Play goes on from it
+        self.timeline = keep(gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
+                                            initial_value=0.0, hint="Drag to go back through the run so far (pauses)"))
+        self.timeline.on_update(lambda event: None if self._timeline_writer == threading.get_ident() else self.guard(
+            lambda: self.scrub(self.timeline.value)))
+        self._timeline_end = 0.0
+        self._timeline_writer: int | None = None  # the thread moving the thumb to the time shown (not a scrub)
         self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
         self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
         self.upload = keep(gui.add_upload_button("Load a mechanism file (TOML or JSON)",
@@ -192,6 +220,18 @@ class MechanismSession:
         self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
         self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
         self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
+        self.compare_box = keep(gui.add_checkbox(
+            "Compare formulations", False,
+            hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part"))
+        self.compare_box.on_update(lambda event: self.guard(lambda: self.set_compare(bool(self.compare_box.value))))
+        self.free_body_box = keep(gui.add_checkbox("Free-body diagram", False,
+                                                   hint="Every load on the chosen body at the displayed time"))
+        self.free_body_box.on_update(
+            lambda event: self.guard(lambda: self.set_free_body(bool(self.free_body_box.value))))
+        self.body_menu = keep(gui.add_dropdown("Body", ["(none)"], initial_value="(none)",
+                                               hint="The body whose free-body diagram is drawn"))
+        self.body_menu.on_update(lambda event: self.guard(lambda: self.set_free_body_body(str(self.body_menu.value))))
+        self.couples = keep(gui.add_markdown(""))
         self.knob_folder = keep(gui.add_folder("Bodies and motors"))
         self.export_folder = keep(gui.add_folder("Export", expand_by_default=False))
         with self.export_folder:
@@ -199,6 +239,17 @@ class MechanismSession:
             self.share_button.on_click(lambda event: self.guard(self.show_link))
             self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
                                                "in a new session (press the button for the current ones).")
+            self.download_buttons = gui.add_button_group("Download the run", DOWNLOADS,
+                                                         hint="The run up to the displayed time, as the mechanism "
+                                                         "command writes it")
+            self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
+                str(self.download_buttons.value).lower(), getattr(event, "client", None))))
+        self.equations_folder = keep(gui.add_folder("Equations", expand_by_default=False))
+        with self.equations_folder:
+            self.equations_button = gui.add_button("Show the equations of the method")
+            self.equations_button.on_click(lambda event: self.guard(self.show_equations))
+            self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
+                                          "for this mechanism (press the button).</p>")
         self.help = keep(gui.add_folder("Help", expand_by_default=False))
         with self.help:
             gui.add_markdown(MECHANISM_HELP)
@@ -314,7 +365,8 @@ class MechanismSession:
                     box.value = shown_value(knob.value)
             for handle, value in ((self.method, self.settings.method),
                                   (self.stabilization, self.settings.stabilization),
-                                  (self.menu, self.label)):
+                                  (self.menu, self.label), (self.compare_box, self.compare),
+                                  (self.free_body_box, self.free_body.on), (self.body_menu, self._body_shown())):
                 if handle.value != value:
                     handle.value = value
         finally:
@@ -337,22 +389,9 @@ class MechanismSession:
                              color="red", seconds=None)
         return None
 
-    def may_change(self, client_id: int | None) -> bool:
-        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
-        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
-
     def _refuse_update(self, handle, problem: str) -> None:
         self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
         quietly(self.sync_all, "putting the controls back after a refused value")
-
-    def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
-        self.notices.show(title, body, color=color, seconds=seconds)
-
-    def _clients(self) -> list:
-        return list(self.target.get_clients().values()) if self.shared else [self.target]
-
-    def _connection_open(self) -> bool:
-        return self.shared or connection_open(self.target)
 
     # ------------------------------------------------------------------ edits
     def set(self, name: str, value: object) -> None:
@@ -400,6 +439,35 @@ class MechanismSession:
         if not on:
             self.arrows.hide()
         self.player.touch()
+
+    def set_free_body(self, on: bool) -> None:
+        """The free-body diagram of the chosen body on or off (app/mechanism_free_body.py)."""
+        self.free_body.set_on(on)
+        if not on:
+            self.couples.content = ""
+
+    def set_free_body_body(self, name: str) -> None:
+        """The body whose diagram is drawn, by its name."""
+        names = [body.name for body in self.mechanism.bodies]
+        _choice("body", name, names)
+        self.free_body.set_bar(names.index(name) + 1)
+        self.player.touch()
+
+    def _body_shown(self) -> str:
+        bodies = self.mechanism.bodies
+        return bodies[self.free_body.bar - 1].name if 1 <= self.free_body.bar <= len(bodies) else "(none)"
+
+    def set_compare(self, on: bool) -> None:
+        """Run Newton-Euler, Lagrange and the DAE from the same start (and a converged reference for the
+        divergence plots), drawn as three mechanisms in their colours; starts again at t = 0, as the chain's."""
+        with self._lock:
+            self.compare = bool(on)
+            self.method.disabled = self.compare  # every formulation runs: the menu does not apply
+            self._build_scene(self.q0)
+            self.energy_ref = None
+            self.energy_plot.clear()
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+            self.sync_all()
 
     def choose(self, name: str) -> None:
         """The mechanism menu: another mechanism preset here, a chain preset through the server."""
@@ -464,6 +532,53 @@ class MechanismSession:
         self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
                                    f"the server's address:\n\n`/{query}`")
 
+    def show_equations(self, wait: bool = False) -> None:
+        """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
+        mechanism in the Equations folder; ``wait``: return once shown (tests)."""
+        mechanism, method, label = self.mechanism, self.settings.method, self.label
+        self.equations.content = f"<p><i>Deriving the {html.escape(METHODS[method])} equations...</i></p>"
+
+        def derive() -> None:
+            from .equations import mechanism_equations_html  # noqa: PLC0415 - sympy: only when asked for
+
+            try:
+                content = mechanism_equations_html(mechanism, method)
+            except Exception as error:  # shown where the equations would be; the session goes on
+                content = f"<p>Could not derive the equations: {html.escape(f'{type(error).__name__}: {error}')}</p>"
+            if not self.closed and self.label == label:  # not another mechanism's meanwhile
+                self.equations.content = content
+
+        worker = threading.Thread(target=derive, daemon=True, name="mechanism-equations")
+        worker.start()
+        if wait:
+            worker.join()
+
+    def download(self, kind: str, client=None) -> None:
+        """Send the run up to the displayed time (``csv`` or ``json``, the columns of ``python -m physics
+        mechanism``; in compare mode the first formulation's) to ``client`` (or this session's browser(s))."""
+        name, content = self.download_file(kind)
+        (client or self.target).send_file_download(name, content)
+
+    def download_file(self, kind: str) -> tuple[str, bytes]:
+        """``(file name, content)`` of a download (see :meth:`download`)."""
+        if kind not in ("csv", "json"):
+            raise LinkageError(f"download = {kind!r}: allowed csv, json")
+        spec = self.player.runs[0].spec if self.player.runs else self.spec
+        samples = readout.history(self.player, spec.label)
+        stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
+        return f"mechanism-{stem}-{spec.settings.method}.{kind}", run_file(cast(Any, spec), samples, kind)
+
+    def set_value(self, name: str, text: str) -> None:
+        """One ``snapshot --set NAME=VALUE``: the names and units of the panel and its share links."""
+        self.set_link_value(name, text)
+
+    def load_setup(self, pairs: list[tuple[str, str]], where: str = "the setup") -> None:
+        """A saved setup's values by the names of this panel (the mechanism itself is the session's start);
+        what is refused is listed in one notice, the rest applied."""
+        refused = share.apply_setup(pairs, self.set_link_value)
+        if refused:
+            self.show_notice(f"Not applied from {where}", "; ".join(refused))
+
     def set_link_value(self, name: str, text: str) -> None:
         """One value of a share link (or of ``snapshot --set``): a setting by its name, a control by its name,
         in the panel's units; LinkageError naming it otherwise."""
@@ -501,11 +616,15 @@ class MechanismSession:
                 sample = {name: run.ring.get(name, i) for name in ("t", "q", "qdot", "joints", "trace_xy",
                                                                    "kinetic", "potential", "residual")}
             spec = self.spec
-            nodes = self.scene.poses()
+            nodes = self.compare_view.poses() if self.compare else self.scene.poses()
             return {
                 "session": self.id, "shared": self.shared, "kind": "mechanism", "mechanism": self.label,
                 "bodies": [body.name for body in self.mechanism.bodies], "mobility": self.mobility,
                 "method": self.settings.method, "stabilization": self.settings.stabilization,
+                "compare": self.compare, "runs": [r.spec.label for r in player.runs],
+                "divergence": self.compare_view.passing_times() if self.compare else None,
+                "free_body": None if not self.free_body.on or self.free_body.loads is None
+                else self.free_body.loads.as_dict(),
                 "trace": self.settings.trace,
                 "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
                 "playing": player.playing, "time": float(player.display_time),
@@ -558,6 +677,27 @@ class MechanismSession:
         """Pause and advance the display by one sample (1/60 s), simulating it first if need be."""
         self.player.step()
 
+    def scrub(self, t: object) -> None:
+        """Show time ``t`` of the run so far (the timeline), paused there; Play goes on from it."""
+        number = parse_number("timeline", TIMELINE, t)
+        if not 0.0 <= number <= MAX_GOTO_TIME:
+            raise LinkageError(f"timeline = {number:g} s: allowed range 0 <= timeline <= {MAX_GOTO_TIME:g} s")
+        self.player.seek(number, timeout=0.0)  # returns at once; the player shows it when it can
+
+    def _show_timeline(self, t: float, t_first: float, restarted: bool) -> None:
+        """The timeline's range is the run so far, its thumb the time shown (as the chain panel's)."""
+        self._timeline_end = t if restarted else max(self._timeline_end, t)
+        low, high, value = timeline_window(t, t_first, self._timeline_end)
+        # viser calls on_update for a value set here too: this thread's own write is not a scrub
+        self._timeline_writer = threading.get_ident()
+        try:
+            if (self.timeline.min, self.timeline.max) != (low, high):
+                self.timeline.min, self.timeline.max = low, high
+            if self.timeline.value != value:
+                self.timeline.value = value
+        finally:
+            self._timeline_writer = None
+
     # ------------------------------------------------------------------ runs
     def _spec(self) -> MechanismSpec:
         if self.worker is not None and not self.worker.alive:  # it died: a new one for the next run
@@ -570,7 +710,8 @@ class MechanismSession:
                  play: bool | None = None) -> None:
         # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
         self.notices.clear()  # a run goes on: a stopped run's notice is about the run it replaces
-        self.player.restart([cast(Any, self.spec)], t0, [(q0, qdot0)], keep_history=keep_history, play=play)
+        specs = [self.spec] if not self.compare else compare_specs(self.mechanism, self.settings, self.spec.runner)
+        self.player.restart(cast(Any, specs), t0, [(q0, qdot0)] * len(specs), keep_history=keep_history, play=play)
 
     def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False) -> None:
         """Assemble ``mechanism`` (LinkageError naming the open joint), rebuild the scene and the panel's
@@ -584,7 +725,7 @@ class MechanismSession:
         self.spec = self._spec()
         self._row_names = self.spec.row_names
         draw = self.spec.draw
-        self.scene.build(draw, points_at(draw, q0), centres_at(q0))
+        self._build_scene(q0)
         self.trace.update(np.zeros((0, 2)))
         self.arrows.hide()
         if not same_kind:
@@ -596,10 +737,33 @@ class MechanismSession:
         self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
         self.sync_all()
 
+    def _build_scene(self, q0: np.ndarray) -> None:
+        """The mechanism at ``q0``: one in the bodies' colours, or in compare mode three in the methods'."""
+        draw = self.spec.draw
+        points, centres = points_at(draw, q0), centres_at(q0)
+        if self.compare:
+            self.scene.remove()
+            self.trace.update(np.zeros((0, 2)))
+            self.compare_view.build(draw, points, centres, self._trace_name())
+        else:
+            self.compare_view.remove()
+            self.scene.build(draw, points, centres)
+
+    def _trace_name(self) -> str:
+        """The point compare mode measures the formulations' divergence at (the run's traced point)."""
+        k = self.spec.trace_index()
+        return self.spec.draw.labels[k] if k is not None else f"{self.mechanism.bodies[0].name} (centre of mass)"
+
     def _continue(self) -> None:
-        """New physics from the displayed state on (the history up to it is kept)."""
+        """New physics from the displayed state on (the history up to it is kept); in compare mode every
+        formulation starts again from the start, so that they part from one state."""
         state = self.player.current_start()
         self.spec = self._spec()
+        if self.compare:
+            self._build_scene(self.q0)  # the traced point may be another (the plots say which)
+            self.energy_ref = None
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+            return
         if state is None or getattr(state[0], "structure", None) != self.spec.structure:
             # nothing shown yet, or the state shown is another mechanism's (a menu choice not drawn yet)
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
@@ -619,6 +783,11 @@ class MechanismSession:
         self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
         methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
         self.method.options = methods
+        names = [body.name for body in m.bodies]
+        if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
+            self.free_body.set_bar(1)  # another mechanism: its first body
+        self.body_menu.options = names
+        self.body_menu.value = names[self.free_body.bar - 1]
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""
@@ -642,19 +811,29 @@ class MechanismSession:
         rf = frame.runs[0]
         ring = run.ring
         with self.target.atomic():
-            if len(rf.joints) == len(spec.draw.labels):
+            if self.compare:
+                self.compare_view.show([f for f in frame.runs if len(f.joints) == len(spec.draw.labels)])
+            elif len(rf.joints) == len(spec.draw.labels):
                 self.scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % 2 == 0:
                 first = ring.index_at(frame.t - TRACE_SECONDS)
                 self.trace.update(ring.window(first, rf.index, ["trace_xy"])["trace_xy"])
             if self.reactions_on:
                 self._update_arrows(run, rf, spec)
+            self.free_body.update(frame, {r.spec.label: r for r in self.player.runs})
         quietly(self.target.flush, "flushing a frame")
         self.frames_sent += 1
         if frame.restarted or frame.counter % PLOT_EVERY == 0:
             self._update_plots(ring, rf.index)
+            if self.compare:
+                self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
             self._show_status(frame.t, ring, rf.index)
+            quietly(lambda: self._show_timeline(frame.t, ring.t_first, frame.restarted), "moving the timeline")
+            couples = ("Couples on the body: " + "; ".join(self.free_body.couples)) if self.free_body.on \
+                and self.free_body.couples else ""
+            if self.couples.content != couples:
+                self.couples.content = couples
 
     def _update_arrows(self, run, rf, spec: MechanismSpec) -> None:
         points, rows, signs = spec.pin_arrows
@@ -686,7 +865,9 @@ class MechanismSession:
         drift = None if driven or self.energy_ref is None else float(
             relative_drift(np.array([energy]), self.energy_ref, scale)[0])
         residual = float(ring.get("residual", index))
-        label = f"{METHODS.get(self.settings.method, self.settings.method)} · DOP853"
+        method = (", ".join(METHODS[m].split(" (")[0] for m in COMPARE_METHODS) if self.compare
+                  else METHODS.get(self.settings.method, self.settings.method))
+        label = ("compare: " if self.compare else "") + f"{method} · DOP853"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
         condition = float(ring.get("condition", index))
@@ -726,17 +907,13 @@ class MechanismSession:
     # ------------------------------------------------------------------ lifetime
     def close(self, clean: bool = False) -> None:
         """Stop the player; with ``clean`` (or shared) remove every node and control (a switch to a chain)."""
-        if self.closed:
+        if not self._stop():
             return
-        self.closed = True
-        self.notices.closed = True
-        self.camera.closed = True
-        self.player.stop()
         POOL.release(self.worker)
         for timer in self._typing.values():
             timer.cancel()
         if self.shared or clean:
-            for part in (self.scene, self.trace, self.arrows):
+            for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body):
                 quietly(part.remove, "removing a scene part")
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")

@@ -49,11 +49,11 @@ def _mechanism(description: str) -> Mechanism:
 
 
 def _chunk(description: str, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-           stabilization: str) -> MechanismRun:
+           stabilization: str, rtol: float = 1e-10) -> MechanismRun:
     from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - the worker's own import
 
     return simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
-                              method=method, stabilization=stabilization)
+                              method=method, stabilization=stabilization, rtol=rtol, atol=rtol)
 
 
 def _serve(connection) -> None:
@@ -99,10 +99,11 @@ class Worker:
         return self.process.poll() is None
 
     def run(self, mechanism: Mechanism, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-            stabilization: str) -> MechanismRun:
+            stabilization: str, rtol: float = 1e-10) -> MechanismRun:
         request = (mechanism.model_dump_json(), float(t_end), int(samples),
                    None if q0 is None else np.asarray(q0, dtype=float),
-                   None if qdot0 is None else np.asarray(qdot0, dtype=float), float(t_start), method, stabilization)
+                   None if qdot0 is None else np.asarray(qdot0, dtype=float), float(t_start), method, stabilization,
+                   float(rtol))
         with self._lock:
             try:
                 self._connection.send(request)

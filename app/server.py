@@ -27,7 +27,7 @@ from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from . import memory, replay, share, viser_compat
 from . import processes as server_processes
 from . import warm as warm_up
-from .commands import CONTROL
+from .lab_session import LabSession
 from .logs import quietly
 from .mechanism_runs import start_state
 from .mechanism_session import MechanismSession, is_mechanism
@@ -154,10 +154,10 @@ class LabServer:
         self.viser.scene.set_up_direction("+z")
         self.viser.gui.configure_theme(control_width="large", show_share_button=False)
         self._lock = threading.Lock()
-        self.sessions: dict[int, Session | MechanismSession] = {}  # this process's own sessions
+        self.sessions: dict[int, LabSession] = {}  # this process's own sessions
         self.turned_away: set[int] = set()
         self.seats = seats or server_processes.Seats(shared=processes > 1)  # sessions of all processes
-        self.shared_session: Session | MechanismSession | None = None
+        self.shared_session: LabSession | None = None
         self.closed_sessions = 0
         self.trimmer = memory.Trimmer()  # returns what closed sessions freed to the system (app/memory.py)
         # --shared: only the browser that opened the presenter's secret address may change anything
@@ -169,7 +169,7 @@ class LabServer:
                 self.presenter_path = "/" + name
         if shared:
             self.shared_session = self._start_session(self.viser, preset, links, shared=True)
-            if self.setup and isinstance(self.shared_session, Session):
+            if self.setup:
                 self.shared_session.load_setup(self.setup, "the setup file")
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
@@ -219,12 +219,8 @@ class LabServer:
             session = self._start_session(client, preset, links, shared=False,
                                           mechanism=preset if named and is_mechanism(preset) else None,
                                           chain=named and not is_mechanism(preset))
-            if isinstance(session, Session):
-                chain_session = session
-                refused += not_started + share.apply_setup(
-                    setup, lambda name, text: chain_session.set(name, text, CONTROL))
-            else:  # a general mechanism: the link's values by the names of its panel (app/mechanism_session.py)
-                refused += not_started + share.apply_setup(setup, session.set_link_value)
+            # the link's values by the names of the session's panel, chain or mechanism
+            refused += not_started + share.apply_setup(setup, session.set_link_value)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
         except Exception as error:  # never let one browser's start take the server down
@@ -248,12 +244,12 @@ class LabServer:
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
-                       mechanism: str | None = None, chain: bool = False) -> Session | MechanismSession:
+                       mechanism: str | None = None, chain: bool = False) -> LabSession:
         """A chain session, or a mechanism session when the server starts with one (``--mechanism``, a
         mechanism preset) or ``mechanism`` names one; ``chain``: the chain ``preset`` whatever the server
         starts with (a share link names it). Either kind can hand its browser to the other."""
         if mechanism is None and self.mechanism is not None and not chain:
-            session: Session | MechanismSession = MechanismSession(
+            session: LabSession = MechanismSession(
                 target, self.mechanism, label=self.mechanism_label, shared=shared)
         elif mechanism is not None:
             session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
@@ -264,18 +260,15 @@ class LabServer:
         session.on_switch = lambda name, old=session: self._switch(target, old, name, shared)
         return session
 
-    def _switch(self, target, old: Session | MechanismSession, name: str, shared: bool) -> None:
+    def _switch(self, target, old: LabSession, name: str, shared: bool) -> None:
         """The mechanism menu chose the other kind of session: remove the old one's panel and scene from the
         browser (``target``) and start the new one there, in the same seat."""
         old.close(clean=True)
         self.trimmer.request()
-        if isinstance(old, Session):  # to a general mechanism
+        if old.kind == "chain":  # to a general mechanism
             new = self._start_session(target, self.preset, self.links, shared=shared, mechanism=name)
         else:  # back to a chain preset
-            new = Session(target, preset=name, method=self.method, shared=shared)
-            if shared and self.presenter_path is not None:
-                new.is_presenter = self.is_presenter
-            new.on_switch = lambda other, old=new: self._switch(target, old, other, shared)
+            new = self._start_session(target, name, None, shared=shared, chain=True)
         with self._lock:
             if shared:
                 self.shared_session = new
@@ -357,11 +350,11 @@ class LabServer:
             self.trimmer.request()
         self._rebalance()
 
-    def session_for(self, client_id: int) -> Session | MechanismSession | None:
+    def session_for(self, client_id: int) -> LabSession | None:
         with self._lock:
             return self.sessions.get(client_id)
 
-    def wait_for_sessions(self, count: int, timeout: float = 30.0) -> list[Session | MechanismSession]:
+    def wait_for_sessions(self, count: int, timeout: float = 30.0) -> list[LabSession]:
         """Block until ``count`` sessions exist (tests); returns them."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:

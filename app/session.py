@@ -41,8 +41,9 @@ from .controls import Controls
 from .divergence import DivergencePlots, reference_spec
 from .frame_view import COMPARE_METHODS, FrameView, reactions_available
 from .free_body_view import FreeBodyView
+from .lab_session import Kind, SessionBase
 from .logs import quietly
-from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
+from .notices import Notices, ViewerRefusals
 from .page import READY_HTML
 from .parameters import (
     METHOD_LABELS,
@@ -55,7 +56,7 @@ from .parameters import (
 )
 from .player import Frame, Player, RunSpec
 from .report_tab import ReportTab
-from .viser_compat import check_gui_updates, connection_open
+from .viser_compat import check_gui_updates
 
 # Show the "deriving equations" notice only when loading takes longer than this: a warm cache loads in well
 # under a second; a new mechanism derives and compiles in a few seconds (the very first run of an installation
@@ -76,8 +77,10 @@ def _settings_for_chunk(settings, horizon: float, samples: int):
     return settings.model_copy(update={"t_end": horizon, "samples": samples})
 
 
-class Session:
+class Session(SessionBase):
     """State and behaviour of one simulation shown in one browser (or in all, when shared)."""
+
+    kind: Kind = "chain"
 
     def __init__(
         self,
@@ -219,9 +222,13 @@ class Session:
             raise LinkageError("setup file: the presenter controls this session")
         self.load_setup(share.pairs_from_state(content, f"setup file {name[:60]!r}"), f"setup file {name[:60]!r}")
 
-    def may_change(self, client_id: int | None) -> bool:
-        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
-        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
+    def set_link_value(self, name: str, text: str) -> None:
+        """One value of a share link or a setup file, in the panel's units (degrees, milliseconds)."""
+        self.set(name, text, CONTROL)
+
+    def set_value(self, name: str, text: str) -> None:
+        """One ``snapshot --set NAME=VALUE``, in SI units as ``python -m physics --set``."""
+        self.set(name, text)
 
     def _refuse_update(self, handle, problem: str) -> None:
         """A value no browser sends for this control (a hostile client's): a notice, and the controls put back
@@ -229,21 +236,8 @@ class Session:
         self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
         quietly(self.controls.sync_all, "putting the controls back after a refused value")
 
-    def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
-        """A notification in this session's browser(s), and the same text on the status line."""
-        self.notices.show(title, body, color=color, seconds=seconds)
-
     def clear_notice(self) -> None:
         self.notices.clear()
-
-    def _clients(self) -> list:
-        if self.shared:
-            return list(self.target.get_clients().values())
-        return [self.target]
-
-    def _connection_open(self) -> bool:
-        """False once this session's browser has gone (a shared session lives as long as the server)."""
-        return self.shared or connection_open(self.target)
 
     def _refresh_status(self) -> None:
         if not self.closed:
@@ -586,12 +580,8 @@ class Session:
     def close(self, clean: bool = False) -> None:
         """Stop the player and drop the scene (the server calls this when the browser goes away); with
         ``clean`` remove every node and control too (the browser stays: a switch to a mechanism session)."""
-        if self.closed:
+        if not self._stop():
             return
-        self.closed = True
-        self.notices.closed = True
-        self.camera.closed = True
-        self.player.stop()
         self.controls.close()
         self.analysis.remove()
         self.report.remove()

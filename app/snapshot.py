@@ -352,7 +352,6 @@ def paused_app(
 ) -> Iterator[tuple[Any, Any]]:
     """``(server, session)``: the app on a free loopback port with one shared session (so it exists before
     any browser connects, and ``--json`` needs none), with ``values`` applied by their ``--set`` names."""
-    from .mechanism_session import MechanismSession  # noqa: PLC0415 - viser, as the server below
     from .server import LabServer  # noqa: PLC0415 - viser: not for --json runs that fail on their arguments
 
     mechanism = preset in MECHANISM_PRESETS  # a general mechanism: its method is set on its session below
@@ -363,14 +362,10 @@ def paused_app(
         session = server.shared_session
         assert session is not None  # a shared server makes its session before it serves
         session.pause()
-        if isinstance(session, MechanismSession):  # the names of its panel and share links (mass:crank, g, ...)
-            if method is not None:
-                session.set_link_value("method", method)
-            for name, value in values:
-                session.set_link_value(name, value)
-        else:
-            for name, value in values:
-                session.set(name, value)
+        if mechanism and method is not None:  # a chain's was the server's start
+            session.set_value("method", method)
+        for name, value in values:  # a chain's --set names in SI, a mechanism's its panel's (mass:crank, g, ...)
+            session.set_value(name, value)
         yield server, session
     finally:
         server.stop()
@@ -414,11 +409,11 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     if tight:
         positions = node_positions(session)
         points = np.array([(p[0], p[2]) for p in positions.values()])  # world (x, 0, y) -> the plane
-        if not hasattr(session, "params"):  # a general mechanism: every drawn point (its parts are bars only)
+        if session.kind == "mechanism":  # a general mechanism: every drawn point (its parts are bars only)
             points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
         on_page = project_to_page(page, list(positions))
         session.camera.disc = disc = pose_disc(points)
-        if hasattr(session, "params"):  # a chain: framed by its bars and pin, within the disc
+        if session.kind == "chain":  # a chain: framed by its bars and pin, within the disc
             session.camera.frame(session.params.L, session.params.pin, force=True)
         else:  # a general mechanism: by the disc alone (as app/mechanism_session.py frames it)
             session.camera.frame(np.array([disc[1]]), None, force=True)

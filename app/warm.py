@@ -19,7 +19,6 @@ import time
 from typing import Callable
 
 import physics
-from physics.codegen.cache import is_generated
 
 from .logs import log_once
 from .parameters import SessionParameters
@@ -115,7 +114,7 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
     True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
     in-process, as before: slower for the others, still correct). When ``cancelled()`` turns true the worker
     is killed at once (the cache's atomic writes leave no half file) and :class:`Cancelled` is raised."""
-    if all(is_generated(*system) for system in _systems(method, n, pinned)):
+    if all(physics.is_generated(*system) for system in _systems(method, n, pinned)):
         return False
     command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
                "pinned" if pinned else "open", integrator]

@@ -4,7 +4,8 @@ Pure Python (numpy, scipy, sympy, numba, pydantic); it never imports the GUI. Th
 re-exported here; see docs/architecture.md for conventions and shapes.
 """
 
-from .codegen import CompiledSystem, load_compiled
+from .codegen import CompiledSystem, equations_latex, load_compiled
+from .codegen.cache import is_generated
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kinematics import energies, joint_positions
@@ -33,6 +34,14 @@ def reduced_available(chain: Chain) -> bool:
     return chain.pinned and chain.n == 3
 
 
+def derived_system(formulation: str, n: int, pinned: bool = False):
+    """One formulation's symbolic system of an ``n``-bar chain (``unknowns``, its equations), derived by sympy:
+    what the app's Equations tab shows. sympy loads only when this is called."""
+    from .derive import FORMULATIONS  # noqa: PLC0415 - sympy: only when asked for
+
+    return FORMULATIONS[formulation]().derive(n, pinned)
+
+
 __all__ = [
     "Bar",
     "Chain",
@@ -50,8 +59,11 @@ __all__ = [
     "Trajectory",
     "accelerations",
     "apply_overrides",
+    "derived_system",
     "energies",
+    "equations_latex",
     "get_preset",
+    "is_generated",
     "joint_positions",
     "load_compiled",
     "make_chain",

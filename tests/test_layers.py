@@ -41,6 +41,8 @@ def test_the_contracts_hold_on_the_code_as_it_is(tmp_path):
     ("physics/kinematics.py", "import app.server", "The core never imports a study, the command line or the app"),
     ("physics/simulate/run.py", "from ..studies import report", "The core never imports a study"),
     ("physics/studies/report.py", "import viser", "physics never imports the app or viser"),
+    ("app/scene.py", "from physics.kernels import explicit_rk", "The app uses only physics' public API"),
+    ("app/readout.py", "import physics.mechanism.engine", "The app uses only physics' public API"),
 ])
 def test_a_deliberate_violation_fails_the_contract(tmp_path, module, line, broken):
     _copy_project(tmp_path)

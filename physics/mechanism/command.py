@@ -15,7 +15,6 @@ written atomically. A run stopped midway writes what it computed to ``OUT.partia
 
 from __future__ import annotations
 
-import io
 import json
 import sys
 from dataclasses import dataclass
@@ -31,6 +30,7 @@ from .assembly import assemble
 from .files import load_mechanism
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
+from .run import run_columns, run_table  # noqa: F401 - the table's writer, where the app reads it too
 from .simulate import RUN_METHODS, MechanismRun, run_options
 from .singularity import NEAR_SINGULAR_CONDITION
 from .validation import check_runnable
@@ -69,30 +69,6 @@ def summary(mechanism: Mechanism) -> dict:
         "assembly_residual": assembled.residual,
         "newton_steps": assembled.newton_steps,
     }
-
-
-def run_columns(run: MechanismRun) -> dict[str, np.ndarray]:
-    """The columns of a run's table, in order: ``t``, the traced point, the energies, the largest constraint
-    residual and every reaction row as ``lambda[JOINT: row]`` (the names scripts read; docs/mechanisms.md)."""
-    columns = {"t": run.t, "trace_x": run.trace_xy[:, 0], "trace_y": run.trace_xy[:, 1], "kinetic": run.kinetic,
-               "potential": run.potential, "energy": run.energy, "constraint_residual": run.residual}
-    for k, name in enumerate(run.row_names):
-        columns[f"lambda[{name}]"] = run.reactions[:, k]
-    return columns
-
-
-def run_table(run: MechanismRun, fmt: str = "csv") -> bytes:
-    """The run as CSV (``fmt = "csv"``) or as JSON with the same names as keys of arrays (``"json"``; a missing
-    traced point, NaN in the CSV, is ``null``): the one writer of a mechanism's samples, for ``mechanism`` and
-    ``simulate``."""
-    columns = run_columns(run)
-    if fmt == "json":
-        document = {name: [float(v) if np.isfinite(v) else None for v in values] for name, values in columns.items()}
-        return (json.dumps(document, allow_nan=False) + "\n").encode("utf-8")
-    buffer = io.StringIO()
-    buffer.write(",".join(f'"{name}"' if "," in name or ":" in name else name for name in columns) + "\n")
-    np.savetxt(buffer, np.column_stack(list(columns.values())), delimiter=",", fmt="%.17g")
-    return buffer.getvalue().encode("utf-8")
 
 
 def run_csv(run: MechanismRun) -> bytes:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import json
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,3 +67,27 @@ class MechanismRun:
             how += f", status={self.status}"
         return (f"MechanismRun(method={self.method!r}, bodies={self.q.shape[1] // 3 if self.q.ndim == 2 else 0}, "
                 f"samples={self.t.shape[0]}, t={span}, {how})")
+
+
+def run_columns(run: MechanismRun) -> dict[str, np.ndarray]:
+    """The columns of a run's table, in order: ``t``, the traced point, the energies, the largest constraint
+    residual and every reaction row as ``lambda[JOINT: row]`` (the names scripts read; docs/mechanisms.md)."""
+    columns = {"t": run.t, "trace_x": run.trace_xy[:, 0], "trace_y": run.trace_xy[:, 1], "kinetic": run.kinetic,
+               "potential": run.potential, "energy": run.energy, "constraint_residual": run.residual}
+    for k, name in enumerate(run.row_names):
+        columns[f"lambda[{name}]"] = run.reactions[:, k]
+    return columns
+
+
+def run_table(run: MechanismRun, fmt: str = "csv") -> bytes:
+    """The run as CSV (``fmt = "csv"``) or as JSON with the same names as keys of arrays (``"json"``; a missing
+    traced point, NaN in the CSV, is ``null``): the one writer of a mechanism's samples, for ``mechanism``,
+    ``simulate`` and the app's downloads."""
+    columns = run_columns(run)
+    if fmt == "json":
+        document = {name: [float(v) if np.isfinite(v) else None for v in values] for name, values in columns.items()}
+        return (json.dumps(document, allow_nan=False) + "\n").encode("utf-8")
+    buffer = io.StringIO()
+    buffer.write(",".join(f'"{name}"' if "," in name or ":" in name else name for name in columns) + "\n")
+    np.savetxt(buffer, np.column_stack(list(columns.values())), delimiter=",", fmt="%.17g")
+    return buffer.getvalue().encode("utf-8")

@@ -48,6 +48,19 @@ def lab():
     server.stop()
 
 
+def lab_of(preset: str):
+    """A module's own server starting with ``preset`` (a mechanism's tests): ``my_lab = lab_of("slider-crank")``
+    at module level, then ``connect(my_lab)`` in a test."""
+
+    @pytest.fixture(scope="module")
+    def preset_lab():
+        server = LabServer(port=0, warm=False, preset=preset)
+        yield server
+        server.stop()
+
+    return preset_lab
+
+
 @pytest.fixture
 def connect(lab):
     """``connect()`` -> (stand-in, session): a new browser and the session the server made for it."""

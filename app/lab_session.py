@@ -1,0 +1,106 @@
+"""One session interface for the server, share links, snapshots and the presenter lock, whatever the model.
+
+Why: a browser's session is a chain's (:class:`app.session.Session`, the per-bar panel, the Analysis and Report
+tabs) or a general mechanism's (:class:`app.mechanism_session.MechanismSession`, the panel generated from its
+description). The server and the tools around it need neither's details: they start and close a session, give
+it the presenter check and the switch to the other kind, apply a link's values by name, pause it at a time
+and read its snapshot. :class:`LabSession` is that contract (a ``typing.Protocol`` both satisfy; mypy checks
+it where the server stores them), so ``app/server.py`` and ``app/snapshot.py`` hold one type instead of a
+union and ask no ``isinstance``. :class:`SessionBase` holds what the two kinds did alike, once.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Literal, Protocol
+
+from .notices import NOTICE_SECONDS, Notices
+from .viser_compat import connection_open
+
+Kind = Literal["chain", "mechanism"]
+
+
+class LabSession(Protocol):
+    """A session as the server and the tools around it see it."""
+
+    id: int
+    kind: Kind  # "chain" or "mechanism": what a switch of the menu leaves
+    shared: bool
+    closed: bool
+    target: Any  # the viser client (own session) or server (shared)
+    player: Any  # app.player.Player: its frame interval is set by the server's frame budget
+    camera: Any  # app.camera.CameraDirector
+    notices: Notices
+    is_presenter: Callable[[int], bool] | None  # --shared with a presenter: whether a browser may change things
+    on_switch: Callable[[str], None] | None  # the menu chose the other kind: the server replaces this session
+
+    @property
+    def frames_sent(self) -> int:
+        """Frames drawn so far (the load benchmark counts them)."""
+
+    def close(self, clean: bool = False) -> None:
+        """Stop the player; with ``clean`` remove every node and control (a switch in the same browser)."""
+
+    def show_notice(self, title: str, body: str, color: str = ..., seconds: float | None = ...) -> None: ...
+
+    def frame_camera(self, force: bool = False, client: Any = None) -> None: ...
+
+    def set_camera_view(self, view: str) -> None: ...
+
+    def set_reactions(self, on: bool) -> None: ...
+
+    def set_compare(self, on: bool) -> None: ...
+
+    def set_link_value(self, name: str, text: str) -> None:
+        """One value of a share link or a setup file, by its name, in the panel's units."""
+
+    def set_value(self, name: str, text: str) -> None:
+        """One ``snapshot --set NAME=VALUE`` (a chain's in SI units, as ``python -m physics --set``)."""
+
+    def load_setup(self, pairs: list[tuple[str, str]], where: str = ...) -> None:
+        """A saved setup's ``(name, value)`` pairs (``--state``), applied by :meth:`set_link_value`."""
+
+    def pause(self) -> None: ...
+
+    def goto_time(self, t: float, timeout: float = ...) -> bool: ...
+
+    def snapshot(self) -> dict: ...
+
+
+class SessionBase:
+    """What both kinds of session do alike: who may change things, notices, which browsers are theirs."""
+
+    target: Any
+    shared: bool
+    closed: bool
+    is_presenter: Callable[[int], bool] | None
+    notices: Notices
+    player: Any
+    camera: Any
+
+    def _stop(self) -> bool:
+        """The start of ``close``: mark the session closed (its notices and camera too) and stop its player;
+        False if it was closed already (nothing to do)."""
+        if self.closed:
+            return False
+        self.closed = True
+        self.notices.closed = True
+        self.camera.closed = True
+        self.player.stop()
+        return True
+
+    def may_change(self, client_id: int | None) -> bool:
+        """Without a presenter lock anyone may; with one only the presenter (an unknown sender may not)."""
+        return self.is_presenter is None or (client_id is not None and self.is_presenter(client_id))
+
+    def show_notice(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
+        """A notification in this session's browser(s), and the same text on the status line."""
+        self.notices.show(title, body, color=color, seconds=seconds)
+
+    def _clients(self) -> list:
+        if self.shared:
+            return list(self.target.get_clients().values())
+        return [self.target]
+
+    def _connection_open(self) -> bool:
+        """False once this session's browser has gone (a shared session lives as long as the server)."""
+        return self.shared or connection_open(self.target)
