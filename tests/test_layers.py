@@ -43,6 +43,7 @@ def test_the_contracts_hold_on_the_code_as_it_is(tmp_path):
     ("physics/studies/report.py", "import viser", "physics never imports the app or viser"),
     ("app/scene.py", "from physics.kernels import explicit_rk", "The app uses only physics' public API"),
     ("app/readout.py", "import physics.mechanism.engine", "The app uses only physics' public API"),
+    ("physics/mechanism/engine.py", "from ..outputs import write_output", "The core never imports a study"),
 ])
 def test_a_deliberate_violation_fails_the_contract(tmp_path, module, line, broken):
     _copy_project(tmp_path)
