@@ -20,6 +20,8 @@ from typing import Callable
 
 import numpy as np
 
+from physics.status import Status
+
 from .runs import (
     Frame,
     Restart,
@@ -40,6 +42,11 @@ MAX_CHUNK_SECONDS = 2.0
 # pendulum; the budget shrinks with the square of the chain length, as the cost of one evaluation grows.
 CHUNK_WORK_BUDGET = 3000.0  # right-hand-side evaluations per chunk at n = 3
 MAX_SPEED = 8.0
+# One call of the integrator is given at most this many steps (times (3/n)^2, like the work budget; doubled for a
+# run while a call ends before its first new sample, up to the run's own max_steps). A stiff start (a bar of almost
+# no inertia between heavy ones) can need a million steps of an explicit integrator per 0.25 s: bounded calls keep
+# the player answering restarts meanwhile, and the first new pose comes after about one sample's worth of steps.
+CHUNK_STEP_CAP = 3000
 # A frame is skipped while the previous one waits to be sent (see Player), but never for longer than this: a
 # browser whose buffer never empties still sees 4 frames per second, and a wrong "not delivered" never freezes.
 MAX_DEFER_SECONDS = 0.25
@@ -51,6 +58,12 @@ def _chunk_work(traj) -> int:
     return int(getattr(traj, "n_rhs", 0) or getattr(traj, "n_steps", 0))
 
 
+def _capped(traj, spec, cap: int) -> bool:
+    """The call stopped at the player's step cap, not at the run's own max_steps (nothing failed)."""
+    limit = _step_limit(spec.settings)
+    return traj.status == Status.MAX_STEPS and limit is not None and cap < limit
+
+
 def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
     """The next chunk's length from this one's work alone (deterministic: see CHUNK_WORK_BUDGET)."""
     budget = CHUNK_WORK_BUDGET * (3.0 / max(n, 1)) ** 2
@@ -59,6 +72,17 @@ def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
     if work < budget / 4:
         return min(MAX_CHUNK_SECONDS, seconds * 2)
     return seconds
+
+
+def first_step_cap(n: int) -> int:
+    """The steps one integrator call of an ``n``-bar run is first given (see CHUNK_STEP_CAP)."""
+    return max(1, int(CHUNK_STEP_CAP * (3.0 / max(n, 1)) ** 2))
+
+
+def _step_limit(settings) -> int | None:
+    """The run's own max_steps (None: its integrator counts no steps the player could bound, a mechanism's)."""
+    limit = getattr(settings, "max_steps", None)
+    return limit if isinstance(limit, int) else None
 
 
 EXACT_SAMPLE = 1e-6  # of a sample interval: a time this close to a sample's is that sample's
@@ -376,8 +400,9 @@ class Player:
         A one-sample-interval simulation gives every field. If the start cannot be integrated at all (a
         singular position), the sample is built from kinematics alone, so the scene still shows where the
         mechanism stands."""
+        cap = first_step_cap(spec.work_n)
         try:
-            traj = self._simulate_chunk(spec, t0, theta0, omega0, 0)
+            traj = self._simulate_chunk(spec, t0, theta0, omega0, 0, step_cap=cap)
         except ValueError as error:  # LinkageError: e.g. a start that does not close the loop
             traj, message = None, str(error)
         else:
@@ -385,14 +410,20 @@ class Player:
         if traj is not None and len(traj.t) > 0:
             chunk = {k: v[:1] for k, v in spec.chunk(traj).items()}
             if finite_prefix(chunk, spec.state_fields) == 1:
-                failed = message if (traj.status < 0 and len(traj.t) < 2) else None
+                stopped = traj.status < 0 and len(traj.t) < 2 and not _capped(traj, spec, cap)
+                failed = message if stopped else None
                 return chunk, failed
         return spec.still_sample(t0, theta0, omega0), message or "the start state could not be evaluated"
 
-    def _simulate_chunk(self, spec: RunSpec, t0: float, theta0, omega0, steps: int, continuing: bool = False):
-        """Simulate ``steps`` sample intervals from ``t0``; ``steps = 0`` evaluates the start state only."""
+    def _simulate_chunk(self, spec: RunSpec, t0: float, theta0, omega0, steps: int, continuing: bool = False,
+                        step_cap: int | None = None):
+        """Simulate ``steps`` sample intervals from ``t0``; ``steps = 0`` evaluates the start state only. At most
+        ``step_cap`` integrator steps (when below the run's own max_steps: see CHUNK_STEP_CAP)."""
         horizon = max(steps, 1) * SAMPLE_DT
         settings = self._make_settings(spec.settings, horizon, max(steps, 1) + 1)
+        limit = _step_limit(settings)
+        if step_cap is not None and limit is not None and step_cap < limit:
+            settings = settings.model_copy(update={"max_steps": step_cap})
         simulate = spec.simulate or self._simulate
         if continuing:
             return simulate(spec.chain, theta0, omega0, settings, t_start=t0, continuing=True)
@@ -421,10 +452,11 @@ class Player:
             omega0 = run.ring.get(run.spec.state_fields[1], i).copy()
             seconds = run.chunk_seconds
             spec = run.spec
+            cap = run.step_cap or first_step_cap(spec.work_n)
         steps = max(1, int(round(seconds * SAMPLE_RATE)))
         started = time.perf_counter()
         try:
-            traj = self._simulate_chunk(spec, t0, theta0, omega0, steps, continuing=True)
+            traj = self._simulate_chunk(spec, t0, theta0, omega0, steps, continuing=True, step_cap=cap)
         except ValueError as error:  # LinkageError for this start: the run stops here, with its message
             with self.lock:
                 if generation == self.generation and run in self.runs:
@@ -440,7 +472,9 @@ class Player:
             good = finite_prefix(chunk, spec.state_fields)
             run.ring.append({k: v[:good] for k, v in chunk.items()})
             run.simulated_seconds += good * SAMPLE_DT
-            if traj.status < 0:
+            if _capped(traj, spec, cap) and good == len(chunk["t"]):  # not a failure: the next call goes on
+                run.step_cap = cap if good else 2 * cap  # no new sample within the cap: twice as many next time
+            elif traj.status < 0:
                 run.failed = traj.message or f"simulation failed (status {traj.status})"
             elif good < len(chunk["t"]):
                 run.failed = f"the state became non-finite at t = {t0 + (good + 1) * SAMPLE_DT:.4g} s"

@@ -75,6 +75,7 @@ class Run:
     chunk_seconds: float = FIRST_CHUNK_SECONDS
     compute_seconds: float = 0.0  # CPU time spent simulating (for the status line)
     simulated_seconds: float = 0.0
+    step_cap: int | None = None  # integrator steps one call may take (app/player.py, CHUNK_STEP_CAP); None: the first
 
 
 @dataclass

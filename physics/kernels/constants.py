@@ -30,6 +30,8 @@ PROJECTION_MAX_ITERATIONS = 8
 # Implicit midpoint: simplified Newton, stopped when every correction is below this relative size.
 NEWTON_TOLERANCE = 1e-13
 NEWTON_MAX_ITERATIONS = 50
+# The implicit midpoint rule cuts a step on which Newton's iteration fails into up to 2^this equal pieces.
+MIDPOINT_MAX_HALVINGS = 10
 EPSILON = 2.220446049250313e-16  # machine epsilon of float64
 FD_RELATIVE_STEP = 1.4901161193847656e-08  # sqrt(machine epsilon): balances truncation and rounding
 

@@ -6,6 +6,7 @@ from numba import njit
 from .common import check_arguments, fixed_steps, hermite_sample, initial_samples, ode_rhs, sample_condition
 from .constants import (
     FD_RELATIVE_STEP,
+    MIDPOINT_MAX_HALVINGS,
     NEWTON_MAX_ITERATIONS,
     NEWTON_TOLERANCE,
     STATUS_INTEGRATOR_FAILED,
@@ -52,6 +53,69 @@ def hermite_samples(
                                                   omega, theta_ddot)
         i_sample += 1
     return i_sample
+
+
+@njit(cache=True, error_model="numpy")
+def _midpoint_step(system, t, t_new, step, y, f, y_next, f_next, y_mid, f_mid, y_probe, f_probe, correction, newton_matrix,
+                   pivots, params, alpha, beta, projecting, theta, omega, theta_ddot, n, n_state):
+    """One implicit midpoint step from ``(t, y)`` (``f = f(t, y)``) to ``t_new``: ``y_next`` and ``f_next``.
+
+    Returns ``(status, right-hand-side evaluations, converged)``: STATUS_INTEGRATOR_FAILED when the Newton matrix
+    is singular, STATUS_NOT_FINITE when a correction overflows, the right-hand side's status when it fails."""
+    n_rhs = 0
+    # Newton matrix I - (step/2) df/dy; df/dy = [[0, I], [d theta_ddot / d theta, d theta_ddot / d omega]].
+    for i in range(n_state):
+        for j in range(n_state):
+            newton_matrix[i, j] = 0.0
+        newton_matrix[i, i] = 1.0
+    for i in range(n):
+        newton_matrix[i, n + i] = -0.5 * step
+    for j in range(n_state):
+        for i in range(n_state):
+            y_probe[i] = y[i]
+        y_probe[j] = y[j] + FD_RELATIVE_STEP * max(1.0, abs(y[j]))
+        delta = y_probe[j] - y[j]
+        status, _ = ode_rhs(system, t, y_probe, params, alpha, beta, theta, omega, theta_ddot, f_probe)
+        n_rhs += 1
+        if status != STATUS_OK:
+            return status, n_rhs, False
+        for i in range(n):
+            newton_matrix[n + i, j] -= 0.5 * step * (f_probe[n + i] - f[n + i]) / delta
+    if not lu_factor(newton_matrix, pivots):
+        return STATUS_INTEGRATOR_FAILED, n_rhs, False
+    # Explicit Euler predictor, then y1 <- y1 - M^-1 (y1 - y0 - step f((y0 + y1)/2)).
+    for i in range(n_state):
+        y_next[i] = y[i] + step * f[i]
+    converged = False
+    status = STATUS_OK
+    for iteration in range(NEWTON_MAX_ITERATIONS):
+        for i in range(n_state):
+            y_mid[i] = 0.5 * (y[i] + y_next[i])
+        status, _ = ode_rhs(system, 0.5 * (t + t_new), y_mid, params, alpha, beta, theta, omega, theta_ddot, f_mid)
+        n_rhs += 1
+        if status != STATUS_OK:
+            return status, n_rhs, False
+        for i in range(n_state):
+            correction[i] = -(y_next[i] - y[i] - step * f_mid[i])
+        lu_factor_solve(newton_matrix, pivots, correction)
+        largest = 0.0
+        for i in range(n_state):
+            y_next[i] += correction[i]
+            relative = abs(correction[i]) / (1.0 + abs(y_next[i]))
+            if not relative <= largest:
+                largest = relative
+        if not np.isfinite(largest):
+            return STATUS_NOT_FINITE, n_rhs, False
+        if largest <= NEWTON_TOLERANCE:
+            converged = True
+            break
+    if not converged:
+        return STATUS_OK, n_rhs, False
+    if projecting and not project_state(system, t_new, y_next, params, theta, omega):
+        return STATUS_NOT_FINITE, n_rhs, False
+    status, _ = ode_rhs(system, t_new, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
+    n_rhs += 1
+    return status, n_rhs, True
 
 
 @njit(cache=True, error_model="numpy")
@@ -106,95 +170,73 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
         return STATUS_OK, n_steps, n_rhs, t, i_sample
     n_total, step = fixed_steps(t0, t_end, h)
 
+    y_start = np.empty(n_state)
+    f_start = np.empty(n_state)
     for k in range(n_total):
-        t_new = t_end if k == n_total - 1 else t0 + (k + 1) * step
-        # Newton matrix I - (step/2) df/dy; df/dy = [[0, I], [d theta_ddot / d theta, d theta_ddot / d omega]].
+        t_target = t_end if k == n_total - 1 else t0 + (k + 1) * step
+        # The step from t to t_target, cut into 2, 4, ... equal pieces when Newton's iteration fails on it (a stiff
+        # step: a bar of almost no inertia), so every step stays at most h. A run that solves each step whole is
+        # unchanged; one that still fails at MIDPOINT_MAX_HALVINGS stops as before.
+        t_start = t
+        i_start = i_sample
         for i in range(n_state):
-            for j in range(n_state):
-                newton_matrix[i, j] = 0.0
-            newton_matrix[i, i] = 1.0
-        for i in range(n):
-            newton_matrix[i, n + i] = -0.5 * step
-        for j in range(n_state):
-            for i in range(n_state):
-                y_probe[i] = y[i]
-            y_probe[j] = y[j] + FD_RELATIVE_STEP * max(1.0, abs(y[j]))
-            delta = y_probe[j] - y[j]
-            status, _ = ode_rhs(system, t, y_probe, params, alpha, beta, theta, omega, theta_ddot, f_probe)
-            n_rhs += 1
-            if status != STATUS_OK:
-                break
-            for i in range(n):
-                newton_matrix[n + i, j] -= 0.5 * step * (f_probe[n + i] - f[n + i]) / delta
-        if status != STATUS_OK:
-            break
-        if not lu_factor(newton_matrix, pivots):
-            status = STATUS_INTEGRATOR_FAILED
-            break
-        # Explicit Euler predictor, then y1 <- y1 - M^-1 (y1 - y0 - step f((y0 + y1)/2)).
-        for i in range(n_state):
-            y_next[i] = y[i] + step * f[i]
+            y_start[i] = y[i]
+            f_start[i] = f[i]
         converged = False
-        for iteration in range(NEWTON_MAX_ITERATIONS):
-            for i in range(n_state):
-                y_mid[i] = 0.5 * (y[i] + y_next[i])
-            status, _ = ode_rhs(system, 0.5 * (t + t_new), y_mid, params, alpha, beta, theta, omega, theta_ddot, f_mid)
-            n_rhs += 1
-            if status != STATUS_OK:
+        for halvings in range(MIDPOINT_MAX_HALVINGS + 1):
+            pieces = 1 << halvings
+            piece_step = step if pieces == 1 else (t_target - t_start) / pieces
+            for piece in range(pieces):
+                t_new = t_target if piece == pieces - 1 else t_start + (piece + 1) * piece_step
+                status, added, converged = _midpoint_step(
+                    system, t, t_new, piece_step, y, f, y_next, f_next, y_mid, f_mid, y_probe, f_probe, correction,
+                    newton_matrix, pivots, params, alpha, beta, projecting, theta, omega, theta_ddot, n, n_state,
+                )
+                n_rhs += added
+                if status != STATUS_OK or not converged:
+                    break
+                n_steps += 1
+                i_sample = hermite_samples(
+                    system,
+                    i_sample,
+                    t,
+                    t_new,
+                    y,
+                    f,
+                    y_next,
+                    f_next,
+                    t_eval,
+                    params,
+                    alpha,
+                    beta,
+                    projecting,
+                    y_probe,
+                    theta,
+                    omega,
+                    theta_ddot,
+                    y_out,
+                    cond_out,
+                )
+                for i in range(n_state):
+                    y[i] = y_next[i]
+                    f[i] = f_next[i]
+                t = t_new
+            newton_failed = status == STATUS_INTEGRATOR_FAILED or status == STATUS_NOT_FINITE or not converged
+            if status == STATUS_OK and converged:
                 break
-            for i in range(n_state):
-                correction[i] = -(y_next[i] - y[i] - step * f_mid[i])
-            lu_factor_solve(newton_matrix, pivots, correction)
-            largest = 0.0
-            for i in range(n_state):
-                y_next[i] += correction[i]
-                relative = abs(correction[i]) / (1.0 + abs(y_next[i]))
-                if not relative <= largest:
-                    largest = relative
-            if not np.isfinite(largest):
-                status = STATUS_NOT_FINITE
+            if not newton_failed or halvings == MIDPOINT_MAX_HALVINGS:
                 break
-            if largest <= NEWTON_TOLERANCE:
-                converged = True
-                break
-        if status != STATUS_OK:
-            break
-        if not converged:
+            t = t_start  # again from the step's start, in twice as many pieces
+            i_sample = i_start
+            for i in range(n_state):
+                y[i] = y_start[i]
+                f[i] = f_start[i]
+        if status == STATUS_OK and not converged:
             status = STATUS_INTEGRATOR_FAILED
-            break
-        if projecting and not project_state(system, t_new, y_next, params, theta, omega):
-            status = STATUS_NOT_FINITE
-            break
-        status, _ = ode_rhs(system, t_new, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
-        n_rhs += 1
         if status != STATUS_OK:
+            y_out[i_sample:, :] = np.nan  # samples of an abandoned attempt beyond where the run stopped
+            if cond_out.shape[0]:
+                cond_out[i_sample:] = np.nan
             break
-        n_steps += 1
-
-        i_sample = hermite_samples(
-            system,
-            i_sample,
-            t,
-            t_new,
-            y,
-            f,
-            y_next,
-            f_next,
-            t_eval,
-            params,
-            alpha,
-            beta,
-            projecting,
-            y_probe,
-            theta,
-            omega,
-            theta_ddot,
-            y_out,
-            cond_out,
-        )
-        for i in range(n_state):
-            y[i] = y_next[i]
-            f[i] = f_next[i]
-        t = t_new
 
     return status, n_steps, n_rhs, t, i_sample
