@@ -1,7 +1,7 @@
 """An installation's first run, whole processes, this tree against an older one side by side (the "First run"
 section of BENCHMARKS.md).
 
-    python -m benchmarks.first_run --before /path/to/an/older/checkout [--rounds 3] [--warm-runs 3]
+    python -m benchmarks.first_run --before /path/to/an/older/checkout [--rounds 3] [--warm-runs 3] [--chain-rounds N]
 
 Each round takes both trees in turn (the order alternates between rounds, so both meet the same machine) and,
 for each, with a fresh empty ``LINKAGE_LAB_CACHE``:
@@ -73,18 +73,39 @@ def _app_start(tree: Path) -> dict:
     return {"app_first_frame_s": figures.get("start_pose_s"), "app_first_pose_s": figures.get("first_pose_s")}
 
 
-def measure_tree(tree: Path, scratch: Path, warm_runs: int, with_app: bool) -> dict:
+def _recorded(row: dict, what: str, measurement) -> None:
+    """``row.update(measurement())``; a failure (a timeout on a loaded machine) is kept in the row, not fatal."""
+    try:
+        row.update(measurement())
+    except (RuntimeError, subprocess.TimeoutExpired, OSError, ValueError) as error:
+        row.setdefault("errors", []).append(f"{what}: {' '.join(str(error).split())[-300:]}")
+
+
+def measure_tree(tree: Path, scratch: Path, warm_runs: int, with_app: bool, with_chains: bool) -> dict:
     row: dict = {}
     cache = scratch / "triple-a"
-    row["triple_a_s"], row["triple_a_cpu_s"] = _timed(_simulate("--preset", "triple-a"), cache, tree)
-    warm = [_timed(_simulate("--preset", "triple-a"), cache, tree)[0] for _ in range(warm_runs)]
-    row["warm_s"] = statistics.median(warm)
-    for method in FORMULATIONS:
-        wall, cpu = _timed(_simulate("--preset", "chain", "--links", "10", "--method", method),
-                           scratch / f"chain-{method}", tree)
-        row[f"chain_{method}_s"], row[f"chain_{method}_cpu_s"] = wall, cpu
+
+    def triple_a() -> dict:
+        wall, cpu = _timed(_simulate("--preset", "triple-a"), cache, tree)
+        return {"triple_a_s": wall, "triple_a_cpu_s": cpu}
+
+    def warm() -> dict:
+        return {"warm_s": statistics.median(_timed(_simulate("--preset", "triple-a"), cache, tree)[0]
+                                            for _ in range(warm_runs))}
+
+    def chain(method: str):
+        def measurement() -> dict:
+            wall, cpu = _timed(_simulate("--preset", "chain", "--links", "10", "--method", method),
+                               scratch / f"chain-{method}", tree)
+            return {f"chain_{method}_s": wall, f"chain_{method}_cpu_s": cpu}
+        return measurement
+
+    _recorded(row, "triple-a", triple_a)
+    _recorded(row, "warm", warm)
+    for method in FORMULATIONS if with_chains else ():
+        _recorded(row, f"chain {method}", chain(method))
     if with_app:
-        row.update(_app_start(tree))
+        _recorded(row, "app", lambda: _app_start(tree))
     return row
 
 
@@ -93,6 +114,8 @@ def main(argv=None) -> int:
     parser.add_argument("--before", type=Path, required=True, help="an older checkout to time the same way")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--warm-runs", type=int, default=3)
+    parser.add_argument("--chain-rounds", type=int, default=None,
+                        help="measure the chains in the first N rounds only (default: every round)")
     parser.add_argument("--no-app", action="store_true", help="leave out the app's first pose")
     args = parser.parse_args(argv)
     trees = {"after": REPO_ROOT, "before": args.before.resolve()}
@@ -103,7 +126,8 @@ def main(argv=None) -> int:
             scratch = Path(tempfile.mkdtemp(prefix="linkage-lab-first-"))
             try:
                 row = {"tree": name, "round": round_index, "load_average": os.getloadavg()[0]}
-                row.update(measure_tree(trees[name], scratch, args.warm_runs, not args.no_app))
+                chains = args.chain_rounds is None or round_index < args.chain_rounds
+                row.update(measure_tree(trees[name], scratch, args.warm_runs, not args.no_app, chains))
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
             rows.append(row)
@@ -111,8 +135,10 @@ def main(argv=None) -> int:
     medians = {}
     for name in trees:
         mine = [row for row in rows if row["tree"] == name]
-        keys = [key for key in mine[0] if key.endswith("_s")]
-        medians[name] = {key: statistics.median(row[key] for row in mine if row[key] is not None) for key in keys}
+        keys = sorted({key for row in mine for key in row if key.endswith("_s")})
+        medians[name] = {key: statistics.median(values) if (values := [row[key] for row in mine
+                                                                        if row.get(key) is not None]) else None
+                         for key in keys}
     print(json.dumps({"command": "python -m benchmarks.first_run " + " ".join(sys.argv[1:]), "cpus": os.cpu_count(),
                       "rows": rows, "medians": medians}, indent=2))
     return 0
