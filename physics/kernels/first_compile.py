@@ -16,16 +16,9 @@ import threading
 
 from ..notices import notify
 
-# Seconds of one empty-cache compilation on an idle 2-core machine (BENCHMARKS.md, "First run"), the kernel
-# with everything it calls; what the line says to expect.
-COMPILE_SECONDS = {
-    "RK45": 12,
-    "DOP853": 12,
-    "ode45": 12,
-    "midpoint": 12,
-    "variational": 12,
-    "RK4 ensemble": 8,
-}
+# Seconds of one empty-cache compilation with everything it calls, measured on the project's 2-core machine at
+# load average 2 (BENCHMARKS.md, "First run"): what the line says to expect. Kernels not measured get no figure.
+COMPILE_SECONDS = {"RK45": 20, "DOP853": 20}  # one driver for both (physics.kernels.explicit_rk)
 LOGGER = "physics.kernels"
 _lock = threading.Lock()
 _announced: list[str] = []
