@@ -4,3 +4,11 @@
 tests and scripts. The package imports only what ``physics`` exports, plus viser; nothing here integrates
 equations of motion.
 """
+
+
+def show(run, chain, **options):
+    """Show a :class:`physics.Trajectory` of ``chain`` as a 3D replay: inline in a notebook, else in a browser
+    (:func:`app.notebook.show`; imported on first use, so ``import app`` stays light)."""
+    from .notebook import show as show_run  # noqa: PLC0415
+
+    return show_run(run, chain, **options)

@@ -46,18 +46,20 @@ def stop_recorder() -> None:
             _recorder = None
 
 
-def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage Lab replay") -> str:
-    """HTML replay of ``history`` (the session's samples, 60 per second) for mechanism ``params``."""
+def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage Lab replay",
+                rate: float = SOURCE_RATE) -> str:
+    """HTML replay of ``history`` (``rate`` samples per second: a session's 60, or a notebook run's own) for
+    mechanism ``params`` (``L``, ``d``, ``pin``)."""
     t = history["t"]
     if len(t) < 2:
         raise ValueError("nothing to replay yet: fewer than two samples")
-    stride = max(1, int(round(SOURCE_RATE / REPLAY_FPS)))
-    first = max(0, len(t) - int(REPLAY_MAX_SECONDS * SOURCE_RATE))
+    stride = max(1, int(round(rate / REPLAY_FPS)))
+    first = max(0, len(t) - int(REPLAY_MAX_SECONDS * rate))
     frames = range(first, len(t), stride)
     L = np.array(params.L, dtype=float)
     d = np.array(params.d, dtype=float)
     com_ratio = np.divide(d, L, out=np.zeros_like(d), where=L > 0)
-    trace_samples = int(TRACE_SECONDS * SOURCE_RATE)
+    trace_samples = int(TRACE_SECONDS * rate)
     with _lock:
         server = _recording_server()
         server.scene.reset()
@@ -79,7 +81,7 @@ def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage La
             com = joints[:-1] + com_ratio[:, None] * (joints[1:] - joints[:-1])
             scene.show(joints, com)
             trace.update(history["trace_xy"][max(first, i - trace_samples) : i + 1])
-            serializer.insert_sleep(stride / SOURCE_RATE)
+            serializer.insert_sleep(stride / rate)
         html = serializer.as_html()
         server.scene.reset()
     return html

@@ -33,6 +33,7 @@ from ..errors import LinkageError
 from ..files import write_atomically
 from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
 from ..kernels.abi import make_layout
+from ..kernels.first_compile import announce
 from ..registry import FORMULATION_NAMES
 from .native import NativeModule
 
@@ -79,6 +80,12 @@ def generator_digest() -> str:
 
 def _c(array) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.float64)
+
+
+def _first_call(kernel, what: str, *arguments):
+    """``kernel(*arguments)``, after the one line that says it is about to be compiled, when it is."""
+    announce(kernel, arguments, what)
+    return kernel(*arguments)
 
 
 @dataclass
@@ -221,8 +228,8 @@ class CompiledSystem:
                         y_out, cond_out):
         from ..kernels import ode45  # noqa: PLC0415  (compiled on first use only: few runs ask for it)
 
-        return ode45.integrate_ode45(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval), _c(params),
-                                     rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
+        return _first_call(ode45.integrate_ode45, "ode45", self.assemble_function, self.layout, _c(y0), t0, t_end,
+                           _c(t_eval), _c(params), rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_ode45_refined(self, y0, t0, t_end, params, rtol, atol, alpha=0.0, beta=0.0, project=True,
                                 refine=4, max_steps=100_000):
@@ -240,18 +247,18 @@ class CompiledSystem:
         return t_out[:filled], y_out[:filled], int(status), int(n_steps)
 
     def integrate_midpoint(self, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
-        return midpoint.integrate_midpoint(self.assemble_function, self.layout, _c(y0), t0, t_end, h, _c(t_eval),
-                                           _c(params), alpha, beta, project, y_out, cond_out)
+        return _first_call(midpoint.integrate_midpoint, "midpoint", self.assemble_function, self.layout, _c(y0), t0,
+                           t_end, h, _c(t_eval), _c(params), alpha, beta, project, y_out, cond_out)
 
     def integrate_variational(self, y0, t0, t_end, h, t_eval, params, y_out, cond_out):
-        return variational.integrate_variational(
-            self.assemble_function, self.mass_and_force_function, self.layout, _c(y0), t0, t_end, h, _c(t_eval),
-            _c(params), y_out, cond_out,
+        return _first_call(
+            variational.integrate_variational, "variational", self.assemble_function, self.mass_and_force_function,
+            self.layout, _c(y0), t0, t_end, h, _c(t_eval), _c(params), y_out, cond_out,
         )
 
     def rk4_batch_step(self, theta, omega, params, h, alpha, beta, work, cond_out):
-        return batch.rk4_batch_step(self.assemble_function, self.layout, theta, omega, _c(params), h, alpha, beta,
-                                    work, cond_out)
+        return _first_call(batch.rk4_batch_step, "RK4 ensemble", self.assemble_function, self.layout, theta, omega,
+                           _c(params), h, alpha, beta, work, cond_out)
 
     @property
     def pose_size(self) -> int:

@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit
 
 from .abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS
+from .arrays import copy_row
 from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
 from .system import set_time, solve_accel
 
@@ -98,7 +99,7 @@ def initial_samples(y, t0, t_eval, condition, y_out, cond_out):
     """Write the start state into every sample at or before ``t0``; returns the next sample's index."""
     i_sample = 0
     while i_sample < t_eval.shape[0] and t_eval[i_sample] <= t0:
-        y_out[i_sample, :] = y
+        copy_row(y, y_out, i_sample)
         if cond_out.shape[0]:
             cond_out[i_sample] = condition
         i_sample += 1

@@ -5,6 +5,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .abi import LAYOUT_CONSTRAINTS
+from .arrays import copy_row
 from .common import check_arguments, initial_samples, ode_rhs, rms_norm, sample_condition
 from .constants import (
     MAX_FACTOR,
@@ -15,8 +17,9 @@ from .constants import (
     STATUS_OK,
     STATUS_STEP_TOO_SMALL,
 )
+from .first_compile import announce
 from .projection import project_state
-from .system import has_constraints, make_system
+from .system import make_system
 from .tables import (
     DOP853_A,
     DOP853_B,
@@ -132,17 +135,20 @@ def _dop853_sample(x, y_old, F, y_sample):
 
 @njit(cache=True, error_model="numpy")
 def _integrate_explicit_rk(
-    system, A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
+    assemble, layout, A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, projecting, max_steps, y_out,
+    cond_out
 ):
     """Shared driver of integrate_rk45 and integrate_dop853: scipy's ``solve_ivp`` loop with ``t_eval``.
 
     The method is told by its tableau ``A`` (an argument, not a constant flag, so that numba compiles this
-    function once for both methods).
+    function once for both methods). ``projecting`` is ``True`` or ``None`` (never ``False``): with ``None``
+    numba prunes every ``projecting is not None`` branch before typing, so a run without projection (any open
+    chain) compiles none of the projection's code, about a fifth of an empty-cache run.
     """
+    system = make_system(assemble, layout)
     check_arguments(system[1], y0, t0, t_end, t_eval, params, y_out, cond_out)
     use_dop853 = A.shape[0] == DOP853_N_STAGES_EXTENDED
     params = params.copy()  # the integrator writes t into it
-    projecting = has_constraints(system) and project
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     n_samples = t_eval.shape[0]
@@ -180,8 +186,9 @@ def _integrate_explicit_rk(
     t = t0
     n_steps = 0
     n_rhs = 0
-    if projecting and not project_state(system, t, y, params, theta, omega):
-        return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
+    if projecting is not None:
+        if not project_state(system, t, y, params, theta, omega):
+            return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
     status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
@@ -306,7 +313,7 @@ def _integrate_explicit_rk(
         for j in range(n_state):
             y_next[j] = y_new[j]
             f_next[j] = K[n_stages, j]
-        if projecting:
+        if projecting is not None:
             if not project_state(system, t_new, y_next, params, theta, omega):
                 status = STATUS_NOT_FINITE
                 break
@@ -330,9 +337,9 @@ def _integrate_explicit_rk(
                     _dop853_sample(x, y, F, y_stage)
                 else:
                     _rk45_sample(x, h, y, K, y_stage)
-                if projecting:
+                if projecting is not None:
                     project_state(system, t_eval[i_sample], y_stage, params, theta, omega)
-                y_out[i_sample, :] = y_stage
+                copy_row(y_stage, y_out, i_sample)
                 if cond_out.shape[0]:  # (0,) = the caller computes it with the reactions, once
                     cond_out[i_sample] = sample_condition(
                         system, t_eval[i_sample], y_stage, params, alpha, beta, theta, omega, theta_ddot
@@ -349,7 +356,12 @@ def _integrate_explicit_rk(
     return status, n_steps, n_rhs, t, i_sample
 
 
-@njit(cache=True, error_model="numpy")
+def _projecting(layout, project):
+    """``True`` when the run projects (asked for, and the mechanism holds constraints), else ``None``: the
+    argument's type then selects the driver's compiled variant (see :func:`_integrate_explicit_rk`)."""
+    return True if project and layout[LAYOUT_CONSTRAINTS] != 0 else None
+
+
 def integrate_rk45(
     assemble, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
@@ -359,19 +371,20 @@ def integrate_rk45(
     filled with the sampled states and accel's condition estimate there. alpha, beta are passed to accel (Baumgarte
     gains); project (pinned chains only) projects every accepted step and every sample onto the loop constraint.
     Returns ``(status, n_steps, n_rhs, t_reached, n_filled)`` (see the module docstring).
+
+    A plain function choosing the compiled driver's variant: numba compiles only what the run calls.
     """
-    system = make_system(assemble, layout)
-    return _integrate_explicit_rk(
-        system, RK45_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
-    )
+    arguments = (assemble, layout, RK45_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
+                 _projecting(layout, project), max_steps, y_out, cond_out)
+    announce(_integrate_explicit_rk, arguments, "RK45")
+    return _integrate_explicit_rk(*arguments)
 
 
-@njit(cache=True, error_model="numpy")
 def integrate_dop853(
     assemble, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
     """Dormand-Prince 8(5,3) exactly as scipy's ``solve_ivp(method="DOP853")``; arguments as integrate_rk45."""
-    system = make_system(assemble, layout)
-    return _integrate_explicit_rk(
-        system, DOP853_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
-    )
+    arguments = (assemble, layout, DOP853_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
+                 _projecting(layout, project), max_steps, y_out, cond_out)
+    announce(_integrate_explicit_rk, arguments, "DOP853")
+    return _integrate_explicit_rk(*arguments)

@@ -3,6 +3,7 @@
 import numpy as np
 from numba import njit
 
+from .arrays import copy_row
 from .common import check_arguments, fixed_steps, hermite_sample, initial_samples, ode_rhs, sample_condition
 from .constants import (
     FD_RELATIVE_STEP,
@@ -47,7 +48,7 @@ def hermite_samples(
         hermite_sample(s, t_new - t, y, f, y_next, f_next, y_sample)
         if project:
             project_state(system, t_eval[i_sample], y_sample, params, theta, omega)
-        y_out[i_sample, :] = y_sample
+        copy_row(y_sample, y_out, i_sample)
         if cond_out.shape[0]:
             cond_out[i_sample] = sample_condition(system, t_eval[i_sample], y_sample, params, alpha, beta, theta,
                                                   omega, theta_ddot)

@@ -39,6 +39,7 @@ Arguments and return value as :func:`physics.kernels.explicit_rk.integrate_rk45`
 import numpy as np
 from numba import njit
 
+from .arrays import copy_row
 from .common import check_arguments, initial_samples, ode_rhs, sample_condition
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL
 from .projection import project_state
@@ -113,7 +114,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
         return status, n_steps, n_rhs, t, 0
     if refined:
         t_out[0] = t0
-        y_out[0, :] = y
+        copy_row(y, y_out, 0)
         i_sample = 1
     else:
         i_sample = initial_samples(y, t0, t_eval, condition, y_out, cond_out)
@@ -219,7 +220,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                         y_stage[j] = y_new[j]
                 if projecting:
                     project_state(system, t_out[i_sample], y_stage, params, theta, omega)
-                y_out[i_sample, :] = y_stage
+                copy_row(y_stage, y_out, i_sample)
                 i_sample += 1
         else:
             while i_sample < n_samples and t_eval[i_sample] <= t_new:
@@ -230,7 +231,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                     ntrp45((t_eval[i_sample] - t) / h, h, y, K, y_stage)
                 if projecting:
                     project_state(system, t_eval[i_sample], y_stage, params, theta, omega)
-                y_out[i_sample, :] = y_stage
+                copy_row(y_stage, y_out, i_sample)
                 if cond_out.shape[0]:
                     cond_out[i_sample] = sample_condition(system, t_eval[i_sample], y_stage, params, alpha, beta, theta, omega,
                                                           theta_ddot)

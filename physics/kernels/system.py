@@ -24,6 +24,7 @@ from .abi import (
     call_native_solve,
     data_pointer,
 )
+from .arrays import copy_matrix, copy_row
 from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
@@ -227,8 +228,8 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
             theta_row[i] = theta[row, i]
             omega_row[i] = omega[row, i]
         assemble_into(system, theta_row, omega_row, params, 0.0, 0.0)
-        A_out[row, :, :] = A
-        b_out[row, :] = b
+        copy_matrix(A, A_out, row)
+        copy_row(b, b_out, row)
 
 
 @njit(cache=True, error_model="numpy")
@@ -258,8 +259,8 @@ def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
             theta_row[i] = theta[row, i]
             omega_row[i] = omega[row, i]
         lagrangian_pieces(mass_and_force, theta_row, omega_row, params, M, force)
-        M_out[row, :, :] = M
-        force_out[row, :] = force
+        copy_matrix(M, M_out, row)
+        copy_row(force, force_out, row)
 
 
 @njit(cache=True, error_model="numpy")
@@ -283,5 +284,5 @@ def native_states(function, layout, t, theta, omega, params, matrix_out, vector_
         matrix[:, :] = 0.0
         call_native(function, data_pointer(theta_row), data_pointer(omega_row), data_pointer(local),
                     data_pointer(matrix), data_pointer(vector))
-        matrix_out[row, :, :] = matrix
-        vector_out[row, :] = vector
+        copy_matrix(matrix, matrix_out, row)
+        copy_row(vector, vector_out, row)

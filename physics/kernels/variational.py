@@ -199,7 +199,10 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
                 omega[i] = y[n + i]
             set_time(system, params, t)
             constraint_values(system, theta, omega, params)
-            J0[:, :] = system[6]
+            J = system[6]
+            for i in range(r):  # a loop, not a slice copy (see arrays.copy_row)
+                for j in range(n):
+                    J0[i, j] = J[i, j]
         set_time(system, params, t_new)
         _del_residual(
             system, mass_and_force, y[:n], J0, momentum, unknowns, step, params, theta_mid, velocity, M, force, residual

@@ -1,0 +1,19 @@
+"""Array copies written as loops, for the kernels' hot and first-compiled paths."""
+
+from numba import njit
+
+
+@njit(cache=True, error_model="numpy")
+def copy_row(source, target, row):
+    """``target[row, :] = source`` as a plain loop: numba's slice assignment checks shapes with a formatted
+    error message whose compilation costs about 2 s of every empty-cache run (the shapes agree by construction)."""
+    for j in range(source.shape[0]):
+        target[row, j] = source[j]
+
+
+@njit(cache=True, error_model="numpy")
+def copy_matrix(source, target, row):
+    """``target[row, :, :] = source`` as a plain loop (see :func:`copy_row`)."""
+    for i in range(source.shape[0]):
+        for j in range(source.shape[1]):
+            target[row, i, j] = source[i, j]

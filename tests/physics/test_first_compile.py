@@ -1,0 +1,85 @@
+"""An installation's first run says, in one line through logging, that it compiles an integrator once; cached runs
+say nothing (physics.kernels.first_compile)."""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba import njit
+
+from physics.kernels import first_compile
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def fresh_process_state(monkeypatch):
+    """As in a new process: nothing announced, no kernel looked at."""
+    monkeypatch.setattr(first_compile, "_announced", [])
+    monkeypatch.setattr(first_compile, "_checked", set())
+
+
+def test_a_kernel_compiles_until_its_first_call_and_never_after():
+    @njit
+    def twice(x):
+        return 2.0 * x
+
+    arguments = (np.ones(3),)
+    assert first_compile.will_compile(twice, arguments)
+    twice(*arguments)
+    assert not first_compile.will_compile(twice, arguments)
+    assert first_compile.will_compile(twice, (np.ones(3, dtype=np.int64),))  # other types: another compilation
+
+
+def test_one_line_through_logging_before_the_first_compilation_only(fresh_process_state, caplog):
+    @njit
+    def first(x):
+        return x + 1.0
+
+    @njit
+    def second(x):
+        return x - 1.0
+
+    with caplog.at_level(logging.WARNING, logger="physics"):
+        first_compile.announce(first, (1.0,), "RK45")
+        first_compile.announce(first, (1.0,), "RK45")
+        first_compile.announce(second, (1.0,), "midpoint")  # the same wait: not said twice
+    assert [(record.name, record.getMessage()) for record in caplog.records] == [
+        ("physics.kernels", first_compile.compile_line("RK45"))]
+    assert caplog.records[0].getMessage().startswith("linkage-lab: compiling the RK45 integrator once")
+
+
+def test_nothing_is_said_for_a_kernel_already_compiled(fresh_process_state, caplog):
+    @njit
+    def ready(x):
+        return x
+
+    ready(1.0)
+    with caplog.at_level(logging.WARNING, logger="physics"):
+        first_compile.announce(ready, (1.0,), "DOP853")
+    assert caplog.records == []
+
+
+def _simulate(cache: Path) -> subprocess.CompletedProcess:
+    environment = {**os.environ, "LINKAGE_LAB_CACHE": str(cache), "PYTHONPATH": str(ROOT)}
+    environment.pop("NUMBA_CACHE_DIR", None)
+    command = [sys.executable, "-m", "physics", "simulate", "--preset", "triple-a", "--t-end", "0.2", "--samples",
+               "3", "--out", os.devnull]
+    return subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, timeout=900)
+
+
+@pytest.mark.slow
+def test_an_empty_cache_says_it_compiles_once_and_the_next_run_is_silent(tmp_path):
+    cache = tmp_path / "cache"
+    first = _simulate(cache)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr.splitlines() == [first_compile.compile_line("DOP853")]
+    second = _simulate(cache)
+    assert second.returncode == 0, second.stderr
+    assert second.stderr == ""
