@@ -3,7 +3,7 @@
 from numba import njit
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def copy_row(source, target, row):
     """``target[row, :] = source`` as a plain loop: numba's slice assignment checks shapes with a formatted
     error message whose compilation costs about 2 s of every empty-cache run (the shapes agree by construction)."""
@@ -11,7 +11,7 @@ def copy_row(source, target, row):
         target[row, j] = source[j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def copy_matrix(source, target, row):
     """``target[row, :, :] = source`` as a plain loop (see :func:`copy_row`)."""
     for i in range(source.shape[0]):

@@ -5,7 +5,7 @@ from numba import njit
 from .system import make_system, solve_accel
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def rk4_batch_step(assemble, layout, theta, omega, params, h, alpha, beta, work, cond_out):
     """Advance K states by one classical RK4 step of size ``h``, in place.
 

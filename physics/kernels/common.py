@@ -11,7 +11,7 @@ from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATU
 from .system import set_time, solve_accel
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     """Fill ``dydt = [omega, theta_ddot]`` at time ``t`` and state ``y``; return ``(status, condition)``.
 
@@ -37,7 +37,7 @@ def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     return STATUS_OK, condition
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def sample_condition(system, t, y, params, alpha, beta, theta, omega, theta_ddot):
     """Condition estimate of accel at time ``t`` and state ``y`` (the value stored in ``cond_out``)."""
     set_time(system, params, t)
@@ -48,7 +48,7 @@ def sample_condition(system, t, y, params, alpha, beta, theta, omega, theta_ddot
     return solve_accel(system, theta, omega, params, alpha, beta, theta_ddot)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def all_finite(x):
     for i in range(x.shape[0]):
         if not np.isfinite(x[i]):
@@ -56,7 +56,7 @@ def all_finite(x):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def rms_norm(x):
     """Root-mean-square norm, scipy's ``common.norm``."""
     total = 0.0
@@ -65,7 +65,7 @@ def rms_norm(x):
     return math.sqrt(total) / math.sqrt(x.shape[0])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out):
     """Programming errors only (the caller validates user input): wrong shapes or a backward interval."""
     if not (t_end >= t0):
@@ -81,7 +81,7 @@ def check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out):
         raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
     """Cubic Hermite interpolant at fraction ``s`` of a step of length ``h``."""
     s2 = s * s
@@ -94,7 +94,7 @@ def hermite_sample(s, h, y_old, f_old, y_new, f_new, y_sample):
         y_sample[j] = h00 * y_old[j] + h10 * h * f_old[j] + h01 * y_new[j] + h11 * h * f_new[j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def initial_samples(y, t0, t_eval, condition, y_out, cond_out):
     """Write the start state into every sample at or before ``t0``; returns the next sample's index."""
     i_sample = 0
@@ -106,7 +106,7 @@ def initial_samples(y, t0, t_eval, condition, y_out, cond_out):
     return i_sample
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def fixed_steps(t0, t_end, h):
     """``N = ceil((t_end - t0) / h)`` equal steps (so the step is at most ``h``): ``(N, step)``."""
     n_total = max(1, int(math.ceil((t_end - t0) / h * (1.0 - 1e-12))))

@@ -41,7 +41,7 @@ from .tables import (
 )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _rk_stages(system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
     """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop.
 
@@ -60,7 +60,7 @@ def _rk_stages(system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta,
     return STATUS_OK, n_stages - 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _rk45_sample(x, h, y_old, K, y_sample):
     """scipy's RkDenseOutput: ``y_old + h * (K^T P) [x, x^2, x^3, x^4]``."""
     n_state = y_old.shape[0]
@@ -81,7 +81,7 @@ def _rk45_sample(x, h, y_old, K, y_sample):
         y_sample[j] = h * (q0 * p0 + q1 * p1 + q2 * p2 + q3 * p3) + y_old[j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _dop853_dense_coefficients(
     system, t_old, h, y_old, y_new, K, F, y_stage, params, alpha, beta, theta, omega, theta_ddot
 ):
@@ -118,7 +118,7 @@ def _dop853_dense_coefficients(
     return STATUS_OK, evaluations
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _dop853_sample(x, y_old, F, y_sample):
     """scipy's Dop853DenseOutput: Horner-like product alternating factors ``x`` and ``1 - x``."""
     n_state = y_old.shape[0]
@@ -133,7 +133,7 @@ def _dop853_sample(x, y_old, F, y_sample):
         y_sample[j] = value + y_old[j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _integrate_explicit_rk(
     assemble, layout, A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, projecting, max_steps, y_out,
     cond_out

@@ -11,7 +11,7 @@ from numba import njit
 RELATIVE_NOISE = 1e-13
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lu_solve(A, b, x):
     """Solve A x = b by Gaussian elimination with partial pivoting, overwriting A and b (the fast path).
 
@@ -57,7 +57,7 @@ def lu_solve(A, b, x):
     return largest / smallest
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def ldlt_solve(A, b, x):
     """Solve A x = b for a symmetric positive definite A by A = L D L^T (its lower triangle is read; overwritten).
 
@@ -98,7 +98,7 @@ def ldlt_solve(A, b, x):
     return largest / smallest
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def equilibrate(A, b, col_scale):
     """Scale the rows and columns of A x = b to unit largest entry, in place; ``x = col_scale * x_scaled``.
 
@@ -136,7 +136,7 @@ def equilibrate(A, b, col_scale):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lu_solve_equilibrated(A, b, x, col_scale):
     """Solve A x = b equilibrated (rows and columns scaled), then by pivoted LU; returns the pivot ratio of the
     equilibrated matrix, so that a mere difference of scale (a very light tip, stiff mass ratios) does not look
@@ -151,7 +151,7 @@ def lu_solve_equilibrated(A, b, x, col_scale):
     return ratio
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lu_factor(M, pivots):
     """In-place LU factorisation with partial pivoting; False if a pivot is exactly zero."""
     size = M.shape[0]
@@ -177,7 +177,7 @@ def lu_factor(M, pivots):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lu_factor_solve(M, pivots, rhs):
     """Solve with the factors of lu_factor, overwriting ``rhs`` with the solution."""
     size = M.shape[0]

@@ -19,7 +19,7 @@ from .projection import project_state
 from .system import has_constraints, make_system
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def hermite_samples(
     system,
     i_sample,
@@ -56,7 +56,7 @@ def hermite_samples(
     return i_sample
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _midpoint_step(system, t, t_new, step, y, f, y_next, f_next, y_mid, f_mid, y_probe, f_probe, correction, newton_matrix,
                    pivots, params, alpha, beta, projecting, theta, omega, theta_ddot, n, n_state):
     """One implicit midpoint step from ``(t, y)`` (``f = f(t, y)``) to ``t_new``: ``y_next`` and ``f_next``.
@@ -119,7 +119,7 @@ def _midpoint_step(system, t, t_new, step, y, f, y_next, f_next, y_mid, f_mid, y
     return status, n_rhs, True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
     """Fixed-step implicit midpoint rule ``y1 = y0 + h f((y0 + y1) / 2)``: symmetric, order 2.
 

@@ -57,14 +57,14 @@ HMIN_ULPS = 16.0  # rule 4: hmin = 16 eps(t)
 DEFAULT_REFINE = 4  # rule 7
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _eps(t):
     """MATLAB's ``eps(t)``: the distance from |t| to the next larger double."""
     magnitude = abs(t)
     return np.nextafter(magnitude, np.inf) - magnitude
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def ntrp45(s, h, y, K, y_sample):
     """ntrp45: ``y + h K^T BI [s, s^2, s^3, s^4]`` at fraction ``s`` of the step (rule 7)."""
     s2 = s * s
@@ -77,7 +77,7 @@ def ntrp45(s, h, y, K, y_sample):
         y_sample[j] = y[j] + h * total
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, alpha, beta, project, max_steps,
            t_out, y_out, cond_out):
     """The ode45 loop. ``refine == 0``: samples at ``t_eval`` into ``y_out`` (tspan of more than two entries);
@@ -265,7 +265,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
     return status, n_steps, n_rhs, t, i_sample
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def tspan_step(t0, t_end, t_eval):
     """MATLAB's ``htspan = |tspan(2) - tspan(1)|`` for ``tspan = t_eval`` (starting at t0), else the span."""
     if t_eval.shape[0] >= 2 and t_eval[0] == t0 and t_eval[1] > t0:
@@ -273,7 +273,7 @@ def tspan_step(t0, t_end, t_eval):
     return t_end - t0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate_ode45(
     assemble, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out, cond_out
 ):
@@ -286,7 +286,7 @@ def integrate_ode45(
                   project, max_steps, t_out, y_out, cond_out)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate_ode45_htspan(
     assemble, layout, y0, t0, t_end, t_eval, htspan, params, rtol, atol, alpha, beta, project, max_steps, y_out,
     cond_out
@@ -303,7 +303,7 @@ def integrate_ode45_htspan(
                   t_out, y_out, cond_out)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate_ode45_refined(assemble, layout, y0, t0, t_end, params, rtol, atol, alpha, beta, project, refine,
                             t_out, y_out):
     """``ode45(f, [t0 t_end], y0, odeset(..., 'Refine', refine))``: ``refine`` outputs per step (rule 7).

@@ -19,12 +19,12 @@ from .linear import ldlt_solve
 from .system import constraint_values, make_system, set_time
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _weight(params, offset, i):
     return 1.0 if offset < 0 else params[offset + i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _correct(system, params, offset, gap, coordinates):
     """``coordinates -= W J^T (J W J^T)^-1 gap`` with the weights at ``offset`` of params (unit when < 0);
     left unchanged (returns False) where ``J W J^T`` is singular to working precision."""
@@ -63,7 +63,7 @@ def _correct(system, params, offset, gap, coordinates):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def project_position(system, theta, omega, params):
     """Move ``theta`` (n,) in place onto ``phi(theta, t) = 0`` by the least change (Gauss-Newton).
 
@@ -89,7 +89,7 @@ def project_position(system, theta, omega, params):
     return residual
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def project_velocity(system, theta, omega, params):
     """Make ``omega`` (n,) satisfy ``phi_dot = J omega + d phi/d t = 0`` by the least (weighted) change:
     ``omega -= W J^T (J W J^T)^-1 phi_dot``.
@@ -109,7 +109,7 @@ def project_velocity(system, theta, omega, params):
     return math.sqrt(total)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def project_state(system, t, y, params, theta, omega):
     """Project ``y = [theta, omega]`` at time ``t`` in place (positions, then velocities); False if the result
     is not finite. Nothing to do for a system without constraints."""
@@ -128,7 +128,7 @@ def project_state(system, t, y, params, theta, omega):
     return all_finite(y)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def project_states(assemble, layout, t, theta, omega, params):
     """Python's entry point: project rows of ``theta``, ``omega`` (K, n) at times ``t`` (K,) in place (a copy of
     ``params`` takes each time); returns the largest position residual left."""

@@ -31,7 +31,7 @@ from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
 RESCALE_ABOVE = 1e4
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def make_system(assemble, layout):
     """The system tuple with fresh scratch arrays for a mechanism of ``layout``: ``A, b, x, col_scale`` of the
     solve, and ``J (r, n), v (2 r), G (r, r), g (r), lam (r)`` of the constraints (one row at least, so that
@@ -43,12 +43,12 @@ def make_system(assemble, layout):
             np.zeros((r, n)), np.zeros(2 * r), np.zeros((r, r)), np.zeros(r), np.zeros(r))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def has_constraints(system):
     return system[1][LAYOUT_CONSTRAINTS] != 0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def set_time(system, params, t):
     """Write ``t`` into the parameter slot the generated code reads it from (speed motors), if there is one."""
     slot = system[1][LAYOUT_TIME]
@@ -56,7 +56,7 @@ def set_time(system, params, t):
         params[slot] = t
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def constraint_values(system, theta, omega, params):
     """The generated ``constraints`` into the system's ``J`` (r, n) and ``v = [phi, phi_dot]`` (2 r)."""
     layout = system[1]
@@ -67,7 +67,7 @@ def constraint_values(system, theta, omega, params):
                 data_pointer(J), data_pointer(v))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def assemble_into(system, theta, omega, params, alpha, beta):
     """``A`` and ``b`` of the system at one state, with Baumgarte terms on the constraints' rows:
     ``b[row_i] -= 2 alpha phi_dot_i + beta^2 phi_i``.
@@ -87,7 +87,7 @@ def assemble_into(system, theta, omega, params, alpha, beta):
             b[layout[first_row + i]] -= 2.0 * alpha * v[r + i] + beta * beta * v[i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def constraint_ratio(system, theta, omega, params):
     """sigma_max / sigma_min of the constraints' Jacobian (its rank lost: inf): a closed loop's geometric
     singularity, judged on the loop itself rather than on the (scaled) system. Exact for two rows (a pinned
@@ -138,7 +138,7 @@ def constraint_ratio(system, theta, omega, params):
     return math.sqrt(ratio)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def solve_system(system, theta, omega, params, alpha, beta):
     """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
 
@@ -164,7 +164,7 @@ def solve_system(system, theta, omega, params, alpha, beta):
     return ratio
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
     """Angular accelerations (n,) at one state; returns the condition estimate."""
     ratio = solve_system(system, theta, omega, params, alpha, beta)
@@ -180,7 +180,7 @@ def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
 # ---------------------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def accel_states(assemble, layout, theta, omega, params, alpha, beta, theta_ddot_out, cond_out):
     """``theta_ddot_out`` (K, n) and ``cond_out`` (K,) at the states ``theta``, ``omega`` (K, n)."""
     system = make_system(assemble, layout)
@@ -197,7 +197,7 @@ def accel_states(assemble, layout, theta, omega, params, alpha, beta, theta_ddot
             theta_ddot_out[row, i] = theta_ddot[i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def solve_states(assemble, layout, theta, omega, params, alpha, beta, x_out, cond_out):
     """All unknowns ``x_out`` (K, k) and ``cond_out`` (K,) at the states ``theta``, ``omega`` (K, n)."""
     system = make_system(assemble, layout)
@@ -214,7 +214,7 @@ def solve_states(assemble, layout, theta, omega, params, alpha, beta, x_out, con
             x_out[row, j] = x[j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
     """The plain matrices ``A_out`` (K, k, k) and ``b_out`` (K, k) at the states (no Baumgarte terms)."""
     system = make_system(assemble, layout)
@@ -232,7 +232,7 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
         copy_row(b, b_out, row)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lagrangian_pieces(mass_and_force, theta, omega, params, M, force):
     """The generated Lagrangian's mass matrix ``M`` (n, n) and force (n,) at one state (C-contiguous arrays)."""
     M[:, :] = 0.0
@@ -246,7 +246,7 @@ def lagrangian_pieces(mass_and_force, theta, omega, params, M, force):
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
     """``M_out`` (K, n, n) and ``force_out`` (K, n) at the states (K, n)."""
     n = theta.shape[1]
@@ -263,7 +263,7 @@ def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
         copy_row(force, force_out, row)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def native_states(function, layout, t, theta, omega, params, matrix_out, vector_out):
     """A generated function of the common signature (``constraints``, ``kinematics``) at the states ``theta``,
     ``omega`` (K, n) and times ``t`` (K,): its matrix into ``matrix_out`` (K, rows, columns; zeroed first, as the

@@ -22,7 +22,7 @@ from .projection import project_state
 from .system import constraint_values, has_constraints, lagrangian_pieces, make_system, set_time
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _del_residual(
     system, mass_and_force, theta0, J0, momentum0, unknowns, step, params, theta_mid, velocity, M, force, residual
 ):
@@ -59,7 +59,7 @@ def _del_residual(
             residual[n + c] = v[c]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def _velocity_from_momentum(system, mass_and_force, theta, momentum, params, M, force, pivots, loop_work, omega):
     """``omega = M(theta)^-1 p``; with constraints then the velocity half of RATTLE, which removes the part of
     ``p`` along ``J^T`` so that ``phi_dot = J omega + d phi/d t = 0``. ``momentum`` is updated to match;
@@ -114,7 +114,7 @@ def _velocity_from_momentum(system, mass_and_force, theta, momentum, params, M, 
     return all_finite(omega)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_eval, params, y_out, cond_out):
     """Fixed-step variational integrator: symplectic and momentum-consistent, order 2 (docs/integrators.md).
 
