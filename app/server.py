@@ -27,6 +27,8 @@ from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from . import memory, replay, share, viser_compat
 from . import processes as server_processes
 from . import warm as warm_up
+from .compile_notice import TITLE as COMPILE_TITLE
+from .compile_notice import CompileNotices
 from .lab_session import LabSession
 from .logs import quietly
 from .mechanism_runs import start_state
@@ -160,6 +162,8 @@ class LabServer:
         self.shared_session: LabSession | None = None
         self.closed_sessions = 0
         self.trimmer = memory.Trimmer()  # returns what closed sessions freed to the system (app/memory.py)
+        # an installation's first compilation (about 20 s) said in every browser, not only on stderr
+        self.compile_notices = CompileNotices(self._open_sessions).attach()
         # --shared: only the browser that opened the presenter's secret address may change anything
         self.presenter_path: str | None = None
         self._presenters: set[int] = set()  # browsers seen connected on the presenter's address
@@ -223,6 +227,8 @@ class LabServer:
             refused += not_started + share.apply_setup(setup, session.set_link_value)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
+            elif (compiling := self.compile_notices.line) is not None:  # arrived while the process compiles
+                session.show_notice(COMPILE_TITLE, compiling, color="blue")
         except Exception as error:  # never let one browser's start take the server down
             traceback.print_exc()
             reason = f"{type(error).__name__}: {error}"
@@ -350,6 +356,12 @@ class LabServer:
             self.trimmer.request()
         self._rebalance()
 
+    def _open_sessions(self) -> list[LabSession]:
+        """Every session of this process that browsers watch (own sessions and the shared one)."""
+        with self._lock:
+            sessions = list(self.sessions.values())
+        return sessions + ([self.shared_session] if self.shared_session is not None else [])
+
     def session_for(self, client_id: int) -> LabSession | None:
         with self._lock:
             return self.sessions.get(client_id)
@@ -387,6 +399,7 @@ class LabServer:
             self.viser.stop()
         replay.stop_recorder()
         self.trimmer.stop()
+        self.compile_notices.detach()
 
     def serve_forever(self) -> None:
         try:
