@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import math
 import os
+import sys
+import traceback
 
 import pytest
 import viser
@@ -27,6 +29,7 @@ from app.viser_compat import update_problem
 from conftest import BrowserStandIn, wait_until
 
 EXAMPLES = int(os.environ.get("LINKAGE_LAB_CONTROL_EXAMPLES", "40"))
+EDIT_LOG = os.environ.get("LINKAGE_LAB_CONTROL_LOG")  # a file: every example's edit appended (to replay a long run)
 FATAL = ("Session paused", "Simulation stopped", "Could not start")
 
 
@@ -38,6 +41,17 @@ def fatal(note: str) -> bool:
     if note.startswith("Simulation stopped") and "singular" in note:
         return False
     return note.startswith(FATAL)
+
+
+def busy(session, note: str = "") -> str:
+    """Why a session is not idle, for a failure's message: what the player was asked and where its thread is
+    (a hang must say where it hangs; the long run found one it could not replay)."""
+    player = session.player
+    frame = sys._current_frames().get(player._thread.ident)  # the test reads the player's thread
+    where = "".join(traceback.format_stack(frame)[-12:]) if frame is not None else "(thread gone)"
+    return (f"{note}\n{type(session).__name__} not idle: pending={player._pending is not None} "
+            f"restarting={player._restarting} restart_time={player._restart_time} "
+            f"notice={session.notices.text!r}\nplayer thread:\n{where}")
 
 
 def _controls(session) -> list:
@@ -109,12 +123,15 @@ def seat(request):
 def test_any_value_to_any_control_is_applied_or_refused_and_the_session_lives(seat, capfd, data):
     server, client, client_id = seat
     session = server.sessions[client_id]
-    assert session.player.wait_idle(60)
+    assert session.player.wait_idle(60), busy(session, "before the example")
     controls = _controls(session)
     handle = controls[data.draw(st.integers(0, 10**6), label="control index") % len(controls)]
     label = handle.label
     value = value_for(handle, data.draw(PICKS, label="value"))
     note = f"{type(session).__name__}: {label} <- {value!r}"
+    if EDIT_LOG:
+        with open(EDIT_LOG, "a", encoding="utf-8") as log:
+            log.write(note + "\n")
     notes: list[str] = []
     show = session.show_notice
     session.show_notice = lambda title, body, **kw: (notes.append(f"{title}: {body}"), show(title, body, **kw))
@@ -124,7 +141,7 @@ def test_any_value_to_any_control_is_applied_or_refused_and_the_session_lives(se
         session.show_notice = show
     session = server.sessions[client_id]  # the Mechanism menu may have handed the seat to the other kind
     assert not session.closed and session.player.alive, (note)
-    assert session.player.wait_idle(60), (note)
+    assert session.player.wait_idle(60), busy(session, note)
     assert session.player.error is None, (note, session.player.error)
     assert not [n for n in notes if fatal(n)], (note, notes)
     assert all("\n" not in n.split(": ", 1)[1] for n in notes), notes  # one line each
