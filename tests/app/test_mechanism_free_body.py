@@ -50,3 +50,21 @@ def test_a_motors_couple_is_listed_and_the_view_goes_off(rocker_lab, connect):
     session.guard(lambda: session.set_free_body(False))
     assert wait_until(lambda: not session.free_body.visible(), timeout=30)
     assert session.couples.content == "" and session.snapshot()["free_body"] is None
+
+
+def test_a_sample_shown_again_is_not_solved_again(rocker_lab, connect):
+    """Paused, the same sample is shown frame after frame: its diagram stays, computed once (no solve per frame
+    on the player's thread)."""
+    _, session = connect(rocker_lab)
+    session.guard(lambda: session.set_free_body_body("coupler"))
+    session.guard(lambda: session.set_free_body(True))
+    view = session.free_body
+    assert wait_until(lambda: view.visible() and view.loads is not None, timeout=60)
+    session.guard(session.pause)
+    assert wait_until(lambda: not session.player.playing, timeout=30)
+    frames, solves, shown_t = session.frames_sent, view.solves, view.shown_t
+    assert wait_until(lambda: session.frames_sent >= frames + 10, timeout=60), "no frames while paused"
+    assert view.shown_t == shown_t and view.visible()
+    assert view.solves <= solves + 1  # at most the frame that was on its way when the pause came
+    session.guard(session.play)
+    assert wait_until(lambda: view.solves >= solves + 3 and view.shown_t != shown_t, timeout=60)
