@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 
 from app.mechanism_session import MechanismSession
 from app.server import LabServer
+from app.share import link_query
 from app.viser_compat import update_problem
 from conftest import BrowserStandIn, wait_until
 
@@ -43,6 +44,16 @@ def fatal(note: str) -> bool:
     return note.startswith(FATAL)
 
 
+def state_of(session) -> str:
+    """The session's whole setup as a share link's query (a failure found by a long run can be replayed by
+    opening it)."""
+    try:
+        query = session.link_query() if isinstance(session, MechanismSession) else link_query(session.setup)
+    except Exception as error:  # noqa: BLE001 - a failure's message must not fail itself
+        query = f"(no setup: {type(error).__name__}: {error})"
+    return f"setup: {query}"
+
+
 def busy(session, note: str = "") -> str:
     """Why a session is not idle, for a failure's message: what the player was asked and where its thread is
     (a hang must say where it hangs; the long run found one it could not replay)."""
@@ -51,7 +62,7 @@ def busy(session, note: str = "") -> str:
     where = "".join(traceback.format_stack(frame)[-12:]) if frame is not None else "(thread gone)"
     return (f"{note}\n{type(session).__name__} not idle: pending={player._pending is not None} "
             f"restarting={player._restarting} restart_time={player._restart_time} "
-            f"notice={session.notices.text!r}\nplayer thread:\n{where}")
+            f"notice={session.notices.text!r}\n{state_of(session)}\nplayer thread:\n{where}")
 
 
 def _controls(session) -> list:
@@ -143,7 +154,7 @@ def test_any_value_to_any_control_is_applied_or_refused_and_the_session_lives(se
     assert not session.closed and session.player.alive, (note)
     assert session.player.wait_idle(60), busy(session, note)
     assert session.player.error is None, (note, session.player.error)
-    assert not [n for n in notes if fatal(n)], (note, notes)
+    assert not [n for n in notes if fatal(n)], (note, notes, state_of(session))
     assert all("\n" not in n.split(": ", 1)[1] for n in notes), notes  # one line each
     err = capfd.readouterr().err
     assert "Traceback" not in err, (note, err[-3000:])
