@@ -52,7 +52,8 @@ CHAOS_T_MAX = 10.0
 CHAOS_STEP = 0.05  # s between samples: a flip is dated to this (the command's default is 0.01)
 CHAOS_METHOD = "dae"  # the fastest of the general engine's formulations for a map's short runs
 CHAOS_DISPLAY_SCALE = 16  # each pixel drawn as 16 x 16 screen pixels: 256 px, as the chain's map
-WATCH_SECONDS = 1.0 / 30.0  # how often the watcher moves the copies and looks for a change of mechanism
+WATCH_SECONDS = 1.0 / 30.0  # how often the watcher moves the copies drawn (and looks for a change of mechanism)
+IDLE_WATCH_SECONDS = 0.2  # how often it looks for a change of mechanism while no copies are drawn
 STUDIES = {"chart": "work-precision chart", "ensemble": "ensemble", "chaos": "chaos map",
            "equilibrium": "rest poses"}
 
@@ -108,6 +109,7 @@ class MechanismAnalysis:
         self._ensemble_t0 = 0.0
         self._ensemble_q: np.ndarray | None = None  # (samples, N, 3 B)
         self._ensemble_index = -1
+        self._ensemble_generation = 0  # bumped when the copies shown or under way are dropped
         self.ensemble_count = int(ENSEMBLE_COUNTS[0])
         self.notices: list[tuple[str, str]] = []  # (title, body) of every notice this section showed (tests)
         self.times: np.ndarray | None = None  # the chaos map's flip times shown
@@ -158,44 +160,52 @@ class MechanismAnalysis:
 
     # ------------------------------------------------------------------ jobs
     def _start(self, name: str, compute: Callable[[Callable[[], bool]], Any], show: Callable[[Any], str],
-               status) -> bool:
-        """Run ``compute(stale)`` in a worker (``stale()``: the run it was started for has been replaced), then
-        ``show(result)`` (returns the done notice's text) unless stale: one notice now, one at the end."""
+               status, wanted: Callable[[], bool] | None = None) -> bool:
+        """Run ``compute(stale)`` in a worker, then ``show(result)`` (it returns the done notice's text): one
+        notice now, one at the end. ``stale()`` is True once the run it was started for has been replaced (or
+        ``wanted()`` is False: the user called it off); a stale study is stopped and nothing of it is drawn, nor
+        its refusal or failure, which were about the run replaced. Without ``wanted``, a study already under
+        way is not started twice; with it, the older one is called off by ``wanted`` and the new one starts."""
         s = self.session
         job = self._jobs.get(name)
-        if job is not None and job.is_alive():
+        if wanted is None and job is not None and job.is_alive():
             return False
         spec, mechanism, label = s.spec, s.mechanism, s.label
         study = STUDIES[name]
+        still_wanted = wanted or (lambda: True)
 
         def stale() -> bool:
-            return self.closed or s.closed or s.spec is not spec
+            return self.closed or s.closed or s.spec is not spec or not still_wanted()
 
         def work() -> None:
+            failure = None
             try:
                 result = compute(stale)
+            except Discarded:
+                pass
+            except LinkageError as error:
+                failure = ("refused", str(error), "yellow")
+            except Exception as error:  # the worker's boundary: the session goes on
+                failure = ("failed", f"{type(error).__name__}: {error}", "red")
+            with self._lock:
                 if stale():
-                    raise Discarded
-                with self._lock:
-                    if stale():
-                        raise Discarded
+                    text = None
+                elif failure is not None:
+                    status.content = f"{study.capitalize()} {failure[0]}: {markdown_literal(failure[1])}"
+                    text = None
+                else:
                     text = show(result)
                     self._shown[name] = mechanism
-            except Discarded:
-                if not (self.closed or s.closed):
-                    status.content = f"The {study} of {markdown_literal(label)} was discarded: the run changed."
-                    self._notice(f"{study.capitalize()} discarded", f"{label} changed while it was computed "
-                                 "(another mechanism, Reset or an edit); press again", "yellow")
-                return
-            except LinkageError as error:
-                status.content = f"{study.capitalize()} refused: {markdown_literal(str(error))}"
-                self._notice(f"{study.capitalize()} refused", str(error), "yellow")
-                return
-            except Exception as error:  # the worker's boundary: the session goes on
-                status.content = f"{study.capitalize()} failed: {markdown_literal(f'{type(error).__name__}: {error}')}"
-                self._notice(f"{study.capitalize()} failed", f"{type(error).__name__}: {error}", "red")
-                return
-            self._notice("Done", text, "green")
+            if text is not None:
+                self._notice("Done", text, "green")
+            elif failure is not None and not stale():
+                self._notice(f"{study.capitalize()} {failure[0]}", failure[1], failure[2])
+            elif not (self.closed or s.closed or not still_wanted()):  # the run changed: say so, once
+                if name == "ensemble":
+                    self._untick()
+                status.content = f"The {study} of {markdown_literal(label)} was discarded: the run changed."
+                self._notice(f"{study.capitalize()} discarded", f"{label} changed while it was computed "
+                             "(another mechanism, Reset or an edit); press again", "yellow")
 
         job = threading.Thread(target=work, name=f"mechanism-{name}-{s.id}", daemon=True)
         self._jobs[name] = job
@@ -314,7 +324,7 @@ class MechanismAnalysis:
             if text not in ENSEMBLE_COUNTS:
                 raise LinkageError(f"ensemble copies = {count!r}: allowed {', '.join(ENSEMBLE_COUNTS)}")
             self.ensemble_count = int(text)
-        self._drop_ensemble()
+        self._drop_ensemble()  # and calls off copies under way
         if not on:
             self.ensemble_status.content = ""
             return
@@ -348,6 +358,8 @@ class MechanismAnalysis:
                                          samples=samples, method=method, stabilization=settings.stabilization,
                                          q0=q0, qdot0=qdot0)
             ensemble.run(progress=step)
+            if not ensemble.alive.any():
+                raise LinkageError(f"every copy stopped: {ensemble.message}")
             q = np.full((samples, count, len(q0)), np.nan)
             for k, run in enumerate(ensemble.runs):
                 if run is not None:
@@ -371,11 +383,14 @@ class MechanismAnalysis:
                 f"{spread[1]:.2g} m to {spread[-1]:.2g} m." + (f" {ensemble.note}" if ensemble.note else ""))
             return f"ensemble of {count} copies of {label}"
 
-        self._start("ensemble", compute, show, self.ensemble_status)
+        generation = self._ensemble_generation
+        self._start("ensemble", compute, show, self.ensemble_status,
+                    wanted=lambda: generation == self._ensemble_generation)
 
     def _drop_ensemble(self) -> None:
         """Take the copies out of the scene and forget them (the box off, another run, the session's end)."""
         with self._lock:
+            self._ensemble_generation += 1
             node, self.ensemble_node = self.ensemble_node, None
             self.ensemble, self._ensemble_q, self._ensemble_spec = None, None, None
         if node is not None:
@@ -401,7 +416,7 @@ class MechanismAnalysis:
         # the session's player ends with it (also when its construction failed after this section's)
         while not self.closed and not self.session.closed and self.session.player.alive:
             quietly(self._look, "moving the ensemble")
-            time.sleep(WATCH_SECONDS)
+            time.sleep(WATCH_SECONDS if self.ensemble_node is not None else IDLE_WATCH_SECONDS)
 
     def _look(self) -> None:
         """Clear what was computed for another mechanism than the one shown; move the copies to the displayed

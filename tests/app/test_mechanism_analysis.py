@@ -111,6 +111,22 @@ def test_a_mechanism_change_discards_a_running_study(slider_lab, connect):
     assert analysis.poses == []
 
 
+def test_an_ensemble_called_off_or_outrun_by_a_change_is_never_drawn(slider_lab, connect):
+    _, session = connect(slider_lab)
+    analysis = session.analysis
+    session.guard(lambda: analysis.set_ensemble(True, "100"))
+    session.guard(lambda: analysis.set_ensemble(False))  # the box unticked while the copies are computed
+    analysis.wait("ensemble")
+    assert titles(analysis) == ["Computing"] and analysis.ensemble_node is None and analysis.ensemble is None
+    session.guard(lambda: analysis.set_ensemble(True, "100"))
+    session.guard(lambda: session.choose("watt-six-bar"))
+    analysis.wait("ensemble")
+    assert titles(analysis, 1) == ["Computing", "Ensemble discarded"], analysis.notices
+    assert analysis.ensemble_node is None and analysis.ensemble_box.value is False
+    session.guard(lambda: analysis.set_ensemble(True, "many"))
+    assert titles(analysis, 3) == [] and "ensemble copies = 'many': allowed 20, 100" in (session.notices.text or "")
+
+
 @pytest.mark.slow
 def test_ensemble_copies_drawn_over_a_mobility_two_mechanism_diverge(slider_lab, connect):
     _, session = connect(slider_lab)
