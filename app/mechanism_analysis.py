@@ -36,15 +36,15 @@ from .analysis import copy_colors, fit_width
 from .logs import quietly
 from .mechanism_runs import points_at
 from .overlays import Plot
-from .scene import to_world
+from .scene import BAR_WIDTH_FRACTION, to_world
 from .text import markdown_literal
 
 # a short sweep (the chain tab's is as short): every method the mechanism has, DOP853 with projection
 WORK_PRECISION: dict[str, Any] = dict(horizon=1.0, tolerances=(1e-4, 1e-6, 1e-8), stabilizations=("projection",),
                       integrators=("DOP853",), repeats=1, budget=0.3)
 ENSEMBLE_COUNTS = ("20", "100")  # each copy is a whole run of the general engine (no batched kernel)
-ENSEMBLE_SPREAD = 1e-6  # rad every body turns between neighbouring copies: visible within ENSEMBLE_SECONDS
-ENSEMBLE_SECONDS = 10.0  # s of copies computed from the displayed state
+ENSEMBLE_SPREAD = 1e-5  # rad every body turns between neighbouring copies: a fan that opens within ENSEMBLE_SECONDS
+ENSEMBLE_SECONDS = 20.0  # s of copies computed from the displayed state (20 double pendulums: about a second)
 ENSEMBLE_RATE = 30  # samples per second of the copies (the scene shows the nearest one)
 ENSEMBLE_NODE = "/ensemble/mechanism"
 CHAOS_RESOLUTION = 16  # pixels per side: every pixel is a run of the general engine
@@ -371,9 +371,12 @@ class MechanismAnalysis:
             alive = q[:, ensemble.alive]
             self.ensemble, self._ensemble_q, self._ensemble_spec, self._ensemble_t0 = ensemble, alive, spec, t0
             self._ensemble_index = 0
+            # thin lines just in front of the bars (the camera looks from -y): copies still together show on them
+            width = BAR_WIDTH_FRACTION * spec.draw.size
             self.ensemble_node = s.target.scene.add_line_segments(  # replaces a node of the same name
                 ENSEMBLE_NODE, copy_segments(spec.draw, alive[0]),
-                copy_colors(alive.shape[1], len(spec.draw.segments)), thickness=0.01 * spec.draw.size)
+                copy_colors(alive.shape[1], len(spec.draw.segments)), thickness=0.3 * width,
+                position=(0.0, -width, 0.0))
             spread = ensemble.tip_spread()
             self.spread_plot.update(t0 + ensemble.t, np.maximum(spread, 1e-16))
             self.spread_plot.set_visible(True)
