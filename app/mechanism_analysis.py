@@ -101,7 +101,6 @@ class MechanismAnalysis:
         self._lock = threading.Lock()
         self._jobs: dict[str, threading.Thread] = {}
         self._shown: dict[str, Any] = {}  # study -> the mechanism (object) its result shown was computed for
-        self.chart_handle: Any = None
         self.image_handle: Any = None
         self.ensemble: MechanismEnsemble | None = None
         self.ensemble_node: Any = None
@@ -406,13 +405,6 @@ class MechanismAnalysis:
             self.ensemble_box.value = False
         finally:
             self._setting_box = False
-
-    def copies_shown(self) -> np.ndarray | None:
-        """The copies' poses drawn now, ``(N, 3 B)`` (None when none is drawn)."""
-        with self._lock:
-            if self._ensemble_q is None or self.ensemble_node is None:
-                return None
-            return self._ensemble_q[max(self._ensemble_index, 0)]
 
     # ------------------------------------------------------------------ the watcher
     def _watch(self) -> None:
