@@ -41,7 +41,7 @@ CHAOS_STEP = 0.01
 CHAOS_DISPLAY_SCALE = 4  # each map pixel drawn as 4 x 4 screen pixels: with its axes and colour bar, 384 px wide
 
 
-def _copy_colors(count: int, n: int) -> np.ndarray:
+def copy_colors(count: int, n: int) -> np.ndarray:
     """One hue per copy, repeated for its n segments and both ends: shape (count * n, 2, 3), uint8."""
     hues = np.arange(count) / max(count, 1)
     rgb = np.array([colorsys.hsv_to_rgb(h, 0.75, 0.85) for h in hues]) * 255.0
@@ -234,7 +234,7 @@ class Analysis:
                     return
                 self._remove_node()
                 self.ensemble_node = self._scene_api.add_line_segments(
-                    ENSEMBLE_NODE, points, _copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
+                    ENSEMBLE_NODE, points, copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
                 self.ensemble = ensemble
                 self._ensemble_t = t
                 self._spread.clear()

@@ -38,6 +38,7 @@ from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
 from .frame_view import COMPARE_METHODS
 from .lab_session import Kind, SessionBase
 from .logs import quietly
+from .mechanism_analysis import MechanismAnalysis
 from .mechanism_compare import MechanismCompare, compare_specs
 from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
 from .mechanism_free_body import MechanismFreeBody
@@ -160,6 +161,7 @@ class MechanismSession(SessionBase):
             self.compare_view = MechanismCompare(target)
             self.free_body = MechanismFreeBody(target.scene, lambda: 1.0, redraw=self.player.touch)
             self._build_panel()
+            self.analysis = MechanismAnalysis(self)  # the Analysis folder (app/mechanism_analysis.py)
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
@@ -913,7 +915,7 @@ class MechanismSession(SessionBase):
         for timer in self._typing.values():
             timer.cancel()
         if self.shared or clean:
-            for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body):
+            for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body, self.analysis):
                 quietly(part.remove, "removing a scene part")
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")

@@ -477,10 +477,12 @@ def _log_ticks(step: float, t_max: float) -> list[float]:
     return ticks
 
 
-def framed_picture(rgb: np.ndarray, t_max: float, step: float) -> np.ndarray:
-    """``rgb`` (a map from :func:`to_rgb`, any size) with its axes (theta1 across, theta2 up, in degrees, ticks
-    every 90), a colour bar of the first flip time on a log scale from ``step`` to ``t_max`` with ticks in
-    seconds, and a key for the two colours that are not times."""
+def framed_picture(rgb: np.ndarray, t_max: float, step: float, title: str = "first flip time of the double pendulum",
+                   axes: tuple[str, str] = ("theta1", "theta2")) -> np.ndarray:
+    """``rgb`` (a map from :func:`to_rgb`, any size) with its axes (``axes``: the first across, the second up, in
+    degrees, ticks every 90), a colour bar of the first flip time on a log scale from ``step`` to ``t_max`` with
+    ticks in seconds, and a key for the two colours that are not times. ``title`` and ``axes`` name another
+    mechanism's map (the app's for a general mechanism)."""
     height, width = rgb.shape[:2]
     total_w = FRAME_LEFT + width + BAR_GAP + BAR_WIDTH + BAR_LABELS
     total_h = FRAME_TOP + height + FRAME_BOTTOM + LEGEND_HEIGHT
@@ -490,7 +492,7 @@ def framed_picture(rgb: np.ndarray, t_max: float, step: float) -> np.ndarray:
     ink = (40, 40, 40)
     x0, y0, x1, y1 = FRAME_LEFT, FRAME_TOP, FRAME_LEFT + width, FRAME_TOP + height
     draw.rectangle([x0 - 1, y0 - 1, x1, y1], outline=ink)
-    draw.text((x0, 4), "first flip time of the double pendulum", fill=ink)
+    draw.text((x0, 4), title, fill=ink)
     for degrees in (-180, -90, 0, 90, 180):
         fraction = (degrees + 180) / 360.0
         x = x0 + fraction * width
@@ -499,8 +501,8 @@ def framed_picture(rgb: np.ndarray, t_max: float, step: float) -> np.ndarray:
         y = y1 - fraction * height
         draw.line([(x0 - 5, y), (x0 - 1, y)], fill=ink)
         draw.text((2, y - 6), f"{degrees}", fill=ink)
-    draw.text(((x0 + x1) / 2 - 40, y1 + 20), "theta1 (deg)", fill=ink)
-    draw.text((2, y0 - 22), "theta2 (deg)", fill=ink)
+    draw.text(((x0 + x1) / 2 - 40, y1 + 20), f"{axes[0]} (deg)", fill=ink)
+    draw.text((2, y0 - 22), f"{axes[1]} (deg)", fill=ink)
     # the colour bar: bottom = step, top = t_max, log scale (as to_rgb colours the map)
     bx0, bx1 = x1 + BAR_GAP, x1 + BAR_GAP + BAR_WIDTH
     bar = colormap(np.linspace(1.0, 0.0, height)[:, None].repeat(BAR_WIDTH, axis=1))

@@ -165,7 +165,8 @@ def _point(trajectory, ref_tip, seconds, runs, knob_value, knob) -> dict:
         knob: knob_value,
         "seconds": seconds,
         "timed_runs": runs,
-        "n_rhs": int(trajectory.n_rhs) if hasattr(trajectory, "n_rhs") else None,
+        # a mechanism's run that stopped has no count (Outcome.n_rhs is None): the point records its failure
+        "n_rhs": None if getattr(trajectory, "n_rhs", None) is None else int(trajectory.n_rhs),
         "status": int(trajectory.status),
         "message": trajectory.message,
     }

@@ -19,7 +19,7 @@ from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 from physics.presets import get_preset
-from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability
+from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability, work_precision
 from physics.studies.charts import fan_picture
 from physics.studies.mechanism_stability import (
     change_point_mechanism,
@@ -73,6 +73,15 @@ def test_a_failed_run_comes_back_as_a_status_not_an_exception():
     mechanism = MECHANISM_PRESETS["slider-crank"]()
     outcome = mechanism_cases.run_case(mechanism, 0.2, 5, method="reduced", stabilization="none")
     assert not outcome.success and outcome.run is None and "stabilization" in outcome.message
+
+
+def test_a_failed_run_is_a_failed_point_of_the_sweep_not_a_crash():
+    # a run that stopped has no evaluation count (n_rhs None): the watt six-bar's sweep used to die on it
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    outcome = mechanism_cases.run_case(mechanism, 0.2, 5, method="reduced", stabilization="none")
+    point = work_precision._point(outcome, np.zeros((5, 2)), 0.01, 1, 1e-6, "tolerance")
+    assert outcome.n_rhs is None and point["n_rhs"] is None
+    assert point["status"] != 0 and point["error"] is None and "stabilization" in point["message"]
 
 
 def test_an_engine_linear_algebra_failure_is_a_failed_cell_that_says_so(monkeypatch):
