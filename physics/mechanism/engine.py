@@ -57,8 +57,8 @@ class Integration:
 
     states: np.ndarray
     status: int
-    steps: int
-    evaluations: int
+    n_steps: int  # accepted steps
+    n_rhs: int  # right-hand sides evaluated
     t_reached: float
     filled: int
     detail: str = ""
@@ -201,7 +201,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         gains = (settings.baumgarte_alpha, settings.baumgarte_beta) if stabilization == "baumgarte" else (0.0, 0.0)
         result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
                            project=stabilization == "projection")
-        steps, evaluations = result.steps, result.evaluations
+        steps, evaluations = result.n_steps, result.n_rhs
         finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
         filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
         if result.status != 0 or filled < times.size:
