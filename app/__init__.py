@@ -6,9 +6,10 @@ equations of motion.
 """
 
 
-def show(run, chain, **options):
-    """Show a :class:`physics.Trajectory` of ``chain`` as a 3D replay: inline in a notebook, else in a browser
-    (:func:`app.notebook.show`; imported on first use, so ``import app`` stays light)."""
+def show(run, model, **options):
+    """Show a :class:`physics.Trajectory` of ``model`` (the chain of a chain's run, the ``physics.mechanism``
+    Mechanism of a mechanism's) as a 3D replay: inline in a notebook, else in a browser (:func:`app.notebook.show`;
+    imported on first use, so ``import app`` stays light)."""
     from .notebook import show as show_run  # noqa: PLC0415
 
-    return show_run(run, chain, **options)
+    return show_run(run, model, **options)

@@ -15,12 +15,12 @@ from typing import Callable, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from physics import LinkageError
+from physics import LinkageError, Trajectory
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
-from physics.mechanism.run import MechanismRun, run_table
+from physics.mechanism.run import coordinate_names, run_table
 from physics.mechanism.validation import check_runnable
 
 from .buffers import TrajectoryRing
@@ -267,7 +267,7 @@ class MechanismSpec:
     def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
         run = traj.run
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
-                             run.reactions, run.condition)  # type: ignore[attr-defined]
+                             run.reaction_rows, run.condition)  # type: ignore[attr-defined]
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""
@@ -284,7 +284,7 @@ class MechanismSpec:
         (a singular pose, a blow-up) comes back as the run's status and message with the samples before it, and
         a start that cannot move raises LinkageError; the player turns either into the run's end."""
         if self.runner is not None:
-            run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
+            run: Trajectory = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
                                             t_start, settings.method, settings.stabilization, settings.rtol)
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
@@ -294,8 +294,8 @@ class MechanismSpec:
                                      rtol=settings.rtol, atol=settings.rtol)
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
-        work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
-        return MechanismChunk(run=run, n_rhs=work, n_steps=run.steps, status=run.status, message=run.message)
+        work = EVALUATION_WORK * run.n_rhs + SAMPLE_WORK * self.n * settings.samples
+        return MechanismChunk(run=run, n_rhs=work, n_steps=run.n_steps, status=run.status, message=run.message)
 
 
 def run_file(spec: MechanismSpec, samples: dict[str, np.ndarray], fmt: str) -> bytes:
@@ -303,10 +303,12 @@ def run_file(spec: MechanismSpec, samples: dict[str, np.ndarray], fmt: str) -> b
     (``csv`` or ``json``: the same columns, ``lambda[JOINT: row]`` and all; docs/mechanisms.md). The traced point
     is NaN when none is chosen, as there."""
     trace = samples["trace_xy"] if spec.trace_index() is not None else np.full_like(samples["trace_xy"], np.nan)
-    run = MechanismRun(t=samples["t"], q=samples["q"], qdot=samples["qdot"], reactions=samples["reactions"],
-                       kinetic=samples["kinetic"], potential=samples["potential"], residual=samples["residual"],
-                       trace_xy=trace, row_names=spec.row_names, method=spec.settings.method,
-                       stabilization=spec.settings.stabilization, condition=samples["condition"])
+    # integrator: the app's runs use simulate_mechanism's default; the table does not name it
+    run = Trajectory(t=samples["t"], q=samples["q"], qdot=samples["qdot"], coordinate_names=coordinate_names(spec.chain),
+                     reaction_rows=samples["reactions"], kinetic=samples["kinetic"], potential=samples["potential"],
+                     energy=samples["kinetic"] + samples["potential"], residual=samples["residual"], trace_xy=trace,
+                     row_names=spec.row_names, method=spec.settings.method, integrator="DOP853",
+                     stabilization=spec.settings.stabilization, condition=samples["condition"])
     return run_table(run, fmt)
 
 

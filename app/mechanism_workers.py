@@ -26,9 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from physics import LinkageError
+from physics import LinkageError, Trajectory
 from physics.mechanism import Mechanism
-from physics.mechanism.run import MechanismRun
 
 MAX_WORKERS = 4
 WORKERS_ENV = "LINKAGE_LAB_MECHANISM_WORKERS"  # 0: compute in the server's interpreter (debugging)
@@ -49,7 +48,7 @@ def _mechanism(description: str) -> Mechanism:
 
 
 def _chunk(description: str, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-           stabilization: str, rtol: float = 1e-10) -> MechanismRun:
+           stabilization: str, rtol: float = 1e-10) -> Trajectory:
     from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - the worker's own import
 
     return simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
@@ -99,7 +98,7 @@ class Worker:
         return self.process.poll() is None
 
     def run(self, mechanism: Mechanism, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-            stabilization: str, rtol: float = 1e-10) -> MechanismRun:
+            stabilization: str, rtol: float = 1e-10) -> Trajectory:
         request = (mechanism.model_dump_json(), float(t_end), int(samples),
                    None if q0 is None else np.asarray(q0, dtype=float),
                    None if qdot0 is None else np.asarray(qdot0, dtype=float), float(t_start), method, stabilization,

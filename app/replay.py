@@ -37,6 +37,19 @@ def _recording_server():
     return _recorder
 
 
+@contextlib.contextmanager
+def recording_server():
+    """The shared recording server, held under the lock with a cleared scene for one page (and cleared after)."""
+    with _lock:
+        server = _recording_server()
+        server.scene.reset()
+        server.gui.reset()
+        try:
+            yield server
+        finally:
+            server.scene.reset()
+
+
 def stop_recorder() -> None:
     global _recorder
     with _lock:
@@ -60,10 +73,7 @@ def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage La
     d = np.array(params.d, dtype=float)
     com_ratio = np.divide(d, L, out=np.zeros_like(d), where=L > 0)
     trace_samples = int(TRACE_SECONDS * rate)
-    with _lock:
-        server = _recording_server()
-        server.scene.reset()
-        server.gui.reset()
+    with recording_server() as server:
         reach = mechanism_reach(L, params.pin)
         position, look_at = camera_pose(L, params.pin)
         server.initial_camera.position = tuple(position)
@@ -82,6 +92,4 @@ def replay_html(history: dict[str, np.ndarray], params, title: str = "Linkage La
             scene.show(joints, com)
             trace.update(history["trace_xy"][max(first, i - trace_samples) : i + 1])
             serializer.insert_sleep(stride / rate)
-        html = serializer.as_html()
-        server.scene.reset()
-    return html
+        return serializer.as_html()

@@ -27,7 +27,7 @@ from .kinematics import energies, joint_positions
 
 if TYPE_CHECKING:  # the general engine is loaded only for a mechanism's ensemble (a chain's start stays lean)
     from .mechanism.model import Mechanism
-    from .mechanism.run import MechanismRun
+    from .simulate.trajectory import Trajectory
 from .model import BAUMGARTE_ALPHA, BAUMGARTE_BETA, FORMULATION_NAMES, Chain, check_state
 
 # A copy whose system's pivot ratio exceeds SINGULAR_PIVOT_RATIO (or is non-finite) is marked failed, as
@@ -248,7 +248,7 @@ class MechanismEnsemble:
         self.qdot0 = qdot0
         self.probe = probe_reference(mechanism)
         self.t = np.linspace(0.0, self.t_end, self.samples)
-        self.runs: list[MechanismRun | None] = []
+        self.runs: list[Trajectory | None] = []
         self.failed_at = np.full(self.count, np.inf)  # the time each copy's run stopped (inf: it did not)
         self.message = "ok"
         self.note = ("the motors fix every body (mobility 0): every copy follows the same path"

@@ -77,7 +77,7 @@ class ProgressLine:
         self.printed += 1
 
 
-def _rows(trajectory: Trajectory, keep: slice) -> dict:
+def _rows(trajectory: Trajectory, keep: slice | np.ndarray) -> dict:
     """The per-sample arrays of ``trajectory`` cut to ``keep`` (axis 0), by field name."""
     count = len(trajectory.t)
     return {f.name: getattr(trajectory, f.name)[keep] for f in dataclasses.fields(trajectory)
@@ -213,12 +213,6 @@ SEGMENTED_AFTER = 5.0  # runs estimated shorter than this run in one call, exact
 MAX_MECHANISM_SEGMENT = math.inf  # simulated seconds a segment of a mechanism run covers at most
 
 
-def _mechanism_rows(run, keep: slice | np.ndarray) -> dict:
-    count = len(run.t)
-    return {f.name: getattr(run, f.name)[keep] for f in dataclasses.fields(run)
-            if isinstance(getattr(run, f.name), np.ndarray) and getattr(run, f.name).shape[:1] == (count,)}
-
-
 def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method: str, stabilization: str,
                                    stream: TextIO | None = None, rtol: float = 1e-10, atol: float = 1e-10,
                                    **options):
@@ -226,7 +220,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
     seconds) over MAX_MECHANISM_SECONDS is refused with the estimate (LinkageError); a long one runs in segments
     with a progress line on ``stream``; Ctrl+C returns ``(run so far, "interrupted ...")``, and a run stopped
     midway (a singular pose, the step budget) ``(run up to the stop, its message)``. Returns
-    ``(MechanismRun, None)`` when complete. ``options``: simulate_mechanism's integrator, step, max_steps,
+    ``(Trajectory, None)`` when complete. ``options``: simulate_mechanism's integrator, step, max_steps,
     backend; ``max_steps`` is the whole run's budget, as for a chain's segments (each segment gets what is left)."""
     from .mechanism.simulate import simulate_mechanism as simulate_whole  # noqa: PLC0415 - chains never load it
     budget = options.get("max_steps") or DEFAULT_MAX_STEPS
@@ -266,7 +260,7 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
     clock = time.perf_counter()
     first, reached, end = segment(0.0, 0, PROBE_SPAN, None, None)
     if not first.success:  # stopped within the probe: its rows on the run's sample times, and its reason
-        return dataclasses.replace(first, **_mechanism_rows(first, np.isin(first.t, times))), first.message
+        return dataclasses.replace(first, **_rows(first, np.isin(first.t, times))), first.message
     if reached == samples - 1:
         return first, None
     elapsed = time.perf_counter() - clock
@@ -285,10 +279,10 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
     if estimate < SEGMENTED_AFTER:
         return outcome(simulate_mechanism(mechanism, t_end=t_end, samples=samples, method=method,
                                           stabilization=stabilization, rtol=rtol, atol=atol))
-    pieces = [_mechanism_rows(first, slice(None) if reached is not None else slice(0, 1))]
+    pieces = [_rows(first, slice(None) if reached is not None else slice(0, 1))]
     index = reached if reached is not None else 0
     t_now, q, qdot = end, first.q[-1], first.qdot[-1]
-    steps, evaluations = first.steps, first.evaluations
+    steps, evaluations = first.n_steps, first.n_rhs
     used = steps
     progress = ProgressLine(t_end, stream=stream)
     interrupted = None
@@ -306,21 +300,21 @@ def simulate_mechanism_in_segments(mechanism, t_end: float, samples: int, method
             interrupted = f"interrupted (Ctrl+C) at t = {t_now:.6g} s"
             break
         pace = max((time.perf_counter() - clock) / (end - t_now), 1e-300)
-        steps, evaluations = steps + run.steps, evaluations + run.evaluations
+        steps, evaluations = steps + run.n_steps, evaluations + run.n_rhs
         used = steps
         if not run.success:  # stopped midway: keep its samples (those on the run's sample times) and its reason
             if reached is not None:
-                pieces.append(_mechanism_rows(run, slice(1, None)))
+                pieces.append(_rows(run, slice(1, None)))
             interrupted, stopped = run.message, run
             break
         if reached is not None:
-            pieces.append(_mechanism_rows(run, slice(1, None)))  # its first row is the state it started from
+            pieces.append(_rows(run, slice(1, None)))  # its first row is the state it started from
             index = reached
         t_now, q, qdot = end, run.q[-1], run.qdot[-1]
         progress.update(t_now, (t_end - t_now) * pace)
     fields: dict[str, Any] = {name: np.concatenate([piece[name] for piece in pieces], axis=0) for name in pieces[0]}
     fields["t"] = times[: len(fields["t"])]
-    joined = dataclasses.replace(first, **fields, steps=steps, evaluations=evaluations)
+    joined = dataclasses.replace(first, **fields, n_steps=steps, n_rhs=evaluations)
     if stopped is not None:
         joined = dataclasses.replace(joined, status=stopped.status, message=stopped.message)
     return joined, interrupted

@@ -26,12 +26,13 @@ from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
 from ..outputs import check_output_path, check_partial_path, write_output
 from ..registry import BACKENDS, INTEGRATOR_NAMES, STABILIZATIONS
+from ..simulate.trajectory import Trajectory
 from .assembly import assemble
 from .files import load_mechanism
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
-from .run import run_columns, run_table  # noqa: F401 - the table's writer, where the app reads it too
-from .simulate import RUN_METHODS, MechanismRun, run_options
+from .run import run_table  # noqa: F401 - the table's writer, where the app reads it too
+from .simulate import RUN_METHODS, run_options
 from .singularity import NEAR_SINGULAR_CONDITION
 from .validation import check_runnable
 
@@ -71,7 +72,7 @@ def summary(mechanism: Mechanism) -> dict:
     }
 
 
-def run_csv(run: MechanismRun) -> bytes:
+def run_csv(run: Trajectory) -> bytes:
     return run_table(run, "csv")
 
 
@@ -175,7 +176,7 @@ def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool,
             "max_jacobian_condition": float(np.max(run.condition)) if run.condition.size else None,
             # what produced the samples: the integrator, or "position analysis" when the motors fix every body
             # (then --integrator is accepted and not used), and its accepted steps and right-hand sides
-            "integrator": run.integrator, "steps": run.steps, "evaluations": run.evaluations,
+            "integrator": run.integrator, "steps": run.n_steps, "evaluations": run.n_rhs,
         }
         if request.out:
             write_output(request.out, run_table(run, request.fmt))

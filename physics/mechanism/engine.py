@@ -57,8 +57,8 @@ class Integration:
 
     states: np.ndarray
     status: int
-    steps: int
-    evaluations: int
+    n_steps: int  # accepted steps
+    n_rhs: int  # right-hand sides evaluated
     t_reached: float
     filled: int
     detail: str = ""
@@ -158,15 +158,16 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
-    ``times[0]``, as a :class:`~physics.mechanism.run.MechanismRun`. ``driven``: the motors fix every body, so
+    ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
     each sample is position analysis from the one before and only the formulation's solve is asked for (inverse
     dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
     (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
     raises LinkageError, as bad input does."""
+    from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .assembly import sketch_size  # noqa: PLC0415
     from .dae import MechanismDAE  # noqa: PLC0415
-    from .run import MechanismRun  # noqa: PLC0415
+    from .run import coordinate_names  # noqa: PLC0415
 
     method, stabilization = settings.method, settings.stabilization
     dae = MechanismDAE(mechanism)  # numbers only: masses, gravity, the constraint rows' names
@@ -200,7 +201,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         gains = (settings.baumgarte_alpha, settings.baumgarte_beta) if stabilization == "baumgarte" else (0.0, 0.0)
         result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
                            project=stabilization == "projection")
-        steps, evaluations = result.steps, result.evaluations
+        steps, evaluations = result.n_steps, result.n_rhs
         finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
         filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
         if result.status != 0 or filled < times.size:
@@ -234,11 +235,12 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     reactions = solved.multipliers if not tree else body_reactions(dae, solved)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
-    return MechanismRun(
-        t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, reactions=reactions, kinetic=kinetic,
-        potential=potential, residual=solved.residual, trace_xy=_trace(mechanism, constraints, solved.q),
+    return Trajectory(
+        t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, coordinate_names=coordinate_names(mechanism),
+        reaction_rows=reactions, kinetic=kinetic, potential=potential, energy=kinetic + potential,
+        residual=solved.residual, trace_xy=_trace(mechanism, constraints, solved.q),
         row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows), method=method,
-        stabilization=stabilization, integrated=not driven, steps=steps, evaluations=evaluations,
+        stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
         condition=_conditions(constraints, solved, tree),
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )

@@ -32,6 +32,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import LinkageError
+from ..simulate.trajectory import Trajectory
 from ..status import Status
 from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
@@ -39,7 +40,6 @@ from .model import Mechanism
 from .reduced_coordinates import JointCoordinates
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
-from .run import MechanismRun
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
 # faster than it. The new coordinate starts at share 1, so switches cannot chatter.
@@ -87,7 +87,7 @@ class ReducedRun:
     ``coordinate`` the joint integrated at each sample; ``rhs_evaluations`` how often the reduced equation was
     evaluated."""
 
-    run: MechanismRun
+    run: Trajectory
     switches: tuple[CoordinateSwitch, ...]
     coordinate: tuple[str, ...]
     rhs_evaluations: int

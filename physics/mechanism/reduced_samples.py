@@ -1,4 +1,4 @@
-"""The samples of a reduced run, turned into the DAE run's :class:`physics.mechanism.simulate.MechanismRun`.
+"""The samples of a reduced run, turned into a run with the DAE run's fields (a :class:`physics.Trajectory`).
 
 Each integration segment of :mod:`physics.mechanism.reduced` is walked through every accepted step in order, so
 each pose is solved from the one just before it and the branch is kept; the samples wanted are recorded on the
@@ -12,9 +12,10 @@ import math
 
 import numpy as np
 
+from ..simulate.trajectory import Trajectory
 from .dae import MechanismDAE
 from .reduced_partition import Partition, ReducedState
-from .run import MechanismRun
+from .run import coordinate_names
 
 
 class Samples:
@@ -37,7 +38,7 @@ class Samples:
             self.states.append(state)
             self.coordinate.append(name)
 
-    def run(self, dae: MechanismDAE) -> MechanismRun:
+    def run(self, dae: MechanismDAE) -> Trajectory:
         """The samples with the DAE run's fields: energies, residuals, traced point and reactions."""
         constraints = dae.constraints
         q = np.array([state.q for state in self.states])
@@ -52,9 +53,13 @@ class Samples:
             potential.append(energy[1])
             residual.append(float(np.max(np.abs(constraints.residual(state.q, state.t)), initial=0.0)))
             trace.append(traced_point(dae, state.q))
-        return MechanismRun(
-            t=self.times[:len(self.states)].copy(), q=q, qdot=qdot, reactions=np.array(reactions), kinetic=np.array(kinetic),
-            potential=np.array(potential), residual=np.array(residual), trace_xy=np.array(trace),
+        kinetic_, potential_ = np.array(kinetic), np.array(potential)
+        # method, integrator and stabilization: the caller's (physics.mechanism.simulate names the reduced model)
+        return Trajectory(
+            method="dae", integrator="DOP853", stabilization="projection",
+            t=self.times[:len(self.states)].copy(), q=q, qdot=qdot, coordinate_names=coordinate_names(dae.mechanism),
+            reaction_rows=np.array(reactions), kinetic=kinetic_, potential=potential_, energy=kinetic_ + potential_,
+            residual=np.array(residual), trace_xy=np.array(trace),
             row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
         )
 

@@ -37,14 +37,14 @@ from ..registry import (
     STABILIZATIONS,
     integrators_for,
 )
+from ..simulate.trajectory import Trajectory
 from . import engine
 from .assembly import assemble
 from .dae import MechanismDAE
 from .model import Mechanism
 from .reduced import simulate_reduced
-from .run import MechanismRun
 
-__all__ = ["ALLOWED", "MechanismRun", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
+__all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
            "simulate_mechanism"]
 
 # The methods of a mechanism's run: the registry's (the formulations, and the reduced model in one joint
@@ -166,7 +166,7 @@ def simulate_mechanism(
     max_steps: int | None = None,
     backend: str = DEFAULT_BACKEND,
     settings: Settings | None = None,
-) -> MechanismRun:
+) -> Trajectory:
     """Run for ``t_end`` seconds from ``t_start`` (a motor's angle follows absolute time), from the pose
     assembled nearest ``q0`` (default: the sketch) with velocities ``qdot0`` (default: rest) projected onto the
     constraints, sampled at ``linspace(t_start, t_start + t_end, samples)``. ``method`` chooses the formulation
@@ -185,7 +185,7 @@ def simulate_mechanism(
 
 def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | None = None,
                   qdot0: np.ndarray | None = None, t_start: float = 0.0,
-                  integrate: bool | None = None) -> MechanismRun:
+                  integrate: bool | None = None) -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
     q0, qdot0 = (_state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
@@ -202,7 +202,7 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,
-             integrate: bool | None) -> MechanismRun:
+             integrate: bool | None) -> Trajectory:
     """The reduced model's run (mobility 1), its closures held by position analysis at every evaluation: no
     stabilisation applies, and a mechanism its motors fix has no free coordinate to reduce to."""
     if settings.stabilization != "projection":

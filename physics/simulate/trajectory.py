@@ -1,4 +1,12 @@
-"""Trajectory: what a simulation returns, sampled at the requested times, and its table form for CSV/JSON."""
+"""Trajectory: what every run returns, a chain's or a general mechanism's, sampled at the requested times, and
+its table form for CSV/JSON.
+
+One class for both kinds of run (issue 24, "one pipeline"): the generic fields (time, energies, condition,
+status, step counts, traced point) mean the same for both; a chain fills its angles, joints and ``(T, n, 2)``
+reactions, a mechanism its maximal coordinates ``q`` and its reaction rows. The fields a run does not have are
+empty ``(T, 0)`` arrays, so slicing along axis 0 (a long run's segments, physics/long_run.py) treats every
+field alike.
+"""
 
 from __future__ import annotations
 
@@ -8,42 +16,97 @@ import numpy as np
 
 from ..status import Status
 
+# A field a run leaves out: the trailing shape it gets, with T rows, so that every per-sample array has T rows
+_EMPTY_WIDTH = {
+    "theta": (0,), "omega": (0,), "joints": (0, 2), "tip_xy": (0,), "reactions": (0, 2), "tip_reaction": (0,),
+    "constraint_xy": (0,), "constraint_velocity": (0,), "joint_reactions": (0, 2), "q": (0,), "qdot": (0,),
+    "reaction_rows": (0,),
+}
+
+
+def _absent() -> np.ndarray:
+    return np.zeros((0, 0))
+
 
 @dataclass
 class Trajectory:
-    """Samples along axis 0. Shapes: t (T,), theta/omega (T, n), joints (T, n+1, 2), tip_xy/trace_xy (T, 2),
-    energies (T,), reactions (T, n, 2) for dae else (T, 0, 2), tip_reaction (T, 2) for pinned chains else
-    (T, 0), constraint_xy / constraint_velocity (T, 2) for pinned chains else (T, 0), condition (T,)."""
+    """Samples along axis 0 (``T`` of them, up to where the run stopped if it did: ``status``, ``message``).
+
+    Every run: ``t (T,)``, ``trace_xy (T, 2)`` (the traced point), ``kinetic, potential, energy (T,)``,
+    ``condition (T,)`` (how near each pose is to a singular one; empty when not measured), ``n_steps`` (accepted
+    integration steps), ``n_rhs`` (right-hand sides evaluated).
+
+    A chain (``links`` > 0): ``theta/omega (T, n)``, ``joints (T, n+1, 2)``, ``tip_xy (T, 2)``, ``reactions
+    (T, n, 2)`` for dae else ``(T, 0, 2)``, ``tip_reaction (T, 2)`` for pinned chains else ``(T, 0)``,
+    ``constraint_xy / constraint_velocity (T, 2)`` for pinned chains else ``(T, 0)``.
+
+    A general mechanism (:mod:`physics.mechanism`): ``q, qdot (T, 3 B)`` (x, y, phi of every body's centre of
+    mass, named by ``coordinate_names``), ``reaction_rows (T, rows)`` (every constraint row's multiplier, named
+    by ``row_names``), ``residual (T,)`` (the largest constraint residual), ``stabilization`` and ``integrated``
+    (False: every sample by position analysis, the motors fix every body)."""
 
     method: str
     integrator: str
     t: np.ndarray
-    theta: np.ndarray
-    omega: np.ndarray
-    joints: np.ndarray
-    tip_xy: np.ndarray
     trace_xy: np.ndarray
     kinetic: np.ndarray
     potential: np.ndarray
     energy: np.ndarray
-    reactions: np.ndarray
-    tip_reaction: np.ndarray
-    constraint_xy: np.ndarray
-    constraint_velocity: np.ndarray
-    condition: np.ndarray
+    condition: np.ndarray = field(default_factory=lambda: np.zeros(0))
     status: int = Status.OK  # a Status value (0 ok, < 0 failed midway)
-    message: str = ""
+    message: str = "ok"
     n_steps: int = 0
     n_rhs: int = 0
+    # a chain's
+    theta: np.ndarray = field(default_factory=_absent)
+    omega: np.ndarray = field(default_factory=_absent)
+    joints: np.ndarray = field(default_factory=_absent)
+    tip_xy: np.ndarray = field(default_factory=_absent)
+    reactions: np.ndarray = field(default_factory=_absent)
+    tip_reaction: np.ndarray = field(default_factory=_absent)
+    constraint_xy: np.ndarray = field(default_factory=_absent)
+    constraint_velocity: np.ndarray = field(default_factory=_absent)
     stats: dict = field(default_factory=dict)
     # (T, n, 2) for every method: from the accelerations by Newton's law per bar (physics/reactions.py),
     # equal to the DAE's own ``reactions`` where it has them; not part of the CSV/JSON columns.
-    joint_reactions: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
+    joint_reactions: np.ndarray = field(default_factory=_absent)
     trace_is_explicit: bool = False  # open chains list trace_x/y only when a point other than the tip was asked
+    # a general mechanism's
+    q: np.ndarray = field(default_factory=_absent)
+    qdot: np.ndarray = field(default_factory=_absent)
+    coordinate_names: tuple[str, ...] = ()
+    reaction_rows: np.ndarray = field(default_factory=_absent)
+    row_names: tuple[str, ...] = ()
+    residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stabilization: str = ""  # how the closures were held ("projection", "baumgarte", "none"); "" for a chain
+    integrated: bool = True  # False: every sample by position analysis (the motors fix every body)
+
+    def __post_init__(self) -> None:
+        """The fields a run left out become ``(T, 0)`` arrays (``(T, 0, 2)`` for per-joint vectors)."""
+        count = self.t.shape[0]
+        for name, width in _EMPTY_WIDTH.items():
+            value = getattr(self, name)
+            if value.size == 0 and value.shape[:1] != (count,):
+                setattr(self, name, np.zeros((count, *width)))
 
     @property
     def success(self) -> bool:
         return self.status == Status.OK
+
+    @property
+    def is_mechanism(self) -> bool:
+        """A general mechanism's run (coordinates ``q``, reaction rows), not a chain's (angles ``theta``)."""
+        return self.theta.shape[1] == 0
+
+    @property
+    def n(self) -> int:
+        """A chain's links (0 for a mechanism's run)."""
+        return self.theta.shape[1]
+
+    @property
+    def bodies(self) -> int:
+        """A mechanism's bodies (x, y, phi each in ``q``; 0 for a chain's run)."""
+        return self.q.shape[1] // 3 if self.q.ndim == 2 else 0
 
     def __repr__(self) -> str:
         """One line for a notebook or a log (the dataclass's own repr printed every array: 48,777 characters
@@ -53,12 +116,14 @@ class Trajectory:
         except ValueError:
             status = str(self.status)
         extra = f", message={self.message!r}" if self.message and status != "ok" else ""
-        return (f"Trajectory(method={self.method!r}, integrator={self.integrator!r}, links={self.n}, "
+        if not self.is_mechanism:
+            size = f"links={self.n}"
+        elif self.integrated:
+            size = f"bodies={self.bodies}, stabilization={self.stabilization!r}, n_steps={self.n_steps}"
+        else:
+            size = f"bodies={self.bodies}"
+        return (f"Trajectory(method={self.method!r}, integrator={self.integrator!r}, {size}, "
                 f"samples={self.t.shape[0]}, t={time_span(self.t)}, status={status}{extra})")
-
-    @property
-    def n(self) -> int:
-        return self.theta.shape[1]
 
     def energy_drift(self) -> float:
         """max |E(t) - E(0)| / max(|E(0)|, scale), scale = the largest of |T|, |V| seen (so E(0) = 0 is fine)."""
@@ -68,11 +133,24 @@ class Trajectory:
         return float(np.max(np.abs(self.energy - self.energy[0])) / scale)
 
     def columns(self) -> dict[str, np.ndarray]:
-        """Named 1-D columns: the CSV header and the JSON keys (the CLI contract).
+        """Named 1-D columns: the CSV header and the JSON keys (the command line's contract).
 
-        ``t, theta1..n, omega1..n, tip_x, tip_y, kinetic, potential, energy``, then ``R0x, R0y, ...`` for dae,
-        then for a pinned chain ``RHx, RHy, constraint_x, constraint_y, constraint_vx, constraint_vy`` and
-        ``trace_x, trace_y`` (the traced point; open chains add it only when a trace point was given)."""
+        A chain's (``simulate``, docs/cli.md): ``t, theta1..n, omega1..n, tip_x, tip_y, kinetic, potential,
+        energy``, then ``R0x, R0y, ...`` for dae, then for a pinned chain ``RHx, RHy, constraint_x, constraint_y,
+        constraint_vx, constraint_vy`` and ``trace_x, trace_y`` (the traced point; open chains add it only when a
+        trace point was given). A mechanism's (``mechanism``, docs/mechanisms.md): ``t``, the traced point, the
+        energies, the largest constraint residual and every reaction row as ``lambda[JOINT: row]``."""
+        return self._mechanism_columns() if self.is_mechanism else self._chain_columns()
+
+    def _mechanism_columns(self) -> dict[str, np.ndarray]:
+        columns = {"t": self.t, "trace_x": self.trace_xy[:, 0], "trace_y": self.trace_xy[:, 1],
+                   "kinetic": self.kinetic, "potential": self.potential, "energy": self.energy,
+                   "constraint_residual": self.residual}
+        for k, name in enumerate(self.row_names):
+            columns[f"lambda[{name}]"] = self.reaction_rows[:, k]
+        return columns
+
+    def _chain_columns(self) -> dict[str, np.ndarray]:
         n = self.n
         cols = {"t": self.t}
         for i in range(n):

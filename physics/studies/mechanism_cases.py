@@ -2,7 +2,7 @@
 point whose path a study measures, and one run whose failure comes back as a status instead of an exception.
 
 Why here and not in the core: the studies run a mechanism only through
-:func:`physics.mechanism.simulate.simulate_mechanism` and read only its :class:`MechanismRun`, so they keep working
+:func:`physics.mechanism.simulate.simulate_mechanism` and read only its :class:`physics.Trajectory`, so they keep working
 whichever engine is under that function. The point a study follows is the ensemble's
 (:func:`physics.ensemble.probe_reference`: the traced point, else the last body's last point). A run that stops midway raises ``LinkageError`` today; a study records
 it as a failed cell with its message (the chain studies' ``Status``), as a sweep must go on past a failure.
@@ -21,9 +21,10 @@ from ..mechanism.assembly import assemble
 from ..mechanism.files import load_mechanism
 from ..mechanism.model import Mechanism
 from ..mechanism.presets import MECHANISM_PRESETS
-from ..mechanism.simulate import MechanismRun, simulate_mechanism
+from ..mechanism.simulate import simulate_mechanism
 from ..mechanism.validation import check_runnable
 from ..registry import STABILIZATIONS as STABILIZATIONS  # the one list, re-exported for the studies
+from ..simulate.trajectory import Trajectory
 from ..status import Status
 
 # The methods of a mechanism's run: the three formulations, and the reduced model where the mobility is 1.
@@ -70,7 +71,7 @@ class Outcome:
     wall time, and the probe's path. ``success``, ``status``, ``message``, ``n_rhs``, ``tip_xy`` are what the
     work-precision points read from a chain's Trajectory."""
 
-    run: MechanismRun | None
+    run: Trajectory | None
     status: Status
     message: str
     seconds: float
@@ -82,7 +83,7 @@ class Outcome:
 
     @property
     def n_rhs(self) -> int | None:
-        return None if self.run is None else int(self.run.evaluations)
+        return None if self.run is None else int(self.run.n_rhs)
 
 
 def failure_status(message: str) -> Status:

@@ -1,4 +1,4 @@
-"""``app.show(run, chain)``: a run as a 3D replay in a notebook (inline) or a browser page, headless here: the page
+"""``app.show(run, chain)`` and ``app.show(run, mechanism)``: a run as a 3D replay in a notebook (inline) or a browser page, headless here: the page
 holds the run itself (its frames, their timing, the joints' positions of its samples), whatever displays it."""
 
 from __future__ import annotations
@@ -17,8 +17,11 @@ import zstandard
 
 import app
 import physics
+from app.mechanism_runs import centres_at, drawing, points_at
 from app.notebook import replay_page
 from physics import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
 
 
 @pytest.fixture(scope="module")
@@ -139,6 +142,54 @@ def test_the_notebook_page_runs_as_written(monkeypatch, tmp_path, capsys):
         notices.setLevel(level)
     run = namespace["run"]
     assert run.success and run.t[-1] == pytest.approx(5.0)
-    assert opened == [f"file://{namespace['page']}"]
+    assert opened == [f"file://{namespace['page']}", f"file://{namespace['mechanism_page']}"]
     printed = capsys.readouterr().out
     assert printed.startswith("Trajectory(method='lagrange'") and "energy drift over 5 s" in printed
+    mechanism_run = namespace["mechanism_run"]
+    assert mechanism_run.success and mechanism_run.is_mechanism and mechanism_run.t[-1] == pytest.approx(2.0)
+    assert f"{mechanism_run!r}\n" in printed and "bodies=3" in printed
+
+
+@pytest.fixture(scope="module")
+def crank_rocker():
+    mechanism = MECHANISM_PRESETS["crank-rocker"]()
+    run = simulate_mechanism(mechanism, 1.0, 31)
+    assert run.success and run.is_mechanism
+    return run, mechanism
+
+
+def test_a_mechanism_run_replays_with_every_point_of_every_body(crank_rocker):
+    """``app.show(run, mechanism)``: a general mechanism's run (the same Trajectory class) is drawn as the app's
+    mechanism view draws it; the last frame's spheres are every drawn point, then every centre of mass."""
+    run, mechanism = crank_rocker
+    payload, buffers = recording(replay_page(run, mechanism))
+    assert payload["durationSeconds"] == pytest.approx(run.t[-1] - run.t[0] + (run.t[1] - run.t[0]), rel=1e-6)
+    frames = sphere_frames(payload, buffers)
+    assert len(frames) >= len(run.t) - 1
+    draw = drawing(mechanism)
+    expected = np.concatenate([points_at(draw, run.q[-1]), centres_at(run.q[-1])])
+    np.testing.assert_allclose(frames[-1][1][:, [0, 2]], expected, atol=1e-5)  # world (x, 0, y), float32
+    assert np.max(np.abs(frames[0][1] - frames[-1][1])) > 1e-2  # the crank turns: the frames are the run's poses
+
+
+def test_a_mechanism_run_needs_its_own_mechanism(crank_rocker, triple):
+    run, _ = crank_rocker
+    with pytest.raises(LinkageError, match=r"mechanism: the run has 3 bodies, jansen-leg \d+"):
+        replay_page(run, MECHANISM_PRESETS["jansen-leg"]())
+    with pytest.raises(LinkageError, match="mechanism: the physics.mechanism.Mechanism of the run"):
+        replay_page(run, triple[1])
+    with pytest.raises(LinkageError, match="chain: the physics.Chain of the run"):
+        replay_page(triple[0], MECHANISM_PRESETS["crank-rocker"]())
+
+
+def test_show_opens_a_mechanism_run_in_a_browser(crank_rocker, monkeypatch, tmp_path):
+    run, mechanism = crank_rocker
+    monkeypatch.setitem(sys.modules, "IPython", None)
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    opened = []
+    monkeypatch.setattr("webbrowser.open", opened.append)
+    path = app.show(run, mechanism, title="my crank-rocker")
+    assert opened == [f"file://{path}"]
+    payload, buffers = recording(open(path, encoding="utf-8").read())
+    assert "my crank-rocker" in msgspec.json.encode(payload["messages"]).decode()
+    assert len(sphere_frames(payload, buffers)) >= len(run.t) - 1

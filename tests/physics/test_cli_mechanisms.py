@@ -161,8 +161,8 @@ def test_accelerations_of_the_three_methods_agree_with_every_reaction_named_as_t
     assert list(document["methods"]["dae"]["reactions"]) == [f"lambda[{name}]" for name in run_.row_names]
     solution = MechanismDAE(mechanism).solve(q, qdot)
     assert np.allclose(document["methods"]["dae"]["qddot"], solution.qddot, rtol=0, atol=1e-12)
-    assert np.allclose(list(document["methods"]["lagrange"]["reactions"].values()), run_.reactions[-1],
-                       rtol=0, atol=1e-8 * (1 + np.max(np.abs(run_.reactions[-1]))))
+    assert np.allclose(list(document["methods"]["lagrange"]["reactions"].values()), run_.reaction_rows[-1],
+                       rtol=0, atol=1e-8 * (1 + np.max(np.abs(run_.reaction_rows[-1]))))
     # without --state: the start of a run, in one method
     code, out, _ = run(capsys, "accelerations", "--preset", "crank-rocker", "--method", "newton_euler")
     start = json.loads(out)

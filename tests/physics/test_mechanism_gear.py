@@ -293,7 +293,7 @@ def test_geared_discs_keep_the_speed_ratio_and_the_torque_balance(method):
     np.testing.assert_allclose(spin1, alpha1 * run.t, rtol=1e-8, atol=1e-10)
     np.testing.assert_allclose(spin2, ratio * spin1, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(run.q[:, 5], ratio * run.q[:, 2], rtol=1e-9, atol=1e-12)
-    contact = run.reactions[:, list(run.row_names).index("mesh: contact torque")]
+    contact = run.reaction_rows[:, list(run.row_names).index("mesh: contact torque")]
     np.testing.assert_allclose(contact, i2 * ratio * alpha1, rtol=1e-8)
     np.testing.assert_allclose(i1 * alpha1, tau - ratio * contact, rtol=1e-8)
     # the free-body diagrams say the same: the gear's couple on each disc
@@ -446,7 +446,7 @@ def test_a_free_geared_five_bar_runs_alike_in_every_method_and_its_gear_does_no_
     np.testing.assert_allclose(energy - energy[0], tau * reference.q[:, 2], atol=1e-7)
     for method, run in runs.items():
         np.testing.assert_allclose(run.q, reference.q, atol=1e-7, err_msg=method)
-        np.testing.assert_allclose(run.reactions, reference.reactions, atol=1e-6 * np.max(np.abs(reference.reactions)),
+        np.testing.assert_allclose(run.reaction_rows, reference.reaction_rows, atol=1e-6 * np.max(np.abs(reference.reaction_rows)),
                                    err_msg=method)
 
 

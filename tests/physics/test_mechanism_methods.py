@@ -37,8 +37,8 @@ def test_the_three_methods_integrate_the_same_motion_and_reactions(name):
         assert run.row_names == reference.row_names
         assert np.max(np.abs(run.q - reference.q)) <= 1e-9
         assert np.max(np.abs(run.qdot - reference.qdot)) <= 1e-8
-        scale = 1.0 + np.max(np.abs(reference.reactions))
-        assert np.max(np.abs(run.reactions - reference.reactions)) <= 1e-8 * scale, method
+        scale = 1.0 + np.max(np.abs(reference.reaction_rows))
+        assert np.max(np.abs(run.reaction_rows - reference.reaction_rows)) <= 1e-8 * scale, method
         assert np.max(run.residual) <= 1e-10
 
 
@@ -80,7 +80,7 @@ def test_a_motor_follows_absolute_time_from_t_start(method):
     assert np.allclose(run.q[:, 3 * crank + 2], speed * run.t, atol=1e-10)
     assert not run.integrated and run.method == method
     reference = simulate_mechanism(mechanism, 0.5, 6, t_start=0.25)
-    assert np.max(np.abs(run.reactions - reference.reactions)) <= 1e-10 * (1 + np.max(np.abs(reference.reactions)))
+    assert np.max(np.abs(run.reaction_rows - reference.reaction_rows)) <= 1e-10 * (1 + np.max(np.abs(reference.reaction_rows)))
 
 
 @pytest.mark.parametrize(
@@ -197,10 +197,10 @@ def test_a_fully_driven_mechanism_integrated_by_a_tree_formulation_moves_as_by_k
     mechanism = MECHANISM_PRESETS["chebyshev-lambda"]()
     by_kinematics = simulate_mechanism(mechanism, 1.0, 11, method=method)
     integrated = simulate_mechanism(mechanism, 1.0, 11, method=method, integrate=True, rtol=1e-12, atol=1e-12)
-    assert integrated.integrated and not by_kinematics.integrated and integrated.steps > 0
+    assert integrated.integrated and not by_kinematics.integrated and integrated.n_steps > 0
     assert np.max(np.abs(by_kinematics.q - integrated.q)) <= 1e-9
-    assert np.max(np.abs(by_kinematics.reactions - integrated.reactions)) <= 1e-7 * np.max(
-        np.abs(integrated.reactions))
+    assert np.max(np.abs(by_kinematics.reaction_rows - integrated.reaction_rows)) <= 1e-7 * np.max(
+        np.abs(integrated.reaction_rows))
 
 
 def test_runs_in_threads_at_once_give_the_runs_of_one_thread():
@@ -235,7 +235,7 @@ def test_every_method_and_stabilization_agree_on_an_open_chain_and_a_damped_torq
                 for method in METHODS for stabilization in ("none", "baumgarte", "projection")]
         reference = runs[0]
         assert np.ptp(reference.q[:, 2]) > 0.1  # it moves
-        scale = 1.0 + np.max(np.abs(reference.reactions))
+        scale = 1.0 + np.max(np.abs(reference.reaction_rows))
         for run in runs[1:]:
             assert np.max(np.abs(run.q - reference.q)) <= 1e-9, (run.method, run.stabilization)
-            assert np.max(np.abs(run.reactions - reference.reactions)) <= 1e-8 * scale, (run.method, run.stabilization)
+            assert np.max(np.abs(run.reaction_rows - reference.reaction_rows)) <= 1e-8 * scale, (run.method, run.stabilization)

@@ -135,8 +135,8 @@ def test_reduced_run_agrees_with_the_dae_run(name):
     assert run.row_names == dae.row_names
     assert np.max(np.abs(run.q - dae.q)) <= 1e-7
     assert np.max(np.abs(run.qdot - dae.qdot)) <= 1e-7 * (1 + np.max(np.abs(dae.qdot)))
-    force_scale = np.max(np.abs(dae.reactions))
-    assert np.max(np.abs(run.reactions - dae.reactions)) <= 1e-7 * force_scale
+    force_scale = np.max(np.abs(dae.reaction_rows))
+    assert np.max(np.abs(run.reaction_rows - dae.reaction_rows)) <= 1e-7 * force_scale
     assert np.nanmax(np.abs(run.trace_xy - dae.trace_xy)) <= 1e-7
     assert np.ptp(dae.q[:, 2]) > 0.5  # the crank really moved: agreement over a motion, not a pose
 
@@ -157,7 +157,7 @@ def test_a_moving_guide_and_a_motor_agree_with_the_dae_run(make, coordinate, t_e
         assert set(reduced.coordinate) == {coordinate}
     assert np.max(np.abs(reduced.run.q - dae.q)) <= 1e-7
     assert np.max(np.abs(reduced.run.qdot - dae.qdot)) <= 1e-6 * (1 + np.max(np.abs(dae.qdot)))
-    assert np.max(np.abs(reduced.run.reactions - dae.reactions)) <= 1e-5 * np.max(np.abs(dae.reactions))
+    assert np.max(np.abs(reduced.run.reaction_rows - dae.reaction_rows)) <= 1e-5 * np.max(np.abs(dae.reaction_rows))
     assert np.max(reduced.run.residual) <= 20 * EPS * sketch_size(mechanism) * (1 + np.max(np.abs(dae.q)))
     assert np.ptp(dae.q[:, 2]) > 0.05  # the crank turned
 
@@ -350,7 +350,7 @@ def test_simulate_mechanism_runs_the_reduced_model_by_name():
     by_name = simulate_mechanism(mechanism, 0.5, 26, method="reduced")
     direct = simulate_reduced(mechanism, 0.5, 26).run
     assert by_name.method == "reduced" and by_name.stabilization == "position analysis"
-    assert np.array_equal(by_name.q, direct.q) and np.array_equal(by_name.reactions, direct.reactions)
+    assert np.array_equal(by_name.q, direct.q) and np.array_equal(by_name.reaction_rows, direct.reaction_rows)
     dae = simulate_mechanism(mechanism, 0.5, 26, method="dae")
     assert np.max(np.abs(by_name.q - dae.q)) < 1e-7
 
