@@ -360,8 +360,10 @@ def test_the_arrow_at_a_ground_pin_is_the_force_the_ground_exerts_on_the_body(ja
     session.guard(lambda: session.choose("crank-rocker"))
     session.guard(lambda: session.set("speed:O2", 0.0))  # the motor holds the crank still: a static pose
     session.guard(lambda: session.set_reactions(True))
+    assert session.player.wait_idle(60)  # the run with the motor stopped is the one shown (not the one before)
     assert wait_until(lambda: session.arrows.handle is not None and session.arrows.count == 4, timeout=30)
     run = session.player.runs[0]
+    assert wait_until(lambda: len(run.ring) > 0, timeout=30)
     reactions = run.ring.get("reactions", len(run.ring) - 1)
     names = session.spec.row_names
     on_bodies = {}
