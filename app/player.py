@@ -47,6 +47,11 @@ MAX_SPEED = 8.0
 # no inertia between heavy ones) can need a million steps of an explicit integrator per 0.25 s: bounded calls keep
 # the player answering restarts meanwhile, and the first new pose comes after about one sample's worth of steps.
 CHUNK_STEP_CAP = 3000
+# A motion that needs more steps than this for one sample (1/60 s) cannot be played: the cap stops doubling there
+# and the run stops with a sentence naming the fix (an implicit integrator, more inertia, less damping). Without it
+# the doubling went on to the run's max_steps (1e7), minutes per call on a busy machine, and the restart was never
+# shown (the long control run: a damped bar of next to no inertia).
+PLAYABLE_STEPS = 250_000
 # A frame is skipped while the previous one waits to be sent (see Player), but never for longer than this: a
 # browser whose buffer never empties still sees 4 frames per second, and a wrong "not delivered" never freezes.
 MAX_DEFER_SECONDS = 0.25
@@ -62,6 +67,14 @@ def _capped(traj, spec, cap: int) -> bool:
     """The call stopped at the player's step cap, not at the run's own max_steps (nothing failed)."""
     limit = _step_limit(spec.settings)
     return traj.status == Status.MAX_STEPS and limit is not None and cap < limit
+
+
+def too_stiff(settings, steps: int) -> str:
+    """Why a run that reaches no next sample within :data:`PLAYABLE_STEPS` stops, and what would play it."""
+    integrator = getattr(settings, "integrator", "the integrator")
+    return (f"too stiff to play: {integrator} took {steps:,} steps without reaching the next sample "
+            f"({SAMPLE_DT * 1000:.3g} ms on); choose Radau or LSODA (implicit) in the Simulation tab, or give the "
+            "bars more inertia or less damping")
 
 
 def next_chunk_seconds(seconds: float, work: int, n: int) -> float:
@@ -473,7 +486,10 @@ class Player:
             run.ring.append({k: v[:good] for k, v in chunk.items()})
             run.simulated_seconds += good * SAMPLE_DT
             if _capped(traj, spec, cap) and good == len(chunk["t"]):  # not a failure: the next call goes on
-                run.step_cap = cap if good else 2 * cap  # no new sample within the cap: twice as many next time
+                if good == 0 and cap >= PLAYABLE_STEPS:
+                    run.failed = too_stiff(spec.settings, cap)
+                else:
+                    run.step_cap = cap if good else 2 * cap  # no new sample within the cap: twice as many
             elif traj.status < 0:
                 run.failed = traj.message or f"simulation failed (status {traj.status})"
             elif good < len(chunk["t"]):

@@ -76,6 +76,11 @@ BAUMGARTE_BETA = 10.0
 
 # Relative size of the smallest mass-matrix eigenvalue below which a chain is rejected as singular.
 SINGULAR_MASS_RTOL = 1e-12
+# kg m^2: the least inertia an angle may carry about its joint (a milligram at a millimetre's radius of gyration is
+# 1e-12; with margin), the same floor as a general mechanism's bodies (physics/mechanism/validation.py). Far
+# below it the motion is numerically meaningless: a bar of I = 1.2e-38 kg m^2 with a damped pin needed more
+# integrator steps for one sample than a run may take.
+MIN_JOINT_INERTIA = 1e-9
 
 
 def _finite(name: str, value) -> float:
@@ -316,10 +321,17 @@ def check_mass_matrix(chain: Chain) -> None:
     L, d, m, I = (chain.array(f) for f in "LdmI")
     for k in range(n - 1, -1, -1):
         beyond = m[k + 1 :].sum()
-        if m[k] * d[k] ** 2 + I[k] + L[k] ** 2 * beyond <= 0.0:
+        inertia = m[k] * d[k] ** 2 + I[k] + L[k] ** 2 * beyond
+        if inertia <= 0.0:
             raise LinkageError(
                 f"bar {k + 1} has no inertia (m{k + 1}*d{k + 1}^2 + I{k + 1} + L{k + 1}^2 * mass beyond = 0): "
                 f"the mass matrix is singular; give bar {k + 1} a positive I{k + 1}, or m{k + 1} > 0 with d{k + 1} > 0"
+            )
+        if inertia < MIN_JOINT_INERTIA:
+            raise LinkageError(
+                f"bar {k + 1}'s inertia about its joint (m{k + 1}*d{k + 1}^2 + I{k + 1} + L{k + 1}^2 * mass beyond) "
+                f"= {inertia:.3g} kg·m²: allowed range >= {MIN_JOINT_INERTIA:g} kg·m²; give bar {k + 1} a larger "
+                f"I{k + 1}, or more mass m{k + 1} at a larger d{k + 1}"
             )
     theta = np.linspace(0.3, 2.9, n) + 0.17 * np.arange(n) ** 2  # a generic configuration
     M = mass_matrix(chain.params(), theta)

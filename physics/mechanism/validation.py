@@ -19,12 +19,13 @@ import math
 import numpy as np
 
 from ..errors import LinkageError
+from ..model import MIN_JOINT_INERTIA
 from .assembly import Assembled, assemble, sketch_size
 from .constraints import Constraints
 from .model import Mechanism
 
 MIN_MASS = 1e-6  # kg: a milligram; every body needs mass for the equations of motion (the DAE divides by it)
-MIN_INERTIA = 1e-9  # kg m^2: a milligram at a millimetre's radius of gyration (mm^2 mg = 1e-12; with margin)
+MIN_INERTIA = MIN_JOINT_INERTIA  # kg m^2: a milligram at a millimetre's radius of gyration (1e-12; with margin)
 # m: a sketch spans at most kilometres (a chain of the app: 12 bars of at most 1000 m); far beyond, squares of
 # distances overflow (a point at 1e300 m made the framing and the sliders' ranges infinite)
 MAX_COORDINATE = 1e4

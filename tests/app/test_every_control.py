@@ -39,8 +39,8 @@ def fatal(note: str) -> bool:
     reached a singular position is not one: random edits can leave a change-point linkage (a four-bar whose links
     line up on its path, as the change-point preset does on purpose), and the run then stops saying so, the
     session alive and Reset starting again (the long run found one: pin x = 0 after earlier edits)."""
-    if note.startswith("Simulation stopped") and "singular" in note:
-        return False
+    if note.startswith("Simulation stopped") and ("singular" in note or "too stiff to play" in note):
+        return False  # a physical reason, named with its fix (a motion too stiff for an explicit integrator)
     return note.startswith(FATAL)
 
 

@@ -334,3 +334,16 @@ def test_a_change_right_after_a_new_mechanism_applies_to_the_new_one(connect):
     assert snap["runs"][0]["method"] == "dae"
     assert snap["time"] == 0.0  # still the four-bar's start, not the triple pendulum's time
     assert np.allclose(snap["theta"], physics.get_preset("four-bar").theta0, atol=1e-9)
+
+
+def test_a_bar_of_next_to_no_inertia_is_refused_with_its_range(connect):
+    """The long control run's hang: I1 = 1.2e-38 kg·m² with d1 = 1.8e-313 m (both inside their sliders' ranges)
+    on a damped single bar needed more integrator steps for one sample than a run may take, and the restart was
+    never shown. Below 1e-9 kg·m² about its joint a bar is refused, naming the bar and the range."""
+    _, session = connect()
+    handles = session.controls._bar_handles[2]
+    handles["d"].value = 0.0
+    handles["m"].value = 1.0
+    handles["I"].value = 1.17549435082e-38
+    assert session.params.I[2] > 1e-9
+    assert session.notice is not None and "bar 3" in session.notice and ">= 1e-09 kg·m²" in session.notice

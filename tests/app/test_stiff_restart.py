@@ -59,3 +59,30 @@ def test_a_stiff_start_is_shown_and_the_next_edit_too_with_bounded_integrator_ca
     assert session.params.chain.bars[1].I == 0.3
     assert session.player.runs[0].failed is None
     assert not [n for n in notes if n.startswith("Simulation stopped")], notes
+
+
+def test_a_motion_too_stiff_to_play_stops_with_the_fix_and_radau_plays_it(connect):
+    """A damped bar at the inertia floor (1e-9 kg·m² about its joint, 10 N·m·s of damping: a time constant of
+    1e-10 s) needs tens of millions of explicit steps per sample. The player's step cap stops doubling at
+    PLAYABLE_STEPS and the run stops saying so and naming the fix; the long control run saw the doubling go on to
+    the run's max_steps instead, and the restart never shown. Radau (implicit) plays the same motion."""
+    from app.player import PLAYABLE_STEPS  # noqa: PLC0415
+
+    _, session = connect()
+    session.set_mechanism("single")
+    assert session.player.wait_idle(120)
+    session.pause()
+    for name, value in (("L1", 1.0), ("d1", 0.0), ("m1", 1.0), ("I1", 1e-9), ("damping", 10.0),
+                        ("integrator", "DOP853")):
+        session.set(name, value)
+    session.set_start(np.array([1.0]), np.array([1.0]))
+    assert session.player.wait_idle(300), "the stiff start was never shown"
+    run = session.player.runs[0]
+    assert run.failed is not None and run.failed.startswith("too stiff to play: DOP853 took"), run.failed
+    steps = int(run.failed.split(" took ")[1].split(" steps")[0].replace(",", ""))
+    assert PLAYABLE_STEPS <= steps < 2 * PLAYABLE_STEPS and "Radau" in run.failed, run.failed
+    session.set("integrator", "Radau")
+    session.set_start(np.array([1.0]), np.array([1.0]))
+    assert session.player.wait_idle(300)
+    run = session.player.runs[0]
+    assert run.failed is None and len(run.ring) > 1, run.failed

@@ -82,6 +82,17 @@ def test_singular_mass_matrix_names_the_bar_and_the_fix():
     assert "bar 3" in text and "singular" in text and "I3" in text
 
 
+@pytest.mark.parametrize("d1, I1", [(1.8e-313, 1.17549435082e-38), (0.0, 9.9e-10), (3e-5, 0.0)])
+def test_next_to_no_inertia_about_a_joint_is_refused_with_the_range(d1, I1):
+    """Numerically no inertia: the motion's time scale collapses (a damped single bar of 1.2e-38 kg m^2 took more
+    steps for one sample than a run may take in the app's long control run)."""
+    with pytest.raises(LinkageError) as info:
+        make_chain([1.0], [d1], [1.0], [I1])
+    text = str(info.value)
+    assert "bar 1" in text and ">= 1e-09 kg·m²" in text and "I1" in text
+    make_chain([1.0], [0.0], [1.0], [1e-9])  # the floor itself is allowed
+
+
 def test_link_count_range():
     with pytest.raises(LinkageError, match="links = 13"):
         make_chain([1.0] * 13, [0.5] * 13, [1.0] * 13, [0.1] * 13)
