@@ -7,7 +7,7 @@ from numba import njit
 
 from .abi import LAYOUT_CONSTRAINTS
 from .arrays import copy_row
-from .common import check_arguments, initial_samples, ode_rhs, rms_norm, sample_condition
+from .common import check_arguments, initial_samples, ode_rhs, rms_norm, sample_condition, start_rhs, step_status
 from .constants import (
     MAX_FACTOR,
     MIN_FACTOR,
@@ -189,7 +189,7 @@ def _integrate_explicit_rk(
     if projecting is not None:
         if not project_state(system, t, y, params, theta, omega):
             return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    status, condition = start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -306,6 +306,11 @@ def _integrate_explicit_rk(
                 break
             h_abs *= max(MIN_FACTOR, SAFETY * error_norm**error_exponent)
             step_rejected = True
+        if status != STATUS_OK:
+            break
+        # The constraints' geometric test, once per accepted step (not at its stages): a step that ends at a
+        # singular pose is not taken, the run stops where it was.
+        status, _ = step_status(system, t_new, y_new, params, theta, omega)
         if status != STATUS_OK:
             break
 

@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from .arrays import copy_row
-from .common import check_arguments, initial_samples, ode_rhs, sample_condition
+from .common import check_arguments, initial_samples, ode_rhs, sample_condition, start_rhs, step_status
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL
 from .projection import project_state
 from .system import has_constraints, make_system
@@ -108,7 +108,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
     n_rhs = 0
     if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
+    status, condition = start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -202,6 +202,11 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                 absh = max(hmin, REPEATED_FAILURE_SHRINK * absh)
             h = absh
             done = False
+        if status != STATUS_OK:
+            break
+        # The constraints' geometric test, once per accepted step (not at its stages): a step that ends at a
+        # singular pose is not taken, the run stops where it was.
+        status, _ = step_status(system, t_new, y_new, params, theta, omega)
         if status != STATUS_OK:
             break
         n_steps += 1

@@ -139,14 +139,15 @@ def constraint_ratio(system, theta, omega, params):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def solve_system(system, theta, omega, params, alpha, beta):
-    """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
+def solve_unknowns(system, theta, omega, params, alpha, beta):
+    """All unknowns into the system's ``x`` at one state; returns the solve's own condition estimate (inf when
+    singular), without the constraints' geometric test (:func:`constraint_ratio`).
 
     The fast path is the mechanism's generated structured elimination for a sparse matrix (the DAE), L D L^T
     for a symmetric positive definite one (Lagrange's mass matrix), a pivoted LU otherwise; only when its pivot
     ratio looks singular is the system rebuilt and solved again equilibrated, so that a mere difference of scale
-    (a very light tip, a stiff mass ratio) is not mistaken for a singular position. A closed loop's geometric
-    singularity (a four-bar's links lined up, a dead centre) is judged on the constraints' Jacobian.
+    (a very light tip, a stiff mass ratio) is not mistaken for a singular position. This is what an integrator's
+    stage needs: the geometric test costs about as much again and is judged once per step instead.
     """
     layout, A, b, x, col_scale = system[1], system[2], system[3], system[4], system[5]
     assemble_into(system, theta, omega, params, alpha, beta)
@@ -159,19 +160,43 @@ def solve_system(system, theta, omega, params, alpha, beta):
     if not ratio <= RESCALE_ABOVE:
         assemble_into(system, theta, omega, params, alpha, beta)
         ratio = lu_solve_equilibrated(A, b, x, col_scale)
-    if layout[LAYOUT_CONSTRAINTS] != 0:
+    return ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_system(system, theta, omega, params, alpha, beta):
+    """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular):
+    the solve's (:func:`solve_unknowns`), or a closed loop's geometric singularity (a four-bar's links lined
+    up, a dead centre) judged on the constraints' Jacobian when that is worse."""
+    ratio = solve_unknowns(system, theta, omega, params, alpha, beta)
+    if system[1][LAYOUT_CONSTRAINTS] != 0:
         ratio = max(ratio, constraint_ratio(system, theta, omega, params))
     return ratio
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
-    """Angular accelerations (n,) at one state; returns the condition estimate."""
-    ratio = solve_system(system, theta, omega, params, alpha, beta)
+def copy_accelerations(system, theta_ddot):
+    """The accelerations (n,) out of the solved unknowns ``x``."""
     layout = system[1]
     x = system[4]
     for i in range(theta_ddot.shape[0]):
         theta_ddot[i] = x[layout[LAYOUT_ACCELERATION + i]]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
+    """Angular accelerations (n,) at one state; returns the condition estimate (with the geometric test)."""
+    ratio = solve_system(system, theta, omega, params, alpha, beta)
+    copy_accelerations(system, theta_ddot)
+    return ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def stage_accel(system, theta, omega, params, alpha, beta, theta_ddot):
+    """Angular accelerations (n,) at an integrator's stage; returns the solve's condition estimate only (the
+    integrators test the constraints' geometry once per step, :func:`physics.kernels.common.step_status`)."""
+    ratio = solve_unknowns(system, theta, omega, params, alpha, beta)
+    copy_accelerations(system, theta_ddot)
     return ratio
 
 
