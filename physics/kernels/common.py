@@ -10,10 +10,37 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS
+from .abi import LAYOUT_ACCELERATION, LAYOUT_COORDINATES, LAYOUT_PARAMETERS, LAYOUT_TIME
 from .arrays import copy_row
 from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from .system import constraint_ratio, has_constraints, set_time, solve_accel, stage_accel
+from .system import constraint_ratio, has_constraints, set_time, solve_accel, unknowns_into
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def rhs_into(assemble, layout, A, b, x, col_scale, J, v, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """:func:`ode_rhs` with the system's arrays one by one (the first eight entries of the system tuple, in
+    order): what an integrator's inner loop calls, since handing the tuple down costs more than the solve
+    (:func:`physics.kernels.system.unknowns_into`)."""
+    slot = layout[LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
+    condition = unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)
+    finite = condition == condition
+    for i in range(n):
+        theta_ddot[i] = x[layout[LAYOUT_ACCELERATION + i]]
+        dydt[i] = omega[i]
+        dydt[n + i] = theta_ddot[i]
+        if not np.isfinite(theta_ddot[i]):
+            finite = False
+    if condition > SINGULAR_PIVOT_RATIO:
+        return STATUS_SINGULAR, condition
+    if not finite:
+        return STATUS_NOT_FINITE, condition
+    return STATUS_OK, condition
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -24,23 +51,8 @@ def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
     ``theta, omega, theta_ddot`` are scratch arrays of shape ``(n,)``: accel always sees contiguous 1-D arrays.
     ``params`` is the integrator's own copy: ``t`` is written into its time slot (speed motors).
     """
-    set_time(system, params, t)
-    n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
-    condition = stage_accel(system, theta, omega, params, alpha, beta, theta_ddot)
-    finite = condition == condition
-    for i in range(n):
-        dydt[i] = omega[i]
-        dydt[n + i] = theta_ddot[i]
-        if not np.isfinite(theta_ddot[i]):
-            finite = False
-    if condition > SINGULAR_PIVOT_RATIO:
-        return STATUS_SINGULAR, condition
-    if not finite:
-        return STATUS_NOT_FINITE, condition
-    return STATUS_OK, condition
+    return rhs_into(system[0], system[1], system[2], system[3], system[4], system[5], system[6], system[7], t, y,
+                    params, alpha, beta, theta, omega, theta_ddot, dydt)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
