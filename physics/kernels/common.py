@@ -1,31 +1,37 @@
-"""Small helpers of every integrator: the ODE right-hand side through the mechanism's system, norms, checks."""
+"""Small helpers of every integrator: the ODE right-hand side through the mechanism's system, norms, checks.
+
+A closed loop's geometric singularity (the constraints' Jacobian losing rank: a dead centre, a change point) is
+judged once per accepted step (:func:`step_status`) and at the start (:func:`start_rhs`), not at every stage
+(:func:`ode_rhs`): building ``J J^T`` and factoring it costs about as much as the stage's whole solve, and the
+stages of a step lie between its two ends. A stage's own solve still reports a singular or non-finite system."""
 
 import math
 
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS
+from .abi import LAYOUT_ACCELERATION, LAYOUT_COORDINATES, LAYOUT_PARAMETERS, LAYOUT_TIME
 from .arrays import copy_row
 from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from .system import set_time, solve_accel
+from .system import constraint_ratio, has_constraints, set_time, solve_accel, unknowns_into
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
-    """Fill ``dydt = [omega, theta_ddot]`` at time ``t`` and state ``y``; return ``(status, condition)``.
-
-    ``theta, omega, theta_ddot`` are scratch arrays of shape ``(n,)``: accel always sees contiguous 1-D arrays.
-    ``params`` is the integrator's own copy: ``t`` is written into its time slot (speed motors).
-    """
-    set_time(system, params, t)
+def rhs_into(assemble, layout, A, b, x, col_scale, J, v, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """:func:`ode_rhs` with the system's arrays one by one (the first eight entries of the system tuple, in
+    order): what an integrator's inner loop calls, since handing the tuple down costs more than the solve
+    (:func:`physics.kernels.system.unknowns_into`)."""
+    slot = layout[LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
     n = theta.shape[0]
     for i in range(n):
         theta[i] = y[i]
         omega[i] = y[n + i]
-    condition = solve_accel(system, theta, omega, params, alpha, beta, theta_ddot)
+    condition = unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)
     finite = condition == condition
     for i in range(n):
+        theta_ddot[i] = x[layout[LAYOUT_ACCELERATION + i]]
         dydt[i] = omega[i]
         dydt[n + i] = theta_ddot[i]
         if not np.isfinite(theta_ddot[i]):
@@ -38,8 +44,55 @@ def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
+def ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """Fill ``dydt = [omega, theta_ddot]`` at time ``t`` and state ``y``; return ``(status, condition)``, the
+    condition being the solve's own (the geometric test is :func:`step_status`'s).
+
+    ``theta, omega, theta_ddot`` are scratch arrays of shape ``(n,)``: accel always sees contiguous 1-D arrays.
+    ``params`` is the integrator's own copy: ``t`` is written into its time slot (speed motors).
+    """
+    return rhs_into(system[0], system[1], system[2], system[3], system[4], system[5], system[6], system[7], t, y,
+                    params, alpha, beta, theta, omega, theta_ddot, dydt)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def step_status(system, t, y, params, theta, omega):
+    """The constraints' geometric test at the state ``y`` an integrator is about to accept: ``(STATUS_SINGULAR,
+    ratio)`` when their Jacobian's condition estimate (:func:`physics.kernels.system.constraint_ratio`) is above
+    SINGULAR_PIVOT_RATIO, else ``(STATUS_OK, ratio)``; ``(STATUS_OK, 1.0)`` without constraints. ``theta`` and
+    ``omega`` are scratch (n,)."""
+    if not has_constraints(system):
+        return STATUS_OK, 1.0
+    set_time(system, params, t)
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
+    ratio = constraint_ratio(system, theta, omega, params)
+    if ratio > SINGULAR_PIVOT_RATIO:
+        return STATUS_SINGULAR, ratio
+    return STATUS_OK, ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt):
+    """:func:`ode_rhs` at a run's start, with the geometric test of :func:`step_status`: a run released at a
+    singular pose stops there. Returns ``(status, condition)``, the condition with the geometric test (as
+    :func:`sample_condition`'s, for the samples at the start)."""
+    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt)
+    if status == STATUS_SINGULAR or not all_finite(y):
+        return status, condition
+    geometric, ratio = step_status(system, t, y, params, theta, omega)
+    condition = max(condition, ratio)
+    if geometric != STATUS_OK:  # a singular pose is named as such even where the accelerations overflowed
+        return geometric, condition
+    return status, condition
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
 def sample_condition(system, t, y, params, alpha, beta, theta, omega, theta_ddot):
-    """Condition estimate of accel at time ``t`` and state ``y`` (the value stored in ``cond_out``)."""
+    """Condition estimate of accel at time ``t`` and state ``y`` (the value stored in ``cond_out``), with the
+    constraints' geometric test."""
     set_time(system, params, t)
     n = theta.shape[0]
     for i in range(n):

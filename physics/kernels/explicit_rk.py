@@ -7,7 +7,16 @@ from numba import njit
 
 from .abi import LAYOUT_CONSTRAINTS
 from .arrays import copy_row
-from .common import check_arguments, initial_samples, ode_rhs, rms_norm, sample_condition
+from .common import (
+    check_arguments,
+    initial_samples,
+    ode_rhs,
+    rhs_into,
+    rms_norm,
+    sample_condition,
+    start_rhs,
+    step_status,
+)
 from .constants import (
     MAX_FACTOR,
     MIN_FACTOR,
@@ -42,8 +51,10 @@ from .tables import (
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _rk_stages(system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
-    """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop.
+def _rk_stages(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector, t, y, h, A, C,
+               n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot):
+    """Stages 1 .. n_stages-1 into rows of ``K`` (row 0 holds f(y)); scipy's ``rk_step`` loop. The system's
+    arrays come one by one (:func:`physics.kernels.common.rhs_into`).
 
     Returns ``(status, rhs_evaluations)``.
     """
@@ -54,7 +65,8 @@ def _rk_stages(system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta,
             for r in range(s):
                 dy += K[r, j] * A[s, r]
             y_stage[j] = y[j] + dy * h
-        status, _ = ode_rhs(system, t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
+        status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
+                             t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
         if status != STATUS_OK:
             return status, s
     return STATUS_OK, n_stages - 1
@@ -147,6 +159,9 @@ def _integrate_explicit_rk(
     """
     system = make_system(assemble, layout)
     check_arguments(system[1], y0, t0, t_end, t_eval, params, y_out, cond_out)
+    # The system's arrays one by one for the right-hand sides of the steps (common.rhs_into).
+    matrix, vector, unknowns, col_scale = system[2], system[3], system[4], system[5]
+    jacobian, constraint_vector = system[6], system[7]
     use_dop853 = A.shape[0] == DOP853_N_STAGES_EXTENDED
     params = params.copy()  # the integrator writes t into it
     n = y0.shape[0] // 2
@@ -189,7 +204,7 @@ def _integrate_explicit_rk(
     if projecting is not None:
         if not project_state(system, t, y, params, theta, omega):
             return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    status, condition = start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -251,7 +266,8 @@ def _integrate_explicit_rk(
             for j in range(n_state):
                 K[0, j] = f[j]
             status, evaluations = _rk_stages(
-                system, t, y, h, A, C, n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot
+                assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector, t, y, h, A, C,
+                n_stages, K, y_stage, params, alpha, beta, theta, omega, theta_ddot
             )
             n_rhs += evaluations
             if status != STATUS_OK:
@@ -261,7 +277,8 @@ def _integrate_explicit_rk(
                 for r in range(n_stages):
                     total += K[r, j] * B[r]
                 y_new[j] = y[j] + h * total
-            status, _ = ode_rhs(system, t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
+            status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
+                                 t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -306,6 +323,11 @@ def _integrate_explicit_rk(
                 break
             h_abs *= max(MIN_FACTOR, SAFETY * error_norm**error_exponent)
             step_rejected = True
+        if status != STATUS_OK:
+            break
+        # The constraints' geometric test, once per accepted step (not at its stages): a step that ends at a
+        # singular pose is not taken, the run stops where it was.
+        status, _ = step_status(system, t_new, y_new, params, theta, omega)
         if status != STATUS_OK:
             break
 

@@ -4,7 +4,16 @@ import numpy as np
 from numba import njit
 
 from .arrays import copy_row
-from .common import check_arguments, fixed_steps, hermite_sample, initial_samples, ode_rhs, sample_condition
+from .common import (
+    check_arguments,
+    fixed_steps,
+    hermite_sample,
+    initial_samples,
+    ode_rhs,
+    sample_condition,
+    start_rhs,
+    step_status,
+)
 from .constants import (
     FD_RELATIVE_STEP,
     MIDPOINT_MAX_HALVINGS,
@@ -116,6 +125,8 @@ def _midpoint_step(system, t, t_new, step, y, f, y_next, f_next, y_mid, f_mid, y
         return STATUS_NOT_FINITE, n_rhs, False
     status, _ = ode_rhs(system, t_new, y_next, params, alpha, beta, theta, omega, theta_ddot, f_next)
     n_rhs += 1
+    if status == STATUS_OK:  # the constraints' geometric test, once per step (not at Newton's evaluations)
+        status, _ = step_status(system, t_new, y_next, params, theta, omega)
     return status, n_rhs, True
 
 
@@ -162,7 +173,7 @@ def integrate_midpoint(assemble, layout, y0, t0, t_end, h, t_eval, params, alpha
     n_rhs = 0
     if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
+    status, condition = start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0

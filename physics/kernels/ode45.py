@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from .arrays import copy_row
-from .common import check_arguments, initial_samples, ode_rhs, sample_condition
+from .common import check_arguments, initial_samples, ode_rhs, rhs_into, sample_condition, start_rhs, step_status
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL
 from .projection import project_state
 from .system import has_constraints, make_system
@@ -84,6 +84,9 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
     ``refine >= 1``: ``refine`` outputs per step into ``t_out``/``y_out`` (tspan = [t0, t_end]), row 0 = y0."""
     params = params.copy()  # the integrator writes t into it
     projecting = has_constraints(system) and project
+    # The system's arrays one by one for the right-hand sides of the steps (common.rhs_into).
+    assemble, layout, matrix, vector, unknowns = system[0], system[1], system[2], system[3], system[4]
+    col_scale, jacobian, constraint_vector = system[5], system[6], system[7]
     n = y0.shape[0] // 2
     n_state = y0.shape[0]
     refined = refine >= 1
@@ -108,7 +111,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
     n_rhs = 0
     if projecting and not project_state(system, t, y, params, theta, omega):
         return STATUS_NOT_FINITE, n_steps, n_rhs, t, 0
-    status, condition = ode_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
+    status, condition = start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, K[0])
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -157,8 +160,9 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                     for r in range(s):
                         dy += K[r, j] * RK45_A[s, r]
                     y_stage[j] = y[j] + h * dy
-                status, _ = ode_rhs(system, t + RK45_C[s] * h, y_stage, params, alpha, beta, theta, omega,
-                                    theta_ddot, K[s])
+                status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian,
+                                     constraint_vector, t + RK45_C[s] * h, y_stage, params, alpha, beta, theta, omega,
+                                     theta_ddot, K[s])
                 n_rhs += 1
                 if status != STATUS_OK:
                     break
@@ -173,8 +177,8 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                 for r in range(ODE45_N_STAGES):
                     total += K[r, j] * RK45_B[r]
                 y_new[j] = y[j] + h * total
-            status, _ = ode_rhs(system, t_new, y_new, params, alpha, beta, theta, omega, theta_ddot,
-                                K[ODE45_N_STAGES])
+            status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
+                                 t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[ODE45_N_STAGES])
             n_rhs += 1
             if status != STATUS_OK:
                 break
@@ -202,6 +206,11 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
                 absh = max(hmin, REPEATED_FAILURE_SHRINK * absh)
             h = absh
             done = False
+        if status != STATUS_OK:
+            break
+        # The constraints' geometric test, once per accepted step (not at its stages): a step that ends at a
+        # singular pose is not taken, the run stops where it was.
+        status, _ = step_status(system, t_new, y_new, params, theta, omega)
         if status != STATUS_OK:
             break
         n_steps += 1

@@ -12,11 +12,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_CONSTRAINTS, LAYOUT_WEIGHTS
+from .abi import LAYOUT_CONSTRAINTS, LAYOUT_TIME, LAYOUT_WEIGHTS
 from .common import all_finite
 from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
 from .linear import ldlt_solve
-from .system import constraint_values, make_system, set_time
+from .system import constraints_into, make_system, set_time
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -25,22 +25,34 @@ def _weight(params, offset, i):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def _correct(system, params, offset, gap, coordinates):
+def _correct(layout, J, G, g, lam, params, offset, gap, coordinates):
     """``coordinates -= W J^T (J W J^T)^-1 gap`` with the weights at ``offset`` of params (unit when < 0);
-    left unchanged (returns False) where ``J W J^T`` is singular to working precision."""
-    J = system[6]
-    G = system[8]
-    g = system[9]
-    lam = system[10]
-    r = system[1][LAYOUT_CONSTRAINTS]
+    left unchanged (returns False) where ``J W J^T`` is singular to working precision.
+
+    ``J W J^T`` is summed column by column over each column's non-zeros (a constraint touches at most two
+    bodies), in the same order as the dense sum: the same numbers for a fraction of the work. ``lam`` holds a
+    column's non-zero rows meanwhile (it is the solve's output afterwards)."""
+    r = layout[LAYOUT_CONSTRAINTS]
     n = J.shape[1]
     for i in range(r):
-        for j in range(i, r):
-            total = 0.0
-            for c in range(n):
-                total += J[i, c] * _weight(params, offset, c) * J[j, c]
-            G[i, j] = total
-            G[j, i] = total
+        for j in range(r):
+            G[i, j] = 0.0
+    for c in range(n):
+        count = 0
+        for i in range(r):
+            if J[i, c] != 0.0:
+                lam[count] = i
+                count += 1
+        weight = _weight(params, offset, c)
+        for a in range(count):
+            row_a = int(lam[a])
+            value = J[row_a, c] * weight
+            for b in range(a, count):
+                row_b = int(lam[b])
+                G[row_a, row_b] += value * J[row_b, c]
+    for i in range(r):
+        for j in range(i + 1, r):
+            G[j, i] = G[i, j]
     if r == 2:
         a = G[0, 0]
         b = G[0, 1]
@@ -64,6 +76,43 @@ def _correct(system, params, offset, gap, coordinates):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
+def position_onto(layout, J, v, G, g, lam, theta, omega, params):
+    """:func:`project_position` with the system's arrays one by one (handing the system tuple down costs more
+    than the work here, see :func:`physics.kernels.system.unknowns_into`). On return ``J`` and ``v`` hold the
+    constraints at the final ``theta`` (every exit follows an evaluation that left ``theta`` as it is)."""
+    r = layout[LAYOUT_CONSTRAINTS]
+    offset = layout[LAYOUT_WEIGHTS]
+    residual = 0.0
+    for iteration in range(PROJECTION_MAX_ITERATIONS + 1):
+        constraints_into(layout, J, v, theta, omega, params)
+        total = 0.0
+        for i in range(r):
+            total += v[i] * v[i]
+        residual = math.sqrt(total)
+        if residual < PROJECTION_TOLERANCE or iteration == PROJECTION_MAX_ITERATIONS:
+            break
+        if not _correct(layout, J, G, g, lam, params, offset, v[:r], theta):
+            break
+    return residual
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def velocity_onto(layout, J, v, G, g, lam, theta, omega, params, evaluated):
+    """:func:`project_velocity` with the system's arrays one by one; ``evaluated``: ``J`` and ``v`` already
+    hold the constraints at ``theta`` and ``omega`` (right after :func:`position_onto`), not evaluated again."""
+    r = layout[LAYOUT_CONSTRAINTS]
+    offset = layout[LAYOUT_WEIGHTS]
+    if not evaluated:
+        constraints_into(layout, J, v, theta, omega, params)
+    total = 0.0
+    for i in range(r):
+        total += v[r + i] * v[r + i]
+    velocity_offset = offset if offset < 0 else offset + theta.shape[0]
+    _correct(layout, J, G, g, lam, params, velocity_offset, v[r : 2 * r], omega)
+    return math.sqrt(total)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
 def project_position(system, theta, omega, params):
     """Move ``theta`` (n,) in place onto ``phi(theta, t) = 0`` by the least change (Gauss-Newton).
 
@@ -72,21 +121,7 @@ def project_position(system, theta, omega, params):
     condition above SINGULAR_CONDITION_NUMBER) the correction would be noise, so ``theta`` is left as it is.
     Returns the final ``|phi|``.
     """
-    r = system[1][LAYOUT_CONSTRAINTS]
-    offset = system[1][LAYOUT_WEIGHTS]
-    v = system[7]
-    residual = 0.0
-    for iteration in range(PROJECTION_MAX_ITERATIONS + 1):
-        constraint_values(system, theta, omega, params)
-        total = 0.0
-        for i in range(r):
-            total += v[i] * v[i]
-        residual = math.sqrt(total)
-        if residual < PROJECTION_TOLERANCE or iteration == PROJECTION_MAX_ITERATIONS:
-            break
-        if not _correct(system, params, offset, v[:r], theta):
-            break
-    return residual
+    return position_onto(system[1], system[6], system[7], system[8], system[9], system[10], theta, omega, params)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -97,31 +132,27 @@ def project_velocity(system, theta, omega, params):
     Returns ``|phi_dot|`` before the projection. Left unchanged near a singular configuration, as in
     project_position.
     """
-    r = system[1][LAYOUT_CONSTRAINTS]
-    offset = system[1][LAYOUT_WEIGHTS]
-    constraint_values(system, theta, omega, params)
-    v = system[7]
-    total = 0.0
-    for i in range(r):
-        total += v[r + i] * v[r + i]
-    velocity_offset = offset if offset < 0 else offset + theta.shape[0]
-    _correct(system, params, velocity_offset, v[r : 2 * r], omega)
-    return math.sqrt(total)
+    return velocity_onto(system[1], system[6], system[7], system[8], system[9], system[10], theta, omega, params,
+                         False)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def project_state(system, t, y, params, theta, omega):
     """Project ``y = [theta, omega]`` at time ``t`` in place (positions, then velocities); False if the result
     is not finite. Nothing to do for a system without constraints."""
-    if system[1][LAYOUT_CONSTRAINTS] == 0:
+    layout = system[1]
+    if layout[LAYOUT_CONSTRAINTS] == 0:
         return all_finite(y)
-    set_time(system, params, t)
+    slot = layout[LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
     n = theta.shape[0]
     for i in range(n):
         theta[i] = y[i]
         omega[i] = y[n + i]
-    project_position(system, theta, omega, params)
-    project_velocity(system, theta, omega, params)
+    J, v, G, g, lam = system[6], system[7], system[8], system[9], system[10]
+    position_onto(layout, J, v, G, g, lam, theta, omega, params)
+    velocity_onto(layout, J, v, G, g, lam, theta, omega, params, True)
     for i in range(n):
         y[i] = theta[i]
         y[n + i] = omega[i]

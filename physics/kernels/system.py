@@ -57,34 +57,42 @@ def set_time(system, params, t):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def constraint_values(system, theta, omega, params):
-    """The generated ``constraints`` into the system's ``J`` (r, n) and ``v = [phi, phi_dot]`` (2 r)."""
-    layout = system[1]
-    J = system[6]
-    v = system[7]
+def constraints_into(layout, J, v, theta, omega, params):
+    """The generated ``constraints`` into ``J`` (r, n) and ``v = [phi, phi_dot]`` (2 r)."""
     J[:, :] = 0.0
     call_native(layout[LAYOUT_CONSTRAINT_FUNCTION], data_pointer(theta), data_pointer(omega), data_pointer(params),
                 data_pointer(J), data_pointer(v))
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def assemble_into(system, theta, omega, params, alpha, beta):
-    """``A`` and ``b`` of the system at one state, with Baumgarte terms on the constraints' rows:
-    ``b[row_i] -= 2 alpha phi_dot_i + beta^2 phi_i``.
+def constraint_values(system, theta, omega, params):
+    """The generated ``constraints`` into the system's ``J`` (r, n) and ``v = [phi, phi_dot]`` (2 r)."""
+    constraints_into(system[1], system[6], system[7], theta, omega, params)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta):
+    """``A`` and ``b`` at one state, with Baumgarte terms on the constraints' rows:
+    ``b[row_i] -= 2 alpha phi_dot_i + beta^2 phi_i`` (``J``, ``v`` are their scratch).
 
     ``theta``, ``omega``, ``params`` must be C-contiguous (the generated code reads them through pointers)."""
-    assemble, layout, A, b = system[0], system[1], system[2], system[3]
     A[:, :] = 0.0
     call_native(
         assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A), data_pointer(b)
     )
     r = layout[LAYOUT_CONSTRAINTS]
     if r != 0 and (alpha != 0.0 or beta != 0.0):
-        constraint_values(system, theta, omega, params)
-        v = system[7]
+        constraints_into(layout, J, v, theta, omega, params)
         first_row = LAYOUT_ACCELERATION + layout[LAYOUT_COORDINATES]
         for i in range(r):
             b[layout[first_row + i]] -= 2.0 * alpha * v[r + i] + beta * beta * v[i]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def assemble_into(system, theta, omega, params, alpha, beta):
+    """``A`` and ``b`` of the system at one state (:func:`equations_into`)."""
+    equations_into(system[0], system[1], system[2], system[3], system[6], system[7], theta, omega, params, alpha,
+                   beta)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -139,17 +147,21 @@ def constraint_ratio(system, theta, omega, params):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def solve_system(system, theta, omega, params, alpha, beta):
-    """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular).
+def unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta):
+    """All unknowns into ``x`` at one state; returns the solve's own condition estimate (inf when singular),
+    without the constraints' geometric test (:func:`constraint_ratio`).
 
     The fast path is the mechanism's generated structured elimination for a sparse matrix (the DAE), L D L^T
     for a symmetric positive definite one (Lagrange's mass matrix), a pivoted LU otherwise; only when its pivot
     ratio looks singular is the system rebuilt and solved again equilibrated, so that a mere difference of scale
-    (a very light tip, a stiff mass ratio) is not mistaken for a singular position. A closed loop's geometric
-    singularity (a four-bar's links lined up, a dead centre) is judged on the constraints' Jacobian.
+    (a very light tip, a stiff mass ratio) is not mistaken for a singular position. This is what an integrator's
+    stage needs: the geometric test costs about as much again and is judged once per step instead.
+
+    The system's arrays come one by one, not as the system tuple: each call that receives the tuple cost about
+    0.25 us in a micro-benchmark (numba's reference counting of its ten arrays, as far as we can tell), more
+    than the slider-crank's whole solve when the tuple was handed down through each right-hand side's calls.
     """
-    layout, A, b, x, col_scale = system[1], system[2], system[3], system[4], system[5]
-    assemble_into(system, theta, omega, params, alpha, beta)
+    equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
     if layout[LAYOUT_SOLVE] != 0:
         ratio = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(A), data_pointer(b), data_pointer(x))
     elif layout[LAYOUT_SYMMETRIC] != 0:
@@ -157,21 +169,43 @@ def solve_system(system, theta, omega, params, alpha, beta):
     else:
         ratio = lu_solve(A, b, x)
     if not ratio <= RESCALE_ABOVE:
-        assemble_into(system, theta, omega, params, alpha, beta)
+        equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
         ratio = lu_solve_equilibrated(A, b, x, col_scale)
-    if layout[LAYOUT_CONSTRAINTS] != 0:
+    return ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_unknowns(system, theta, omega, params, alpha, beta):
+    """:func:`unknowns_into` for the system tuple."""
+    return unknowns_into(system[0], system[1], system[2], system[3], system[4], system[5], system[6], system[7],
+                         theta, omega, params, alpha, beta)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_system(system, theta, omega, params, alpha, beta):
+    """All unknowns into the system's ``x`` at one state; returns the condition estimate (inf when singular):
+    the solve's (:func:`solve_unknowns`), or a closed loop's geometric singularity (a four-bar's links lined
+    up, a dead centre) judged on the constraints' Jacobian when that is worse."""
+    ratio = solve_unknowns(system, theta, omega, params, alpha, beta)
+    if system[1][LAYOUT_CONSTRAINTS] != 0:
         ratio = max(ratio, constraint_ratio(system, theta, omega, params))
     return ratio
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
-    """Angular accelerations (n,) at one state; returns the condition estimate."""
-    ratio = solve_system(system, theta, omega, params, alpha, beta)
+def copy_accelerations(system, theta_ddot):
+    """The accelerations (n,) out of the solved unknowns ``x``."""
     layout = system[1]
     x = system[4]
     for i in range(theta_ddot.shape[0]):
         theta_ddot[i] = x[layout[LAYOUT_ACCELERATION + i]]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def solve_accel(system, theta, omega, params, alpha, beta, theta_ddot):
+    """Angular accelerations (n,) at one state; returns the condition estimate (with the geometric test)."""
+    ratio = solve_system(system, theta, omega, params, alpha, beta)
+    copy_accelerations(system, theta_ddot)
     return ratio
 
 

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 from .abi import LAYOUT_CONSTRAINTS
-from .common import all_finite, check_arguments, fixed_steps, initial_samples, ode_rhs
+from .common import all_finite, check_arguments, fixed_steps, initial_samples, ode_rhs, start_rhs, step_status
 from .constants import (
     EPSILON,
     FD_RELATIVE_STEP,
@@ -179,7 +179,7 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
         for j in range(n):
             total += M[i, j] * omega[j]
         momentum[i] = total
-    status, condition = ode_rhs(system, t, y, params, 0.0, 0.0, theta, omega, theta_ddot, f)
+    status, condition = start_rhs(system, t, y, params, 0.0, 0.0, theta, omega, theta_ddot, f)
     n_rhs += 1
     if status != STATUS_OK:
         return status, n_steps, n_rhs, t, 0
@@ -290,6 +290,8 @@ def integrate_variational(assemble, mass_and_force, layout, y0, t0, t_end, h, t_
             y_next[n + i] = omega[i]
         status, _ = ode_rhs(system, t_new, y_next, params, 0.0, 0.0, theta, omega, theta_ddot, f_next)
         n_rhs += 1
+        if status == STATUS_OK:  # the constraints' geometric test, once per step
+            status, _ = step_status(system, t_new, y_next, params, theta, omega)
         if status != STATUS_OK:
             break
         n_steps += 1
