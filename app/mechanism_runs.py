@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from physics import LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
@@ -22,6 +22,7 @@ from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
 from physics.mechanism.run import MechanismRun, run_table
 from physics.mechanism.validation import check_runnable
+from physics.registry import INTEGRATOR_NAMES, INTEGRATORS, REDUCED_INTEGRATOR, integrators_for
 
 from .buffers import TrajectoryRing
 from .player import SAMPLE_DT
@@ -43,8 +44,17 @@ class MechanismSettings(BaseModel):
     stabilization: Literal["none", "baumgarte", "projection"] = "projection"
     trace: str | None = None  # "body.point" whose path is drawn
     rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
+    integrator: str = "DOP853"  # any of physics.registry.INTEGRATORS that can run the method (allowed_integrators)
+    step: float = Field(1e-3, gt=0.0, le=1.0)  # s: the fixed step of midpoint and variational
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
+
+    @field_validator("integrator")
+    @classmethod
+    def _known_integrator(cls, value: str) -> str:
+        if value not in INTEGRATOR_NAMES:
+            raise ValueError(f"integrator = {value!r}: allowed values {', '.join(INTEGRATOR_NAMES)}")
+        return value
 
 
 @dataclass(frozen=True)
@@ -285,13 +295,15 @@ class MechanismSpec:
         a start that cannot move raises LinkageError; the player turns either into the run's end."""
         if self.runner is not None:
             run: MechanismRun = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
-                                            t_start, settings.method, settings.stabilization, settings.rtol)
+                                            t_start, settings.method, settings.stabilization, settings.rtol,
+                                            settings.integrator, settings.step)
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
 
             run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
                                      t_start=t_start, method=settings.method, stabilization=settings.stabilization,
-                                     rtol=settings.rtol, atol=settings.rtol)
+                                     rtol=settings.rtol, atol=settings.rtol, integrator=settings.integrator,
+                                     step=settings.step)
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.evaluations + SAMPLE_WORK * self.n * settings.samples
@@ -332,3 +344,27 @@ def check_method(method: str, mobility: int) -> None:
         raise LinkageError(f"method = reduced: needs 1 degree of freedom left free by the motors (this one has "
                            f"{mobility} free); "
                            "choose dae, lagrange or newton_euler")
+
+
+def allowed_integrators(method: str) -> tuple[str, ...]:
+    """The integrators of the registry that can run ``method`` on a mechanism: every one for a formulation
+    except the variational integrator, which needs a Lagrangian (method lagrange); the reduced model integrates
+    with its own DOP853 only (physics/mechanism/simulate.py)."""
+    if method == "reduced":
+        return (REDUCED_INTEGRATOR,)
+    return integrators_for(method)
+
+
+def check_integrator(method: str, integrator: str) -> None:
+    """``integrator`` can run ``method``, or one line naming why not and what is allowed."""
+    allowed = allowed_integrators(method)
+    if integrator in allowed:
+        return
+    if method == "reduced":
+        reason = f"method reduced integrates with {REDUCED_INTEGRATOR} only (its own switching right-hand side)"
+    elif INTEGRATORS[integrator].needs_lagrangian:
+        reason = "it discretises the Lagrangian T - V, so it needs method = lagrange"
+    else:
+        reason = f"it cannot run method {method}"
+    raise LinkageError(f"integrator = {integrator}: does not apply to method {method} ({reason}); allowed "
+                       f"{', '.join(allowed)}")
