@@ -93,23 +93,26 @@ MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's 
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
 
-**Mechanism:** a chain preset brings the chain panel back; a mechanism preset or your file (below) starts
-here. The line under it gives the bodies, joints, mobility and motors.
+**Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the start in force, t = 0); the keys Space, S and
+R press them. **Timeline:** drag back through the run so far (it pauses there).
 
-**Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the assembled sketch at rest, t = 0); the keys
-Space, S and R press them. **Timeline:** drag back through the run so far (it pauses there).
+**Mechanism tab:** a chain preset brings the chain panel back; a mechanism preset or your file starts here. The
+line under it gives the bodies, joints, mobility and motors. **Bodies and motors:** size (m: the body is scaled
+about its first point and the mechanism re-assembled; the run starts again), m (kg), I (kg·m²), a motor's speed
+(°/s) or torque (N·m), a gear pair's ratio and offset (°), g (m/s²). **Start (t = 0):** for a mechanism its
+motors leave free, the angle (or position) and speed of each free coordinate; the rest of the mechanism is
+assembled around them. A value that cannot be used is refused with a notice naming the body or joint, the
+field and the range.
 
-**Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
-cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
-stay closed. Both go on from the displayed state.
+**Simulation tab:** the method (DAE: maximal coordinates, every reaction in one solve; Lagrange and
+Newton-Euler: spanning tree, cut joints closed by multipliers; Reduced: one joint coordinate, mobility 1), the
+integrator (variational: Lagrange only; the reduced model: DOP853), its tolerance or fixed step, and how the
+loops stay closed. They go on from the displayed state. **Compare formulations:** Newton-Euler (blue),
+Lagrange (orange) and the DAE (green) from the same start; under the panel, how far their traced points part,
+and each one's error against a converged run.
 
-**Compare formulations:** Newton-Euler (blue), Lagrange (orange) and the DAE (green) from the same start;
-under the panel, how far their traced points part, and each one's error against a converged run.
-**Free-body diagram:** every load on the chosen body at the time shown, with its value; couples are listed.
-
-**Bodies and motors:** size (m: the body is scaled about its first point and the mechanism re-assembled; the
-run starts again), m (kg), I (kg·m²), a motor's speed (°/s) or torque (N·m), g (m/s²). A value that cannot be
-used is refused with a notice naming the body, the field and the range.
+**Display tab:** the traced point, reaction arrows, and the free-body diagram of the chosen body at the time
+shown (couples are listed).
 
 **Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
 A x = b the chosen method integrates, for this mechanism.
@@ -118,7 +121,6 @@ A x = b the chosen method integrates, for this mechanism.
 (inverse dynamics). The status line shows the energy error of an undriven mechanism, the largest constraint
 residual, and warns near a singular pose (a change point or a dead centre).
 """
-
 
 def _choice(field: str, value: object, allowed: list[str]) -> None:
     """A menu's value: one of ``allowed`` (a client may send anything: a list, None, markup)."""
@@ -293,7 +295,8 @@ class MechanismSession(SessionBase):
         """A generated control's slider and the box its value is typed in, in the current container."""
         gui = self.target.gui
         low, high = knob.slider_range
-        handle = gui.add_slider(knob.label if not knob.log else f"{knob.label}: log10", min=low, max=high,
+        # a log slider is labelled as the chain's (Tolerance log10(rtol)); its box takes the value itself
+        handle = gui.add_slider(knob.label if not knob.log else f"log10({knob.name})", min=low, max=high,
                                 step=knob.step, initial_value=knob.slider_value(), hint=knob.hint)
         handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
         self._knob_handles[knob.name] = handle
@@ -494,9 +497,9 @@ class MechanismSession(SessionBase):
                     q0 = pose_with(self.mechanism, self.q0, self.free, values)
                 except LinkageError as error:
                     knob = next(k for k in self._start_knobs() if k.name == name)
-                    raise LinkageError(f"{knob.label} = {value if isinstance(value, str) else f'{value:g}'}: the "
-                                       f"mechanism cannot be assembled there ({error}); kept "
-                                       f"{shown_value(knob.value)}") from None
+                    typed = value.strip() if isinstance(value, str) else shown_value(math.degrees(number)
+                                                                                      if knob.unit == "°" else number)
+                    raise LinkageError(f"{knob.label} = {typed}: {error}; kept {shown_value(knob.value)}") from None
             else:
                 rates[position] = number
                 q0 = self.q0
