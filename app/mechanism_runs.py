@@ -15,14 +15,13 @@ from typing import Callable, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from physics import LinkageError
+from physics import INTEGRATOR_NAMES, INTEGRATORS, METHODS, LinkageError
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
 from physics.mechanism.run import MechanismRun, run_table
 from physics.mechanism.validation import check_runnable
-from physics.registry import INTEGRATOR_NAMES, INTEGRATORS, REDUCED_INTEGRATOR, integrators_for
 
 from .buffers import TrajectoryRing
 from .player import SAMPLE_DT
@@ -346,13 +345,19 @@ def check_method(method: str, mobility: int) -> None:
                            "choose dae, lagrange or newton_euler")
 
 
+# The reduced model's one integrator (physics.registry.REDUCED_INTEGRATOR, not public: the app reads physics'
+# public names only; tests/app/test_mechanism_knobs.py checks the two agree)
+REDUCED_INTEGRATOR = "DOP853"
+
+
 def allowed_integrators(method: str) -> tuple[str, ...]:
     """The integrators of the registry that can run ``method`` on a mechanism: every one for a formulation
-    except the variational integrator, which needs a Lagrangian (method lagrange); the reduced model integrates
-    with its own DOP853 only (physics/mechanism/simulate.py)."""
+    except those that need a Lagrangian (the variational integrator: method lagrange); the reduced model
+    integrates with its own DOP853 only (physics/mechanism/simulate.py)."""
     if method == "reduced":
         return (REDUCED_INTEGRATOR,)
-    return integrators_for(method)
+    return tuple(name for name, spec in INTEGRATORS.items()
+                 if not (spec.needs_lagrangian and not METHODS[method].has_lagrangian))
 
 
 def check_integrator(method: str, integrator: str) -> None:

@@ -21,7 +21,7 @@ from conftest import lab_of, wait_until
 from physics import INTEGRATOR_NAMES, LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Constraints, Mechanism
 from physics.mechanism.files import load_mechanism
-from physics.registry import REDUCED_INTEGRATOR
+from physics.registry import REDUCED_INTEGRATOR, integrators_for
 
 ROOT = Path(__file__).resolve().parents[2]
 DOUBLE = ROOT / "docs" / "examples" / "double-pendulum.toml"
@@ -61,6 +61,8 @@ def test_every_integrator_of_the_registry_is_offered_where_it_applies():
     assert set(allowed_integrators("newton_euler")) == set(INTEGRATOR_NAMES) - {"variational"}
     assert set(allowed_integrators("lagrange")) == set(INTEGRATOR_NAMES)
     assert allowed_integrators("reduced") == (REDUCED_INTEGRATOR,)
+    for method in ("dae", "lagrange", "newton_euler", "reduced"):  # the registry's own answer
+        assert allowed_integrators(method) == integrators_for(method), method
     with pytest.raises(LinkageError) as refused:
         check_integrator("dae", "variational")
     message = str(refused.value)
