@@ -124,6 +124,7 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
 
 TOLERANCE_RANGE = (1e-14, 1e-2)  # rtol = atol: physics.mechanism.simulate.ALLOWED
 STEP_RANGE_MS = (0.01, 100.0)  # the fixed step of midpoint and variational, in ms
+BAUMGARTE_RANGE = (0.0, 50.0)  # 1/s: the chain panel's sliders
 
 
 def settings_knobs(settings: MechanismSettings) -> list[Knob]:
@@ -135,18 +136,24 @@ def settings_knobs(settings: MechanismSettings) -> list[Knob]:
              False, log=True),
         Knob("step", "fixed step (ms)", *STEP_RANGE_MS, 0.01, settings.step * 1e3,
              "The step of the fixed-step integrators (midpoint, variational)", False),
+        Knob("baumgarte_alpha", "Baumgarte alpha (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_alpha,
+             "Damping gain of the Baumgarte terms (stabilisation baumgarte)", False),
+        Knob("baumgarte_beta", "Baumgarte beta (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_beta,
+             "Stiffness gain of the Baumgarte terms (stabilisation baumgarte)", False),
     ]
 
 
 def apply_setting(settings: MechanismSettings, name: str, value: object) -> MechanismSettings:
-    """``settings`` with ``rtol`` or ``step`` (ms) set to ``value``; LinkageError naming the range otherwise."""
+    """``settings`` with ``rtol``, ``step`` (ms), ``baumgarte_alpha`` or ``baumgarte_beta`` set to ``value``;
+    LinkageError naming the range otherwise."""
     knob = next((k for k in settings_knobs(settings) if k.name == name), None)
     if knob is None:
-        raise LinkageError(f"{name!r}: not a setting of the run (settings: rtol, step)")
+        raise LinkageError(f"{name!r}: not a setting of the run (settings: "
+                           f"{', '.join(k.name for k in settings_knobs(settings))})")
     number = _number(knob.label, value)
     if not knob.low <= number <= knob.high:
         raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
-    return settings.model_copy(update={"rtol": number} if name == "rtol" else {"step": number / 1e3})
+    return settings.model_copy(update={name: number / 1e3 if name == "step" else number})
 
 
 START_NAMES = {"angle": ("angle0", "start angle (°)", "omega0", "start angular speed (°/s)"),

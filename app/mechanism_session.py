@@ -80,6 +80,7 @@ METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning t
            "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
 STABILIZATIONS = ("projection", "baumgarte", "none")
 START_KINDS = {name for names in START_NAMES.values() for name in (names[0], names[2])}
+SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
 TRACE_SECONDS = 4.0
 PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
@@ -429,7 +430,9 @@ class MechanismSession(SessionBase):
                 if handle.value != value:
                     handle.value = value
             fixed = self.settings.integrator in FIXED_STEP_INTEGRATORS
-            for name, visible in (("rtol", not fixed), ("step", fixed)):
+            baumgarte = self.settings.stabilization == "baumgarte" and self.settings.method != "reduced"
+            for name, visible in (("rtol", not fixed), ("step", fixed), ("baumgarte_alpha", baumgarte),
+                                  ("baumgarte_beta", baumgarte)):
                 for control in (self._knob_handles.get(name), self._typed_boxes.get(name)):
                     if control is not None and control.visible != visible:
                         control.visible = visible
@@ -465,7 +468,7 @@ class MechanismSession(SessionBase):
         motors, gravity and the run's settings go on from the displayed state (the constraints do not depend
         on them)."""
         with self._lock:
-            if name in ("rtol", "step"):
+            if name in SETTING_KNOBS:
                 self._set_settings(apply_setting(self.settings, name, value))
             elif name.partition(":")[0] in START_KINDS:
                 self.set_start_value(name, value)
@@ -553,6 +556,7 @@ class MechanismSession(SessionBase):
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
             self.settings = self.settings.model_copy(update={"stabilization": stabilization})
+            self.sync_all()  # the Baumgarte gains show with baumgarte
             self._continue()
 
     def set_trace(self, label: str) -> None:

@@ -72,6 +72,20 @@ def test_every_integrator_of_the_registry_is_offered_where_it_applies():
         check_integrator("reduced", "RK45")
 
 
+def test_the_baumgarte_gains_reach_the_run():
+    """Baumgarte terms with larger gains hold the loop closer over the same run (the gains are not ignored)."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    q0, qdot0, _ = start_state(mechanism)
+    spec = MechanismSpec("main", mechanism, MechanismSettings())
+    residuals = []
+    for gains in ((0.0, 0.0), (20.0, 100.0)):
+        settings = MechanismSettings(stabilization="baumgarte", rtol=1e-6, baumgarte_alpha=gains[0],
+                                     baumgarte_beta=gains[1], t_end=2.0, samples=21)
+        run = spec.simulate(mechanism, q0, qdot0 + 0.0, settings).run
+        residuals.append(float(np.max(np.abs(run.residual))))
+    assert residuals[1] < residuals[0], residuals
+
+
 @pytest.mark.parametrize("integrator", ["RK45", "midpoint", "Radau"])
 def test_a_run_integrates_with_the_chosen_integrator(integrator):
     mechanism = load_mechanism(DOUBLE)
@@ -84,7 +98,9 @@ def test_a_run_integrates_with_the_chosen_integrator(integrator):
 
 
 def test_the_run_settings_are_knobs_with_ranges():
-    rtol, step = settings_knobs(MechanismSettings())
+    rtol, step, alpha, beta = settings_knobs(MechanismSettings())
+    assert (alpha.name, beta.name) == ("baumgarte_alpha", "baumgarte_beta")
+    assert apply_setting(MechanismSettings(), "baumgarte_beta", 12.5).baumgarte_beta == 12.5
     assert (rtol.name, rtol.log, rtol.value) == ("rtol", True, 1e-10)
     assert rtol.slider_value() == pytest.approx(-10.0) and rtol.from_slider(-8.0) == pytest.approx(1e-8)
     assert step.name == "step" and step.value == pytest.approx(1.0)  # ms
@@ -118,11 +134,16 @@ def test_the_integrator_menu_applies_or_refuses_naming_what_is_allowed(slider_la
     session.play()
     assert wait_until(lambda: session.player.display_time > start + 0.3, timeout=60)
     assert session.player.runs[0].failed is None and "variational" in session.status.content
+    session.set_stabilization("baumgarte")
+    assert session._knob_handles["baumgarte_alpha"].visible
+    session.set_typed("baumgarte_alpha", "20")
+    assert session.spec.settings.baumgarte_alpha == 20.0
     session.set_integrator("RK45")
     session.set_typed("rtol", "1e-8")
     assert (session.settings.integrator, session.settings.rtol) == ("RK45", 1e-8)
     query = urllib.parse.parse_qs(session.link_query()[1:])
     assert query["integrator"] == ["RK45"] and query["rtol"] == ["1e-08"] and query["method"] == ["lagrange"]
+    assert query["stabilization"] == ["baumgarte"] and query["baumgarte_alpha"] == ["20"]
 
 
 # ---------------------------------------------------------------------------------------------- the start
