@@ -540,11 +540,9 @@ class MechanismSession(SessionBase):
                 update["stabilization"] = "projection"
                 update["integrator"] = allowed_integrators("reduced")[0]
             else:
-                try:
-                    check_integrator(method, self.settings.integrator)
-                except LinkageError as error:
-                    raise LinkageError(f"method = {method}: the integrator in force does not apply ({error}); "
-                                       "choose another integrator first") from None
+                if self.settings.integrator not in allowed_integrators(method):
+                    raise LinkageError(f"method = {method}: the integrator {self.settings.integrator} does not "
+                                       f"apply to it; choose one of {', '.join(allowed_integrators(method))} first")
             self.settings = self.settings.model_copy(update=update)
             self.sync_all()  # the Stabilisation menu shows projection with the reduced model
             self._continue()
