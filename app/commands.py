@@ -149,25 +149,40 @@ def parse_links(value) -> int:
 
 def parse_number(name: str, q: Quantity, value, units: str = SI) -> float:
     """A finite float in SI from a number or a typed text (``1e-3``, `` 2.5 ``, ``−1`` with a minus sign);
-    LinkageError naming the field and what was typed otherwise."""
-    unit = f" in {q.unit}" if q.unit and units == CONTROL else ""
+    LinkageError naming the field and what was typed otherwise (:func:`read_number`)."""
+    number = read_number(name, q.unit if units == CONTROL else "", value)
+    return number / q.scale if units == CONTROL else number
+
+
+def read_number(field: str, unit: str, value: object) -> float:
+    """What was typed (or sent) for ``field``, read as Python reads a number: ``2.5e1`` is 25, ``1e-3``,
+    ``-0``, ``1_000`` and a typographic minus are numbers as written (never the browser's number box, which
+    drops an exponent: 2.51), and ``1,5`` is no number (a decimal comma is refused, not read as 15). The one
+    reader of every panel's typed boxes, chains' and mechanisms' alike, so that they read and refuse the same
+    way; ``unit`` (the control's, or empty) goes into the refusal. LinkageError naming ``field`` otherwise."""
+    example = f"type a number{f' in {unit}' if unit else ''}, e.g. 1.5 or 1e-3"
     if isinstance(value, str):
         text = value.strip().replace("\u2212", "-")
         if not text:
-            raise LinkageError(f"{name}: the box is empty; type a number{unit}, e.g. 1.5 or 1e-3")
+            raise LinkageError(f"{field}: the box is empty; {example}")
         if len(text) > MAX_TEXT:
-            raise LinkageError(f"{name}: {len(text)} characters is not a number; type a number{unit}")
+            raise LinkageError(f"{field}: {len(text)} characters is not a number; {example}")
         try:
             number = float(text)
         except ValueError:
-            raise LinkageError(f"{name} = {value!r}: not a number; type a number{unit}, e.g. 1.5 or 1e-3") from None
+            raise LinkageError(f"{field} = {text!r}: not a number; {example}") from None
+        shown = text
     elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond any float (10**400)
+            number = math.inf
+        shown = shown_value(value)
     else:
-        raise LinkageError(f"{name} = {value!r}: not a number; type a number{unit}")
+        raise LinkageError(f"{field} = {shown_value(value)}: not a number; {example}")
     if not math.isfinite(number):
-        raise LinkageError(f"{name} = {value}: must be a finite number")
-    return number / q.scale if units == CONTROL else number
+        raise LinkageError(f"{field} = {shown}: must be a finite number")
+    return number
 
 
 def range_text(name: str, q: Quantity, params: SessionParameters | None = None, k: int | None = None) -> str:

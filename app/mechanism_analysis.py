@@ -122,7 +122,9 @@ class MechanismAnalysis:
     def _build(self) -> None:
         s = self.session
         gui = s.target.gui
-        self.folder = gui.add_folder("Analysis", expand_by_default=False)
+        tabs = getattr(s, "tabs", None)  # the panel's tabs: Analysis after Help, as in a chain's panel
+        self.folder = tabs.add_tab("Analysis") if tabs is not None else gui.add_folder("Analysis",
+                                                                                      expand_by_default=False)
         with self.folder:
             self.chart_button = gui.add_button("Work-precision chart", hint="Error against wall time for every "
                                                "method of this mechanism (DOP853, projection; a few seconds)")

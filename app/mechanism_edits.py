@@ -1,9 +1,12 @@
 """The panel's values of a general mechanism, generated from its description, and edits through its models.
 
-Every control of a mechanism session is a :class:`Knob`: a name (``mass:crank``, ``size:coupler``,
-``speed:O2``, ``g``), a label with units, a range and the value in force. :func:`apply_edit` returns the edited
+Every number of a mechanism session's panel is a :class:`Knob`: a name (``mass:crank``, ``size:coupler``,
+``speed:O2``, ``ratio:mesh``, ``g``; the run's ``rtol`` and ``step``; a start's ``angle0:crank`` and
+``omega0:crank``), a label with units, a range and the value in force. :func:`apply_edit` returns the edited
 mechanism, validated again by ``physics.mechanism``'s pydantic models and assembled, or raises LinkageError
-naming the body or joint, the field, the value and the allowed range. Plain data; no viser.
+naming the body or joint, the field, the value and the allowed range; :func:`apply_setting` does the same for
+the run's settings and :func:`start_knobs` / :func:`start_value` for the start (app/mechanism_start.py).
+Typed text is read by the chain panel's reader (:func:`app.commands.read_number`). Plain data; no viser.
 """
 
 from __future__ import annotations
@@ -15,8 +18,12 @@ import numpy as np
 from pydantic import ValidationError
 
 from physics import LinkageError
-from physics.mechanism import Body, Driver, Mechanism
+from physics.mechanism import Body, Driver, Gear, Mechanism
+from physics.mechanism.assembly import sketch_size
 from physics.mechanism.validation import MIN_INERTIA, MIN_MASS, check_runnable
+
+from .mechanism_runs import MechanismSettings
+from .mechanism_start import FreeCoordinate
 
 
 @dataclass(frozen=True)
@@ -31,6 +38,29 @@ class Knob:
     value: float
     hint: str
     geometry: bool  # changing it moves points: the run starts again from the re-assembled sketch
+    log: bool = False  # its slider shows log10 of the value (a tolerance); its box the value itself
+
+    @property
+    def unit(self) -> str:
+        """The unit in the label's brackets (``m/s²``), or empty."""
+        return self.label[self.label.rfind("(") + 1: -1] if self.label.endswith(")") else ""
+
+    @property
+    def slider_range(self) -> tuple[float, float]:
+        return (math.log10(self.low), math.log10(self.high)) if self.log else (self.low, self.high)
+
+    def slider_value(self, value: float | None = None) -> float:
+        """Where the slider's thumb stands for ``value`` (default: the value in force), inside its range."""
+        value = self.value if value is None else value
+        shown = math.log10(value) if self.log and value > 0 else value
+        low, high = self.slider_range
+        return min(max(shown, low), high)
+
+    def from_slider(self, position: float) -> float:
+        """The value a slider position means (a log slider's 10**position, kept a float the range refuses)."""
+        if not self.log:
+            return position
+        return 10.0 ** min(max(position, -400.0), 300.0) if position == position else position
 
 
 def body_size(body: Body) -> float:
@@ -78,8 +108,99 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
             top = max(10.0 * abs(torque), 1.0)
             out.append(Knob(f"torque:{driver.joint}", f"motor {driver.joint}: torque (N·m)", -top, top,
                             _step(top / 10), torque, "Constant torque the motor applies", False))
+    for joint, ref_joint in zip(mechanism.joints, reference.joints):
+        if isinstance(joint, Gear):
+            ref_ratio = ref_joint.ratio if isinstance(ref_joint, Gear) else joint.ratio
+            top = max(4.0 * abs(ref_ratio), 4.0)
+            out.append(Knob(f"ratio:{joint.name}", f"gear {joint.name}: ratio", -top, top, 0.01, joint.ratio,
+                            f"Angle of joint {joint.joints[1]} per unit of joint {joint.joints[0]}'s (not 0); the "
+                            "mechanism is re-assembled", True))
+            out.append(Knob(f"offset:{joint.name}", f"gear {joint.name}: offset (°)", -180.0, 180.0, 0.5,
+                            math.degrees(joint.offset), f"Angle of joint {joint.joints[1]} when joint "
+                            f"{joint.joints[0]}'s is zero; the mechanism is re-assembled", True))
     out.append(Knob("g", "g (m/s²)", 0.0, 30.0, 0.01, mechanism.g, "Gravitational acceleration, along -y", False))
     return out
+
+
+TOLERANCE_RANGE = (1e-14, 1e-2)  # rtol = atol: physics.mechanism.simulate.ALLOWED
+STEP_RANGE_MS = (0.01, 100.0)  # the fixed step of midpoint and variational, in ms
+BAUMGARTE_RANGE = (0.0, 50.0)  # 1/s: the chain panel's sliders
+
+
+def settings_knobs(settings: MechanismSettings) -> list[Knob]:
+    """The run's numbers, as the chain's Simulation tab has them: the tolerance (adaptive integrators; its
+    slider in log10) and the fixed step in ms (midpoint, variational)."""
+    return [
+        Knob("rtol", "tolerance rtol = atol", *TOLERANCE_RANGE, 0.5, settings.rtol,
+             "rtol = atol of the adaptive integrators; the slider is log10(rtol), the box rtol itself (e.g. 1e-9)",
+             False, log=True),
+        Knob("step", "fixed step (ms)", *STEP_RANGE_MS, 0.01, settings.step * 1e3,
+             "The step of the fixed-step integrators (midpoint, variational)", False),
+        Knob("baumgarte_alpha", "Baumgarte alpha (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_alpha,
+             "Damping gain of the Baumgarte terms (stabilisation baumgarte)", False),
+        Knob("baumgarte_beta", "Baumgarte beta (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_beta,
+             "Stiffness gain of the Baumgarte terms (stabilisation baumgarte)", False),
+    ]
+
+
+def apply_setting(settings: MechanismSettings, name: str, value: object) -> MechanismSettings:
+    """``settings`` with ``rtol``, ``step`` (ms), ``baumgarte_alpha`` or ``baumgarte_beta`` set to ``value``;
+    LinkageError naming the range otherwise."""
+    knob = next((k for k in settings_knobs(settings) if k.name == name), None)
+    if knob is None:
+        raise LinkageError(f"{name!r}: not a setting of the run (settings: "
+                           f"{', '.join(k.name for k in settings_knobs(settings))})")
+    number = _number(knob.label, value)
+    if not knob.low <= number <= knob.high:
+        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    return settings.model_copy(update={name: number / 1e3 if name == "step" else number})
+
+
+START_NAMES = {"angle": ("angle0", "start angle (°)", "omega0", "start angular speed (°/s)"),
+               "x": ("x0", "start x (m)", "vx0", "start x speed (m/s)"),
+               "y": ("y0", "start y (m)", "vy0", "start y speed (m/s)")}
+START_TURN_SPEED = 720.0  # °/s: the chain's initial angular velocity sliders
+
+
+def start_knobs(mechanism: Mechanism, free: tuple[FreeCoordinate, ...], sketch_q: np.ndarray, q0: np.ndarray,
+                qdot0: np.ndarray) -> list[Knob]:
+    """The start's controls, as the chain's angle and speed sliders: each free coordinate's value (a body's
+    angle from its sketch in degrees, or its centre's x or y in m, around the assembled sketch ``sketch_q``)
+    and its speed, from the start in force ``q0, qdot0``."""
+    size = sketch_size(mechanism)
+    values, speeds = [], []
+    for coordinate in free:
+        name, label, rate_name, rate_label = START_NAMES[coordinate.axis]
+        k = coordinate.index
+        hint = ("The mechanism is re-assembled with this held (the other free coordinates kept); the run starts "
+                "again at t = 0")
+        if coordinate.angular:
+            values.append(Knob(f"{name}:{coordinate.body}", f"{coordinate.body}: {label}", -180.0, 180.0, 0.5,
+                               math.degrees(q0[k]), hint, False))
+            speeds.append(Knob(f"{rate_name}:{coordinate.body}", f"{coordinate.body}: {rate_label}",
+                               -START_TURN_SPEED, START_TURN_SPEED, 5.0, math.degrees(qdot0[k]),
+                               "Its speed at t = 0; the others follow from the joints", False))
+        else:
+            centre = float(sketch_q[k])
+            values.append(Knob(f"{name}:{coordinate.body}", f"{coordinate.body}: {label}",
+                               round(centre - size, 6), round(centre + size, 6), _step(size), q0[k], hint, False))
+            top = round(4 * math.pi * size, 6)
+            speeds.append(Knob(f"{rate_name}:{coordinate.body}", f"{coordinate.body}: {rate_label}", -top, top,
+                               _step(top / 10), qdot0[k], "Its speed at t = 0; the others follow from the joints",
+                               False))
+    return values + speeds
+
+
+def start_value(knobs_now: list[Knob], name: str, value: object) -> float:
+    """A start control's new value in SI (rad, rad/s, m, m/s), checked against its range."""
+    knob = next((k for k in knobs_now if k.name == name), None)
+    if knob is None:
+        raise LinkageError(f"{name!r}: not a start control of this mechanism "
+                           f"(start controls: {', '.join(k.name for k in knobs_now) or 'none: its motors fix it'})")
+    number = _number(knob.label, value)
+    if not knob.low <= number <= knob.high:
+        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    return math.radians(number) if knob.unit.startswith("°") else number
 
 
 def _scaled(body: Body, factor: float) -> Body:
@@ -127,6 +248,11 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
     try:
         if kind == "g":
             data["g"] = number
+        elif kind in ("ratio", "offset"):
+            index = [joint.name for joint in mechanism.joints].index(element)
+            update = math.radians(number) if kind == "offset" else number
+            data["joints"][index] = Gear.model_validate({**mechanism.joints[index].model_dump(),
+                                                         kind: update}).model_dump()
         elif kind in ("mass", "inertia", "size"):
             index = [body.name for body in mechanism.bodies].index(element)
             body = mechanism.bodies[index]
@@ -155,32 +281,6 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
     return edited
 
 
-MAX_TYPED = 60  # characters: longer is no number a person typed
-
-
 def shown_value(value: float) -> str:
     """A value in force as its box shows it (``0.001``, ``25``, ``1e-09``): the chain panel's format."""
     return f"{value:.6g}"
-
-
-def typed_number(knob: Knob, text: object) -> float:
-    """What a person typed into ``knob``'s box, read as Python reads a number (``2.5e1``, ``1e-3``, ``-0``,
-    ``1_000``, a typographic minus), never as the browser's number box does (which drops the exponent: 2.51);
-    LinkageError naming the field otherwise (``1,5`` is no number: a decimal comma is refused, not read as 15).
-    The range is the model's, checked by :func:`apply_edit`."""
-    unit = knob.label[knob.label.rfind("(") + 1: -1] if knob.label.endswith(")") else ""
-    example = f"type a number{' in ' + unit if unit else ''}, e.g. 1.5 or 1e-3"
-    if not isinstance(text, str):
-        raise LinkageError(f"{knob.label} = {text!r}: not a number; {example}")
-    cleaned = text.strip().replace("\u2212", "-")
-    if not cleaned:
-        raise LinkageError(f"{knob.label}: the box is empty; {example}")
-    if len(cleaned) > MAX_TYPED:
-        raise LinkageError(f"{knob.label}: {len(cleaned)} characters is not a number; {example}")
-    try:
-        number = float(cleaned)
-    except ValueError:
-        raise LinkageError(f"{knob.label} = {cleaned!r}: not a number; {example}") from None
-    if not math.isfinite(number):
-        raise LinkageError(f"{knob.label} = {cleaned}: must be a finite number")
-    return number

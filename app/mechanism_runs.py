@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 from typing import Callable, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from physics import LinkageError, Trajectory
+from physics import INTEGRATOR_NAMES, INTEGRATORS, METHODS, LinkageError, Settings, Trajectory
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
@@ -43,8 +43,20 @@ class MechanismSettings(BaseModel):
     stabilization: Literal["none", "baumgarte", "projection"] = "projection"
     trace: str | None = None  # "body.point" whose path is drawn
     rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
+    integrator: str = "DOP853"  # any of physics.registry.INTEGRATORS that can run the method (allowed_integrators)
+    step: float = Field(1e-3, gt=0.0, le=1.0)  # s: the fixed step of midpoint and variational
+    # 1/s: the Baumgarte terms' gains (stabilization = baumgarte), the chain's defaults
+    baumgarte_alpha: float = Field(Settings.model_fields["baumgarte_alpha"].default, ge=0.0, le=1e4)
+    baumgarte_beta: float = Field(Settings.model_fields["baumgarte_beta"].default, ge=0.0, le=1e4)
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
+
+    @field_validator("integrator")
+    @classmethod
+    def _known_integrator(cls, value: str) -> str:
+        if value not in INTEGRATOR_NAMES:
+            raise ValueError(f"integrator = {value!r}: allowed values {', '.join(INTEGRATOR_NAMES)}")
+        return value
 
 
 @dataclass(frozen=True)
@@ -285,13 +297,17 @@ class MechanismSpec:
         a start that cannot move raises LinkageError; the player turns either into the run's end."""
         if self.runner is not None:
             run: Trajectory = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
-                                            t_start, settings.method, settings.stabilization, settings.rtol)
+                                          t_start, settings.method, settings.stabilization, settings.rtol,
+                                          settings.integrator, settings.step,
+                                          (settings.baumgarte_alpha, settings.baumgarte_beta))
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
 
             run = simulate_mechanism(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
-                                     t_start=t_start, method=settings.method, stabilization=settings.stabilization,
-                                     rtol=settings.rtol, atol=settings.rtol)
+                                     t_start=t_start, settings=run_settings(
+                                         settings.t_end, settings.samples, settings.method, settings.stabilization,
+                                         settings.rtol, settings.integrator, settings.step,
+                                         (settings.baumgarte_alpha, settings.baumgarte_beta)))
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.n_rhs + SAMPLE_WORK * self.n * settings.samples
@@ -334,3 +350,52 @@ def check_method(method: str, mobility: int) -> None:
         raise LinkageError(f"method = reduced: needs 1 degree of freedom left free by the motors (this one has "
                            f"{mobility} free); "
                            "choose dae, lagrange or newton_euler")
+
+
+# The reduced model's one integrator (physics.registry.REDUCED_INTEGRATOR, not public: the app reads physics'
+# public names only; tests/app/test_mechanism_knobs.py checks the two agree)
+REDUCED_INTEGRATOR = "DOP853"
+
+
+def allowed_integrators(method: str) -> tuple[str, ...]:
+    """The integrators of the registry that can run ``method`` on a mechanism: every one for a formulation
+    except those that need a Lagrangian (the variational integrator: method lagrange); the reduced model
+    integrates with its own DOP853 only (physics/mechanism/simulate.py)."""
+    if method == "reduced":
+        return (REDUCED_INTEGRATOR,)
+    return tuple(name for name, spec in INTEGRATORS.items()
+                 if not (spec.needs_lagrangian and not METHODS[method].has_lagrangian))
+
+
+def check_integrator(method: str, integrator: str) -> None:
+    """``integrator`` can run ``method``, or one line naming why not and what is allowed."""
+    allowed = allowed_integrators(method)
+    if integrator in allowed:
+        return
+    if method == "reduced":
+        reason = f"method reduced integrates with {REDUCED_INTEGRATOR} only (its own switching right-hand side)"
+    elif INTEGRATORS[integrator].needs_lagrangian:
+        reason = "it discretises the Lagrangian T - V, so it needs method = lagrange"
+    else:
+        reason = f"it cannot run method {method}"
+    raise LinkageError(f"integrator = {integrator}: does not apply to method {method} ({reason}); allowed "
+                       f"{', '.join(allowed)}")
+
+
+def run_settings(t_end: float, samples: int, method: str, stabilization: str, rtol: float, integrator: str,
+                 step: float | None, baumgarte: tuple[float, float] | None) -> Settings:
+    """physics' :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), checked by
+    physics' own ``run_options`` (its one-line refusals: ``method = 'euler': allowed values ...``), with the
+    Baumgarte gains, which only ``simulate_mechanism(settings=...)`` takes. Loads the simulation: call it where
+    a chunk is computed (a worker, or this interpreter's fallback)."""
+    from physics.mechanism.simulate import run_options  # noqa: PLC0415 - scipy and the engine: only here
+
+    options = run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
+                          atol=rtol, integrator=integrator, step=step)
+    if baumgarte is None:
+        return options
+    alpha, beta = (float(gain) for gain in baumgarte)
+    for name, gain in (("baumgarte_alpha", alpha), ("baumgarte_beta", beta)):
+        if not 0.0 <= gain <= 1e4:  # NaN too
+            raise LinkageError(f"{name} = {gain!r}: allowed range 0 <= {name} <= 1e4")
+    return options.model_copy(update={"baumgarte_alpha": alpha, "baumgarte_beta": beta})

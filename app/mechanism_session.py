@@ -30,22 +30,35 @@ from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
+from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES
 
 from . import delivery, readout, share, viser_compat
 from .camera import CameraDirector
-from .commands import TIMELINE, parse_number
+from .commands import TIMELINE, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
 from .frame_view import COMPARE_METHODS
 from .lab_session import Kind, SessionBase
 from .logs import quietly
 from .mechanism_analysis import MechanismAnalysis
 from .mechanism_compare import MechanismCompare, compare_specs
-from .mechanism_edits import Knob, apply_edit, knobs, shown_value, typed_number
+from .mechanism_edits import (
+    START_NAMES,
+    Knob,
+    apply_edit,
+    apply_setting,
+    knobs,
+    settings_knobs,
+    shown_value,
+    start_knobs,
+    start_value,
+)
 from .mechanism_free_body import MechanismFreeBody
 from .mechanism_runs import (
     MechanismSettings,
     MechanismSpec,
+    allowed_integrators,
     centres_at,
+    check_integrator,
     check_method,
     points_at,
     run_file,
@@ -53,6 +66,7 @@ from .mechanism_runs import (
     torque_rows,
 )
 from .mechanism_scene import MechanismScene
+from .mechanism_start import FreeCoordinate, free_coordinates, pose_with, velocities_with
 from .mechanism_workers import POOL
 from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S
@@ -66,6 +80,8 @@ from .viser_compat import check_gui_updates
 METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
            "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
 STABILIZATIONS = ("projection", "baumgarte", "none")
+START_KINDS = {name for names in START_NAMES.values() for name in (names[0], names[2])}
+SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
 TRACE_SECONDS = 4.0
 PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
@@ -79,23 +95,26 @@ MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's 
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
 guide. The magenta line is the traced point's last 4 s.
 
-**Mechanism:** a chain preset brings the chain panel back; a mechanism preset or your file (below) starts
-here. The line under it gives the bodies, joints, mobility and motors.
+**Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the start in force, t = 0); the keys Space, S and
+R press them. **Timeline:** drag back through the run so far (it pauses there).
 
-**Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the assembled sketch at rest, t = 0); the keys
-Space, S and R press them. **Timeline:** drag back through the run so far (it pauses there).
+**Mechanism tab:** a chain preset brings the chain panel back; a mechanism preset or your file starts here. The
+line under it gives the bodies, joints, mobility and motors. **Bodies and motors:** size (m: the body is scaled
+about its first point and the mechanism re-assembled; the run starts again), m (kg), I (kg·m²), a motor's speed
+(°/s) or torque (N·m), a gear pair's ratio and offset (°), g (m/s²). **Start (t = 0):** for a mechanism its
+motors leave free, the angle (or position) and speed of each free coordinate; the rest of the mechanism is
+assembled around them. A value that cannot be used is refused with a notice naming the body or joint, the
+field and the range.
 
-**Method:** DAE (maximal coordinates, every reaction in one solve), Lagrange and Newton-Euler (spanning tree,
-cut joints closed by multipliers), Reduced (one joint coordinate, mobility 1). **Stabilisation:** how the loops
-stay closed. Both go on from the displayed state.
+**Simulation tab:** the method (DAE: maximal coordinates, every reaction in one solve; Lagrange and
+Newton-Euler: spanning tree, cut joints closed by multipliers; Reduced: one joint coordinate, mobility 1), the
+integrator (variational: Lagrange only; the reduced model: DOP853), its tolerance or fixed step, and how the
+loops stay closed. They go on from the displayed state. **Compare formulations:** Newton-Euler (blue),
+Lagrange (orange) and the DAE (green) from the same start; under the panel, how far their traced points part,
+and each one's error against a converged run.
 
-**Compare formulations:** Newton-Euler (blue), Lagrange (orange) and the DAE (green) from the same start;
-under the panel, how far their traced points part, and each one's error against a converged run.
-**Free-body diagram:** every load on the chosen body at the time shown, with its value; couples are listed.
-
-**Bodies and motors:** size (m: the body is scaled about its first point and the mechanism re-assembled; the
-run starts again), m (kg), I (kg·m²), a motor's speed (°/s) or torque (N·m), g (m/s²). A value that cannot be
-used is refused with a notice naming the body, the field and the range.
+**Display tab:** the traced point, reaction arrows, and the free-body diagram of the chosen body at the time
+shown (couples are listed).
 
 **Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
 A x = b the chosen method integrates, for this mechanism.
@@ -104,7 +123,6 @@ A x = b the chosen method integrates, for this mechanism.
 (inverse dynamics). The status line shows the energy error of an undriven mechanism, the largest constraint
 residual, and warns near a singular pose (a change point or a dead centre).
 """
-
 
 def _choice(field: str, value: object, allowed: list[str]) -> None:
     """A menu's value: one of ``allowed`` (a client may send anything: a list, None, markup)."""
@@ -142,6 +160,8 @@ class MechanismSession(SessionBase):
         self.compare = False  # the three formulations side by side (app/mechanism_compare.py)
         self.frames_sent = 0
         self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
+        self.sketch_q = self.q0  # the assembled sketch: the start controls' ranges are around it
+        self.free: tuple[FreeCoordinate, ...] = ()  # the coordinates a start is set by (app/mechanism_start.py)
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
         self.energy_ref: float | None = None
         self.player = Player(
@@ -187,22 +207,9 @@ class MechanismSession(SessionBase):
             return handle
 
         self.status = keep(gui.add_markdown(""))
-        self.menu = keep(gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
-                                          hint="A chain preset or a planar mechanism"))
-        self.menu.on_update(lambda event: self.guard(lambda: self.choose(str(self.menu.value))))
-        self.description = keep(gui.add_markdown(""))
-        self.facts = keep(gui.add_markdown(""))
-        self.method = keep(gui.add_dropdown("Method", list(METHODS), initial_value="dae",
-                                            hint="Formulation integrated; its reactions are shown"))
-        self.method.on_update(lambda event: self.guard(lambda: self.set_method(str(self.method.value))))
-        self.stabilization = keep(gui.add_dropdown("Stabilisation", list(STABILIZATIONS),
-                                                   initial_value="projection",
-                                                   hint="How the loops are held closed"))
-        self.stabilization.on_update(
-            lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
         # as the chain panel's: the page's keys (Space, S, R) press these buttons (static/page.html)
         self.transport = keep(gui.add_button_group("Playback", TRANSPORT,
-                                                   hint="Reset: start again from the assembled sketch at rest"))
+                                                   hint="Reset: start again from the start in force (t = 0)"))
         self.transport.on_click(lambda event: self.guard(lambda: self.press(self.transport.value)))
         # the run so far, as the chain panel's: drag back to look again (pauses there); Play goes on from it
         self.timeline = keep(gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
@@ -211,32 +218,62 @@ class MechanismSession(SessionBase):
             lambda: self.scrub(self.timeline.value)))
         self._timeline_end = 0.0
         self._timeline_writer: int | None = None  # the thread moving the thumb to the time shown (not a scrub)
-        self.defaults_button = keep(gui.add_button("Reset to the preset's values"))
-        self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
-        self.upload = keep(gui.add_upload_button("Load a mechanism file (TOML or JSON)",
-                                                 hint="The format of docs/mechanisms.md; at most 1 MB"))
-        self.upload.on_upload(lambda event: self.guard(lambda: self.load_file(
-            getattr(event, "client_id", None), self.upload.value.name, self.upload.value.content)))
-        self.trace_menu = keep(gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
-                                                hint="Any named point of any body"))
-        self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
-        self.arrow_box = keep(gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method"))
-        self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
-        self.compare_box = keep(gui.add_checkbox(
-            "Compare formulations", False,
-            hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part"))
-        self.compare_box.on_update(lambda event: self.guard(lambda: self.set_compare(bool(self.compare_box.value))))
-        self.free_body_box = keep(gui.add_checkbox("Free-body diagram", False,
-                                                   hint="Every load on the chosen body at the displayed time"))
-        self.free_body_box.on_update(
-            lambda event: self.guard(lambda: self.set_free_body(bool(self.free_body_box.value))))
-        self.body_menu = keep(gui.add_dropdown("Body", ["(none)"], initial_value="(none)",
-                                               hint="The body whose free-body diagram is drawn"))
-        self.body_menu.on_update(lambda event: self.guard(lambda: self.set_free_body_body(str(self.body_menu.value))))
-        self.couples = keep(gui.add_markdown(""))
-        self.knob_folder = keep(gui.add_folder("Bodies and motors"))
-        self.export_folder = keep(gui.add_folder("Export", expand_by_default=False))
-        with self.export_folder:
+        # the chain panel's tabs (app/controls.py), with what applies to a general mechanism in each
+        self.tabs = keep(gui.add_tab_group())
+        with self.tabs.add_tab("Mechanism"):
+            self.menu = gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
+                                         hint="A chain preset or a planar mechanism")
+            self.menu.on_update(lambda event: self.guard(lambda: self.choose(str(self.menu.value))))
+            self.description = gui.add_markdown("")
+            self.facts = gui.add_markdown("")
+            self.defaults_button = gui.add_button("Reset to the preset's values")
+            self.defaults_button.on_click(lambda event: self.guard(self.reset_to_reference))
+            self.upload = gui.add_upload_button("Load a mechanism file (TOML or JSON)",
+                                                hint="The format of docs/mechanisms.md; at most 1 MB")
+            self.upload.on_upload(lambda event: self.guard(lambda: self.load_file(
+                getattr(event, "client_id", None), self.upload.value.name, self.upload.value.content)))
+            self.knob_folder = gui.add_folder("Bodies and motors")
+            self.start_folder = gui.add_folder("Start (t = 0)")
+            self.start_note = gui.add_markdown("")
+        with self.tabs.add_tab("Simulation"):
+            self.method = gui.add_dropdown("Method", list(METHODS), initial_value="dae",
+                                           hint="Formulation integrated; its reactions are shown")
+            self.method.on_update(lambda event: self.guard(lambda: self.set_method(str(self.method.value))))
+            self.compare_box = gui.add_checkbox(
+                "Compare formulations", False,
+                hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part")
+            self.compare_box.on_update(lambda event: self.guard(lambda: self.set_compare(bool(self.compare_box.value))))
+            self.integrator = gui.add_dropdown("Integrator", list(INTEGRATOR_NAMES), initial_value="DOP853",
+                                               hint="Any the method allows (variational: Lagrange only; the "
+                                               "reduced model: DOP853)")
+            self.integrator.on_update(lambda event: self.guard(lambda: self.set_integrator(str(self.integrator.value))))
+            for knob in settings_knobs(self.settings):
+                self._add_knob(knob)
+            self.stabilization = gui.add_dropdown("Stabilisation", list(STABILIZATIONS), initial_value="projection",
+                                                  hint="How the loops are held closed")
+            self.stabilization.on_update(
+                lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
+        with self.tabs.add_tab("Display"):
+            self.trace_menu = gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
+                                               hint="Any named point of any body")
+            self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
+            self.arrow_box = gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method")
+            self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
+            self.free_body_box = gui.add_checkbox("Free-body diagram", False,
+                                                  hint="Every load on the chosen body at the displayed time")
+            self.free_body_box.on_update(
+                lambda event: self.guard(lambda: self.set_free_body(bool(self.free_body_box.value))))
+            self.body_menu = gui.add_dropdown("Body", ["(none)"], initial_value="(none)",
+                                              hint="The body whose free-body diagram is drawn")
+            self.body_menu.on_update(
+                lambda event: self.guard(lambda: self.set_free_body_body(str(self.body_menu.value))))
+            self.couples = gui.add_markdown("")
+        with self.tabs.add_tab("Equations"):
+            self.equations_button = gui.add_button("Show the equations of the method")
+            self.equations_button.on_click(lambda event: self.guard(self.show_equations))
+            self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
+                                          "for this mechanism (press the button).</p>")
+        with self.tabs.add_tab("Export"):
             self.share_button = gui.add_button("Link to this setup")
             self.share_button.on_click(lambda event: self.guard(self.show_link))
             self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
@@ -246,14 +283,7 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
-        self.equations_folder = keep(gui.add_folder("Equations", expand_by_default=False))
-        with self.equations_folder:
-            self.equations_button = gui.add_button("Show the equations of the method")
-            self.equations_button.on_click(lambda event: self.guard(self.show_equations))
-            self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
-                                          "for this mechanism (press the button).</p>")
-        self.help = keep(gui.add_folder("Help", expand_by_default=False))
-        with self.help:
+        with self.tabs.add_tab("Help"):
             gui.add_markdown(MECHANISM_HELP)
         self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
                                 [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
@@ -264,27 +294,43 @@ class MechanismSession(SessionBase):
         entries = list(preset_names()) + mechanism_names()
         return entries if self.label in entries else entries + [self.label]
 
+    def _add_knob(self, knob: Knob) -> None:
+        """A generated control's slider and the box its value is typed in, in the current container."""
+        gui = self.target.gui
+        low, high = knob.slider_range
+        # a log slider is labelled as the chain's (Tolerance log10(rtol)); its box takes the value itself
+        handle = gui.add_slider(knob.label if not knob.log else f"log10({knob.name})", min=low, max=high,
+                                step=knob.step, initial_value=knob.slider_value(), hint=knob.hint)
+        handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
+        self._knob_handles[knob.name] = handle
+        # the box a value is typed in, read by the server as written (the slider's own box is the browser's,
+        # which reads 2.5e1 as 2.51): as the chain panel's (app/number_inputs.py)
+        box = gui.add_text(f"type {knob.label}", initial_value=shown_value(knob.value),
+                           hint=f"Type a value for {knob.label} (e.g. 1.5 or 1e-3); applied when you stop typing")
+        box.on_update(lambda event, name=knob.name: None if self._syncing else self._typed(name))
+        self._typed_boxes[knob.name] = box
+
     def _build_knobs(self) -> None:
+        """The controls generated from the mechanism (bodies, motors, gears, gravity) and from its start (the
+        free coordinates); the run's settings (built once with the panel) stay."""
         for timer in self._typing.values():
             timer.cancel()
         self._typing = {}
-        for handle in [*self._knob_handles.values(), *self._typed_boxes.values()]:
-            quietly(handle.remove, "removing a control")
-        self._knob_handles, self._typed_boxes = {}, {}
-        gui = self.target.gui
+        keep = {knob.name for knob in settings_knobs(self.settings)}
+        for name in [name for name in self._knob_handles if name not in keep]:
+            quietly(self._knob_handles.pop(name).remove, "removing a control")
+        for name in [name for name in self._typed_boxes if name not in keep]:
+            quietly(self._typed_boxes.pop(name).remove, "removing a control")
         with self.knob_folder:
             for knob in knobs(self.mechanism, self.reference):
-                handle = gui.add_slider(knob.label, min=knob.low, max=knob.high, step=knob.step,
-                                        initial_value=min(max(knob.value, knob.low), knob.high), hint=knob.hint)
-                handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
-                self._knob_handles[knob.name] = handle
-                # the box a value is typed in, read by the server as written (the slider's own box is the
-                # browser's, which reads 2.5e1 as 2.51): as the chain panel's (app/number_inputs.py)
-                box = gui.add_text(f"type {knob.label}", initial_value=shown_value(knob.value),
-                                   hint=f"Type a value for {knob.label} (e.g. 1.5 or 1e-3); applied when you stop "
-                                   "typing")
-                box.on_update(lambda event, name=knob.name: None if self._syncing else self._typed(name))
-                self._typed_boxes[knob.name] = box
+                self._add_knob(knob)
+        with self.start_folder:
+            for knob in self._start_knobs():
+                self._add_knob(knob)
+        self._start_names = tuple(coordinate.body + "." + coordinate.axis for coordinate in self.free)
+        self.start_folder.visible = bool(self.free)
+        self.start_note.content = "" if self.free else (
+            "*Start: its motors fix every body (mobility 0 free): it starts from the assembled sketch.*")
         if self.torque_plot is not None:
             self.torque_plot.remove()
             self.torque_plot = None
@@ -295,10 +341,22 @@ class MechanismSession(SessionBase):
                                     [f"motor {m}" for m in motors], colors[: len(motors)], y_label="N·m",
                                     height=220)  # taller: a torque of ±0.4 N·m gets ticks besides 0
 
+    def _start_knobs(self) -> list[Knob]:
+        return start_knobs(self.mechanism, self.free, self.sketch_q, self.q0, self.qdot0)
+
+    def mechanism_tab_knobs(self) -> list[Knob]:
+        """The generated controls of the Mechanism tab: the mechanism's, then its start's."""
+        return [*knobs(self.mechanism, self.reference), *self._start_knobs()]
+
+    def panel_knobs(self) -> list[Knob]:
+        """Every generated control of the panel, in the order a share link sets them (a size before the start,
+        which a size change puts back on the sketch)."""
+        return [*knobs(self.mechanism, self.reference), *settings_knobs(self.settings), *self._start_knobs()]
+
     def _knob_moved(self, knob: Knob, handle) -> None:
         if self._syncing:
             return
-        self.guard(lambda: self.set(knob.name, handle.value))
+        self.guard(lambda: self.set(knob.name, knob.from_slider(handle.value)))
 
     def _typed(self, name: str) -> None:
         """A keystroke in a typed box: the value is applied once typing has paused (TYPING_PAUSE_S); then the
@@ -335,19 +393,20 @@ class MechanismSession(SessionBase):
 
     def set_typed(self, name: str, text: object) -> None:
         """A value typed (or in a share link) for a generated control, in the panel's units (°/s for a motor's
-        speed): read as written (:func:`app.mechanism_edits.typed_number`), then set as by its slider."""
-        knob = next((k for k in knobs(self.mechanism, self.reference) if k.name == name), None)
+        speed, ms for the fixed step): read as written by the chain panel's reader
+        (:func:`app.commands.read_number`), then set as by its slider."""
+        knob = next((k for k in self.panel_knobs() if k.name == name), None)
         if knob is None:
             self.set(name, text)  # names the controls there are
             return
-        self.set(name, typed_number(knob, text))
+        self.set(name, read_number(knob.label, knob.unit, text))
 
     def _sync_boxes(self) -> None:
         """Write the value in force into every typed box that shows another (the sliders are left alone: one
         may be under the mouse)."""
         self._syncing = True
         try:
-            for knob in knobs(self.mechanism, self.reference):
+            for knob in self.panel_knobs():
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
                     box.value = shown_value(knob.value)
@@ -358,19 +417,27 @@ class MechanismSession(SessionBase):
         """Put every control on the value in force (after a refusal, or a viewer's attempt)."""
         self._syncing = True
         try:
-            for knob in knobs(self.mechanism, self.reference):
+            for knob in self.panel_knobs():
                 handle = self._knob_handles.get(knob.name)
-                if handle is not None and handle.value != knob.value:
-                    handle.value = min(max(knob.value, knob.low), knob.high)
+                if handle is not None and handle.value != knob.slider_value():
+                    handle.value = knob.slider_value()
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
                     box.value = shown_value(knob.value)
             for handle, value in ((self.method, self.settings.method),
                                   (self.stabilization, self.settings.stabilization),
+                                  (self.integrator, self.settings.integrator),
                                   (self.menu, self.label), (self.compare_box, self.compare),
                                   (self.free_body_box, self.free_body.on), (self.body_menu, self._body_shown())):
                 if handle.value != value:
                     handle.value = value
+            fixed = self.settings.integrator in FIXED_STEP_INTEGRATORS
+            baumgarte = self.settings.stabilization == "baumgarte" and self.settings.method != "reduced"
+            for name, visible in (("rtol", not fixed), ("step", fixed), ("baumgarte_alpha", baumgarte),
+                                  ("baumgarte_beta", baumgarte)):
+                for control in (self._knob_handles.get(name), self._typed_boxes.get(name)):
+                    if control is not None and control.visible != visible:
+                        control.visible = visible
         finally:
             self._syncing = False
 
@@ -397,26 +464,87 @@ class MechanismSession(SessionBase):
 
     # ------------------------------------------------------------------ edits
     def set(self, name: str, value: object) -> None:
-        """Set a generated control (``mass:crank``, ``size:coupler``, ``speed:O2`` in °/s, ``g``): geometry starts
-        again from the re-assembled sketch; masses, inertias, motors and gravity go on from the displayed state
-        (the constraints do not depend on them)."""
+        """Set a generated control (``mass:crank``, ``size:coupler``, ``speed:O2`` in °/s, ``ratio:mesh``, ``g``;
+        the run's ``rtol`` and ``step`` in ms; a start's ``angle0:crank`` in °, ``omega0:crank`` in °/s):
+        geometry starts again from the re-assembled sketch, a start from the new start at t = 0; masses, inertias,
+        motors, gravity and the run's settings go on from the displayed state (the constraints do not depend
+        on them)."""
         with self._lock:
-            edited = apply_edit(self.mechanism, name, value, self.reference, SAMPLE_DT)
-            geometry = name.startswith("size:")
-            if geometry:
-                self._new_mechanism(edited, play=None, same_kind=True)
+            if name in SETTING_KNOBS:
+                self._set_settings(apply_setting(self.settings, name, value))
+            elif name.partition(":")[0] in START_KINDS:
+                self.set_start_value(name, value)
             else:
-                self.mechanism = edited
-                self._continue()
+                edited = apply_edit(self.mechanism, name, value, self.reference, SAMPLE_DT)
+                geometry = name.startswith(("size:", "ratio:", "offset:"))
+                if geometry:
+                    self._new_mechanism(edited, play=None, same_kind=True)
+                else:
+                    self.mechanism = edited
+                    self._continue()
             self._sync_boxes()  # a slider moved: its box shows the value in force (a resize: the inertia's too)
+
+    def set_start_value(self, name: str, value: object) -> None:
+        """One start control (a free coordinate's value or speed, in the panel's units): the mechanism is
+        re-assembled with it held and the others kept (LinkageError naming the joint that cannot close), its
+        velocities follow from the free coordinates' speeds, and the run starts again at t = 0 from there, as a
+        chain's does after its angle sliders."""
+        with self._lock:
+            number = start_value(self._start_knobs(), name, value)
+            position, is_value = next((k, name == f"{START_NAMES[c.axis][0]}:{c.body}")
+                                      for k, c in enumerate(self.free)
+                                      if name in (f"{START_NAMES[c.axis][0]}:{c.body}", f"{START_NAMES[c.axis][2]}:{c.body}"))
+            indices = [c.index for c in self.free]
+            values, rates = self.q0[indices].copy(), self.qdot0[indices].copy()
+            if is_value:
+                values[position] = number
+                try:
+                    q0 = pose_with(self.mechanism, self.q0, self.free, values)
+                except LinkageError as error:
+                    knob = next(k for k in self._start_knobs() if k.name == name)
+                    typed = value.strip() if isinstance(value, str) else shown_value(math.degrees(number)
+                                                                                      if knob.unit == "°" else number)
+                    raise LinkageError(f"{knob.label} = {typed}: {error}; kept {shown_value(knob.value)}") from None
+            else:
+                rates[position] = number
+                q0 = self.q0
+            self.q0, self.qdot0 = q0, velocities_with(self.mechanism, q0, self.free, rates)
+            self._build_scene(self.q0)
+            self.energy_ref = None
+            self.energy_plot.clear()
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+
+    def _set_settings(self, settings: MechanismSettings) -> None:
+        """New run settings from the displayed state on (compare mode: every formulation must take them)."""
+        if self.compare:
+            for method in COMPARE_METHODS:
+                try:
+                    check_integrator(method, settings.integrator)
+                except LinkageError as error:
+                    raise LinkageError(f"compare mode: {error}") from None
+        self.settings = settings
+        self.sync_all()  # the tolerance or the fixed step shows, as the integrator needs
+        self._continue()
+
+    def set_integrator(self, integrator: str) -> None:
+        """The integrator menu: any of the registry's the method allows; one notice naming them otherwise."""
+        with self._lock:
+            _choice("integrator", integrator, list(INTEGRATOR_NAMES))
+            check_integrator(self.settings.method, integrator)
+            self._set_settings(self.settings.model_copy(update={"integrator": integrator}))
 
     def set_method(self, method: str) -> None:
         with self._lock:
             _choice("method", method, list(METHODS))
             check_method(method, self.mobility)
             update: dict[str, object] = {"method": method}
-            if method == "reduced":  # it closes its loops by position analysis: no stabilisation applies
+            if method == "reduced":  # it closes its loops by position analysis and integrates with its own DOP853
                 update["stabilization"] = "projection"
+                update["integrator"] = allowed_integrators("reduced")[0]
+            else:
+                if self.settings.integrator not in allowed_integrators(method):
+                    raise LinkageError(f"method = {method}: the integrator {self.settings.integrator} does not "
+                                       f"apply to it; choose one of {', '.join(allowed_integrators(method))} first")
             self.settings = self.settings.model_copy(update=update)
             self.sync_all()  # the Stabilisation menu shows projection with the reduced model
             self._continue()
@@ -428,6 +556,7 @@ class MechanismSession(SessionBase):
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
             self.settings = self.settings.model_copy(update={"stabilization": stabilization})
+            self.sync_all()  # the Baumgarte gains show with baumgarte
             self._continue()
 
     def set_trace(self, label: str) -> None:
@@ -461,8 +590,15 @@ class MechanismSession(SessionBase):
 
     def set_compare(self, on: bool) -> None:
         """Run Newton-Euler, Lagrange and the DAE from the same start (and a converged reference for the
-        divergence plots), drawn as three mechanisms in their colours; starts again at t = 0, as the chain's."""
+        divergence plots), drawn as three mechanisms in their colours; starts again at t = 0, as the chain's.
+        Every formulation runs with the integrator in force: one that only Lagrange takes is refused."""
         with self._lock:
+            if on:
+                for method in COMPARE_METHODS:
+                    try:
+                        check_integrator(method, self.settings.integrator)
+                    except LinkageError as error:
+                        raise LinkageError(f"compare mode: {error}") from None
             self.compare = bool(on)
             self.method.disabled = self.compare  # every formulation runs: the menu does not apply
             self._build_scene(self.q0)
@@ -499,32 +635,47 @@ class MechanismSession(SessionBase):
             start_state(mechanism)  # LinkageError naming the joint that stays open; nothing changed yet
             self.label, self.reference = label, mechanism
             self.settings = MechanismSettings(trace=mechanism.trace)
-            self.menu.options = self._menu_entries()
+            # viser puts a menu whose value left its options on the first (a chain preset) and calls its
+            # callback: muted, or a second file would switch this browser to a chain
+            self._syncing = True
+            try:
+                self.menu.options = self._menu_entries()
+                self.menu.value = self.label
+            finally:
+                self._syncing = False
             self._new_mechanism(mechanism, play=True)
 
     def reset(self) -> None:
+        """Start again at t = 0 from the start in force (the chain's Reset: its initial angles and speeds)."""
         with self._lock:
-            self._new_mechanism(self.mechanism, play=True)
+            self._new_mechanism(self.mechanism, play=True, start=(self.q0, self.qdot0))
 
     # ------------------------------------------------------------------ share links (app/share.py)
     def link_query(self) -> str:
-        """The share link's query for this setup: the preset, then the method, stabilisation and traced point
-        where not the preset's, then every control whose value is not the preset's, in the panel's units and in
-        the panel's order (a body's size before its inertia, which the size scales). LinkageError for a
-        mechanism from a file: a link names a preset; the file itself is what to share."""
+        """The share link's query for this setup: the preset, then the method, integrator, stabilisation and
+        traced point where not the preset's, then every control whose value is not the preset's, in the panel's
+        units and in the panel's order (a body's size before its inertia, which the size scales; the run's
+        tolerance and step; last the start, where not the assembled sketch at rest, as a chain's link carries its
+        angles and speeds). LinkageError for a mechanism from a file: a link names a preset; the file itself is
+        what to share."""
         if not is_mechanism(self.label):
             raise LinkageError(f"link: {self.label!r} was loaded from a file; a link can name a preset only "
                                "(share the file, and load it with 'Load a mechanism file')")
         base = MECHANISM_PRESETS[self.label]()
         pairs: list[tuple[str, str]] = [("preset", self.label)]
         defaults = MechanismSettings(trace=base.trace)
-        for name in ("method", "stabilization", "trace"):
+        for name in ("method", "integrator", "stabilization", "trace"):
             value = getattr(self.settings, name)
             if value != getattr(defaults, name):
                 pairs.append((name, value or "(none)"))
-        preset_values = {knob.name: knob.value for knob in knobs(base, base)}
-        for knob in knobs(self.mechanism, self.reference):
+        preset_values = {knob.name: knob.value for knob in [*knobs(base, base), *settings_knobs(defaults)]}
+        for knob in [*knobs(self.mechanism, self.reference), *settings_knobs(self.settings)]:
             if knob.value != preset_values.get(knob.name):
+                pairs.append((knob.name, f"{knob.value:.12g}"))
+        at_sketch = {knob.name: knob.value for knob in start_knobs(self.mechanism, self.free, self.sketch_q,
+                                                                   self.sketch_q, np.zeros_like(self.sketch_q))}
+        for knob in self._start_knobs():
+            if not math.isclose(knob.value, at_sketch[knob.name], rel_tol=1e-12, abs_tol=1e-9):
                 pairs.append((knob.name, f"{knob.value:.12g}"))
         return "?" + urllib.parse.urlencode(pairs)
 
@@ -586,6 +737,8 @@ class MechanismSession(SessionBase):
         in the panel's units; LinkageError naming it otherwise."""
         if name == "method":
             self.set_method(text)
+        elif name == "integrator":
+            self.set_integrator(text)
         elif name == "stabilization":
             self.set_stabilization(text)
         elif name == "trace":
@@ -629,6 +782,8 @@ class MechanismSession(SessionBase):
                 else self.free_body.loads.as_dict(),
                 "trace": self.settings.trace,
                 "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
+                "integrator": self.settings.integrator,
+                "start": {knob.name: knob.value for knob in self._start_knobs()},
                 "playing": player.playing, "time": float(player.display_time),
                 "q": None if sample is None else [float(v) for v in sample["q"]],
                 "qdot": None if sample is None else [float(v) for v in sample["qdot"]],
@@ -715,14 +870,20 @@ class MechanismSession(SessionBase):
         specs = [self.spec] if not self.compare else compare_specs(self.mechanism, self.settings, self.spec.runner)
         self.player.restart(cast(Any, specs), t0, [(q0, qdot0)] * len(specs), keep_history=keep_history, play=play)
 
-    def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False) -> None:
+    def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False,
+                       start: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Assemble ``mechanism`` (LinkageError naming the open joint), rebuild the scene and the panel's
-        generated controls, and start at t = 0 from the assembled sketch at rest. ``same_kind``: a size dragged
-        on a slider: the controls stay (the one under the mouse is not replaced), the bars are resized in
-        place and the camera moves only when the size changed noticeably."""
+        generated controls, and start at t = 0 from ``start`` (Reset: the start in force) or else the assembled
+        sketch at rest. ``same_kind``: a size dragged on a slider: the controls stay (the one under the mouse is
+        not replaced), the bars are resized in place and the camera moves only when the size changed noticeably."""
         q0, qdot0, mobility = start_state(mechanism)
         if self.settings.method == "reduced" and mobility != 1:  # a new mechanism without a free coordinate
             self.settings = self.settings.model_copy(update={"method": "dae"})
+        free = free_coordinates(mechanism, q0, mobility)
+        same_kind = same_kind and free == self.free  # other start controls: built again
+        self.sketch_q, self.free = q0, free
+        if start is not None:
+            q0, qdot0 = start
         self.mechanism, self.q0, self.qdot0, self.mobility = mechanism, q0, qdot0, mobility
         self.spec = self._spec()
         self._row_names = self.spec.row_names
@@ -869,7 +1030,8 @@ class MechanismSession(SessionBase):
         residual = float(ring.get("residual", index))
         method = (", ".join(METHODS[m].split(" (")[0] for m in COMPARE_METHODS) if self.compare
                   else METHODS.get(self.settings.method, self.settings.method))
-        label = ("compare: " if self.compare else "") + f"{method} · DOP853"
+        integrator = self.settings.integrator if self.mobility > 0 else "position analysis"
+        label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
         condition = float(ring.get("condition", index))

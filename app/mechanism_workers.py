@@ -48,11 +48,15 @@ def _mechanism(description: str) -> Mechanism:
 
 
 def _chunk(description: str, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-           stabilization: str, rtol: float = 1e-10) -> Trajectory:
+           stabilization: str, rtol: float = 1e-10, integrator: str = "DOP853", step: float | None = None,
+           baumgarte: tuple[float, float] | None = None) -> Trajectory:
     from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - the worker's own import
 
+    from .mechanism_runs import run_settings  # noqa: PLC0415 - as above
+
+    settings = run_settings(t_end, samples, method, stabilization, rtol, integrator, step, baumgarte)
     return simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
-                              method=method, stabilization=stabilization, rtol=rtol, atol=rtol)
+                              settings=settings)
 
 
 def _serve(connection) -> None:
@@ -98,11 +102,13 @@ class Worker:
         return self.process.poll() is None
 
     def run(self, mechanism: Mechanism, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
-            stabilization: str, rtol: float = 1e-10) -> Trajectory:
+            stabilization: str, rtol: float = 1e-10, integrator: str = "DOP853",
+            step: float | None = None, baumgarte: tuple[float, float] | None = None) -> Trajectory:
         request = (mechanism.model_dump_json(), float(t_end), int(samples),
                    None if q0 is None else np.asarray(q0, dtype=float),
                    None if qdot0 is None else np.asarray(qdot0, dtype=float), float(t_start), method, stabilization,
-                   float(rtol))
+                   float(rtol), integrator, None if step is None else float(step),
+                   None if baumgarte is None else (float(baumgarte[0]), float(baumgarte[1])))
         with self._lock:
             try:
                 self._connection.send(request)

@@ -59,3 +59,42 @@ def test_choosing_the_jansen_leg_draws_it_with_its_controls_and_a_chain_comes_ba
                message="the mechanism's controls to leave the panel")
     back = lab.server.session_for(client_id)
     assert back.params.preset == "double" and session.closed
+
+
+def test_the_mechanism_panel_has_the_chain_panels_tabs_integrator_and_start(start_lab):
+    """Issue 24: the integrator menu of the Simulation tab refuses what the method does not take in one notice
+    naming what it does, applies the rest; the Mechanism tab's start box re-assembles the slider-crank at the
+    typed crank angle and the run starts there."""
+    import math
+
+    from app.mechanism_session import MechanismSession
+
+    lab = start_lab(preset="slider-crank")
+    page = lab.open_page()
+    session = page.session
+    assert isinstance(session, MechanismSession)
+    tabs = page.page.get_by_role("tab").all_inner_texts()
+    assert [tab.strip() for tab in tabs] == ["Mechanism", "Simulation", "Display", "Equations", "Export", "Help"]
+
+    page.open_tab("Simulation")
+    page.choose("Integrator", "variational")
+    wait_until(lambda: any("integrator = variational: does not apply to method dae" in text
+                           and "allowed RK45, DOP853, ode45, Radau, LSODA, midpoint" in text
+                           for text in page.notification_texts()),
+               message="the refusal naming the integrators the DAE takes")
+    assert session.settings.integrator == "DOP853"
+    page.choose("Integrator", "midpoint")
+    wait_until(lambda: session.settings.integrator == "midpoint", message="midpoint to be applied")
+    wait_until(lambda: page.page.locator("label", has_text="type fixed step (ms)").first.is_visible(),
+               message="the fixed step's box to show for midpoint")
+    assert not page.page.locator("label", has_text="type tolerance rtol = atol").first.is_visible()
+
+    page.open_tab("Mechanism")
+    label = page.page.locator("label", has_text="type crank: start angle (°)").first
+    box = label.locator("xpath=ancestor::*[.//input][1]").locator("input").first
+    box.scroll_into_view_if_needed()
+    box.fill("2.5e1")  # read as written: 25°, not the browser's 2.51
+    wait_until(lambda: abs(session.q0[2] - math.radians(25.0)) < 1e-12, message="the crank to start at 25°")
+    assert session.player.wait_idle(60)
+    assert abs(session.player.runs[0].ring.get("q", 0)[2] - math.radians(25.0)) < 1e-9
+    assert session.player.runs[0].failed is None

@@ -20,7 +20,6 @@ import re
 import time
 
 from app import snapshot as snap
-from app.mechanism_edits import knobs
 from physics import preset_names
 from physics.mechanism import MECHANISM_PRESETS
 
@@ -123,7 +122,7 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
         # shows the choice and, for a mechanism, its panel has the boxes of this mechanism's controls
         wait_until(lambda: _menu_value(page) == name, message=f"{previous} -> {name}: the menu to show {name}")
         if name in MECHANISM_PRESETS:
-            expected = {f"type {knob.label}" for knob in knobs(session.mechanism, session.reference)}
+            expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs()}
             wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
                        message=f"{previous} -> {name}: the panel to show {name}'s controls")
         panel = _panel_labels(page)
