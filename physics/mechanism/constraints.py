@@ -13,8 +13,9 @@ equations ``Phi(q, t) = 0``:
   (body b turns at ``omega`` relative to body a);
 * a gear pair of joints 1 and 2: ``(phi_b2 - phi_a2) - ratio (phi_b1 - phi_a1) - offset = 0``.
 
-The rows of a sum of body angles (motor, gear, each kind's :meth:`~physics.mechanism.joints.JointKind.angle_rows`)
-come from the joint kinds themselves, the same functions the symbolic derivations call with symbols.
+Every row comes from its joint kind (:meth:`~physics.mechanism.joints.JointKind.rows`, the motors'
+:meth:`~physics.mechanism.joints.motor.Motor.rows`): the same functions the symbolic derivations call with
+symbols, called here with numpy arrays (:class:`_Numbers`).
 
 The ground has ``q = 0`` always and no columns. These are the equations position analysis solves and, later,
 the DAE formulation differentiates; numeric here (numpy), with an exact Jacobian.
@@ -26,10 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .joints import MOTOR, kind_of
-from .model import GROUND, Mechanism, Prismatic, Revolute
-
-_PERP = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees: d/dphi R(phi) = PERP R(phi)
+from .joints import KINDS, MOTOR, Kinematics, Translation, kind_of
+from .model import GROUND, Mechanism
 
 
 def rotation(phi: float) -> np.ndarray:
@@ -48,82 +47,109 @@ def points_at_poses(q: np.ndarray, body: np.ndarray, offset: np.ndarray) -> np.n
     return np.stack([x[..., body] + cos * sx - sin * sy, y[..., body] + sin * sx + cos * sy], axis=-1)
 
 
-def _perp(vectors: np.ndarray) -> np.ndarray:
-    """Each row turned by +90 degrees."""
-    return np.column_stack([-vectors[:, 1], vectors[:, 0]])
+class _Numbers(Kinematics):
+    """The joints' equations (:meth:`~physics.mechanism.joints.JointKind.rows`) evaluated in numpy for every joint
+    of one kind at once: body ``s`` of the equations is the ``s``-th body each joint reaches (its ``bodies[s]``),
+    every quantity an array over the joints. Rates may carry a leading axis (one set of rates per column of the
+    Jacobian, :meth:`Constraints.jacobian`): the equations are elementwise, so they broadcast."""
 
+    def __init__(self, frame: _Frame, bodies: np.ndarray, t: float, rate=None) -> None:
+        self.x, self.y, self.angles = frame.x[bodies], frame.y[bodies], frame.angle[bodies]  # (slots, J)
+        self.cos, self.sin = frame.cos[bodies], frame.sin[bodies]
+        self.rate = rate  # by slot: (vx, vy, w), arrays broadcasting against (J,); None: at rest
+        self.time = t
 
-class _JointArrays:
-    """The joints of each form as arrays (body numbers, arms, rows), so that the equations are evaluated for all
-    joints of a form at once: the integrator evaluates them thousands of times a second. The ground is body
-    number ``B`` here (a spare slot whose pose is always zero). Rows that hold a sum of body angles (a speed
-    motor's, a gear's: :class:`~physics.mechanism.joints.AngleRow`) are one sparse matrix ``angle_matrix`` (rows
-    by bodies) with their constants and rates."""
+    def angle(self, body):
+        return self.angles[body]
 
-    def __init__(self, items: list[tuple], bodies: int) -> None:
-        row = 0
-        pins, slides, angles = [], [], []
-        for item in items:
-            if item[0] == "pin":
-                pins.append((row, *item[1:]))
-                row += 2
-            elif item[0] == "slide":
-                slides.append((row, *item[1:]))
-                row += 2
-            else:
-                angles.append((row, item[1]))
-                row += 1
+    def spin(self, body):
+        return 0.0 if self.rate is None else self.rate[body][2]
 
-        def body(k: int) -> int:
-            return bodies if k < 0 else k
+    def alpha(self, body):
+        return 0.0  # the numeric rows are read at zero accelerations: what is left is gamma's part
 
-        def arms(entries, column) -> np.ndarray:
-            return np.array([entry[column] for entry in entries], dtype=float).reshape(-1, 2)
+    def turned(self, body, vector):
+        c, s = self.cos[body], self.sin[body]
+        return (c * vector[0] - s * vector[1], s * vector[0] + c * vector[1])
 
-        self.pin_rows = np.array([p[0] for p in pins], dtype=int)
-        self.pin_a, self.pin_sa = np.array([body(p[1]) for p in pins], dtype=int), arms(pins, 2)
-        self.pin_b, self.pin_sb = np.array([body(p[3]) for p in pins], dtype=int), arms(pins, 4)
-        self.slide_rows = np.array([s[0] for s in slides], dtype=int)
-        self.slide_body, self.slide_sp = np.array([body(s[1]) for s in slides], dtype=int), arms(slides, 2)
-        self.slide_on, self.slide_st = np.array([body(s[3]) for s in slides], dtype=int), arms(slides, 4)
-        self.slide_m = arms(slides, 5)
-        self.slide_u = arms(slides, 6)  # the guide's direction in the sketch (slide_m is it turned by +90 degrees)
-        self.angle_rows = np.array([r for r, _ in angles], dtype=int)
-        self.angle_matrix = np.zeros((len(angles), bodies + 1))
-        for number, (_, angle_row) in enumerate(angles):
-            for c, k in angle_row.terms:
-                self.angle_matrix[number, body(k)] += float(c)
-        self.angle_matrix[:, bodies] = 0.0  # the ground's angle is zero
-        self.angle_constant = np.array([float(r.constant) for _, r in angles], dtype=float)
-        self.angle_rate = np.array([float(r.rate) for _, r in angles], dtype=float)
+    def point(self, body, arm):
+        rho = self.turned(body, arm)
+        position = (self.x[body] + rho[0], self.y[body] + rho[1])
+        if self.rate is None:
+            return position, (0.0, 0.0), (0.0, 0.0)
+        vx, vy, w = self.rate[body]
+        square = -w * w
+        return position, (vx - w * rho[1], vy + w * rho[0]), (square * rho[0], square * rho[1])
+
+    def plus(self, *terms):
+        out = terms[0] if terms else 0.0
+        for term in terms[1:]:
+            out = out + term
+        return out
+
+    def times(self, *factors):
+        out = factors[0] if factors else 1.0
+        for factor in factors[1:]:
+            out = out * factor
+        return out
+
+    def negative(self, x):
+        return -x
 
 
 class _Frame:
-    """Every body's pose (and rates) at one state, the ground appended as body ``B`` at rest at the origin."""
+    """Every body's pose at one ``q``, the ground appended as body ``B`` at rest at the origin."""
 
-    def __init__(self, arrays: _JointArrays, q: np.ndarray, qdot: np.ndarray | None = None) -> None:
-        pose = np.vstack([np.reshape(q, (-1, 3)), np.zeros((1, 3))])
-        self.position = pose[:, :2]
-        self.angle = pose[:, 2]
+    def __init__(self, q: np.ndarray) -> None:
+        q = np.asarray(q, dtype=float)
+        pose = np.zeros((q.size // 3 + 1, 3))
+        pose[:-1] = np.reshape(q, (-1, 3))
+        self.x, self.y, self.angle = pose[:, 0], pose[:, 1], pose[:, 2]
         self.cos, self.sin = np.cos(self.angle), np.sin(self.angle)
-        if qdot is not None:
-            rate = np.vstack([np.reshape(qdot, (-1, 3)), np.zeros((1, 3))])
-            self.velocity, self.spin = rate[:, :2], rate[:, 2]
 
-    def turned(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
-        """``R(phi_body) arm`` row by row."""
-        c, s = self.cos[body], self.sin[body]
-        return np.column_stack([c * arm[:, 0] - s * arm[:, 1], s * arm[:, 0] + c * arm[:, 1]])
 
-    def points(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
-        return self.position[body] + self.turned(body, arm)
+class _Group:
+    """The joints of one kind (or the speed motors) as arrays: the bodies each reaches (``bodies``: slots by
+    joints, the ground as body ``B``, a spare slot at rest), their parameter values and the global numbers of
+    their rows (``rows``: rows by joints). ``equations(k)`` gives the rows in ``k``'s numbers."""
 
-    def point_velocities(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
-        return self.velocity[body] + self.spin[body][:, None] * _perp(self.turned(body, arm))
+    def __init__(self, bodies: list[tuple[int, ...]], values: list[list[float]], rows: list[list[int]],
+                 equations) -> None:
+        self.bodies = np.array(bodies, dtype=int).T  # (slots, J)
+        self.values = [np.array(column, dtype=float) for column in zip(*values, strict=True)] if values else []
+        self.rows = np.array(rows, dtype=int).T  # (rows, J)
+        self.equations = equations
+        self.slots = range(len(self.bodies))
+        columns = 3 * len(self.bodies)
+        eye = np.eye(columns + 1, columns)[:, :, None]  # (columns + 1, columns, 1): the last set of rates all zero
+        self._unit = [(eye[:, 3 * slot], eye[:, 3 * slot + 1], eye[:, 3 * slot + 2]) for slot in self.slots]
+        # the global column of each local one, by joint: (columns, J)
+        self._columns = 3 * self.bodies[np.repeat(np.arange(len(self.bodies)), 3)] + np.arange(columns)[:, None] % 3
+        self._flat: dict[int, np.ndarray] = {}
 
-    def centripetal(self, body: np.ndarray, arm: np.ndarray) -> np.ndarray:
-        """The part of a point's acceleration without qddot: ``-R(phi) s phidot^2``."""
-        return -(self.spin[body] ** 2)[:, None] * self.turned(body, arm)
+    def evaluate(self, frame: _Frame, t: float, rate=None) -> list:
+        return self.equations(self.slots, self.values, _Numbers(frame, self.bodies, t, rate))
+
+    def rates(self, qdot: np.ndarray) -> list:
+        """Rates by slot from the bodies' rates (the ground's appended at rest)."""
+        rate = np.vstack([np.reshape(np.asarray(qdot, dtype=float), (-1, 3)), np.zeros((1, 3))])[self.bodies]
+        return [(slot[:, 0], slot[:, 1], slot[:, 2]) for slot in rate]
+
+    def gradient(self, frame: _Frame, out: np.ndarray) -> None:
+        """Add ``d row / d q`` of the group's rows to ``out`` (the ground's columns last), read off their velocity
+        forms at unit rates (one set per local column, a last set at rest for what does not hold a rate)."""
+        width = out.shape[1]
+        flat = self._flat.get(width)
+        if flat is None:  # where each (row, local column, joint) entry goes in ``out``, flattened
+            flat = self._flat[width] = np.concatenate([(row[None, :] * width + self._columns).ravel()
+                                                       for row in self.rows])
+        columns = self._columns.shape[0]
+        shape = (columns + 1, self.bodies.shape[1])
+        entries = []
+        for row in self.evaluate(frame, 0.0, self._unit):
+            velocity = np.broadcast_to(row.velocity, shape)
+            entries.append((velocity[:columns] - velocity[columns]).ravel())
+        out.flat[:] += np.bincount(flat, weights=np.concatenate(entries), minlength=out.size)
 
 
 @dataclass(frozen=True)
@@ -135,47 +161,77 @@ class Row:
 
 
 class Constraints:
-    """``Phi(q, t)`` and ``Phi_q(q)`` of a mechanism; ``rows`` names every equation."""
+    """``Phi(q, t)`` and ``Phi_q(q)`` of a mechanism; ``rows`` names every equation.
+
+    Each joint kind's rows are its own (:meth:`~physics.mechanism.joints.JointKind.rows`, the function the
+    derivations call with symbols), evaluated here in numpy for all joints of a kind at once; ``Phi_q`` is read
+    off their velocity forms (exact: they are linear in the rates) and ``gamma`` off their acceleration forms."""
 
     def __init__(self, mechanism: Mechanism) -> None:
         self.mechanism = mechanism
         self.body_index = {body.name: k for k, body in enumerate(mechanism.bodies)}
         self.centres = np.array([body.centre for body in mechanism.bodies], dtype=float).reshape(-1, 2)
         self.size = 3 * len(mechanism.bodies)
-        self._items: list[tuple] = []
+        spare = len(mechanism.bodies)  # the ground's slot
+
+        def body(name: str) -> int:
+            return spare if name == GROUND else self.body_index[name]
+
         rows: list[Row] = []
+        grouped: dict[str, tuple[list, list, list]] = {}  # kind -> (bodies, values, rows) by joint
+        motors: tuple[list, list, list] = ([], [], [])
+        dampers: tuple[list, list, list, list] = ([], [], [], [])  # kind, bodies, values, coefficient
+        torques: tuple[list, list] = ([], [])  # bodies, torque
         speeds = {driver.joint: driver.speed for driver in mechanism.drivers if driver.speed is not None}
         for joint in mechanism.joints:
             kind = kind_of(joint)
+            reach = kind.structure_bodies(joint, body, mechanism)
+            values = kind.values(joint, mechanism)
+            group = grouped.setdefault(kind.name, ([], [], []))
+            group[0].append(reach)
+            group[1].append(values)
+            group[2].append(list(range(len(rows), len(rows) + len(kind.meanings))))
             rows += [Row(joint.name, meaning) for meaning in kind.meanings]
-            if isinstance(joint, Revolute):
-                a_body, b_body = joint.a.split(".")[0], joint.b.split(".")[0]
-                s_a = self._relative(a_body, mechanism.point_of(joint.a, joint.name))
-                s_b = self._relative(b_body, mechanism.point_of(joint.b, joint.name))
-                self._items.append(("pin", self._index(a_body), s_a, self._index(b_body), s_b))
-                if joint.name in speeds:
-                    ends = (self._index(a_body), self._index(b_body))
-                    self._items += [("angle", row) for row in MOTOR.angle_rows(ends, float(speeds[joint.name]))]
-                    rows += [Row(joint.name, meaning) for meaning in MOTOR.meanings]
-            elif isinstance(joint, Prismatic):
-                s_p = self._relative(joint.body, mechanism.point_of(f"{joint.body}.{joint.point}", joint.name))
-                s_t = self._relative(joint.on, mechanism.point_of(f"{joint.on}.{joint.through}", joint.name))
-                u = np.array(joint.direction) / np.hypot(*joint.direction)
-                self._items.append(("slide", self._index(joint.body), s_p, self._index(joint.on), s_t, _PERP @ u, u))
-            else:
-                bodies = kind.structure_bodies(joint, self._index, mechanism)
-                self._items += [("angle", row) for row in kind.angle_rows(bodies, kind.values(joint, mechanism))]
+            if "damping" in kind.fields:
+                dampers[0].append(kind.name)
+                dampers[1].append(reach)
+                dampers[2].append(values)
+                dampers[3].append(values[kind.fields.index("damping")])
+            if joint.name in speeds:
+                motors[0].append(reach[:2])
+                motors[1].append([float(speeds[joint.name])])
+                motors[2].append(list(range(len(rows), len(rows) + len(MOTOR.meanings))))
+                rows += [Row(joint.name, meaning) for meaning in MOTOR.meanings]
+        for driver in mechanism.drivers:
+            if driver.torque is not None:
+                joint = next(j for j in mechanism.joints if j.name == driver.joint)
+                torques[0].append(kind_of(joint).structure_bodies(joint, body, mechanism)[:2])
+                torques[1].append(float(driver.torque))
         self.rows = tuple(rows)
-        self._arrays = _JointArrays(self._items, len(mechanism.bodies))
+        self._groups = [_Group(*group, KINDS[name].rows) for name, group in grouped.items()]
+        if motors[0]:
+            self._groups.append(_Group(*motors, _motor_rows))
+        # one row per damped joint, in joint order: the relative motion its damper resists
+        self.damping = np.array(dampers[3], dtype=float)
+        by_kind: dict[str, tuple[list, list, list]] = {}
+        for number, (name, reach, values) in enumerate(zip(*dampers[:3], strict=True)):
+            group = by_kind.setdefault(name, ([], [], []))
+            group[0].append(reach)
+            group[1].append(values)
+            group[2].append([number])
+        self._dampers = [_Group(*group, _damper_rows(KINDS[name])) for name, group in by_kind.items()]
+        self._sliding = [number for number, (name, values) in enumerate(zip(dampers[0], dampers[2], strict=True))
+                         if isinstance(KINDS[name].freedom(values), Translation)]
+        self.torque = np.array(torques[1], dtype=float)
+        self._driven = ([_Group(torques[0], [], [[n] for n in range(len(torques[0]))], _driven_rows)]
+                        if torques[0] else [])
 
-    def _index(self, body: str) -> int:
-        return -1 if body == GROUND else self.body_index[body]
-
-    def _relative(self, body: str, sketch_xy: tuple[float, float]) -> np.ndarray:
-        """A point of ``body`` relative to its centre of mass (ground points stay absolute)."""
-        k = self._index(body)
-        return np.array(sketch_xy, dtype=float) - (self.centres[k] if k >= 0 else 0.0)
-
+    def _gradients(self, groups: list[_Group], count: int, q: np.ndarray) -> np.ndarray:
+        frame = _Frame(q)
+        out = np.zeros((count, self.size + 3))  # three spare columns take the ground's entries
+        for group in groups:
+            group.gradient(frame, out)
+        return out[:, : self.size]
     def sketch_pose(self) -> np.ndarray:
         """``q`` of the sketch: every centre of mass where it is drawn, no rotation."""
         q = np.zeros(self.size)
@@ -198,97 +254,64 @@ class Constraints:
         return r + rotation(phi) @ s
 
     def residual(self, q: np.ndarray, t: float = 0.0) -> np.ndarray:
-        frame = _Frame(self._arrays, q)
-        arrays = self._arrays
+        frame = _Frame(q)
         out = np.empty(len(self.rows))
-        if arrays.pin_rows.size:
-            gap = frame.points(arrays.pin_a, arrays.pin_sa) - frame.points(arrays.pin_b, arrays.pin_sb)
-            out[arrays.pin_rows], out[arrays.pin_rows + 1] = gap[:, 0], gap[:, 1]
-        if arrays.slide_rows.size:
-            normal = frame.turned(arrays.slide_on, arrays.slide_m)
-            gap = frame.points(arrays.slide_body, arrays.slide_sp) - frame.points(arrays.slide_on, arrays.slide_st)
-            out[arrays.slide_rows] = np.sum(normal * gap, axis=1)
-            out[arrays.slide_rows + 1] = frame.angle[arrays.slide_body] - frame.angle[arrays.slide_on]
-        if arrays.angle_rows.size:
-            out[arrays.angle_rows] = (arrays.angle_matrix @ frame.angle - arrays.angle_constant
-                                      - arrays.angle_rate * t)
+        for group in self._groups:
+            for number, row in enumerate(group.evaluate(frame, t)):
+                out[group.rows[number]] = row.position
         return out
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        frame = _Frame(self._arrays, q)
-        arrays = self._arrays
-        out = np.zeros((len(self.rows), self.size + 3))  # three spare columns take the ground's entries
-        if arrays.pin_rows.size:
-            rows = arrays.pin_rows
-            for sign, body, arm in ((1.0, arrays.pin_a, arrays.pin_sa), (-1.0, arrays.pin_b, arrays.pin_sb)):
-                swing = _perp(frame.turned(body, arm))
-                column = 3 * body
-                out[rows, column] += sign
-                out[rows + 1, column + 1] += sign
-                out[rows, column + 2] += sign * swing[:, 0]
-                out[rows + 1, column + 2] += sign * swing[:, 1]
-        if arrays.slide_rows.size:
-            rows, body, on = arrays.slide_rows, arrays.slide_body, arrays.slide_on
-            normal = frame.turned(on, arrays.slide_m)
-            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
-            out[rows, 3 * body] += normal[:, 0]
-            out[rows, 3 * body + 1] += normal[:, 1]
-            out[rows, 3 * body + 2] += np.sum(normal * _perp(frame.turned(body, arrays.slide_sp)), axis=1)
-            out[rows, 3 * on] -= normal[:, 0]
-            out[rows, 3 * on + 1] -= normal[:, 1]
-            out[rows, 3 * on + 2] += np.sum(_perp(normal) * gap - normal * _perp(frame.turned(on, arrays.slide_st)),
-                                            axis=1)
-            out[rows + 1, 3 * body + 2] += 1.0
-            out[rows + 1, 3 * on + 2] -= 1.0
-        if arrays.angle_rows.size:
-            out[arrays.angle_rows, 2::3] += arrays.angle_matrix
-        return out[:, : self.size]
+        return self._gradients(self._groups, len(self.rows), q)
+
+    def damper_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """``(D, 3 B)``: for each joint with a damper (joint order; ``damping`` its coefficients) the gradient of
+        the relative motion its damper resists (:meth:`~physics.mechanism.joints.JointKind.damper`). Its
+        product with ``qdot`` is that motion's speed; the damper's generalised force is ``-c J_d^T J_d qdot``,
+        whose power is ``-c (J_d qdot)^2``."""
+        return self._gradients(self._dampers, len(self.damping), q)
 
     def sliding_jacobian(self, q: np.ndarray) -> np.ndarray:
-        """``(S, 3 B)``: for each slider (in joint order) the gradient of its sliding coordinate, the distance of
-        the sliding point from the guide's through point along the guide, ``u_j . (p_i(s_p) - p_j(s_t))`` with
-        ``u_j = R(phi_j) u``. Its product with ``qdot`` is the sliding speed (the speed of the sliding point
-        relative to the guide's body, along the guide); a viscous slider's force is ``-c`` times it along the
-        guide, ``-c J_s^T J_s qdot`` as a generalised force, whose power is ``-c (J_s qdot)^2``."""
-        frame = _Frame(self._arrays, q)
-        arrays = self._arrays
-        out = np.zeros((arrays.slide_rows.size, self.size + 3))
-        if arrays.slide_rows.size:
-            rows = np.arange(arrays.slide_rows.size)
-            body, on = arrays.slide_body, arrays.slide_on
-            along = frame.turned(on, arrays.slide_u)
-            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
-            np.add.at(out, (rows, 3 * body), along[:, 0])
-            np.add.at(out, (rows, 3 * body + 1), along[:, 1])
-            np.add.at(out, (rows, 3 * body + 2), np.sum(along * _perp(frame.turned(body, arrays.slide_sp)), axis=1))
-            np.add.at(out, (rows, 3 * on), -along[:, 0])
-            np.add.at(out, (rows, 3 * on + 1), -along[:, 1])
-            np.add.at(out, (rows, 3 * on + 2),
-                      np.sum(_perp(along) * gap - along * _perp(frame.turned(on, arrays.slide_st)), axis=1))
-        return out[:, : self.size]
+        """``(S, 3 B)``: the rows of :meth:`damper_jacobian` of the joints that carry a travel
+        (:class:`~physics.mechanism.joints.Translation`, the sliders), in joint order: the gradient of the
+        sliding point's distance from the guide's through point along the guide."""
+        return self.damper_jacobian(q)[self._sliding]
+
+    def driven_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """``(T, 3 B)``: for each torque motor (driver order; ``torque`` its torques) the gradient of its joint's
+        relative rotation: the motor's generalised force is ``J_t^T torque``."""
+        return self._gradients(self._driven, len(self.torque), q)
 
     def velocity_rhs(self) -> np.ndarray:
         """``nu`` with ``Phi_q qdot = nu``: minus the explicit time derivative, non-zero on driven rows only."""
+        frame = _Frame(self.sketch_pose())
         out = np.zeros(len(self.rows))
-        out[self._arrays.angle_rows] = self._arrays.angle_rate
+        for group in self._groups:
+            for number, row in enumerate(group.evaluate(frame, 0.0)):
+                out[group.rows[number]] = -np.broadcast_to(row.velocity, group.rows[number].shape)
         return out
 
     def acceleration_rhs(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
         """``gamma`` with ``Phi_q qddot = gamma``: the terms of the second time derivative of ``Phi`` that do not
         hold ``qddot`` (centripetal and Coriolis terms), moved to the right-hand side."""
-        frame = _Frame(self._arrays, q, qdot)
-        arrays = self._arrays
+        frame = _Frame(q)
         out = np.zeros(len(self.rows))
-        if arrays.pin_rows.size:
-            gamma = -(frame.centripetal(arrays.pin_a, arrays.pin_sa) - frame.centripetal(arrays.pin_b, arrays.pin_sb))
-            out[arrays.pin_rows], out[arrays.pin_rows + 1] = gamma[:, 0], gamma[:, 1]
-        if arrays.slide_rows.size:
-            body, on = arrays.slide_body, arrays.slide_on
-            spin_on = frame.spin[on][:, None]
-            normal = frame.turned(on, arrays.slide_m)
-            gap = frame.points(body, arrays.slide_sp) - frame.points(on, arrays.slide_st)
-            gap_rate = frame.point_velocities(body, arrays.slide_sp) - frame.point_velocities(on, arrays.slide_st)
-            quadratic = (-(spin_on**2) * normal * gap + 2.0 * spin_on * _perp(normal) * gap_rate
-                         + normal * (frame.centripetal(body, arrays.slide_sp) - frame.centripetal(on, arrays.slide_st)))
-            out[arrays.slide_rows] = -np.sum(quadratic, axis=1)
+        for group in self._groups:
+            for number, row in enumerate(group.evaluate(frame, 0.0, group.rates(qdot))):
+                out[group.rows[number]] = -np.broadcast_to(row.acceleration, group.rows[number].shape)
         return out
+
+
+def _motor_rows(bodies, values, k):
+    return MOTOR.rows(bodies, values[0], k)
+
+
+def _driven_rows(bodies, values, k):
+    return [MOTOR.driven(bodies, k)]
+
+
+def _damper_rows(kind):
+    def rows(bodies, values, k):
+        return [kind.damper(bodies, values, k)]
+
+    return rows

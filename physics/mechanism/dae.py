@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from .constraints import Constraints
-from .model import GROUND, Mechanism, Prismatic, Revolute
+from .model import Mechanism
 
 SINGULAR_RCOND = 1e-13  # reciprocal condition of the augmented matrix below which a pose counts as singular
 
@@ -50,48 +50,26 @@ class MechanismDAE:
             raise LinkageError(f"body {body.name!r}: mass and inertia must be positive for the equations of motion")
         self.gravity = np.zeros(self.constraints.size)
         self.gravity[1::3] = -mechanism.g * np.array([body.mass for body in bodies])
-        index = self.constraints.body_index
-        self._torques: list[tuple[int, int, float]] = []  # (body a, body b, torque on b)
-        for driver in mechanism.drivers:
-            if driver.torque is not None:
-                joint = next(j for j in mechanism.joints if j.name == driver.joint)
-                assert isinstance(joint, Revolute)
-                a, b = (index.get(side.split(".")[0], -1) for side in (joint.a, joint.b))
-                self._torques.append((a, b, float(driver.torque)))
-        self._dampers: list[tuple[int, int, float]] = []
-        for joint in mechanism.joints:
-            if isinstance(joint, Revolute) and joint.damping:
-                a_name, b_name = joint.a.split(".")[0], joint.b.split(".")[0]
-                self._dampers.append((index.get(a_name, -1) if a_name != GROUND else -1,
-                                      index.get(b_name, -1) if b_name != GROUND else -1, joint.damping))
-        # viscous sliders: their damping per row of Constraints.sliding_jacobian (sliders in joint order)
-        self.slide_damping = np.array([joint.damping for joint in mechanism.joints if isinstance(joint, Prismatic)])
 
-    def slider_damping_force(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
-        """The generalised force of viscous sliders, ``-J_s^T (c * J_s qdot)`` (``Constraints.sliding_jacobian``):
-        ``-c v`` along each guide on the slider's body at its sliding point, and the opposite on the guide's."""
-        if not np.any(self.slide_damping):
+    def damping_force(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """The generalised force of the joints' viscous dampers, ``-J_d^T (c * J_d qdot)``
+        (:meth:`Constraints.damper_jacobian`): a pin's ``-c`` times the relative spin as a torque on ``b`` (the
+        opposite on ``a``), a slider's ``-c v`` along the guide on its body at the sliding point (the opposite on
+        the guide's)."""
+        if not np.any(self.constraints.damping):
             return np.zeros(self.constraints.size)
-        along = self.constraints.sliding_jacobian(q)
-        return -along.T @ (self.slide_damping * (along @ qdot))
+        along = self.constraints.damper_jacobian(q)
+        return -along.T @ (self.constraints.damping * (along @ qdot))
 
     def applied(self, qdot: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
-        """``Q``: gravity, motor torques, pin damping torques and slider damping forces (these depend on ``q``:
-        the guide turns with its body, so ``q`` is needed when a slider has damping)."""
-        if q is None and np.any(self.slide_damping):
-            raise ValueError("applied: a viscous slider's force depends on the pose; pass q")
-        forces = self.gravity + (self.slider_damping_force(q, qdot) if q is not None else 0.0)
-        for a, b, torque in self._torques:
-            if b >= 0:
-                forces[3 * b + 2] += torque
-            if a >= 0:
-                forces[3 * a + 2] -= torque
-        for a, b, damping in self._dampers:
-            relative = (qdot[3 * b + 2] if b >= 0 else 0.0) - (qdot[3 * a + 2] if a >= 0 else 0.0)
-            if b >= 0:
-                forces[3 * b + 2] -= damping * relative
-            if a >= 0:
-                forces[3 * a + 2] += damping * relative
+        """``Q``: gravity, motor torques and the dampers' forces (a slider's depends on ``q``: the guide turns
+        with its body, so ``q`` is needed when a joint has damping)."""
+        if q is None and np.any(self.constraints.damping):
+            raise ValueError("applied: a damper's force depends on the pose; pass q")
+        pose = q if q is not None else self.constraints.sketch_pose()
+        forces = self.gravity + self.damping_force(pose, qdot)
+        if self.constraints.torque.size:  # a torque motor's on its joint's relative rotation (J_t: constant)
+            forces = forces + self.constraints.driven_jacobian(pose).T @ self.constraints.torque
         return forces
 
     def solve(self, q: np.ndarray, qdot: np.ndarray) -> Solution:

@@ -96,7 +96,7 @@ def structure_key(mechanism: Mechanism) -> str:
     """A short digest of the topology and the joint kinds only (no names, numbers, damping or g)."""
     shape = structure(mechanism)
     text = ";".join([f"B{shape.bodies}",
-                     *(f"{j.kind[0]}{','.join(map(str, j.bodies))}" for j in shape.joints),
+                     *(f"{j.kind}{','.join(map(str, j.bodies))}" for j in shape.joints),
                      *(f"{d.kind[0]}@{d.joint}" for d in shape.drivers)])
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

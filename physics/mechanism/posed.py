@@ -8,11 +8,10 @@ assembled pose, not the sketch: every point, centre of mass and ground point whe
 
 from __future__ import annotations
 
-import numpy as np
-
 from .assembly import assemble
 from .constraints import Constraints
-from .model import Body, Gear, Mechanism, Prismatic
+from .joints import kind_of
+from .model import Body, Mechanism
 
 
 def at_assembled_pose(mechanism: Mechanism) -> Mechanism:
@@ -29,15 +28,7 @@ def at_assembled_pose(mechanism: Mechanism) -> Mechanism:
         centre = _xy(constraints.body_point(q, k, body.centre))
         bodies.append(Body(name=body.name, points=points, mass=body.mass, com=centre, inertia=body.inertia))
         turn[body.name] = float(q[3 * k + 2])
-    joints = []
-    for joint in mechanism.joints:
-        if isinstance(joint, Prismatic) and joint.on in turn:
-            c, s = np.cos(turn[joint.on]), np.sin(turn[joint.on])
-            dx, dy = joint.direction
-            joint = joint.model_copy(update={"direction": (float(c * dx - s * dy), float(s * dx + c * dy))})
-        if isinstance(joint, Gear):  # it holds at the assembled pose, where every relative angle is now zero
-            joint = joint.model_copy(update={"offset": 0.0})
-        joints.append(joint)
+    joints = [kind_of(joint).at_pose(joint, turn) for joint in mechanism.joints]
     return mechanism.model_copy(update={"bodies": bodies, "joints": joints})
 
 

@@ -31,10 +31,13 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
+from .joints import KINDS, MOTOR, Kinematics
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ZERO,
+    LinearReader,
     Place,
+    SympyNumbers,
     TreeGeometry,
     add,
     dot,
@@ -59,10 +62,12 @@ class _Calculus:
         self.geometry = geometry
         self.pins = {body: frozenset(pins) for body, pins in geometry.pins.items()}
         self.spin: dict = {-1: ZERO}
+        self.alpha: dict = {-1: ZERO}
         for index, body in enumerate(geometry.tree.order):
             parent = geometry.tree.parent[body][1]
             turning = index in self.pins[body] and index not in self.pins[parent]
             self.spin[body] = plus(self.spin[parent], geometry.sd[index]) if turning else self.spin[parent]
+            self.alpha[body] = plus(self.alpha[parent], geometry.sdd[index]) if turning else self.alpha[parent]
         self._frames: dict = {}
 
     def frames(self, place: Place) -> dict:
@@ -115,9 +120,43 @@ class _Calculus:
         return gradient
 
 
+class _Kinematics(SympyNumbers, Kinematics):
+    """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations by
+    the rotation rule (:class:`_Calculus`), an acceleration ``sum_j e_j sdd_j`` plus its bias."""
+
+    def __init__(self, geometry: TreeGeometry, calculus: _Calculus) -> None:
+        self.geometry, self.calculus = geometry, calculus
+        self.time = geometry.params.t
+
+    def angle(self, body):
+        return self.geometry.body_angle(body)
+
+    def spin(self, body):
+        return self.calculus.spin[body]
+
+    def alpha(self, body):
+        return self.calculus.alpha[body]
+
+    def turned(self, body, vector):
+        return self.geometry.turned(body, tuple(vector))
+
+    def point(self, body, arm):
+        place = self.geometry.point(body, arm)
+        acceleration = add(self.calculus.bias(place), *(scale(self.geometry.sdd[j], self.calculus.partial(place, j))
+                                                        for j in self.geometry.tree.path[body]))
+        return self.geometry.value(place), self.calculus.velocity(place), acceleration
+
+
+def _gradient(reader: LinearReader, rate, coordinates: dict) -> dict:
+    """``d rate / d sd_j`` by coordinate ``j`` (non-zero entries only), read off ``rate``, linear in ``sd``."""
+    coefficients, _ = reader.split(sp.sympify(rate))
+    return {coordinates[u]: value for u, value in coefficients.items() if value != 0}
+
+
 def derive_lagrange(shape: Structure, params: ParameterSymbols) -> LinearSystem:
     geometry = tree_geometry(shape, params)
     calculus = _Calculus(geometry)
+    kinematics = _Kinematics(geometry, calculus)
     s, sd, sdd = geometry.s, geometry.sd, geometry.sdd
     tree = geometry.tree
     n, bodies = len(s), shape.bodies
@@ -129,9 +168,10 @@ def derive_lagrange(shape: Structure, params: ParameterSymbols) -> LinearSystem:
     bias = [calculus.bias(place) for place in places]
     velocity = [calculus.velocity(place) for place in places]
     movers = {k: [i for i in range(bodies) if k in tree.path[i]] for k in range(n)}
-    generalised = _generalised_forces(geometry, calculus, n)
+    generalised = _generalised_forces(geometry, kinematics, n)
 
-    rows, row_names = geometry.closure_rows()
+    closures, row_names = geometry.closure_rows(kinematics)
+    rows = [row.position for row in closures]
     count = len(rows)
     A = sp.zeros(n + count, n + count)
     b = sp.zeros(n + count, 1)
@@ -150,7 +190,7 @@ def derive_lagrange(shape: Structure, params: ParameterSymbols) -> LinearSystem:
 
     jacobian = sp.zeros(count, n)
     rates = []
-    for r, (row, gradient, gamma, rate) in enumerate(_closures(geometry, calculus, row_names)):
+    for r, (gradient, gamma, rate) in enumerate(_closures(geometry, closures)):
         for j, value in gradient.items():
             jacobian[r, j] = value
             A[n + r, j] = value
@@ -186,81 +226,42 @@ def derive_lagrange(shape: Structure, params: ParameterSymbols) -> LinearSystem:
         constraint_jacobian=settle(jacobian, memo),
         constraint_rate=settle(sp.Matrix(count, 1, rates), memo),
         multiplier_index=tuple(range(n, n + count)),
-        time_index=params.vector.index(params.t) if any(d.kind == "speed" for d in shape.drivers) else None,
+        time_index=params.vector.index(params.t) if shape.speed_driven else None,
         kinematics=(settle(sp.Matrix(pose), memo), settle(pose_jacobian, memo), settle(sp.Matrix(pose_bias), memo)),
     )
 
 
-def _closures(geometry: TreeGeometry, calculus: _Calculus, row_names):
-    """For every closure row (the order of :meth:`TreeGeometry.closure_rows`): ``(phi, d phi/ds by coordinate,
-    gamma = -(phi'' without sdd), phi')``."""
+def _closures(geometry: TreeGeometry, closures):
+    """For every closure row (the order of :meth:`TreeGeometry.closure_rows`): ``(d phi/ds by coordinate,
+    gamma = -(phi'' without sdd), phi')``, the gradient read off ``phi'`` (linear in ``sd``) and gamma off
+    ``phi''`` (linear in ``sdd``)."""
+    coordinates = {u: j for j, u in enumerate(geometry.sd)}
+    by_rates, by_accelerations = LinearReader(geometry.sd), LinearReader(geometry.sdd)
+    for row in closures:
+        _, rest = by_accelerations.split(sp.sympify(row.acceleration))
+        yield _gradient(by_rates, row.velocity, coordinates), negative(rest), row.velocity
+
+
+def _generalised_forces(geometry: TreeGeometry, kinematics: _Kinematics, n: int) -> list:
+    """``Q_k - dD/d sd_k``: torque motors' work and the dampers' Rayleigh function, through the relative motion
+    each acts on (:meth:`~physics.mechanism.joints.JointKind.damper`, a torque motor's joint's relative rotation)
+    and its gradient in the tree coordinates."""
     shape, params = geometry.shape, geometry.params
-    n = len(geometry.s)
-    for row in row_names:
-        joint = shape.joints[row.joint]
-        symbols = params.joints[row.joint]
-        if row.kind == "angle":  # sum c angle(body): d/ds_j is the sum of c over the bodies pin j turns
-            assert row.angle is not None
-            gradient: dict = {}
-            for c, body in row.angle.terms:
-                for j in calculus.pins[body]:
-                    gradient[j] = gradient.get(j, ZERO) + c
-            rate = plus(*(times(c, calculus.spin[body]) for c, body in row.angle.terms), negative(row.angle.rate))
-            yield row, {j: v for j, v in gradient.items() if v != 0}, ZERO, rate
-            continue
-        if row.kind == "slide" and row.part == 1:
-            yield row, calculus.spin_gradient(joint.b, joint.a), ZERO, plus(calculus.spin[joint.a],
-                                                                           negative(calculus.spin[joint.b]))
-            continue
-        gap = geometry.point(joint.a, symbols.arm_a) - geometry.point(joint.b, symbols.arm_b)
-        if row.kind == "pin":
-            axis = row.part
-            gradient = {j: calculus.partial(gap, j)[axis] for j in range(n)}
-            yield (row, {j: v for j, v in gradient.items() if v != 0}, negative(calculus.bias(gap)[axis]),
-                   calculus.velocity(gap)[axis])
-            continue
-        # offset across the guide, n . g with n = R(phi_on) perp(u) turning at the guide's spin W:
-        # d/ds_j = [pin j turns the guide] perp(n) . g + n . dg/ds_j;  phi'' = -W^2 n.g + 2 W perp(n).g' + n.g''
-        _, normal = geometry.guide(row.joint)
-        spin, turning = calculus.spin[joint.b], calculus.pins[joint.b]
-        value, rate = geometry.value(gap), calculus.velocity(gap)
-        swing = dot(perp(normal), value)
-        gradient = {}
-        for j in range(n):
-            entry = plus(swing if j in turning else ZERO, dot(normal, calculus.partial(gap, j)))
-            if entry != 0:
-                gradient[j] = entry
-        quadratic = plus(negative(times(spin, spin, dot(normal, value))), times(TWO, spin, dot(perp(normal), rate)),
-                         dot(normal, calculus.bias(gap)))
-        yield row, gradient, negative(quadratic), plus(times(spin, swing), dot(normal, rate))
-
-
-def _generalised_forces(geometry: TreeGeometry, calculus: _Calculus, n: int) -> list:
-    """``Q_k - dD/d sd_k``: torque motors' work and the dampers' Rayleigh function, through each joint's relative
-    spin (pins) or sliding speed (sliders) and its gradient in the tree coordinates."""
-    shape, params, sd = geometry.shape, geometry.params, geometry.sd
+    coordinates = {u: j for j, u in enumerate(geometry.sd)}
+    reader = LinearReader(geometry.sd)
     out: list[list] = [[] for _ in range(n)]
-    torques = {driver.joint: params.drivers[k] for k, driver in enumerate(shape.drivers) if driver.kind == "torque"}
     for number, joint in enumerate(shape.joints):
         symbols = params.joints[number]
-        if "damping" not in symbols.fields:
+        damper = KINDS[joint.kind].damper(joint.bodies, symbols.values, kinematics)
+        if damper is None:
             continue
-        if joint.kind == "revolute":
-            gradient = calculus.spin_gradient(joint.a, joint.b)
-        else:
-            # the sliding coordinate u_w . (sliding point - through point), u_w turning with the guide's body
-            along, _ = geometry.guide(number)
-            gap = geometry.point(joint.a, symbols.arm_a) - geometry.point(joint.b, symbols.arm_b)
-            swing = dot(perp(along), geometry.value(gap))
-            turning = calculus.pins[joint.b]
-            gradient = {}
-            for j in range(n):
-                entry = plus(swing if j in turning else ZERO, dot(along, calculus.partial(gap, j)))
-                if entry != 0:
-                    gradient[j] = entry
-        speed = plus(*(times(value, sd[j]) for j, value in gradient.items()))
+        gradient = _gradient(reader, damper.velocity, coordinates)
         for j, value in gradient.items():
-            out[j].append(negative(times(symbols.damping, speed, value)))
-            if number in torques:
-                out[j].append(times(torques[number], value))
+            out[j].append(negative(times(symbols.damping, damper.velocity, value)))
+    for number, driver in enumerate(shape.drivers):
+        if number in shape.speed_driven.values():
+            continue
+        driven = MOTOR.driven(shape.joints[driver.joint].bodies[:2], kinematics)
+        for j, value in _gradient(reader, driven.velocity, coordinates).items():
+            out[j].append(times(params.drivers[number], value))
     return [plus(*terms) for terms in out]

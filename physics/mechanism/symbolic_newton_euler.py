@@ -23,11 +23,13 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
+from .joints import KINDS, MOTOR, Force, Kinematics, Rotation, Row, Translation
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ORIGIN,
     ZERO,
     LinearReader,
+    SympyNumbers,
     TreeGeometry,
     add,
     cross,
@@ -55,25 +57,27 @@ class _Motion:
         self.alpha: dict = {-1: ZERO}
         self.velocity: dict = {-1: ORIGIN}
         self.acceleration: dict = {-1: ORIGIN}
-        shape, params = geometry.shape, geometry.params
+        shape = geometry.shape
         s, sd, sdd = geometry.s, geometry.sd, geometry.sdd
         for index, body in enumerate(geometry.tree.order):
             k, parent = geometry.tree.parent[body]
-            joint, symbols = shape.joints[k], params.joints[k]
-            if joint.kind == "revolute":
-                child_arm, parent_arm = ((symbols.arm_a, symbols.arm_b) if joint.a == body
-                                         else (symbols.arm_b, symbols.arm_a))
+            joint = shape.joints[k]
+            freedom = geometry.freedom(k)
+            if isinstance(freedom, Rotation):
+                child_arm, parent_arm = ((freedom.arm_a, freedom.arm_b) if joint.a == body
+                                         else (freedom.arm_b, freedom.arm_a))
                 velocity, acceleration = self.point(parent, parent_arm)
                 self.spin[body] = plus(self.spin[parent], sd[index])
                 self.alpha[body] = plus(self.alpha[parent], sdd[index])
                 end_arm = child_arm
             else:
+                assert isinstance(freedom, Translation), f"joint {k}: a tree joint carries a rotation or a travel"
                 sign = sp.Integer(1 if body == joint.a else -1)
-                start_arm, end_arm = (symbols.arm_b, symbols.arm_a) if body == joint.a else (symbols.arm_a, symbols.arm_b)
+                start_arm, end_arm = ((freedom.arm_b, freedom.arm_a) if body == joint.a
+                                      else (freedom.arm_a, freedom.arm_b))
                 velocity, acceleration = self.point(parent, start_arm)
                 spin, alpha = self.spin[parent], self.alpha[parent]
-                assert symbols.direction is not None
-                along = scale(sign, geometry.turned(parent, tuple(symbols.direction)))
+                along = scale(sign, geometry.turned(parent, tuple(freedom.direction)))
                 travel = plus(geometry.offsets[k], s[index])
                 # d/dt (u d) = w perp(u) d + u sd;  d2/dt2 = (alpha perp(u) - w^2 u) d + 2 w perp(u) sd + u sdd
                 velocity = add(velocity, scale(times(spin, travel), perp(along)), scale(sd[index], along))
@@ -99,6 +103,30 @@ class _Motion:
         return velocity, acceleration
 
 
+class _Kinematics(SympyNumbers, Kinematics):
+    """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations body
+    after body (:class:`_Motion`)."""
+
+    def __init__(self, geometry: TreeGeometry, motion: _Motion) -> None:
+        self.geometry, self.motion = geometry, motion
+        self.time = geometry.params.t
+
+    def angle(self, body):
+        return self.geometry.body_angle(body)
+
+    def spin(self, body):
+        return self.motion.spin[body]
+
+    def alpha(self, body):
+        return self.motion.alpha[body]
+
+    def turned(self, body, vector):
+        return self.geometry.turned(body, tuple(vector))
+
+    def point(self, body, arm):
+        return (self.geometry.world(body, arm), *self.motion.point(body, arm))
+
+
 def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSystem:
     geometry = tree_geometry(shape, params)
     motion = _Motion(geometry)
@@ -106,82 +134,38 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
     tree = geometry.tree
     n, bodies = len(s), shape.bodies
     centre = geometry.centre
-    phi, row_names = geometry.closure_rows()
-    count = len(phi)
+    kinematics = _Kinematics(geometry, motion)
+    closures, row_names = geometry.closure_rows(kinematics)
+    count = len(closures)
     lam = list(sp.symbols(f"lam0:{count}", real=True))
 
     forces: dict[int, list] = {body: [] for body in range(bodies)}  # (force, point of application)
     torques: dict[int, list] = {body: [] for body in range(bodies)}
 
-    def push(body: int, force, point) -> None:
-        if body >= 0:
-            forces[body].append((force, point))
+    def apply(row: Row, magnitude) -> None:
+        """The loads of ``row`` times ``magnitude`` (a multiplier, a motor's torque, a damper's force)."""
+        for load in row.loads:
+            if load.body < 0:
+                continue
+            if isinstance(load, Force):
+                forces[load.body].append((scale(magnitude, load.force), load.point))
+            else:
+                torques[load.body].append(times(load.torque, magnitude))
 
-    def twist(body: int, torque) -> None:
-        if body >= 0:
-            torques[body].append(torque)
-
-    velocity_rows, acceleration_rows = [], []
-    row = 0
-    while row < count:
-        closure = row_names[row]
-        joint, symbols = shape.joints[closure.joint], params.joints[closure.joint]
-        if closure.kind == "angle":  # sum c angle(body): a torque c lambda on each body; sum c w = rate
-            assert closure.angle is not None
-            for c, body in closure.angle.terms:
-                twist(body, times(c, lam[row]))
-            velocity_rows.append(plus(*(times(c, motion.spin[body]) for c, body in closure.angle.terms),
-                                      negative(closure.angle.rate)))
-            acceleration_rows.append(plus(*(times(c, motion.alpha[body]) for c, body in closure.angle.terms)))
-            row += 1
-            continue
-        point_a, point_b = geometry.world(joint.a, symbols.arm_a), geometry.world(joint.b, symbols.arm_b)
-        (v_a, a_a), (v_b, a_b) = motion.point(joint.a, symbols.arm_a), motion.point(joint.b, symbols.arm_b)
-        if closure.kind == "pin":  # force ON a BY b at the pin; the two points move together
-            force = (lam[row], lam[row + 1])
-            push(joint.a, force, point_a)
-            push(joint.b, scale(sp.Integer(-1), force), point_b)
-            velocity_rows += list(sub(v_a, v_b))
-            acceleration_rows += list(sub(a_a, a_b))
-        else:  # force across the guide at the sliding point and the torque holding the relative angle
-            _, normal = geometry.guide(closure.joint)
-            push(joint.a, scale(lam[row], normal), point_a)
-            push(joint.b, scale(negative(lam[row]), normal), point_a)
-            twist(joint.a, lam[row + 1])
-            twist(joint.b, negative(lam[row + 1]))
-            spin, alpha = motion.spin[joint.b], motion.alpha[joint.b]
-            gap, gap_rate, gap_acceleration = sub(point_a, point_b), sub(v_a, v_b), sub(a_a, a_b)
-            # n' = w perp(n), n'' = alpha perp(n) - w^2 n
-            velocity_rows.append(plus(times(spin, dot(perp(normal), gap)), dot(normal, gap_rate)))
-            acceleration_rows.append(plus(times(alpha, dot(perp(normal), gap)),
-                                          negative(times(spin, spin, dot(normal, gap))),
-                                          times(TWO, spin, dot(perp(normal), gap_rate)),
-                                          dot(normal, gap_acceleration)))
-            velocity_rows.append(plus(motion.spin[joint.a], negative(motion.spin[joint.b])))
-            acceleration_rows.append(plus(motion.alpha[joint.a], negative(motion.alpha[joint.b])))
-        row += 2
-
+    phi, velocity_rows, acceleration_rows = [], [], []
+    for number, row in enumerate(closures):
+        apply(row, lam[number])
+        phi.append(row.position)
+        velocity_rows.append(row.velocity)
+        acceleration_rows.append(row.acceleration)
     for number, driver in enumerate(shape.drivers):
-        if driver.kind == "torque":
-            joint = shape.joints[driver.joint]
-            twist(joint.b, params.drivers[number])
-            twist(joint.a, negative(params.drivers[number]))
+        if number not in shape.speed_driven.values():
+            apply(MOTOR.driven(shape.joints[driver.joint].bodies[:2], kinematics), params.drivers[number])
     for number, joint in enumerate(shape.joints):
         symbols = params.joints[number]
-        if "damping" not in symbols.fields:
-            continue
-        if joint.kind == "revolute":
-            relative = plus(motion.spin[joint.b], negative(motion.spin[joint.a]))
-            twist(joint.b, negative(times(symbols.damping, relative)))
-            twist(joint.a, times(symbols.damping, relative))
-            continue
-        # -c (sliding speed) along the guide on the slider at its sliding point, the opposite on the guide's body
-        along, _ = geometry.guide(number)
-        point_a, point_b = geometry.world(joint.a, symbols.arm_a), geometry.world(joint.b, symbols.arm_b)
-        (v_a, _), (v_b, _) = motion.point(joint.a, symbols.arm_a), motion.point(joint.b, symbols.arm_b)
-        speed = plus(times(motion.spin[joint.b], dot(perp(along), sub(point_a, point_b))), dot(along, sub(v_a, v_b)))
-        push(joint.a, scale(negative(times(symbols.damping, speed)), along), point_a)
-        push(joint.b, scale(times(symbols.damping, speed), along), point_a)
+        damper = KINDS[joint.kind].damper(joint.bodies, symbols.values, kinematics)
+        if damper is not None:  # -c (its speed) times its loads
+            apply(damper, negative(times(symbols.damping, damper.velocity)))
 
     beyond: dict[int, set[int]] = {body: {body} for body in tree.order}
     for body in reversed(tree.order):  # children before parents
@@ -192,11 +176,12 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
     balances, names = [], []
     for index, body in enumerate(tree.order):
         k = tree.parent[body][0]
-        joint, symbols = shape.joints[k], params.joints[k]
+        joint = shape.joints[k]
         members = sorted(beyond[body])
         mass = {i: params.bodies[i].mass for i in members}
-        if joint.kind == "revolute":
-            pivot = geometry.world(body, symbols.arm_a if joint.a == body else symbols.arm_b)
+        freedom = geometry.freedom(k)
+        if isinstance(freedom, Rotation):
+            pivot = geometry.world(body, freedom.arm_a if joint.a == body else freedom.arm_b)
             inertial = plus(*(plus(cross(sub(centre[i], pivot), scale(mass[i], motion.acceleration[i])),
                                    times(params.bodies[i].inertia, motion.alpha[i])) for i in members))
             applied = plus(*(cross(sub(centre[i], pivot), scale(mass[i], gravity)) for i in members),
@@ -204,7 +189,7 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
                            *(torque for i in members for torque in torques[i]))
             names.append(f"AMB of the bodies beyond {{j{k}}} about it")
         else:
-            along, _ = geometry.guide(k)
+            along = geometry.guide(k)
             inertial = plus(*(times(mass[i], dot(motion.acceleration[i], along)) for i in members))
             applied = plus(*(times(mass[i], dot(gravity, along)) for i in members),
                            *(dot(force, along) for i in members for force, _ in forces[i]))
@@ -237,6 +222,6 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
         constraint_jacobian=settle(jacobian, memo),
         constraint_rate=settle(sp.Matrix(count, 1, velocity_rows), memo),
         multiplier_index=tuple(range(n, n + count)),
-        time_index=params.vector.index(params.t) if any(d.kind == "speed" for d in shape.drivers) else None,
+        time_index=params.vector.index(params.t) if shape.speed_driven else None,
         kinematics=(settle(sp.Matrix(pose), memo), settle(pose_jacobian, memo), settle(-minus_bias, memo)),
     )

@@ -11,9 +11,10 @@ breadth-first search over joints in order): a pin's is the child's rotation rela
 sketch; a slider's is its travel along the guide from where the sketch draws it. The joints left out of the tree
 (in joint order; a gear pair, which joins no bodies, is always one) and the speed motors (in driver order) are the
 constraint rows, in the DAE's form, so every formulation's multipliers mean the same (a pin's: the force ON body
-``a`` BY body ``b``). A row that holds a sum of body angles (a motor's, a gear's) comes from its joint kind
-(:meth:`physics.mechanism.joints.JointKind.angle_rows`) as a ``ClosureRow`` of form ``"angle"``; each tree
-formulation differentiates the sum its own way.
+``a`` BY body ``b``). Every row comes from its joint kind (:meth:`physics.mechanism.joints.JointKind.rows`),
+written against a :class:`~physics.mechanism.joints.Kinematics` that each tree formulation supplies with its own
+velocities and accelerations; a tree joint's coordinate is the one its kind's
+:meth:`~physics.mechanism.joints.JointKind.freedom` names (a rotation about a point or a travel along a guide).
 
 Planar vectors are plain ``(x, y)`` tuples of sympy expressions: cheaper to build than matrices.
 """
@@ -25,7 +26,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from .joints import KINDS, MOTOR, AngleRow
+from .joints import KINDS, MOTOR, Kinematics, Rotation, Row, Translation
 from .parameters import ParameterSymbols, Structure
 
 ZERO = sp.Integer(0)
@@ -90,17 +91,28 @@ def turn(angle, v):
     return (plus(times(c, v[0]), negative(times(s, v[1]))), plus(times(s, v[0]), times(c, v[1])))
 
 
+class SympyNumbers:
+    """The arithmetic of :class:`~physics.mechanism.joints.Kinematics` in the derivations: sums and products kept
+    as written (:func:`plus`, :func:`times`)."""
+
+    def plus(self, *terms):
+        return plus(*terms)
+
+    def times(self, *factors):
+        return times(*factors)
+
+    def negative(self, x):
+        return negative(x)
+
+
 @dataclass(frozen=True)
 class ClosureRow:
-    """One constraint row of a tree formulation: its joint (index), the form of its equation (``"pin"``: a
-    point's gap, ``"slide"``: an offset across a guide or a relative angle, ``"angle"``: a sum of body angles
-    given by ``angle``, a motor's or a gear's), which of its joint's rows it is and what its reaction means."""
+    """One constraint row of a tree formulation: its joint (index), which of its joint's (or its speed motor's)
+    rows it is and what its reaction means."""
 
     joint: int
-    kind: str
     part: int
     meaning: str = ""
-    angle: AngleRow | None = None
 
 
 @dataclass(frozen=True)
@@ -227,45 +239,33 @@ class TreeGeometry:
         """The point's place in the sketch (a ground point's arm is its coordinates)."""
         return tuple(arm) if body < 0 else add(self.params.bodies[body].centre, arm)
 
+    def freedom(self, joint: int) -> Rotation | Translation | None:
+        """The tree coordinate joint ``joint`` would carry, in its parameter symbols."""
+        return KINDS[self.shape.joints[joint].kind].freedom(self.params.joints[joint].values)
+
     def guide(self, joint: int):
-        """A slider's guide direction and its normal (+90 degrees), both turned with the guide's body."""
-        direction = self.params.joints[joint].direction
-        assert direction is not None
-        along = self.turned(self.shape.joints[joint].b, tuple(direction))
-        return along, perp(along)
+        """A slider's guide direction, turned with the guide's body (its ``b``)."""
+        freedom = self.freedom(joint)
+        assert isinstance(freedom, Translation)
+        return self.turned(self.shape.joints[joint].b, tuple(freedom.direction))
 
-    def closure_rows(self) -> tuple[list, list[ClosureRow]]:
-        """``phi(s, params, t)`` of the cut joints (joint order; a gear is always one) then the speed motors
-        (driver order)."""
-        rows: list = []
+    def closure_rows(self, k: Kinematics) -> tuple[list[Row], list[ClosureRow]]:
+        """The rows of the cut joints (joint order; a gear is always one) then of the speed motors (driver order),
+        in ``k``'s kinematics."""
+        rows: list[Row] = []
         names: list[ClosureRow] = []
-        for k in self.tree.cut:
-            joint, symbols = self.shape.joints[k], self.params.joints[k]
+        for number in self.tree.cut:
+            joint, symbols = self.shape.joints[number], self.params.joints[number]
             kind = KINDS[joint.kind]
-            if joint.kind == "revolute":
-                rows += list(sub(self.world(joint.a, symbols.arm_a), self.world(joint.b, symbols.arm_b)))
-                names += [ClosureRow(k, "pin", part, kind.meanings[part]) for part in (0, 1)]
-            elif joint.kind == "prismatic":
-                gap = sub(self.world(joint.a, symbols.arm_a), self.world(joint.b, symbols.arm_b))
-                _, normal = self.guide(k)
-                rows += [dot(normal, gap), plus(self.body_angle(joint.a), negative(self.body_angle(joint.b)))]
-                names += [ClosureRow(k, "slide", part, kind.meanings[part]) for part in (0, 1)]
-            else:
-                for part, row in enumerate(kind.angle_rows(joint.bodies, symbols.values)):
-                    rows.append(self.angle_sum(row))
-                    names.append(ClosureRow(k, "angle", part, kind.meanings[part], row))
-        for number, driver in enumerate(self.shape.drivers):
-            if driver.kind == "speed":
-                joint = self.shape.joints[driver.joint]
-                for part, row in enumerate(MOTOR.angle_rows(joint.bodies, self.params.drivers[number])):
-                    rows.append(self.angle_sum(row))
-                    names.append(ClosureRow(driver.joint, "angle", part, MOTOR.meanings[part], row))
+            for part, row in enumerate(kind.rows(joint.bodies, symbols.values, k)):
+                rows.append(row)
+                names.append(ClosureRow(number, part, kind.meanings[part]))
+        for number, joint_number in sorted((n, j) for j, n in self.shape.speed_driven.items()):
+            joint = self.shape.joints[joint_number]
+            for part, row in enumerate(MOTOR.rows(joint.bodies[:2], self.params.drivers[number], k)):
+                rows.append(row)
+                names.append(ClosureRow(joint_number, part, MOTOR.meanings[part]))
         return rows, names
-
-    def angle_sum(self, row: AngleRow):
-        """``sum c angle(body) - constant - rate t`` in the tree coordinates."""
-        return plus(*(times(c, self.body_angle(body)) for c, body in row.terms), negative(row.constant),
-                    negative(times(row.rate, self.params.t)))
 
     def body_angle(self, body: int):
         return ZERO if body < 0 else self.angle[body]
@@ -282,27 +282,29 @@ def tree_geometry(shape: Structure, params: ParameterSymbols) -> TreeGeometry:
     geometry.pins[-1] = ()
     for index, body in enumerate(tree.order):
         k, parent = tree.parent[body]
-        joint, symbols = shape.joints[k], params.joints[k]
+        joint = shape.joints[k]
         start = geometry.place[parent] if parent >= 0 else Place(())
-        if joint.kind == "revolute":
-            child_arm, parent_arm = (symbols.arm_a, symbols.arm_b) if joint.a == body else (symbols.arm_b, symbols.arm_a)
+        freedom = geometry.freedom(k)
+        if isinstance(freedom, Rotation):
+            child_arm, parent_arm = ((freedom.arm_a, freedom.arm_b) if joint.a == body
+                                     else (freedom.arm_b, freedom.arm_a))
             geometry.pins[body] = (*geometry.pins[parent], index)
             geometry.angle[body] = plus(geometry.body_angle(parent), geometry.s[index])
             geometry.place[body] = start + Place((Term(parent, tuple(parent_arm)),
                                                   Term(body, (negative(child_arm[0]), negative(child_arm[1])))))
             continue
-        # a slider: the child keeps its parent's angle; the sliding point lies ``offset + travel`` along the guide
+        # a travel: the child keeps its parent's angle; the sliding point lies ``offset + travel`` along the guide
         # from the through point, ``offset`` where the sketch puts it
-        direction = symbols.direction
-        assert direction is not None
-        offset = dot(direction, sub(geometry.sketch_point(joint.a, symbols.arm_a),
-                                    geometry.sketch_point(joint.b, symbols.arm_b)))
+        assert isinstance(freedom, Translation), f"joint {k}: a tree joint carries a rotation or a travel"
+        direction = freedom.direction
+        offset = dot(direction, sub(geometry.sketch_point(joint.a, freedom.arm_a),
+                                    geometry.sketch_point(joint.b, freedom.arm_b)))
         geometry.offsets[k] = offset
         geometry.pins[body] = geometry.pins[parent]
         geometry.angle[body] = geometry.body_angle(parent)
         sign = 1 if body == joint.a else -1  # the slider rides on its parent's guide, or the guide hangs from it
         along = scale(sp.Integer(sign), tuple(direction))
-        start_arm, end_arm = (symbols.arm_b, symbols.arm_a) if sign > 0 else (symbols.arm_a, symbols.arm_b)
+        start_arm, end_arm = (freedom.arm_b, freedom.arm_a) if sign > 0 else (freedom.arm_a, freedom.arm_b)
         geometry.place[body] = start + Place((
             Term(parent, tuple(start_arm)), Term(body, scale(offset, along)), Term(body, along, index),
             Term(body, (negative(end_arm[0]), negative(end_arm[1]))),

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 from pydantic import Discriminator, Tag
 
 from . import gear, prismatic, revolute
-from .base import GROUND, AngleRow, JointKind, finite_point
+from .base import GROUND, AngleRow, Force, JointKind, Kinematics, Rotation, Row, Torque, Translation, finite_point
 from .gear import Gear
 from .motor import MOTOR, Driver
 from .prismatic import Prismatic
@@ -37,5 +37,6 @@ def kind_of(joint: Any) -> JointKind:
     return KINDS[joint.kind]
 
 
-__all__ = ["GROUND", "KINDS", "MOTOR", "AngleRow", "Driver", "Gear", "Joint", "JointKind", "Prismatic", "Revolute",
+__all__ = ["GROUND", "KINDS", "MOTOR", "AngleRow", "Driver", "Force", "Gear", "Joint", "JointKind", "Kinematics",
+           "Prismatic", "Revolute", "Rotation", "Row", "Torque", "Translation",
            "finite_point", "kind_of"]

@@ -14,11 +14,14 @@ than switching on a tag:
   contract) and, for rows that hold a sum of body angles, :meth:`JointKind.angle_rows`, written once against
   whatever numbers it is given: sympy symbols for the three derivations (each differentiates the sum its own
   way) and floats for the numeric constraints of assembly and reactions;
-* how it is drawn: ``drawing``, a word the app's scene reads (``"pin"``, ``"guide"``, ``"mesh"``).
-
-A pin's rows (the gap between its two points) and a slider's (its offset across the turning guide and its relative
-rotation), with the tree coordinate each carries, are written by each formulation with its own rigid-body
-kinematics (docs/mechanisms.md, "The joint interface").
+* its sketch: :meth:`JointKind.at_pose`, the joint redrawn for a sketch whose bodies have turned;
+* how it is drawn: ``drawing``, a word the app's scene reads (``"pin"``, ``"guide"``, ``"mesh"``);
+* its equations, written once: :meth:`JointKind.rows` (its constraint rows: each row's value, its first and second
+  time derivatives and the loads its multiplier applies), :meth:`JointKind.damper` (the relative motion its
+  damper resists) and :meth:`JointKind.freedom` (the tree coordinate it carries: a rotation about a point or a
+  travel along a guide). They are written against a :class:`Kinematics`, which each formulation supplies with its
+  own rigid-body kinematics and its own numbers: unevaluated sympy sums for the three derivations, numpy arrays
+  (every joint of a kind at once) for the numeric constraints of assembly and reactions.
 """
 
 from __future__ import annotations
@@ -46,6 +49,121 @@ def finite_point(value: object, what: str) -> Point:
             raise ValueError(f"{what}: coordinates must be finite numbers, got {value!r}")
         out.append(float(number))
     return (out[0], out[1])
+
+
+class Kinematics(ABC):
+    """What a joint's equations may ask of a formulation: bodies' angles, spins and angular accelerations, a
+    point's position, velocity and acceleration, a vector turned with a body, the time, and the arithmetic of its
+    numbers (``plus``, ``times``, ``negative``: sympy's unevaluated sums in the derivations, numpy's in the
+    numeric constraints). Body ``-1`` (or whatever the formulation gives for it) is the ground, at rest."""
+
+    time: Any
+
+    @abstractmethod
+    def angle(self, body: Any) -> Any: ...
+
+    @abstractmethod
+    def spin(self, body: Any) -> Any: ...
+
+    @abstractmethod
+    def alpha(self, body: Any) -> Any: ...
+
+    @abstractmethod
+    def point(self, body: Any, arm: Any) -> tuple[Any, Any, Any]:
+        """Position, velocity and acceleration of the point at ``arm`` from ``body``'s sketch centre of mass (for
+        the ground: the point at ``arm``)."""
+
+    @abstractmethod
+    def turned(self, body: Any, vector: Any) -> Any:
+        """``R(angle(body)) vector``."""
+
+    @abstractmethod
+    def plus(self, *terms: Any) -> Any: ...
+
+    @abstractmethod
+    def times(self, *factors: Any) -> Any: ...
+
+    @abstractmethod
+    def negative(self, x: Any) -> Any: ...
+
+    # planar vectors as ``(x, y)`` pairs, built from the three operations above
+    def add(self, *vectors: Any) -> tuple[Any, Any]:
+        return (self.plus(*(v[0] for v in vectors)), self.plus(*(v[1] for v in vectors)))
+
+    def sub(self, a: Any, b: Any) -> tuple[Any, Any]:
+        return (self.plus(a[0], self.negative(b[0])), self.plus(a[1], self.negative(b[1])))
+
+    def scale(self, k: Any, v: Any) -> tuple[Any, Any]:
+        return (self.times(k, v[0]), self.times(k, v[1]))
+
+    def perp(self, v: Any) -> tuple[Any, Any]:
+        """``v`` turned by +90 degrees."""
+        return (self.negative(v[1]), v[0])
+
+    def dot(self, a: Any, b: Any) -> Any:
+        return self.plus(self.times(a[0], b[0]), self.times(a[1], b[1]))
+
+
+@dataclass(frozen=True)
+class Force:
+    """A multiplier's load per unit: ``force`` on ``body`` at ``point`` (a world point)."""
+
+    body: Any
+    force: tuple[Any, Any]
+    point: tuple[Any, Any]
+
+
+@dataclass(frozen=True)
+class Torque:
+    """A multiplier's load per unit: a torque ``torque`` on ``body``."""
+
+    body: Any
+    torque: Any
+
+
+@dataclass(frozen=True)
+class Row:
+    """One scalar equation of a joint in a formulation's numbers: ``position`` (``Phi``, zero when it holds),
+    ``velocity`` (its first time derivative, linear in the rates) and ``acceleration`` (its second, linear in the
+    accelerations), and ``loads``, what its multiplier applies per unit (the reaction's meaning: the same
+    generalised force as the row's gradient, written as forces at points and torques so that Newton–Euler can take
+    their moments)."""
+
+    position: Any
+    velocity: Any
+    acceleration: Any
+    loads: tuple[Force | Torque, ...] = ()
+
+
+@dataclass(frozen=True)
+class Rotation:
+    """The tree coordinate of a pin: the rotation of one body relative to the other about the point at
+    ``arm_a`` on body ``a`` and ``arm_b`` on body ``b`` (the same point in the sketch)."""
+
+    arm_a: Any
+    arm_b: Any
+
+
+@dataclass(frozen=True)
+class Translation:
+    """The tree coordinate of a slider: the travel of body ``a``'s point at ``arm_a`` along body ``b``'s guide
+    through its point at ``arm_b``, unit direction ``direction`` (in the sketch), the two keeping their angle."""
+
+    arm_a: Any
+    arm_b: Any
+    direction: Any
+
+
+def angle_row(row: AngleRow, k: Kinematics) -> Row:
+    """A row ``sum c angle(body) - constant - rate t``: its derivatives are the same sum of spins minus ``rate``
+    and of angular accelerations; its multiplier is a torque ``c`` on every body of the sum."""
+    return Row(
+        k.plus(*(k.times(c, k.angle(body)) for c, body in row.terms), k.negative(row.constant),
+               k.negative(k.times(row.rate, k.time))),
+        k.plus(*(k.times(c, k.spin(body)) for c, body in row.terms), k.negative(row.rate)),
+        k.plus(*(k.times(c, k.alpha(body)) for c, body in row.terms)),
+        tuple(Torque(body, c) for c, body in row.terms),
+    )
 
 
 @dataclass(frozen=True)
@@ -96,6 +214,28 @@ class JointKind(ABC):
         """Its rows that hold a sum of body angles, from ``bodies`` (see :meth:`structure_bodies`) and its
         parameter ``values`` (symbols or numbers, the order of ``fields``). None for a kind of point rows."""
         return []
+
+    def rows(self, bodies: Sequence[Any], values: Sequence[Any], k: Kinematics) -> list[Row]:
+        """Its constraint rows, in the order of ``meanings``, on ``bodies`` (:meth:`structure_bodies`, or the
+        formulation's handles of them) with its parameter ``values``. By default its :meth:`angle_rows`."""
+        return [angle_row(row, k) for row in self.angle_rows(bodies, values)]
+
+    def damper(self, bodies: Sequence[Any], values: Sequence[Any], k: Kinematics) -> Row | None:
+        """The relative motion its viscous damper resists (``velocity``: its speed; ``loads``: per unit of the
+        damping force), the damper's coefficient being its ``damping`` field; None for a kind without one. A
+        damper applies ``-damping * velocity`` times the loads (a Rayleigh function ``damping velocity^2 / 2``)."""
+        return None
+
+    def freedom(self, values: Sequence[Any]) -> Rotation | Translation | None:
+        """The tree coordinate it carries when it is a joint of the spanning tree; None for a coupler (a kind
+        whose :meth:`bodies` is None is never in the tree)."""
+        return None
+
+    def at_pose(self, joint: Any, turn: dict[str, float]) -> Any:
+        """The joint redrawn for a sketch in which every body ``name`` has turned by ``turn[name]`` (rad) from
+        this one (:func:`physics.mechanism.posed.at_assembled_pose`): whatever it holds in the sketch's frame.
+        By default the joint itself (its points move with their bodies)."""
+        return joint
 
     def structure_bodies(self, joint: Any, body: BodyIndex, mechanism: Any) -> tuple[int, ...]:
         """The body indices its equations reach (``a`` then ``b`` for a joint of two bodies)."""

@@ -92,6 +92,10 @@ class GearKind(JointKind):
             ends.append(pin.b if pin.b.split(".")[0] != GROUND else pin.a)
         return tuple(ends)
 
+    def at_pose(self, joint: Gear, turn: dict[str, float]) -> Gear:
+        """It holds at the new pose, where every relative angle is now zero: offset zero."""
+        return joint.model_copy(update={"offset": 0.0})
+
     def angle_rows(self, bodies, values) -> list[AngleRow]:
         a1, b1, a2, b2 = bodies
         ratio, offset = values

@@ -7,7 +7,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .base import AngleRow
+from .base import AngleRow, Kinematics, Row, angle_row
+from .revolute import relative_rotation
 
 
 class Driver(BaseModel):
@@ -50,6 +51,17 @@ class Motor:
     def angle_rows(bodies, speed: Any) -> list[AngleRow]:
         """A speed motor's row ``phi_b - phi_a - speed t = 0`` on its joint's bodies ``(a, b)``."""
         return [AngleRow(((1, bodies[1]), (-1, bodies[0])), 0, speed)]
+
+
+    @staticmethod
+    def rows(bodies, speed: Any, k: Kinematics) -> list[Row]:
+        """A speed motor's rows in a formulation's numbers; its multiplier the torque on ``b`` (minus on ``a``)."""
+        return [angle_row(row, k) for row in Motor.angle_rows(bodies, speed)]
+
+    @staticmethod
+    def driven(bodies, k: Kinematics) -> Row:
+        """What a torque motor acts on: its joint's relative rotation, the torque on ``b`` (minus on ``a``)."""
+        return relative_rotation(bodies, k)
 
 
 MOTOR = Motor()

@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from .base import GROUND, JointKind, Point, finite_point
+from .base import GROUND, Force, JointKind, Kinematics, Point, Row, Torque, Translation, finite_point
 from .revolute import arm
 
 
@@ -62,6 +63,52 @@ class PrismaticKind(JointKind):
         return [*arm(mechanism, f"{joint.body}.{joint.point}", joint.name),
                 *arm(mechanism, f"{joint.on}.{joint.through}", joint.name),
                 joint.direction[0] / length, joint.direction[1] / length, joint.damping]
+
+
+    def at_pose(self, joint: Prismatic, turn: dict[str, float]) -> Prismatic:
+        """Its guide's direction turned with the body that carries it."""
+        if joint.on not in turn:
+            return joint
+        c, s = np.cos(turn[joint.on]), np.sin(turn[joint.on])  # as numpy turns the bodies' points
+        dx, dy = joint.direction
+        return joint.model_copy(update={"direction": (float(c * dx - s * dy), float(s * dx + c * dy))})
+
+    def rows(self, bodies, values, k: Kinematics) -> list[Row]:
+        """Its sliding point's offset across the guide, ``n . (p - t)`` with ``n = R(phi_on) perp(u)`` turning
+        with the guide (``n' = w perp(n)``, ``n'' = alpha perp(n) - w^2 n``), its multiplier the force across the
+        guide on ``body`` at the sliding point (the opposite on ``on``); and the relative rotation, its multiplier
+        the torque on ``body`` (the opposite on ``on``)."""
+        a, b = bodies
+        normal = k.turned(b, k.perp((values[4], values[5])))
+        return [_along_guide(normal, bodies, values, k),
+                Row(k.plus(k.angle(a), k.negative(k.angle(b))), k.plus(k.spin(a), k.negative(k.spin(b))),
+                    k.plus(k.alpha(a), k.negative(k.alpha(b))), (Torque(a, 1), Torque(b, -1)))]
+
+    def damper(self, bodies, values, k: Kinematics) -> Row:
+        """Its sliding: the travel of the sliding point along the turning guide; a damping force along the guide
+        on ``body`` at the sliding point, the opposite on ``on``."""
+        return _along_guide(k.turned(bodies[1], (values[4], values[5])), bodies, values, k)
+
+    def freedom(self, values) -> Translation:
+        return Translation((values[0], values[1]), (values[2], values[3]), (values[4], values[5]))
+
+
+def _along_guide(axis, bodies, values, k: Kinematics) -> Row:
+    """``axis . (p - t)``, ``axis`` a direction fixed in the guide's body ``on`` (turned with it), ``p`` the
+    sliding point and ``t`` the through point, with its derivatives and a unit force along ``axis`` on ``body`` at
+    the sliding point (the opposite on ``on``)."""
+    a, b = bodies
+    (p_a, v_a, a_a), (p_b, v_b, a_b) = k.point(a, (values[0], values[1])), k.point(b, (values[2], values[3]))
+    gap, gap_rate, gap_acceleration = k.sub(p_a, p_b), k.sub(v_a, v_b), k.sub(a_a, a_b)
+    spin, alpha = k.spin(b), k.alpha(b)
+    swing = k.dot(k.perp(axis), gap)
+    return Row(
+        k.dot(axis, gap),
+        k.plus(k.times(spin, swing), k.dot(axis, gap_rate)),
+        k.plus(k.times(alpha, swing), k.negative(k.times(spin, spin, k.dot(axis, gap))),
+               k.times(2, spin, k.dot(k.perp(axis), gap_rate)), k.dot(axis, gap_acceleration)),
+        (Force(a, axis, p_a), Force(b, k.scale(-1, axis), p_a)),
+    )
 
 
 KIND = PrismaticKind()

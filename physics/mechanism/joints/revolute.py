@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .base import GROUND, JointKind
+from .base import GROUND, Force, JointKind, Kinematics, Rotation, Row, Torque
 
 REFERENCE = r"^[A-Za-z][A-Za-z0-9_-]*\.[A-Za-z0-9_-]+$"
 
@@ -55,6 +55,33 @@ class RevoluteKind(JointKind):
 
     def values(self, joint: Revolute, mechanism: Any) -> list[float]:
         return [*arm(mechanism, joint.a, joint.name), *arm(mechanism, joint.b, joint.name), joint.damping]
+
+
+    def rows(self, bodies, values, k: Kinematics) -> list[Row]:
+        """The gap between its two points, x and y: the two points move together. The multiplier is the force ON
+        body ``a`` BY body ``b`` at the pin (``b`` feels the opposite)."""
+        a, b = bodies
+        (p_a, v_a, a_a), (p_b, v_b, a_b) = k.point(a, (values[0], values[1])), k.point(b, (values[2], values[3]))
+        gap, gap_rate, gap_acceleration = k.sub(p_a, p_b), k.sub(v_a, v_b), k.sub(a_a, a_b)
+        units = ((1, 0), (0, 1))
+        return [Row(gap[axis], gap_rate[axis], gap_acceleration[axis],
+                    (Force(a, units[axis], p_a), Force(b, k.scale(-1, units[axis]), p_b))) for axis in (0, 1)]
+
+    def damper(self, bodies, values, k: Kinematics) -> Row:
+        """Its relative rotation: a damping torque on ``b`` against ``b``'s spin relative to ``a`` (the opposite
+        on ``a``)."""
+        return relative_rotation(bodies, k)
+
+    def freedom(self, values) -> Rotation:
+        return Rotation((values[0], values[1]), (values[2], values[3]))
+
+
+def relative_rotation(bodies, k: Kinematics) -> Row:
+    """Body ``b``'s rotation relative to body ``a`` of a pin ``(a, b)``, with a unit torque on ``b`` (minus on
+    ``a``): what a pin's damper and a motor act on."""
+    a, b = bodies
+    return Row(k.plus(k.angle(b), k.negative(k.angle(a))), k.plus(k.spin(b), k.negative(k.spin(a))),
+               k.plus(k.alpha(b), k.negative(k.alpha(a))), (Torque(b, 1), Torque(a, -1)))
 
 
 KIND = RevoluteKind()
