@@ -96,7 +96,13 @@ class ReactionArrows:
             self.hide()
             return
         start = to_world(joints_xy)
-        end = to_world(joints_xy + scale * forces)
+        with np.errstate(invalid="ignore", over="ignore"):
+            end = to_world(joints_xy + scale * forces)
+        # a force that is not finite (a run's last sample before it stopped) is no arrow: NaN or inf points
+        # reach the browser's buffers as they are
+        start = np.where(np.isfinite(start), start, 0.0)
+        drawn = np.isfinite(end).all(axis=-1, keepdims=True)
+        end = np.where(drawn, end, start)
         points = np.stack([start, end], axis=1).astype(np.float32)
         colors = np.tile(np.array(REACTION_COLOR, np.uint8), (len(forces), 1))
         if self.handle is None or self.count != len(forces):
