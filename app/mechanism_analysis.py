@@ -26,9 +26,7 @@ import numpy as np
 from physics import LinkageError
 from physics.ensemble import MechanismEnsemble
 from physics.mechanism.statics import refuse_without_rest, rest_poses
-from physics.studies import mechanism_chaos
 from physics.studies.chaos_map import framed_picture
-from physics.studies.mechanism_work_precision import mechanism_case
 from physics.studies.report import Progress
 from physics.studies.work_precision_chart import chart
 
@@ -233,6 +231,10 @@ class MechanismAnalysis:
         mechanism, label = self.session.mechanism, self.session.label
 
         def compute(stale):
+            # studies integrate in this process when asked (a worker thread), never at import: a server that
+            # only animates mechanisms loads no formulation (tests/app/test_mechanism_workers.py)
+            from physics.studies.mechanism_work_precision import mechanism_case  # noqa: PLC0415
+
             case = mechanism_case(mechanism, progress=_Checkpoint(stale), name=label, **WORK_PRECISION)
             return case, chart(label, case, narrow=True)
 
@@ -258,6 +260,8 @@ class MechanismAnalysis:
                          "so it needs a mechanism of mobility >= 2 (two free coordinates), e.g. a double pendulum "
                          "(docs/examples/double-pendulum.toml)", self.chaos_status)
             return
+        from physics.studies import mechanism_chaos  # noqa: PLC0415 - see work_precision_chart
+
         indices = mechanism_chaos.angle_indices(mechanism, None)
         names = [body.name for body in mechanism.bodies]
         axes = (f"{names[indices[0] // 3]}.phi", f"{names[indices[1] // 3]}.phi")
