@@ -180,8 +180,8 @@ class MechanismAnalysis:
             failure = None
             try:
                 result = compute(stale)
-            except Discarded:
-                pass
+            except Discarded:  # stale() holds now: said below as discarded, nothing of it drawn
+                result = None
             except LinkageError as error:
                 failure = ("refused", str(error), "yellow")
             except Exception as error:  # the worker's boundary: the session goes on
