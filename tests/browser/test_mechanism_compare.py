@@ -26,6 +26,7 @@ def test_a_mechanism_in_compare_mode_and_its_free_body_diagram(start_lab):
     right = page.panel_box()["x"]
     single = page.picture("mechanism-single")
 
+    page.open_tab("Simulation")  # the panel's tabs, as a chain's
     page.page.get_by_role("checkbox", name="Compare formulations").check()
     wait_until(lambda: session.compare and [r.spec.label for r in session.player.runs][:3] == list(COMPARE_METHODS),
                message="the three formulations to run")
@@ -43,6 +44,7 @@ def test_a_mechanism_in_compare_mode_and_its_free_body_diagram(start_lab):
     page.page.get_by_role("checkbox", name="Compare formulations").uncheck()
     wait_until(lambda: not session.compare and [r.spec.label for r in session.player.runs] == ["main"],
                message="one run again")
+    page.open_tab("Display")
     page.choose("Body", "coupler")
     page.show_time(0.5)
     before = page.picture("mechanism-before-free-body")
