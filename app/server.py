@@ -53,6 +53,9 @@ FULL_RATE_SESSIONS = 15
 MIN_SESSION_FPS = 15.0
 
 
+SIGNAL_CHECK_SECONDS = 0.25  # how soon serve_forever runs a signal's handler that reached another thread
+
+
 def is_loopback(host: str) -> bool:
     if host == "localhost":
         return True
@@ -404,7 +407,10 @@ class LabServer:
     def serve_forever(self) -> None:
         try:
             while True:
-                time.sleep(3600)
+                # Short sleeps, not one long one: Python runs a signal's handler in the main thread only, and a
+                # SIGTERM the kernel delivers to another thread (a player, viser's loop) does not interrupt the
+                # main thread's sleep; with one hour's sleep a terminated server served on (test_signals.py)
+                time.sleep(SIGNAL_CHECK_SECONDS)
         except KeyboardInterrupt:
             pass
         finally:
