@@ -57,3 +57,39 @@ def test_an_untranslatable_function_is_refused_when_generating():
     s = chain_symbols(2)
     with pytest.raises(NotImplementedError, match="exp"):
         llvm_ir.function_ir("assemble", s, [(("v", 0), sp.exp(s.theta[0]))], 1, "A", "b")
+
+
+def _markowitz_by_scanning(A, vanishing=frozenset()):
+    """Markowitz's order written the plain way (every entry scanned for every candidate): the oracle of the
+    indexed version in :func:`llvm_ir.elimination_order`."""
+    k = A.shape[0]
+    structure = {(i, j) for i in range(k) for j in range(k) if A[i, j] != 0}
+    if k < 6 or len(structure) > 0.4 * k * k:
+        return None
+    safe = llvm_ir.safe_pivots(A, vanishing)
+    rows, cols, order = set(range(k)), set(range(k)), []
+    while rows:
+        candidates = [((i, j) not in safe,
+                       (sum(1 for (r, c) in structure if r == i and c in cols) - 1)
+                       * (sum(1 for (r, c) in structure if c == j and r in rows) - 1), i, j)
+                      for (i, j) in structure if i in rows and j in cols]
+        if not candidates:
+            return None
+        _, _, row, col = min(candidates)
+        order.append((row, col))
+        pivot_cols = [c for (r, c) in structure if r == row and c in cols and c != col]
+        for r in [r for (r, c) in structure if c == col and r in rows and r != row]:
+            structure.update((r, j) for j in pivot_cols)
+        rows.discard(row)
+        cols.discard(col)
+    return order
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_pivot_order_is_markowitzs_on_random_sparse_structures(seed):
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(6, 30))
+    x, m, p = sp.Symbol("x"), sp.Symbol("m", positive=True), sp.Symbol("p")
+    kinds = [sp.Integer(0)] * 6 + [m, sp.sin(x), p]  # mostly zero; a safe mass, a state-dependent sine, a vanishing p
+    A = sp.Matrix(k, k, lambda i, j: m if i == j and rng.random() < 0.5 else kinds[int(rng.integers(len(kinds)))])
+    assert llvm_ir.elimination_order(A, frozenset({p})) == _markowitz_by_scanning(A, frozenset({p}))
