@@ -146,14 +146,22 @@ def settings_knobs(settings: MechanismSettings) -> list[Knob]:
 def apply_setting(settings: MechanismSettings, name: str, value: object) -> MechanismSettings:
     """``settings`` with ``rtol``, ``step`` (ms), ``baumgarte_alpha`` or ``baumgarte_beta`` set to ``value``;
     LinkageError naming the range otherwise."""
-    knob = next((k for k in settings_knobs(settings) if k.name == name), None)
+    knobs_now = settings_knobs(settings)
+    _, number = _in_range(knobs_now, name, value,
+                          f"not a setting of the run (settings: {', '.join(k.name for k in knobs_now)})")
+    return settings.model_copy(update={name: number / 1e3 if name == "step" else number})
+
+
+def _in_range(knobs_now: list[Knob], name: str, value: object, unknown: str) -> tuple[Knob, float]:
+    """The knob called ``name`` and ``value`` read as its number, within its range; LinkageError naming the
+    knob and its range otherwise (``unknown``: what to say of a name that is none of them)."""
+    knob = next((k for k in knobs_now if k.name == name), None)
     if knob is None:
-        raise LinkageError(f"{name!r}: not a setting of the run (settings: "
-                           f"{', '.join(k.name for k in settings_knobs(settings))})")
+        raise LinkageError(f"{name!r}: {unknown}")
     number = _number(knob.label, value)
     if not knob.low <= number <= knob.high:
         raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
-    return settings.model_copy(update={name: number / 1e3 if name == "step" else number})
+    return knob, number
 
 
 START_NAMES = {"angle": ("angle0", "start angle (°)", "omega0", "start angular speed (°/s)"),
@@ -193,13 +201,8 @@ def start_knobs(mechanism: Mechanism, free: tuple[FreeCoordinate, ...], sketch_q
 
 def start_value(knobs_now: list[Knob], name: str, value: object) -> float:
     """A start control's new value in SI (rad, rad/s, m, m/s), checked against its range."""
-    knob = next((k for k in knobs_now if k.name == name), None)
-    if knob is None:
-        raise LinkageError(f"{name!r}: not a start control of this mechanism "
-                           f"(start controls: {', '.join(k.name for k in knobs_now) or 'none: its motors fix it'})")
-    number = _number(knob.label, value)
-    if not knob.low <= number <= knob.high:
-        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    knob, number = _in_range(knobs_now, name, value, "not a start control of this mechanism (start controls: "
+                             f"{', '.join(k.name for k in knobs_now) or 'none: its motors fix it'})")
     return math.radians(number) if knob.unit.startswith("°") else number
 
 
@@ -236,13 +239,9 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
     """``mechanism`` with the control ``name`` set to ``value`` (SI units except a motor speed in °/s),
     validated, assembled and checked to run (motors followed at ``sample_interval``); LinkageError naming the
     element, the field and the allowed range otherwise."""
-    knob = next((k for k in knobs(mechanism, reference) if k.name == name), None)
-    if knob is None:
-        raise LinkageError(f"{name!r}: not a control of {mechanism.name} "
-                           f"(controls: {', '.join(k.name for k in knobs(mechanism, reference))})")
-    number = _number(knob.label, value)
-    if not knob.low <= number <= knob.high:
-        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    knobs_now = knobs(mechanism, reference)
+    knob, number = _in_range(knobs_now, name, value, f"not a control of {mechanism.name} "
+                             f"(controls: {', '.join(k.name for k in knobs_now)})")
     kind, _, element = name.partition(":")
     data = mechanism.model_dump()
     try:
