@@ -51,7 +51,7 @@ class PointPaths(Protocol):
 
 def chain_joint_names(n: int) -> tuple[str, ...]:
     """A chain's joints 0..n by name: the fixed origin ``O``, ``J1 .. J{n-1}`` between bars, the tip ``H`` (the
-    free-body diagrams' and the chain-as-mechanism's pin names; the seed's triple pendulum calls J1, J2 E, F)."""
+    free-body diagrams' and the chain-as-mechanism's pin names; the seed report's E and F are J1 and J2)."""
     return ("O", *(f"J{k}" for k in range(1, n)), "H")
 
 
