@@ -167,7 +167,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     from ..status import Status  # noqa: PLC0415
     from .assembly import sketch_size  # noqa: PLC0415
     from .dae import MechanismDAE  # noqa: PLC0415
-    from .run import coordinate_names  # noqa: PLC0415
+    from .run import body_points, coordinate_names, traced_path  # noqa: PLC0415
 
     method, stabilization = settings.method, settings.stabilization
     dae = MechanismDAE(mechanism)  # numbers only: masses, gravity, the constraint rows' names
@@ -235,10 +235,11 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     reactions = solved.multipliers if not tree else body_reactions(dae, solved)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
+    points = body_points(mechanism)
     return Trajectory(
         t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, coordinate_names=coordinate_names(mechanism),
         reaction_rows=reactions, kinetic=kinetic, potential=potential, energy=kinetic + potential,
-        residual=solved.residual, trace_xy=_trace(mechanism, constraints, solved.q),
+        residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
         row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows), method=method,
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
         condition=_conditions(constraints, solved, tree),
@@ -371,14 +372,3 @@ def body_reactions(dae, solved: Samples) -> np.ndarray:
         out.append(np.linalg.lstsq(jacobian.T, imbalance, rcond=None)[0])
     return np.array(out).reshape(len(solved.q), -1)
 
-
-def _trace(mechanism: Mechanism, constraints, q: np.ndarray) -> np.ndarray:
-    """The traced point at every sample (NaN when the mechanism traces none)."""
-    if mechanism.trace is None:
-        return np.full((q.shape[0], 2), np.nan)
-    body, _, point = mechanism.trace.partition(".")
-    names = [b.name for b in mechanism.bodies]
-    if body not in names:
-        return np.full((q.shape[0], 2), np.nan)
-    k = names.index(body)
-    return np.array([constraints.body_point(pose, k, mechanism.body(body).points[point]) for pose in q])

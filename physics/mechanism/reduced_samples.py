@@ -8,14 +8,12 @@ accelerations (least squares on the full-rank ``Phi_q^T``), so they mean what th
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..simulate.trajectory import Trajectory
 from .dae import MechanismDAE
 from .reduced_partition import Partition, ReducedState
-from .run import coordinate_names
+from .run import body_points, coordinate_names, traced_path
 
 
 class Samples:
@@ -41,9 +39,10 @@ class Samples:
     def run(self, dae: MechanismDAE) -> Trajectory:
         """The samples with the DAE run's fields: energies, residuals, traced point and reactions."""
         constraints = dae.constraints
-        q = np.array([state.q for state in self.states])
-        qdot = np.array([state.qdot for state in self.states])
-        reactions, kinetic, potential, residual, trace = [], [], [], [], []
+        shape = (len(self.states), constraints.size)  # (0, 3 B) when no sample was recorded
+        q = np.array([state.q for state in self.states]).reshape(shape)
+        qdot = np.array([state.qdot for state in self.states]).reshape(shape)
+        reactions, kinetic, potential, residual = [], [], [], []
         for state in self.states:
             jacobian = constraints.jacobian(state.q)
             unbalanced = dae.mass_diagonal * state.qddot - dae.applied(state.qdot, state.q)  # = Phi_q^T lambda
@@ -52,26 +51,16 @@ class Samples:
             kinetic.append(energy[0])
             potential.append(energy[1])
             residual.append(float(np.max(np.abs(constraints.residual(state.q, state.t)), initial=0.0)))
-            trace.append(traced_point(dae, state.q))
         kinetic_, potential_ = np.array(kinetic), np.array(potential)
+        points = body_points(dae.mechanism)
         # method, integrator and stabilization: the caller's (physics.mechanism.simulate names the reduced model)
         return Trajectory(
             method="dae", integrator="DOP853", stabilization="projection",
             t=self.times[:len(self.states)].copy(), q=q, qdot=qdot, coordinate_names=coordinate_names(dae.mechanism),
             reaction_rows=np.array(reactions), kinetic=kinetic_, potential=potential_, energy=kinetic_ + potential_,
-            residual=np.array(residual), trace_xy=np.array(trace),
+            residual=np.array(residual), trace_xy=traced_path(points, dae.mechanism.trace, q), body_points=points,
             row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
         )
-
-
-def traced_point(dae: MechanismDAE, q: np.ndarray) -> np.ndarray:
-    """Where the mechanism's traced point is at pose ``q`` (NaN without one)."""
-    mechanism = dae.mechanism
-    if mechanism.trace is None:
-        return np.full(2, math.nan)
-    body, _, point = mechanism.trace.partition(".")
-    index = dae.constraints.body_index[body]
-    return dae.constraints.body_point(q, index, mechanism.body(body).points[point])
 
 
 def collect_segment(collected: Samples, partition: Partition, solution, start: ReducedState) -> ReducedState:

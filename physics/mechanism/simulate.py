@@ -228,12 +228,3 @@ def _state_vector(value, name: str, size: int) -> np.ndarray | None:
         raise LinkageError(f"{name}: expected {size} finite numbers (x, y, phi of each body's centre of mass)")
     return array
 
-
-def _trace_point(mechanism: Mechanism) -> tuple[int, tuple[float, float]] | None:
-    if mechanism.trace is None:
-        return None
-    body, _, point = mechanism.trace.partition(".")
-    names = [b.name for b in mechanism.bodies]
-    if body not in names:
-        return None
-    return names.index(body), mechanism.body(body).points[point]

@@ -6,14 +6,22 @@ status, step counts, traced point) mean the same for both; a chain fills its ang
 reactions, a mechanism its maximal coordinates ``q`` and its reaction rows. The fields a run does not have are
 empty ``(T, 0)`` arrays, so slicing along axis 0 (a long run's segments, physics/long_run.py) treats every
 field alike.
+
+Every point the model names has its path over the run, by name (:attr:`Trajectory.point_names`,
+:meth:`Trajectory.point`, :attr:`Trajectory.points`): a chain's joints (already sampled, ``joints``) and its
+traced point, a mechanism's body and ground points, computed on request from ``q`` by the mechanism's own
+kinematics (:class:`PointPaths`), never while integrating.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
+from ..errors import LinkageError
 from ..status import Status
 
 # A field a run leaves out: the trailing shape it gets, with T rows, so that every per-sample array has T rows
@@ -26,6 +34,25 @@ _EMPTY_WIDTH = {
 
 def _absent() -> np.ndarray:
     return np.zeros((0, 0))
+
+
+class PointPaths(Protocol):
+    """A mechanism's named points and where they are at any poses (:class:`physics.mechanism.run.BodyPoints`):
+    the run keeps this small description, not the paths, so a long run's memory is its ``q`` alone and the
+    integrator never computes a point nobody asked for."""
+
+    @property
+    def names(self) -> tuple[str, ...]: ...
+
+    def path(self, q: np.ndarray, index: int) -> np.ndarray:
+        """Point ``names[index]`` at every pose of ``q (T, 3 B)`` -> ``(T, 2)``."""
+        ...
+
+
+def chain_joint_names(n: int) -> tuple[str, ...]:
+    """A chain's joints 0..n by name: the fixed origin ``O``, ``J1 .. J{n-1}`` between bars, the tip ``H`` (the
+    free-body diagrams' and the chain-as-mechanism's pin names; the seed report's E and F are J1 and J2)."""
+    return ("O", *(f"J{k}" for k in range(1, n)), "H")
 
 
 @dataclass
@@ -43,7 +70,10 @@ class Trajectory:
     A general mechanism (:mod:`physics.mechanism`): ``q, qdot (T, 3 B)`` (x, y, phi of every body's centre of
     mass, named by ``coordinate_names``), ``reaction_rows (T, rows)`` (every constraint row's multiplier, named
     by ``row_names``), ``residual (T,)`` (the largest constraint residual), ``stabilization`` and ``integrated``
-    (False: every sample by position analysis, the motors fix every body)."""
+    (False: every sample by position analysis, the motors fix every body), ``body_points`` (its named points).
+
+    Named points, both kinds: :attr:`point_names`, :meth:`point` (``(T, 2)`` by name), :attr:`points` (all of
+    them as a read-only mapping, each path computed when it is read)."""
 
     method: str
     integrator: str
@@ -80,6 +110,7 @@ class Trajectory:
     residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stabilization: str = ""  # how the closures were held ("projection", "baumgarte", "none"); "" for a chain
     integrated: bool = True  # False: every sample by position analysis (the motors fix every body)
+    body_points: PointPaths | None = None  # a mechanism's named points; None: none named (a chain names its joints)
 
     def __post_init__(self) -> None:
         """The fields a run left out become ``(T, 0)`` arrays (``(T, 0, 2)`` for per-joint vectors)."""
@@ -107,6 +138,37 @@ class Trajectory:
     def bodies(self) -> int:
         """A mechanism's bodies (x, y, phi each in ``q``; 0 for a chain's run)."""
         return self.q.shape[1] // 3 if self.q.ndim == 2 else 0
+
+    @property
+    def point_names(self) -> tuple[str, ...]:
+        """Every point the run can give the path of, in order. A chain's joints ``O, J1 .. J{n-1}, H`` (joint k at
+        ``sum_{i<=k} L_i (sin theta_i, -cos theta_i)``, docs/physics.md), then ``trace`` when a point other than
+        the tip was traced. A mechanism's body points ``BODY.POINT`` (its drawing's labels, in the description's
+        order), then its ground points ``ground.NAME``; its traced point (``trace_xy``) is one of them."""
+        if self.is_mechanism:
+            return self.body_points.names if self.body_points is not None else ()
+        names = chain_joint_names(self.n)
+        return (*names, "trace") if self.trace_is_explicit else names
+
+    def point(self, name: str) -> np.ndarray:
+        """The path ``(T, 2)`` of the point called ``name`` (one of :attr:`point_names`); another name raises
+        LinkageError naming the allowed ones. A chain's is a view of ``joints`` (or ``trace_xy``); a mechanism's
+        is computed from ``q`` now, by its own kinematics."""
+        names = self.point_names
+        if not isinstance(name, str) or name not in names:
+            allowed = ", ".join(names) if names else "none (this run names no points)"
+            raise LinkageError(f"point = {name!r}: allowed names {allowed}")
+        if self.is_mechanism:
+            assert self.body_points is not None  # names is empty without it
+            return self.body_points.path(self.q, names.index(name))
+        if name == "trace":
+            return self.trace_xy
+        return self.joints[:, names.index(name)]
+
+    @property
+    def points(self) -> Mapping[str, np.ndarray]:
+        """Every named point's path by name (``dict(run.points)`` computes them all; ``run.points["H"]`` one)."""
+        return _NamedPoints(self)
 
     def __repr__(self) -> str:
         """One line for a notebook or a log (the dataclass's own repr printed every array: 48,777 characters
@@ -177,6 +239,31 @@ class Trajectory:
             cols["trace_x"] = self.trace_xy[:, 0]
             cols["trace_y"] = self.trace_xy[:, 1]
         return cols
+
+
+class _NamedPoints(Mapping[str, np.ndarray]):
+    """:attr:`Trajectory.points`: the names are the run's, each path is read through :meth:`Trajectory.point`
+    when asked for (a mapping of computed arrays would hold every path of a long run in memory)."""
+
+    def __init__(self, run: Trajectory) -> None:
+        self._run = run
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._run.point_names:
+            raise KeyError(name)
+        return self._run.point(name)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._run.point_names  # without computing a path
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._run.point_names)
+
+    def __len__(self) -> int:
+        return len(self._run.point_names)
+
+    def __repr__(self) -> str:
+        return f"points({', '.join(self._run.point_names)})"
 
 
 def time_span(t: np.ndarray) -> str:
