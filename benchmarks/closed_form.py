@@ -378,20 +378,23 @@ def tip_xy(lengths, theta) -> np.ndarray:
     return np.stack([np.sum(lengths * np.sin(theta), axis=1), -np.sum(lengths * np.cos(theta), axis=1)], axis=-1)
 
 
-def _time_once(call) -> float:
-    """Wall seconds of one call with the garbage collector paused (as timeit does)."""
+def _time_once(call) -> tuple[float, float]:
+    """Wall seconds and this thread's CPU seconds (``thread_time``, less disturbed by other jobs on a shared
+    machine) of one call, with the garbage collector paused (as timeit does)."""
     was_enabled = gc.isenabled()
     gc.disable()
     try:
+        cpu_start = time.thread_time()
         start = time.perf_counter()
         call()
-        return time.perf_counter() - start
+        wall = time.perf_counter() - start
+        return wall, time.thread_time() - cpu_start
     finally:
         if was_enabled:
             gc.enable()
 
 
-def _summary(samples: list[float]) -> dict:
+def _summary(samples: list[float], cpu_samples: list[float]) -> dict:
     quartiles = statistics.quantiles(samples, n=4) if len(samples) >= 2 else [samples[0]] * 3
     return {
         "median_s": statistics.median(samples),
@@ -399,6 +402,7 @@ def _summary(samples: list[float]) -> dict:
         "p75_s": quartiles[2],
         "min_s": min(samples),
         "count": len(samples),
+        "cpu_median_s": statistics.median(cpu_samples),
     }
 
 
@@ -441,11 +445,14 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
         params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
 
     times: dict = {name: [] for name in runners}
+    cpu_times: dict = {name: [] for name in runners}
     names = list(runners)
     for round_index in range(repeats):
         shift = round_index % len(names)
         for name in names[shift:] + names[:shift]:
-            times[name].append(_time_once(runners[name]))
+            wall, cpu = _time_once(runners[name])
+            times[name].append(wall)
+            cpu_times[name].append(cpu)
 
     tip_closed = tip_xy(params[:n], y[:, :n])
     tip_difference = np.max(np.abs(tip_closed - ours.tip_xy), axis=1)
@@ -457,8 +464,8 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
         "settings": {"integrator": "RK45", "rtol": CASE_C_RTOL, "atol": CASE_C_ATOL, "t_end": CASE_C_T_END,
                      "samples": CASE_C_SAMPLES},
         "repeats": repeats,
-        "closed_form": _summary(times["closed_form"]),
-        "closed_form_three": _summary(times["closed_form_three"]),
+        "closed_form": _summary(times["closed_form"], cpu_times["closed_form"]),
+        "closed_form_three": _summary(times["closed_form_three"], cpu_times["closed_form_three"]),
         "closed_form_n_steps": n_steps,
         "closed_form_n_rhs": n_rhs,
         "physics_n_steps": int(ours.n_steps),
@@ -475,11 +482,15 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     }
     if include_physics:
         closed = result["closed_form"]["median_s"]
-        result["physics_simulate"] = {m: _summary(times[m]) for m in methods}
+        result["physics_simulate"] = {m: _summary(times[m], cpu_times[m]) for m in methods}
         result["physics_over_closed_form"] = {m: result["physics_simulate"][m]["median_s"] / closed for m in methods}
         three = result["closed_form_three"]["median_s"]
         result["physics_over_closed_form_three"] = {
             m: result["physics_simulate"][m]["median_s"] / three for m in methods
+        }
+        three_cpu = result["closed_form_three"]["cpu_median_s"]
+        result["physics_over_closed_form_three_cpu"] = {
+            m: result["physics_simulate"][m]["cpu_median_s"] / three_cpu for m in methods
         }
     return result
 
@@ -501,7 +512,10 @@ def _child(tree: str | None, repeats: int) -> dict:
     command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats)]
     if tree is not None:
         command += ["--physics-from", tree]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    import pathlib  # noqa: PLC0415
+
+    root = pathlib.Path(__file__).resolve().parent.parent  # this checkout: its benchmarks, the baselines
+    done = subprocess.run(command, capture_output=True, text=True, check=False, cwd=root)
     if done.returncode not in (0, 1):
         raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}")
     return json.loads(done.stdout)
@@ -528,8 +542,16 @@ def compare_before(before: str, rounds: int, repeats: int) -> dict:
         row = {
             "closed_form_three_ms": 1e3 * statistics.median(r["closed_form_three"]["median_s"] for r in results),
             "closed_form_ms": 1e3 * statistics.median(r["closed_form"]["median_s"] for r in results),
+            "closed_form_three_cpu_ms": 1e3 * statistics.median(
+                r["closed_form_three"]["cpu_median_s"] for r in results),
             "simulate_ms": {m: 1e3 * statistics.median(r["physics_simulate"][m]["median_s"] for r in results)
                             for m in methods},
+            "simulate_cpu_ms": {
+                m: 1e3 * statistics.median(r["physics_simulate"][m]["cpu_median_s"] for r in results)
+                for m in methods},
+            "over_closed_form_three_cpu": {
+                m: statistics.median(r["physics_over_closed_form_three_cpu"][m] for r in results)
+                for m in methods},
             "over_closed_form_three": {
                 m: statistics.median(r["physics_over_closed_form_three"][m] for r in results) for m in methods},
             "over_closed_form": {
