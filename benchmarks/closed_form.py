@@ -406,6 +406,26 @@ def _summary(samples: list[float], cpu_samples: list[float]) -> dict:
     }
 
 
+def _integration_only(physics, method: str, chain, theta0, omega0):
+    """A call of the compiled RK45 integration loop alone that ``physics.simulate`` runs for seed case C, with
+    every argument made beforehand: what ``simulate`` adds around it is the difference of the two."""
+    from physics.codegen import load_compiled  # noqa: PLC0415
+
+    compiled = load_compiled(method, chain.n, chain.pinned)
+    y0 = np.concatenate([theta0, omega0])
+    t_eval = np.linspace(0.0, CASE_C_T_END, CASE_C_SAMPLES)
+    params = chain.params()
+    y_out = np.empty((CASE_C_SAMPLES, y0.size))
+    no_condition = np.empty(0)
+    max_steps = physics.Settings().max_steps
+
+    def run():
+        return compiled.integrate_rk45(y0, 0.0, CASE_C_T_END, t_eval, params, CASE_C_RTOL, CASE_C_ATOL, 0.0, 0.0,
+                                       False, max_steps, y_out, no_condition)
+
+    return run
+
+
 def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
                 methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae")) -> dict:
     """Seed case C end to end (arrays in, sampled ``(t, y)`` out) after a warm-up call: timings, step counts and
@@ -437,6 +457,7 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     if include_physics:
         for method in methods:
             runners[method] = (lambda m=settings(method): physics.simulate(chain, theta0, omega0, m))
+            runners[f"{method}_integration"] = _integration_only(physics, method, chain, theta0, omega0)
     for call in runners.values():  # warm-up: numba loads (or compiles) every kernel
         call()
     ours = physics.simulate(chain, theta0, omega0, settings("lagrange"))
@@ -483,6 +504,8 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     if include_physics:
         closed = result["closed_form"]["median_s"]
         result["physics_simulate"] = {m: _summary(times[m], cpu_times[m]) for m in methods}
+        result["integration_only"] = {m: _summary(times[f"{m}_integration"], cpu_times[f"{m}_integration"])
+                                      for m in methods}
         result["physics_over_closed_form"] = {m: result["physics_simulate"][m]["median_s"] / closed for m in methods}
         three = result["closed_form_three"]["median_s"]
         result["physics_over_closed_form_three"] = {
@@ -548,6 +571,9 @@ def compare_before(before: str, rounds: int, repeats: int) -> dict:
                             for m in methods},
             "simulate_cpu_ms": {
                 m: 1e3 * statistics.median(r["physics_simulate"][m]["cpu_median_s"] for r in results)
+                for m in methods},
+            "integration_only_cpu_ms": {
+                m: 1e3 * statistics.median(r["integration_only"][m]["cpu_median_s"] for r in results)
                 for m in methods},
             "over_closed_form_three_cpu": {
                 m: statistics.median(r["physics_over_closed_form_three_cpu"][m] for r in results)
