@@ -65,14 +65,14 @@ MAX_REMEMBERED_TIMES = 64
 
 
 def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
-    """``np.linspace(t_start, t_start + t_end, samples)``, a fresh copy of one worked out once per request shape
-    (a chunked run asks for the same few again and again)."""
+    """``np.linspace(t_start, t_start + t_end, samples)``: a fresh copy of one worked out once per request (the
+    same run asked for again, as a notebook, a study or a benchmark does, costs a dictionary look-up)."""
     key = (t_start, t_end, samples)
     times = _times.get(key)
     if times is None:
         times = np.linspace(t_start, t_start + t_end, samples)
-        if len(_times) >= MAX_REMEMBERED_TIMES:
-            _times.pop(next(iter(_times)))
+        if len(_times) >= MAX_REMEMBERED_TIMES:  # a chunked run's every start is new: start afresh (atomic)
+            _times.clear()
         _times[key] = times
     return times.copy()
 
