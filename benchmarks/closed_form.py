@@ -1,4 +1,6 @@
-"""Anchor for the BENCHMARKS.md target "Seed case C within 2x of a hand-written closed-form numba Dormand-Prince".
+"""Anchor for the BENCHMARKS.md targets "Seed case C within 2x of a hand-written closed-form numba Dormand-Prince"
+(this generic n-bar version) and "within 1.5x of one written for three bars" (issue 25,
+:mod:`benchmarks.closed_form_three`).
 
     python -m benchmarks.closed_form [--repeats N]
 
@@ -29,8 +31,9 @@ initial step (scipy's select_initial_step), the 10-ulp minimum step, and output 
 fourth-order interpolant (RkDenseOutput with the P matrix). Its ``n_rhs`` therefore equals scipy's ``nfev``.
 
 ``time_case_c(repeats)`` times seed case C (triple pendulum, theta = (pi, pi/3, pi/3) at rest, RK45,
-rtol = atol = 1e-6, 20 s, 200 samples) end to end and checks the tip against ``physics.simulate`` (Lagrange,
-compiled RK45) over the first 10 s (the motion is chaotic afterwards: the difference past 10 s is reported too).
+rtol = atol = 1e-6, 20 s, 200 samples) end to end, with this generic version and the three-bar one interleaved
+with ``physics.simulate``, and checks the tip against ``physics.simulate`` (Lagrange, compiled RK45) over the
+first 10 s (the motion is chaotic afterwards: the difference past 10 s is reported too).
 """
 
 from __future__ import annotations
@@ -375,20 +378,23 @@ def tip_xy(lengths, theta) -> np.ndarray:
     return np.stack([np.sum(lengths * np.sin(theta), axis=1), -np.sum(lengths * np.cos(theta), axis=1)], axis=-1)
 
 
-def _time_once(call) -> float:
-    """Wall seconds of one call with the garbage collector paused (as timeit does)."""
+def _time_once(call) -> tuple[float, float]:
+    """Wall seconds and this thread's CPU seconds (``thread_time``, less disturbed by other jobs on a shared
+    machine) of one call, with the garbage collector paused (as timeit does)."""
     was_enabled = gc.isenabled()
     gc.disable()
     try:
+        cpu_start = time.thread_time()
         start = time.perf_counter()
         call()
-        return time.perf_counter() - start
+        wall = time.perf_counter() - start
+        return wall, time.thread_time() - cpu_start
     finally:
         if was_enabled:
             gc.enable()
 
 
-def _summary(samples: list[float]) -> dict:
+def _summary(samples: list[float], cpu_samples: list[float]) -> dict:
     quartiles = statistics.quantiles(samples, n=4) if len(samples) >= 2 else [samples[0]] * 3
     return {
         "median_s": statistics.median(samples),
@@ -396,7 +402,28 @@ def _summary(samples: list[float]) -> dict:
         "p75_s": quartiles[2],
         "min_s": min(samples),
         "count": len(samples),
+        "cpu_median_s": statistics.median(cpu_samples),
     }
+
+
+def _integration_only(physics, method: str, chain, theta0, omega0):
+    """A call of the compiled RK45 integration loop alone that ``physics.simulate`` runs for seed case C, with
+    every argument made beforehand: what ``simulate`` adds around it is the difference of the two."""
+    from physics.codegen import load_compiled  # noqa: PLC0415
+
+    compiled = load_compiled(method, chain.n, chain.pinned)
+    y0 = np.concatenate([theta0, omega0])
+    t_eval = np.linspace(0.0, CASE_C_T_END, CASE_C_SAMPLES)
+    params = chain.params()
+    y_out = np.empty((CASE_C_SAMPLES, y0.size))
+    no_condition = np.empty(0)
+    max_steps = physics.Settings().max_steps
+
+    def run():
+        return compiled.integrate_rk45(y0, 0.0, CASE_C_T_END, t_eval, params, CASE_C_RTOL, CASE_C_ATOL, 0.0, 0.0,
+                                       False, max_steps, y_out, no_condition)
+
+    return run
 
 
 def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
@@ -406,6 +433,8 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     RK45, same settings) for each of ``methods``, interleaved with the anchor in a rotating order, and report
     each ratio."""
     import physics
+
+    from . import closed_form_three
 
     preset = physics.get_preset(CASE_C_PRESET)
     chain = preset.chain
@@ -420,21 +449,31 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     def run_closed_form():
         return simulate_closed_form(params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
 
-    runners = {"closed_form": run_closed_form}
+    def run_closed_form_three():
+        return closed_form_three.simulate_three_bar(params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES,
+                                                    CASE_C_RTOL, CASE_C_ATOL)
+
+    runners = {"closed_form": run_closed_form, "closed_form_three": run_closed_form_three}
     if include_physics:
         for method in methods:
             runners[method] = (lambda m=settings(method): physics.simulate(chain, theta0, omega0, m))
+            runners[f"{method}_integration"] = _integration_only(physics, method, chain, theta0, omega0)
     for call in runners.values():  # warm-up: numba loads (or compiles) every kernel
         call()
     ours = physics.simulate(chain, theta0, omega0, settings("lagrange"))
     t, y, n_steps, n_rhs = _run(params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
+    _, y_three, n_steps_three, n_rhs_three = closed_form_three.run_with_counts(
+        params, theta0, omega0, CASE_C_T_END, CASE_C_SAMPLES, CASE_C_RTOL, CASE_C_ATOL)
 
     times: dict = {name: [] for name in runners}
+    cpu_times: dict = {name: [] for name in runners}
     names = list(runners)
     for round_index in range(repeats):
         shift = round_index % len(names)
         for name in names[shift:] + names[:shift]:
-            times[name].append(_time_once(runners[name]))
+            wall, cpu = _time_once(runners[name])
+            times[name].append(wall)
+            cpu_times[name].append(cpu)
 
     tip_closed = tip_xy(params[:n], y[:, :n])
     tip_difference = np.max(np.abs(tip_closed - ours.tip_xy), axis=1)
@@ -446,12 +485,17 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
         "settings": {"integrator": "RK45", "rtol": CASE_C_RTOL, "atol": CASE_C_ATOL, "t_end": CASE_C_T_END,
                      "samples": CASE_C_SAMPLES},
         "repeats": repeats,
-        "closed_form": _summary(times["closed_form"]),
+        "closed_form": _summary(times["closed_form"], cpu_times["closed_form"]),
+        "closed_form_three": _summary(times["closed_form_three"], cpu_times["closed_form_three"]),
         "closed_form_n_steps": n_steps,
         "closed_form_n_rhs": n_rhs,
         "physics_n_steps": int(ours.n_steps),
         "physics_n_rhs": int(ours.n_rhs),
         "same_steps": n_rhs == int(ours.n_rhs) and n_steps == int(ours.n_steps),
+        # the three-bar version against the generic one: same steps, largest difference of any state entry
+        "three_same_steps": n_rhs_three == n_rhs and n_steps_three == n_steps,
+        "three_max_abs_diff_state": float(np.max(np.abs(y_three - y))),
+        "three_agree": n_rhs_three == n_rhs and float(np.max(np.abs(y_three - y))) < TIP_AGREEMENT,
         "tip_max_abs_diff_first_10s": max_difference_window,
         "tip_max_abs_diff_all_20s": float(np.max(tip_difference)),
         "tip_agreement_limit": TIP_AGREEMENT,
@@ -459,9 +503,90 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     }
     if include_physics:
         closed = result["closed_form"]["median_s"]
-        result["physics_simulate"] = {m: _summary(times[m]) for m in methods}
+        result["physics_simulate"] = {m: _summary(times[m], cpu_times[m]) for m in methods}
+        result["integration_only"] = {m: _summary(times[f"{m}_integration"], cpu_times[f"{m}_integration"])
+                                      for m in methods}
         result["physics_over_closed_form"] = {m: result["physics_simulate"][m]["median_s"] / closed for m in methods}
+        three = result["closed_form_three"]["median_s"]
+        result["physics_over_closed_form_three"] = {
+            m: result["physics_simulate"][m]["median_s"] / three for m in methods
+        }
+        three_cpu = result["closed_form_three"]["cpu_median_s"]
+        result["physics_over_closed_form_three_cpu"] = {
+            m: result["physics_simulate"][m]["cpu_median_s"] / three_cpu for m in methods
+        }
     return result
+
+
+def _physics_from(tree: str) -> None:
+    """Import ``physics`` from another checkout (``--physics-from``): the tree before a change, timed against the
+    same baselines. Must run before anything imports ``physics``."""
+    import os  # noqa: PLC0415
+
+    if "physics" in sys.modules:
+        raise RuntimeError("physics was imported before --physics-from could take effect")
+    sys.path.insert(0, os.path.abspath(tree))
+
+
+def _child(tree: str | None, repeats: int) -> dict:
+    """One run of this command in a fresh process, ``physics`` from ``tree`` (None: this checkout)."""
+    import subprocess  # noqa: PLC0415
+
+    command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats)]
+    if tree is not None:
+        command += ["--physics-from", tree]
+    import pathlib  # noqa: PLC0415
+
+    root = pathlib.Path(__file__).resolve().parent.parent  # this checkout: its benchmarks, the baselines
+    done = subprocess.run(command, capture_output=True, text=True, check=False, cwd=root)
+    if done.returncode not in (0, 1):
+        raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}")
+    return json.loads(done.stdout)
+
+
+def compare_before(before: str, rounds: int, repeats: int) -> dict:
+    """This checkout's ``physics.simulate`` and ``before``'s, each in its own process against the same two
+    closed forms (this checkout's), the order alternating per round; medians over the rounds of each round's
+    medians, and each tree's ratios."""
+    import os  # noqa: PLC0415
+
+    runs: dict[str, list[dict]] = {"after": [], "before": []}
+    for round_index in range(rounds):
+        order = [("after", None), ("before", before)]
+        if round_index % 2:
+            order.reverse()
+        for label, tree in order:
+            result = _child(tree, repeats)
+            result["load_average"] = os.getloadavg()[0]
+            runs[label].append(result)
+    summary: dict = {"rounds": rounds, "repeats": repeats, "before": os.path.abspath(before)}
+    for label, results in runs.items():
+        methods = list(results[0]["physics_simulate"])
+        row = {
+            "closed_form_three_ms": 1e3 * statistics.median(r["closed_form_three"]["median_s"] for r in results),
+            "closed_form_ms": 1e3 * statistics.median(r["closed_form"]["median_s"] for r in results),
+            "closed_form_three_cpu_ms": 1e3 * statistics.median(
+                r["closed_form_three"]["cpu_median_s"] for r in results),
+            "simulate_ms": {m: 1e3 * statistics.median(r["physics_simulate"][m]["median_s"] for r in results)
+                            for m in methods},
+            "simulate_cpu_ms": {
+                m: 1e3 * statistics.median(r["physics_simulate"][m]["cpu_median_s"] for r in results)
+                for m in methods},
+            "integration_only_cpu_ms": {
+                m: 1e3 * statistics.median(r["integration_only"][m]["cpu_median_s"] for r in results)
+                for m in methods},
+            "over_closed_form_three_cpu": {
+                m: statistics.median(r["physics_over_closed_form_three_cpu"][m] for r in results)
+                for m in methods},
+            "over_closed_form_three": {
+                m: statistics.median(r["physics_over_closed_form_three"][m] for r in results) for m in methods},
+            "over_closed_form": {
+                m: statistics.median(r["physics_over_closed_form"][m] for r in results) for m in methods},
+            "agree": all(r["agree"] and r["three_agree"] for r in results),
+            "load_average_after_each_round": [r["load_average"] for r in results],
+        }
+        summary[label] = row
+    return summary
 
 
 def main(argv=None) -> int:
@@ -470,12 +595,25 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, help="timed runs (median reported)")
     parser.add_argument("--no-physics", action="store_true", help="do not time physics.simulate alongside")
+    parser.add_argument("--physics-from", metavar="DIR", help="import physics from this checkout instead")
+    parser.add_argument("--before", metavar="DIR",
+                        help="also time the checkout DIR's physics.simulate (e.g. a `git worktree add` of the base "
+                             "commit), each tree in its own process, alternating per round")
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of --before (each runs both trees once)")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats: must be at least 1")
+    if args.rounds < 1:
+        parser.error("--rounds: must be at least 1")
+    if args.before:
+        summary = compare_before(args.before, args.rounds, args.repeats)
+        print(json.dumps(summary, indent=2))
+        return 0 if summary["after"]["agree"] and summary["before"]["agree"] else 1
+    if args.physics_from:
+        _physics_from(args.physics_from)
     result = time_case_c(args.repeats, include_physics=not args.no_physics)
     print(json.dumps(result, indent=2))
-    return 0 if result["agree"] else 1
+    return 0 if result["agree"] and result["three_agree"] else 1
 
 
 if __name__ == "__main__":

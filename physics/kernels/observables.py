@@ -64,3 +64,34 @@ def chain_observables(
         potential[t] = energy_potential
         tip_velocity[t, 0] = vx
         tip_velocity[t, 1] = vy
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def chain_joint_reactions(theta, omega, theta_ddot, L, d, m, g, tip_reaction, joint_reactions):
+    """Fill ``joint_reactions`` (T, n, 2) from the motion: :func:`physics.reactions.reactions_from_motion`'s
+    formulas in its order of operations (centre-of-mass accelerations, ``m_k (a_Gk - g_vec)`` less the pin's
+    force on the last bar, running sums from the tip inwards), sample by sample instead of a dozen whole-array
+    numpy operations. ``tip_reaction`` (T, 2) is the pin's force on the last bar, ``(0, 2)`` for an open chain."""
+    samples, n = theta.shape
+    pinned = tip_reaction.shape[0] != 0
+    for t in range(samples):
+        sum_x = 0.0  # running sums of L_i a_i over the bars so far (the cumulative sums of reactions.py)
+        sum_y = 0.0
+        for i in range(n):
+            s = math.sin(theta[t, i])
+            c = math.cos(theta[t, i])
+            w2 = omega[t, i] * omega[t, i]
+            ax = theta_ddot[t, i] * c - w2 * s
+            ay = theta_ddot[t, i] * s + w2 * c
+            lever_x = L[i] * ax
+            lever_y = L[i] * ay
+            sum_x += lever_x
+            sum_y += lever_y
+            joint_reactions[t, i, 0] = m[i] * ((sum_x - lever_x) + d[i] * ax)
+            joint_reactions[t, i, 1] = m[i] * ((sum_y - lever_y) + d[i] * ay) + m[i] * g
+        if pinned:
+            joint_reactions[t, n - 1, 0] -= tip_reaction[t, 0]
+            joint_reactions[t, n - 1, 1] -= tip_reaction[t, 1]
+        for i in range(n - 2, -1, -1):
+            joint_reactions[t, i, 0] = joint_reactions[t, i + 1, 0] + joint_reactions[t, i, 0]
+            joint_reactions[t, i, 1] = joint_reactions[t, i + 1, 1] + joint_reactions[t, i, 1]

@@ -9,9 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import LinkageError
-from ..kernels.observables import chain_observables
-from ..model import TracePoint
-from ..reactions import reactions_from_motion
+from ..kernels.observables import chain_joint_reactions, chain_observables
+from .prepared import chain_arrays
 from .trajectory import Trajectory
 
 
@@ -26,13 +25,15 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     """Everything a trajectory reports, computed from the sampled states in one vectorised pass.
 
     The generated system is solved once per sample here (one batched call): it gives the reactions and the
-    condition estimate together, so the integrator need not evaluate either at the samples.
+    condition estimate together, so the integrator need not evaluate either at the samples. The joint reactions
+    follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass).
     """
     n = chain.n
     theta, omega = np.ascontiguousarray(y[:, :n]), np.ascontiguousarray(y[:, n:])
-    L, d, m, I = (chain.array(f) for f in "LdmI")
+    bars = chain_arrays(chain)
+    L, d, m, I = bars.L, bars.d, bars.m, bars.I
     samples = len(t)
-    trace = settings.trace or TracePoint(bar=n, along=float(L[-1]))
+    trace = settings.trace or bars.tip
     if trace.bar > n:
         raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {n}")
     joints = np.empty((samples, n + 1, 2))
@@ -40,27 +41,28 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     kinetic = np.empty(samples)
     potential = np.empty(samples)
     tip_velocity = np.empty((samples, 2))
-    chain_observables(theta, omega, L, d, m, I, float(chain.g), trace.bar - 1, float(trace.along),
+    chain_observables(theta, omega, L, d, m, I, bars.g, trace.bar - 1, float(trace.along),
                       float(trace.across), joints, trace_xy, kinetic, potential, tip_velocity)
     energy = kinetic + potential
 
-    reactions = np.zeros((samples, len(compiled.reaction_index), 2))
+    reaction_index = compiled.reaction_index
+    tip_reaction_index = compiled.tip_reaction_index
+    reactions = np.zeros((samples, len(reaction_index), 2))
     joint_reactions = np.zeros((samples, n, 2))
-    tip_reaction = np.zeros((samples, len(compiled.tip_reaction_index)))
+    tip_reaction = np.zeros((samples, len(tip_reaction_index)))
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
     if samples:
         x, batch_cond = compiled.solve_full_batch(theta, omega, params, alpha, beta)
         if cond is None or len(cond) != samples:
             cond = batch_cond
-        if compiled.reaction_index.size:
-            reactions = x[:, compiled.reaction_index]
-        if compiled.tip_reaction_index.size:
-            tip_reaction = x[:, compiled.tip_reaction_index]
-        joint_reactions = reactions_from_motion(
-            L, d, m, float(chain.g), theta, omega, x[:, compiled.theta_ddot_index],
-            tip_reaction if chain.pinned else None,
-        )
+        if reaction_index.size:
+            reactions = x[:, reaction_index]
+        if tip_reaction_index.size:
+            tip_reaction = x[:, tip_reaction_index]
+        pin_force = np.ascontiguousarray(tip_reaction) if chain.pinned else np.zeros((0, 2))
+        chain_joint_reactions(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), L, d, m, bars.g,
+                              pin_force, joint_reactions)
     else:
         cond = np.zeros(0)
     if chain.pinned:

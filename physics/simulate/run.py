@@ -17,10 +17,11 @@ from ..codegen import load_compiled
 from ..errors import LinkageError
 from ..kernels.constants import SINGULAR_PIVOT_RATIO
 from ..kinematics import joint_positions
-from ..model import Chain, Settings, check_state
+from ..model import MAX_ANGLE, MAX_ANGULAR_SPEED, Chain, Settings, check_state
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from .build import build_trajectory
+from .prepared import chain_arrays
 from .trajectory import Trajectory
 
 __all__ = ["SINGULAR_PIVOT_RATIO", "check_assembled", "simulate", "status_message"]
@@ -31,6 +32,49 @@ ASSEMBLY_TOLERANCE = 1e-8
 def status_message(status: int, t: float, detail: str = "") -> str:
     """The sentence for a run's status at time ``t`` (physics.status.Status)."""
     return Status.describe(status, t, detail)
+
+
+_OK_MESSAGE = status_message(Status.OK, 0.0)  # a run that succeeded says so the same way at every t
+
+
+def _start_state(n: int, theta0, omega0) -> np.ndarray:
+    """``y0 = [theta0, omega0]`` of a valid start. Arrays of the right shape and every entry within range (so
+    finite) pass with one comparison; anything else goes through :func:`physics.model.check_state`, which
+    converts lists and names the first bad entry."""
+    if (type(theta0) is np.ndarray and type(omega0) is np.ndarray and theta0.shape == (n,)
+            and omega0.shape == (n,) and theta0.dtype == np.float64 and omega0.dtype == np.float64):
+        y0 = np.concatenate([theta0, omega0])
+        if bool(np.all(np.abs(y0) <= _state_limits(n))):  # False for NaN and infinities too
+            return y0
+    theta0, omega0 = check_state(n, theta0, omega0)
+    return np.concatenate([theta0, omega0])
+
+
+_limits: dict[int, np.ndarray] = {}
+
+
+def _state_limits(n: int) -> np.ndarray:
+    """``[MAX_ANGLE] * n + [MAX_ANGULAR_SPEED] * n``: check_state's ranges for ``y0``."""
+    if n not in _limits:
+        _limits[n] = np.array([MAX_ANGLE] * n + [MAX_ANGULAR_SPEED] * n)
+    return _limits[n]
+
+
+_times: dict[tuple[float, float, int], np.ndarray] = {}
+MAX_REMEMBERED_TIMES = 64
+
+
+def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
+    """``np.linspace(t_start, t_start + t_end, samples)``: a fresh copy of one worked out once per request (the
+    same run asked for again, as a notebook, a study or a benchmark does, costs a dictionary look-up)."""
+    key = (t_start, t_end, samples)
+    times = _times.get(key)
+    if times is None:
+        times = np.linspace(t_start, t_start + t_end, samples)
+        if len(_times) >= MAX_REMEMBERED_TIMES:  # a chunked run's every start is new: start afresh (atomic)
+            _times.clear()
+        _times[key] = times
+    return times.copy()
 
 
 def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
@@ -80,8 +124,10 @@ def simulate(
     integration, as the app does); its constraint drift belongs to that run and is not re-checked.
     """
     settings = settings or Settings()
-    theta0, omega0 = check_state(chain.n, theta0, omega0)
-    check_output_size(chain.n, settings.samples)
+    n = chain.n
+    y0 = _start_state(n, theta0, omega0)
+    theta0, omega0 = y0[:n], y0[n:]
+    check_output_size(n, settings.samples)
     if not math.isfinite(t_start):
         raise LinkageError(f"t_start = {t_start}: must be a finite number")
     if not continuing:
@@ -90,12 +136,11 @@ def simulate(
         # scipy boundary: the reduced model integrates with scipy, imported only when asked for.
         from .reduced_adapter import simulate_reduced_trajectory  # noqa: PLC0415
 
-        return simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start)
-    compiled = load_compiled(settings.method, chain.n, chain.pinned)
-    params = chain.params(damping=settings.damping)
+        return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start)
+    compiled = load_compiled(settings.method, n, chain.pinned)
+    params = chain_arrays(chain).params_with(settings.damping)
     alpha, beta, project = _stabilization_gains(chain, settings)
-    t_eval = np.linspace(t_start, t_start + settings.t_end, settings.samples)
-    y0 = np.concatenate([theta0, omega0])
+    t_eval = _sample_times(float(t_start), settings.t_end, settings.samples)
     if settings.backend == SCIPY:
         # scipy boundary: scipy's integrators are imported only for this back end.
         from .scipy_backend import integrate_scipy  # noqa: PLC0415
@@ -108,7 +153,7 @@ def simulate(
             compiled, y0, t_eval, params, settings, alpha, beta, project
         )
         detail = _compiled_detail(settings, status)
-    filled = int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
+    filled = _finite_rows(y_out)
     if status == Status.OK and filled < len(t_eval):
         status = Status.NOT_FINITE
     trajectory = build_trajectory(
@@ -116,11 +161,19 @@ def simulate(
         alpha, beta,
     )
     trajectory.status = status
-    trajectory.message = status_message(status, t_reached, detail)
+    trajectory.message = _OK_MESSAGE if status == Status.OK and not detail else status_message(status, t_reached, detail)
     trajectory.n_steps = int(n_steps)
     trajectory.n_rhs = int(n_rhs)
     trajectory.stats["t_reached"] = t_reached  # where the integrator stopped (the CLI's estimate of a long run)
     return trajectory
+
+
+def _finite_rows(y_out: np.ndarray) -> int:
+    """How many rows of ``y_out`` are finite throughout: all of them when their sum is finite (one pass), else
+    counted row by row."""
+    if math.isfinite(float(y_out.sum())):
+        return len(y_out)
+    return int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
 
 
 def _integrate_compiled(compiled, y0, t_eval, params, settings, alpha, beta, project):

@@ -1,0 +1,62 @@
+"""What every run of one chain object needs from it, worked out once: its bars' arrays and parameter vector.
+
+A chain is a frozen pydantic model whose bars are frozen too, so the same object (holding the same bar objects)
+always gives the same arrays. Reading them back through pydantic on every run cost more than a short run's
+post-processing (the app and a notebook simulate the same chain again and again, a chunk at a time); they are
+kept per chain object here, and the arrays handed out are copies where a caller might write into them.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import Chain, TracePoint
+
+# Chains remembered at once (the oldest forgotten first): a few presets and the app's current chains.
+MAX_CHAINS = 32
+
+
+@dataclass(frozen=True)
+class ChainArrays:
+    """A chain's bars as arrays (never written by the simulation), its parameters without damping and the
+    point traced when a run names none (the tip)."""
+
+    L: np.ndarray
+    d: np.ndarray
+    m: np.ndarray
+    I: np.ndarray  # noqa: E741 - the bars' field name
+    g: float
+    params: np.ndarray
+    tip: TracePoint
+
+    def params_with(self, damping: float) -> np.ndarray:
+        """A fresh copy of ``chain.params(damping=damping)`` (the kernels and the scipy back end may write to it)."""
+        params = self.params.copy()
+        params[-1] = damping
+        return params
+
+
+_lock = threading.Lock()
+# id(chain) -> (the chain, its bars when remembered, the arrays); holding the chain keeps its id from being reused.
+_remembered: dict[int, tuple[Chain, tuple, ChainArrays]] = {}
+
+
+def chain_arrays(chain: Chain) -> ChainArrays:
+    """The arrays of ``chain``: remembered for this object and these bars, or read from it now."""
+    entry = _remembered.get(id(chain))
+    bars = chain.bars
+    if entry is not None and entry[0] is chain and len(entry[1]) == len(bars) and all(
+        kept is bar for kept, bar in zip(entry[1], bars)
+    ):
+        return entry[2]
+    L = chain.array("L")
+    arrays = ChainArrays(L=L, d=chain.array("d"), m=chain.array("m"), I=chain.array("I"), g=float(chain.g),
+                         params=chain.params(), tip=TracePoint(bar=chain.n, along=float(L[-1])))
+    with _lock:
+        if len(_remembered) >= MAX_CHAINS:
+            _remembered.pop(next(iter(_remembered)))
+        _remembered[id(chain)] = (chain, tuple(bars), arrays)
+    return arrays
