@@ -71,7 +71,6 @@ class Partition:
         self.weights = np.tile([1.0, 1.0, length], len(dae.mechanism.bodies))  # rotations counted as lengths
         self.nu = self.constraints.velocity_rhs()
         self._cached: ReducedState | None = None
-        self.evaluations = 0
         self.reset(q, t)
 
     def _invert(self, q: np.ndarray) -> np.ndarray:
@@ -134,7 +133,6 @@ class Partition:
         cached = self._cached
         if cached is not None and cached.t == t and cached.s == s and cached.sdot == sdot:
             return cached
-        self.evaluations += 1
         q = self.pose(t, s)
         inverse = self._invert(q)
         velocity_map, motor_velocity = self._maps(inverse)
