@@ -15,13 +15,8 @@ from numba import njit
 from .abi import LAYOUT_CONSTRAINTS, LAYOUT_TIME, LAYOUT_WEIGHTS
 from .common import all_finite
 from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
-from .linear import ldlt_solve
+from .linear import column_weight, gram_into, ldlt_solve
 from .system import constraints_into, make_system, set_time
-
-
-@njit(cache=True, error_model="numpy", nogil=True)
-def _weight(params, offset, i):
-    return 1.0 if offset < 0 else params[offset + i]
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -29,30 +24,11 @@ def _correct(layout, J, G, g, lam, params, offset, gap, coordinates):
     """``coordinates -= W J^T (J W J^T)^-1 gap`` with the weights at ``offset`` of params (unit when < 0);
     left unchanged (returns False) where ``J W J^T`` is singular to working precision.
 
-    ``J W J^T`` is summed column by column over each column's non-zeros (a constraint touches at most two
-    bodies), in the same order as the dense sum: the same numbers for a fraction of the work. ``lam`` holds a
-    column's non-zero rows meanwhile (it is the solve's output afterwards)."""
+    ``J W J^T`` by :func:`~physics.kernels.linear.gram_into`; ``lam`` holds its scratch rows meanwhile (it is
+    the solve's output afterwards)."""
     r = layout[LAYOUT_CONSTRAINTS]
     n = J.shape[1]
-    for i in range(r):
-        for j in range(r):
-            G[i, j] = 0.0
-    for c in range(n):
-        count = 0
-        for i in range(r):
-            if J[i, c] != 0.0:
-                lam[count] = i
-                count += 1
-        weight = _weight(params, offset, c)
-        for a in range(count):
-            row_a = int(lam[a])
-            value = J[row_a, c] * weight
-            for b in range(a, count):
-                row_b = int(lam[b])
-                G[row_a, row_b] += value * J[row_b, c]
-    for i in range(r):
-        for j in range(i + 1, r):
-            G[j, i] = G[i, j]
+    gram_into(G, J, r, params, offset, lam)
     if r == 2:
         a = G[0, 0]
         b = G[0, 1]
@@ -71,7 +47,7 @@ def _correct(layout, J, G, g, lam, params, offset, gap, coordinates):
         total = 0.0
         for i in range(r):
             total += J[i, c] * lam[i]
-        coordinates[c] -= _weight(params, offset, c) * total
+        coordinates[c] -= column_weight(params, offset, c) * total
     return True
 
 

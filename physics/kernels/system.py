@@ -25,7 +25,7 @@ from .abi import (
     data_pointer,
 )
 from .arrays import copy_matrix, copy_row
-from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
+from .linear import gram_into, ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
 RESCALE_ABOVE = 1e4
@@ -121,23 +121,7 @@ def constraint_ratio(system, theta, omega, params):
     G = system[8]
     g = system[9]
     lam = system[10]
-    # G = J J^T column by column over each column's non-zeros: a mechanism's constraint touches at most two
-    # bodies, so a column has a few non-zeros and this is about r times cheaper than the dense triple loop
-    # (which cost as much as the whole solve of a six-bar, at every right-hand side). ``lam`` holds the
-    # column's non-zero rows meanwhile (it is the solve's output afterwards).
-    G[:, :] = 0.0
-    for c in range(n):
-        count = 0
-        for i in range(r):
-            if J[i, c] != 0.0:
-                lam[count] = i
-                count += 1
-        for a in range(count):
-            row_a = int(lam[a])
-            value = J[row_a, c]
-            for b in range(count):
-                row_b = int(lam[b])
-                G[row_a, row_b] += value * J[row_b, c]
+    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch, then the solve's output
     for i in range(r):
         g[i] = 1.0
     ratio = ldlt_solve(G, g, lam)
