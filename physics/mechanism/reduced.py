@@ -3,7 +3,7 @@ coordinate switching at its dead centres.
 
 The maximal-coordinate DAE (:mod:`physics.mechanism.dae`) integrates ``3 B`` positions and velocities and
 projects them back onto the constraints. A mechanism of mobility 1 needs only one coordinate ``s``: a pin's
-relative angle or a slider's travel (:mod:`physics.mechanism.reduced_coordinates`). Every other position comes
+relative angle or a slider's travel (:mod:`physics.mechanism.joint_coordinates`). Every other position comes
 from position analysis, so the constraints hold to rounding by construction, and the equation of motion is the
 scalar ``(B^T M B) sddot = B^T (Q - M a0)`` (:mod:`physics.mechanism.reduced_partition`), integrated by scipy's
 DOP853 in ``(s, sdot)``.
@@ -36,8 +36,8 @@ from ..simulate.trajectory import Trajectory
 from ..status import Status
 from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
+from .joint_coordinates import JointCoordinates
 from .model import Mechanism
-from .reduced_coordinates import JointCoordinates
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from .dae import MechanismDAE
-from .reduced_coordinates import JointCoordinates
+from .joint_coordinates import JointCoordinates
 
 NEWTON_STEPS = 30
 # Newton stops when a step moves no coordinate by more than this times the mechanism's size (rotations counted
@@ -161,4 +161,4 @@ class Partition:
 
     def coordinate_of(self, q: np.ndarray, qdot: np.ndarray) -> tuple[float, float]:
         """``(s, sdot)`` of a state given in maximal coordinates: read off exactly, nothing integrated."""
-        return self.coordinates.value(q, self.which), float(self.coordinates.gradient(q, self.which) @ qdot)
+        return self.coordinates.value(q, self.which), self.coordinates.rate(q, qdot, self.which)

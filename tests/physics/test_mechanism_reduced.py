@@ -17,9 +17,9 @@ from physics.mechanism import MECHANISM_PRESETS, Body, Driver, Mechanism, Prisma
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.joint_coordinates import JointCoordinates
 from physics.mechanism.presets import bar, circle_intersection, pin
 from physics.mechanism.reduced import SWITCH_SHARE, simulate_reduced
-from physics.mechanism.reduced_coordinates import JointCoordinates
 from physics.mechanism.reduced_partition import Partition
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
