@@ -31,15 +31,14 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
-from .joints import Kinematics
 from .joints.loads import applied_loads
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ZERO,
     LinearReader,
     Place,
-    SympyNumbers,
     TreeGeometry,
+    TreeKinematics,
     add,
     dot,
     names_template,
@@ -121,25 +120,13 @@ class _Calculus:
         return gradient
 
 
-class _Kinematics(SympyNumbers, Kinematics):
+class _Kinematics(TreeKinematics):
     """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations by
     the rotation rule (:class:`_Calculus`), an acceleration ``sum_j e_j sdd_j`` plus its bias."""
 
     def __init__(self, geometry: TreeGeometry, calculus: _Calculus) -> None:
-        self.geometry, self.calculus = geometry, calculus
-        self.time = geometry.params.t
-
-    def angle(self, body):
-        return self.geometry.body_angle(body)
-
-    def spin(self, body):
-        return self.calculus.spin[body]
-
-    def alpha(self, body):
-        return self.calculus.alpha[body]
-
-    def turned(self, body, vector):
-        return self.geometry.turned(body, tuple(vector))
+        super().__init__(geometry, calculus.spin, calculus.alpha)
+        self.calculus = calculus
 
     def point(self, body, arm):
         place = self.geometry.point(body, arm)

@@ -23,15 +23,15 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
-from .joints import Kinematics, Rotation, Translation
+from .joints import Rotation, Translation
 from .joints.loads import BodyLoads, applied_loads
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ORIGIN,
     ZERO,
     LinearReader,
-    SympyNumbers,
     TreeGeometry,
+    TreeKinematics,
     add,
     cross,
     dot,
@@ -104,25 +104,13 @@ class _Motion:
         return velocity, acceleration
 
 
-class _Kinematics(SympyNumbers, Kinematics):
+class _Kinematics(TreeKinematics):
     """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations body
     after body (:class:`_Motion`)."""
 
     def __init__(self, geometry: TreeGeometry, motion: _Motion) -> None:
-        self.geometry, self.motion = geometry, motion
-        self.time = geometry.params.t
-
-    def angle(self, body):
-        return self.geometry.body_angle(body)
-
-    def spin(self, body):
-        return self.motion.spin[body]
-
-    def alpha(self, body):
-        return self.motion.alpha[body]
-
-    def turned(self, body, vector):
-        return self.geometry.turned(body, tuple(vector))
+        super().__init__(geometry, motion.spin, motion.alpha)
+        self.motion = motion
 
     def point(self, body, arm):
         return (self.geometry.world(body, arm), *self.motion.point(body, arm))

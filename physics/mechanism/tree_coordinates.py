@@ -4,7 +4,7 @@ A tree joint's coordinate is the one its kind carries (:meth:`~physics.mechanism
 off the state as every joint coordinate is (:mod:`physics.mechanism.joint_coordinates`): a rotation (a pin's: the
 child's rotation relative to its parent, zero in the sketch) or a travel (a slider's: along the guide from where
 the sketch draws it). The spanning tree is :func:`physics.mechanism.topology.
-analyse`'s, its bodies parents first (:func:`bfs_order`): the order of the generated tree formulations'
+analyse`'s, its bodies parents first (in the order it finds them): the order of the generated tree formulations'
 coordinates (:mod:`physics.mechanism.symbolic_tree`). Numbers only (no sympy): a run on a warm cache needs it.
 """
 
@@ -14,22 +14,8 @@ import numpy as np
 
 from .constraints import Constraints
 from .joint_coordinates import JointCoordinates
-from .model import GROUND, Mechanism
+from .model import Mechanism
 from .topology import analyse
-
-
-def bfs_order(parent: dict[str, tuple[str, str]]) -> list[str]:
-    """Bodies ordered so that every parent comes before its children."""
-    depth: dict[str, int] = {}
-
-    def level(body: str) -> int:
-        if body == GROUND:
-            return 0
-        if body not in depth:
-            depth[body] = level(parent[body][1]) + 1
-        return depth[body]
-
-    return sorted(parent, key=lambda body: (level(body), list(parent).index(body)))
 
 
 def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -40,7 +26,7 @@ def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[n
     coordinates = JointCoordinates(mechanism, Constraints(mechanism))
     topology = analyse(mechanism)
     values, rates = [], []
-    for body in bfs_order(topology.parent):
+    for body in topology.parent:  # found breadth-first: every parent before its children
         joint_name, _ = topology.parent[body]
         which = coordinates.index(joint_name)
         # a joint's angle is b's relative to a: the child's relative to its parent when the child is b
