@@ -40,6 +40,7 @@ from .joint_coordinates import JointCoordinates
 from .model import Mechanism
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
+from .run import state_vector
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
 # faster than it. The new coordinate starts at share 1, so switches cannot chatter.
@@ -115,16 +116,6 @@ def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, 
         raise LinkageError(f"{field} = {first.get('input')!r}: {message} (allowed: {_ALLOWED.get(field, '')})") from None
 
 
-def _start_vector(value: np.ndarray | None, size: int, name: str, meaning: str) -> np.ndarray | None:
-    if value is None:
-        return None
-    array = np.asarray(value, dtype=float)
-    if array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise LinkageError(f"{name}: expected {size} finite numbers ({meaning}), got shape {array.shape}"
-                           + ("" if array.shape != (size,) else " with a non-finite entry"))
-    return array
-
-
 def simulate_reduced(
     mechanism: Mechanism,
     t_end: float,
@@ -149,8 +140,8 @@ def simulate_reduced(
     settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
     dae = MechanismDAE(mechanism)
     size = dae.constraints.size
-    q_start = _start_vector(q0, size, "q0", "x, y, phi per body")
-    qdot_start = _start_vector(qdot0, size, "qdot0", "xdot, ydot, phidot per body")
+    q_start = state_vector(q0, "q0", size)
+    qdot_start = state_vector(qdot0, "qdot0", size)
     assembled = assemble(mechanism, q_start, settings.t_start)
     if assembled.mobility != 1:
         raise LinkageError(_mobility_refusal(mechanism, assembled.mobility))

@@ -8,12 +8,30 @@ import json
 
 import numpy as np
 
+from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
 
 
 def coordinate_names(mechanism) -> tuple[str, ...]:
     """The names of a run's ``q`` columns: ``BODY.x, BODY.y, BODY.phi`` of every body, in order."""
     return tuple(f"{body.name}.{axis}" for body in mechanism.bodies for axis in ("x", "y", "phi"))
+
+
+def state_vector(value, name: str, size: int) -> np.ndarray | None:
+    """A run's start ``q0`` or ``qdot0`` (``name``) as a float array of ``size`` finite numbers (x, y, phi per
+    body, or their rates), or None; else LinkageError, one line naming it and what it got."""
+    if value is None:
+        return None
+    expected = f"{name}: expected {size} finite numbers (x, y, phi of each body's centre of mass)"
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise LinkageError(f"{expected}, got a {type(value).__name__}") from None
+    if array.shape != (size,):
+        raise LinkageError(f"{expected}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise LinkageError(f"{expected}, got a non-finite entry")
+    return array
 
 
 def run_table(run: Trajectory, fmt: str = "csv") -> bytes:

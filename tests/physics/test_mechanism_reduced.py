@@ -333,6 +333,7 @@ def open_two_bar_chain() -> Mechanism:
         (MECHANISM_PRESETS["slider-crank"], {"q0": np.full(9, math.nan)}, "q0: expected 9 finite numbers"),
         (MECHANISM_PRESETS["slider-crank"], {"qdot0": np.zeros(4)}, r"qdot0: expected 9 finite numbers .*shape \(4,\)"),
         (MECHANISM_PRESETS["slider-crank"], {"qdot0": [0.0] * 8 + [math.inf]}, "qdot0: .*non-finite"),
+        (MECHANISM_PRESETS["slider-crank"], {"q0": "pose"}, "q0: expected 9 finite numbers .*got a str"),
         (MECHANISM_PRESETS["slider-crank"], {"coordinate": "crank"}, "coordinate = 'crank': no joint"),
     ],
 )
