@@ -17,3 +17,12 @@ def copy_matrix(source, target, row):
     for i in range(source.shape[0]):
         for j in range(source.shape[1]):
             target[row, i, j] = source[i, j]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def state_row(theta, omega, row, theta_row, omega_row):
+    """State ``row`` of a batch ``theta``, ``omega`` (K, n) into the contiguous (n,) arrays the generated code
+    reads (a plain loop, see :func:`copy_row`)."""
+    for i in range(theta_row.shape[0]):
+        theta_row[i] = theta[row, i]
+        omega_row[i] = omega[row, i]

@@ -12,11 +12,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_CONSTRAINTS, LAYOUT_TIME, LAYOUT_WEIGHTS
+from .abi import LAYOUT_CONSTRAINTS, LAYOUT_WEIGHTS
+from .arrays import state_row
 from .common import all_finite
 from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
 from .linear import column_weight, gram_into, ldlt_solve
-from .system import constraints_into, make_system, set_time
+from .system import constraints_into, load_state, make_system, set_time
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -119,13 +120,8 @@ def project_state(system, t, y, params, theta, omega):
     layout = system[1]
     if layout[LAYOUT_CONSTRAINTS] == 0:
         return all_finite(y)
-    slot = layout[LAYOUT_TIME]
-    if slot >= 0:
-        params[slot] = t
+    load_state(layout, params, t, y, theta, omega)
     n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
     J, v, G, g, lam = system[6], system[7], system[8], system[9], system[10]
     position_onto(layout, J, v, G, g, lam, theta, omega, params)
     velocity_onto(layout, J, v, G, g, lam, theta, omega, params, True)
@@ -147,9 +143,7 @@ def project_states(assemble, layout, t, theta, omega, params):
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
         set_time(system, local, t[row])
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         if layout[LAYOUT_CONSTRAINTS] != 0:
             worst = max(worst, project_position(system, theta_row, omega_row, local))
             project_velocity(system, theta_row, omega_row, local)

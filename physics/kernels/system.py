@@ -24,7 +24,7 @@ from .abi import (
     call_native_solve,
     data_pointer,
 )
-from .arrays import copy_matrix, copy_row
+from .arrays import copy_matrix, copy_row, state_row
 from .linear import gram_into, ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
@@ -54,6 +54,19 @@ def set_time(system, params, t):
     slot = system[1][LAYOUT_TIME]
     if slot >= 0:
         params[slot] = t
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def load_state(layout, params, t, y, theta, omega):
+    """The state ``y = [theta, omega]`` at time ``t`` as the generated code reads it: ``t`` into its parameter
+    slot (if there is one), ``y`` split into the contiguous (n,) arrays ``theta`` and ``omega``."""
+    slot = layout[LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -207,9 +220,7 @@ def accel_states(assemble, layout, theta, omega, params, alpha, beta, theta_ddot
     omega_row = np.empty(n)
     theta_ddot = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         cond_out[row] = solve_accel(system, theta_row, omega_row, params, alpha, beta, theta_ddot)
         for i in range(n):
             theta_ddot_out[row, i] = theta_ddot[i]
@@ -224,9 +235,7 @@ def solve_states(assemble, layout, theta, omega, params, alpha, beta, x_out, con
     theta_row = np.empty(n)
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         cond_out[row] = solve_system(system, theta_row, omega_row, params, alpha, beta)
         for j in range(x.shape[0]):
             x_out[row, j] = x[j]
@@ -242,9 +251,7 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
     theta_row = np.empty(n)
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         assemble_into(system, theta_row, omega_row, params, 0.0, 0.0)
         copy_matrix(A, A_out, row)
         copy_row(b, b_out, row)
@@ -273,9 +280,7 @@ def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
     M = np.empty((n, n))
     force = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         lagrangian_pieces(mass_and_force, theta_row, omega_row, params, M, force)
         copy_matrix(M, M_out, row)
         copy_row(force, force_out, row)
@@ -296,9 +301,7 @@ def native_states(function, layout, t, theta, omega, params, matrix_out, vector_
     for row in range(theta.shape[0]):
         if slot >= 0:
             local[slot] = t[row]
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         matrix[:, :] = 0.0
         call_native(function, data_pointer(theta_row), data_pointer(omega_row), data_pointer(local),
                     data_pointer(matrix), data_pointer(vector))
