@@ -42,7 +42,8 @@ _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "model.py")
 _GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py", "mechanism/joints/*.py",
-                       "mechanism/model.py")  # a mechanism's derivations and the model they read
+                       "mechanism/model.py", "mechanism/topology.py")  # a mechanism's derivations, the model
+# they read and the spanning tree's search (the order of the tree formulations' coordinates)
 MAX_LINKS = 12
 _MAC_PREFIX = b"# hmac-sha256: "
 

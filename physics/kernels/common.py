@@ -10,10 +10,10 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_ACCELERATION, LAYOUT_COORDINATES, LAYOUT_PARAMETERS, LAYOUT_TIME
+from .abi import LAYOUT_ACCELERATION, LAYOUT_COORDINATES, LAYOUT_PARAMETERS
 from .arrays import copy_row
 from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from .system import constraint_ratio, has_constraints, set_time, solve_accel, unknowns_into
+from .system import constraint_ratio, has_constraints, load_state, solve_accel, unknowns_into
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -21,13 +21,8 @@ def rhs_into(assemble, layout, A, b, x, col_scale, J, v, t, y, params, alpha, be
     """:func:`ode_rhs` with the system's arrays one by one (the first eight entries of the system tuple, in
     order): what an integrator's inner loop calls, since handing the tuple down costs more than the solve
     (:func:`physics.kernels.system.unknowns_into`)."""
-    slot = layout[LAYOUT_TIME]
-    if slot >= 0:
-        params[slot] = t
+    load_state(layout, params, t, y, theta, omega)
     n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
     condition = unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)
     finite = condition == condition
     for i in range(n):
@@ -63,11 +58,7 @@ def step_status(system, t, y, params, theta, omega):
     ``omega`` are scratch (n,)."""
     if not has_constraints(system):
         return STATUS_OK, 1.0
-    set_time(system, params, t)
-    n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
+    load_state(system[1], params, t, y, theta, omega)
     ratio = constraint_ratio(system, theta, omega, params)
     if ratio > SINGULAR_PIVOT_RATIO:
         return STATUS_SINGULAR, ratio
@@ -93,11 +84,7 @@ def start_rhs(system, t, y, params, alpha, beta, theta, omega, theta_ddot, dydt)
 def sample_condition(system, t, y, params, alpha, beta, theta, omega, theta_ddot):
     """Condition estimate of accel at time ``t`` and state ``y`` (the value stored in ``cond_out``), with the
     constraints' geometric test."""
-    set_time(system, params, t)
-    n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
+    load_state(system[1], params, t, y, theta, omega)
     return solve_accel(system, theta, omega, params, alpha, beta, theta_ddot)
 
 

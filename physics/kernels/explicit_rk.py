@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 from .abi import LAYOUT_CONSTRAINTS
-from .arrays import copy_row
+from .arrays import copy_row, stage_sum_into
 from .common import (
     check_arguments,
     initial_samples,
@@ -58,13 +58,8 @@ def _rk_stages(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, 
 
     Returns ``(status, rhs_evaluations)``.
     """
-    n_state = y.shape[0]
     for s in range(1, n_stages):
-        for j in range(n_state):
-            dy = 0.0
-            for r in range(s):
-                dy += K[r, j] * A[s, r]
-            y_stage[j] = y[j] + dy * h
+        stage_sum_into(y, h, K, A[s], s, y_stage)
         status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
                              t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
         if status != STATUS_OK:
@@ -104,11 +99,7 @@ def _dop853_dense_coefficients(
     n_state = y_old.shape[0]
     evaluations = 0
     for s in range(DOP853_N_STAGES + 1, DOP853_N_STAGES_EXTENDED):
-        for j in range(n_state):
-            dy = 0.0
-            for r in range(s):
-                dy += K[r, j] * DOP853_A[s, r]
-            y_stage[j] = y_old[j] + dy * h
+        stage_sum_into(y_old, h, K, DOP853_A[s], s, y_stage)
         status, _ = ode_rhs(
             system, t_old + DOP853_C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s]
         )
@@ -272,11 +263,7 @@ def _integrate_explicit_rk(
             n_rhs += evaluations
             if status != STATUS_OK:
                 break
-            for j in range(n_state):
-                total = 0.0
-                for r in range(n_stages):
-                    total += K[r, j] * B[r]
-                y_new[j] = y[j] + h * total
+            stage_sum_into(y, h, K, B, n_stages, y_new)
             status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
                                  t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
             n_rhs += 1

@@ -12,6 +12,43 @@ RELATIVE_NOISE = 1e-13
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
+def column_weight(params, offset, i):
+    """The weight of coordinate ``i``: ``params[offset + i]``, or 1 when ``offset < 0`` (unit weights)."""
+    return 1.0 if offset < 0 else params[offset + i]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def gram_into(G, J, r, params, offset, rows):
+    """``G[:r, :r] = J W J^T`` of the constraints' Jacobian ``J`` (``r`` rows), ``W`` the diagonal weights at
+    ``offset`` of ``params`` (:func:`column_weight`; unit when ``offset < 0``).
+
+    Summed column by column over each column's non-zeros (a mechanism's constraint touches at most two bodies,
+    so a column has a few): the same numbers as the dense triple loop for about ``r`` times less work (which
+    cost as much as a six-bar's whole solve). The upper triangle is summed and mirrored, so ``G`` is exactly
+    symmetric. ``rows`` (at least ``r`` long) holds a column's non-zero rows meanwhile."""
+    n = J.shape[1]
+    for i in range(r):
+        for j in range(r):
+            G[i, j] = 0.0
+    for c in range(n):
+        count = 0
+        for i in range(r):
+            if J[i, c] != 0.0:
+                rows[count] = i
+                count += 1
+        weight = column_weight(params, offset, c)
+        for a in range(count):
+            row_a = int(rows[a])
+            value = J[row_a, c] * weight
+            for b in range(a, count):
+                row_b = int(rows[b])
+                G[row_a, row_b] += value * J[row_b, c]
+    for i in range(r):
+        for j in range(i + 1, r):
+            G[j, i] = G[i, j]
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
 def lu_solve(A, b, x):
     """Solve A x = b by Gaussian elimination with partial pivoting, overwriting A and b (the fast path).
 

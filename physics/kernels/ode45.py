@@ -39,7 +39,7 @@ Arguments and return value as :func:`physics.kernels.explicit_rk.integrate_rk45`
 import numpy as np
 from numba import njit
 
-from .arrays import copy_row
+from .arrays import copy_row, stage_sum_into
 from .common import check_arguments, initial_samples, ode_rhs, rhs_into, sample_condition, start_rhs, step_status
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL
 from .projection import project_state
@@ -155,11 +155,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
         t_new = t
         while True:
             for s in range(1, ODE45_N_STAGES):
-                for j in range(n_state):
-                    dy = 0.0
-                    for r in range(s):
-                        dy += K[r, j] * RK45_A[s, r]
-                    y_stage[j] = y[j] + h * dy
+                stage_sum_into(y, h, K, RK45_A[s], s, y_stage)
                 status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian,
                                      constraint_vector, t + RK45_C[s] * h, y_stage, params, alpha, beta, theta, omega,
                                      theta_ddot, K[s])
@@ -172,11 +168,7 @@ def _ode45(system, y0, t0, t_end, t_eval, htspan, refine, params, rtol, atol, al
             if done:
                 t_new = t_end
             h = t_new - t  # MATLAB's "purify h"
-            for j in range(n_state):
-                total = 0.0
-                for r in range(ODE45_N_STAGES):
-                    total += K[r, j] * RK45_B[r]
-                y_new[j] = y[j] + h * total
+            stage_sum_into(y, h, K, RK45_B, ODE45_N_STAGES, y_new)
             status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
                                  t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[ODE45_N_STAGES])
             n_rhs += 1

@@ -12,16 +12,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .abi import LAYOUT_CONSTRAINTS, LAYOUT_TIME, LAYOUT_WEIGHTS
+from .abi import LAYOUT_CONSTRAINTS, LAYOUT_WEIGHTS
+from .arrays import state_row
 from .common import all_finite
 from .constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
-from .linear import ldlt_solve
-from .system import constraints_into, make_system, set_time
-
-
-@njit(cache=True, error_model="numpy", nogil=True)
-def _weight(params, offset, i):
-    return 1.0 if offset < 0 else params[offset + i]
+from .linear import column_weight, gram_into, ldlt_solve
+from .system import constraints_into, load_state, make_system, set_time
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -29,30 +25,11 @@ def _correct(layout, J, G, g, lam, params, offset, gap, coordinates):
     """``coordinates -= W J^T (J W J^T)^-1 gap`` with the weights at ``offset`` of params (unit when < 0);
     left unchanged (returns False) where ``J W J^T`` is singular to working precision.
 
-    ``J W J^T`` is summed column by column over each column's non-zeros (a constraint touches at most two
-    bodies), in the same order as the dense sum: the same numbers for a fraction of the work. ``lam`` holds a
-    column's non-zero rows meanwhile (it is the solve's output afterwards)."""
+    ``J W J^T`` by :func:`~physics.kernels.linear.gram_into`; ``lam`` holds its scratch rows meanwhile (it is
+    the solve's output afterwards)."""
     r = layout[LAYOUT_CONSTRAINTS]
     n = J.shape[1]
-    for i in range(r):
-        for j in range(r):
-            G[i, j] = 0.0
-    for c in range(n):
-        count = 0
-        for i in range(r):
-            if J[i, c] != 0.0:
-                lam[count] = i
-                count += 1
-        weight = _weight(params, offset, c)
-        for a in range(count):
-            row_a = int(lam[a])
-            value = J[row_a, c] * weight
-            for b in range(a, count):
-                row_b = int(lam[b])
-                G[row_a, row_b] += value * J[row_b, c]
-    for i in range(r):
-        for j in range(i + 1, r):
-            G[j, i] = G[i, j]
+    gram_into(G, J, r, params, offset, lam)
     if r == 2:
         a = G[0, 0]
         b = G[0, 1]
@@ -71,7 +48,7 @@ def _correct(layout, J, G, g, lam, params, offset, gap, coordinates):
         total = 0.0
         for i in range(r):
             total += J[i, c] * lam[i]
-        coordinates[c] -= _weight(params, offset, c) * total
+        coordinates[c] -= column_weight(params, offset, c) * total
     return True
 
 
@@ -143,13 +120,8 @@ def project_state(system, t, y, params, theta, omega):
     layout = system[1]
     if layout[LAYOUT_CONSTRAINTS] == 0:
         return all_finite(y)
-    slot = layout[LAYOUT_TIME]
-    if slot >= 0:
-        params[slot] = t
+    load_state(layout, params, t, y, theta, omega)
     n = theta.shape[0]
-    for i in range(n):
-        theta[i] = y[i]
-        omega[i] = y[n + i]
     J, v, G, g, lam = system[6], system[7], system[8], system[9], system[10]
     position_onto(layout, J, v, G, g, lam, theta, omega, params)
     velocity_onto(layout, J, v, G, g, lam, theta, omega, params, True)
@@ -171,9 +143,7 @@ def project_states(assemble, layout, t, theta, omega, params):
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
         set_time(system, local, t[row])
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         if layout[LAYOUT_CONSTRAINTS] != 0:
             worst = max(worst, project_position(system, theta_row, omega_row, local))
             project_velocity(system, theta_row, omega_row, local)

@@ -24,8 +24,8 @@ from .abi import (
     call_native_solve,
     data_pointer,
 )
-from .arrays import copy_matrix, copy_row
-from .linear import ldlt_solve, lu_solve, lu_solve_equilibrated
+from .arrays import copy_matrix, copy_row, state_row
+from .linear import gram_into, ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
 RESCALE_ABOVE = 1e4
@@ -54,6 +54,19 @@ def set_time(system, params, t):
     slot = system[1][LAYOUT_TIME]
     if slot >= 0:
         params[slot] = t
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def load_state(layout, params, t, y, theta, omega):
+    """The state ``y = [theta, omega]`` at time ``t`` as the generated code reads it: ``t`` into its parameter
+    slot (if there is one), ``y`` split into the contiguous (n,) arrays ``theta`` and ``omega``."""
+    slot = layout[LAYOUT_TIME]
+    if slot >= 0:
+        params[slot] = t
+    n = theta.shape[0]
+    for i in range(n):
+        theta[i] = y[i]
+        omega[i] = y[n + i]
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
@@ -121,23 +134,7 @@ def constraint_ratio(system, theta, omega, params):
     G = system[8]
     g = system[9]
     lam = system[10]
-    # G = J J^T column by column over each column's non-zeros: a mechanism's constraint touches at most two
-    # bodies, so a column has a few non-zeros and this is about r times cheaper than the dense triple loop
-    # (which cost as much as the whole solve of a six-bar, at every right-hand side). ``lam`` holds the
-    # column's non-zero rows meanwhile (it is the solve's output afterwards).
-    G[:, :] = 0.0
-    for c in range(n):
-        count = 0
-        for i in range(r):
-            if J[i, c] != 0.0:
-                lam[count] = i
-                count += 1
-        for a in range(count):
-            row_a = int(lam[a])
-            value = J[row_a, c]
-            for b in range(count):
-                row_b = int(lam[b])
-                G[row_a, row_b] += value * J[row_b, c]
+    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch, then the solve's output
     for i in range(r):
         g[i] = 1.0
     ratio = ldlt_solve(G, g, lam)
@@ -223,9 +220,7 @@ def accel_states(assemble, layout, theta, omega, params, alpha, beta, theta_ddot
     omega_row = np.empty(n)
     theta_ddot = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         cond_out[row] = solve_accel(system, theta_row, omega_row, params, alpha, beta, theta_ddot)
         for i in range(n):
             theta_ddot_out[row, i] = theta_ddot[i]
@@ -240,9 +235,7 @@ def solve_states(assemble, layout, theta, omega, params, alpha, beta, x_out, con
     theta_row = np.empty(n)
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         cond_out[row] = solve_system(system, theta_row, omega_row, params, alpha, beta)
         for j in range(x.shape[0]):
             x_out[row, j] = x[j]
@@ -258,9 +251,7 @@ def assemble_states(assemble, layout, theta, omega, params, A_out, b_out):
     theta_row = np.empty(n)
     omega_row = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         assemble_into(system, theta_row, omega_row, params, 0.0, 0.0)
         copy_matrix(A, A_out, row)
         copy_row(b, b_out, row)
@@ -289,9 +280,7 @@ def lagrangian_states(mass_and_force, theta, omega, params, M_out, force_out):
     M = np.empty((n, n))
     force = np.empty(n)
     for row in range(theta.shape[0]):
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         lagrangian_pieces(mass_and_force, theta_row, omega_row, params, M, force)
         copy_matrix(M, M_out, row)
         copy_row(force, force_out, row)
@@ -312,9 +301,7 @@ def native_states(function, layout, t, theta, omega, params, matrix_out, vector_
     for row in range(theta.shape[0]):
         if slot >= 0:
             local[slot] = t[row]
-        for i in range(n):
-            theta_row[i] = theta[row, i]
-            omega_row[i] = omega[row, i]
+        state_row(theta, omega, row, theta_row, omega_row)
         matrix[:, :] = 0.0
         call_native(function, data_pointer(theta_row), data_pointer(omega_row), data_pointer(local),
                     data_pointer(matrix), data_pointer(vector))

@@ -3,7 +3,7 @@ coordinate switching at its dead centres.
 
 The maximal-coordinate DAE (:mod:`physics.mechanism.dae`) integrates ``3 B`` positions and velocities and
 projects them back onto the constraints. A mechanism of mobility 1 needs only one coordinate ``s``: a pin's
-relative angle or a slider's travel (:mod:`physics.mechanism.reduced_coordinates`). Every other position comes
+relative angle or a slider's travel (:mod:`physics.mechanism.joint_coordinates`). Every other position comes
 from position analysis, so the constraints hold to rounding by construction, and the equation of motion is the
 scalar ``(B^T M B) sddot = B^T (Q - M a0)`` (:mod:`physics.mechanism.reduced_partition`), integrated by scipy's
 DOP853 in ``(s, sdot)``.
@@ -36,10 +36,11 @@ from ..simulate.trajectory import Trajectory
 from ..status import Status
 from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
+from .joint_coordinates import JointCoordinates
 from .model import Mechanism
-from .reduced_coordinates import JointCoordinates
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
+from .run import state_vector
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
 # faster than it. The new coordinate starts at share 1, so switches cannot chatter.
@@ -83,14 +84,25 @@ class CoordinateSwitch:
 
 @dataclass(frozen=True)
 class ReducedRun:
-    """A reduced run: ``run`` has the fields of the DAE's run; ``switches`` every coordinate switch in order;
-    ``coordinate`` the joint integrated at each sample; ``rhs_evaluations`` how often the reduced equation was
-    evaluated."""
+    """A reduced run: ``run`` has the fields of the DAE's run (its ``n_steps`` and ``n_rhs`` the accepted steps
+    and right-hand sides of every segment); ``switches`` every coordinate switch in order; ``coordinate`` the
+    joint integrated at each sample."""
 
     run: Trajectory
     switches: tuple[CoordinateSwitch, ...]
     coordinate: tuple[str, ...]
-    rhs_evaluations: int
+
+
+@dataclass
+class _Counts:
+    """What the segments integrated so far took, as scipy reports each: accepted steps and right-hand sides."""
+
+    steps: int = 0
+    evaluations: int = 0
+
+    def add(self, solution) -> None:
+        self.steps += len(solution.t) - 1  # without t_eval, solution.t is the start and every accepted step
+        self.evaluations += int(solution.nfev)
 
 
 def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, atol: float) -> ReducedSettings:
@@ -102,16 +114,6 @@ def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, 
         field = str(first["loc"][0]) if first["loc"] else "settings"
         message = str(first["msg"]).removeprefix("Value error, ")
         raise LinkageError(f"{field} = {first.get('input')!r}: {message} (allowed: {_ALLOWED.get(field, '')})") from None
-
-
-def _start_vector(value: np.ndarray | None, size: int, name: str, meaning: str) -> np.ndarray | None:
-    if value is None:
-        return None
-    array = np.asarray(value, dtype=float)
-    if array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise LinkageError(f"{name}: expected {size} finite numbers ({meaning}), got shape {array.shape}"
-                           + ("" if array.shape != (size,) else " with a non-finite entry"))
-    return array
 
 
 def simulate_reduced(
@@ -138,8 +140,8 @@ def simulate_reduced(
     settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
     dae = MechanismDAE(mechanism)
     size = dae.constraints.size
-    q_start = _start_vector(q0, size, "q0", "x, y, phi per body")
-    qdot_start = _start_vector(qdot0, size, "qdot0", "xdot, ydot, phidot per body")
+    q_start = state_vector(q0, "q0", size)
+    qdot_start = state_vector(qdot0, "qdot0", size)
     assembled = assemble(mechanism, q_start, settings.t_start)
     if assembled.mobility != 1:
         raise LinkageError(_mobility_refusal(mechanism, assembled.mobility))
@@ -160,21 +162,20 @@ def simulate_reduced(
     t_final = float(times[-1])
     collected = Samples(times)
     switches: list[CoordinateSwitch] = []
-    evaluations = [0]  # right-hand sides evaluated, counted as the segments go (kept when one stops)
+    counts = _Counts()  # counted as the segments go (kept when one stops)
     try:
         _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches,
-                   length, switching, evaluations)
+                   length, switching, counts)
     except (LinkageError, np.linalg.LinAlgError) as error:
         if not stop_as_status or not collected.states:
             raise
         run = replace(collected.run(dae), status=getattr(error, "status", int(Status.INTEGRATOR_FAILED)),
                       message=str(error) if isinstance(error, LinkageError)
                       else f"{mechanism.name}: position analysis failed after t = {collected.states[-1].t:.6g} s "
-                           f"({error})")
-        return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate),
-                          rhs_evaluations=evaluations[0])
-    return ReducedRun(run=collected.run(dae), switches=tuple(switches), coordinate=tuple(collected.coordinate),
-                      rhs_evaluations=evaluations[0])
+                           f"({error})", n_steps=counts.steps, n_rhs=counts.evaluations)
+        return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
+    run = replace(collected.run(dae), n_steps=counts.steps, n_rhs=counts.evaluations)
+    return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
 
 
 class _Stopped(LinkageError):
@@ -186,10 +187,10 @@ class _Stopped(LinkageError):
 
 
 def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches, length,
-               switching, evaluations: list[int]) -> None:
-    """The reduced run's segments, from coordinate switch to switch, into ``collected`` and ``switches``; the
-    right-hand sides evaluated are added to ``evaluations[0]`` as each partition is left (a run that stops keeps
-    the count of the partitions before the one it stopped in)."""
+               switching, counts: _Counts) -> None:
+    """The reduced run's segments, from coordinate switch to switch, into ``collected`` and ``switches``; each
+    segment's accepted steps and right-hand sides are added to ``counts`` as soon as it is integrated (a run
+    that stops keeps them, the failed segment's included)."""
     switch_now = False  # the last segment ended at the switching event
     while True:
         s, sdot = partition.coordinate_of(q, qdot)
@@ -203,7 +204,6 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
                                Status.SINGULAR)
             new = Partition(dae, coordinates, _fastest_joint(coordinates, dae, q, start.velocity_map), q, t, length)
             switches.append(CoordinateSwitch(t=t, from_joint=partition.name, to_joint=new.name, share=share))
-            evaluations[0] += partition.evaluations
             partition = new
             continue
         if share < DEAD_CENTRE_SHARE:
@@ -217,6 +217,7 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
 
         solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=settings.rtol,
                              atol=settings.atol, events=[event], dense_output=True)
+        counts.add(solution)
         if solution.status == -1:
             raise _Stopped(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
                            f"({solution.message})", Status.INTEGRATOR_FAILED)
@@ -228,7 +229,6 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
         if not switching:
             raise _Stopped(_dead_centre_refusal(partition, t, partition.share(end)), Status.SINGULAR)
         switch_now = True
-    evaluations[0] += partition.evaluations
 
 
 def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:

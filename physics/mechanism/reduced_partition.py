@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from .dae import MechanismDAE
-from .reduced_coordinates import JointCoordinates
+from .joint_coordinates import JointCoordinates
 
 NEWTON_STEPS = 30
 # Newton stops when a step moves no coordinate by more than this times the mechanism's size (rotations counted
@@ -71,7 +71,6 @@ class Partition:
         self.weights = np.tile([1.0, 1.0, length], len(dae.mechanism.bodies))  # rotations counted as lengths
         self.nu = self.constraints.velocity_rhs()
         self._cached: ReducedState | None = None
-        self.evaluations = 0
         self.reset(q, t)
 
     def _invert(self, q: np.ndarray) -> np.ndarray:
@@ -134,7 +133,6 @@ class Partition:
         cached = self._cached
         if cached is not None and cached.t == t and cached.s == s and cached.sdot == sdot:
             return cached
-        self.evaluations += 1
         q = self.pose(t, s)
         inverse = self._invert(q)
         velocity_map, motor_velocity = self._maps(inverse)
@@ -163,4 +161,4 @@ class Partition:
 
     def coordinate_of(self, q: np.ndarray, qdot: np.ndarray) -> tuple[float, float]:
         """``(s, sdot)`` of a state given in maximal coordinates: read off exactly, nothing integrated."""
-        return self.coordinates.value(q, self.which), float(self.coordinates.gradient(q, self.which) @ qdot)
+        return self.coordinates.value(q, self.which), self.coordinates.rate(q, qdot, self.which)

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
 from .constraints import points_at_poses
 from .model import GROUND
@@ -69,6 +70,23 @@ def traced_path(points: BodyPoints, trace: str | None, q: np.ndarray) -> np.ndar
     if trace is None or trace.startswith(f"{GROUND}.") or trace not in points.names:
         return np.full((q.shape[0], 2), math.nan)
     return points.path(q, points.names.index(trace))
+
+
+def state_vector(value, name: str, size: int) -> np.ndarray | None:
+    """A run's start ``q0`` or ``qdot0`` (``name``) as a float array of ``size`` finite numbers (x, y, phi per
+    body, or their rates), or None; else LinkageError, one line naming it and what it got."""
+    if value is None:
+        return None
+    expected = f"{name}: expected {size} finite numbers (x, y, phi of each body's centre of mass)"
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise LinkageError(f"{expected}, got a {type(value).__name__}") from None
+    if array.shape != (size,):
+        raise LinkageError(f"{expected}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise LinkageError(f"{expected}, got a non-finite entry")
+    return array
 
 
 def run_table(run: Trajectory, fmt: str = "csv") -> bytes:

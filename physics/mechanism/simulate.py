@@ -43,6 +43,7 @@ from .assembly import assemble
 from .dae import MechanismDAE
 from .model import Mechanism
 from .reduced import simulate_reduced
+from .run import state_vector
 
 __all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
            "simulate_mechanism"]
@@ -188,7 +189,7 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
                   integrate: bool | None = None) -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
-    q0, qdot0 = (_state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
+    q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
     times = t_start + np.linspace(0.0, settings.t_end, settings.samples)
     if settings.method == "reduced":
@@ -215,16 +216,4 @@ def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0
     return replace(reduced.run, method="reduced", stabilization="position analysis", integrated=True,
                    integrator=REDUCED_INTEGRATOR)
 
-
-def _state_vector(value, name: str, size: int) -> np.ndarray | None:
-    """``q0`` or ``qdot0`` as a float array of ``size`` finite numbers (x, y, phi per body), or None."""
-    if value is None:
-        return None
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        array = np.zeros(0)
-    if array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise LinkageError(f"{name}: expected {size} finite numbers (x, y, phi of each body's centre of mass)")
-    return array
 

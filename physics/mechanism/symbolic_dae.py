@@ -25,7 +25,8 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
-from .joints import KINDS, MOTOR, Force, Kinematics, Row
+from .joints import KINDS, MOTOR, Kinematics
+from .joints.loads import BodyLoads, applied_loads
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ORIGIN,
@@ -95,38 +96,21 @@ def derive_dae(shape: Structure, params: ParameterSymbols) -> LinearSystem:
                                MOTOR.rows(joint.bodies[:2], params.drivers[speed_driven[k]], bodies)))
     count = sum(len(rows) for _, _, rows in joint_rows)
     lam = list(sp.symbols(f"lam0:{count}", real=True))
-    forces: dict[int, list] = {body: [] for body in range(shape.bodies)}
-    torques: dict[int, list] = {body: [] for body in range(shape.bodies)}
-
-    def apply(row: Row, magnitude) -> None:
-        """The loads of ``row`` times ``magnitude`` (a multiplier, a motor's torque, a damper's force)."""
-        for load in row.loads:
-            if load.body < 0:
-                continue
-            if isinstance(load, Force):
-                forces[load.body].append((scale(magnitude, load.force), load.point))
-            else:
-                torques[load.body].append(times(load.torque, magnitude))
-
+    loads = BodyLoads(shape.bodies, bodies)
     phi: list = []
     velocity_rows: list = []
     acceleration_rows: list = []
     row_names: list[tuple[int, str]] = []
     for k, meanings, rows in joint_rows:
         for part, row in enumerate(rows):
-            apply(row, lam[len(phi)])
+            loads.apply(row, lam[len(phi)])
             phi.append(row.position)
             velocity_rows.append(row.velocity)
             acceleration_rows.append(row.acceleration)
             row_names.append((k, meanings[part]))
-    for number, driver in enumerate(shape.drivers):
-        if number not in speed_driven.values():  # a torque motor on its joint's relative rotation
-            apply(MOTOR.driven(shape.joints[driver.joint].bodies[:2], bodies), params.drivers[number])
-    for number, joint in enumerate(shape.joints):
-        symbols = params.joints[number]
-        damper = KINDS[joint.kind].damper(joint.bodies, symbols.values, bodies)
-        if damper is not None:  # -c (its speed) times its loads
-            apply(damper, negative(times(symbols.damping, damper.velocity)))
+    for row, magnitude in applied_loads(shape, params, bodies):
+        loads.apply(row, magnitude)
+    forces, torques = loads.forces, loads.torques
 
     balances, names = [], []
     for i in range(shape.bodies):

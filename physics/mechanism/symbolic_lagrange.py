@@ -31,14 +31,14 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
-from .joints import KINDS, MOTOR, Kinematics
+from .joints.loads import applied_loads
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ZERO,
     LinearReader,
     Place,
-    SympyNumbers,
     TreeGeometry,
+    TreeKinematics,
     add,
     dot,
     names_template,
@@ -120,25 +120,13 @@ class _Calculus:
         return gradient
 
 
-class _Kinematics(SympyNumbers, Kinematics):
+class _Kinematics(TreeKinematics):
     """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations by
     the rotation rule (:class:`_Calculus`), an acceleration ``sum_j e_j sdd_j`` plus its bias."""
 
     def __init__(self, geometry: TreeGeometry, calculus: _Calculus) -> None:
-        self.geometry, self.calculus = geometry, calculus
-        self.time = geometry.params.t
-
-    def angle(self, body):
-        return self.geometry.body_angle(body)
-
-    def spin(self, body):
-        return self.calculus.spin[body]
-
-    def alpha(self, body):
-        return self.calculus.alpha[body]
-
-    def turned(self, body, vector):
-        return self.geometry.turned(body, tuple(vector))
+        super().__init__(geometry, calculus.spin, calculus.alpha)
+        self.calculus = calculus
 
     def point(self, body, arm):
         place = self.geometry.point(body, arm)
@@ -244,24 +232,13 @@ def _closures(geometry: TreeGeometry, closures):
 
 def _generalised_forces(geometry: TreeGeometry, kinematics: _Kinematics, n: int) -> list:
     """``Q_k - dD/d sd_k``: torque motors' work and the dampers' Rayleigh function, through the relative motion
-    each acts on (:meth:`~physics.mechanism.joints.JointKind.damper`, a torque motor's joint's relative rotation)
-    and its gradient in the tree coordinates."""
-    shape, params = geometry.shape, geometry.params
+    each acts on (:func:`~physics.mechanism.joints.loads.applied_loads`: a damped kind's
+    :meth:`~physics.mechanism.joints.JointKind.damper`, a torque motor's joint's relative rotation) times its
+    gradient in the tree coordinates, read off the motion's speed (not off the row's loads: Lagrange's own way)."""
     coordinates = {u: j for j, u in enumerate(geometry.sd)}
     reader = LinearReader(geometry.sd)
     out: list[list] = [[] for _ in range(n)]
-    for number, joint in enumerate(shape.joints):
-        symbols = params.joints[number]
-        damper = KINDS[joint.kind].damper(joint.bodies, symbols.values, kinematics)
-        if damper is None:
-            continue
-        gradient = _gradient(reader, damper.velocity, coordinates)
-        for j, value in gradient.items():
-            out[j].append(negative(times(symbols.damping, damper.velocity, value)))
-    for number, driver in enumerate(shape.drivers):
-        if number in shape.speed_driven.values():
-            continue
-        driven = MOTOR.driven(shape.joints[driver.joint].bodies[:2], kinematics)
-        for j, value in _gradient(reader, driven.velocity, coordinates).items():
-            out[j].append(times(params.drivers[number], value))
+    for row, magnitude in applied_loads(geometry.shape, geometry.params, kinematics):
+        for j, value in _gradient(reader, row.velocity, coordinates).items():
+            out[j].append(times(magnitude, value))
     return [plus(*terms) for terms in out]

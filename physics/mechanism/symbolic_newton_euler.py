@@ -23,14 +23,15 @@ from types import SimpleNamespace
 import sympy as sp
 
 from ..derive.formulation import LinearSystem
-from .joints import KINDS, MOTOR, Force, Kinematics, Rotation, Row, Translation
+from .joints import Rotation, Translation
+from .joints.loads import BodyLoads, applied_loads
 from .parameters import ParameterSymbols, Structure
 from .symbolic_tree import (
     ORIGIN,
     ZERO,
     LinearReader,
-    SympyNumbers,
     TreeGeometry,
+    TreeKinematics,
     add,
     cross,
     dot,
@@ -103,25 +104,13 @@ class _Motion:
         return velocity, acceleration
 
 
-class _Kinematics(SympyNumbers, Kinematics):
+class _Kinematics(TreeKinematics):
     """The joints' equations in the tree coordinates: positions from the tree, velocities and accelerations body
     after body (:class:`_Motion`)."""
 
     def __init__(self, geometry: TreeGeometry, motion: _Motion) -> None:
-        self.geometry, self.motion = geometry, motion
-        self.time = geometry.params.t
-
-    def angle(self, body):
-        return self.geometry.body_angle(body)
-
-    def spin(self, body):
-        return self.motion.spin[body]
-
-    def alpha(self, body):
-        return self.motion.alpha[body]
-
-    def turned(self, body, vector):
-        return self.geometry.turned(body, tuple(vector))
+        super().__init__(geometry, motion.spin, motion.alpha)
+        self.motion = motion
 
     def point(self, body, arm):
         return (self.geometry.world(body, arm), *self.motion.point(body, arm))
@@ -139,33 +128,16 @@ def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSys
     count = len(closures)
     lam = list(sp.symbols(f"lam0:{count}", real=True))
 
-    forces: dict[int, list] = {body: [] for body in range(bodies)}  # (force, point of application)
-    torques: dict[int, list] = {body: [] for body in range(bodies)}
-
-    def apply(row: Row, magnitude) -> None:
-        """The loads of ``row`` times ``magnitude`` (a multiplier, a motor's torque, a damper's force)."""
-        for load in row.loads:
-            if load.body < 0:
-                continue
-            if isinstance(load, Force):
-                forces[load.body].append((scale(magnitude, load.force), load.point))
-            else:
-                torques[load.body].append(times(load.torque, magnitude))
-
+    loads = BodyLoads(bodies, kinematics)
     phi, velocity_rows, acceleration_rows = [], [], []
     for number, row in enumerate(closures):
-        apply(row, lam[number])
+        loads.apply(row, lam[number])
         phi.append(row.position)
         velocity_rows.append(row.velocity)
         acceleration_rows.append(row.acceleration)
-    for number, driver in enumerate(shape.drivers):
-        if number not in shape.speed_driven.values():
-            apply(MOTOR.driven(shape.joints[driver.joint].bodies[:2], kinematics), params.drivers[number])
-    for number, joint in enumerate(shape.joints):
-        symbols = params.joints[number]
-        damper = KINDS[joint.kind].damper(joint.bodies, symbols.values, kinematics)
-        if damper is not None:  # -c (its speed) times its loads
-            apply(damper, negative(times(symbols.damping, damper.velocity)))
+    for row, magnitude in applied_loads(shape, params, kinematics):
+        loads.apply(row, magnitude)
+    forces, torques = loads.forces, loads.torques  # (force, point of application) and torques, by body
 
     beyond: dict[int, set[int]] = {body: {body} for body in tree.order}
     for body in reversed(tree.order):  # children before parents

@@ -21,13 +21,13 @@ Planar vectors are plain ``(x, y)`` tuples of sympy expressions: cheaper to buil
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass, field
 
 import sympy as sp
 
 from .joints import KINDS, MOTOR, Kinematics, Rotation, Row, Translation
 from .parameters import ParameterSymbols, Structure
+from .topology import breadth_first
 
 ZERO = sp.Integer(0)
 MINUS_ONE = sp.Integer(-1)
@@ -105,6 +105,28 @@ class SympyNumbers:
         return negative(x)
 
 
+class TreeKinematics(SympyNumbers, Kinematics):
+    """A tree formulation's :class:`~physics.mechanism.joints.Kinematics`: angles and turned vectors from the
+    tree's positions (:class:`TreeGeometry`), spins and angular accelerations as the formulation found them
+    (``spin[body]``, ``alpha[body]``, the ground's zero); each formulation writes its own :meth:`point`."""
+
+    def __init__(self, geometry: TreeGeometry, spin: dict, alpha: dict) -> None:
+        self.geometry, self._spin, self._alpha = geometry, spin, alpha
+        self.time = geometry.params.t
+
+    def angle(self, body):
+        return self.geometry.body_angle(body)
+
+    def spin(self, body):
+        return self._spin[body]
+
+    def alpha(self, body):
+        return self._alpha[body]
+
+    def turned(self, body, vector):
+        return self.geometry.turned(body, tuple(vector))
+
+
 @dataclass(frozen=True)
 class ClosureRow:
     """One constraint row of a tree formulation: its joint (index), which of its joint's (or its speed motor's)
@@ -127,23 +149,11 @@ class SpanningTree:
 
 
 def spanning_tree(shape: Structure) -> SpanningTree:
-    """Breadth-first from the ground over joints in the description's order (as topology.analyse does)."""
-    adjacency: dict[int, list[tuple[int, int]]] = {-1: [], **{k: [] for k in range(shape.bodies)}}
-    for k, joint in enumerate(shape.joints):
-        if not joint.joins:
-            continue
-        adjacency[joint.a].append((k, joint.b))
-        adjacency[joint.b].append((k, joint.a))
-    parent: dict[int, tuple[int, int]] = {}
-    seen, queue, tree = {-1}, deque([-1]), set()
-    while queue:
-        node = queue.popleft()
-        for number, other in adjacency[node]:
-            if other not in seen:
-                seen.add(other)
-                parent[other] = (number, node)
-                tree.add(number)
-                queue.append(other)
+    """Breadth-first from the ground over joints in the description's order
+    (:func:`physics.mechanism.topology.breadth_first`, as :func:`~physics.mechanism.topology.analyse` finds it)."""
+    parent: dict[int, tuple[int, int]] = breadth_first(
+        -1, ((k, joint.a, joint.b) for k, joint in enumerate(shape.joints) if joint.joins))
+    tree = {number for number, _ in parent.values()}
     if len(parent) != shape.bodies:
         raise ValueError("structure: a body is not connected to the ground")
     order = tuple(parent)  # discovery order: every parent before its children

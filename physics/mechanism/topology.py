@@ -9,6 +9,7 @@ come later use the same split: the tree carries the coordinates, the cut joints 
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,31 +46,35 @@ class Topology:
     parent: dict[str, tuple[str, str]]  # body -> (joint to its parent, parent body)
 
 
+def breadth_first(root: Hashable, edges: Iterable[tuple[Any, Hashable, Hashable]]) -> dict:
+    """The spanning tree found breadth-first from ``root`` over ``edges``, ``(joint, one end, other end)`` taken
+    in their order: ``parent[body] = (joint, parent body)`` for every body reached, in the order found, so every
+    parent comes before its children. Written once for :func:`analyse` (by names) and the tree formulations
+    (:func:`physics.mechanism.symbolic_tree.spanning_tree`, by index): their coordinates must be in this order."""
+    adjacency: dict = {}
+    for joint, first, second in edges:
+        adjacency.setdefault(first, []).append((joint, second))
+        adjacency.setdefault(second, []).append((joint, first))
+    parent: dict = {}
+    seen = {root}
+    queue = deque([root])
+    while queue:
+        node = queue.popleft()
+        for joint, other in adjacency.get(node, ()):
+            if other not in seen:
+                seen.add(other)
+                parent[other] = (joint, node)
+                queue.append(other)
+    return parent
+
+
 def analyse(mechanism: Mechanism) -> Topology:
     """The mechanism's spanning tree, loops and mobility count; raises ValueError naming the body that the
     ground cannot reach (a disconnected mechanism)."""
-    adjacency: dict[str, list[tuple[str, str]]] = {GROUND: []}
-    for body in mechanism.bodies:
-        adjacency[body.name] = []
-    for joint in mechanism.joints:
-        ends = joint_bodies(joint)
-        if ends is None:
-            continue
-        first, second = ends
-        adjacency[first].append((joint.name, second))
-        adjacency[second].append((joint.name, first))
-    parent: dict[str, tuple[str, str]] = {}
-    seen = {GROUND}
-    queue = deque([GROUND])
-    tree: list[str] = []
-    while queue:
-        node = queue.popleft()
-        for joint_name, other in adjacency[node]:
-            if other not in seen:
-                seen.add(other)
-                parent[other] = (joint_name, node)
-                tree.append(joint_name)
-                queue.append(other)
+    edges = [(joint.name, *ends) for joint in mechanism.joints if (ends := joint_bodies(joint)) is not None]
+    parent: dict[str, tuple[str, str]] = breadth_first(GROUND, edges)
+    tree = [joint_name for joint_name, _ in parent.values()]
+    seen = {GROUND, *parent}
     unreached = [body.name for body in mechanism.bodies if body.name not in seen]
     if unreached:
         raise ValueError(

@@ -13,10 +13,11 @@ import pytest
 from physics.mechanism import joints
 
 MECHANISM = Path(joints.__file__).resolve().parent.parent
-# the formulations: the numeric constraints and DAE, the three derivations and their shared tree, the tree
-# coordinates and the graph
+# the formulations: the numeric constraints and DAE, the three derivations and their shared tree, the joint and
+# tree coordinates and the graph
 FORMULATIONS = sorted(
-    [MECHANISM / name for name in ("dae.py", "constraints.py", "tree_coordinates.py", "topology.py")]
+    [MECHANISM / name for name in ("dae.py", "constraints.py", "joint_coordinates.py", "tree_coordinates.py",
+                                   "topology.py")]
     + list(MECHANISM.glob("symbolic*.py"))
 )
 MODELS = {"Revolute", "Prismatic", "Gear", "Driver"}
@@ -71,7 +72,7 @@ def test_no_formulation_switches_on_a_joints_kind(path):
 def test_every_formulation_is_scanned():
     names = {path.name for path in FORMULATIONS}
     assert {"dae.py", "constraints.py", "symbolic_dae.py", "symbolic_tree.py", "symbolic_lagrange.py",
-            "symbolic_newton_euler.py", "tree_coordinates.py", "topology.py"} <= names
+            "symbolic_newton_euler.py", "joint_coordinates.py", "tree_coordinates.py", "topology.py"} <= names
 
 
 class Still(joints.Kinematics):

@@ -3,45 +3,22 @@ every right-hand side: a step that ends at a singular pose is not taken and the 
 the same status; a run released at a singular pose stops at once in every compiled integrator; a healthy run
 is the same step for step.
 
-The systems are hand-written (as in tests/physics/test_kernels.py): the double pendulum's ``assemble`` with a
-two-row ``constraints`` function whose Jacobian loses its rank once ``theta_1`` drops below ``params[9]``. Its
-solve stays healthy throughout, so only the geometric test can stop the run.
+The systems are hand-written (tests/physics/kernel_toys.py, shared with tests/physics/test_kernels.py): the
+double pendulum's ``assemble`` with a two-row ``constraints`` function whose Jacobian loses its rank once
+``theta_1`` drops below ``params[9]``. Its solve stays healthy throughout, so only the geometric test can stop
+the run.
 """
-
-import math
 
 import numpy as np
 import pytest
-from numba import cfunc
 
 from physics import LinkageError
 from physics.kernels import common, explicit_rk, midpoint, ode45, system
-from physics.kernels.abi import ASSEMBLE_SIGNATURE, make_layout
 from physics.kernels.constants import SINGULAR_PIVOT_RATIO, STATUS_OK, STATUS_SINGULAR
 
-DOUBLE_PARAMS = np.array([1.0, 1.0, 0.5, 0.5, 1.0, 1.0, 0.2, 0.3, 1.0, 0.0, 0.0])
-DOUBLE_Y0 = np.array([1.2, -0.4, 0.0, 0.3])  # released at rest: theta_1 swings down through 0.9 within 0.5 s
-THRESHOLD = 0.9
+from .kernel_toys import DOUBLE_PARAMS, DOUBLE_Y0, Toy, double_assemble
 
-
-def double_assemble(theta, omega, params, A, b):
-    """The double pendulum of rigid bars from Lagrange's equations written out by hand (test_kernels.py)."""
-    L1 = params[0]
-    d1 = params[2]
-    d2 = params[3]
-    m1 = params[4]
-    m2 = params[5]
-    I1 = params[6]
-    I2 = params[7]
-    g = params[8]
-    s12 = math.sin(theta[0] - theta[1])
-    c12 = math.cos(theta[0] - theta[1])
-    A[0] = I1 + m1 * d1 * d1 + m2 * L1 * L1
-    A[1] = m2 * L1 * d2 * c12
-    A[2] = m2 * L1 * d2 * c12
-    A[3] = I2 + m2 * d2 * d2
-    b[0] = -m2 * L1 * d2 * s12 * omega[1] ** 2 - (m1 * d1 + m2 * L1) * g * math.sin(theta[0])
-    b[1] = m2 * L1 * d2 * s12 * omega[0] ** 2 - m2 * d2 * g * math.sin(theta[1])
+THRESHOLD = 0.9  # DOUBLE_Y0 is released at rest: theta_1 swings down through 0.9 within 0.5 s
 
 
 def folding_constraints(theta, omega, params, J, v):
@@ -58,36 +35,27 @@ def folding_constraints(theta, omega, params, J, v):
         v[i] = 0.0
 
 
-class Toy:
-    """The double pendulum handed to the kernels as a generated mechanism is; with ``folding`` it holds the two
-    constraint rows above (no Baumgarte gains, no projection: they only feed the geometric test)."""
-
-    def __init__(self, folding):
-        self._assemble = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(double_assemble)
-        self._constraints = cfunc(ASSEMBLE_SIGNATURE, error_model="numpy")(folding_constraints)
-        self.assemble = self._assemble.address
-        rows = (0, 1) if folding else ()
-        self.layout = make_layout(2, 2, range(2), n_parameters=11, constraint_rows=rows,
-                                  constraint_address=self._constraints.address if folding else 0)
-
-    def run(self, method, t_eval, params, max_steps=10**6):
-        y_out = np.empty((len(t_eval), 4))
-        cond_out = np.empty(len(t_eval))
-        t_end = float(t_eval[-1])
-        if method == "midpoint":
-            result = midpoint.integrate_midpoint(self.assemble, self.layout, DOUBLE_Y0, 0.0, t_end, 0.01, t_eval,
-                                                 params, 0.0, 0.0, False, y_out, cond_out)
-        else:
-            kernel = {"rk45": explicit_rk.integrate_rk45, "dop853": explicit_rk.integrate_dop853,
-                      "ode45": ode45.integrate_ode45}[method]
-            result = kernel(self.assemble, self.layout, DOUBLE_Y0, 0.0, t_end, t_eval, params, 1e-8, 1e-10, 0.0,
-                            0.0, False, max_steps, y_out, cond_out)
-        return result, y_out, cond_out
+def run(toy, method, t_eval, params, max_steps=10**6):
+    """``toy`` run from DOUBLE_Y0 by the compiled ``method`` (no Baumgarte gains, no projection: the constraint
+    rows only feed the geometric test)."""
+    y_out = np.empty((len(t_eval), 4))
+    cond_out = np.empty(len(t_eval))
+    t_end = float(t_eval[-1])
+    if method == "midpoint":
+        result = midpoint.integrate_midpoint(toy.assemble, toy.layout, DOUBLE_Y0, 0.0, t_end, 0.01, t_eval,
+                                             params, 0.0, 0.0, False, y_out, cond_out)
+    else:
+        kernel = {"rk45": explicit_rk.integrate_rk45, "dop853": explicit_rk.integrate_dop853,
+                  "ode45": ode45.integrate_ode45}[method]
+        result = kernel(toy.assemble, toy.layout, DOUBLE_Y0, 0.0, t_end, t_eval, params, 1e-8, 1e-10, 0.0,
+                        0.0, False, max_steps, y_out, cond_out)
+    return result, y_out, cond_out
 
 
 @pytest.fixture(scope="module")
 def toys():
-    return Toy(folding=True), Toy(folding=False)
+    """The double pendulum with the folding rows, and without constraints."""
+    return Toy(double_assemble, 2, 2, folding_constraints, rows=(0, 1)), Toy(double_assemble, 2, 2)
 
 
 def faulty_params():
@@ -123,8 +91,8 @@ def test_the_stage_right_hand_side_leaves_the_geometric_test_to_the_step(toys):
 def test_a_step_that_ends_at_a_singular_pose_stops_the_run_where_it_was(toys, method):
     folding, plain = toys
     t_eval = np.linspace(0.0, 2.0, 201)
-    (status, n_steps, _, t_reached, n_filled), y_out, cond_out = folding.run(method, t_eval, faulty_params())
-    (healthy_status, *_), y_healthy, _ = folding.run(method, t_eval, DOUBLE_PARAMS)
+    (status, n_steps, _, t_reached, n_filled), y_out, cond_out = run(folding, method, t_eval, faulty_params())
+    (healthy_status, *_), y_healthy, _ = run(folding, method, t_eval, DOUBLE_PARAMS)
     crossing = t_eval[np.argmax(y_healthy[:, 0] < THRESHOLD)]
     assert status == STATUS_SINGULAR and healthy_status == STATUS_OK
     assert 0.0 < t_reached < crossing and n_steps > 0
@@ -137,14 +105,14 @@ def test_a_step_that_ends_at_a_singular_pose_stops_the_run_where_it_was(toys, me
         next_end = t_reached + 0.01
         assert t_reached == pytest.approx(n_steps * 0.01, rel=1e-12)
     else:
-        (_, _, _, reached, _), _, _ = folding.run(method, t_eval, DOUBLE_PARAMS, max_steps=n_steps)
+        (_, _, _, reached, _), _, _ = run(folding, method, t_eval, DOUBLE_PARAMS, max_steps=n_steps)
         assert reached == t_reached
-        (_, _, _, next_end, _), _, _ = folding.run(method, t_eval, DOUBLE_PARAMS, max_steps=n_steps + 1)
-    (_, *_), y_next, _ = folding.run(method, np.array([0.0, next_end]), DOUBLE_PARAMS)
+        (_, _, _, next_end, _), _, _ = run(folding, method, t_eval, DOUBLE_PARAMS, max_steps=n_steps + 1)
+    (_, *_), y_next, _ = run(folding, method, np.array([0.0, next_end]), DOUBLE_PARAMS)
     assert y_next[1, 0] < THRESHOLD
     # Without the constraints the run is the same, step for step and evaluation for evaluation.
-    healthy_result, y_folding, _ = folding.run(method, t_eval, DOUBLE_PARAMS)
-    plain_result, y_plain, _ = plain.run(method, t_eval, DOUBLE_PARAMS)
+    healthy_result, y_folding, _ = run(folding, method, t_eval, DOUBLE_PARAMS)
+    plain_result, y_plain, _ = run(plain, method, t_eval, DOUBLE_PARAMS)
     assert healthy_result == plain_result
     np.testing.assert_array_equal(y_folding, y_plain)
 

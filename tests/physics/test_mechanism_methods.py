@@ -104,12 +104,13 @@ def test_bad_run_options_are_one_line_naming_the_field(field, value, fragment):
     assert message.startswith(fragment) and "\n" not in message
 
 
-@pytest.mark.parametrize("field, value", [("q0", np.zeros(4)), ("qdot0", [0.0] * 8 + [float("nan")]),
-                                          ("q0", "pose")])
-def test_a_bad_start_state_is_one_line_naming_it(field, value):
+@pytest.mark.parametrize("field, value, got", [("q0", np.zeros(4), "shape (4,)"),
+                                               ("qdot0", [0.0] * 8 + [float("nan")], "a non-finite entry"),
+                                               ("q0", "pose", "a str")])
+def test_a_bad_start_state_is_one_line_naming_it(field, value, got):
     with pytest.raises(LinkageError) as error:
         simulate_mechanism(MECHANISM_PRESETS["slider-crank"](), 1.0, 3, **{field: value})
-    assert str(error.value) == f"{field}: expected 9 finite numbers (x, y, phi of each body's centre of mass)"
+    assert str(error.value) == f"{field}: expected 9 finite numbers (x, y, phi of each body's centre of mass), got {got}"
 
 
 def _physics(*args: str) -> subprocess.CompletedProcess:

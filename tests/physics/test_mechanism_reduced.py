@@ -17,9 +17,9 @@ from physics.mechanism import MECHANISM_PRESETS, Body, Driver, Mechanism, Prisma
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.joint_coordinates import JointCoordinates
 from physics.mechanism.presets import bar, circle_intersection, pin
 from physics.mechanism.reduced import SWITCH_SHARE, simulate_reduced
-from physics.mechanism.reduced_coordinates import JointCoordinates
 from physics.mechanism.reduced_partition import Partition
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
@@ -333,6 +333,7 @@ def open_two_bar_chain() -> Mechanism:
         (MECHANISM_PRESETS["slider-crank"], {"q0": np.full(9, math.nan)}, "q0: expected 9 finite numbers"),
         (MECHANISM_PRESETS["slider-crank"], {"qdot0": np.zeros(4)}, r"qdot0: expected 9 finite numbers .*shape \(4,\)"),
         (MECHANISM_PRESETS["slider-crank"], {"qdot0": [0.0] * 8 + [math.inf]}, "qdot0: .*non-finite"),
+        (MECHANISM_PRESETS["slider-crank"], {"q0": "pose"}, "q0: expected 9 finite numbers .*got a str"),
         (MECHANISM_PRESETS["slider-crank"], {"coordinate": "crank"}, "coordinate = 'crank': no joint"),
     ],
 )
@@ -366,12 +367,40 @@ def test_the_reduced_model_refuses_what_does_not_apply_in_one_line(preset, optio
     assert fragment in str(error.value) and "\n" not in str(error.value)
 
 
+def test_a_reduced_run_counts_the_steps_and_right_hand_sides_of_every_segment(monkeypatch):
+    """The run's ``n_steps`` and ``n_rhs`` are what scipy reports for each segment it integrated, summed over
+    the segments (read here off every solution scipy returned); started in the piston's travel, the run switches
+    coordinates, so more than one segment counts."""
+    import scipy.integrate  # noqa: PLC0415
+
+    solutions = []
+    solve_ivp = scipy.integrate.solve_ivp
+
+    def recorded(*args, **kwargs):
+        solution = solve_ivp(*args, **kwargs)
+        solutions.append(solution)
+        return solution
+
+    monkeypatch.setattr(scipy.integrate, "solve_ivp", recorded)
+    reduced = simulate_reduced(MECHANISM_PRESETS["slider-crank"](), 1.0, 101, rtol=1e-8, atol=1e-8,
+                               coordinate="guide")
+    assert reduced.switches and len(solutions) > 1
+    assert reduced.run.n_steps == sum(solution.t.size - 1 for solution in solutions) > 0
+    assert reduced.run.n_rhs == sum(solution.nfev for solution in solutions)
+    assert reduced.run.n_rhs >= 12 * reduced.run.n_steps  # DOP853: twelve stages a step at the least
+
+
 def test_both_commands_take_method_reduced():
+    """The free slider-crank (no motor) integrated by the reduced model reports its steps and evaluations."""
     done = subprocess.run([sys.executable, "-m", "physics", "mechanism", "--preset", "slider-crank", "--t-end",
                            "0.5", "--samples", "11", "--method", "reduced", "--json"],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout)["run"]["method"] == "reduced"
+    run = json.loads(done.stdout)["run"]
+    assert run["method"] == "reduced"
+    direct = simulate_mechanism(MECHANISM_PRESETS["slider-crank"](), 0.5, 11, method="reduced")
+    assert (run["steps"], run["evaluations"]) == (direct.n_steps, direct.n_rhs)
+    assert run["steps"] > 0 and run["evaluations"] >= 12 * run["steps"]
     refused = subprocess.run([sys.executable, "-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end",
                               "0.5", "--method", "reduced"], capture_output=True, text=True, timeout=300)
     assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr

@@ -1,13 +1,17 @@
-"""The joint coordinates of a mechanism as functions of its maximal coordinates: the candidates for the one
-independent coordinate of the reduced model (:mod:`physics.mechanism.reduced`).
+"""The joint coordinates of a mechanism as functions of its maximal coordinates: the one concept behind the
+reduced model's candidate coordinates (:mod:`physics.mechanism.reduced`) and the tree formulations' state
+(:mod:`physics.mechanism.tree_coordinates`).
 
-Every joint that joins two bodies offers one (a gear couples two pins' angles and offers none): a pin's relative angle ``phi_b - phi_a`` (body ``b`` relative to body ``a``, zero in the
-sketch) and a slider's travel, how far its sliding point has moved along the guide from where the sketch draws
-it, ``U . (p_i(s_p) - p_j(s_t)) - U_0 . (s_p - s_t)`` with ``U = R(phi_j) u`` the guide's direction. The reduced
-model needs each one's value, its gradient ``c_q`` (a row of the bordered Jacobian) and its *curvature*
-``gamma_c = -(d/dt c_q) qdot``, the part of ``d^2 c / dt^2`` without ``qddot`` (as ``gamma`` is for the
-constraints), all exact. To compare joints of both kinds, a pin's angle counts as a length: times the
-mechanism's size (:func:`physics.mechanism.assembly.sketch_size`), the speed of a point that far from the pin.
+Every joint whose kind carries a freedom (:meth:`~physics.mechanism.joints.JointKind.freedom`) offers one; a
+coupler (a gear couples two pins' angles) offers none. A :class:`~physics.mechanism.joints.Rotation` is the
+relative angle ``phi_b - phi_a`` (body ``b`` relative to body ``a``, zero in the sketch); a
+:class:`~physics.mechanism.joints.Translation` is the travel, how far body ``a``'s point has moved along body
+``b``'s guide from where the sketch draws it, ``U . (p_a - p_b) - u . (s_a - s_b)`` with ``U = R(phi_b) u`` the
+guide's direction and ``s`` the sketch's points. Each one's value, its gradient ``c_q`` (a row of the reduced
+model's bordered Jacobian; ``c_q qdot`` is its rate) and its *curvature* ``gamma_c = -(d/dt c_q) qdot``, the part
+of ``d^2 c / dt^2`` without ``qddot`` (as ``gamma`` is for the constraints), are exact. To compare joints of both
+kinds, an angle counts as a length: times the mechanism's size (:func:`physics.mechanism.assembly.sketch_size`),
+the speed of a point that far from the pin.
 """
 
 from __future__ import annotations
@@ -16,46 +20,56 @@ import numpy as np
 
 from .assembly import sketch_size
 from .constraints import Constraints, rotation
-from .model import GROUND, Mechanism, Prismatic, Revolute
+from .joints import Rotation, Translation, kind_of
+from .model import GROUND, Mechanism
 
 _PERP = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees
 
 
 class JointCoordinates:
-    """One coordinate per joint of ``mechanism``, in the order of ``mechanism.joints``; ``names`` are the joints'
-    names, ``kinds`` ``"angle"`` or ``"travel"``, ``speed_scale`` what turns each one's rate into a speed."""
+    """One coordinate per joint of ``mechanism`` that carries a freedom, in the order of ``mechanism.joints``;
+    ``names`` are the joints' names, ``ends`` their bodies ``(a, b)`` by name, ``forms`` ``"angle"`` or
+    ``"travel"`` (the form of its freedom), ``speed_scale`` what turns each one's rate into a speed."""
 
     def __init__(self, mechanism: Mechanism, constraints: Constraints) -> None:
         self.constraints = constraints
         self.size = constraints.size
         length = sketch_size(mechanism)
-        linking = [joint for joint in mechanism.joints if isinstance(joint, (Revolute, Prismatic))]  # a gear has none
-        self.names = tuple(joint.name for joint in linking)
-        self.kinds = tuple("angle" if isinstance(joint, Revolute) else "travel" for joint in linking)
-        self.speed_scale = np.array([length if kind == "angle" else 1.0 for kind in self.kinds])
         self._angles: list[tuple[int, int]] = []  # (body a, body b); -1 is the ground
         self._travels: list[tuple[int, np.ndarray, int, np.ndarray, np.ndarray, float]] = []
         self._where: list[tuple[str, int]] = []
+        names, ends_by_name = [], []
         index = constraints.body_index
 
         def body(name: str) -> int:
             return -1 if name == GROUND else index[name]
 
-        def relative(k: int, xy: tuple[float, float]) -> np.ndarray:
-            return np.array(xy, dtype=float) - (constraints.centres[k] if k >= 0 else 0.0)
+        def sketch(k: int, arm: np.ndarray) -> np.ndarray:
+            return arm + (constraints.centres[k] if k >= 0 else 0.0)
 
-        for joint in linking:
-            if isinstance(joint, Revolute):
+        for joint in mechanism.joints:
+            kind = kind_of(joint)
+            ends = kind.bodies(joint)
+            freedom = None if ends is None else kind.freedom(kind.values(joint, mechanism))
+            if ends is None or freedom is None:
+                continue
+            names.append(joint.name)
+            ends_by_name.append(ends)
+            a, b = body(ends[0]), body(ends[1])
+            if isinstance(freedom, Rotation):
                 self._where.append(("angle", len(self._angles)))
-                self._angles.append((body(joint.a.split(".")[0]), body(joint.b.split(".")[0])))
-            else:
-                i, j = body(joint.body), body(joint.on)
-                sliding = mechanism.point_of(f"{joint.body}.{joint.point}", joint.name)
-                through = mechanism.point_of(f"{joint.on}.{joint.through}", joint.name)
-                u = np.array(joint.direction, dtype=float) / np.hypot(*joint.direction)
-                drawn = float(u @ (np.array(sliding) - np.array(through)))
-                self._where.append(("travel", len(self._travels)))
-                self._travels.append((i, relative(i, sliding), j, relative(j, through), u, drawn))
+                self._angles.append((a, b))
+                continue
+            assert isinstance(freedom, Translation), f"joint {joint.name!r}: a freedom is a rotation or a travel"
+            arm_a, arm_b = np.array(freedom.arm_a, dtype=float), np.array(freedom.arm_b, dtype=float)
+            u = np.array(freedom.direction, dtype=float)
+            drawn = float(u @ (sketch(a, arm_a) - sketch(b, arm_b)))
+            self._where.append(("travel", len(self._travels)))
+            self._travels.append((a, arm_a, b, arm_b, u, drawn))
+        self.names = tuple(names)
+        self.ends = tuple(ends_by_name)
+        self.forms = tuple(form for form, _ in self._where)
+        self.speed_scale = np.array([length if form == "angle" else 1.0 for form in self.forms])
 
     def index(self, name: str) -> int:
         return self.names.index(name)
@@ -67,8 +81,8 @@ class JointCoordinates:
         return self.constraints.point(q, k, s)
 
     def value(self, q: np.ndarray, which: int) -> float:
-        kind, n = self._where[which]
-        if kind == "angle":
+        form, n = self._where[which]
+        if form == "angle":
             a, b = self._angles[n]
             return self._angle(q, b) - self._angle(q, a)
         i, s_p, j, s_t, u, drawn = self._travels[n]
@@ -78,8 +92,8 @@ class JointCoordinates:
     def gradient(self, q: np.ndarray, which: int) -> np.ndarray:
         """``c_q``, shape ``(3 B,)``."""
         row = np.zeros(self.size)
-        kind, n = self._where[which]
-        if kind == "angle":
+        form, n = self._where[which]
+        if form == "angle":
             a, b = self._angles[n]
             if b >= 0:
                 row[3 * b + 2] += 1.0
@@ -97,14 +111,18 @@ class JointCoordinates:
             row[3 * j + 2] += -direction @ (_PERP @ rotation(self._angle(q, j)) @ s_t) + (_PERP @ direction) @ gap
         return row
 
+    def rate(self, q: np.ndarray, qdot: np.ndarray, which: int) -> float:
+        """``c_q qdot``: how fast the coordinate moves at the state ``(q, qdot)``."""
+        return float(self.gradient(q, which) @ qdot)
+
     def gradients(self, q: np.ndarray) -> np.ndarray:
         """Every joint's ``c_q``, shape ``(joints, 3 B)``."""
         return np.array([self.gradient(q, which) for which in range(len(self.names))])
 
     def curvature(self, q: np.ndarray, qdot: np.ndarray, which: int) -> float:
         """``gamma_c`` with ``c_q qddot = d^2 c / dt^2 - ... = gamma_c``: zero for an angle (linear in q)."""
-        kind, n = self._where[which]
-        if kind == "angle":
+        form, n = self._where[which]
+        if form == "angle":
             return 0.0
         i, s_p, j, s_t, u, _ = self._travels[n]
 
