@@ -9,7 +9,8 @@ zero gives inf or NaN, which the status reports, never an exception).
 
 Modules: ``abi`` (the contract with generated code), ``linear`` (dense solves with a singularity estimate),
 ``system`` (``A x = b`` through ``assemble``; batched entry points), ``projection``, ``explicit_rk``
-(RK45, DOP853), ``midpoint``, ``variational``, ``batch`` (RK4 for ensembles), ``constants`` (status codes
+(RK45, DOP853), ``midpoint``, ``variational``, ``batch`` (RK4 for ensembles), ``reduced`` (one evaluation of
+a mechanism's reduced model in one joint coordinate, on its generated DAE code), ``constants`` (status codes
 and shared constants), ``tables`` (Butcher tableaux). docs/integrators.md describes each integrator.
 
 The integrators return ``(status, n_steps, n_rhs, t_reached, n_filled)``:

@@ -38,6 +38,7 @@ from .assembly import assemble, mobility_text_for, sketch_size
 from .dae import MechanismDAE
 from .joint_coordinates import JointCoordinates
 from .model import Mechanism
+from .reduced_engine import reduced_engine
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
 from .run import state_vector
@@ -155,7 +156,8 @@ def simulate_reduced(
         which = _fastest_joint(coordinates, dae, q)
     else:
         which = coordinates.index(coordinate)
-    partition = Partition(dae, coordinates, which, q, t, length)
+    engine = reduced_engine(dae)
+    partition = Partition(dae, coordinates, which, q, t, length, engine)
     at_rest = partition.state(t, coordinates.value(q, which), 0.0)
     qdot = _nearest_velocity(dae, at_rest, qdot_start)
     times = settings.t_start + np.linspace(0.0, settings.t_end, settings.samples)
@@ -169,12 +171,12 @@ def simulate_reduced(
     except (LinkageError, np.linalg.LinAlgError) as error:
         if not stop_as_status or not collected.states:
             raise
-        run = replace(collected.run(dae), status=getattr(error, "status", int(Status.INTEGRATOR_FAILED)),
+        run = replace(collected.run(dae, engine), status=getattr(error, "status", int(Status.INTEGRATOR_FAILED)),
                       message=str(error) if isinstance(error, LinkageError)
                       else f"{mechanism.name}: position analysis failed after t = {collected.states[-1].t:.6g} s "
                            f"({error})", n_steps=counts.steps, n_rhs=counts.evaluations)
         return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
-    run = replace(collected.run(dae), n_steps=counts.steps, n_rhs=counts.evaluations)
+    run = replace(collected.run(dae, engine), n_steps=counts.steps, n_rhs=counts.evaluations)
     return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
 
 
@@ -202,7 +204,7 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
                 raise _Stopped(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
                                "the mechanism is near a singular pose where no joint is a good coordinate",
                                Status.SINGULAR)
-            new = Partition(dae, coordinates, _fastest_joint(coordinates, dae, q, start.velocity_map), q, t, length)
+            new = Partition(dae, coordinates, int(np.argmax(start.shares)), q, t, length, partition.engine)
             switches.append(CoordinateSwitch(t=t, from_joint=partition.name, to_joint=new.name, share=share))
             partition = new
             continue
@@ -246,11 +248,10 @@ def _dead_centre_refusal(partition: Partition, t: float, share: float) -> str:
             f"speed share fell to {share:.2g}, limit {DEAD_CENTRE_SHARE:g}); run with switching=True")
 
 
-def _fastest_joint(coordinates: JointCoordinates, dae: MechanismDAE, q: np.ndarray,
-                   direction: np.ndarray | None = None) -> int:
-    """The joint with speed share 1 along ``direction`` (default: the null vector of the constraint Jacobian)."""
-    if direction is None:
-        direction = np.linalg.svd(dae.constraints.jacobian(q))[2][-1]
+def _fastest_joint(coordinates: JointCoordinates, dae: MechanismDAE, q: np.ndarray) -> int:
+    """The joint with speed share 1 along the null vector of the constraint Jacobian (at a switch, a partition's
+    state has every joint's share along its own velocity map: ``ReducedState.shares``)."""
+    direction = np.linalg.svd(dae.constraints.jacobian(q))[2][-1]
     return int(np.argmax(coordinates.speed_shares(q, direction)))
 
 

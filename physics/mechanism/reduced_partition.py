@@ -16,6 +16,11 @@ Bordering the constraint Jacobian with the coordinate's gradient gives a square 
 
 ``A`` is singular where ``c`` stands still while the mechanism moves (a dead centre of that coordinate): the
 reduced model switches coordinate long before (:mod:`physics.mechanism.reduced`).
+
+Each evaluation is one compiled call (:func:`physics.kernels.reduced.reduced_state`) on the mechanism's
+generated DAE code (:mod:`physics.mechanism.reduced_engine`): ``Phi``, ``Phi_q``, ``gamma`` and ``Q`` are never
+evaluated in Python on this path, which is what makes the model about as fast as the four-bar's own
+(BENCHMARKS.md, "The reduced model on the compiled engine").
 """
 
 from __future__ import annotations
@@ -26,8 +31,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LinkageError
+from ..kernels import reduced as kernel
+from ..kernels.first_compile import announce
 from .dae import MechanismDAE
 from .joint_coordinates import JointCoordinates
+from .reduced_engine import ReducedEngine, reduced_engine
 
 NEWTON_STEPS = 30
 # Newton stops when a step moves no coordinate by more than this times the mechanism's size (rotations counted
@@ -39,12 +47,16 @@ NEWTON_NOISE = 1e-12
 CHORD_RATE = 0.1
 # A pose whose residual stays above this (times the size) after NEWTON_STEPS has lost the branch.
 NEWTON_FAILURE = 1e-9
+# States kept for a repeated evaluation: scipy's DOP853 asks for the state at a step's end, then for three more
+# inside the step (its dense output), then for the step's end again (the switching event).
+REMEMBERED = 8
 
 
 @dataclass(frozen=True)
 class ReducedState:
     """Everything at one ``(t, s, sdot)``: the pose ``q``, velocities ``qdot``, accelerations ``qddot``, the
-    velocity transformation ``B`` (``dq/ds``), the generalised mass ``B^T M B`` and ``sddot``."""
+    velocity transformation ``B`` (``dq/ds``), the generalised mass ``B^T M B``, ``sddot`` and every joint's
+    speed share along ``B`` (``shares``, the order of the joint coordinates' names)."""
 
     t: float
     s: float
@@ -55,100 +67,97 @@ class ReducedState:
     velocity_map: np.ndarray
     generalised_mass: float
     sddot: float
+    shares: np.ndarray
 
 
 class Partition:
-    """The reduced model in the joint coordinate number ``which`` of ``coordinates``, started at pose ``q``."""
+    """The reduced model in the joint coordinate number ``which`` of ``coordinates``, started at pose ``q``.
+
+    Every evaluation is one compiled call (:func:`physics.kernels.reduced.reduced_state`) on ``engine``, the
+    mechanism's generated DAE code (:mod:`physics.mechanism.reduced_engine`; made from ``dae`` when not given:
+    a run passes its one engine to every partition)."""
 
     def __init__(self, dae: MechanismDAE, coordinates: JointCoordinates, which: int, q: np.ndarray, t: float,
-                 length: float) -> None:
+                 length: float, engine: ReducedEngine | None = None) -> None:
         self.dae = dae
-        self.constraints = dae.constraints
         self.coordinates = coordinates
+        self.engine = engine if engine is not None else reduced_engine(dae)
+        if self.engine.coordinates.names != coordinates.names:
+            raise ValueError(f"joint coordinates {self.engine.coordinates.names} and {coordinates.names} differ")
         self.which = which
         self.name = coordinates.names[which]
         self.length = length
         self.weights = np.tile([1.0, 1.0, length], len(dae.mechanism.bodies))  # rotations counted as lengths
-        self.nu = self.constraints.velocity_rhs()
-        self._cached: ReducedState | None = None
+        self._numbers = np.zeros(kernel.NUMBERS)
+        self._numbers[kernel.NUMBER_LENGTH] = length
+        self._numbers[kernel.NUMBER_STEP_TOLERANCE] = NEWTON_STEP_TOLERANCE
+        self._numbers[kernel.NUMBER_NOISE] = NEWTON_NOISE
+        self._numbers[kernel.NUMBER_CHORD_RATE] = CHORD_RATE
+        self._numbers[kernel.NUMBER_FAILURE] = NEWTON_FAILURE
+        self._numbers[kernel.NUMBER_STEPS] = NEWTON_STEPS
+        size = dae.constraints.size
+        self._inverse = np.empty((size, size))
+        self._remembered: dict[tuple[float, float, float], ReducedState] = {}
+        self.evaluations = 0
         self.reset(q, t)
-
-    def _invert(self, q: np.ndarray) -> np.ndarray:
-        matrix = np.vstack([self.constraints.jacobian(q), self.coordinates.gradient(q, self.which)])
-        if not np.all(np.isfinite(matrix)):
-            raise LinkageError(f"{self.dae.mechanism.name}: non-finite pose while solving for joint {self.name!r}")
-        return np.linalg.inv(matrix)  # small (3 B <= 72): one inverse, then products, is cheapest
-
-    def _maps(self, inverse: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(B, D)``: the velocity per unit ``sdot`` and the velocity the motors impose at ``sdot = 0``."""
-        return inverse[:, -1].copy(), inverse[:, :-1] @ self.nu
 
     def reset(self, q: np.ndarray, t: float) -> None:
         """Make ``q`` (at time ``t``, on the branch wanted) the pose the next one is predicted from (to first
         order in ``s``: its rates are not known here)."""
+        engine, arrays = self.engine, self.engine.coordinates
         q = np.array(q, dtype=float)
-        self._inverse = self._invert(q)
-        velocity_map, motor_velocity = self._maps(self._inverse)
-        zero = np.zeros_like(q)
-        self._reference = ReducedState(t=float(t), s=self.coordinates.value(q, self.which), sdot=0.0, q=q,
-                                       qdot=zero, qddot=zero, velocity_map=velocity_map, generalised_mass=math.nan,
-                                       sddot=0.0)
-        self._cached = None
+        self._check(kernel.bordered_inverse(engine.layout, engine.params, arrays.kinds, arrays.ends, arrays.geometry,
+                                            self.which, q, float(t), self._inverse), t, math.nan)
+        s, _ = self.coordinate_of(q, np.zeros_like(q))
+        self._reference = np.vstack([q, np.zeros_like(q), np.zeros_like(q), self._inverse[:, -1]])
+        self._reference_numbers = np.array([float(t), s, 0.0, 0.0])
+        self._remembered.clear()
 
-    def _closure(self, q: np.ndarray, t: float, s: float) -> np.ndarray:
-        return np.append(self.constraints.residual(q, t), self.coordinates.value(q, self.which) - s)
-
-    def pose(self, t: float, s: float) -> np.ndarray:
-        """The pose with coordinate ``s`` at time ``t`` on the branch of the reference pose: predicted to second
-        order in time from the reference state, corrected along ``B`` to the ``s`` asked for, then chord steps on
-        the reference's inverse (a fresh inverse where those converge slowly)."""
-        reference = self._reference
-        elapsed = t - reference.t
-        drift = reference.qdot * elapsed + 0.5 * reference.qddot * elapsed**2
-        s_drift = reference.sdot * elapsed + 0.5 * reference.sddot * elapsed**2
-        q = reference.q + drift + reference.velocity_map * (s - reference.s - s_drift)
-        inverse = self._inverse
-        previous = math.inf
-        for _ in range(NEWTON_STEPS):
-            step = inverse @ self._closure(q, t, s)
-            q = q - step
-            moved = float(np.max(np.abs(step * self.weights)))
-            if moved <= NEWTON_STEP_TOLERANCE * self.length:
-                return q
-            if moved <= NEWTON_NOISE * self.length and moved >= 0.5 * previous:
-                return q  # the steps no longer shrink: they are rounding noise
-            if moved > CHORD_RATE * previous:
-                inverse = self._invert(q)  # the chord steps converge slowly here: a full Newton step
-            previous = moved
-        residual = float(np.max(np.abs(self._closure(q, t, s))))
-        if not residual <= NEWTON_FAILURE * self.length:
-            raise LinkageError(
-                f"{self.dae.mechanism.name}: position analysis in joint {self.name!r} at t = {t:.6g} s did not "
-                f"converge (residual {residual:.3g}); a dead centre was passed between two steps"
-            )
-        return q
+    def _check(self, status: int, t: float, residual: float) -> None:
+        """The sentence (or numpy's LinAlgError, as ``inv`` raises it) of a failed compiled evaluation."""
+        if status == kernel.OK:
+            return
+        name = self.dae.mechanism.name
+        if status == kernel.NOT_CONVERGED:
+            raise LinkageError(f"{name}: position analysis in joint {self.name!r} at t = {t:.6g} s did not "
+                               f"converge (residual {residual:.3g}); a dead centre was passed between two steps")
+        if status == kernel.NOT_FINITE:
+            raise LinkageError(f"{name}: non-finite pose while solving for joint {self.name!r}")
+        raise np.linalg.LinAlgError("Singular matrix")
 
     def state(self, t: float, s: float, sdot: float) -> ReducedState:
-        """Pose, velocities and accelerations at ``(t, s, sdot)``; becomes the reference of the next pose."""
-        cached = self._cached
-        if cached is not None and cached.t == t and cached.s == s and cached.sdot == sdot:
-            return cached
-        q = self.pose(t, s)
-        inverse = self._invert(q)
-        velocity_map, motor_velocity = self._maps(inverse)
-        qdot = velocity_map * sdot + motor_velocity
-        curvature = np.append(self.constraints.acceleration_rhs(q, qdot), self.coordinates.curvature(q, qdot, self.which))
-        drift = inverse @ curvature
-        mass = self.dae.mass_diagonal
-        generalised_mass = float(velocity_map @ (mass * velocity_map))
-        generalised_force = float(velocity_map @ (self.dae.applied(qdot, q) - mass * drift))
-        sddot = generalised_force / generalised_mass
-        self._inverse = inverse
-        self._cached = ReducedState(t=float(t), s=float(s), sdot=float(sdot), q=q, qdot=qdot,
-                                    qddot=velocity_map * sddot + drift, velocity_map=velocity_map,
-                                    generalised_mass=generalised_mass, sddot=sddot)
-        self._reference = self._cached
-        return self._cached
+        """Pose, velocities and accelerations at ``(t, s, sdot)`` (the pose on the branch of the reference: see
+        the module's docstring); becomes the reference of the next pose."""
+        key = (t, s, sdot)
+        remembered = self._remembered.get(key)
+        if remembered is not None:
+            return remembered
+        self.evaluations += 1
+        engine, arrays, numbers = self.engine, self.engine.coordinates, self._numbers
+        numbers[kernel.NUMBER_T] = t
+        numbers[kernel.NUMBER_S] = s
+        numbers[kernel.NUMBER_SDOT] = sdot
+        rows = np.empty_like(self._reference)
+        scalars = np.empty(kernel.SCALARS)
+        shares = np.empty(arrays.kinds.shape[0])
+        arguments = (engine.assemble, engine.layout, engine.params, engine.mass, engine.nu, arrays.kinds, arrays.ends,
+                     arrays.geometry, arrays.speed_scale, self.which, self.weights, numbers, self._reference,
+                     self._reference_numbers, self._inverse, rows, scalars, shares)
+        if self.evaluations == 1:  # one line before an installation's first compilation of the kernel
+            announce(kernel.reduced_state, arguments, "reduced model's")
+        status = kernel.reduced_state(*arguments)
+        if status != kernel.OK:
+            self._check(status, t, float(scalars[kernel.SCALAR_RESIDUAL]))
+        sddot = float(scalars[kernel.SCALAR_SDDOT])
+        state = ReducedState(t=float(t), s=float(s), sdot=float(sdot), q=rows[kernel.ROW_Q], qdot=rows[kernel.ROW_QDOT],
+                             qddot=rows[kernel.ROW_QDDOT], velocity_map=rows[kernel.ROW_MAP],
+                             generalised_mass=float(scalars[kernel.SCALAR_MASS]), sddot=sddot, shares=shares)
+        self._reference = rows
+        self._reference_numbers = np.array([state.t, state.s, state.sdot, sddot])
+        if len(self._remembered) >= REMEMBERED:
+            del self._remembered[next(iter(self._remembered))]
+        self._remembered[key] = state
+        return state
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """``d/dt (s, sdot)``: the one ODE scipy integrates."""
@@ -157,8 +166,12 @@ class Partition:
 
     def share(self, state: ReducedState) -> float:
         """This coordinate's speed share along the motion (1: the fastest joint, 0: a dead centre)."""
-        return float(self.coordinates.speed_shares(state.q, state.velocity_map)[self.which])
+        return float(state.shares[self.which])
 
     def coordinate_of(self, q: np.ndarray, qdot: np.ndarray) -> tuple[float, float]:
         """``(s, sdot)`` of a state given in maximal coordinates: read off exactly, nothing integrated."""
-        return self.coordinates.value(q, self.which), self.coordinates.rate(q, qdot, self.which)
+        arrays = self.engine.coordinates
+        out = np.empty(2)
+        kernel.coordinate_state(arrays.kinds, arrays.ends, arrays.geometry, self.which,
+                                np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qdot, dtype=float), out)
+        return float(out[0]), float(out[1])

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..simulate.trajectory import Trajectory
 from .dae import MechanismDAE
+from .reduced_engine import ReducedEngine, reduced_engine
 from .reduced_partition import Partition, ReducedState
 from .run import body_points, coordinate_names, traced_path
 
@@ -36,31 +37,44 @@ class Samples:
             self.states.append(state)
             self.coordinate.append(name)
 
-    def run(self, dae: MechanismDAE) -> Trajectory:
-        """The samples with the DAE run's fields: energies, residuals, traced point and reactions."""
+    def run(self, dae: MechanismDAE, engine: ReducedEngine | None = None) -> Trajectory:
+        """The samples with the DAE run's fields: energies, residuals, traced point and reactions, the constraints
+        and applied forces of every sample from the compiled engine in one batched call each."""
+        engine = engine if engine is not None else reduced_engine(dae)
         constraints = dae.constraints
-        shape = (len(self.states), constraints.size)  # (0, 3 B) when no sample was recorded
-        q = np.array([state.q for state in self.states]).reshape(shape)
-        qdot = np.array([state.qdot for state in self.states]).reshape(shape)
-        reactions, kinetic, potential, residual = [], [], [], []
-        for state in self.states:
-            jacobian = constraints.jacobian(state.q)
-            unbalanced = dae.mass_diagonal * state.qddot - dae.applied(state.qdot, state.q)  # = Phi_q^T lambda
-            reactions.append(np.linalg.lstsq(jacobian.T, unbalanced, rcond=None)[0])
-            energy = dae.energy(state.q, state.qdot)
-            kinetic.append(energy[0])
-            potential.append(energy[1])
-            residual.append(float(np.max(np.abs(constraints.residual(state.q, state.t)), initial=0.0)))
-        kinetic_, potential_ = np.array(kinetic), np.array(potential)
+        size = constraints.size
+        count = len(self.states)
+        q = np.array([state.q for state in self.states]).reshape(count, size)
+        qdot = np.array([state.qdot for state in self.states]).reshape(count, size)
+        qddot = np.array([state.qddot for state in self.states]).reshape(count, size)
+        times = np.array([state.t for state in self.states], dtype=float)
+        jacobians, phi, _ = engine.constraint_states(times, q, qdot)
+        unbalanced = dae.mass_diagonal * qddot - engine.applied(q, qdot)  # = Phi_q^T lambda
+        reactions = least_squares_reactions(jacobians, unbalanced)
+        kinetic = 0.5 * np.sum(dae.mass_diagonal * qdot * qdot, axis=1)
+        potential = -np.sum(dae.gravity[1::3] * q[:, 1::3], axis=1)
         points = body_points(dae.mechanism)
         # method, integrator and stabilization: the caller's (physics.mechanism.simulate names the reduced model)
         return Trajectory(
             method="dae", integrator="DOP853", stabilization="projection",
-            t=self.times[:len(self.states)].copy(), q=q, qdot=qdot, coordinate_names=coordinate_names(dae.mechanism),
-            reaction_rows=np.array(reactions), kinetic=kinetic_, potential=potential_, energy=kinetic_ + potential_,
-            residual=np.array(residual), trace_xy=traced_path(points, dae.mechanism.trace, q), body_points=points,
+            t=self.times[:count].copy(), q=q, qdot=qdot, coordinate_names=coordinate_names(dae.mechanism),
+            reaction_rows=reactions, kinetic=kinetic,
+            potential=potential, energy=kinetic + potential, residual=np.max(np.abs(phi), axis=1, initial=0.0),
+            trace_xy=traced_path(points, dae.mechanism.trace, q), body_points=points,
             row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows),
         )
+
+
+def least_squares_reactions(jacobians: np.ndarray, unbalanced: np.ndarray) -> np.ndarray:
+    """``lambda`` (K, r) with ``Phi_q^T lambda = M qddot - Q`` in the least-squares sense at every sample, from
+    ``Phi_q`` (K, r, 3 B) of full row rank and ``M qddot - Q`` (K, 3 B): by the QR factors of ``Phi_q^T``, all
+    samples at once (``lambda = R^{-1} Q^T (M qddot - Q)``)."""
+    count, rows = jacobians.shape[0], jacobians.shape[1]
+    if count == 0 or rows == 0:
+        return np.zeros((count, rows))
+    orthogonal, triangular = np.linalg.qr(np.transpose(jacobians, (0, 2, 1)))
+    projected = np.einsum("kij,ki->kj", orthogonal, unbalanced)
+    return np.linalg.solve(triangular, projected[..., None])[..., 0]
 
 
 def collect_segment(collected: Samples, partition: Partition, solution, start: ReducedState) -> ReducedState:
