@@ -116,7 +116,8 @@ and each one's error against a converged run.
 **Display tab:** the traced point, reaction arrows, and the free-body diagram of the chosen body at the time
 shown (couples are listed).
 
-**Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
+**Export:** a link to this setup; the setup saved as a file (a file's mechanism inside it) and loaded back (a
+chain's setup brings the chain panel back); the run up to the time shown as CSV or JSON. **Equations:** the system
 A x = b the chosen method integrates, for this mechanism.
 
 **Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give

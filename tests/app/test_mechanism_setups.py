@@ -31,6 +31,14 @@ EDITS = [  # every kind of value a slider-crank's panel has, in the panel's unit
 ]
 
 
+def _open_rocker() -> dict:
+    """A crank-rocker whose coupler is ten times too long: valid to the models, but no pose closes its loop."""
+    description = MECHANISM_PRESETS["crank-rocker"]().model_dump(mode="json")
+    coupler = next(body for body in description["bodies"] if body["name"] == "coupler")
+    coupler["points"]["B"] = [10 * v for v in coupler["points"]["B"]]
+    return description
+
+
 def _setup(values: dict, mechanism: dict | None = None) -> bytes:
     document: dict = {"linkage_lab_setup": 1, "values": values}
     if mechanism is not None:
@@ -160,6 +168,7 @@ def test_a_chain_setup_switches_a_mechanism_session_to_the_chain_and_back(slider
     (_setup({"preset": "slider-crank", "method": "euler"}), "method = 'euler': allowed values", False),
     (_setup({"preset": "walking-robot"}), "preset = 'walking-robot': allowed", True),
     (_setup({"g": 1}, {"name": "x", "bodies": "no"}), "mechanism: bodies", True),
+    (_setup({"g": 1}, _open_rocker()), "joint 'B': the mechanism cannot be assembled", True),
     (_setup({"preset": "slider-crank"}, MECHANISM_PRESETS["crank-rocker"]().model_dump(mode="json")),
      "values.preset: a setup with its own mechanism names no preset", True),
 ])
@@ -230,16 +239,17 @@ def test_state_names_its_mechanism_with_or_without_preset(tmp_path):
         start_from_state(str(path), "triple-a", None, slider, "rocker.json", from_file=True)
 
 
-def test_every_new_session_starts_from_a_mechanism_setup(tmp_path):
+@pytest.mark.parametrize("shared", [False, True])
+def test_every_new_session_starts_from_a_mechanism_setup(tmp_path, shared):
     path = tmp_path / "setup.json"
     path.write_bytes(_setup({"mass:coupler": 0.55, "g": 3.5},
                             MECHANISM_PRESETS["crank-rocker"]().model_copy(update={"name": "rocker"}).model_dump()))
     mechanism, label, pairs = start_from_state(str(path), "triple-a", None, None, None, from_file=False)
-    server = LabServer(port=0, warm=False, setup=pairs, mechanism=mechanism, mechanism_label=label)
+    server = LabServer(port=0, warm=False, setup=pairs, mechanism=mechanism, mechanism_label=label, shared=shared)
     try:
         client = BackgroundClient(server.url)
         try:
-            (session,) = server.wait_for_sessions(1)
+            session = server.shared_session if shared else server.wait_for_sessions(1)[0]
             assert isinstance(session, MechanismSession) and session.label == "rocker"
             assert session.mechanism.g == 3.5 and session.mechanism.body("coupler").mass == 0.55
             assert _moving(session)
@@ -247,6 +257,9 @@ def test_every_new_session_starts_from_a_mechanism_setup(tmp_path):
             client.close()
     finally:
         server.stop()
+    with pytest.raises(LinkageError, match="joint 'B': the mechanism cannot be assembled"):
+        path.write_bytes(_setup({"g": 2}, _open_rocker()))
+        start_from_state(str(path), "triple-a", None, None, None, from_file=False)
 
 
 def _serve(arguments: list[str]) -> tuple[str, str, int | None]:
