@@ -11,7 +11,7 @@ from pathlib import Path
 
 from physics import METHOD_NAMES, LinkageError, preset_names
 from physics.files import read_limited
-from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.notices import install_stderr_lines
 from physics.program import program_name, version_text
 
@@ -62,18 +62,60 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def read_setup(path: str, preset: str, links: int | None) -> list[tuple[str, str]]:
-    """``--state FILE``: the saved setup's pairs, checked as a whole (LinkageError naming what is wrong)."""
+def read_state(path: str):
+    """``--state FILE`` as read (an :class:`app.share.SavedSetup`): a chain's or a general mechanism's setup;
+    LinkageError naming what is wrong."""
     from . import share  # noqa: PLC0415 - imports the models: after the argument check, as the rest of main
 
     # the real size of a file over the limit, and never a read that blocks (a FIFO) or never ends (/dev/zero)
     data = read_limited(path, share.MAX_STATE_BYTES, f"--state {path}")
-    pairs = share.pairs_from_state(data, f"--state {path}")
+    return share.setup_from_state(data, f"--state {path}")
+
+
+def read_setup(path: str, preset: str, links: int | None) -> list[tuple[str, str]]:
+    """``--state FILE`` of a chain: the saved setup's pairs, checked as a whole (LinkageError naming what is
+    wrong)."""
+    from . import share  # noqa: PLC0415 - imports the models: after the argument check, as the rest of main
+
+    saved = read_state(path)
+    if saved.mechanism is not None:
+        raise LinkageError(f"--state {path}: mechanism: holds a general mechanism's description, not a chain's setup")
     try:
-        share.check_setup(pairs, preset, links)
+        share.check_setup(saved.pairs, preset, links)
     except LinkageError as error:
         raise LinkageError(f"--state {path}: {error}") from None
-    return pairs
+    return saved.pairs
+
+
+def start_from_state(path: str, preset: str, links: int | None, mechanism: Mechanism | None, label: str | None,
+                     from_file: bool) -> tuple[Mechanism | None, str | None, list[tuple[str, str]]]:
+    """``--state FILE`` with the start the other flags chose (``mechanism``/``label``: a mechanism preset's or,
+    ``from_file``, ``--mechanism``'s; else the chain ``preset``): ``(mechanism, label, pairs)`` every new session
+    starts from. The setup's own mechanism (a preset it names, or its description) replaces ``--preset``;
+    with ``--mechanism`` it is refused (two mechanisms). Checked as a whole: LinkageError naming the first
+    value refused."""
+    saved = read_state(path)
+    named = saved.preset
+    if from_file and (saved.mechanism is not None or named is not None):
+        raise LinkageError(f"--state {path}: it names its own mechanism; leave out --mechanism")
+    if saved.mechanism is not None:
+        mechanism, label = saved.mechanism, saved.label
+    elif named is not None and named in MECHANISM_PRESETS:
+        mechanism, label = MECHANISM_PRESETS[named](), named
+    elif named is not None and named not in preset_names():
+        allowed = ", ".join([*preset_names(), *MECHANISM_PRESETS])
+        raise LinkageError(f"--state {path}: preset = {named!r}: allowed {allowed}")
+    elif named is not None:
+        mechanism, label = None, None  # a chain's setup: it replaces a mechanism --preset
+    if mechanism is None:
+        return None, None, read_setup(path, preset, links)
+    from .mechanism_setups import check_mechanism_setup  # noqa: PLC0415 - only for a mechanism
+
+    try:
+        check_mechanism_setup(saved.pairs, mechanism)  # it must assemble too (one line naming the joint)
+    except LinkageError as error:
+        raise LinkageError(f"--state {path}: {error}") from None
+    return mechanism, label, saved.pairs
 
 
 def _announce(args, server) -> None:
@@ -119,7 +161,10 @@ def main(argv: list[str] | None = None) -> int:
             start_state(mechanism)  # it must assemble: one line naming the joint that stays open
             args.preset = DEFAULT_PRESET  # the chain a switch from it starts with
         SessionParameters.from_preset(args.preset, links=args.links, method=args.method)  # fail before warming
-        setup = read_setup(args.state, args.preset, args.links) if args.state else []
+        setup: list[tuple[str, str]] = []
+        if args.state:
+            mechanism, label, setup = start_from_state(args.state, args.preset, args.links, mechanism, label,
+                                                       from_file=args.mechanism is not None)
         if mechanism is None:
             warm.start_warm_up(args.preset, args.links, args.method)  # loads compiled code while viser imports
         from .processes import default_processes  # noqa: PLC0415 - imports viser: after the warm-up started

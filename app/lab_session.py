@@ -31,7 +31,8 @@ class LabSession(Protocol):
     camera: Any  # app.camera.CameraDirector
     notices: Notices
     is_presenter: Callable[[int], bool] | None  # --shared with a presenter: whether a browser may change things
-    on_switch: Callable[[str], None] | None  # the menu chose the other kind: the server replaces this session
+    # the menu (or a setup file, app.share.SavedSetup) chose the other kind: the server replaces this session
+    on_switch: Callable[..., None] | None
 
     @property
     def frames_sent(self) -> int:

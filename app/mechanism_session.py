@@ -116,7 +116,8 @@ and each one's error against a converged run.
 **Display tab:** the traced point, reaction arrows, and the free-body diagram of the chosen body at the time
 shown (couples are listed).
 
-**Export:** a link to this setup; the run up to the time shown as CSV or JSON. **Equations:** the system
+**Export:** a link to this setup; the setup saved as a file (a file's mechanism inside it) and loaded back (a
+chain's setup brings the chain panel back); the run up to the time shown as CSV or JSON. **Equations:** the system
 A x = b the chosen method integrates, for this mechanism.
 
 **Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give
@@ -144,7 +145,7 @@ class MechanismSession(SessionBase):
     kind: Kind = "mechanism"
 
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
-                 autoplay: bool = True, on_switch: Callable[[str], None] | None = None) -> None:
+                 autoplay: bool = True, on_switch: Callable[..., None] | None = None) -> None:
         self.target = target
         self.shared = shared
         self.closed = False
@@ -152,7 +153,7 @@ class MechanismSession(SessionBase):
         self.reference = mechanism  # as loaded: the sliders' ranges and "Reset to the preset's values"
         self.mechanism = mechanism
         self.settings = MechanismSettings(trace=mechanism.trace)
-        self.on_switch = on_switch
+        self.on_switch = on_switch  # (chain preset, optional app.share.SavedSetup to load there)
         self.is_presenter: Callable[[int], bool] | None = None
         self.id = id(self)
         self._lock = threading.RLock()
@@ -283,6 +284,13 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
+            # as the chain panel's Export tab (app/controls.py): the setup as a file, and one read back
+            self.save_setup = gui.add_button("Save this setup (JSON)")
+            self.save_setup.on_click(lambda event: self.guard(lambda: self.download(
+                "setup", getattr(event, "client", None))))
+            self.setup_upload = gui.add_upload_button("Load a setup (JSON)", mime_type="application/json")
+            self.setup_upload.on_upload(lambda event: self.guard(lambda: self.upload_setup(
+                getattr(event, "client_id", None), self.setup_upload.value.name, self.setup_upload.value.content)))
         with self.tabs.add_tab("Help"):
             gui.add_markdown(MECHANISM_HELP)
         self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
@@ -631,6 +639,11 @@ class MechanismSession(SessionBase):
         if not isinstance(content, bytes):
             raise LinkageError(f"{label}: expected the file's content")
         mechanism = mechanism_from_bytes(content, label)
+        self._start_anew(mechanism, label)
+
+    def _start_anew(self, mechanism: Mechanism, label: str) -> None:
+        """Show ``mechanism`` (a file's, or a preset's) as loaded, with the run settings' defaults, from its
+        assembled sketch; LinkageError naming the joint that stays open, and nothing changed."""
         with self._lock:
             start_state(mechanism)  # LinkageError naming the joint that stays open; nothing changed yet
             self.label, self.reference = label, mechanism
@@ -660,9 +673,14 @@ class MechanismSession(SessionBase):
         what to share."""
         if not is_mechanism(self.label):
             raise LinkageError(f"link: {self.label!r} was loaded from a file; a link can name a preset only "
-                               "(share the file, and load it with 'Load a mechanism file')")
-        base = MECHANISM_PRESETS[self.label]()
-        pairs: list[tuple[str, str]] = [("preset", self.label)]
+                               "(share the file, and load it with 'Load a mechanism file', or save this setup)")
+        return "?" + urllib.parse.urlencode(self.setup_pairs())
+
+    def setup_pairs(self) -> list[tuple[str, str]]:
+        """The setup's ``(name, value)`` pairs, as a share link carries them (see :meth:`link_query`); for a
+        mechanism from a file no preset, and the values that differ from the file's as loaded."""
+        base = MECHANISM_PRESETS[self.label]() if is_mechanism(self.label) else self.reference
+        pairs: list[tuple[str, str]] = [("preset", self.label)] if is_mechanism(self.label) else []
         defaults = MechanismSettings(trace=base.trace)
         for name in ("method", "integrator", "stabilization", "trace"):
             value = getattr(self.settings, name)
@@ -677,7 +695,41 @@ class MechanismSession(SessionBase):
         for knob in self._start_knobs():
             if not math.isclose(knob.value, at_sketch[knob.name], rel_tol=1e-12, abs_tol=1e-9):
                 pairs.append((knob.name, f"{knob.value:.12g}"))
-        return "?" + urllib.parse.urlencode(pairs)
+        return pairs
+
+    def setup_document(self) -> bytes:
+        """The setup as a file (docs/app.md, "Setup files"): a preset's pairs, or a file's description and
+        pairs; LinkageError when the description makes it too large to be read back."""
+        return share.setup_document(self.setup_pairs(), None if is_mechanism(self.label) else self.reference)
+
+    def upload_setup(self, client_id: int | None, name: object, content: object) -> None:
+        """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one): read
+        whole, then opened (:meth:`open_setup`); a file that cannot be read is one notice, nothing changed."""
+        if not self.may_change(client_id):
+            raise LinkageError("setup file: the presenter controls this session")
+        where = f"setup file {Path(str(name)).name[:60]!r}"
+        if not isinstance(content, bytes):
+            raise LinkageError(f"{where}: expected the file's content")
+        self.open_setup(share.setup_from_state(content, where))
+
+    def open_setup(self, saved: share.SavedSetup) -> None:
+        """A saved setup: a chain's hands the browser to a chain session (``on_switch``), a mechanism
+        preset's or a description's starts it here as loaded, then every value is applied (refusals in one
+        notice); a setup naming no mechanism sets this one's values."""
+        preset = saved.preset
+        if saved.mechanism is not None:
+            self._start_anew(saved.mechanism, saved.label or saved.mechanism.name)
+        elif preset is not None and is_mechanism(preset):
+            self._start_anew(MECHANISM_PRESETS[preset](), preset)
+        elif preset is not None:
+            allowed = [*preset_names(), *mechanism_names()]
+            if preset not in allowed:
+                raise LinkageError(f"{saved.where}: preset = {preset!r}: allowed {', '.join(allowed)}")
+            if self.on_switch is None:
+                raise LinkageError(f"{saved.where}: preset = {preset!r}: this page shows mechanisms only")
+            self.on_switch(preset, saved)
+            return
+        self.load_setup(saved.pairs, saved.where)
 
     def show_link(self) -> None:
         """The link for the current setup in the Export folder, on the server's root address."""
@@ -714,8 +766,11 @@ class MechanismSession(SessionBase):
 
     def download_file(self, kind: str) -> tuple[str, bytes]:
         """``(file name, content)`` of a download (see :meth:`download`)."""
+        if kind == "setup":
+            stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
+            return f"linkage-{stem}-setup.json", self.setup_document()
         if kind not in ("csv", "json"):
-            raise LinkageError(f"download = {kind!r}: allowed csv, json")
+            raise LinkageError(f"download = {kind!r}: allowed csv, json, setup")
         spec = self.player.runs[0].spec if self.player.runs else self.spec
         samples = readout.history(self.player, spec.label)
         stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)

@@ -175,6 +175,11 @@ class Player:
         runs start afresh (reset, new mechanism). Applied by the player thread as soon as it wakes.
         """
         with self.lock:
+            earlier = self._pending or self._installing
+            if play is None and earlier is not None:
+                # "as it is" means as the restart it replaces would leave it: a session's first start (play)
+                # followed at once by a link's or a setup's values (None) plays, as without them
+                play = earlier.play
             self._pending = Restart(list(specs), float(t0), list(starts), keep_history, time.perf_counter(), play)
         self._wake.set()
 

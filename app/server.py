@@ -253,31 +253,40 @@ class LabServer:
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
-                       mechanism: str | None = None, chain: bool = False) -> LabSession:
+                       mechanism: str | None = None, chain: bool = False,
+                       saved: share.SavedSetup | None = None) -> LabSession:
         """A chain session, or a mechanism session when the server starts with one (``--mechanism``, a
-        mechanism preset) or ``mechanism`` names one; ``chain``: the chain ``preset`` whatever the server
-        starts with (a share link names it). Either kind can hand its browser to the other."""
-        if mechanism is None and self.mechanism is not None and not chain:
-            session: LabSession = MechanismSession(
-                target, self.mechanism, label=self.mechanism_label, shared=shared)
+        mechanism preset) or ``mechanism`` names one, or a setup file carries its description (``saved``);
+        ``chain``: the chain ``preset`` whatever the server starts with (a share link names it). Either kind
+        can hand its browser to the other."""
+        if saved is not None and saved.mechanism is not None:
+            session: LabSession = MechanismSession(target, saved.mechanism, label=saved.label, shared=shared)
+        elif mechanism is None and self.mechanism is not None and not chain:
+            session = MechanismSession(target, self.mechanism, label=self.mechanism_label, shared=shared)
         elif mechanism is not None:
             session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
         else:
             session = Session(target, preset=preset, links=links, method=self.method, shared=shared)
         if shared and self.presenter_path is not None:
             session.is_presenter = self.is_presenter
-        session.on_switch = lambda name, old=session: self._switch(target, old, name, shared)
+        session.on_switch = lambda name, saved=None, old=session: self._switch(target, old, name, shared, saved)
         return session
 
-    def _switch(self, target, old: LabSession, name: str, shared: bool) -> None:
-        """The mechanism menu chose the other kind of session: remove the old one's panel and scene from the
-        browser (``target``) and start the new one there, in the same seat."""
+    def _switch(self, target, old: LabSession, name: str, shared: bool,
+                saved: share.SavedSetup | None = None) -> None:
+        """The mechanism menu (or a setup file, ``saved``) chose the other kind of session: remove the old
+        one's panel and scene from the browser (``target``) and start the new one there, in the same seat,
+        with the setup's values applied (refusals in one notice there)."""
         old.close(clean=True)
         self.trimmer.request()
-        if old.kind == "chain":  # to a general mechanism
-            new = self._start_session(target, self.preset, self.links, shared=shared, mechanism=name)
+        if old.kind == "chain":  # to a general mechanism: a preset, or a setup's description
+            new = self._start_session(target, self.preset, self.links, shared=shared,
+                                      mechanism=None if saved is not None and saved.mechanism is not None else name,
+                                      saved=saved)
         else:  # back to a chain preset
             new = self._start_session(target, name, None, shared=shared, chain=True)
+        if saved is not None:
+            new.load_setup(saved.pairs, saved.where)
         with self._lock:
             if shared:
                 self.shared_session = new

@@ -33,7 +33,7 @@ from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS
 from physics.model import validated
 
-from . import commands, delivery, export, readout, share, viser_compat, warm
+from . import commands, delivery, export, mechanism_runs, readout, share, viser_compat, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -102,7 +102,7 @@ class Session(SessionBase):
         # --shared with a presenter: whether a browser (client id) may change anything (None: every browser may)
         self.is_presenter: Callable[[int], bool] | None = None
         # a general mechanism's preset chosen in the menu: the server replaces this session (app/server.py)
-        self.on_switch: Callable[[str], None] | None = None
+        self.on_switch: Callable[..., None] | None = None  # (name, optional setup)
         self.params = SessionParameters.from_preset(preset, links=links, method=method)
         self._user_paused = not autoplay
         self._start_params: SessionParameters | None = None  # parameters of the latest start (t = 0)
@@ -220,7 +220,13 @@ class Session(SessionBase):
         """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one)."""
         if not self.may_change(client_id):
             raise LinkageError("setup file: the presenter controls this session")
-        self.load_setup(share.pairs_from_state(content, f"setup file {name[:60]!r}"), f"setup file {name[:60]!r}")
+        saved = share.setup_from_state(content, f"setup file {name[:60]!r}")
+        if saved.names_a_mechanism and self.on_switch is not None:  # a general mechanism's: its session loads it
+            if saved.mechanism is not None:
+                mechanism_runs.start_state(saved.mechanism)  # it must assemble before this session goes
+            self.on_switch(saved.preset or saved.label, saved)
+            return
+        self.load_setup(saved.pairs, saved.where)
 
     def set_link_value(self, name: str, text: str) -> None:
         """One value of a share link or a setup file, in the panel's units (degrees, milliseconds)."""

@@ -13,12 +13,14 @@ from __future__ import annotations
 import json
 import math
 import urllib.parse
-from typing import Callable, Literal, Union
+from dataclasses import dataclass
+from typing import Any, Callable, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError
 
 from physics import LinkageError, preset_names
-from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism import MECHANISM_PRESETS, Mechanism
+from physics.mechanism.files import mechanism_from_document
 
 from . import commands
 from .commands import CONTROL, DEG
@@ -151,27 +153,69 @@ STATE_NAME = "linkage-lab-setup.json"
 
 
 class SetupFile(BaseModel):
-    """A saved setup: the names and values of a share link, as JSON (numbers in the panel's units)."""
+    """A saved setup: the names and values of a share link, as JSON (numbers in the panel's units); a general
+    mechanism loaded from a file carries its description too (``mechanism``: the JSON of docs/mechanisms.md,
+    read by its pydantic models, never evaluated), since no preset names it."""
 
     model_config = ConfigDict(extra="forbid")
 
     linkage_lab_setup: Literal[1] = Field(description="the format's version")
+    mechanism: Optional[dict[StrictStr, Any]] = Field(None, description="a mechanism file's description")
     values: dict[StrictStr, Union[StrictInt, StrictFloat, StrictStr]] = Field(max_length=MAX_SETUP_NAMES)
+
+
+@dataclass(frozen=True)
+class SavedSetup:
+    """A setup file as read: its ``(name, value)`` pairs and, for a mechanism from a file, the mechanism
+    (validated, not yet assembled) with the name its menu shows; ``where`` names the file in messages."""
+
+    pairs: list[tuple[str, str]]
+    mechanism: Mechanism | None = None
+    label: str | None = None
+    where: str = "setup file"
+
+    @property
+    def preset(self) -> str | None:
+        """The preset the setup names (a chain's or a mechanism's), if any."""
+        return dict(self.pairs).get("preset")
+
+    @property
+    def names_a_mechanism(self) -> bool:
+        """Whether it sets up a general mechanism (a description, or a mechanism preset), not a chain."""
+        return self.mechanism is not None or self.preset in MECHANISM_PRESETS
+
+
+TEXT_VALUES = ("preset", "method", "integrator", "stabilization", "trace")  # kept as text in a setup file
+
+
+def setup_document(pairs: list[tuple[str, str]], mechanism: Mechanism | None = None) -> bytes:
+    """A setup file holding ``pairs`` (numbers as JSON numbers) and, for a mechanism from a file, its
+    description; LinkageError when it would be over MAX_STATE_BYTES (a setup that cannot be read back)."""
+    values: dict[str, float | str] = {}
+    for name, text in pairs:
+        try:
+            values[name] = text if name in TEXT_VALUES else int(text) if name == "links" else float(text)
+        except ValueError:  # a name: preset, method, integrator, stabilization
+            values[name] = text
+    document: dict[str, Any] = {"linkage_lab_setup": 1}
+    if mechanism is not None:
+        document["mechanism"] = mechanism.model_dump(mode="json")
+    document["values"] = values
+    data = (json.dumps(document, indent=2) + "\n").encode()
+    if len(data) > MAX_STATE_BYTES:
+        raise LinkageError(f"setup file: {len(data)} bytes with the mechanism's description; a setup file is at "
+                           f"most {MAX_STATE_BYTES}: share the mechanism file itself")
+    return data
 
 
 def state_document(params: SessionParameters) -> bytes:
     """The current setup as a JSON file that :func:`pairs_from_state` reads back."""
-    values: dict[str, float | str] = {}
-    for name, text in urllib.parse.parse_qsl(link_query(params)[1:]):
-        try:
-            values[name] = int(text) if name == "links" else float(text)
-        except ValueError:  # a name: preset, method, integrator, stabilization
-            values[name] = text
-    return (json.dumps({"linkage_lab_setup": 1, "values": values}, indent=2) + "\n").encode()
+    return setup_document(urllib.parse.parse_qsl(link_query(params)[1:]))
 
 
-def pairs_from_state(data: bytes, where: str = "setup file") -> list[tuple[str, str]]:
-    """The ``(name, value)`` pairs of a saved setup; LinkageError (one line naming what is wrong) otherwise."""
+def setup_from_state(data: bytes, where: str = "setup file") -> SavedSetup:
+    """A saved setup, a chain's or a general mechanism's; LinkageError (one line naming what is wrong)
+    otherwise. A description is checked by the mechanism's models here (assembly is the session's)."""
     if len(data) > MAX_STATE_BYTES:  # the reader stops one byte past the limit: the size is not known here
         raise LinkageError(f"{where}: over {MAX_STATE_BYTES} bytes; a setup file is at most {MAX_STATE_BYTES}")
     try:
@@ -189,4 +233,23 @@ def pairs_from_state(data: bytes, where: str = "setup file") -> list[tuple[str, 
         field = ".".join(str(part) for part in first.get("loc", ())) or "the file"
         raise LinkageError(f"{where}: {field}: {first.get('msg', 'invalid')} "
                            f"(expected {{\"linkage_lab_setup\": 1, \"values\": {{\"L1\": 1.5, ...}}}})") from None
-    return [(name, value if isinstance(value, str) else repr(value)) for name, value in setup.values.items()]
+    pairs = [(name, value if isinstance(value, str) else repr(value)) for name, value in setup.values.items()]
+    if setup.mechanism is None:
+        return SavedSetup(pairs, where=where)
+    if "preset" in setup.values:
+        raise LinkageError(f"{where}: values.preset: a setup with its own mechanism names no preset "
+                           f"(got {setup.values['preset']!r})")
+    mechanism = mechanism_from_document(setup.mechanism, f"{where}: mechanism")
+    taken = {*preset_names(), *MECHANISM_PRESETS}  # the menu's entries: a file's name never passes for a preset
+    name = mechanism.name.strip()[:60] or "mechanism"
+    label = name if name not in taken else f"{name} (file)"
+    return SavedSetup(pairs, mechanism, label, where)
+
+
+def pairs_from_state(data: bytes, where: str = "setup file") -> list[tuple[str, str]]:
+    """The ``(name, value)`` pairs of a saved chain setup; LinkageError (one line naming what is wrong)
+    otherwise, also for a setup that carries a mechanism's description (:func:`setup_from_state` reads it)."""
+    saved = setup_from_state(data, where)
+    if saved.mechanism is not None:
+        raise LinkageError(f"{where}: mechanism: holds a general mechanism's description, not a chain's setup")
+    return saved.pairs
