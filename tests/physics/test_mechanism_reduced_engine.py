@@ -13,8 +13,8 @@ from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.reduced import simulate_reduced
 from physics.mechanism.joint_coordinates import JointCoordinates
+from physics.mechanism.reduced import simulate_reduced
 from physics.mechanism.reduced_engine import joint_coordinate_arrays, reduced_engine
 from physics.mechanism.reduced_partition import Partition
 
