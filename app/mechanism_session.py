@@ -72,6 +72,7 @@ from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
+from .parameters import method_from_label, method_label
 from .player import SAMPLE_DT, Frame, Player
 from .scene import pose_disc
 from .text import markdown_literal
@@ -236,9 +237,12 @@ class MechanismSession(SessionBase):
             self.start_folder = gui.add_folder("Start (t = 0)")
             self.start_note = gui.add_markdown("")
         with self.tabs.add_tab("Simulation"):
-            self.method = gui.add_dropdown("Method", list(METHODS), initial_value="dae",
+            # labelled as the chain panel's (app.parameters.method_label); links and snapshots keep the keys
+            self.method = gui.add_dropdown("Method", [method_label(m) for m in METHODS],
+                                           initial_value=method_label("dae"),
                                            hint="Formulation integrated; its reactions are shown")
-            self.method.on_update(lambda event: self.guard(lambda: self.set_method(str(self.method.value))))
+            self.method.on_update(lambda event: self.guard(
+                lambda: self.set_method(str(method_from_label(self.method.value)))))
             self.compare_box = gui.add_checkbox(
                 "Compare formulations", False,
                 hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part")
@@ -424,7 +428,7 @@ class MechanismSession(SessionBase):
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
                     box.value = shown_value(knob.value)
-            for handle, value in ((self.method, self.settings.method),
+            for handle, value in ((self.method, method_label(self.settings.method)),
                                   (self.stabilization, self.settings.stabilization),
                                   (self.integrator, self.settings.integrator),
                                   (self.menu, self.label), (self.compare_box, self.compare),
@@ -534,6 +538,8 @@ class MechanismSession(SessionBase):
             self._set_settings(self.settings.model_copy(update={"integrator": integrator}))
 
     def set_method(self, method: str) -> None:
+        """The method by its key (``dae``, as share links and snapshots give it; the menu sends its label,
+        turned into the key by :func:`app.parameters.method_from_label`)."""
         with self._lock:
             _choice("method", method, list(METHODS))
             check_method(method, self.mobility)
@@ -945,7 +951,7 @@ class MechanismSession(SessionBase):
         self.trace_menu.options = ["(none)", *self.spec.draw.labels]
         self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
         methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
-        self.method.options = methods
+        self.method.options = [method_label(name) for name in methods]
         names = [body.name for body in m.bodies]
         if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
             self.free_body.set_bar(1)  # another mechanism: its first body

@@ -151,7 +151,7 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
     _, session = connect(jansen_lab)
     session.guard(lambda: session.choose("slider-crank"))
     assert session.label == "slider-crank" and session.mobility == 1
-    assert "reduced" in session.method.options
+    assert "Reduced (1 dof)" in session.method.options  # the label (app.parameters.method_label)
     assert _moving(session, 0.2)
     session.guard(lambda: session.set("mass:rod", 0.5))
     assert session.mechanism.body("rod").mass == 0.5 and session.notices.text is None
@@ -167,7 +167,7 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
     session.guard(lambda: session.set_reactions(True))
     assert wait_until(lambda: session.arrows.handle is not None and session.arrows.count == 3, timeout=30)
     session.guard(lambda: session.choose("jansen-leg"))
-    assert "reduced" not in session.method.options  # mobility 0
+    assert "Reduced (1 dof)" not in session.method.options  # mobility 0
     session.guard(lambda: session.set_method("reduced"))
     assert "needs 1 degree of freedom left free by the motors (this one has 0 free)" in (session.notices.text or "")
 
