@@ -7,14 +7,16 @@ the control panel, tab by tab, folded folders opened), not from a list that coul
 person does, ``2.5e1``, ``1e-3``, ``-0``, ``1_000`` and ``1,5`` into each. After each it checks the session's
 state: the value in force is the number as written (in the box's units) and the box shows it, or the value in
 force is unchanged and one notice names the field and its range (``1,5``: always refused, "not a number").
-Every box the session holds must have been reached: the mechanism panel's settings boxes that show for one
-integrator or stabilisation only (tolerance or fixed step; Baumgarte gains) are reached by choosing those in
-the page; a chain box may be left only when the session hides it for this preset. The slider's own box only
-shows the value: it cannot be typed into.
+Every box the session holds must have been reached: the settings boxes that show for one integrator or
+stabilisation only (tolerance or fixed step; Baumgarte gains) are reached by choosing those in the page; a
+chain box may be left only when the session hides it. The slider's own box only shows the value: it cannot be
+typed into.
 
-The mechanism panel runs on two presets: the slider-crank (a free start: start value and speed boxes, from
-app/mechanism_start.py) and the geared five-bar (a motor's speed, a gear pair's ratio and offset, from
-app/mechanism_edits.py); both have every body's size, mass and inertia, g and the run's settings.
+The chain panel runs on the four-bar (a closed loop: its pin's boxes and the Baumgarte gains apply; the angles
+the loop sets are disabled boxes). The mechanism panel runs on two presets: the slider-crank (a free start:
+start value and speed boxes, from app/mechanism_start.py) and the geared five-bar (a motor's speed, a gear
+pair's ratio and offset, from app/mechanism_edits.py); both have every body's size, mass and inertia, g and the
+run's settings.
 """
 
 from __future__ import annotations
@@ -130,8 +132,9 @@ def _type_every_text(page, session, panel: Panel, label: str, name: str) -> list
         else:
             assert field in notice, (label, text, notice)
             # what is allowed: a range ("0 <= d1 <= 1 m", "allowed range 0 to 30") or the condition refused
-            # ("give bar 1 a positive I1"); a decimal comma is no number at all
-            allowed = ("<", "allowed", "positive", "finite")
+            # ("give bar 1 a positive I1", "the loop cannot close there (... reachable theta1: ...)"); a decimal
+            # comma is no number at all
+            allowed = ("<", "allowed", "positive", "finite", "cannot")
             assert ("not a number" in notice) if text == "1,5" else any(word in notice for word in allowed), (
                 label, text, notice)
             assert value == value_before, f"{label}: refused {text!r} but the value in force is now {value!r}"
@@ -165,7 +168,7 @@ def _type_into_every_box_shown(page, session, panel: Panel, done: dict[str, list
 
 
 def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
-    lab = start_lab(preset="single")
+    lab = start_lab(preset="four-bar")  # a closed loop: its pin's boxes and the Baumgarte gains apply
     page = lab.open_page()
     session = page.session
     numbers = session.controls.numbers
@@ -176,14 +179,26 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
     panel = Panel(boxes=lambda: {control.box.label: name for name, control in numbers.controls.items()},
                   value=value, box=lambda name: numbers.controls[name].box, commits=lambda: numbers.commits)
     done: dict[str, list[str]] = {}
+    # as in the mechanism panel: the Baumgarte gains show with that stabilisation, the fixed step with a
+    # fixed-step integrator
+    _open_tab(page, "Simulation")
+    page.choose("Stabilisation (loops)", "baumgarte")
+    wait_until(lambda: session.params.stabilization == "baumgarte", message="the Baumgarte stabilisation")
+    _type_into_every_box_shown(page, session, panel, done)
+    _open_tab(page, "Simulation")
+    page.choose("Integrator", "midpoint")
+    wait_until(lambda: session.params.integrator == "midpoint", message="the midpoint integrator")
     _type_into_every_box_shown(page, session, panel, done)
     hidden = {label for label, name in panel.boxes().items() if not numbers.controls[name].box.visible}  # not
-    # for this preset's settings (a fixed step for an adaptive integrator): a person cannot type into them either
+    # for this preset (a closed loop's driven angles): a person cannot type into them either
     assert set(done) | hidden == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done) - hidden}"
     typed = [label for label, outcomes in done.items() if outcomes != ["disabled"]]
-    assert len(typed) >= 10, done
+    names = {panel.boxes()[label] for label in typed}
+    assert {"L1", "d2", "m3", "I1", "theta1", "omega1", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta",
+            "pin_x", "pin_y"} <= names, names
     assert any("applied" in done[label] for label in typed)  # some texts are numbers these fields take
     assert done["type g (m/s²)"][0] == "applied"  # 2.5e1 is 25 m/s², not 2.51
+    assert all("not a number" in done[label][4] for label in typed)  # 1,5: refused, never 15
 
     _open_tab(page, "Mechanism")
     slider_box = page.slider("gravity g (m/s²)").locator("xpath=..").locator("input").last
