@@ -301,7 +301,7 @@ class MechanismSession(SessionBase):
     def _add_knob(self, knob: Knob) -> None:
         """A generated control's slider and the box its value is typed in, in the current container."""
         gui = self.target.gui
-        low, high = knob.slider_range
+        low, high = knob.slider_bounds()  # widened to show a typed value beyond the slider's useful range
         # a log slider is labelled as the chain's (Tolerance log10(rtol)); its box takes the value itself
         handle = gui.add_slider(knob.label if not knob.log else f"log10({knob.name})", min=low, max=high,
                                 step=knob.step, initial_value=knob.slider_value(), hint=knob.hint)
@@ -424,6 +424,8 @@ class MechanismSession(SessionBase):
             for knob in self.panel_knobs():
                 handle = self._knob_handles.get(knob.name)
                 if handle is not None and handle.value != knob.slider_value():
+                    low, high = knob.slider_bounds()  # a typed value beyond the slider's range: widen it
+                    handle.min, handle.max = min(handle.min, low), max(handle.max, high)
                     handle.value = knob.slider_value()
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
