@@ -197,7 +197,7 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
     assert {"L1", "d2", "m3", "I1", "theta1", "omega1", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta",
             "pin_x", "pin_y"} <= names, names
     assert any("applied" in done[label] for label in typed)  # some texts are numbers these fields take
-    assert done["type g (m/s²)"][0] == "applied"  # 2.5e1 is 25 m/s², not 2.51
+    assert done["type g (m/s²)"][0] == done["type g (m/s²)"][3] == "applied"  # 25 (not 2.51) and 1000 m/s²
     assert all("not a number" in done[label][4] for label in typed)  # 1,5: refused, never 15
 
     _open_tab(page, "Mechanism")
@@ -239,7 +239,9 @@ def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_l
         assert session.free and {"angle0", "omega0"} & kinds and {"omega0", "vx0", "vy0"} & kinds, kinds
     else:
         assert {"ratio", "offset", "speed"} <= kinds, kinds
-    assert names["g"][0] == "applied" and names["g"][3] != "applied"  # 2.5e1 is 25 (not 2.51); 1_000 is no g
+    # 2.5e1 is 25 (not 2.51); 1_000 is 1000, within the model's bounds as in the chain panel (beyond the slider's)
+    assert names["g"][0] == names["g"][3] == "applied"
+    assert names[next(name for name in names if name.startswith("mass:"))][3] == "applied"  # 1000 kg, as a chain's
     assert names["rtol"][1] == "applied"  # 1e-3 as written (the browser's box made it -13)
     assert all("not a number" in outcomes[4] for outcomes in names.values())  # 1,5: refused, never 15
 
