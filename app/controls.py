@@ -27,7 +27,7 @@ from .commands import check_control, options_of, split_name
 from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
 from .overlays import METHOD_COLORS, Plot
-from .parameters import METHOD_LABELS, driving_count, method_label, methods_for, wrap_degrees
+from .parameters import driving_count, method_from_label, method_label, methods_for, wrap_degrees
 from .phase_view import BAR_COLORS, phase_picture
 from .ports import SessionPort
 from .resources import STATIC
@@ -303,7 +303,7 @@ class Controls:
             self.bars_folder = gui.add_folder("Bars")
         with self.tabs.add_tab("Simulation"):
             self.method = gui.add_dropdown("Method", self._method_labels(), initial_value=method_label(p.method))
-            self.bind(self.method, lambda value, event: s.set("method", self._method_from_label(value)))
+            self.bind(self.method, lambda value, event: s.set("method", method_from_label(value)))
             self.compare = gui.add_checkbox("Compare all three methods", initial_value=False,
                                             hint="Run Newton-Euler, Lagrange and DAE from the same start")
             self.bind(self.compare, lambda value, event: s.set_compare(value))
@@ -376,12 +376,6 @@ class Controls:
     def _method_labels(self) -> tuple[str, ...]:
         return tuple(method_label(m) for m in methods_for(self.port.setup.chain))
 
-    @staticmethod
-    def _method_from_label(label: str) -> str:
-        for name, text in METHOD_LABELS.items():
-            if text == label:
-                return name
-        return label
 
     # ------------------------------------------------------------------ per-mechanism parts
     def rebuild(self) -> None:

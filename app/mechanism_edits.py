@@ -39,6 +39,21 @@ class Knob:
     hint: str
     geometry: bool  # changing it moves points: the run starts again from the re-assembled sketch
     log: bool = False  # its slider shows log10 of the value (a tolerance); its box the value itself
+    # what a typed (or linked) value may take, where it is wider than the slider: the model's own bounds, as the
+    # chain panel's boxes take them (a mass of 1000 kg, g = 1000 m/s²); the slider widens to show it
+    typed: tuple[float, float] | None = None
+
+    @property
+    def allowed(self) -> tuple[float, float]:
+        """The range a value is checked against: ``typed`` where given, else the slider's."""
+        return self.typed if self.typed is not None else (self.low, self.high)
+
+    def check(self, number: float) -> float:
+        """``number`` when inside :attr:`allowed`; LinkageError naming the control and the range otherwise."""
+        low, high = self.allowed
+        if not low <= number <= high:
+            raise LinkageError(f"{self.label} = {number:g}: allowed range {low:g} to {high:g}")
+        return number
 
     @property
     def unit(self) -> str:
@@ -49,12 +64,22 @@ class Knob:
     def slider_range(self) -> tuple[float, float]:
         return (math.log10(self.low), math.log10(self.high)) if self.log else (self.low, self.high)
 
+    def slider_bounds(self, value: float | None = None) -> tuple[float, float]:
+        """The slider's range, widened to show ``value`` (default: the value in force; a typed one may lie
+        beyond the range a slider is useful over, as in the chain panel)."""
+        low, high = self.slider_range
+        shown = self._position(self.value if value is None else value)
+        return min(low, shown), max(high, shown)
+
     def slider_value(self, value: float | None = None) -> float:
         """Where the slider's thumb stands for ``value`` (default: the value in force), inside its range."""
-        value = self.value if value is None else value
-        shown = math.log10(value) if self.log and value > 0 else value
-        low, high = self.slider_range
-        return min(max(shown, low), high)
+        low, high = self.slider_bounds(value)
+        return min(max(self._position(self.value if value is None else value), low), high)
+
+    def _position(self, value: float) -> float:
+        if not math.isfinite(value):
+            return self.slider_range[0]
+        return math.log10(value) if self.log and value > 0 else (self.slider_range[0] if self.log else value)
 
     def from_slider(self, position: float) -> float:
         """The value a slider position means (a log slider's 10**position, kept a float the range refuses)."""
@@ -70,6 +95,12 @@ def body_size(body: Body) -> float:
         return 0.0
     gaps = points[:, None, :] - points[None, :, :]
     return float(np.max(np.hypot(gaps[..., 0], gaps[..., 1])))
+
+
+def _upper(model, field: str) -> float:
+    """A pydantic model field's upper bound (``Field(le=...)``): how far a typed value may go, as the chain
+    panel's boxes read theirs from the models (app.commands.Quantity.bounds)."""
+    return next(float(item.le) for item in model.model_fields[field].metadata if getattr(item, "le", None) is not None)
 
 
 def _step(value: float) -> float:
@@ -95,10 +126,11 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
                             "and the mechanism re-assembled (its inertia scales with the square)", True))
         mass_top = max(10.0 * ref.mass, 1.0)
         out.append(Knob(f"mass:{body.name}", f"{body.name}: m (kg)", MIN_MASS, mass_top, _step(mass_top / 10),
-                        body.mass, "Mass of the body", False))
+                        body.mass, "Mass of the body", False, typed=(MIN_MASS, _upper(Body, "mass"))))
         inertia_top = max(10.0 * ref.inertia, 1e-4)
         out.append(Knob(f"inertia:{body.name}", f"{body.name}: I (kg·m²)", MIN_INERTIA, inertia_top,
-                        _step(inertia_top / 10), body.inertia, "Centroidal moment of inertia of the body", False))
+                        _step(inertia_top / 10), body.inertia, "Centroidal moment of inertia of the body", False,
+                        typed=(MIN_INERTIA, _upper(Body, "inertia"))))
     for driver in mechanism.drivers:
         if driver.speed is not None:
             out.append(Knob(f"speed:{driver.joint}", f"motor {driver.joint}: speed (°/s)", -720.0, 720.0, 5.0,
@@ -118,7 +150,8 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
             out.append(Knob(f"offset:{joint.name}", f"gear {joint.name}: offset (°)", -180.0, 180.0, 0.5,
                             math.degrees(joint.offset), f"Angle of joint {joint.joints[1]} when joint "
                             f"{joint.joints[0]}'s is zero; the mechanism is re-assembled", True))
-    out.append(Knob("g", "g (m/s²)", 0.0, 30.0, 0.01, mechanism.g, "Gravitational acceleration, along -y", False))
+    out.append(Knob("g", "g (m/s²)", 0.0, 30.0, 0.01, mechanism.g, "Gravitational acceleration, along -y", False,
+                    typed=(0.0, _upper(Mechanism, "g"))))
     return out
 
 
@@ -135,11 +168,14 @@ def settings_knobs(settings: MechanismSettings) -> list[Knob]:
              "rtol = atol of the adaptive integrators; the slider is log10(rtol), the box rtol itself (e.g. 1e-9)",
              False, log=True),
         Knob("step", "fixed step (ms)", *STEP_RANGE_MS, 0.01, settings.step * 1e3,
-             "The step of the fixed-step integrators (midpoint, variational)", False),
+             "The step of the fixed-step integrators (midpoint, variational)", False,
+             typed=(STEP_RANGE_MS[0], _upper(MechanismSettings, "step") * 1e3)),
         Knob("baumgarte_alpha", "Baumgarte alpha (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_alpha,
-             "Damping gain of the Baumgarte terms (stabilisation baumgarte)", False),
+             "Damping gain of the Baumgarte terms (stabilisation baumgarte)", False,
+             typed=(0.0, _upper(MechanismSettings, "baumgarte_alpha"))),
         Knob("baumgarte_beta", "Baumgarte beta (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_beta,
-             "Stiffness gain of the Baumgarte terms (stabilisation baumgarte)", False),
+             "Stiffness gain of the Baumgarte terms (stabilisation baumgarte)", False,
+             typed=(0.0, _upper(MechanismSettings, "baumgarte_beta"))),
     ]
 
 
@@ -159,8 +195,7 @@ def _in_range(knobs_now: list[Knob], name: str, value: object, unknown: str) -> 
     if knob is None:
         raise LinkageError(f"{name!r}: {unknown}")
     number = _number(knob.label, value)
-    if not knob.low <= number <= knob.high:
-        raise LinkageError(f"{knob.label} = {number:g}: allowed range {knob.low:g} to {knob.high:g}")
+    knob.check(number)
     return knob, number
 
 

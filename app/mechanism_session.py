@@ -72,6 +72,7 @@ from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
+from .parameters import method_from_label, method_label
 from .player import SAMPLE_DT, Frame, Player
 from .scene import pose_disc
 from .text import markdown_literal
@@ -237,9 +238,12 @@ class MechanismSession(SessionBase):
             self.start_folder = gui.add_folder("Start (t = 0)")
             self.start_note = gui.add_markdown("")
         with self.tabs.add_tab("Simulation"):
-            self.method = gui.add_dropdown("Method", list(METHODS), initial_value="dae",
+            # labelled as the chain panel's (app.parameters.method_label); links and snapshots keep the keys
+            self.method = gui.add_dropdown("Method", [method_label(m) for m in METHODS],
+                                           initial_value=method_label("dae"),
                                            hint="Formulation integrated; its reactions are shown")
-            self.method.on_update(lambda event: self.guard(lambda: self.set_method(str(self.method.value))))
+            self.method.on_update(lambda event: self.guard(
+                lambda: self.set_method(str(method_from_label(self.method.value)))))
             self.compare_box = gui.add_checkbox(
                 "Compare formulations", False,
                 hint="Newton-Euler, Lagrange and the DAE side by side from the same start, and how far they part")
@@ -305,7 +309,7 @@ class MechanismSession(SessionBase):
     def _add_knob(self, knob: Knob) -> None:
         """A generated control's slider and the box its value is typed in, in the current container."""
         gui = self.target.gui
-        low, high = knob.slider_range
+        low, high = knob.slider_bounds()  # widened to show a typed value beyond the slider's useful range
         # a log slider is labelled as the chain's (Tolerance log10(rtol)); its box takes the value itself
         handle = gui.add_slider(knob.label if not knob.log else f"log10({knob.name})", min=low, max=high,
                                 step=knob.step, initial_value=knob.slider_value(), hint=knob.hint)
@@ -428,11 +432,13 @@ class MechanismSession(SessionBase):
             for knob in self.panel_knobs():
                 handle = self._knob_handles.get(knob.name)
                 if handle is not None and handle.value != knob.slider_value():
+                    low, high = knob.slider_bounds()  # a typed value beyond the slider's range: widen it
+                    handle.min, handle.max = min(handle.min, low), max(handle.max, high)
                     handle.value = knob.slider_value()
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
                     box.value = shown_value(knob.value)
-            for handle, value in ((self.method, self.settings.method),
+            for handle, value in ((self.method, method_label(self.settings.method)),
                                   (self.stabilization, self.settings.stabilization),
                                   (self.integrator, self.settings.integrator),
                                   (self.menu, self.label), (self.compare_box, self.compare),
@@ -542,6 +548,8 @@ class MechanismSession(SessionBase):
             self._set_settings(self.settings.model_copy(update={"integrator": integrator}))
 
     def set_method(self, method: str) -> None:
+        """The method by its key (``dae``, as share links and snapshots give it; the menu sends its label,
+        turned into the key by :func:`app.parameters.method_from_label`)."""
         with self._lock:
             _choice("method", method, list(METHODS))
             check_method(method, self.mobility)
@@ -1000,7 +1008,7 @@ class MechanismSession(SessionBase):
         self.trace_menu.options = ["(none)", *self.spec.draw.labels]
         self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
         methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
-        self.method.options = methods
+        self.method.options = [method_label(name) for name in methods]
         names = [body.name for body in m.bodies]
         if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
             self.free_body.set_bar(1)  # another mechanism: its first body

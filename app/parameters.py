@@ -51,7 +51,18 @@ def settings_data(settings: Settings) -> dict:
 
 
 def method_label(method: str) -> str:
+    """The words a Method menu shows for a method key (``dae`` reads ``DAE``): the one labelling of both
+    panels, chains' and mechanisms'; share links, snapshots and the command line keep the keys."""
     return METHOD_LABELS.get(method, method)
+
+
+def method_from_label(label: object) -> object:
+    """The method key a Method menu's label stands for (the inverse of :func:`method_label`); anything else
+    is returned as it came, for the session's check to refuse with the allowed values."""
+    for name, text in METHOD_LABELS.items():
+        if text == label:
+            return name
+    return label
 
 
 _METHOD_NAME = re.compile(r"\b(" + "|".join(sorted(METHOD_LABELS, key=len, reverse=True)) + r")\b")

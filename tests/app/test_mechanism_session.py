@@ -151,7 +151,7 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
     _, session = connect(jansen_lab)
     session.guard(lambda: session.choose("slider-crank"))
     assert session.label == "slider-crank" and session.mobility == 1
-    assert "reduced" in session.method.options
+    assert "Reduced (1 dof)" in session.method.options  # the label (app.parameters.method_label)
     assert _moving(session, 0.2)
     session.guard(lambda: session.set("mass:rod", 0.5))
     assert session.mechanism.body("rod").mass == 0.5 and session.notices.text is None
@@ -167,7 +167,7 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
     session.guard(lambda: session.set_reactions(True))
     assert wait_until(lambda: session.arrows.handle is not None and session.arrows.count == 3, timeout=30)
     session.guard(lambda: session.choose("jansen-leg"))
-    assert "reduced" not in session.method.options  # mobility 0
+    assert "Reduced (1 dof)" not in session.method.options  # mobility 0
     session.guard(lambda: session.set_method("reduced"))
     assert "needs 1 degree of freedom left free by the motors (this one has 0 free)" in (session.notices.text or "")
 
@@ -238,7 +238,7 @@ def test_shared_mechanism_viewer_changes_nothing_and_the_presenter_does(tmp_path
 
 
 HOSTILE = ["<iframe srcdoc='<script>document.title=1</script>'>", None, [1, 2], {"a": 1}, float("nan"), 1e308,
-           -1e308, "", "1e3", True]
+           -1e308, "", "1e7", True]  # 1e7: a number as text beyond every control's model bounds
 
 
 def test_hostile_values_to_every_generated_control_are_refused_and_the_session_goes_on(jansen_lab, connect):
@@ -314,7 +314,8 @@ def test_any_value_for_any_generated_control_is_applied_valid_or_refused_in_one_
         assert "\n" not in message and (knob.label in message or repr(value) in message), message
         return
     assemble(edited)
-    assert not isinstance(value, (bool, list, type(None))) and knob.low <= float(value) <= knob.high  # numbers, "5"
+    low, high = knob.allowed
+    assert not isinstance(value, (bool, list, type(None))) and low <= float(value) <= high  # numbers, "5"
 
 
 # After the last edit of a burst the session resumes on it (0.3 s on a quiet machine, printed); what is asserted is
@@ -400,6 +401,7 @@ def test_reset_after_a_stopped_run_clears_the_stopped_notice_while_it_plays_on(j
 @pytest.mark.parametrize("name, text, expected", [
     ("g", "2.5e1", 25.0), ("g", "1e-3", 1e-3), ("g", "-0", -0.0), ("g", "1_0", 10.0), ("speed:O", " \u221215 ", -15.0),
     ("mass:crank", "2.5e-1", 0.25), ("speed:O", "-1.2e2", -120.0),
+    ("g", "1_000", 1000.0), ("mass:crank", "1_000", 1000.0),  # beyond the slider, within the model: as in a chain
 ])
 def test_a_typed_box_reads_the_number_as_written(jansen_lab, connect, name, text, expected):
     """Issue 24: the mechanism panel's number boxes read 2.5e1 as 2.51 (the browser's box drops the exponent).
@@ -410,11 +412,13 @@ def test_a_typed_box_reads_the_number_as_written(jansen_lab, connect, name, text
     value = next(k.value for k in knobs(session.mechanism, session.reference) if k.name == name)
     assert value == pytest.approx(expected, rel=1e-12) and session.notices.text is None, (value, session.notices.text)
     assert session.typed_box(name).value == f"{expected:.6g}"  # the value in force
+    slider = session._knob_handles[name]
+    assert slider.min <= slider.value <= slider.max and slider.value == pytest.approx(expected, rel=1e-12)  # widened
 
 
 @pytest.mark.parametrize("name, text, words", [
     ("g", "1,5", ["g (m/s²) = '1,5'", "not a number", "in m/s²"]),
-    ("g", "1_000", ["g (m/s²) = 1000", "allowed range 0 to 30"]),
+    ("g", "1e4", ["g (m/s²) = 10000", "allowed range 0 to 1000"]),  # the model's bound, as the chain panel's
     ("mass:crank", "-0", ["crank: m (kg) = -0", "allowed range 1e-06"]),
     ("g", "", ["g (m/s²): the box is empty"]),
     ("g", "nan", ["g (m/s²) = nan", "finite"]),

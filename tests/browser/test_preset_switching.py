@@ -1,15 +1,22 @@
-"""Every preset after every other in one page (issue 24, "Two app sessions fail at their seam").
+"""Every preset after others in one page (issue 24, "Two app sessions fail at their seam").
 
-Chains and general mechanisms run as two kinds of session that hand the page to each other. This test walks one
-route through every ordered pair of presets (an Euler circuit of the complete directed graph: chain to chain,
-chain to mechanism, mechanism to chain, mechanism to mechanism, 3 bodies to 5 or 7 and back) in one browser,
-choosing each in the panel's Mechanism menu as a person would, and after every switch checks that
+Chains and general mechanisms run as two kinds of session that hand the page to each other. The presets are
+those of ``python -m physics presets`` (the chains' table, then the mechanisms'), each of one KIND: an open
+chain, a closed chain (a pinned loop), or a mechanism of 3, 4, 5 or 7 bodies (the seam that broke: 3 bodies to
+5 or 7). Every ordered pair of all presets is 272 switches, 5 to 20 s each in software rendering on 2 shared
+cores: that is the long run (``LINKAGE_LAB_ALL_SWITCHES=1``, docs/reliability.md). By default the test walks
+every ordered pair of KINDS (a kind to itself too, where it has two presets) and every preset at least once in
+and once out: an Euler circuit of the kinds' complete directed graph, with as many loops on a kind as it needs
+to visit each of its presets, taking a kind's presets in turn (37 switches; :func:`kinds_walk`). It chooses each
+in the panel's Mechanism menu, as a person would, and after every switch checks that
 
 * the page's session is the one chosen, and it plays on: simulated time advances past its start;
-* no error notice (a stopped run, a paused session, an internal error) appears, on the page or on the server;
-* the panel holds the controls of the session shown, once: one Mechanism menu, one Timeline, none of the other
-  kind's rows (the chain's View and Plot; the mechanism's Bodies and motors) and, on every later visit of a
-  preset, exactly the controls of its first visit (nothing piles up).
+* no error notice (a stopped run, "Simulation stopped", a paused session, an internal error) appears, on the
+  page or on the server;
+* the panel holds exactly one set of controls, those of the session shown: one tab group, each tab and each
+  folder once, one Mechanism menu, one Timeline, none of the other kind's rows (the chain's View and Plot; the
+  mechanism's Bodies and motors) and, on every later visit of a preset, exactly the controls of its first visit
+  (nothing piles up).
 """
 
 from __future__ import annotations
@@ -20,8 +27,9 @@ import re
 import time
 
 from app import snapshot as snap
-from physics import preset_names
+from physics import get_preset, preset_names
 from physics.mechanism import MECHANISM_PRESETS
+from physics.presets import mechanism_summaries
 
 from .conftest import wait_until
 
@@ -30,24 +38,31 @@ CHAIN_ONLY = ("View", "Plot")
 BOTH = ("Timeline (s)",)  # a row both panels have: exactly one, whichever is shown
 MECHANISM_ONLY = ("Bodies and motors", "Traced point", "Stabilisation")
 PLAYS_ON_S = 0.3  # simulated seconds a session must advance after its switch
-# Every ordered pair of all 16 presets is 240 switches, 5 to 20 s each in software rendering: the long run
-# (LINKAGE_LAB_ALL_SWITCHES=1, docs/reliability.md). By default the circuit takes every ordered pair of a set
-# that holds each kind of seam: mechanisms of 3, 5 and 7 bodies, an open chain, a closed four-bar and a chain of
-# another length (30 switches).
-DEFAULT_PRESETS = ("slider-crank", "watt-six-bar", "jansen-leg", "triple-a", "four-bar", "double")
 
 
-def presets_to_walk() -> list[str]:
-    if os.environ.get("LINKAGE_LAB_ALL_SWITCHES") == "1":
-        return list(MECHANISM_PRESETS) + list(preset_names())  # the mechanisms' own pairs come first
-    missing = [name for name in DEFAULT_PRESETS if name not in MECHANISM_PRESETS and name not in preset_names()]
-    assert not missing, missing
-    return list(DEFAULT_PRESETS)
+def preset_table() -> list[dict]:
+    """The entries ``python -m physics presets`` prints (physics/cli.py, cmd_presets): chains, then mechanisms."""
+    return [get_preset(name).summary() for name in preset_names()] + mechanism_summaries()
 
 
-def euler_circuit(names: list[str]) -> list[str]:
-    """A walk from ``names[0]`` that takes every ordered pair (a, b), a != b, exactly once (Hierholzer)."""
-    unused = {a: [b for b in reversed(names) if b != a] for a in names}
+def kind_of(entry: dict) -> str:
+    if entry.get("kind") == "mechanism":
+        return f"mechanism of {len(entry['bodies'])} bodies"
+    return "closed chain" if entry.get("pin") is not None else "open chain"
+
+
+def presets_by_kind() -> dict[str, list[str]]:
+    kinds: dict[str, list[str]] = {}
+    for entry in preset_table():
+        kinds.setdefault(kind_of(entry), []).append(entry["name"])
+    return kinds
+
+
+def euler_circuit(names: list[str], loops: dict[str, int] | None = None) -> list[str]:
+    """A walk from ``names[0]`` that takes every ordered pair (a, b), a != b, exactly once, and ``loops[a]``
+    times the pair (a, a) (Hierholzer)."""
+    loops = loops or {}
+    unused = {a: [a] * loops.get(a, 0) + [b for b in reversed(names) if b != a] for a in names}
     stack, walk = [names[0]], []
     while stack:
         here = stack[-1]
@@ -58,11 +73,50 @@ def euler_circuit(names: list[str]) -> list[str]:
     return walk[::-1]
 
 
+def kinds_walk(kinds: dict[str, list[str]]) -> list[str]:
+    """Presets in the order of an Euler circuit of the kinds (every ordered pair of kinds once; a kind of n >= 2
+    presets also to itself, as often as it takes to be left n + 1 times), each visit of a kind taking its next
+    preset in turn: every preset is entered and left, every pair of kinds switched between."""
+    names = list(kinds)
+    loops = {kind: max(len(presets) + 1 - (len(names) - 1), 1) for kind, presets in kinds.items()
+             if len(presets) > 1}
+    turn = dict.fromkeys(names, 0)
+    walk = []
+    for kind in euler_circuit(names, loops):
+        walk.append(kinds[kind][turn[kind] % len(kinds[kind])])
+        turn[kind] += 1
+    return walk
+
+
+def presets_to_walk() -> list[str]:
+    if os.environ.get("LINKAGE_LAB_ALL_SWITCHES") == "1":
+        names = [entry["name"] for entry in preset_table()]
+        return euler_circuit([*MECHANISM_PRESETS, *(n for n in names if n not in MECHANISM_PRESETS)])
+    return kinds_walk(presets_by_kind())
+
+
 def test_the_circuit_takes_every_ordered_pair_once():
     names = ["a", "b", "c", "d"]
     walk = euler_circuit(names)
     pairs = list(zip(walk, walk[1:]))
     assert len(pairs) == len(set(pairs)) == len(names) * (len(names) - 1)
+
+
+def test_the_walk_takes_every_pair_of_kinds_and_every_preset_in_and_out():
+    kinds = presets_by_kind()
+    table = [entry["name"] for entry in preset_table()]
+    assert sorted(name for presets in kinds.values() for name in presets) == sorted(table)
+    assert set(table) == set(preset_names()) | set(MECHANISM_PRESETS)
+    assert {"open chain", "closed chain", "mechanism of 3 bodies", "mechanism of 5 bodies",
+            "mechanism of 7 bodies"} <= set(kinds)
+    walk = kinds_walk(kinds)
+    kind = {name: k for k, presets in kinds.items() for name in presets}
+    pairs = list(zip(walk, walk[1:]))
+    assert all(a != b for a, b in pairs), "a switch to the preset shown is no switch"
+    assert {a for a, _ in pairs} == {b for _, b in pairs} == set(table)  # every preset left and entered
+    wanted = {(a, b) for a in kinds for b in kinds if a != b or len(kinds[a]) > 1}
+    assert {(kind[a], kind[b]) for a, b in pairs} == wanted
+    assert len(pairs) <= 40, len(pairs)  # the default run stays a few minutes
 
 
 def _panel_labels(page) -> collections.Counter:
@@ -72,6 +126,15 @@ def _panel_labels(page) -> collections.Counter:
     titles = panel.locator(".mantine-Paper-root > .mantine-Paper-root").all_inner_texts()
     buttons = panel.locator("button").all_inner_texts()
     return collections.Counter([t.strip() for t in labels + titles + buttons if t.strip()])
+
+
+def _sets_of_controls(page) -> tuple[int, collections.Counter, collections.Counter]:
+    """The panel's tab groups, and how often each tab and each folder title appears in them."""
+    panel = page.page.locator(snap.CONTROL_PANEL)
+    tabs = panel.get_by_role("tab").all_text_contents()
+    titles = panel.locator(".mantine-Paper-root > .mantine-Paper-root").all_text_contents()
+    return (panel.get_by_role("tablist").count(), collections.Counter(t.strip() for t in tabs if t.strip()),
+            collections.Counter(t.strip() for t in titles if t.strip()))
 
 
 def _menu_value(page) -> str | None:
@@ -92,8 +155,7 @@ def _session_shows(session, name: str) -> bool:
 
 
 def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_lab, capfd, tmp_path):
-    names = presets_to_walk()
-    walk = euler_circuit(names)
+    walk = presets_to_walk()
     lab = start_lab(preset=walk[0])
     page = lab.open_page(pause=False)
     client_id = page.client_id
@@ -125,6 +187,10 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
             expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs()}
             wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
                        message=f"{previous} -> {name}: the panel to show {name}'s controls")
+        groups, tabs, folders = _sets_of_controls(page)
+        assert groups == 1, f"{previous} -> {name}: {groups} tab groups in the panel"
+        assert tabs and max(tabs.values()) == 1, f"{previous} -> {name}: tabs {dict(tabs)}"
+        assert not folders or max(folders.values()) == 1, f"{previous} -> {name}: folders {dict(folders)}"
         panel = _panel_labels(page)
         menus = page.page.locator(snap.CONTROL_PANEL).locator("label", has_text=re.compile("^Mechanism$"))
         assert menus.count() == 1, f"{previous} -> {name}: {menus.count()} Mechanism menus in the panel"
@@ -148,8 +214,8 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
         with open(tmp_path / "switches.txt", "a") as log:  # how long each took, for a person watching a slow run
             print(f"{visits:3d} {previous:>20} -> {name:<20} {time.monotonic() - started:5.1f} s (menu {chosen - started:4.1f}, session "
                   f"{shown - chosen:4.1f}, playing {played - shown:4.1f})", file=log)
-    assert visits == len(names) * (len(names) - 1)
-    assert set(seen) == set(names)
+    assert visits == len(walk) - 1
+    assert set(seen) == {entry["name"] for entry in preset_table()}  # every preset entered (and so left)
     captured = capfd.readouterr()
     for problem in ("Traceback", "GuiUplotHandle", "IndexError", "expected 9 finite numbers"):
         assert problem not in captured.err, f"the server logged {problem!r}:\n{captured.err[-3000:]}"

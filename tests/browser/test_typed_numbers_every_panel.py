@@ -1,23 +1,51 @@
 """Typed numbers in every box of both panels, in a real page (issue 24).
 
 The mechanism panel's number boxes were the browser's own (beside each slider), which read ``2.5e1`` as 2.51
-and ``1,5`` as 15. Now every number of both panels has a box whose text the server reads: this test types, as a
-person does, ``2.5e1``, ``1e-3``, ``-0``, ``1_000`` and ``1,5`` into every enabled box of the chain panel (every
-tab, every folder) and of a mechanism panel, and checks after each that the value in force is the number as
-written, or that it was refused with one notice naming the field and its range (``1,5``: always refused, "not a
-number"). The slider's own box only shows the value: it cannot be typed into.
+and ``1,5`` as 15. Now every number of both panels has a box whose text the server reads with one reader
+(:func:`app.commands.read_number`). This test finds the boxes on the page itself (every label ``type ...`` of
+the control panel, tab by tab, folded folders opened), not from a list that could go stale, and types, as a
+person does, ``2.5e1``, ``1e-3``, ``-0``, ``1_000`` and ``1,5`` into each. After each it checks the session's
+state: the value in force is the number as written (in the box's units) and the box shows it, or the value in
+force is unchanged and one notice names the field and its range (``1,5``: always refused, "not a number").
+Every box the session holds must have been reached: the settings boxes that show for one integrator or
+stabilisation only (tolerance or fixed step; Baumgarte gains) are reached by choosing those in the page; a
+chain box may be left only when the session hides it. The slider's own box only shows the value: it cannot be
+typed into.
+
+The chain panel runs on the four-bar (a closed loop: its pin's boxes and the Baumgarte gains apply; the angles
+the loop sets are disabled boxes). The mechanism panel runs on two presets: the slider-crank (a free start:
+start value and speed boxes, from app/mechanism_start.py) and the geared five-bar (a motor's speed, a gear
+pair's ratio and offset, from app/mechanism_edits.py); both have every body's size, mass and inertia, g and the
+run's settings.
 """
 
 from __future__ import annotations
 
+import math
 import re
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import pytest
 
 from app import snapshot as snap
+from app.commands import QUANTITIES, split_name
+from app.number_inputs import value_in_force
 
 from .conftest import wait_until
 
 TEXTS = ("2.5e1", "1e-3", "-0", "1_000", "1,5")
-CHAIN_TABS = ("Mechanism", "Simulation", "Display")
+
+
+@dataclass
+class Panel:
+    """How the test reads one panel: its boxes by label (every box the session holds now), the value in force
+    of each in the box's units, the server's box, and how many typed values it has applied or refused."""
+
+    boxes: Callable[[], dict[str, str]]  # the box's label on the page -> the session's name for it
+    value: Callable[[str], float]
+    box: Callable[[str], Any]
+    commits: Callable[[], int]
 
 
 def _read_as_written(text: str) -> str:
@@ -25,10 +53,27 @@ def _read_as_written(text: str) -> str:
     return f"{float(text):.6g}"
 
 
+def _panel(page):
+    return page.page.locator(snap.CONTROL_PANEL)
+
+
 def _box_input(page, label: str):
-    element = page.page.locator(snap.CONTROL_PANEL).locator(
-        "label", has_text=re.compile(f"^{re.escape(label)}$")).first
+    element = _panel(page).locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first
     return element, element.locator("xpath=ancestor::*[.//input][1]").locator("input").first
+
+
+def _tabs(page) -> list[str]:
+    return [text.strip() for text in _panel(page).get_by_role("tab").all_text_contents() if text.strip()]
+
+
+def _open_tab(page, name: str) -> None:
+    _panel(page).get_by_role("tab", name=name, exact=True).first.click()
+
+
+def _box_labels(page) -> list[str]:
+    """The labels of the typed boxes the page holds now (in every folder, folded or not)."""
+    texts = _panel(page).locator("label").all_text_contents()
+    return list(dict.fromkeys(text.strip() for text in texts if text.strip().startswith("type ")))
 
 
 def _make_visible(page, label_element) -> bool:
@@ -50,43 +95,50 @@ def _refusals(page) -> list[str]:
     return [text for text in page.notification_texts() if "Not applied" in text]
 
 
-def _type_every_text(page, session, label: str, field: str, server_box, commits, restore) -> list[str]:
-    """Type each of TEXTS into the box ``label`` (``field``: the name a refusal must give; ``commits()``: how
-    many typed values the panel has applied or refused); returns what each did ("applied" or the notice)."""
+def _type_every_text(page, session, panel: Panel, label: str, name: str) -> list[str]:
+    """Type each of TEXTS into the box ``label`` (the session's ``name``); returns what each did ("applied" or
+    the notice). ``field``, the name a refusal must give, is the label without "type " and its unit."""
+    field = re.sub(r" \([^()]*\)$", "", label.removeprefix("type "))
     element, box = _box_input(page, label)
     box.scroll_into_view_if_needed()
     outcomes = []
     for text in TEXTS:
-        before = server_box().value
+        before, value_before = panel.box(name).value, panel.value(name)
         session.notices.clear()
-        done = commits()
+        done = panel.commits()
         unchanged = before == text  # the box shows this text already (a side effect of another box): not sent
         box.fill(text)
         try:
-            wait_until(lambda: (commits() > done or unchanged) and box.input_value() == server_box().value,
+            wait_until(lambda: (panel.commits() > done or unchanged) and box.input_value() == panel.box(name).value,
                        message=f"{label}: {text!r} to be applied or refused and the box to show the value in force")
         except AssertionError as error:
-            raise AssertionError(f"{error} (commits {commits() - done}, page {box.input_value()!r}, server "
-                                 f"{server_box().value!r}, notice {session.notices.text!r})") from None
+            raise AssertionError(f"{error} (commits {panel.commits() - done}, page {box.input_value()!r}, server "
+                                 f"{panel.box(name).value!r}, notice {session.notices.text!r})") from None
         notice = session.notices.text
-        shown = server_box().value
+        shown, value = panel.box(name).value, panel.value(name)
         if notice is None or not notice.startswith("Not applied"):  # applied (the run may stop on it: a notice)
-            assert text != "1,5", f"{label}: '1,5' was applied as {shown}"
-            assert shown == _read_as_written(text), f"{label}: typed {text!r}, in force {shown}"
+            assert text != "1,5", f"{label}: '1,5' was applied as {value}"
+            # the session's state holds the number as written, in the box's units
+            assert math.isclose(value, float(text), rel_tol=1e-9, abs_tol=1e-12), (
+                f"{label}: typed {text!r}, in force {value!r}")
+            assert shown == _read_as_written(text), f"{label}: typed {text!r}, the box shows {shown}"
             outcomes.append("applied")
-            if shown != before:
-                restore(before)
+            if value != value_before:
+                session.set_typed(name, repr(value_before))  # put back exactly (repr reads back the same float)
                 wait_until(lambda: box.input_value() == before, message=f"{label}: the value put back")
+                assert panel.value(name) == value_before, f"{label}: put back as {panel.value(name)!r}"
             if session.player.runs and session.player.runs[0].failed is not None:
                 session.reset()  # a value that stops the run (a huge g) was applied: start again
         else:
-            assert notice.startswith("Not applied") and field in notice, (label, text, notice)
+            assert field in notice, (label, text, notice)
             # what is allowed: a range ("0 <= d1 <= 1 m", "allowed range 0 to 30") or the condition refused
-            # ("give bar 1 a positive I1"); a decimal comma is no number at all
-            allowed = ("<", "allowed", "positive", "finite")
+            # ("give bar 1 a positive I1", "the loop cannot close there (... reachable theta1: ...)"); a decimal
+            # comma is no number at all
+            allowed = ("<", "allowed", "positive", "finite", "cannot")
             assert ("not a number" in notice) if text == "1,5" else any(word in notice for word in allowed), (
                 label, text, notice)
-            assert shown == before, f"{label}: refused {text!r} but the value in force changed to {shown}"
+            assert value == value_before, f"{label}: refused {text!r} but the value in force is now {value!r}"
+            assert shown == before, f"{label}: refused {text!r} but the box shows {shown}"
             wait_until(lambda: any(field in refusal for refusal in _refusals(page)),
                        message=f"{label}: the notice for {text!r} in the page")
             # one notice: the one before it (another field's) is replaced, not piled up (it may take a moment to
@@ -98,56 +150,101 @@ def _type_every_text(page, session, label: str, field: str, server_box, commits,
     return outcomes
 
 
+def _type_into_every_box_shown(page, session, panel: Panel, done: dict[str, list[str]]) -> None:
+    """Every tab of the panel, every typed box the page holds there that ``done`` has not: open its folders and
+    type TEXTS into it (a disabled box: recorded as such). Boxes that do not show are left for the caller."""
+    for tab in _tabs(page):
+        _open_tab(page, tab)
+        for label in _box_labels(page):
+            if label in done:
+                continue
+            boxes = panel.boxes()
+            assert label in boxes, f"a box on the page that the session does not hold: {label!r} ({tab} tab)"
+            element, box = _box_input(page, label)
+            if not _make_visible(page, element):
+                continue
+            done[label] = ["disabled"] if box.is_disabled() else _type_every_text(page, session, panel, label,
+                                                                                  boxes[label])
+
+
 def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
-    lab = start_lab(preset="single")
+    lab = start_lab(preset="four-bar")  # a closed loop: its pin's boxes and the Baumgarte gains apply
     page = lab.open_page()
     session = page.session
     numbers = session.controls.numbers
-    done: dict[str, list[str]] = {}
-    for tab in CHAIN_TABS:
-        page.open_tab(tab)
-        for name, control in numbers.controls.items():
-            label = control.box.label
-            element, box = _box_input(page, label)
-            if name in done or not _make_visible(page, element):
-                continue
-            if box.is_disabled():
-                done[name] = ["disabled"]
-                continue
-            done[name] = _type_every_text(
-                page, session, label, name, lambda name=name: numbers.controls[name].box,
-                lambda: numbers.commits, lambda text, name=name: session.set_typed(name, text))
-    hidden = {name for name, control in numbers.controls.items() if not control.box.visible}  # not for this
-    # preset's settings (a fixed step for an adaptive integrator): a person cannot type into them either
-    assert set(done) | hidden == set(numbers.controls), f"boxes never reached: {set(numbers.controls) - set(done)}"
-    typed = [name for name, outcomes in done.items() if outcomes != ["disabled"]]
-    assert len(typed) >= 10, done
-    assert any("applied" in done[name] for name in typed)  # some texts are numbers these fields take
 
-    page.open_tab("Mechanism")
+    def value(name: str) -> float:
+        return value_in_force(session, name) * QUANTITIES[split_name(name)[0]].scale
+
+    panel = Panel(boxes=lambda: {control.box.label: name for name, control in numbers.controls.items()},
+                  value=value, box=lambda name: numbers.controls[name].box, commits=lambda: numbers.commits)
+    done: dict[str, list[str]] = {}
+    # as in the mechanism panel: the Baumgarte gains show with that stabilisation, the fixed step with a
+    # fixed-step integrator
+    _open_tab(page, "Simulation")
+    page.choose("Stabilisation (loops)", "baumgarte")
+    wait_until(lambda: session.params.stabilization == "baumgarte", message="the Baumgarte stabilisation")
+    _type_into_every_box_shown(page, session, panel, done)
+    _open_tab(page, "Simulation")
+    page.choose("Integrator", "midpoint")
+    wait_until(lambda: session.params.integrator == "midpoint", message="the midpoint integrator")
+    _type_into_every_box_shown(page, session, panel, done)
+    hidden = {label for label, name in panel.boxes().items() if not numbers.controls[name].box.visible}  # not
+    # for this preset (a closed loop's driven angles): a person cannot type into them either
+    assert set(done) | hidden == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done) - hidden}"
+    typed = [label for label, outcomes in done.items() if outcomes != ["disabled"]]
+    names = {panel.boxes()[label] for label in typed}
+    assert {"L1", "d2", "m3", "I1", "theta1", "omega1", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta",
+            "pin_x", "pin_y"} <= names, names
+    assert any("applied" in done[label] for label in typed)  # some texts are numbers these fields take
+    assert done["type g (m/s²)"][0] == done["type g (m/s²)"][3] == "applied"  # 25 (not 2.51) and 1000 m/s²
+    assert all("not a number" in done[label][4] for label in typed)  # 1,5: refused, never 15
+
+    _open_tab(page, "Mechanism")
     slider_box = page.slider("gravity g (m/s²)").locator("xpath=..").locator("input").last
     assert not slider_box.is_editable(), "the slider's own box still takes typing (it reads 2.5e1 as 2.51)"
 
 
-def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_lab):
-    from app.mechanism_edits import knobs
+@pytest.mark.parametrize("preset", ["slider-crank", "geared-five-bar"])
+def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_lab, preset):
     from app.mechanism_session import MechanismSession
 
-    lab = start_lab(preset="crank-rocker")
+    lab = start_lab(preset=preset)
     page = lab.open_page()
     session = page.session
     assert isinstance(session, MechanismSession)
-    done: dict[str, list[str]] = {}
-    for knob in knobs(session.mechanism, session.reference):
-        label = f"type {knob.label}"
-        element, _ = _box_input(page, label)
-        assert _make_visible(page, element), f"{label} is not in the panel"
-        done[knob.name] = _type_every_text(
-            page, session, label, knob.label, lambda name=knob.name: session.typed_box(name),
-            lambda: session.typed_commits, lambda text, name=knob.name: session.set_typed(name, text))
-    assert {"g", "speed:O2", "mass:crank"} <= set(done)
-    assert done["g"][0] == "applied" and session.mechanism.g != 2.51  # 2.5e1 is 25, applied, then put back
-    assert "applied" in done["speed:O2"]
 
+    def value(name: str) -> float:
+        return next(knob.value for knob in session.panel_knobs() if knob.name == name)
+
+    panel = Panel(boxes=lambda: {f"type {knob.label}": knob.name for knob in session.panel_knobs()},
+                  value=value, box=session.typed_box, commits=lambda: session.typed_commits)
+    done: dict[str, list[str]] = {}
+    # the Baumgarte gains show with that stabilisation; the tolerance with an adaptive integrator, the fixed
+    # step with a fixed-step one: choose each in the page, as a person does
+    _open_tab(page, "Simulation")
+    page.choose("Stabilisation", "baumgarte")
+    wait_until(lambda: session.settings.stabilization == "baumgarte", message="the Baumgarte stabilisation")
+    _type_into_every_box_shown(page, session, panel, done)
+    _open_tab(page, "Simulation")
+    page.choose("Integrator", "midpoint")
+    wait_until(lambda: session.settings.integrator == "midpoint", message="the midpoint integrator")
+    _type_into_every_box_shown(page, session, panel, done)
+    assert set(done) == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done)}"
+    assert "disabled" not in [outcome for outcomes in done.values() for outcome in outcomes]
+    names = {panel.boxes()[label]: outcomes for label, outcomes in done.items()}
+    kinds = {name.partition(":")[0] for name in names}
+    assert {"size", "mass", "inertia", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta"} <= kinds, kinds
+    if preset == "slider-crank":  # mobility 1, no motor: its start is set by hand
+        assert session.free and {"angle0", "omega0"} & kinds and {"omega0", "vx0", "vy0"} & kinds, kinds
+    else:
+        assert {"ratio", "offset", "speed"} <= kinds, kinds
+    # 2.5e1 is 25 (not 2.51); 1_000 is 1000, within the model's bounds as in the chain panel (beyond the slider's)
+    assert names["g"][0] == names["g"][3] == "applied"
+    assert names[next(name for name in names if name.startswith("mass:"))][3] == "applied"  # 1000 kg, as a chain's
+    assert names["rtol"][1] == "applied"  # 1e-3 as written (the browser's box made it -13)
+    assert all("not a number" in outcomes[4] for outcomes in names.values())  # 1,5: refused, never 15
+
+    _open_tab(page, "Mechanism")
     slider_box = page.slider("g (m/s²)").locator("xpath=..").locator("input").last
     assert not slider_box.is_editable(), "the slider's own box still takes typing (it reads 2.5e1 as 2.51)"
