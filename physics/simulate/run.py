@@ -60,23 +60,6 @@ def _state_limits(n: int) -> np.ndarray:
     return _limits[n]
 
 
-_times: dict[tuple[float, float, int], np.ndarray] = {}
-MAX_REMEMBERED_TIMES = 64
-
-
-def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
-    """``np.linspace(t_start, t_start + t_end, samples)``: a fresh copy of one worked out once per request (the
-    same run asked for again, as a notebook, a study or a benchmark does, costs a dictionary look-up)."""
-    key = (t_start, t_end, samples)
-    times = _times.get(key)
-    if times is None:
-        times = np.linspace(t_start, t_start + t_end, samples)
-        if len(_times) >= MAX_REMEMBERED_TIMES:  # a chunked run's every start is new: start afresh (atomic)
-            _times.clear()
-        _times[key] = times
-    return times.copy()
-
-
 def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
     if not chain.pinned or settings.stabilization == "none":
         return 0.0, 0.0, False
@@ -140,7 +123,7 @@ def simulate(
     compiled = load_compiled(settings.method, n, chain.pinned)
     params = chain_arrays(chain).params_with(settings.damping)
     alpha, beta, project = _stabilization_gains(chain, settings)
-    t_eval = _sample_times(float(t_start), settings.t_end, settings.samples)
+    t_eval = np.linspace(t_start, t_start + settings.t_end, settings.samples)
     if settings.backend == SCIPY:
         # scipy boundary: scipy's integrators are imported only for this back end.
         from .scipy_backend import integrate_scipy  # noqa: PLC0415
