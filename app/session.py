@@ -208,9 +208,14 @@ class Session(SessionBase):
 
     def load_setup(self, pairs: list[tuple[str, str]], where: str = "the setup") -> None:
         """Apply a share link's or a setup file's ``(name, value)`` pairs (app/share.py): the mechanism first,
-        then each value; what the models refuse is listed in one notice, the rest applied."""
+        then each value; what the models refuse is listed in one notice, the rest applied.
+
+        A setup that names its preset (every saved one does) starts from that preset's values, as a general
+        mechanism's does: what the file leaves out is the preset's, not an edit made before loading it. The
+        integration choices in force (``--method``, the panel's) are kept unless the file names them. A file
+        that names no preset is a patch on what is shown."""
         preset, links, refused = share.start_of(pairs, self.params.preset, None)
-        if preset != self.params.preset or links is not None:
+        if any(name == "preset" for name, _ in pairs) or preset != self.params.preset or links is not None:
             self.set_mechanism(preset, links)
         refused += share.apply_setup(pairs, lambda name, text: self.set(name, text, CONTROL))
         if refused:

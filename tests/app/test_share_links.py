@@ -177,6 +177,24 @@ def test_a_setup_file_loaded_in_a_session_and_refused_to_a_viewer(connect):
         session.is_presenter = None
 
 
+def test_a_setup_file_starts_from_its_preset_not_from_edits_made_before(connect):
+    """A saved setup gives what was saved: a value it leaves out is the preset's, not an edit made before loading
+    it (as a general mechanism's setup does); the method chosen in the panel stays unless the file names one."""
+    _, session = connect()
+    session.upload_setup(None, "a.json", b'{"linkage_lab_setup": 1, "values": {"preset": "double"}}')
+    preset_L1, preset_g = session.params.L[0], session.params.g
+    session.set("L1", "1.7", CONTROL)
+    session.set("g", "3", CONTROL)
+    session.set("method", "dae", CONTROL)
+    assert session.params.L[0] == 1.7 and session.params.g == 3.0
+    session.upload_setup(None, "b.json", b'{"linkage_lab_setup": 1, "values": {"preset": "double", "m2": 2}}')
+    assert session.params.m[1] == 2.0
+    assert session.params.L[0] == preset_L1 and session.params.g == preset_g  # the edits are gone
+    assert session.params.method == "dae"  # the integration choice in force stays
+    session.upload_setup(None, "patch.json", b'{"linkage_lab_setup": 1, "values": {"g": 5}}')
+    assert session.params.g == 5.0 and session.params.m[1] == 2.0  # no preset named: a patch on what is shown
+
+
 @pytest.mark.parametrize("make, needle", [
     (lambda folder: _write(folder / "big.json", b" " * 70_000), "70000 bytes, more than the 65536 allowed"),
     (lambda folder: "/dev/zero", "is a device, not a regular file"),
