@@ -167,6 +167,21 @@ def _type_into_every_box_shown(page, session, panel: Panel, done: dict[str, list
                                                                                   boxes[label])
 
 
+def _type_with_each_setting_shown(page, session, panel: Panel, done: dict[str, list[str]], stabilisation_menu: str,
+                                  settings) -> None:
+    """Type into every box shown, once with the Baumgarte stabilisation (its gains show then) and once with a
+    fixed-step integrator (its step shows then; the tolerance with an adaptive one): each chosen in the page, as
+    a person does, in either panel (``settings()`` reads the choices in force)."""
+    _open_tab(page, "Simulation")
+    page.choose(stabilisation_menu, "baumgarte")
+    wait_until(lambda: settings().stabilization == "baumgarte", message="the Baumgarte stabilisation")
+    _type_into_every_box_shown(page, session, panel, done)
+    _open_tab(page, "Simulation")
+    page.choose("Integrator", "midpoint")
+    wait_until(lambda: settings().integrator == "midpoint", message="the midpoint integrator")
+    _type_into_every_box_shown(page, session, panel, done)
+
+
 def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
     lab = start_lab(preset="four-bar")  # a closed loop: its pin's boxes and the Baumgarte gains apply
     page = lab.open_page()
@@ -179,16 +194,7 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
     panel = Panel(boxes=lambda: {control.box.label: name for name, control in numbers.controls.items()},
                   value=value, box=lambda name: numbers.controls[name].box, commits=lambda: numbers.commits)
     done: dict[str, list[str]] = {}
-    # as in the mechanism panel: the Baumgarte gains show with that stabilisation, the fixed step with a
-    # fixed-step integrator
-    _open_tab(page, "Simulation")
-    page.choose("Stabilisation (loops)", "baumgarte")
-    wait_until(lambda: session.params.stabilization == "baumgarte", message="the Baumgarte stabilisation")
-    _type_into_every_box_shown(page, session, panel, done)
-    _open_tab(page, "Simulation")
-    page.choose("Integrator", "midpoint")
-    wait_until(lambda: session.params.integrator == "midpoint", message="the midpoint integrator")
-    _type_into_every_box_shown(page, session, panel, done)
+    _type_with_each_setting_shown(page, session, panel, done, "Stabilisation (loops)", lambda: session.params)
     hidden = {label for label, name in panel.boxes().items() if not numbers.controls[name].box.visible}  # not
     # for this preset (a closed loop's driven angles): a person cannot type into them either
     assert set(done) | hidden == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done) - hidden}"
@@ -220,16 +226,7 @@ def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_l
     panel = Panel(boxes=lambda: {f"type {knob.label}": knob.name for knob in session.panel_knobs()},
                   value=value, box=session.typed_box, commits=lambda: session.typed_commits)
     done: dict[str, list[str]] = {}
-    # the Baumgarte gains show with that stabilisation; the tolerance with an adaptive integrator, the fixed
-    # step with a fixed-step one: choose each in the page, as a person does
-    _open_tab(page, "Simulation")
-    page.choose("Stabilisation", "baumgarte")
-    wait_until(lambda: session.settings.stabilization == "baumgarte", message="the Baumgarte stabilisation")
-    _type_into_every_box_shown(page, session, panel, done)
-    _open_tab(page, "Simulation")
-    page.choose("Integrator", "midpoint")
-    wait_until(lambda: session.settings.integrator == "midpoint", message="the midpoint integrator")
-    _type_into_every_box_shown(page, session, panel, done)
+    _type_with_each_setting_shown(page, session, panel, done, "Stabilisation", lambda: session.settings)
     assert set(done) == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done)}"
     assert "disabled" not in [outcome for outcomes in done.values() for outcome in outcomes]
     names = {panel.boxes()[label]: outcomes for label, outcomes in done.items()}
