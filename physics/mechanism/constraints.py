@@ -54,8 +54,8 @@ class _Numbers(Kinematics):
     Jacobian, :meth:`Constraints.jacobian`): the equations are elementwise, so they broadcast."""
 
     def __init__(self, frame: _Frame, bodies: np.ndarray, t: float, rate=None) -> None:
-        self.x, self.y, self.angles = frame.x[bodies], frame.y[bodies], frame.angle[bodies]  # (slots, J)
-        self.cos, self.sin = frame.cos[bodies], frame.sin[bodies]
+        self.x, self.y, self.angles = frame.at(frame.x, bodies), frame.at(frame.y, bodies), frame.at(frame.angle, bodies)
+        self.cos, self.sin = frame.at(frame.cos, bodies), frame.at(frame.sin, bodies)  # (slots, J) or (slots, T, J)
         self.rate = rate  # by slot: (vx, vy, w), arrays broadcasting against (J,); None: at rest
         self.time = t
 
@@ -98,14 +98,22 @@ class _Numbers(Kinematics):
 
 
 class _Frame:
-    """Every body's pose at one ``q``, the ground appended as body ``B`` at rest at the origin."""
+    """Every body's pose at one ``q`` (3 B), or at each of ``T`` samples (``q``: (T, 3 B)), the ground appended
+    as body ``B`` at rest at the origin. A quantity by body is (B + 1,), or (B + 1, T) for samples."""
 
     def __init__(self, q: np.ndarray) -> None:
         q = np.asarray(q, dtype=float)
-        pose = np.zeros((q.size // 3 + 1, 3))
-        pose[:-1] = np.reshape(q, (-1, 3))
+        self.batched = q.ndim == 2
+        pose = np.zeros((q.shape[-1] // 3 + 1, 3, *q.shape[:-1]))
+        pose[:-1] = np.reshape(q.T, (-1, 3, *q.shape[:-1]))
         self.x, self.y, self.angle = pose[:, 0], pose[:, 1], pose[:, 2]
         self.cos, self.sin = np.cos(self.angle), np.sin(self.angle)
+
+    def at(self, quantity: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+        """``quantity`` of the bodies each joint reaches: (slots, J), or (slots, T, J) for samples, so that
+        it broadcasts against the joints' values (J,) as the equations do for one pose."""
+        picked = quantity[bodies]
+        return picked.swapaxes(1, 2) if self.batched else picked
 
 
 class _Group:
@@ -123,6 +131,8 @@ class _Group:
         columns = 3 * len(self.bodies)
         eye = np.eye(columns + 1, columns)[:, :, None]  # (columns + 1, columns, 1): the last set of rates all zero
         self._unit = [(eye[:, 3 * slot], eye[:, 3 * slot + 1], eye[:, 3 * slot + 2]) for slot in self.slots]
+        eye = eye[..., None]  # for samples: (columns + 1, columns, 1, 1) broadcasts against (T, J)
+        self._unit_samples = [(eye[:, 3 * slot], eye[:, 3 * slot + 1], eye[:, 3 * slot + 2]) for slot in self.slots]
         # the global column of each local one, by joint: (columns, J)
         self._columns = 3 * self.bodies[np.repeat(np.arange(len(self.bodies)), 3)] + np.arange(columns)[:, None] % 3
         self._flat: dict[int, np.ndarray] = {}
@@ -136,20 +146,32 @@ class _Group:
         return [(slot[:, 0], slot[:, 1], slot[:, 2]) for slot in rate]
 
     def gradient(self, frame: _Frame, out: np.ndarray) -> None:
-        """Add ``d row / d q`` of the group's rows to ``out`` (the ground's columns last), read off their velocity
-        forms at unit rates (one set per local column, a last set at rest for what does not hold a rate)."""
-        width = out.shape[1]
+        """Add ``d row / d q`` of the group's rows to ``out`` (rows, width), or to every sample's (T, rows,
+        width) for a frame of samples (the ground's columns last), read off their velocity forms at unit rates
+        (one set per local column, a last set at rest for what does not hold a rate)."""
+        width = out.shape[-1]
         flat = self._flat.get(width)
-        if flat is None:  # where each (row, local column, joint) entry goes in ``out``, flattened
+        if flat is None:  # where each (row, local column, joint) entry goes in one sample's ``out``, flattened
             flat = self._flat[width] = np.concatenate([(row[None, :] * width + self._columns).ravel()
                                                        for row in self.rows])
         columns = self._columns.shape[0]
-        shape = (columns + 1, self.bodies.shape[1])
+        if not frame.batched:
+            shape = (columns + 1, self.bodies.shape[1])
+            entries = []
+            for row in self.evaluate(frame, 0.0, self._unit):
+                velocity = np.broadcast_to(row.velocity, shape)
+                entries.append((velocity[:columns] - velocity[columns]).ravel())
+            out.flat[:] += np.bincount(flat, weights=np.concatenate(entries), minlength=out.size)
+            return
+        samples = out.shape[0]
+        batch_shape = (columns + 1, samples, self.bodies.shape[1])
         entries = []
-        for row in self.evaluate(frame, 0.0, self._unit):
-            velocity = np.broadcast_to(row.velocity, shape)
-            entries.append((velocity[:columns] - velocity[columns]).ravel())
-        out.flat[:] += np.bincount(flat, weights=np.concatenate(entries), minlength=out.size)
+        for row in self.evaluate(frame, 0.0, self._unit_samples):
+            velocity = np.broadcast_to(row.velocity, batch_shape)
+            entries.append((velocity[:columns] - velocity[columns]).swapaxes(0, 1).reshape(samples, -1))
+        where = flat[None, :] + (np.arange(samples) * (out.size // samples))[:, None]
+        out.flat[:] += np.bincount(where.ravel(), weights=np.concatenate(entries, axis=1).ravel(),
+                                   minlength=out.size)
 
 
 @dataclass(frozen=True)
@@ -227,11 +249,14 @@ class Constraints:
                         if torques[0] else [])
 
     def _gradients(self, groups: list[_Group], count: int, q: np.ndarray) -> np.ndarray:
+        """The rows' gradients at ``q`` (count, 3 B), or at every sample of ``q`` (T, 3 B) -> (T, count, 3 B)
+        in one pass (a run's reactions and conditions, not a loop over its samples)."""
         frame = _Frame(q)
-        out = np.zeros((count, self.size + 3))  # three spare columns take the ground's entries
+        out = np.zeros((*np.shape(q)[:-1], count, self.size + 3))  # three spare columns take the ground's entries
         for group in groups:
             group.gradient(frame, out)
-        return out[:, : self.size]
+        return out[..., : self.size]
+
     def sketch_pose(self) -> np.ndarray:
         """``q`` of the sketch: every centre of mass where it is drawn, no rotation."""
         q = np.zeros(self.size)

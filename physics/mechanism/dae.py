@@ -57,19 +57,21 @@ class MechanismDAE:
         opposite on ``a``), a slider's ``-c v`` along the guide on its body at the sliding point (the opposite on
         the guide's)."""
         if not np.any(self.constraints.damping):
-            return np.zeros(self.constraints.size)
-        along = self.constraints.damper_jacobian(q)
-        return -along.T @ (self.constraints.damping * (along @ qdot))
+            return np.zeros(np.shape(qdot))
+        along = self.constraints.damper_jacobian(q)  # (D, 3 B), or (T, D, 3 B) for samples
+        speeds = np.einsum("...dn,...n->...d", along, qdot)
+        return -np.einsum("...dn,...d->...n", along, self.constraints.damping * speeds)
 
     def applied(self, qdot: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """``Q``: gravity, motor torques and the dampers' forces (a slider's depends on ``q``: the guide turns
-        with its body, so ``q`` is needed when a joint has damping)."""
+        with its body, so ``q`` is needed when a joint has damping). ``q`` and ``qdot`` may be a run's samples
+        (T, 3 B): then ``Q`` of each, (T, 3 B), in one pass."""
         if q is None and np.any(self.constraints.damping):
             raise ValueError("applied: a damper's force depends on the pose; pass q")
         pose = q if q is not None else self.constraints.sketch_pose()
         forces = self.gravity + self.damping_force(pose, qdot)
         if self.constraints.torque.size:  # a torque motor's on its joint's relative rotation (J_t: constant)
-            forces = forces + self.constraints.driven_jacobian(pose).T @ self.constraints.torque
+            forces = forces + np.einsum("...kn,k->...n", self.constraints.driven_jacobian(pose), self.constraints.torque)
         return forces
 
     def solve(self, q: np.ndarray, qdot: np.ndarray) -> Solution:

@@ -336,18 +336,32 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
 
 
 def _conditions(constraints, solved: Samples, tree: bool) -> np.ndarray:
-    """Every sample's condition of the constraint Jacobian ``Phi_q`` (physics/mechanism/singularity.py): for the
-    DAE from the Jacobians its samples already hold (one batched SVD), for tree coordinates per sample."""
+    """Every sample's condition of the constraint Jacobian ``Phi_q`` (physics/mechanism/singularity.py), one
+    batched SVD: for the DAE of the Jacobians its samples already hold, for tree coordinates of the maximal
+    coordinates' ``Phi_q`` at every sample's pose (one batched evaluation); infinite where a pose is not finite."""
     if tree:
-        return np.array([_condition(constraints, pose) for pose in solved.q])
+        finite = np.all(np.isfinite(solved.q), axis=1)
+        out = np.full(len(solved.q), np.inf)
+        if np.any(finite):
+            out[finite] = _singular_value_ratio(constraints.jacobian(solved.q[finite]))
+        return out
     jacobian = solved.constraint_jacobian
     if jacobian.shape[1] == 0:
         return np.ones(jacobian.shape[0])
     if not np.all(np.isfinite(jacobian)):
         return np.array([_condition(constraints, pose) for pose in solved.q])
-    singular = np.linalg.svd(jacobian, compute_uv=False)
+    return _singular_value_ratio(jacobian)
+
+
+def _singular_value_ratio(jacobian: np.ndarray) -> np.ndarray:
+    """Largest over smallest singular value of each (rows, columns) matrix of ``jacobian`` (T, rows, columns),
+    as :func:`~physics.mechanism.singularity.jacobian_condition` gives it for one: 1 without rows, infinite
+    with more rows than columns or a zero singular value."""
+    if jacobian.shape[1] == 0:
+        return np.ones(jacobian.shape[0])
     if jacobian.shape[1] > jacobian.shape[2]:
         return np.full(jacobian.shape[0], np.inf)
+    singular = np.linalg.svd(jacobian, compute_uv=False)
     smallest = singular[:, -1]
     with np.errstate(divide="ignore"):
         return np.where(smallest > 0, singular[:, 0] / np.where(smallest > 0, smallest, 1.0), np.inf)
@@ -362,13 +376,39 @@ def _condition(constraints, q: np.ndarray) -> float:
     return jacobian_condition(constraints, q)
 
 
+# A sample whose Phi_q^T is this near losing rank (smallest over largest |R_ii| of its QR factor) is solved by
+# np.linalg.lstsq on its own (its minimum-norm answer), not by the batched triangular solve.
+_QR_RANK_RATIO = 1e-10
+
+
 def body_reactions(dae, solved: Samples) -> np.ndarray:
     """A tree formulation's reactions of every joint row, from its own accelerations by Newton's second law on
-    every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense)."""
-    out = []
-    for q, qdot, qddot in zip(solved.q, solved.qdot, solved.qddot):
-        jacobian = dae.constraints.jacobian(q)
+    every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense).
+    Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations, then one batched QR of ``Phi_q^T`` and a
+    triangular solve; a sample near losing rank, or not finite, by ``lstsq`` on its own as before."""
+    count = len(solved.q)
+    rows = len(dae.constraints.rows)
+    if count == 0 or rows == 0:
+        return np.zeros((count, rows))
+    finite = np.all(np.isfinite(solved.q) & np.isfinite(solved.qdot) & np.isfinite(solved.qddot), axis=1)
+    out = np.empty((count, rows))
+    alone = ~finite
+    if np.any(finite) and rows <= dae.constraints.size:
+        q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
+        transposed = np.swapaxes(dae.constraints.jacobian(q), 1, 2)  # (T, 3 B, rows)
         imbalance = dae.mass_diagonal * qddot - dae.applied(qdot, q)
-        out.append(np.linalg.lstsq(jacobian.T, imbalance, rcond=None)[0])
-    return np.array(out).reshape(len(solved.q), -1)
+        orthogonal, triangle = np.linalg.qr(transposed)
+        diagonal = np.abs(np.diagonal(triangle, axis1=1, axis2=2))
+        full_rank = diagonal.min(axis=1) > _QR_RANK_RATIO * diagonal.max(axis=1)
+        projected = np.einsum("tnr,tn->tr", orthogonal[full_rank], imbalance[full_rank])
+        where = np.flatnonzero(finite)
+        out[where[full_rank]] = np.linalg.solve(triangle[full_rank], projected[..., None])[..., 0]
+        alone[where[~full_rank]] = True
+    else:
+        alone[:] = True
+    for k in np.flatnonzero(alone):
+        jacobian = dae.constraints.jacobian(solved.q[k])
+        imbalance_k = dae.mass_diagonal * solved.qddot[k] - dae.applied(solved.qdot[k], solved.q[k])
+        out[k] = np.linalg.lstsq(jacobian.T, imbalance_k, rcond=None)[0]
+    return out
 

@@ -19,6 +19,9 @@ from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.model import Mechanism
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.simulate import project_velocity, simulate_mechanism
+from physics.mechanism.singularity import jacobian_condition
+
+from .test_mechanism_symbolic import random_mechanism
 
 METHODS = ("dae", "lagrange", "newton_euler")
 
@@ -118,3 +121,33 @@ def test_speed_motors_follow_the_clock_the_kernels_write():
     assert np.max(run.residual) < 1e-9
     np.testing.assert_allclose(run.q, driven.q, atol=1e-7)
     np.testing.assert_allclose(run.qdot, driven.qdot, atol=1e-6)
+
+
+def test_every_sample_at_once_equals_each_sample_on_its_own():
+    """A run's conditions and a tree formulation's reactions are computed for all its samples in one pass
+    (batched Jacobians, applied forces, one QR): the same numbers as the per-sample evaluation and least squares,
+    on random mechanisms with sliders on moving guides, dampers on every joint and torque motors."""
+    rng = np.random.default_rng(24)
+    torque_motors = 0
+    for _ in range(12):
+        mechanism = random_mechanism(rng)
+        torque_motors += sum(driver.torque is not None for driver in mechanism.drivers)
+        dae = MechanismDAE(mechanism)
+        q = dae.constraints.sketch_pose() + rng.normal(scale=0.3, size=(9, dae.constraints.size))
+        qdot = rng.normal(size=q.shape)
+        qddot = rng.normal(size=q.shape)
+        for batched, single in ((dae.constraints.jacobian, dae.constraints.jacobian),
+                                (dae.constraints.damper_jacobian, dae.constraints.damper_jacobian),
+                                (dae.constraints.driven_jacobian, dae.constraints.driven_jacobian)):
+            assert np.array_equal(batched(q), np.array([single(pose) for pose in q]).reshape(batched(q).shape))
+        applied = dae.applied(qdot, q)
+        np.testing.assert_allclose(applied, [dae.applied(v, pose) for v, pose in zip(qdot, q)], rtol=1e-13, atol=1e-13)
+        solved = engine.Samples(q, qdot, qddot, np.zeros((9, 0)), np.zeros(9), np.ones(9), np.zeros((9, 0, 0)))
+        reactions = engine.body_reactions(dae, solved)
+        for k in range(9):
+            expected = np.linalg.lstsq(dae.constraints.jacobian(q[k]).T,
+                                       dae.mass_diagonal * qddot[k] - dae.applied(qdot[k], q[k]), rcond=None)[0]
+            np.testing.assert_allclose(reactions[k], expected, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected)))
+        conditions = engine._conditions(dae.constraints, solved, tree=True)
+        assert np.allclose(conditions, [jacobian_condition(dae.constraints, pose) for pose in q], rtol=1e-12)
+    assert torque_motors > 0  # the draws reached the torque motors' Jacobian
