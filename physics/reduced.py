@@ -37,6 +37,7 @@ from .assembly import (
     wrap_near,
 )
 from .errors import LinkageError
+from .kinematics import lever_arms, potential_energy
 from .status import Status
 
 # Conditioning of a choice of independent angle i: the reciprocal 2-norm condition number of the dependent
@@ -72,12 +73,6 @@ MassAndForcing = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray
 # Open-chain dynamics in closed form (the default model; the app may pass its compiled one instead)
 
 
-def _lever(L: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """``lever[k, i]``: how far bar i's angle moves bar k's centre of mass (L_i for i < k, d_k for i = k)."""
-    n = L.size
-    return np.tril(np.broadcast_to(L, (n, n)), -1) + np.diag(d)
-
-
 def _split(params: np.ndarray, n: int):
     params = np.asarray(params, dtype=float)
     return params[:n], params[n : 2 * n], params[2 * n : 3 * n], params[3 * n : 4 * n], float(params[4 * n])
@@ -87,7 +82,7 @@ def _split(params: np.ndarray, n: int):
 def _coefficients(params_bytes: bytes, n: int):
     """``(c, w, I, g)`` of :func:`open_chain_mass_and_forcing`, computed once per parameter set."""
     L, d, m, I, g = _split(np.frombuffer(params_bytes, dtype=float), n)
-    lever = _lever(L, d)
+    lever = lever_arms(L, d)
     return lever.T @ (m[:, None] * lever), m @ lever, np.diag(I), g
 
 
@@ -110,13 +105,6 @@ def open_chain_mass_and_forcing(theta, omega, params) -> tuple[np.ndarray, np.nd
     M = coupling * np.cos(diff) + I
     f = -(coupling * np.sin(diff)) @ (omega * omega) - g * weight * np.sin(theta)
     return M, f
-
-
-def potential_energy(L, d, m, g, theta) -> np.ndarray:
-    """``V = sum m_k g y_Gk`` (zero at the height of O); batched over leading axes of ``theta``."""
-    L, d, m = (np.asarray(v, dtype=float) for v in (L, d, m))
-    weight = m @ _lever(L, d)
-    return -g * np.sum(weight * np.cos(np.asarray(theta, dtype=float)), axis=-1)
 
 
 # --------------------------------------------------------------------------------------------------
