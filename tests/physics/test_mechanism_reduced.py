@@ -404,3 +404,54 @@ def test_both_commands_take_method_reduced():
     refused = subprocess.run([sys.executable, "-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end",
                               "0.5", "--method", "reduced"], capture_output=True, text=True, timeout=300)
     assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+
+
+def test_a_chains_joint_damping_is_the_damping_of_its_mechanisms_pins():
+    """``chain_mechanism(..., damping=c)`` damps pins O, J1, J2 by ``c`` (relative joint rates, the tip's pin
+    undamped), the chain's Rayleigh function: the seed four-bar's reduced run as a mechanism follows the chain's
+    own damped Lagrange run (generated from the chain's equations, docs/physics.md), which loses a third of its
+    energy in 10 s."""
+    from physics import Settings, simulate  # noqa: PLC0415
+
+    preset = get_preset("four-bar")
+    chain, theta0 = preset.chain, preset.theta0
+    damping = 0.3
+    mechanism = chain_mechanism(chain, theta0, damping=damping)
+    assert [joint.damping for joint in mechanism.joints] == [damping, damping, damping, 0.0]
+    reduced = simulate_reduced(mechanism, 10.0, 101, rtol=1e-11, atol=1e-11).run
+    lagrange = simulate(chain, theta0, np.zeros(3), Settings(method="lagrange", t_end=10.0, samples=101, rtol=1e-11,
+                                                             atol=1e-11, damping=damping))
+    assert lagrange.success
+    assert np.max(np.abs(reduced.q[:, 2::3] + theta0 - lagrange.theta)) <= 1e-8
+    assert np.max(np.abs(reduced.qdot[:, 2::3] - lagrange.omega)) <= 1e-8
+    assert lagrange.energy[0] - lagrange.energy[-1] > 0.3 * abs(lagrange.energy[0])  # the damping is at work
+    undamped = simulate_reduced(chain_mechanism(chain, theta0), 10.0, 101, rtol=1e-11, atol=1e-11).run
+    assert np.max(np.abs(undamped.q[:, 2::3] + theta0 - lagrange.theta)) > 1e-2  # and it is what the test sees
+
+
+def test_a_pose_where_the_constraints_are_dependent_is_no_start_for_any_coordinate():
+    """The change-point four-bar 1e-6 rad short of its singular pose (every link in line): the constraint Jacobian's
+    condition is 3.5e6, above NEAR_SINGULAR_CONDITION, so the run stops at its start, SINGULAR, naming the pose;
+    0.05 rad short (condition 70) it runs."""
+    from physics.mechanism.reduced import ReducedStop  # noqa: PLC0415
+    from physics.status import Status  # noqa: PLC0415
+    from physics.studies.mechanism_stability import change_point_mechanism  # noqa: PLC0415
+
+    near, _ = change_point_mechanism(1e-6)
+    with pytest.raises(ReducedStop, match="singular pose at t = 0 s") as caught:
+        simulate_reduced(near, 1.0, 11)
+    assert caught.value.status == Status.SINGULAR and "\n" not in str(caught.value)
+    far, _ = change_point_mechanism(0.05)
+    assert simulate_reduced(far, 1.0, 11).run.status == Status.OK
+
+
+def test_a_kept_coordinate_stopped_as_a_status_says_where_its_dead_centre_was():
+    """With ``stop_as_status`` the run keeps its samples and reports the dead centre (joint, time, share), so a
+    caller can word it (the chains' theta1)."""
+    reduced = simulate_reduced(MECHANISM_PRESETS["slider-crank"](), 3.0, 31, coordinate="guide", switching=False,
+                               stop_as_status=True)
+    dead = reduced.dead_centre
+    assert reduced.run.status < 0 and dead is not None and dead.joint == "guide"
+    assert f"at t = {dead.t:.6g} s" in reduced.run.message and 0.2 < dead.t < 0.3
+    assert dead.share < 2e-3 and reduced.run.t[-1] <= dead.t
+    assert simulate_reduced(MECHANISM_PRESETS["slider-crank"](), 0.1, 11).dead_centre is None
