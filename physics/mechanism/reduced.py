@@ -51,7 +51,10 @@ from .run import state_vector
 from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
-# faster than it. The new coordinate starts at share 1, so switches cannot chatter.
+# faster than it. The new coordinate starts at share 1, so switches cannot chatter. A caller may ask for a
+# higher share (``switch_share``): an error the integrator allows in the coordinate grows up to 1 / share times
+# in the dependent joints, so a higher share buys accuracy at the same tolerance (the chains' four-bar asks for
+# 0.4: physics/simulate/reduced_adapter.py).
 SWITCH_SHARE = 0.1
 # Without switching, a share below this counts as the dead centre itself (the run is refused there).
 DEAD_CENTRE_SHARE = 1e-3
@@ -174,9 +177,13 @@ def simulate_reduced(
 
 def reduced_run(mechanism: Mechanism, times: np.ndarray, *, rtol: float, atol: float, q0: np.ndarray | None = None,
                 qdot0: np.ndarray | None = None, coordinate: str | None = None, switching: bool = True,
-                stop_as_status: bool = False) -> ReducedRun:
+                stop_as_status: bool = False, switch_share: float | None = None) -> ReducedRun:
     """:func:`simulate_reduced` at the sample times ``times`` (increasing, the first the start time) and
-    tolerances its caller has checked (a chain's ``Settings``, whose spans differ from a mechanism's)."""
+    tolerances its caller has checked (a chain's ``Settings``, whose spans differ from a mechanism's), switching
+    when the coordinate's share falls below ``switch_share`` (default :data:`SWITCH_SHARE`)."""
+    switch_share = SWITCH_SHARE if switch_share is None else float(switch_share)
+    if not DEAD_CENTRE_SHARE < switch_share < 1.0:
+        raise LinkageError(f"switch_share = {switch_share}: allowed range {DEAD_CENTRE_SHARE:g} < switch_share < 1")
     dae = MechanismDAE(mechanism)
     size = dae.constraints.size
     q_start = state_vector(q0, "q0", size)
@@ -205,7 +212,7 @@ def reduced_run(mechanism: Mechanism, times: np.ndarray, *, rtol: float, atol: f
     counts = _Counts()  # counted as the segments go (kept when one stops)
     try:
         _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t_final, collected, switches,
-                   length, switching, counts)
+                   length, switch_share if switching else None, counts)
     except (LinkageError, np.linalg.LinAlgError) as error:
         if not stop_as_status or not collected.states:
             raise
@@ -220,7 +227,7 @@ def reduced_run(mechanism: Mechanism, times: np.ndarray, *, rtol: float, atol: f
 
 
 def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t_final, collected, switches, length,
-               switching, counts: _Counts) -> None:
+               switch_share: float | None, counts: _Counts) -> None:
     """The reduced run's segments, from coordinate switch to switch, into ``collected`` and ``switches``; each
     segment's accepted steps and right-hand sides are added to ``counts`` as soon as it is integrated (a run
     that stops keeps them, the failed segment's included)."""
@@ -233,7 +240,7 @@ def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t
         if not condition <= NEAR_SINGULAR_CONDITION:  # no joint is a coordinate where the constraints are dependent
             raise ReducedStop(f"{mechanism.name}: {singular_message(dae.constraints, q, t)}; no joint is a valid "
                               "coordinate there", Status.SINGULAR)
-        if switching and (switch_now or share < SWITCH_SHARE):
+        if switch_share is not None and (switch_now or share < switch_share):
             switch_now = False
             if len(switches) >= MAX_SWITCHES:
                 raise ReducedStop(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
@@ -249,7 +256,7 @@ def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t
         if t >= t_final:
             collected.add(start, partition.name)
             break
-        event = _share_event(partition, SWITCH_SHARE if switching else DEAD_CENTRE_SHARE)
+        event = _share_event(partition, DEAD_CENTRE_SHARE if switch_share is None else switch_share)
         # scipy boundary: the reduced model integrates with scipy, imported only when it runs.
         from scipy.integrate import solve_ivp  # noqa: PLC0415
 
@@ -264,7 +271,7 @@ def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t
         if solution.status == 0:
             collected.add(end, partition.name, last=True)
             break
-        if not switching:
+        if switch_share is None:
             share = partition.share(end)
             raise ReducedStop(_dead_centre_refusal(partition, t, share), Status.SINGULAR,
                               DeadCentre(partition.name, t, share))
