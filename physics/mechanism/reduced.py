@@ -35,7 +35,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
@@ -48,6 +47,7 @@ from .reduced_engine import reduced_engine
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
 from .run import state_vector
+from .run_settings import run_options
 from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
@@ -60,27 +60,6 @@ SWITCH_SHARE = 0.1
 DEAD_CENTRE_SHARE = 1e-3
 # A safety net against a run that switches without end (a mechanism passing a singular pose).
 MAX_SWITCHES = 10_000
-
-_ALLOWED = {
-    "t_end": "0 < t_end <= 1e4 s",
-    "samples": "2 <= samples <= 1000000",
-    "t_start": "-1e6 <= t_start <= 1e6 s",
-    "rtol": "1e-13 <= rtol <= 0.1",
-    "atol": "0 < atol <= 1",
-}
-
-
-class ReducedSettings(BaseModel):
-    """The run's numbers, checked at the boundary."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    t_end: float = Field(gt=0.0, le=1e4, description="duration from t_start, s")
-    samples: int = Field(ge=2, le=1_000_000)
-    t_start: float = Field(0.0, ge=-1e6, le=1e6)
-    rtol: float = Field(1e-10, ge=1e-13, le=0.1)
-    atol: float = Field(1e-10, gt=0.0, le=1.0)
-
 
 @dataclass(frozen=True)
 class CoordinateSwitch:
@@ -137,17 +116,6 @@ class _Counts:
         self.evaluations += int(solution.nfev)
 
 
-def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, atol: float) -> ReducedSettings:
-    """The validated settings; one line naming the field, the value and the allowed range otherwise."""
-    try:
-        return ReducedSettings(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
-    except ValidationError as error:
-        first = error.errors()[0]
-        field = str(first["loc"][0]) if first["loc"] else "settings"
-        message = str(first["msg"]).removeprefix("Value error, ")
-        raise LinkageError(f"{field} = {first.get('input')!r}: {message} (allowed: {_ALLOWED.get(field, '')})") from None
-
-
 def simulate_reduced(
     mechanism: Mechanism,
     t_end: float,
@@ -169,8 +137,8 @@ def simulate_reduced(
     (a dead centre, too many switches, the integration or a position analysis failing) raises LinkageError;
     with ``stop_as_status`` it returns the samples recorded before the segment that stopped, the run's
     ``status`` and ``message`` saying why (:func:`physics.mechanism.simulate.simulate_mechanism` asks for this)."""
-    settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
-    times = settings.t_start + np.linspace(0.0, settings.t_end, settings.samples)
+    settings = run_options(t_end=t_end, samples=samples, t_start=t_start, method="reduced", rtol=rtol, atol=atol)
+    times = float(t_start) + np.linspace(0.0, settings.t_end, settings.samples)
     return reduced_run(mechanism, times, rtol=settings.rtol, atol=settings.atol, q0=q0, qdot0=qdot0,
                        coordinate=coordinate, switching=switching, stop_as_status=stop_as_status)
 
