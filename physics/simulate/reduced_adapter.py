@@ -59,7 +59,7 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
                               stop_as_status=True, switch_share=SWITCH_SHARE)
     except (LinkageError, np.linalg.LinAlgError) as stop:  # the start itself cannot be integrated (a singular
         # pose: the chain and its settings were checked before); the start is reported, as a chain's run does
-        return _stopped_at_start(chain, settings, theta0, omega0, t_start, stop)
+        return _stopped_at_start(chain, settings, theta0, omega0, t_start, stop, mechanism.name)
     run = reduced.run
     theta = run.q[:, 2::3] + theta0  # body angles are measured from the sketch, drawn at theta0
     y = np.concatenate([theta, run.qdot[:, 2::3]], axis=1)
@@ -70,7 +70,7 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
     elif reduced.dead_centre is not None:
         trajectory.message = fixed_coordinate_message(reduced.dead_centre)
     else:
-        trajectory.message = run.message
+        trajectory.message = run.message.removeprefix(f"{mechanism.name}: ")  # the chain's runs name no mechanism
     trajectory.n_steps = int(run.n_steps)
     trajectory.n_rhs = int(run.n_rhs)
     trajectory.stats = {
@@ -97,13 +97,14 @@ def _trajectory(chain, settings, t, y):
     return build_trajectory(chain, settings, pinned, chain.params(damping=settings.damping), t, y)
 
 
-def _stopped_at_start(chain, settings, theta0, omega0, t_start, stop: Exception):
+def _stopped_at_start(chain, settings, theta0, omega0, t_start, stop: Exception, mechanism_name: str):
     """The start alone, with the reason: a stop of the model (its status), or a start that does not assemble as a
     mechanism of mobility 1 (every bar in line: the constraints are dependent, a singular pose)."""
     trajectory = _trajectory(chain, settings, np.array([t_start]), np.concatenate([theta0, omega0])[None, :])
     if isinstance(stop, ReducedStop):
         trajectory.status = Status(stop.status)
-        trajectory.message = fixed_coordinate_message(stop.dead_centre) if stop.dead_centre else str(stop)
+        trajectory.message = (fixed_coordinate_message(stop.dead_centre) if stop.dead_centre
+                              else str(stop).removeprefix(f"{mechanism_name}: "))
     else:
         trajectory.status = Status.SINGULAR
         # the chain closes its loop (checked before) and its settings are valid: what assembly refuses here is
