@@ -14,7 +14,8 @@ joint's. With the share ``kappa``, no dependent joint moves faster than ``1 / ka
 (the velocity transformation is that well conditioned), and ``kappa = 0`` is a dead centre: the coordinate
 stands still while the mechanism moves, the bordered Jacobian is singular and the dependent positions are not
 functions of it (two branches meet). The run starts in the fastest joint (share 1) unless told otherwise, and an
-integrator event switches when the share falls below :data:`SWITCH_SHARE`: the new coordinate is the fastest
+integrator event switches when the share falls below :data:`SWITCH_SHARE` (or a caller's ``switch_share``:
+:func:`reduced_run`): the new coordinate is the fastest
 joint at that instant, its value and rate are read off the exact state (nothing is integrated across the
 switch), and the switch is recorded. With ``switching=False`` the coordinate is kept and the run is refused
 when its share falls below :data:`DEAD_CENTRE_SHARE`, naming the joint and the time.

@@ -39,7 +39,7 @@ FIXED_JOINT = "O"
 # 1e-8, 1e-10, 1e-12): at 0.1 the angles came out 4.6, 2.5 and 6.8 times further from a 1e-14 reference than the
 # absolute-angle model's at the same tolerances, at 0.4 as close (2.1, 0.6, 0.8 times), for as many switches and
 # right-hand sides.
-SWITCH_SHARE = 0.4
+CHAIN_SWITCH_SHARE = 0.4
 
 
 def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float):
@@ -56,7 +56,7 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
     try:
         reduced = reduced_run(mechanism, times, rtol=settings.rtol, atol=settings.atol, qdot0=qdot0,
                               coordinate=None if switching else FIXED_JOINT, switching=switching,
-                              stop_as_status=True, switch_share=SWITCH_SHARE)
+                              stop_as_status=True, switch_share=CHAIN_SWITCH_SHARE)
     except (LinkageError, np.linalg.LinAlgError) as stop:  # the start itself cannot be integrated (a singular
         # pose: the chain and its settings were checked before); the start is reported, as a chain's run does
         return _stopped_at_start(chain, settings, theta0, omega0, t_start, stop, mechanism.name)

@@ -28,7 +28,7 @@ from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
 from physics.mechanism.reduced import DEAD_CENTRE_SHARE, simulate_reduced
 from physics.mechanism.reduced_partition import Partition
-from physics.simulate.reduced_adapter import CHAIN_JOINTS, SWITCH_SHARE
+from physics.simulate.reduced_adapter import CHAIN_JOINTS, CHAIN_SWITCH_SHARE
 
 PRESET = get_preset("four-bar")
 SEED_CHAIN, SEED_THETA0 = PRESET.chain, PRESET.theta0
@@ -151,7 +151,7 @@ def test_switching_survives_the_seed_100_s_with_energy_and_closure_kept(seed_run
     assert index.shape == (20001,) and len(set(index.tolist())) >= 2
     rates = joint_rates(run.omega)[1:]  # after the start from rest, where every rate is zero
     in_use = rates[np.arange(rates.shape[0]), index[1:]]
-    assert np.min(in_use / rates.max(axis=1)) >= SWITCH_SHARE * (1 - 1e-6)
+    assert np.min(in_use / rates.max(axis=1)) >= CHAIN_SWITCH_SHARE * (1 - 1e-6)
     assert run.stats["n_switches"] == len(run.stats["switch_times"]) and 10 < run.stats["n_switches"] < 100
     # angles are continuous: no sample-to-sample jump of 2 pi from unwrapping
     assert np.max(np.abs(np.diff(run.theta, axis=0))) < 0.5
