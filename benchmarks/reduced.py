@@ -1,6 +1,8 @@
-"""Figures for BENCHMARKS.md, issue 24, "The reduced model on the compiled engine": the general reduced model in
-one joint coordinate (physics/mechanism/reduced.py) against the four-bar's own (physics/reduced.py), side by
-side in one process, and every mobility-1 preset's reduced run.
+"""Figures for BENCHMARKS.md, issue 24, "The reduced model on the compiled engine": the reduced model in one joint
+coordinate (physics/mechanism/reduced.py) on the seed four-bar through the chain's ``simulate`` and through the
+mechanism directly, side by side in one process, and every mobility-1 preset's reduced run. (Before issue 24's
+"one pipeline" the chain's row ran the four-bar's own model, physics/reduced.py, now deleted: with ``--before``
+on such a tree the two four-bar rows compare the old model with the general one.)
 
     python -m benchmarks.reduced [--t-end 20] [--samples 201] [--repeat 3] [--before TREE]
 
@@ -8,8 +10,11 @@ Figures are CPU seconds of the run alone (``time.process_time``; the machine is 
 ``--repeat`` rounds, each case run once per round in the order below after a short warm-up run (generated code
 loaded, kernels compiled):
 
-* ``four-bar (chain)``: ``physics.simulate`` of the seed four-bar preset with ``method="reduced"``;
-* ``four-bar (mechanism)``: the same four-bar written as a mechanism (``chain_mechanism``), ``simulate_reduced``;
+* ``four-bar (chain)``: ``physics.simulate`` of the seed four-bar preset with ``method="reduced"``: the chain
+  drawn as a mechanism, the general model (switching at share 0.4), the samples mapped back to the chain's angles
+  and its Trajectory built;
+* ``four-bar (mechanism)``: the same four-bar written as a mechanism (``chain_mechanism``), ``simulate_reduced``
+  (switching at the general share 0.1), its maximal-coordinate run;
 * ``slider-crank``, ``watt-six-bar``, ``stephenson-six-bar``: ``simulate_reduced`` of each preset from rest.
 
 With ``--before TREE`` every round also runs the same cases in a child process on the tree ``TREE`` (a copy of

@@ -17,7 +17,7 @@ from scipy.optimize import least_squares, minimize
 
 from .assembly import loop_jacobian, loop_residual
 from .errors import LinkageError
-from .reduced import _lever, potential_energy
+from .kinematics import lever_arms, potential_energy
 
 # Newton on the Lagrange conditions stops when the residual is this small relative to the weights m g L.
 KKT_RTOL = 1e-14
@@ -80,7 +80,7 @@ def static_equilibrium(L, d, m, g, pin, theta_guess) -> Equilibrium:
     if theta_guess.size != n:
         raise LinkageError(f"theta_guess: expected {n} angles, got {theta_guess.size}")
     g = float(g)
-    weight = g * (m @ _lever(L, d))  # V = -sum weight_i cos theta_i
+    weight = g * (m @ lever_arms(L, d))  # V = -sum weight_i cos theta_i
 
     def gradient(theta):
         return weight * np.sin(theta)
@@ -125,7 +125,7 @@ def stationary_point(L, d, m, g, pin, theta_near, note: str = "") -> Equilibrium
     pin = np.asarray(pin, dtype=float).reshape(2)
     theta = np.asarray(theta_near, dtype=float).reshape(n).copy()
     g = float(g)
-    weight = g * (m @ _lever(L, d))
+    weight = g * (m @ lever_arms(L, d))
     scale = max(float(np.sum(np.abs(weight))), 1e-300)  # size of gravity's torques
     size = float(np.sum(L)) + float(np.hypot(*pin))
 
@@ -183,7 +183,7 @@ def _lagrangian_hessian(L, weight, theta, lam) -> np.ndarray:
 def tip_reaction_at_rest(L, d, m, g, theta) -> np.ndarray:
     """Least-squares tip reaction R with ``J^T R = grad V`` (exact at an equilibrium), shape (2,)."""
     L, d, m = (np.asarray(v, dtype=float) for v in (L, d, m))
-    weight = float(g) * (m @ _lever(L, d))
+    weight = float(g) * (m @ lever_arms(L, d))
     theta = np.asarray(theta, dtype=float)
     return np.linalg.lstsq(loop_jacobian(L, theta).T, weight * np.sin(theta), rcond=None)[0]
 

@@ -83,6 +83,21 @@ def energies(params, theta, omega):
     return kinetic, potential, kinetic + potential
 
 
+def lever_arms(L, d) -> np.ndarray:
+    """``lever[k, i]``: how far bar i's angle moves bar k's centre of mass (``L_i`` for i < k, ``d_k`` for i = k,
+    0 beyond), so centre of mass k sits at ``sum_i lever[k, i] (sin theta_i, -cos theta_i)``."""
+    L, d = np.asarray(L, dtype=float), np.asarray(d, dtype=float)
+    n = L.size
+    return np.tril(np.broadcast_to(L, (n, n)), -1) + np.diag(d)
+
+
+def potential_energy(L, d, m, g, theta) -> np.ndarray:
+    """``V = sum m_k g y_Gk`` (zero at the height of O) from the bar parameters alone; batched over leading axes
+    of ``theta`` (the rest-position searches evaluate it without a parameter vector)."""
+    weight = np.asarray(m, dtype=float) @ lever_arms(L, d)
+    return -g * np.sum(weight * np.cos(np.asarray(theta, dtype=float)), axis=-1)
+
+
 def mass_matrix(params, theta) -> np.ndarray:
     """Numeric mass matrix ``sum_i m_i J_i^T J_i + diag(I)`` of the open chain at one configuration.
 
@@ -93,9 +108,9 @@ def mass_matrix(params, theta) -> np.ndarray:
     n = theta.shape[-1]
     c, s = np.cos(theta), np.sin(theta)
     M = np.diag(I.astype(float))
+    levers = lever_arms(L, d)
     for i in range(n):
-        lever = np.where(np.arange(n) < i, L, 0.0)
-        lever[i] = d[i]
+        lever = levers[i]
         jac = np.stack([lever * c, lever * s])  # 2 x n: d(r_Gi)/d(theta)
         M = M + m[i] * jac.T @ jac
     return M

@@ -66,13 +66,14 @@ class MethodSpec:
     """One way to get equations of motion, and what it offers.
 
     A *formulation* is derived symbolically and compiled (``physics.derive``); a *reduced* method integrates
-    the one coordinate of a one-degree-of-freedom loop (a pinned three-bar) with scipy's DOP853."""
+    one joint coordinate of a one-degree-of-freedom mechanism (for a chain: a pinned three-bar) with scipy's
+    DOP853 (``physics.mechanism.reduced``; a chain's through ``physics.simulate.reduced_adapter``)."""
 
     name: str
     has_reactions: bool = False  # joint reactions are unknowns of its system (Trajectory.reactions filled)
     has_lagrangian: bool = False  # exposes the mass matrix and force of L = T - V (variational integrator)
-    reduced: bool = False  # the one-coordinate model of physics.reduced, not a derived formulation
-    switches_branch: bool = False  # reduced only: crosses dead centres by switching assembly branch
+    reduced: bool = False  # the one-coordinate model of physics.mechanism.reduced, not a derived formulation
+    switches_branch: bool = False  # reduced only: crosses dead centres by switching its joint coordinate
 
     @property
     def derived(self) -> bool:

@@ -3,7 +3,9 @@
 So the general description can be checked against the three derived chain formulations: the same bodies,
 the same pins (joint k joins bar k's distal end to bar k+1's proximal end, as in docs/architecture.md, so a
 pin's multipliers are the chain's reaction ``R_k``: the force ON bar k+1 BY bar k), and a closed chain's tip
-pinned to a ground point ``H``.
+pinned to a ground point ``H``. A chain's joint damping ``c`` (``Settings.damping``: a torque ``-c`` times the
+relative rate of the two bars a joint joins, docs/physics.md) is the damping of pins ``O`` and ``J1 .. J(n-1)``;
+the tip's pin ``H`` carries no damper, as the chain's Rayleigh function has none there.
 """
 
 from __future__ import annotations
@@ -15,8 +17,9 @@ from ..model import Chain
 from .model import Body, Mechanism, Revolute
 
 
-def chain_mechanism(chain: Chain, theta_sketch) -> Mechanism:
-    """The chain drawn at angles ``theta_sketch`` (absolute, from the downward vertical)."""
+def chain_mechanism(chain: Chain, theta_sketch, damping: float = 0.0) -> Mechanism:
+    """The chain drawn at angles ``theta_sketch`` (absolute, from the downward vertical), its joints damped by
+    ``damping`` (the chain's ``Settings.damping``)."""
     L = chain.array("L")
     theta_sketch = np.asarray(theta_sketch, dtype=float)
     joints = joint_positions(L, theta_sketch)
@@ -28,8 +31,9 @@ def chain_mechanism(chain: Chain, theta_sketch) -> Mechanism:
             points={"P": tuple(joints[k]), "D": tuple(joints[k + 1])},
             mass=bar.m, com=tuple(coms[k]), inertia=bar.I,
         ))
-    pins = [Revolute(name="O", a="bar1.P", b="ground.O")]
-    pins += [Revolute(name=f"J{k}", a=f"bar{k + 1}.P", b=f"bar{k}.D") for k in range(1, chain.n)]
+    damping = float(damping)
+    pins = [Revolute(name="O", a="bar1.P", b="ground.O", damping=damping)]
+    pins += [Revolute(name=f"J{k}", a=f"bar{k + 1}.P", b=f"bar{k}.D", damping=damping) for k in range(1, chain.n)]
     ground = {"O": (0.0, 0.0)}
     if chain.pin is not None:
         ground["H"] = (float(chain.pin[0]), float(chain.pin[1]))

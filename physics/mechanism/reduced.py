@@ -14,14 +14,21 @@ joint's. With the share ``kappa``, no dependent joint moves faster than ``1 / ka
 (the velocity transformation is that well conditioned), and ``kappa = 0`` is a dead centre: the coordinate
 stands still while the mechanism moves, the bordered Jacobian is singular and the dependent positions are not
 functions of it (two branches meet). The run starts in the fastest joint (share 1) unless told otherwise, and an
-integrator event switches when the share falls below :data:`SWITCH_SHARE`: the new coordinate is the fastest
+integrator event switches when the share falls below :data:`SWITCH_SHARE` (or a caller's ``switch_share``:
+:func:`reduced_run`): the new coordinate is the fastest
 joint at that instant, its value and rate are read off the exact state (nothing is integrated across the
 switch), and the switch is recorded. With ``switching=False`` the coordinate is kept and the run is refused
 when its share falls below :data:`DEAD_CENTRE_SHARE`, naming the joint and the time.
 
 A mechanism its motors fully determine (0 free) has no free coordinate; it is refused, and
 :func:`physics.mechanism.simulate.simulate_mechanism` moves it by kinematics alone. Mobility 2 or more needs
-more than one coordinate and is refused as well.
+more than one coordinate and is refused as well. Where the constraints themselves become dependent (a change
+point: every link of a four-bar in line) no joint is a valid coordinate: each segment's start is checked, and
+the run stops there as the DAE's does (:mod:`physics.mechanism.singularity`).
+
+A chain's methods ``"reduced"`` and ``"reduced_fixed"`` are this model too, on the chain written as a mechanism
+(:mod:`physics.simulate.reduced_adapter`), through :func:`reduced_run`, which takes sample times its caller has
+already checked.
 """
 
 from __future__ import annotations
@@ -29,7 +36,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
@@ -42,35 +48,19 @@ from .reduced_engine import reduced_engine
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
 from .run import state_vector
+from .run_settings import run_options
+from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times
-# faster than it. The new coordinate starts at share 1, so switches cannot chatter.
+# faster than it. The new coordinate starts at share 1, so switches cannot chatter. A caller may ask for a
+# higher share (``switch_share``): an error the integrator allows in the coordinate grows up to 1 / share times
+# in the dependent joints, so a higher share buys accuracy at the same tolerance (the chains' four-bar asks for
+# 0.4: physics/simulate/reduced_adapter.py).
 SWITCH_SHARE = 0.1
 # Without switching, a share below this counts as the dead centre itself (the run is refused there).
 DEAD_CENTRE_SHARE = 1e-3
 # A safety net against a run that switches without end (a mechanism passing a singular pose).
 MAX_SWITCHES = 10_000
-
-_ALLOWED = {
-    "t_end": "0 < t_end <= 1e4 s",
-    "samples": "2 <= samples <= 1000000",
-    "t_start": "-1e6 <= t_start <= 1e6 s",
-    "rtol": "1e-13 <= rtol <= 0.1",
-    "atol": "0 < atol <= 1",
-}
-
-
-class ReducedSettings(BaseModel):
-    """The run's numbers, checked at the boundary."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
-
-    t_end: float = Field(gt=0.0, le=1e4, description="duration from t_start, s")
-    samples: int = Field(ge=2, le=1_000_000)
-    t_start: float = Field(0.0, ge=-1e6, le=1e6)
-    rtol: float = Field(1e-10, ge=1e-13, le=0.1)
-    atol: float = Field(1e-10, gt=0.0, le=1.0)
-
 
 @dataclass(frozen=True)
 class CoordinateSwitch:
@@ -84,14 +74,35 @@ class CoordinateSwitch:
 
 
 @dataclass(frozen=True)
+class DeadCentre:
+    """A coordinate kept without switching stood still: joint ``joint`` at time ``t``, its share ``share``."""
+
+    joint: str
+    t: float
+    share: float
+
+
+@dataclass(frozen=True)
 class ReducedRun:
     """A reduced run: ``run`` has the fields of the DAE's run (its ``n_steps`` and ``n_rhs`` the accepted steps
     and right-hand sides of every segment); ``switches`` every coordinate switch in order; ``coordinate`` the
-    joint integrated at each sample."""
+    joint integrated at each sample; ``dead_centre`` where a run without switching stopped (None otherwise), so a
+    caller can word the stop in its own terms (a chain's theta1)."""
 
     run: Trajectory
     switches: tuple[CoordinateSwitch, ...]
     coordinate: tuple[str, ...]
+    dead_centre: DeadCentre | None = None
+
+
+class ReducedStop(LinkageError):
+    """A reduced run stopped midway: its ``status`` (physics.status.Status) and, at a kept coordinate's dead
+    centre, where (``dead_centre``). ``simulate_reduced`` raises it unless asked for the run as a status."""
+
+    def __init__(self, message: str, status: Status, dead_centre: DeadCentre | None = None) -> None:
+        super().__init__(message)
+        self.status = int(status)
+        self.dead_centre = dead_centre
 
 
 @dataclass
@@ -104,17 +115,6 @@ class _Counts:
     def add(self, solution) -> None:
         self.steps += len(solution.t) - 1  # without t_eval, solution.t is the start and every accepted step
         self.evaluations += int(solution.nfev)
-
-
-def settings_or_refuse(t_end: float, samples: int, t_start: float, rtol: float, atol: float) -> ReducedSettings:
-    """The validated settings; one line naming the field, the value and the allowed range otherwise."""
-    try:
-        return ReducedSettings(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
-    except ValidationError as error:
-        first = error.errors()[0]
-        field = str(first["loc"][0]) if first["loc"] else "settings"
-        message = str(first["msg"]).removeprefix("Value error, ")
-        raise LinkageError(f"{field} = {first.get('input')!r}: {message} (allowed: {_ALLOWED.get(field, '')})") from None
 
 
 def simulate_reduced(
@@ -138,12 +138,27 @@ def simulate_reduced(
     (a dead centre, too many switches, the integration or a position analysis failing) raises LinkageError;
     with ``stop_as_status`` it returns the samples recorded before the segment that stopped, the run's
     ``status`` and ``message`` saying why (:func:`physics.mechanism.simulate.simulate_mechanism` asks for this)."""
-    settings = settings_or_refuse(t_end=t_end, samples=samples, t_start=t_start, rtol=rtol, atol=atol)
+    settings = run_options(t_end=t_end, samples=samples, t_start=t_start, method="reduced", rtol=rtol, atol=atol)
+    times = float(t_start) + np.linspace(0.0, settings.t_end, settings.samples)
+    return reduced_run(mechanism, times, rtol=settings.rtol, atol=settings.atol, q0=q0, qdot0=qdot0,
+                       coordinate=coordinate, switching=switching, stop_as_status=stop_as_status)
+
+
+def reduced_run(mechanism: Mechanism, times: np.ndarray, *, rtol: float, atol: float, q0: np.ndarray | None = None,
+                qdot0: np.ndarray | None = None, coordinate: str | None = None, switching: bool = True,
+                stop_as_status: bool = False, switch_share: float | None = None) -> ReducedRun:
+    """:func:`simulate_reduced` at the sample times ``times`` (increasing, the first the start time) and
+    tolerances its caller has checked (a chain's ``Settings``, whose spans differ from a mechanism's), switching
+    when the coordinate's share falls below ``switch_share`` (default :data:`SWITCH_SHARE`)."""
+    switch_share = SWITCH_SHARE if switch_share is None else float(switch_share)
+    if not DEAD_CENTRE_SHARE < switch_share < 1.0:
+        raise LinkageError(f"switch_share = {switch_share}: allowed range {DEAD_CENTRE_SHARE:g} < switch_share < 1")
     dae = MechanismDAE(mechanism)
     size = dae.constraints.size
     q_start = state_vector(q0, "q0", size)
     qdot_start = state_vector(qdot0, "qdot0", size)
-    assembled = assemble(mechanism, q_start, settings.t_start)
+    times = np.asarray(times, dtype=float)
+    assembled = assemble(mechanism, q_start, float(times[0]))
     if assembled.mobility != 1:
         raise LinkageError(_mobility_refusal(mechanism, assembled.mobility))
     coordinates = JointCoordinates(mechanism, dae.constraints)
@@ -151,7 +166,7 @@ def simulate_reduced(
         raise LinkageError(f"coordinate = {coordinate!r}: no joint of that name (joints: {', '.join(coordinates.names)})")
     length = sketch_size(mechanism)
     q = assembled.q
-    t = settings.t_start
+    t = float(times[0])
     if coordinate is None:
         which = _fastest_joint(coordinates, dae, q)
     else:
@@ -160,14 +175,13 @@ def simulate_reduced(
     partition = Partition(dae, coordinates, which, q, t, length, engine)
     at_rest = partition.state(t, coordinates.value(q, which), 0.0)
     qdot = _nearest_velocity(dae, at_rest, qdot_start)
-    times = settings.t_start + np.linspace(0.0, settings.t_end, settings.samples)
     t_final = float(times[-1])
     collected = Samples(times)
     switches: list[CoordinateSwitch] = []
     counts = _Counts()  # counted as the segments go (kept when one stops)
     try:
-        _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches,
-                   length, switching, counts)
+        _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t_final, collected, switches,
+                   length, switch_share if switching else None, counts)
     except (LinkageError, np.linalg.LinAlgError) as error:
         if not stop_as_status or not collected.states:
             raise
@@ -175,21 +189,14 @@ def simulate_reduced(
                       message=str(error) if isinstance(error, LinkageError)
                       else f"{mechanism.name}: position analysis failed after t = {collected.states[-1].t:.6g} s "
                            f"({error})", n_steps=counts.steps, n_rhs=counts.evaluations)
-        return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
+        return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate),
+                          dead_centre=getattr(error, "dead_centre", None))
     run = replace(collected.run(dae, engine), n_steps=counts.steps, n_rhs=counts.evaluations)
     return ReducedRun(run=run, switches=tuple(switches), coordinate=tuple(collected.coordinate))
 
 
-class _Stopped(LinkageError):
-    """A reduced run stopped midway, with its status (physics.status.Status)."""
-
-    def __init__(self, message: str, status: Status) -> None:
-        super().__init__(message)
-        self.status = int(status)
-
-
-def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_final, collected, switches, length,
-               switching, counts: _Counts) -> None:
+def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t_final, collected, switches, length,
+               switch_share: float | None, counts: _Counts) -> None:
     """The reduced run's segments, from coordinate switch to switch, into ``collected`` and ``switches``; each
     segment's accepted steps and right-hand sides are added to ``counts`` as soon as it is integrated (a run
     that stops keeps them, the failed segment's included)."""
@@ -198,10 +205,14 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
         s, sdot = partition.coordinate_of(q, qdot)
         start = partition.state(t, s, sdot)
         share = partition.share(start)
-        if switching and (switch_now or share < SWITCH_SHARE):
+        condition = jacobian_condition(dae.constraints, q)
+        if not condition <= NEAR_SINGULAR_CONDITION:  # no joint is a coordinate where the constraints are dependent
+            raise ReducedStop(f"{mechanism.name}: {singular_message(dae.constraints, q, t)}; no joint is a valid "
+                              "coordinate there", Status.SINGULAR)
+        if switch_share is not None and (switch_now or share < switch_share):
             switch_now = False
             if len(switches) >= MAX_SWITCHES:
-                raise _Stopped(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
+                raise ReducedStop(f"{mechanism.name}: more than {MAX_SWITCHES} coordinate switches by t = {t:.6g} s; "
                                "the mechanism is near a singular pose where no joint is a good coordinate",
                                Status.SINGULAR)
             new = Partition(dae, coordinates, int(np.argmax(start.shares)), q, t, length, partition.engine)
@@ -209,27 +220,30 @@ def _integrate(mechanism, settings, dae, coordinates, partition, q, qdot, t, t_f
             partition = new
             continue
         if share < DEAD_CENTRE_SHARE:
-            raise _Stopped(_dead_centre_refusal(partition, t, share), Status.SINGULAR)
+            raise ReducedStop(_dead_centre_refusal(partition, t, share), Status.SINGULAR,
+                              DeadCentre(partition.name, t, share))
         if t >= t_final:
             collected.add(start, partition.name)
             break
-        event = _share_event(partition, SWITCH_SHARE if switching else DEAD_CENTRE_SHARE)
+        event = _share_event(partition, DEAD_CENTRE_SHARE if switch_share is None else switch_share)
         # scipy boundary: the reduced model integrates with scipy, imported only when it runs.
         from scipy.integrate import solve_ivp  # noqa: PLC0415
 
-        solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=settings.rtol,
-                             atol=settings.atol, events=[event], dense_output=True)
+        solution = solve_ivp(partition.rhs, (t, t_final), [s, sdot], method="DOP853", rtol=rtol, atol=atol,
+                             events=[event], dense_output=True)
         counts.add(solution)
         if solution.status == -1:
-            raise _Stopped(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
+            raise ReducedStop(f"{mechanism.name}: the reduced integration failed after t = {t:.6g} s "
                            f"({solution.message})", Status.INTEGRATOR_FAILED)
         end = collect_segment(collected, partition, solution, start)
         q, qdot, t = end.q, end.qdot, float(solution.t[-1])
         if solution.status == 0:
             collected.add(end, partition.name, last=True)
             break
-        if not switching:
-            raise _Stopped(_dead_centre_refusal(partition, t, partition.share(end)), Status.SINGULAR)
+        if switch_share is None:
+            share = partition.share(end)
+            raise ReducedStop(_dead_centre_refusal(partition, t, share), Status.SINGULAR,
+                              DeadCentre(partition.name, t, share))
         switch_now = True
 
 

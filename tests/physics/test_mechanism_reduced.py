@@ -1,5 +1,5 @@
 """The reduced model of a one-degree-of-freedom mechanism (physics/mechanism/reduced.py), checked against
-physics it does not share: the maximal-coordinate DAE run, the four-bar's own reduced model, energy, the
+physics it does not share: the maximal-coordinate DAE run, the chain's Lagrange formulation, energy, the
 slider-crank's generalised mass in closed form, and finite differences of the joint coordinates."""
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from physics.mechanism.reduced_partition import Partition
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
 from physics.presets import get_preset
-from physics.reduced import simulate_reduced as simulate_four_bar
 
 MOBILITY_ONE = ["slider-crank", "watt-six-bar", "stephenson-six-bar"]
 EPS = np.finfo(float).eps
@@ -293,20 +292,22 @@ def test_the_coordinate_in_use_always_keeps_its_share(name, coordinate):
 
 
 @pytest.mark.slow
-def test_the_seed_four_bar_as_a_mechanism_follows_the_four_bar_reduced_model_through_its_dead_centres():
-    """The seed four-bar's crank angle theta1 (joint O) reaches dead centres (docs/closed-loops.md: the four-bar's
-    own reduced model switches past them); the general reduced model, in the joint it finds best, agrees with
-    that model, written separately, through them."""
+def test_the_seed_four_bar_as_a_mechanism_follows_the_chains_lagrange_run_through_its_dead_centres():
+    """The seed four-bar's crank angle theta1 (joint O) reaches dead centres (docs/closed-loops.md); the general
+    reduced model, in the joint it finds best, agrees with the chain's own Lagrange formulation (generated from
+    the chain's equations, not from the mechanism's) through them."""
+    from physics import Settings, simulate  # noqa: PLC0415
+    from physics.assembly import count_dead_centres  # noqa: PLC0415
+
     preset = get_preset("four-bar")
     chain, theta0 = preset.chain, preset.theta0
     mechanism = chain_mechanism(chain, theta0)
-    times = np.linspace(0.0, 8.0, 81)
     reduced = simulate_reduced(mechanism, 8.0, 81, rtol=1e-12, atol=1e-12)
-    four_bar = simulate_four_bar(chain.array("L"), chain.array("d"), chain.array("m"), chain.array("I"), chain.g,
-                                 chain.pin, theta0, 8.0, times, rtol=1e-12, atol=1e-12)
-    assert four_bar.status == 0 and four_bar.n_switches >= 2
+    lagrange = simulate(chain, theta0, np.zeros(3), Settings(method="lagrange", t_end=8.0, samples=81, rtol=1e-12,
+                                                             atol=1e-12))
+    assert lagrange.success and count_dead_centres(lagrange.theta)["fold"] >= 1  # theta1's own dead centre
     theta = reduced.run.q[:, 2::3] + theta0
-    assert np.max(np.abs(theta - four_bar.theta)) <= 1e-7
+    assert np.max(np.abs(theta - lagrange.theta)) <= 1e-7
     crank_shares = []
     for q, qdot in zip(reduced.run.q[1:], reduced.run.qdot[1:]):
         speeds = joint_speeds(mechanism, q, qdot)
@@ -325,9 +326,9 @@ def open_two_bar_chain() -> Mechanism:
          r"mobility 1 \(Grübler count 1\); driven by 1 motor; 0 free: its motors fix every body"),
         (MECHANISM_PRESETS["jansen-leg"], {}, "0 free"),
         (open_two_bar_chain, {}, r"mobility 2 \(Grübler count 2\); no motor; 2 free: the reduced model integrates one"),
-        (MECHANISM_PRESETS["slider-crank"], {"t_end": math.nan}, "t_end = nan: .*allowed: 0 < t_end <= 1e4"),
+        (MECHANISM_PRESETS["slider-crank"], {"t_end": math.nan}, "t_end = nan: allowed range 0 < t_end <= 1e4"),
         (MECHANISM_PRESETS["slider-crank"], {"t_end": -1.0}, "t_end = -1.0: .*allowed"),
-        (MECHANISM_PRESETS["slider-crank"], {"samples": 1}, "samples = 1: .*allowed: 2 <= samples"),
+        (MECHANISM_PRESETS["slider-crank"], {"samples": 1}, "samples = 1: allowed range 2 <= samples"),
         (MECHANISM_PRESETS["slider-crank"], {"t_start": math.inf}, "t_start = inf"),
         (MECHANISM_PRESETS["slider-crank"], {"rtol": 1e-16}, "rtol = 1e-16: .*allowed"),
         (MECHANISM_PRESETS["slider-crank"], {"q0": np.full(9, math.nan)}, "q0: expected 9 finite numbers"),
@@ -404,3 +405,54 @@ def test_both_commands_take_method_reduced():
     refused = subprocess.run([sys.executable, "-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end",
                               "0.5", "--method", "reduced"], capture_output=True, text=True, timeout=300)
     assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+
+
+def test_a_chains_joint_damping_is_the_damping_of_its_mechanisms_pins():
+    """``chain_mechanism(..., damping=c)`` damps pins O, J1, J2 by ``c`` (relative joint rates, the tip's pin
+    undamped), the chain's Rayleigh function: the seed four-bar's reduced run as a mechanism follows the chain's
+    own damped Lagrange run (generated from the chain's equations, docs/physics.md), which loses a third of its
+    energy in 10 s."""
+    from physics import Settings, simulate  # noqa: PLC0415
+
+    preset = get_preset("four-bar")
+    chain, theta0 = preset.chain, preset.theta0
+    damping = 0.3
+    mechanism = chain_mechanism(chain, theta0, damping=damping)
+    assert [joint.damping for joint in mechanism.joints] == [damping, damping, damping, 0.0]
+    reduced = simulate_reduced(mechanism, 10.0, 101, rtol=1e-11, atol=1e-11).run
+    lagrange = simulate(chain, theta0, np.zeros(3), Settings(method="lagrange", t_end=10.0, samples=101, rtol=1e-11,
+                                                             atol=1e-11, damping=damping))
+    assert lagrange.success
+    assert np.max(np.abs(reduced.q[:, 2::3] + theta0 - lagrange.theta)) <= 1e-8
+    assert np.max(np.abs(reduced.qdot[:, 2::3] - lagrange.omega)) <= 1e-8
+    assert lagrange.energy[0] - lagrange.energy[-1] > 0.3 * abs(lagrange.energy[0])  # the damping is at work
+    undamped = simulate_reduced(chain_mechanism(chain, theta0), 10.0, 101, rtol=1e-11, atol=1e-11).run
+    assert np.max(np.abs(undamped.q[:, 2::3] + theta0 - lagrange.theta)) > 1e-2  # and it is what the test sees
+
+
+def test_a_pose_where_the_constraints_are_dependent_is_no_start_for_any_coordinate():
+    """The change-point four-bar 1e-6 rad short of its singular pose (every link in line): the constraint Jacobian's
+    condition is 3.5e6, above NEAR_SINGULAR_CONDITION, so the run stops at its start, SINGULAR, naming the pose;
+    0.05 rad short (condition 70) it runs."""
+    from physics.mechanism.reduced import ReducedStop  # noqa: PLC0415
+    from physics.status import Status  # noqa: PLC0415
+    from physics.studies.mechanism_stability import change_point_mechanism  # noqa: PLC0415
+
+    near, _ = change_point_mechanism(1e-6)
+    with pytest.raises(ReducedStop, match="singular pose at t = 0 s") as caught:
+        simulate_reduced(near, 1.0, 11)
+    assert caught.value.status == Status.SINGULAR and "\n" not in str(caught.value)
+    far, _ = change_point_mechanism(0.05)
+    assert simulate_reduced(far, 1.0, 11).run.status == Status.OK
+
+
+def test_a_kept_coordinate_stopped_as_a_status_says_where_its_dead_centre_was():
+    """With ``stop_as_status`` the run keeps its samples and reports the dead centre (joint, time, share), so a
+    caller can word it (the chains' theta1)."""
+    reduced = simulate_reduced(MECHANISM_PRESETS["slider-crank"](), 3.0, 31, coordinate="guide", switching=False,
+                               stop_as_status=True)
+    dead = reduced.dead_centre
+    assert reduced.run.status < 0 and dead is not None and dead.joint == "guide"
+    assert f"at t = {dead.t:.6g} s" in reduced.run.message and 0.2 < dead.t < 0.3
+    assert dead.share < 2e-3 and reduced.run.t[-1] <= dead.t
+    assert simulate_reduced(MECHANISM_PRESETS["slider-crank"](), 0.1, 11).dead_centre is None
