@@ -68,10 +68,11 @@ def ensure_loaded(method: str, n: int, pinned: bool) -> None:
 
 
 def _systems(method: str, n: int, pinned: bool) -> list[tuple[str, int, bool]]:
-    """The compiled systems a method runs on (the reduced models use the Lagrange code of both chains)."""
+    """The chain's compiled systems a method loads (the reduced methods: the pinned Lagrange code, which reports
+    their samples; their general reduced model's code is loaded by the warm-up run)."""
     if method in physics.FORMULATION_NAMES:
         return [(method, n, pinned)]
-    return [("lagrange", n, False), ("lagrange", n, True)]
+    return [("lagrange", n, True)]
 
 
 _ready: set[tuple] = set()
@@ -114,7 +115,7 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
     True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
     in-process, as before: slower for the others, still correct). When ``cancelled()`` turns true the worker
     is killed at once (the cache's atomic writes leave no half file) and :class:`Cancelled` is raised."""
-    if all(physics.is_generated(*system) for system in _systems(method, n, pinned)):
+    if not physics.code_missing(method, n, pinned):
         return False
     command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
                "pinned" if pinned else "open", integrator]

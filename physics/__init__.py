@@ -6,6 +6,7 @@ re-exported here; see docs/architecture.md for conventions and shapes.
 
 from .codegen import CompiledSystem, equations_latex, load_compiled
 from .codegen.cache import is_generated
+from .codegen.prebuild import code_missing
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kinematics import energies, joint_positions
@@ -63,6 +64,7 @@ __all__ = [
     "energies",
     "equations_latex",
     "get_preset",
+    "code_missing",
     "is_generated",
     "joint_positions",
     "load_compiled",

@@ -53,3 +53,40 @@ def test_a_missing_mechanism_is_derived_by_a_worker_not_by_the_server(tmp_path):
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result == {"before": False, "built": True, "after": True, "sympy": False}, (result, done.stderr)
+
+
+REDUCED_SCRIPT = """
+import json, sys
+from app import warm
+import physics
+from physics import get_preset, Settings
+preset = get_preset("four-bar")
+before = physics.code_missing("reduced", 3, True)
+built = warm.build_outside("reduced", 3, True, "DOP853")
+warm.ensure_ready(preset.chain, Settings(method="reduced"), preset.theta0, preset.omega0)
+print(json.dumps({"before": before, "built": built, "after": physics.code_missing("reduced", 3, True),
+                  "sympy": "sympy" in sys.modules}))
+"""
+
+
+@pytest.mark.slow  # a worker process derives the four-bar's Lagrange code and its mechanism's DAE with sympy
+def test_the_reduced_models_code_is_derived_by_a_worker_not_by_the_server(tmp_path):
+    """The chain's reduced methods run the general reduced model on the four-bar written as a mechanism: the
+    server must see that mechanism's generated DAE code missing too (not only the chain's Lagrange code), or it
+    would derive it in its own interpreter."""
+    preset = get_preset("four-bar")
+    simulate(preset.chain, preset.theta0, preset.omega0, Settings(method="reduced", t_end=0.01))  # its kernels
+    cache = tmp_path / "cache"
+    shutil.copytree(kernels_folder(), cache / "numba" / kernels_folder().name)
+    os.chmod(cache, 0o700)
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(cache))
+    # an installation that has the chain's Lagrange code (both closures) but not yet the mechanism's DAE code
+    derived = subprocess.run([sys.executable, "-c", "from physics import load_compiled; "
+                              "load_compiled('lagrange', 3, False); load_compiled('lagrange', 3, True)"],
+                             cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert derived.returncode == 0, derived.stderr
+    done = subprocess.run([sys.executable, "-c", REDUCED_SCRIPT], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result == {"before": True, "built": True, "after": False, "sympy": False}, (result, done.stderr)
