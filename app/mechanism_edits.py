@@ -6,7 +6,7 @@ Every number of a mechanism session's panel is a :class:`Knob`: a name (``mass:c
 mechanism, validated again by ``physics.mechanism``'s pydantic models and assembled, or raises LinkageError
 naming the body or joint, the field, the value and the allowed range; :func:`apply_setting` does the same for
 the run's settings and :func:`start_knobs` / :func:`start_value` for the start (app/mechanism_start.py).
-Typed text is read by the chain panel's reader (:func:`app.commands.read_number`). Plain data; no viser.
+Typed text and sent values are read by the one reader of every panel (:func:`app.commands.read_number`). Plain data; no viser.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from physics.mechanism import Body, Driver, Gear, Mechanism
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.validation import MIN_INERTIA, MIN_MASS, check_runnable
 
+from .commands import read_number
 from .mechanism_runs import MechanismSettings
 from .mechanism_start import FreeCoordinate
 
@@ -194,7 +195,7 @@ def _in_range(knobs_now: list[Knob], name: str, value: object, unknown: str) -> 
     knob = next((k for k in knobs_now if k.name == name), None)
     if knob is None:
         raise LinkageError(f"{name!r}: {unknown}")
-    number = _number(knob.label, value)
+    number = read_number(knob.label, knob.unit, value)
     knob.check(number)
     return knob, number
 
@@ -254,19 +255,6 @@ def _scaled(body: Body, factor: float) -> Body:
         data["com"] = move(body.com)
     data["inertia"] = body.inertia * factor**2
     return Body.model_validate(data)
-
-
-def _number(name: str, value: object) -> float:
-    if isinstance(value, bool):
-        raise LinkageError(f"{name} = {value!r}: expected a number")
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond any float (10**400)
-        shown = repr(value)
-        raise LinkageError(f"{name} = {shown if len(shown) <= 40 else shown[:39] + '…'}: expected a number") from None
-    if not math.isfinite(number):
-        raise LinkageError(f"{name} = {value!r}: expected a finite number")
-    return number
 
 
 def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechanism | None = None,

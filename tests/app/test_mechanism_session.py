@@ -93,8 +93,10 @@ def test_edits_go_through_the_models_and_name_the_element():
         ("mass:coupler", -1.0, "coupler: m (kg) = -1: allowed range 1e-06 to"),
         ("mass:coupler", 5e-324, "coupler: m (kg) = 4.94066e-324: allowed range 1e-06 to"),
         ("inertia:coupler", 5e-324, "coupler: I (kg·m²) = 4.94066e-324: allowed range 1e-09 to"),
-        ("mass:coupler", "abc", "coupler: m (kg) = 'abc': expected a number"),
-        ("inertia:rocker", float("nan"), "rocker: I (kg·m²) = nan: expected a finite number"),
+        ("mass:coupler", "abc", "coupler: m (kg) = 'abc': not a number; type a number in kg"),
+        ("mass:coupler", "1,5", "coupler: m (kg) = '1,5': not a number"),
+        ("mass:coupler", True, "coupler: m (kg) = True: not a number"),
+        ("inertia:rocker", float("nan"), "rocker: I (kg·m²) = nan: must be a finite number"),
         ("speed:O2", 1e9, "motor O2: speed (°/s) = 1e+09: allowed range -720 to 720"),
         ("mass:nobody", 1.0, "'mass:nobody': not a control of crank-rocker"),
     ]:
