@@ -20,7 +20,7 @@ from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
-from physics.mechanism.run import coordinate_names, run_table
+from physics.mechanism.run import BodyPoints, body_points, coordinate_names, run_table
 from physics.mechanism.validation import check_runnable
 
 from .buffers import TrajectoryRing
@@ -216,6 +216,7 @@ class MechanismSpec:
     # arguments; None: in this interpreter
     runner: Callable[..., object] | None = None
     draw: Drawing = field(init=False)
+    points: BodyPoints = field(init=False)  # its named points (physics.mechanism.run): the drawing's paths
     # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
     structure: str = field(init=False)
 
@@ -224,6 +225,7 @@ class MechanismSpec:
 
     def __post_init__(self) -> None:
         self.draw = drawing(self.chain)
+        self.points = body_points(self.chain)
         self.structure = structure_of(self.chain)
         if not self.row_names:
             self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
@@ -265,8 +267,12 @@ class MechanismSpec:
         trace = self.settings.trace or self.chain.trace
         return self.draw.labels.index(trace) if trace in self.draw.labels else None
 
-    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None) -> dict[str, np.ndarray]:
-        points = points_at(self.draw, q)
+    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None, *,
+                 paths: BodyPoints) -> dict[str, np.ndarray]:
+        """A chunk's stored samples. Every drawn point's path is the run's own (``paths``: physics' named
+        points, :class:`~physics.mechanism.run.BodyPoints`, whose first names are the drawing's labels), never
+        computed here again; the traced one is one of them, else the first body's centre."""
+        points = np.stack([paths.path(q, k) for k in range(len(self.draw.labels))], axis=1)
         k = self.trace_index()
         trace = points[:, k] if k is not None else centres_at(q)[:, 0]
         return {
@@ -279,7 +285,8 @@ class MechanismSpec:
     def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
         run = traj.run
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
-                             run.reaction_rows, run.condition)  # type: ignore[attr-defined]
+                             run.reaction_rows, run.condition,  # type: ignore[attr-defined]
+                             paths=run.body_points or self.points)  # type: ignore[attr-defined]
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""
@@ -288,7 +295,8 @@ class MechanismSpec:
                                f"({self.n} bodies)")
         q = np.where(np.isfinite(q0), q0, 0.0)[None, :]
         zero = np.zeros(1)
-        return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))))
+        return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))),
+                             paths=self.points)
 
     def simulate(self, mechanism: Mechanism, q0, qdot0, settings: MechanismSettings, t_start: float = 0.0,
                  continuing: bool = False) -> MechanismChunk:

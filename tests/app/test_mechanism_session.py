@@ -123,6 +123,13 @@ def test_chunks_continue_one_run_exactly():
     chunk = spec.chunk(second)
     assert chunk["joints"].shape == (16, len(spec.draw.labels), 2)
     assert np.allclose(chunk["trace_xy"], chunk["joints"][:, spec.draw.labels.index("piston.B")])
+    # the drawn points are the run's own named points, the same numbers the drawing's kinematics give
+    for k, label in enumerate(spec.draw.labels):
+        np.testing.assert_array_equal(chunk["joints"][:, k], second.run.point(label))
+    np.testing.assert_array_equal(chunk["joints"], points_at(spec.draw, second.run.q))
+    np.testing.assert_array_equal(chunk["trace_xy"], second.run.point("piston.B"))
+    still = spec.still_sample(0.0, q0, np.zeros_like(q0))
+    np.testing.assert_array_equal(still["joints"], points_at(spec.draw, q0[None, :]))
 
 
 # ---------------------------------------------------------------------------------------------- in the server
