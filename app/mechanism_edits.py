@@ -21,7 +21,7 @@ from physics import LinkageError
 from physics.mechanism import Body, Driver, Gear, Mechanism
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.validation import MAX_COORDINATE, MIN_INERTIA, MIN_MASS, check_runnable
-from physics.model import MAX_ANGULAR_SPEED
+from physics.model import MAX_ANGULAR_SPEED, MECHANISM_MAX_TOLERANCE, MIN_RTOL
 
 from .commands import allowed_range, read_number, refused_range
 from .mechanism_runs import MechanismSettings
@@ -168,7 +168,7 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
     return out
 
 
-TOLERANCE_RANGE = (1e-14, 1e-2)  # rtol = atol: physics.mechanism.simulate.ALLOWED
+TOLERANCE_RANGE = (MIN_RTOL, MECHANISM_MAX_TOLERANCE)  # rtol = atol: what a mechanism's run allows
 STEP_RANGE_MS = (0.01, 100.0)  # the fixed step of midpoint and variational, in ms
 BAUMGARTE_RANGE = (0.0, 50.0)  # 1/s: the chain panel's sliders
 

@@ -10,7 +10,7 @@ run from the last stored sample (``q0, qdot0, t_start``). Plain data and numpy; 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Literal
+from typing import Any, Callable, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
@@ -22,6 +22,7 @@ from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
 from physics.mechanism.run import BodyPoints, body_points, coordinate_names, run_table
 from physics.mechanism.validation import check_runnable
+from physics.model import MECHANISM_MAX_TOLERANCE, MIN_RTOL
 
 from .buffers import TrajectoryRing
 from .player import SAMPLE_DT
@@ -34,6 +35,11 @@ EVALUATION_WORK = 6
 SAMPLE_WORK = 75
 
 
+def _settings_field(name: str) -> Any:
+    """The one :class:`~physics.Settings`' field ``name`` (its default, range and checks), to declare it again."""
+    return Settings.model_fields[name]
+
+
 class MechanismSettings(BaseModel):
     """A run's options (``t_end`` and ``samples`` are set per chunk by the player)."""
 
@@ -42,12 +48,14 @@ class MechanismSettings(BaseModel):
     method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
     stabilization: Literal["none", "baumgarte", "projection"] = "projection"
     trace: str | None = None  # "body.point" whose path is drawn
-    rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
+    # and atol, within the span a mechanism's run allows (physics.model; compare mode's reference runs tighter)
+    rtol: float = Field(1e-10, ge=MIN_RTOL, le=MECHANISM_MAX_TOLERANCE)
     integrator: str = "DOP853"  # any of physics.registry.INTEGRATORS that can run the method (allowed_integrators)
-    step: float = Field(1e-3, gt=0.0, le=1.0)  # s: the fixed step of midpoint and variational
-    # 1/s: the Baumgarte terms' gains (stabilization = baumgarte), the chain's defaults
-    baumgarte_alpha: float = Field(Settings.model_fields["baumgarte_alpha"].default, ge=0.0, le=1e4)
-    baumgarte_beta: float = Field(Settings.model_fields["baumgarte_beta"].default, ge=0.0, le=1e4)
+    # s: the fixed step of midpoint and variational; 1/s: the Baumgarte terms' gains (stabilization = baumgarte):
+    # the one Settings' own fields (defaults and ranges), not a copy of them
+    step: float = _settings_field("step")
+    baumgarte_alpha: float = _settings_field("baumgarte_alpha")
+    baumgarte_beta: float = _settings_field("baumgarte_beta")
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
 
@@ -392,18 +400,12 @@ def check_integrator(method: str, integrator: str) -> None:
 
 def run_settings(t_end: float, samples: int, method: str, stabilization: str, rtol: float, integrator: str,
                  step: float | None, baumgarte: tuple[float, float] | None) -> Settings:
-    """physics' :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), checked by
-    physics' own ``run_options`` (its one-line refusals: ``method = 'euler': allowed values ...``), with the
-    Baumgarte gains, which only ``simulate_mechanism(settings=...)`` takes. Loads the simulation: call it where
-    a chunk is computed (a worker, or this interpreter's fallback)."""
+    """physics' one :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), every
+    option, the Baumgarte gains too, checked by physics' own ``run_options`` (its one-line refusals: ``method =
+    'euler': allowed values ...``). Loads the simulation: call it where a chunk is computed (a worker, or this
+    interpreter's fallback)."""
     from physics.mechanism.simulate import run_options  # noqa: PLC0415 - scipy and the engine: only here
 
-    options = run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
-                          atol=rtol, integrator=integrator, step=step)
-    if baumgarte is None:
-        return options
-    alpha, beta = (float(gain) for gain in baumgarte)
-    for name, gain in (("baumgarte_alpha", alpha), ("baumgarte_beta", beta)):
-        if not 0.0 <= gain <= 1e4:  # NaN too
-            raise LinkageError(f"{name} = {gain!r}: allowed range 0 <= {name} <= 1e4")
-    return options.model_copy(update={"baumgarte_alpha": alpha, "baumgarte_beta": beta})
+    alpha, beta = (None, None) if baumgarte is None else baumgarte
+    return run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
+                       atol=rtol, integrator=integrator, step=step, baumgarte_alpha=alpha, baumgarte_beta=beta)
