@@ -47,7 +47,6 @@ from .simulate.run import check_assembled
 from .studies.charts import fan_picture, png_bytes
 
 EXIT_BAD_INPUT = 2
-EXIT_RUN_FAILED = EXIT_RUN_STOPPED
 
 
 def _build_setup(args):
@@ -147,7 +146,7 @@ def cmd_simulate(args) -> int:
     reached = float(trajectory.t[-1]) if len(trajectory.t) else float("nan")
     where = f"; the {len(trajectory.t)} samples up to t = {reached:.6g} s are in {partial}" if partial else ""
     print(f"error: {trajectory.message}{where}", file=sys.stderr)
-    return EXIT_RUN_FAILED
+    return EXIT_RUN_STOPPED
 
 
 def _case_chain(case, pinned_default: bool, index: int):
