@@ -5,6 +5,7 @@ value, the Baumgarte gains too, is refused by physics' run_options in its docume
 from __future__ import annotations
 
 import math
+import typing
 
 import pytest
 from pydantic import ValidationError
@@ -31,6 +32,15 @@ def test_the_panels_run_fields_are_the_one_settings_fields(field):
     for bad in (top * 1.5, -1.0, math.nan):
         with pytest.raises(ValidationError):
             MechanismSettings(**{field: bad})
+
+
+@pytest.mark.parametrize("field", ["integrator", "stabilization"])
+def test_the_panels_names_are_the_one_settings_names(field):
+    assert MechanismSettings.model_fields[field].annotation == Settings.model_fields[field].annotation
+    for name in typing.get_args(Settings.model_fields[field].annotation):
+        assert getattr(MechanismSettings(**{field: name}), field) == name
+    with pytest.raises(ValidationError):
+        MechanismSettings(**{field: "euler"})
 
 
 def test_the_panels_tolerance_is_the_span_a_mechanisms_run_allows():
