@@ -185,20 +185,41 @@ def read_number(field: str, unit: str, value: object) -> float:
     return number
 
 
-def range_text(name: str, q: Quantity, params: SessionParameters | None = None, k: int | None = None) -> str:
-    """The allowed range in the control's units: ``0 <= d2 <= 1.5 m``, ``I1 >= 0 kg·m²``, ``0 < step <= 1000 ms``."""
+def allowed_range(low: float, high: float, low_open: bool = False, high_open: bool = False) -> str:
+    """The words of every panel's range refusal, a chain's box and a mechanism's alike (``0 to 1000``; with an
+    open bound ``above 0 up to 1000``; a missing one ``0 or more`` / ``up to 1000``), in the control's units."""
+    has_low, has_high = math.isfinite(low), math.isfinite(high)
+    low_words = f"above {low:g}" if low_open else f"{low:g}"
+    high_words = f"below {high:g}" if high_open else f"{high:g}"
+    if has_low and has_high:
+        if not (low_open or high_open):
+            return f"{low:g} to {high:g}"
+        return f"{'above' if low_open else 'from'} {low:g} {'and below' if high_open else 'up to'} {high:g}"
+    if has_low:
+        return low_words if low_open else f"{low_words} or more"
+    if has_high:
+        return high_words if high_open else f"up to {high_words}"
+    return "any finite number"
+
+
+def refused_range(label: str, value: float, allowed: str) -> LinkageError:
+    """The one refusal of a value outside its range, every panel's: ``g (m/s²) = 2000: allowed range 0 to 1000``
+    (``label`` with its unit in brackets, the value and the range in that unit)."""
+    return LinkageError(f"{label} = {value:g}: allowed range {allowed}")
+
+
+def control_label(name: str, q: Quantity) -> str:
+    """A chain control as its refusals name it: the field and its unit in brackets (``g (m/s²)``, ``rtol``)."""
+    return f"{name} ({q.unit})" if q.unit else name
+
+
+def range_text(q: Quantity, params: SessionParameters | None = None, k: int | None = None) -> str:
+    """The allowed range of ``q`` in the control's units (:func:`allowed_range`): ``0 to 1.5`` for ``d2`` on
+    a bar 1.5 m long, ``above 0 up to 1000`` for the step in ms."""
     lo, lo_open, hi, hi_open = q.bounds()
     if q.field == "d" and params is not None and k is not None:
         hi, hi_open = params.L[k - 1], False
-    unit = ("" if q.unit.startswith("°") else " ") + q.unit if q.unit else ""
-    has_lo, has_hi = math.isfinite(lo), math.isfinite(hi)
-    if has_lo and has_hi:
-        return f"{lo * q.scale:g} {'<' if lo_open else '<='} {name} {'<' if hi_open else '<='} {hi * q.scale:g}{unit}"
-    if has_lo:
-        return f"{name} {'>' if lo_open else '>='} {lo * q.scale:g}{unit}"
-    if has_hi:
-        return f"{name} {'<' if hi_open else '<='} {hi * q.scale:g}{unit}"
-    return f"any finite {name}"
+    return allowed_range(lo * q.scale, hi * q.scale, lo_open, hi_open)
 
 
 def _refusal(name: str, q: Quantity, number: float, error: ValidationError, params, k) -> LinkageError:
@@ -210,7 +231,7 @@ def _refusal(name: str, q: Quantity, number: float, error: ValidationError, para
         out_of_range = item.get("type", "").startswith(("greater_than", "less_than")) or "allowed range" in reason
         reasons.append(None if out_of_range else reason)
     if None in reasons:
-        return LinkageError(f"{name} = {q.shown(number)}: outside the allowed range {range_text(name, q, params, k)}")
+        return refused_range(control_label(name, q), number * q.scale, range_text(q, params, k))
     return LinkageError(f"{name} = {q.shown(number)}: " + "; ".join(dict.fromkeys(r for r in reasons if r)))
 
 

@@ -6,7 +6,7 @@ Every number of a mechanism session's panel is a :class:`Knob`: a name (``mass:c
 mechanism, validated again by ``physics.mechanism``'s pydantic models and assembled, or raises LinkageError
 naming the body or joint, the field, the value and the allowed range; :func:`apply_setting` does the same for
 the run's settings and :func:`start_knobs` / :func:`start_value` for the start (app/mechanism_start.py).
-Typed text is read by the chain panel's reader (:func:`app.commands.read_number`). Plain data; no viser.
+Typed text and sent values are read by the one reader of every panel (:func:`app.commands.read_number`). Plain data; no viser.
 """
 
 from __future__ import annotations
@@ -20,8 +20,10 @@ from pydantic import ValidationError
 from physics import LinkageError
 from physics.mechanism import Body, Driver, Gear, Mechanism
 from physics.mechanism.assembly import sketch_size
-from physics.mechanism.validation import MIN_INERTIA, MIN_MASS, check_runnable
+from physics.mechanism.validation import MAX_COORDINATE, MIN_INERTIA, MIN_MASS, check_runnable
+from physics.model import MAX_ANGULAR_SPEED, MECHANISM_MAX_TOLERANCE, MIN_RTOL
 
+from .commands import allowed_range, read_number, refused_range
 from .mechanism_runs import MechanismSettings
 from .mechanism_start import FreeCoordinate
 
@@ -42,6 +44,7 @@ class Knob:
     # what a typed (or linked) value may take, where it is wider than the slider: the model's own bounds, as the
     # chain panel's boxes take them (a mass of 1000 kg, g = 1000 m/s²); the slider widens to show it
     typed: tuple[float, float] | None = None
+    low_open: bool = False  # the lower bound itself is refused (a size, a step: above 0)
 
     @property
     def allowed(self) -> tuple[float, float]:
@@ -51,8 +54,8 @@ class Knob:
     def check(self, number: float) -> float:
         """``number`` when inside :attr:`allowed`; LinkageError naming the control and the range otherwise."""
         low, high = self.allowed
-        if not low <= number <= high:
-            raise LinkageError(f"{self.label} = {number:g}: allowed range {low:g} to {high:g}")
+        if not ((low < number) if self.low_open else (low <= number)) or not number <= high:
+            raise refused_range(self.label, number, allowed_range(low, high, self.low_open))
         return number
 
     @property
@@ -111,6 +114,11 @@ def _step(value: float) -> float:
     return 10.0 ** exponent
 
 
+# The largest size a body can have: every point of a sketch lies within MAX_COORDINATE of the origin in x and y
+# (physics.mechanism.validation), so no two are further apart than the diagonal of that square.
+MAX_SIZE = 2.0 * math.sqrt(2.0) * MAX_COORDINATE
+
+
 def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob]:
     """The controls of ``mechanism``: per body its size (bodies with two or more points), mass and inertia;
     per motor its speed (°/s) or torque (N·m); gravity. Ranges come from ``reference`` (the preset or file
@@ -123,7 +131,8 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
             out.append(Knob(f"size:{body.name}", f"{body.name}: size (m)", round(0.25 * ref_size, 6),
                             round(3.0 * ref_size, 6), _step(ref_size), size,
                             "The largest distance between its points; the body is scaled about its first point "
-                            "and the mechanism re-assembled (its inertia scales with the square)", True))
+                            "and the mechanism re-assembled (its inertia scales with the square)", True,
+                            typed=(0.0, MAX_SIZE), low_open=True))
         mass_top = max(10.0 * ref.mass, 1.0)
         out.append(Knob(f"mass:{body.name}", f"{body.name}: m (kg)", MIN_MASS, mass_top, _step(mass_top / 10),
                         body.mass, "Mass of the body", False, typed=(MIN_MASS, _upper(Body, "mass"))))
@@ -133,29 +142,33 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
                         typed=(MIN_INERTIA, _upper(Body, "inertia"))))
     for driver in mechanism.drivers:
         if driver.speed is not None:
+            top = math.degrees(_upper(Driver, "speed"))
             out.append(Knob(f"speed:{driver.joint}", f"motor {driver.joint}: speed (°/s)", -720.0, 720.0, 5.0,
-                            math.degrees(driver.speed), "Constant relative angular speed the motor holds", False))
+                            math.degrees(driver.speed), "Constant relative angular speed the motor holds", False,
+                            typed=(-top, top)))
         else:
             torque = float(driver.torque or 0.0)
             top = max(10.0 * abs(torque), 1.0)
             out.append(Knob(f"torque:{driver.joint}", f"motor {driver.joint}: torque (N·m)", -top, top,
-                            _step(top / 10), torque, "Constant torque the motor applies", False))
+                            _step(top / 10), torque, "Constant torque the motor applies", False,
+                            typed=(-_upper(Driver, "torque"), _upper(Driver, "torque"))))
     for joint, ref_joint in zip(mechanism.joints, reference.joints):
         if isinstance(joint, Gear):
             ref_ratio = ref_joint.ratio if isinstance(ref_joint, Gear) else joint.ratio
             top = max(4.0 * abs(ref_ratio), 4.0)
             out.append(Knob(f"ratio:{joint.name}", f"gear {joint.name}: ratio", -top, top, 0.01, joint.ratio,
                             f"Angle of joint {joint.joints[1]} per unit of joint {joint.joints[0]}'s (not 0); the "
-                            "mechanism is re-assembled", True))
+                            "mechanism is re-assembled", True, typed=(-_upper(Gear, "ratio"), _upper(Gear, "ratio"))))
             out.append(Knob(f"offset:{joint.name}", f"gear {joint.name}: offset (°)", -180.0, 180.0, 0.5,
                             math.degrees(joint.offset), f"Angle of joint {joint.joints[1]} when joint "
-                            f"{joint.joints[0]}'s is zero; the mechanism is re-assembled", True))
+                            f"{joint.joints[0]}'s is zero; the mechanism is re-assembled", True,
+                            typed=(-math.degrees(_upper(Gear, "offset")), math.degrees(_upper(Gear, "offset")))))
     out.append(Knob("g", "g (m/s²)", 0.0, 30.0, 0.01, mechanism.g, "Gravitational acceleration, along -y", False,
                     typed=(0.0, _upper(Mechanism, "g"))))
     return out
 
 
-TOLERANCE_RANGE = (1e-14, 1e-2)  # rtol = atol: physics.mechanism.simulate.ALLOWED
+TOLERANCE_RANGE = (MIN_RTOL, MECHANISM_MAX_TOLERANCE)  # rtol = atol: what a mechanism's run allows
 STEP_RANGE_MS = (0.01, 100.0)  # the fixed step of midpoint and variational, in ms
 BAUMGARTE_RANGE = (0.0, 50.0)  # 1/s: the chain panel's sliders
 
@@ -169,7 +182,7 @@ def settings_knobs(settings: MechanismSettings) -> list[Knob]:
              False, log=True),
         Knob("step", "fixed step (ms)", *STEP_RANGE_MS, 0.01, settings.step * 1e3,
              "The step of the fixed-step integrators (midpoint, variational)", False,
-             typed=(STEP_RANGE_MS[0], _upper(MechanismSettings, "step") * 1e3)),
+             typed=(0.0, _upper(MechanismSettings, "step") * 1e3), low_open=True),
         Knob("baumgarte_alpha", "Baumgarte alpha (1/s)", *BAUMGARTE_RANGE, 0.5, settings.baumgarte_alpha,
              "Damping gain of the Baumgarte terms (stabilisation baumgarte)", False,
              typed=(0.0, _upper(MechanismSettings, "baumgarte_alpha"))),
@@ -194,7 +207,7 @@ def _in_range(knobs_now: list[Knob], name: str, value: object, unknown: str) -> 
     knob = next((k for k in knobs_now if k.name == name), None)
     if knob is None:
         raise LinkageError(f"{name!r}: {unknown}")
-    number = _number(knob.label, value)
+    number = read_number(knob.label, knob.unit, value)
     knob.check(number)
     return knob, number
 
@@ -203,6 +216,11 @@ START_NAMES = {"angle": ("angle0", "start angle (°)", "omega0", "start angular 
                "x": ("x0", "start x (m)", "vx0", "start x speed (m/s)"),
                "y": ("y0", "start y (m)", "vy0", "start y speed (m/s)")}
 START_TURN_SPEED = 720.0  # °/s: the chain's initial angular velocity sliders
+# A start's turning speed takes, typed, what a chain's start takes (physics.model.MAX_ANGULAR_SPEED rad/s). Its
+# angle and place keep their sliders' ranges: one turn (a place within the size) reaches every pose, and a new
+# start is reached from the one in force in small sub-steps along its branch (app/mechanism_start.py), whose
+# count grows with the distance (1e4 rad took two minutes of the session's lock).
+START_TURN_TYPED = (-math.degrees(MAX_ANGULAR_SPEED), math.degrees(MAX_ANGULAR_SPEED))
 
 
 def start_knobs(mechanism: Mechanism, free: tuple[FreeCoordinate, ...], sketch_q: np.ndarray, q0: np.ndarray,
@@ -222,7 +240,8 @@ def start_knobs(mechanism: Mechanism, free: tuple[FreeCoordinate, ...], sketch_q
                                math.degrees(q0[k]), hint, False))
             speeds.append(Knob(f"{rate_name}:{coordinate.body}", f"{coordinate.body}: {rate_label}",
                                -START_TURN_SPEED, START_TURN_SPEED, 5.0, math.degrees(qdot0[k]),
-                               "Its speed at t = 0; the others follow from the joints", False))
+                               "Its speed at t = 0; the others follow from the joints", False,
+                               typed=START_TURN_TYPED))
         else:
             centre = float(sketch_q[k])
             values.append(Knob(f"{name}:{coordinate.body}", f"{coordinate.body}: {label}",
@@ -256,19 +275,6 @@ def _scaled(body: Body, factor: float) -> Body:
     return Body.model_validate(data)
 
 
-def _number(name: str, value: object) -> float:
-    if isinstance(value, bool):
-        raise LinkageError(f"{name} = {value!r}: expected a number")
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond any float (10**400)
-        shown = repr(value)
-        raise LinkageError(f"{name} = {shown if len(shown) <= 40 else shown[:39] + '…'}: expected a number") from None
-    if not math.isfinite(number):
-        raise LinkageError(f"{name} = {value!r}: expected a finite number")
-    return number
-
-
 def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechanism | None = None,
                sample_interval: float | None = None) -> Mechanism:
     """``mechanism`` with the control ``name`` set to ``value`` (SI units except a motor speed in °/s),
@@ -291,8 +297,6 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
             index = [body.name for body in mechanism.bodies].index(element)
             body = mechanism.bodies[index]
             if kind == "size":
-                if number <= 0:
-                    raise LinkageError(f"body {element!r}: size = {number:g}: must be above 0 m")
                 new = _scaled(body, number / body_size(body))
             else:
                 new = Body.model_validate({**body.model_dump(), kind: number})
@@ -306,7 +310,9 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
         edited = Mechanism.model_validate(data)
     except ValidationError as error:
         detail = error.errors()[0]
-        raise LinkageError(f"{knob.label} = {number:g}: {detail['msg']}") from None
+        field = str(detail["loc"][-1]) if detail.get("loc") else ""
+        of = f"{field}: " if field and field != kind else ""  # what the model refused: a size's scaled inertia
+        raise LinkageError(f"{knob.label} = {number:g}: {of}{detail['msg']}") from None
     try:  # the whole still runs (physics/mechanism/validation.py), as a file must before it is shown
         check_runnable(edited, sample_interval)
     except LinkageError as error:

@@ -10,18 +10,19 @@ run from the last stored sample (``q0, qdot0, t_start``). Plain data and numpy; 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Literal
+from typing import Any, Callable, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field
 
-from physics import INTEGRATOR_NAMES, INTEGRATORS, METHODS, LinkageError, Settings, Trajectory
+from physics import INTEGRATORS, METHODS, LinkageError, Settings, Trajectory
 from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
-from physics.mechanism.run import coordinate_names, run_table
+from physics.mechanism.run import BodyPoints, body_points, coordinate_names, run_table
 from physics.mechanism.validation import check_runnable
+from physics.model import MECHANISM_MAX_TOLERANCE, MIN_RTOL, IntegratorName, StabilizationName
 
 from .buffers import TrajectoryRing
 from .player import SAMPLE_DT
@@ -34,29 +35,30 @@ EVALUATION_WORK = 6
 SAMPLE_WORK = 75
 
 
+def _settings_field(name: str) -> Any:
+    """The one :class:`~physics.Settings`' field ``name`` (its default, range and checks), to declare it again."""
+    return Settings.model_fields[name]
+
+
 class MechanismSettings(BaseModel):
     """A run's options (``t_end`` and ``samples`` are set per chunk by the player)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
-    stabilization: Literal["none", "baumgarte", "projection"] = "projection"
+    stabilization: StabilizationName = "projection"  # the one Settings' names (physics.registry.STABILIZATIONS)
     trace: str | None = None  # "body.point" whose path is drawn
-    rtol: float = Field(1e-10, gt=0.0, lt=1.0)  # and atol: compare mode's converged reference runs tighter
-    integrator: str = "DOP853"  # any of physics.registry.INTEGRATORS that can run the method (allowed_integrators)
-    step: float = Field(1e-3, gt=0.0, le=1.0)  # s: the fixed step of midpoint and variational
-    # 1/s: the Baumgarte terms' gains (stabilization = baumgarte), the chain's defaults
-    baumgarte_alpha: float = Field(Settings.model_fields["baumgarte_alpha"].default, ge=0.0, le=1e4)
-    baumgarte_beta: float = Field(Settings.model_fields["baumgarte_beta"].default, ge=0.0, le=1e4)
+    # and atol, within the span a mechanism's run allows (physics.model; compare mode's reference runs tighter)
+    rtol: float = Field(1e-10, ge=MIN_RTOL, le=MECHANISM_MAX_TOLERANCE)
+    # any of physics.registry.INTEGRATORS (the one Settings' names) that can run the method (allowed_integrators)
+    integrator: IntegratorName = "DOP853"
+    # s: the fixed step of midpoint and variational; 1/s: the Baumgarte terms' gains (stabilization = baumgarte):
+    # the one Settings' own fields (defaults and ranges), not a copy of them
+    step: float = _settings_field("step")
+    baumgarte_alpha: float = _settings_field("baumgarte_alpha")
+    baumgarte_beta: float = _settings_field("baumgarte_beta")
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
-
-    @field_validator("integrator")
-    @classmethod
-    def _known_integrator(cls, value: str) -> str:
-        if value not in INTEGRATOR_NAMES:
-            raise ValueError(f"integrator = {value!r}: allowed values {', '.join(INTEGRATOR_NAMES)}")
-        return value
 
 
 @dataclass(frozen=True)
@@ -216,6 +218,7 @@ class MechanismSpec:
     # arguments; None: in this interpreter
     runner: Callable[..., object] | None = None
     draw: Drawing = field(init=False)
+    points: BodyPoints = field(init=False)  # its named points (physics.mechanism.run): the drawing's paths
     # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
     structure: str = field(init=False)
 
@@ -224,6 +227,7 @@ class MechanismSpec:
 
     def __post_init__(self) -> None:
         self.draw = drawing(self.chain)
+        self.points = body_points(self.chain)
         self.structure = structure_of(self.chain)
         if not self.row_names:
             self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
@@ -265,8 +269,12 @@ class MechanismSpec:
         trace = self.settings.trace or self.chain.trace
         return self.draw.labels.index(trace) if trace in self.draw.labels else None
 
-    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None) -> dict[str, np.ndarray]:
-        points = points_at(self.draw, q)
+    def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None, *,
+                 paths: BodyPoints) -> dict[str, np.ndarray]:
+        """A chunk's stored samples. Every drawn point's path is the run's own (``paths``: physics' named
+        points, :class:`~physics.mechanism.run.BodyPoints`, whose first names are the drawing's labels), never
+        computed here again; the traced one is one of them, else the first body's centre."""
+        points = np.stack([paths.path(q, k) for k in range(len(self.draw.labels))], axis=1)
         k = self.trace_index()
         trace = points[:, k] if k is not None else centres_at(q)[:, 0]
         return {
@@ -279,7 +287,8 @@ class MechanismSpec:
     def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
         run = traj.run
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
-                             run.reaction_rows, run.condition)  # type: ignore[attr-defined]
+                             run.reaction_rows, run.condition,  # type: ignore[attr-defined]
+                             paths=run.body_points or self.points)  # type: ignore[attr-defined]
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""
@@ -288,7 +297,8 @@ class MechanismSpec:
                                f"({self.n} bodies)")
         q = np.where(np.isfinite(q0), q0, 0.0)[None, :]
         zero = np.zeros(1)
-        return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))))
+        return self._samples([t0], q, np.zeros_like(q), zero, zero, zero, np.zeros((1, len(self.row_names))),
+                             paths=self.points)
 
     def simulate(self, mechanism: Mechanism, q0, qdot0, settings: MechanismSettings, t_start: float = 0.0,
                  continuing: bool = False) -> MechanismChunk:
@@ -384,18 +394,12 @@ def check_integrator(method: str, integrator: str) -> None:
 
 def run_settings(t_end: float, samples: int, method: str, stabilization: str, rtol: float, integrator: str,
                  step: float | None, baumgarte: tuple[float, float] | None) -> Settings:
-    """physics' :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), checked by
-    physics' own ``run_options`` (its one-line refusals: ``method = 'euler': allowed values ...``), with the
-    Baumgarte gains, which only ``simulate_mechanism(settings=...)`` takes. Loads the simulation: call it where
-    a chunk is computed (a worker, or this interpreter's fallback)."""
+    """physics' one :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), every
+    option, the Baumgarte gains too, checked by physics' own ``run_options`` (its one-line refusals: ``method =
+    'euler': allowed values ...``). Loads the simulation: call it where a chunk is computed (a worker, or this
+    interpreter's fallback)."""
     from physics.mechanism.simulate import run_options  # noqa: PLC0415 - scipy and the engine: only here
 
-    options = run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
-                          atol=rtol, integrator=integrator, step=step)
-    if baumgarte is None:
-        return options
-    alpha, beta = (float(gain) for gain in baumgarte)
-    for name, gain in (("baumgarte_alpha", alpha), ("baumgarte_beta", beta)):
-        if not 0.0 <= gain <= 1e4:  # NaN too
-            raise LinkageError(f"{name} = {gain!r}: allowed range 0 <= {name} <= 1e4")
-    return options.model_copy(update={"baumgarte_alpha": alpha, "baumgarte_beta": beta})
+    alpha, beta = (None, None) if baumgarte is None else baumgarte
+    return run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
+                       atol=rtol, integrator=integrator, step=step, baumgarte_alpha=alpha, baumgarte_beta=beta)

@@ -31,7 +31,7 @@ from .kinematics import joint_positions
 from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .notices import install_stderr_lines
-from .outputs import check_output_path, check_partial_path, write_output
+from .outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, write_ensemble, write_output
 from .presets import get_preset, mechanism_summaries, preset_names
 from .program import program_name, version_text
 from .registry import (
@@ -47,7 +47,6 @@ from .simulate.run import check_assembled
 from .studies.charts import fan_picture, png_bytes
 
 EXIT_BAD_INPUT = 2
-EXIT_RUN_FAILED = 3
 
 
 def _build_setup(args):
@@ -147,7 +146,7 @@ def cmd_simulate(args) -> int:
     reached = float(trajectory.t[-1]) if len(trajectory.t) else float("nan")
     where = f"; the {len(trajectory.t)} samples up to t = {reached:.6g} s are in {partial}" if partial else ""
     print(f"error: {trajectory.message}{where}", file=sys.stderr)
-    return EXIT_RUN_FAILED
+    return EXIT_RUN_STOPPED
 
 
 def _case_chain(case, pinned_default: bool, index: int):
@@ -244,25 +243,13 @@ def cmd_ensemble(args) -> int:
         living = ensemble.alive
         drift.append(float(np.max(np.abs(ensemble.energy()[living] - energy0[living]))) / scale if living.any()
                      else float("nan"))
-    columns = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
-    out = args.out or ""
-    if out.lower().endswith(".png"):
-        write_output(out, png_bytes(fan_picture(ensemble.joints(), ensemble.alive)))
-    elif out.lower().endswith(".csv"):
-        _write_table(columns, "csv", out)
-    else:
-        document = {"preset": args.preset, "method": args.method, "count": ensemble.count, "spread": ensemble.spread,
-                    "step": ensemble.step, **columns, "message": ensemble.message,
-                    "final_tips": ensemble.joints()[:, -1, :].tolist()}
-        text = json.dumps(document)
-        if out:
-            write_output(out, (text + "\n").encode("utf-8"))
-        else:
-            print(text)
-    if not ensemble.alive.all():
-        print(f"error: {ensemble.message}", file=sys.stderr)
-        return EXIT_RUN_FAILED
-    return 0
+    columns: dict[str, list] = {"t": times, "tip_spread": spread, "alive": alive, "energy_drift": drift}
+    document = {"preset": args.preset, "method": args.method, "count": ensemble.count, "spread": ensemble.spread,
+                "step": ensemble.step, **columns, "message": ensemble.message,
+                "final_tips": ensemble.joints()[:, -1, :].tolist()}
+    return write_ensemble(args.out, document, columns,
+                          lambda: png_bytes(fan_picture(ensemble.joints(), ensemble.alive)),
+                          bool(ensemble.alive.all()), ensemble.message)
 
 
 def cmd_presets(args) -> int:

@@ -29,6 +29,7 @@ from .kinematics import com_accelerations, joint_positions
 from .model import Chain, Settings, validated
 from .registry import METHODS
 from .simulate import simulate
+from .simulate.trajectory import chain_joint_names
 
 # The state at the requested time comes from a run tight enough that its error is far below the values drawn.
 FBD_TOLERANCE = 1e-10
@@ -103,10 +104,6 @@ class FreeBody:
 REACTION_FORMULATION = next(name for name, spec in METHODS.items() if spec.has_reactions)
 
 
-def _bar_label(k: int, n: int) -> str:
-    return "O" if k == 0 else ("H" if k == n else f"J{k}")
-
-
 def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     """Every bar's free-body diagram at one state, from the DAE's reactions (damping is taken as zero)."""
     n = chain.n
@@ -120,22 +117,23 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     L, d, m, inertia = (chain.array(f) for f in "LdmI")
     joints = joint_positions(L, theta)
     accelerations = com_accelerations(L, d, theta, omega, alpha)
+    joint_names = chain_joint_names(n)
     bodies = []
     for i in range(n):
         e = np.array([math.sin(theta[i]), -math.cos(theta[i])])
         com = joints[i] + d[i] * e
         forces = [Force("gravity", f"G{i + 1}", com, np.array([0.0, -m[i] * chain.g]))]
         by = "the ground" if i == 0 else f"bar {i}"
-        forces.append(Force(f"R{i} (by {by})", _bar_label(i, n), joints[i].copy(), reactions[i].copy()))
+        forces.append(Force(f"R{i} (by {by})", joint_names[i], joints[i].copy(), reactions[i].copy()))
         if i + 1 < n:
-            forces.append(Force(f"-R{i + 1} (by bar {i + 2})", _bar_label(i + 1, n), joints[i + 1].copy(),
+            forces.append(Force(f"-R{i + 1} (by bar {i + 2})", joint_names[i + 1], joints[i + 1].copy(),
                                 -reactions[i + 1]))
         elif tip_reaction is not None:
             forces.append(Force("RH (by the ground at the pin)", "H", joints[n].copy(), tip_reaction.copy()))
         bodies.append(FreeBody(bar=i + 1, time=0.0, mass=float(m[i]), inertia=float(inertia[i]), theta=float(theta[i]),
                                omega=float(omega[i]), alpha=float(alpha[i]), ends_xy=joints[i:i + 2].copy(),
                                com_xy=com, com_acceleration=accelerations[i], forces=tuple(forces),
-                               end_names=(_bar_label(i, n), _bar_label(i + 1, n))))
+                               end_names=(joint_names[i], joint_names[i + 1])))
     return bodies
 
 

@@ -186,6 +186,11 @@ DEFAULT_MAX_STEPS = 10_000_000  # about 20 s of integration for a triple pendulu
 MAX_STEPS_LIMIT = 1_000_000_000  # about an hour: beyond it a request is out of proportion for this tool
 MIN_RTOL = 1e-14
 MIN_ATOL = 1e-16
+# A general mechanism's run takes the one Settings below within tighter spans (its samples are heavier; documented
+# in docs/mechanisms.md): physics.mechanism.simulate.run_options checks them, the app's mechanism panel reads them.
+MECHANISM_MAX_T_END = 1e4  # s
+MECHANISM_MAX_SAMPLES = 1_000_000
+MECHANISM_MAX_TOLERANCE = 1e-2  # rtol and atol
 
 
 class Settings(BaseModel):

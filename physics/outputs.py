@@ -7,14 +7,22 @@ from (``--out``, ``--data``), so an unwritable ``--data`` is not reported as ``-
 
 from __future__ import annotations
 
+import csv
+import io
+import json
 import os
 import stat
+import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from .errors import LinkageError
 from .files import write_atomically
+
+# The exit status of a command whose run (or one copy of an ensemble) stopped before its end: what was computed is
+# written (docs/cli.md); 2 is bad input, refused before any work.
+EXIT_RUN_STOPPED = 3
 
 # The temporary file of an atomic write is ``.NAME.XXXXXXXX.tmp``: 14 bytes longer than the name.
 TEMPORARY_NAME_EXTRA = 14
@@ -116,3 +124,32 @@ def write_output(out: str, data: bytes, option: str = "--out") -> None:
             write_atomically(path, data)
     except OSError as error:
         raise LinkageError(f"{option} {out}: could not write ({error.strerror or error})") from None
+
+
+def write_ensemble(out: str | None, document: Mapping, columns: Mapping[str, Sequence[float]],
+                   picture: Callable[[], bytes], alive: bool, message: str) -> int:
+    """The one writer of an ensemble, a chain's or a mechanism's (``python -m physics ensemble``): an ``--out``
+    ending in ``.png`` gets ``picture()`` (the copies at the end), one in ``.csv`` the time series ``columns``
+    (one row per sample, every value as Python writes a float), any other (or none: stdout) ``document`` as one
+    line of JSON. Then the exit status: 0 when every copy ran to the end, else :data:`EXIT_RUN_STOPPED` with
+    ``error: MESSAGE`` on stderr, the same for both kinds."""
+    out = out or ""
+    if out.lower().endswith(".png"):
+        write_output(out, picture())
+    elif out.lower().endswith(".csv"):
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(columns.keys())
+        for row in zip(*columns.values()):
+            writer.writerow([repr(float(v)) for v in row])
+        write_output(out, buffer.getvalue().encode("utf-8"))
+    else:
+        text = json.dumps(document)
+        if out:
+            write_output(out, (text + "\n").encode("utf-8"))
+        else:
+            print(text)
+    if not alive:
+        print(f"error: {message}", file=sys.stderr)
+        return EXIT_RUN_STOPPED
+    return 0

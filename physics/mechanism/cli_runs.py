@@ -20,15 +20,14 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import time
 
 import numpy as np
 
 from ..arguments import Parser, parse_floats, parse_set
 from ..errors import LinkageError
-from ..outputs import check_output_path, write_output
-from .command import EXIT_RUN_STOPPED, RunRequest, integrator_options, integrator_request, run_and_report
+from ..outputs import check_output_path, write_ensemble, write_output
+from .command import RunRequest, integrator_options, integrator_request, run_and_report
 from .files import load_mechanism, mechanism_from_document
 from .model import Mechanism
 from .presets import MECHANISM_PRESETS
@@ -347,25 +346,14 @@ def ensemble_main(argv: list[str]) -> int:
                 "fewer copies or a shorter --t-end")
 
     ensemble.run(progress=estimate)
-    out = args.out or ""
-    if out.lower().endswith(".png"):
+
+    def picture() -> bytes:
         from ..studies.charts import fan_picture, png_bytes  # noqa: PLC0415
 
-        write_output(out, png_bytes(fan_picture(ensemble.outlines(), ensemble.alive)))
-    elif out.lower().endswith(".csv"):
-        columns = ensemble.columns()
-        lines = [",".join(columns)] + [",".join(repr(float(v)) for v in row) for row in zip(*columns.values())]
-        write_output(out, ("\n".join(lines) + "\n").encode("utf-8"))
-    else:
-        text = json.dumps(ensemble.document())
-        if out:
-            write_output(out, (text + "\n").encode("utf-8"))
-        else:
-            print(text)
-    if not ensemble.alive.all():
-        print(f"error: {ensemble.message}", file=sys.stderr)
-        return EXIT_RUN_STOPPED
-    return 0
+        return png_bytes(fan_picture(ensemble.outlines(), ensemble.alive))
+
+    return write_ensemble(args.out, ensemble.document(), ensemble.columns(), picture, bool(ensemble.alive.all()),
+                          ensemble.message)
 
 
 # --- warm -------------------------------------------------------------------------------------------------

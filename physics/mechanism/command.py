@@ -24,7 +24,7 @@ import numpy as np
 from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
-from ..outputs import check_output_path, check_partial_path, write_output
+from ..outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, write_output
 from ..registry import BACKENDS, INTEGRATOR_NAMES, STABILIZATIONS
 from ..simulate.trajectory import Trajectory
 from .assembly import assemble
@@ -37,7 +37,6 @@ from .singularity import NEAR_SINGULAR_CONDITION
 from .validation import check_runnable
 
 MAX_SAMPLES = 100_000
-EXIT_RUN_STOPPED = 3  # as physics.cli's runs that stop midway: what was computed is in OUT.partial
 
 
 def _mechanism(args) -> Mechanism:

@@ -13,7 +13,14 @@ import numpy as np
 from pydantic import ValidationError
 
 from ..errors import LinkageError
-from ..model import Settings
+from ..model import (
+    MECHANISM_MAX_SAMPLES,
+    MECHANISM_MAX_T_END,
+    MECHANISM_MAX_TOLERANCE,
+    MIN_ATOL,
+    MIN_RTOL,
+    Settings,
+)
 from ..registry import (
     BACKENDS,
     DEFAULT_BACKEND,
@@ -27,17 +34,23 @@ from ..registry import (
 __all__ = ["ALLOWED", "run_options"]
 
 
+def _ten(power_of_ten: float) -> str:
+    """``1e4``, ``1e-2``: a limit as the refusals have always written it."""
+    return f"1e{round(math.log10(power_of_ten))}"
+
+
 # What each option of a mechanism's run allows, in the one line that refuses it. The names come from the
-# registry; the spans of t_end, samples and the tolerances are a mechanism run's own (tighter than a chain's
-# Settings: a general mechanism's samples are heavier), checked before Settings checks its own.
+# registry; the spans of t_end, samples and the tolerances are a mechanism run's own (physics.model's
+# MECHANISM_MAX_*, tighter than a chain's: a general mechanism's samples are heavier), checked before the one
+# Settings checks its own.
 ALLOWED = {
-    "t_end": "allowed range 0 < t_end <= 1e4 (the run's duration from t_start, s)",
-    "samples": "allowed range 2 <= samples <= 1000000",
+    "t_end": f"allowed range 0 < t_end <= {_ten(MECHANISM_MAX_T_END)} (the run's duration from t_start, s)",
+    "samples": f"allowed range 2 <= samples <= {MECHANISM_MAX_SAMPLES}",
     "t_start": "allowed range -1e6 <= t_start <= 1e6 (s)",
     "method": f"allowed values {', '.join(MECHANISM_METHODS)}",
     "stabilization": f"allowed values {', '.join(STABILIZATIONS)}",
-    "rtol": "allowed range 1e-14 <= rtol <= 1e-2",
-    "atol": "allowed range 1e-16 <= atol <= 1e-2",
+    "rtol": f"allowed range {MIN_RTOL:g} <= rtol <= {_ten(MECHANISM_MAX_TOLERANCE)}",
+    "atol": f"allowed range {MIN_ATOL:g} <= atol <= {_ten(MECHANISM_MAX_TOLERANCE)}",
     "integrator": f"allowed values {', '.join(INTEGRATOR_NAMES)}",
     "backend": f"allowed values {', '.join(BACKENDS)}",
     "step": "allowed range 0 < step <= 1 (s, the fixed step of midpoint and variational)",
@@ -45,8 +58,8 @@ ALLOWED = {
     "baumgarte_alpha": "allowed range 0 <= baumgarte_alpha <= 1e4",
     "baumgarte_beta": "allowed range 0 <= baumgarte_beta <= 1e4",
 }
-_SPANS = {"t_end": (0.0, 1e4, True), "t_start": (-1e6, 1e6, False), "rtol": (1e-14, 1e-2, False),
-          "atol": (1e-16, 1e-2, False)}
+_SPANS = {"t_end": (0.0, MECHANISM_MAX_T_END, True), "t_start": (-1e6, 1e6, False),
+          "rtol": (MIN_RTOL, MECHANISM_MAX_TOLERANCE, False), "atol": (MIN_ATOL, MECHANISM_MAX_TOLERANCE, False)}
 _NAMES = {"method": MECHANISM_METHODS, "stabilization": STABILIZATIONS, "integrator": INTEGRATOR_NAMES,
           "backend": BACKENDS}
 
@@ -68,12 +81,13 @@ def _number(field: str, value) -> float:
 
 def run_options(*, t_end, samples, t_start=0.0, method="dae", stabilization="projection", rtol=1e-10, atol=1e-10,
                 integrator="DOP853", step=None, max_steps=None, backend=DEFAULT_BACKEND,
-                settings: Settings | None = None) -> Settings:
+                settings: Settings | None = None, baumgarte_alpha=None, baumgarte_beta=None) -> Settings:
     """The :class:`physics.model.Settings` of a mechanism's run, every option checked: LinkageError
     ``"field = value: allowed ..."`` (one line) for the first bad one, or the registry's sentence for a
     combination that cannot run (``integrator = variational: needs method = lagrange (got dae)``). With
     ``settings`` its method, integrator, back end, tolerances, step, budget, stabilisation and gains are the run's
-    (the keywords are then not read); ``t_end`` and ``samples`` are always the arguments'."""
+    (the keywords are then not read); ``t_end`` and ``samples`` are always the arguments'. The Baumgarte gains
+    (``baumgarte_alpha``, ``baumgarte_beta``: None keeps Settings' defaults) are checked by Settings too."""
     if settings is not None:
         method, stabilization, integrator, backend = (settings.method, settings.stabilization, settings.integrator,
                                                       settings.backend)
@@ -86,7 +100,8 @@ def run_options(*, t_end, samples, t_start=0.0, method="dae", stabilization="pro
                                "description names, trace = \"body.point\")")
     values = {"t_end": _number("t_end", t_end), "t_start": _number("t_start", t_start),
               "rtol": _number("rtol", rtol), "atol": _number("atol", atol)}
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 2 <= samples <= 1_000_000:
+    if (isinstance(samples, bool) or not isinstance(samples, (int, np.integer))
+            or not 2 <= samples <= MECHANISM_MAX_SAMPLES):
         raise _refuse("samples", samples)
     for field, value in (("method", method), ("stabilization", stabilization), ("integrator", integrator),
                          ("backend", backend)):
@@ -98,7 +113,10 @@ def run_options(*, t_end, samples, t_start=0.0, method="dae", stabilization="pro
     fields = dict(method=method, integrator=integrator, backend=backend, rtol=values["rtol"], atol=values["atol"],
                   t_end=values["t_end"], samples=int(samples), stabilization=stabilization)
     if settings is not None:
-        fields.update(baumgarte_alpha=settings.baumgarte_alpha, baumgarte_beta=settings.baumgarte_beta)
+        baumgarte_alpha, baumgarte_beta = settings.baumgarte_alpha, settings.baumgarte_beta
+    for field, gain in (("baumgarte_alpha", baumgarte_alpha), ("baumgarte_beta", baumgarte_beta)):
+        if gain is not None:
+            fields[field] = gain
     if step is not None:
         fields["step"] = step
     if max_steps is not None:

@@ -42,19 +42,19 @@ def four_bar():
 
 # name, value (control units), how to read it back (SI), expected SI, a refused value, words of the refusal
 VALID_AND_REFUSED = [
-    ("L2", "0.7", lambda p: p.L[1], 0.7, "-1", "L2 = -1 m: outside the allowed range 0 <= L2 <= 1000 m"),
-    ("d1", "0.25", lambda p: p.d[0], 0.25, "2", "0 <= d1 <= 1 m"),
-    ("m3", "2.5", lambda p: p.m[2], 2.5, "-0.5", "0 <= m3 <= 1e+06 kg"),
-    ("I1", "1e-3", lambda p: p.I[0], 1e-3, "-1e-3", "I1 = -0.001 kg·m²: outside the allowed range 0 <= I1 <= 1e+12 kg·m²"),
-    ("g", "9.81", lambda p: p.g, 9.81, "-9.81", "0 <= g <= 1000 m/s²"),
-    ("g", "9.81", lambda p: p.g, 9.81, "1e6", "g = 1e+06 m/s²: outside the allowed range 0 <= g <= 1000 m/s²"),
+    ("L2", "0.7", lambda p: p.L[1], 0.7, "-1", "L2 (m) = -1: allowed range 0 to 1000"),
+    ("d1", "0.25", lambda p: p.d[0], 0.25, "2", "d1 (m) = 2: allowed range 0 to 1"),
+    ("m3", "2.5", lambda p: p.m[2], 2.5, "-0.5", "m3 (kg) = -0.5: allowed range 0 to 1e+06"),
+    ("I1", "1e-3", lambda p: p.I[0], 1e-3, "-1e-3", "I1 (kg·m²) = -0.001: allowed range 0 to 1e+12"),
+    ("g", "9.81", lambda p: p.g, 9.81, "-9.81", "g (m/s²) = -9.81: allowed range 0 to 1000"),
+    ("g", "9.81", lambda p: p.g, 9.81, "1e6", "g (m/s²) = 1e+06: allowed range 0 to 1000"),
     ("theta1", "45", lambda p: p.theta0[0], math.radians(45), "abc", "theta1 = 'abc': not a number"),
     ("omega2", "90", lambda p: p.omega0[1], math.radians(90), "inf", "omega2 = inf: must be a finite number"),
-    ("rtol", "1e-6", lambda p: p.settings.rtol, 1e-6, "0.5", "1e-14 <= rtol <= 0.1"),
-    ("step", "2.5", lambda p: p.step, 2.5e-3, "0", "0 < step <= 1000 ms"),
-    ("baumgarte_alpha", "20", lambda p: p.baumgarte_alpha, 20.0, "1e5", "0 <= baumgarte_alpha <= 10000 1/s"),
-    ("baumgarte_beta", "5", lambda p: p.baumgarte_beta, 5.0, "-1", "0 <= baumgarte_beta <= 10000 1/s"),
-    ("damping", "0.3", lambda p: p.damping, 0.3, "2e3", "0 <= damping <= 1000 N·m·s"),
+    ("rtol", "1e-6", lambda p: p.settings.rtol, 1e-6, "0.5", "rtol = 0.5: allowed range 1e-14 to 0.1"),
+    ("step", "2.5", lambda p: p.step, 2.5e-3, "0", "step (ms) = 0: allowed range above 0 up to 1000"),
+    ("baumgarte_alpha", "20", lambda p: p.baumgarte_alpha, 20.0, "1e5", "baumgarte_alpha (1/s) = 100000: allowed range 0 to 10000"),
+    ("baumgarte_beta", "5", lambda p: p.baumgarte_beta, 5.0, "-1", "baumgarte_beta (1/s) = -1: allowed range 0 to 10000"),
+    ("damping", "0.3", lambda p: p.damping, 0.3, "2e3", "damping (N·m·s) = 2000: allowed range 0 to 1000"),
 ]
 
 
@@ -71,9 +71,9 @@ def test_each_field_is_applied_and_refused_with_its_name_and_range(triple, name,
 
 
 @pytest.mark.parametrize("name, text, expected, refused, words", [
-    ("speed", "2", 2.0, "100", "0.01 <= speed <= 8 ×"),
-    ("trace_seconds", "12.5", 12.5, "-1", "0 <= trace_seconds <= 30 s"),
-    ("arrow_scale", "1e-2", 0.01, "0", "0 < arrow_scale <= 10"),
+    ("speed", "2", 2.0, "100", "speed (×) = 100: allowed range 0.01 to 8"),
+    ("trace_seconds", "12.5", 12.5, "-1", "trace_seconds (s) = -1: allowed range 0 to 30"),
+    ("arrow_scale", "1e-2", 0.01, "0", "arrow_scale = 0: allowed range above 0 up to 10"),
 ])
 def test_display_settings_go_through_their_model(name, text, expected, refused, words):
     display = commands.apply_display(Display(), name, text, units=CONTROL)

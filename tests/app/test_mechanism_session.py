@@ -93,9 +93,11 @@ def test_edits_go_through_the_models_and_name_the_element():
         ("mass:coupler", -1.0, "coupler: m (kg) = -1: allowed range 1e-06 to"),
         ("mass:coupler", 5e-324, "coupler: m (kg) = 4.94066e-324: allowed range 1e-06 to"),
         ("inertia:coupler", 5e-324, "coupler: I (kg·m²) = 4.94066e-324: allowed range 1e-09 to"),
-        ("mass:coupler", "abc", "coupler: m (kg) = 'abc': expected a number"),
-        ("inertia:rocker", float("nan"), "rocker: I (kg·m²) = nan: expected a finite number"),
-        ("speed:O2", 1e9, "motor O2: speed (°/s) = 1e+09: allowed range -720 to 720"),
+        ("mass:coupler", "abc", "coupler: m (kg) = 'abc': not a number; type a number in kg"),
+        ("mass:coupler", "1,5", "coupler: m (kg) = '1,5': not a number"),
+        ("mass:coupler", True, "coupler: m (kg) = True: not a number"),
+        ("inertia:rocker", float("nan"), "rocker: I (kg·m²) = nan: must be a finite number"),
+        ("speed:O2", 1e9, "motor O2: speed (°/s) = 1e+09: allowed range -57295.8 to 57295.8"),
         ("mass:nobody", 1.0, "'mass:nobody': not a control of crank-rocker"),
     ]:
         with pytest.raises(LinkageError) as error:
@@ -121,6 +123,13 @@ def test_chunks_continue_one_run_exactly():
     chunk = spec.chunk(second)
     assert chunk["joints"].shape == (16, len(spec.draw.labels), 2)
     assert np.allclose(chunk["trace_xy"], chunk["joints"][:, spec.draw.labels.index("piston.B")])
+    # the drawn points are the run's own named points, the same numbers the drawing's kinematics give
+    for k, label in enumerate(spec.draw.labels):
+        np.testing.assert_array_equal(chunk["joints"][:, k], second.run.point(label))
+    np.testing.assert_array_equal(chunk["joints"], points_at(spec.draw, second.run.q))
+    np.testing.assert_array_equal(chunk["trace_xy"], second.run.point("piston.B"))
+    still = spec.still_sample(0.0, q0, np.zeros_like(q0))
+    np.testing.assert_array_equal(still["joints"], points_at(spec.draw, q0[None, :]))
 
 
 # ---------------------------------------------------------------------------------------------- in the server

@@ -165,6 +165,7 @@ def test_a_chain_setup_switches_a_mechanism_session_to_the_chain_and_back(slider
     (_setup({"preset": "slider-crank", "mass:crank": -2}), "crank: m (kg) = -2: allowed range", False),
     (_setup({"preset": "slider-crank", "angle0:crank": 400}), "crank: start angle (°) = 400: allowed range -180 to 180",
      False),
+    (_setup({"preset": "slider-crank", "g": 2000}), "g (m/s²) = 2000: allowed range 0 to 1000", False),
     (_setup({"preset": "slider-crank", "method": "euler"}), "method = 'euler': allowed values", False),
     (_setup({"preset": "walking-robot"}), "preset = 'walking-robot': allowed", True),
     (_setup({"g": 1}, {"name": "x", "bodies": "no"}), "mechanism: bodies", True),
@@ -295,6 +296,7 @@ def test_the_command_line_starts_from_a_mechanism_setup_and_refuses_a_bad_one_in
     for values, words in [
         ({"preset": "slider-crank", "mass:crank": -2}, "crank: m (kg) = -2: allowed range 1e-06 to"),
         ({"preset": "slider-crank", "angle0:crank": 400}, "crank: start angle (°) = 400: allowed range -180 to 180"),
+        ({"preset": "slider-crank", "g": 2000}, "g (m/s²) = 2000: allowed range 0 to 1000"),
         ({"preset": "slider-crank", "method": "euler"}, "method = 'euler': allowed values dae, lagrange"),
         ({"preset": "walking-robot"}, "preset = 'walking-robot': allowed single"),
     ]:

@@ -58,7 +58,7 @@ def test_bad_values_in_a_link_give_one_notice_and_the_rest_is_applied(lab):
         assert p.L[0] == SessionParameters.from_preset("triple-a").L[0]
         notice = session.notice
         assert notice is not None and notice.startswith("Not applied from the link")
-        for words in ("0 <= L1 <= 1000 m", "m2 = 'abc'", "unknown parameter '<b>x</b>'", "theta1 = 1e999: must be a finite number",
+        for words in ("L1 (m) = -2: allowed range 0 to 1000", "m2 = 'abc'", "unknown parameter '<b>x</b>'", "theta1 = 1e999: must be a finite number",
                       "links: only the 'chain' mechanism"):
             assert words in notice, (words, notice)
         assert not session.closed and session.player.alive
@@ -144,8 +144,7 @@ def test_the_command_line_refuses_a_bad_setup_file_with_one_line(tmp_path):
     result = subprocess.run([sys.executable, "-m", "app", "--state", str(bad), "--port", "0"],
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
-    assert result.stderr.strip() == (f"linkage-lab: error: --state {bad}: L1 = -1 m: outside the allowed range "
-                                     "0 <= L1 <= 1000 m")
+    assert result.stderr.strip() == f"linkage-lab: error: --state {bad}: L1 (m) = -1: allowed range 0 to 1000"
     missing = subprocess.run([sys.executable, "-m", "app", "--state", str(tmp_path / "none.json")],
                              capture_output=True, text=True, timeout=120)
     assert missing.returncode == 2 and "No such file" in missing.stderr and missing.stderr.count("\n") == 1

@@ -131,7 +131,7 @@ def _type_every_text(page, session, panel: Panel, label: str, name: str) -> list
                 session.reset()  # a value that stops the run (a huge g) was applied: start again
         else:
             assert field in notice, (label, text, notice)
-            # what is allowed: a range ("0 <= d1 <= 1 m", "allowed range 0 to 30") or the condition refused
+            # what is allowed: a range ("d1 (m) = 5: allowed range 0 to 1", both panels) or the condition refused
             # ("give bar 1 a positive I1", "the loop cannot close there (... reachable theta1: ...)"); a decimal
             # comma is no number at all
             allowed = ("<", "allowed", "positive", "finite", "cannot")

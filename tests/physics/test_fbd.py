@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from physics import get_preset, load_compiled
+from physics import Settings, get_preset, load_compiled, simulate
 from physics.assembly import project_velocity
 from physics.fbd import free_bodies, free_body_at
 
@@ -79,6 +79,19 @@ def test_forces_follow_the_documented_signs():
     hanging = free_bodies(get_preset("triple-a").chain, np.zeros(3), np.zeros(3))
     assert hanging[0].forces[1].force == pytest.approx([0.0, 3.0], abs=1e-12)
     assert len(hanging[2].forces) == 2
+
+
+def test_joint_names_are_the_runs_point_names():
+    """A diagram names its joints as a run names its points (one naming: O, J1 .., H), at the same places."""
+    preset = get_preset("four-bar")
+    run = simulate(preset.chain, preset.theta0, preset.omega0, Settings(t_end=0.1, samples=2))
+    bodies = free_bodies(preset.chain, run.theta[0], run.omega[0])
+    assert [b.end_names for b in bodies] == [("O", "J1"), ("J1", "J2"), ("J2", "H")]
+    for body in bodies:
+        for name, xy in zip(body.end_names, body.ends_xy, strict=True):
+            assert name in run.point_names
+            np.testing.assert_allclose(xy, run.point(name)[0], atol=1e-12)
+        assert [f.point for f in body.forces[1:]] == list(body.end_names)[:len(body.forces) - 1]
 
 
 def test_free_body_at_a_time_follows_the_run():
