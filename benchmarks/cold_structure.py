@@ -17,8 +17,9 @@ generated systems live), so each run derives, generates and compiles its structu
   a mechanism (:func:`physics.mechanism.chains.chain_mechanism`), method ``lagrange``: CPU seconds of the
   derivation alone (sympy imported beforehand), the figure the issue bounds by 1 s.
 
-Prints a Markdown table (median of ``--repeat`` rounds, then every round's figure) and the load average at the
-start and end.
+Prints a Markdown table (the median and the least of ``--repeat`` rounds, then every round's figure: on a loaded
+machine other processes only ever add to a figure, so the least is the nearest to the work itself) and the load
+average at the start and end.
 """
 
 from __future__ import annotations
@@ -113,13 +114,14 @@ def main(argv: list[str] | None = None) -> int:
         for label, tree in trees.items():
             figures.setdefault(("tree Lagrange derivation, 10-body chain (in-process)", label), []).append(
                 _derivation(tree, caches[label]))
-    print("| figure (CPU seconds) | before: median (rounds) | after: median (rounds) | before / after |")
+    print("| figure (CPU seconds) | before: median, least (rounds) | after: median, least (rounds) | before / after "
+          "(medians) |")
     print("|---|---|---|---|")
     for name in dict.fromkeys(key[0] for key in figures):
         cells = []
         for label in trees:
             values = figures[(name, label)]
-            cells.append(f"{statistics.median(values):.3f} ({', '.join(f'{v:.3f}' for v in values)})")
+            cells.append(f"{statistics.median(values):.3f}, {min(values):.3f} ({', '.join(f'{v:.3f}' for v in values)})")
         ratio = statistics.median(figures[(name, "before")]) / statistics.median(figures[(name, "after")])
         print(f"| {name} | {cells[0]} | {cells[1]} | {ratio:.2f}x |")
     print(f"load average at end: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
