@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -95,6 +96,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     trees = {"before": args.before.resolve(), "after": ROOT}
     scratch = Path(tempfile.mkdtemp(prefix="linkage-lab-cold-structure-"))
+    try:
+        return _measure(trees, scratch, args.repeat)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _measure(trees: dict[str, Path], scratch: Path, repeat: int) -> int:
     caches = {label: scratch / label for label in trees}
     commands = {"cold Jansen leg, 10 s": ["-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end", "10"]}
     for method in FORMULATIONS:
@@ -106,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         for command in commands.values():
             _whole(tree, caches[label], command)
     figures: dict[tuple[str, str], list[float]] = {}
-    for _ in range(args.repeat):
+    for _ in range(repeat):
         for name, command in commands.items():
             for label, tree in trees.items():  # alternated: both trees see the same machine
                 _forget_generated(caches[label])
