@@ -45,6 +45,7 @@ def _command(n: int, method: str) -> list[str]:
 def _timed(command: list[str], cache: Path, cwd: Path) -> float:
     env = dict(os.environ, LINKAGE_LAB_CACHE=str(cache), PYTHONPATH=str(cwd))
     env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as an installation runs: the modules' bytecode is cached
     start = time.perf_counter()
     result = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
     elapsed = time.perf_counter() - start

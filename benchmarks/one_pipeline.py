@@ -68,8 +68,10 @@ def _whole(tree: Path, argv: list[str]) -> float:
     """The CPU seconds (user + system) of one whole process: on a shared, loaded machine the wall time is mostly
     waiting for a core, the CPU time is the work."""
     started = _children_cpu()
-    done = subprocess.run([sys.executable, *argv], cwd=tree, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                          text=True)
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as an installation runs: the modules' bytecode is cached
+    done = subprocess.run([sys.executable, *argv], cwd=tree, env=env, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{tree}: {' '.join(argv)} failed: {done.stderr.strip()[-500:]}")
     return _children_cpu() - started
