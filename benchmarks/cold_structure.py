@@ -2,8 +2,8 @@
 side by side with another tree (``--before``, a ``git worktree`` of the commit before the work), alternated in one
 run, in CPU seconds (user + system of the child: on a shared machine the wall time is mostly waiting for a core).
 
-    git worktree add /tmp/before34 ce76585
-    python -m benchmarks.cold_structure --before /tmp/before34 [--repeat 3]
+    git worktree add ../before ce76585
+    python -m benchmarks.cold_structure --before ../before [--repeat 3]
 
 Each tree gets a private cache folder (``LINKAGE_LAB_CACHE``) filled once by a warm-up run of every figure's
 command, so the integrators are compiled; before every measured run the generated files of the mechanisms are
