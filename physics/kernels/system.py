@@ -25,7 +25,7 @@ from .abi import (
     data_pointer,
 )
 from .arrays import copy_matrix, copy_row, state_row
-from .linear import gram_into, ldlt_solve, lu_solve, lu_solve_equilibrated
+from .linear import gram_into, ldlt_factor, ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
 RESCALE_ABOVE = 1e4
@@ -140,12 +140,9 @@ def constraint_ratio(system, theta, omega, params):
             return np.inf
         return math.sqrt((half_trace + gap) / smallest)
     G = system[8]
-    g = system[9]
     lam = system[10]
-    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch, then the solve's output
-    for i in range(r):
-        g[i] = 1.0
-    ratio = ldlt_solve(G, g, lam)
+    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch
+    ratio = ldlt_factor(G)  # its pivots alone: the ratio needs no solve
     if not ratio < np.inf:
         return np.inf
     return math.sqrt(ratio)
