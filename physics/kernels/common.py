@@ -60,8 +60,8 @@ def rhs_into(assemble, layout, A, b, x, col_scale, J, v, t, y, params, alpha, be
 
     Without Baumgarte terms, a mechanism with a generated ``rhs`` (assemble and the structured solve fused,
     :mod:`physics.kernels.abi`) is evaluated by that one call: the same numbers as assembling and solving
-    through memory, at under half the cost for a six-bar (a micro-benchmark over the states of a run: about
-    0.35 against 0.85 us, most of the difference being the zeroing, storing and loading of its 29 x 29 matrix
+    through memory, at half the cost for a six-bar (a micro-benchmark over the states of a run: about 0.42
+    against 0.85 us a call, most of the difference being the zeroing, storing and loading of its 29 x 29 matrix
     and the calls between). Where its pivot ratio asks for the equilibrated fallback, the general path below
     evaluates the state again, as before. ``theta``, ``omega`` and ``theta_ddot`` are then not written."""
     if alpha == 0.0 and beta == 0.0:
