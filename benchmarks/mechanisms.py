@@ -5,7 +5,7 @@ and, undriven, its largest energy drift relative to its energy scale.
     python -m benchmarks.mechanisms [--t-end 60] [--samples 601] [--presets slider-crank,jansen-leg]
                                     [--method dae,lagrange,newton_euler] [--repeat 1] [--cpu]
 
-The wall time is of the run alone: each formulation is derived and compiled by a short run first (the cold
+The time (three decimals) is of the run alone: each formulation is derived and compiled by a short run first (the cold
 cost of a whole process is measured separately, with an empty cache folder); with ``--repeat N`` the fastest of
 N runs, for a machine shared with other work.
 
@@ -59,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
             driven = bool(mechanism.drivers)
             drift = "(driven)" if driven else f"{np.max(np.abs(run.energy - run.energy[0])) / energy_scale(run):.1e}"
             print(f"| `{name}` | {method} | {assembled.mobility} | {len(mechanism.drivers)} | {run.t[-1]:g} "
-                  f"| {wall:.2f} | {run.t[-1] / wall:.2f} | {np.max(run.residual):.1e} | {drift} |", flush=True)
+                  f"| {wall:.3f} | {run.t[-1] / wall:.1f} | {np.max(run.residual):.1e} | {drift} |", flush=True)
     print(f"load average at end: {os.getloadavg()[0]:.1f}")
     return 0
 

@@ -132,10 +132,11 @@ class CompiledSystem:
         if "layout" not in self._functions:
             m = self.module
             solve = self._native("solve") if m.STRUCTURED else 0
+            rhs = self._native("rhs") if m.STRUCTURED else 0
             constraints = self._native("constraints") if m.CONSTRAINT_ROWS else 0
             self._functions["layout"] = make_layout(
                 m.N_LINKS, m.N_UNKNOWNS, m.THETA_DDOT_INDEX, n_parameters=m.N_PARAMETERS, symmetric=m.SYMMETRIC,
-                solve_address=solve, constraint_rows=m.CONSTRAINT_ROWS, constraint_address=constraints,
+                solve_address=solve, rhs_address=rhs, constraint_rows=m.CONSTRAINT_ROWS, constraint_address=constraints,
                 time_index=None if m.TIME_INDEX < 0 else m.TIME_INDEX,
             )
         return self._functions["layout"]

@@ -53,6 +53,7 @@ def emit_module(system: LinearSystem, header: str) -> str:
     order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
     if order is not None:
         functions.append(llvm_ir.structured_solve_ir(system.A, order))
+        functions.append(llvm_ir.structured_rhs_ir(s, system.A, system.b, order, system.theta_ddot_index))
 
     lines = []
     lines.append(header.rstrip() + "\n")
@@ -80,6 +81,8 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("# assemble(theta, omega, params, A, b): A (k x k, row-major, zeroed by the caller) and b (k,) of")
     lines.append("# A x = b at one state; mass_and_force(theta, omega, params, M, force): the Lagrangian's mass matrix")
     lines.append("# (n x n) and force dL/dtheta + Q (n,); solve(A, b, x) for a sparse A (returns the pivot ratio);")
+    lines.append("# rhs(y, params, dydt) for a sparse A: dydt = [omega, theta_ddot] at y = [theta, omega] by assemble and")
+    lines.append("# solve in one function (returns solve's pivot ratio);")
     lines.append("# constraints(theta, omega, params, J, v): J (r x n) and v = [phi, phi_dot] of the held constraints;")
     lines.append("# kinematics(theta, omega, params, J, v): tree coordinates' d pose/d theta (3B x n), v = [pose, bias].")
     lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")

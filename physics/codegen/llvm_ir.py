@@ -225,6 +225,57 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
             if A[i, j] != 0:
                 entry[(i, j)] = function.load("A", i * k + j)
     rhs = {i: function.load("b", i) for i in range(k)}
+    solution, ratio = _eliminate(function, entry, rhs, k, order)
+    for j in range(k):
+        function.store("x", j, solution[j])
+    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
+
+
+def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_index) -> str:
+    """IR of ``double rhs(double* y, double* params, double* dydt)``: the ODE's right-hand side
+    ``dydt = [omega, theta_ddot]`` at the state ``y = [theta, omega]`` in one function, ``A`` and ``b`` built as
+    ``assemble`` builds them and eliminated as ``solve`` eliminates them, but in registers: no matrix is zeroed,
+    stored or loaded, and entries that are numbers fold into the elimination. The same IEEE operations on the
+    same values as ``assemble`` then ``solve`` (the same common subexpressions, the same order), so the same
+    bits. Returns ``solve``'s pivot ratio; ``t`` is read from ``params`` as ``assemble`` reads it."""
+    k = A.shape[0]
+    n = len(symbols.theta)
+    function = _Function("rhs", ())
+    function.lines = ["define double @rhs(double* noalias %y, double* noalias %params, double* noalias %dydt) {",
+                      "entry:"]
+    targets = [(i, j) for i in range(k) for j in range(k) if A[i, j] != 0] + [("v", i) for i in range(k)]
+    exprs = [A[i, j] for i, j in targets[: len(targets) - k]] + [b[i] for i in range(k)]
+    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"), order="none")
+    used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    for i, sym in enumerate(symbols.theta):
+        if sym in used:
+            function.values[sym] = function.load("y", i)
+    for i, sym in enumerate(symbols.omega):
+        if sym in used:
+            function.values[sym] = function.load("y", n + i)
+    for i, sym in enumerate(symbols.params):
+        if sym in used:
+            function.values[sym] = function.load("params", i)
+    for sym, expr in replacements:
+        function.values[sym] = function.value(expr)
+    entry: dict = {}
+    rhs: dict = {}
+    for target, expr in zip(targets, reduced):
+        if target[0] == "v":
+            rhs[target[1]] = function.value(expr)
+        else:
+            entry[target] = function.value(expr)
+    solution, ratio = _eliminate(function, entry, rhs, k, order)
+    for i in range(n):
+        function.store("dydt", i, function.load("y", n + i))
+        function.store("dydt", n + i, solution[int(acceleration_index[i])])
+    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
+
+
+def _eliminate(function: _Function, entry: dict, rhs: dict, k: int, order: list[tuple[int, int]]):
+    """Emit the elimination of ``A x = b`` in ``order`` over the SSA values ``entry[(row, col)]`` (the
+    structural non-zeros) and ``rhs[row]``: returns ``({col: x_col}, pivot ratio)`` (see
+    :func:`structured_solve_ir`). ``entry`` and ``rhs`` are consumed."""
     rows, cols = set(range(k)), set(range(k))
     pivots = []  # (row, col, inverse, [(col, value) of the pivot row's remaining entries])
     row_scale = {}  # the largest magnitude among each row's original entries
@@ -266,8 +317,6 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
             product = function.emit(f"fmul double {value}, {solution[c]}")
             total = function.emit(f"fsub double {total}, {product}")
         solution[pivot_col] = function.emit(f"fmul double {total}, {inverse}")
-    for j in range(k):
-        function.store("x", j, solution[j])
     unordered = function.emit(f"fcmp uno double {probe}, {_constant(0.0)}")
     ratio = function.emit(f"select i1 {unordered}, double {probe}, double {ratio}")
-    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
+    return solution, ratio

@@ -12,7 +12,7 @@ import threading
 
 import llvmlite.binding as llvm
 
-FUNCTION_NAMES = ("assemble", "mass_and_force", "solve", "constraints", "kinematics")
+FUNCTION_NAMES = ("assemble", "mass_and_force", "solve", "rhs", "constraints", "kinematics")
 _lock = threading.Lock()  # one compilation at a time: LLVM's global state is not ours to share carelessly
 _initialized: list = []
 

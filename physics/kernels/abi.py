@@ -17,6 +17,9 @@ never the integrators again, and a call from Python passes an int (numba's faste
 * ``double solve(A, b, x)``: for a sparse ``A`` (the DAE), Gaussian elimination unrolled over its structural
   non-zeros in a fixed order chosen at generation; returns the pivot ratio (the kernels fall back to a pivoted
   dense solve when it looks singular). Its address travels in the layout (``LAYOUT_SOLVE``).
+* ``double rhs(double* y, double* params, double* dydt)``: with ``solve``,
+  the ODE's right-hand side ``[omega, theta_ddot]`` at ``y = [theta, omega]``, ``assemble`` and ``solve`` in one
+  function (no matrix in memory); returns ``solve``'s pivot ratio. Address in ``LAYOUT_RHS``, 0 without.
 
 A mechanism's ``layout`` (an int64 array, :func:`make_layout`) tells the kernels the sizes, where the
 coordinates' accelerations and the constraints' rows sit in ``x``, where ``t`` goes in ``params``, and the
@@ -45,7 +48,8 @@ LAYOUT_SOLVE = 5  # address of the generated structured solve of a sparse A (the
 LAYOUT_CONSTRAINT_FUNCTION = 6  # address of the generated constraints(theta, omega, params, J, v), 0 if r = 0
 LAYOUT_WEIGHTS = 7  # offset in params of 2 n projection weights (positions, then velocities); -1: unit weights
 LAYOUT_PARAMETERS = 8  # number of parameters the generated code reads (params must be at least this long)
-LAYOUT_ACCELERATION = 9  # n entries: where each coordinate's acceleration sits in x; then r constraint rows
+LAYOUT_RHS = 9  # address of the generated rhs(y, params, dydt) (assemble and solve fused), 0 when there is none
+LAYOUT_ACCELERATION = 10  # n entries: where each coordinate's acceleration sits in x; then r constraint rows
 
 
 def make_layout(
@@ -56,6 +60,7 @@ def make_layout(
     n_parameters: int,
     symmetric: bool = False,
     solve_address: int = 0,
+    rhs_address: int = 0,
     constraint_rows=(),
     constraint_address: int = 0,
     time_index: int | None = None,
@@ -68,7 +73,7 @@ def make_layout(
         raise ValueError("constraint rows need the address of the generated constraints function")
     head = [n, n_unknowns, len(rows), -1 if time_index is None else int(time_index), int(bool(symmetric)),
             int(solve_address), int(constraint_address) if rows else 0,
-            -1 if weights_offset is None else int(weights_offset), int(n_parameters)]
+            -1 if weights_offset is None else int(weights_offset), int(n_parameters), int(rhs_address)]
     return np.array(head + [int(i) for i in acceleration_index] + rows, dtype=np.int64)
 
 
@@ -104,6 +109,23 @@ def call_native(typingctx, address, theta, omega, params, matrix, vector):
         function = builder.inttoptr(args[0], function_type.as_pointer())
         builder.call(function, args[1:])
         return context.get_dummy_value()
+
+    return signature, codegen
+
+
+@intrinsic
+def call_native_rhs(typingctx, address, state, params, derivative):
+    """Call the generated fused ``rhs`` at ``address``: ``double rhs(double* y, double* params, double* dydt)``."""
+    pointer = types.CPointer(types.float64)
+    if not isinstance(address, types.Integer) or any(arg != pointer for arg in (state, params, derivative)):
+        return None
+    signature = types.float64(address, pointer, pointer, pointer)
+
+    def codegen(context, builder, sig, args):
+        double_pointer = ir.DoubleType().as_pointer()
+        function_type = ir.FunctionType(ir.DoubleType(), [double_pointer] * 3)
+        function = builder.inttoptr(args[0], function_type.as_pointer())
+        return builder.call(function, args[1:])
 
     return signature, codegen
 

@@ -8,7 +8,9 @@ from numba import njit
 from .abi import LAYOUT_CONSTRAINTS
 from .arrays import copy_row, stage_sum_into
 from .common import (
+    NOT_FUSED,
     check_arguments,
+    fused_rhs,
     initial_samples,
     ode_rhs,
     rhs_into,
@@ -58,10 +60,15 @@ def _rk_stages(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, 
 
     Returns ``(status, rhs_evaluations)``.
     """
+    fusing = alpha == 0.0 and beta == 0.0
     for s in range(1, n_stages):
         stage_sum_into(y, h, K, A[s], s, y_stage)
-        status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
-                             t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
+        status = NOT_FUSED
+        if fusing:  # the generated rhs inlined here: a call through rhs_into cost as much again
+            status, _ = fused_rhs(layout, t + C[s] * h, y_stage, params, K[s])
+        if status == NOT_FUSED:
+            status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
+                                 t + C[s] * h, y_stage, params, alpha, beta, theta, omega, theta_ddot, K[s])
         if status != STATUS_OK:
             return status, s
     return STATUS_OK, n_stages - 1
@@ -264,8 +271,13 @@ def _integrate_explicit_rk(
             if status != STATUS_OK:
                 break
             stage_sum_into(y, h, K, B, n_stages, y_new)
-            status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian, constraint_vector,
-                                 t_new, y_new, params, alpha, beta, theta, omega, theta_ddot, K[n_stages])
+            status = NOT_FUSED
+            if alpha == 0.0 and beta == 0.0:
+                status, _ = fused_rhs(layout, t_new, y_new, params, K[n_stages])
+            if status == NOT_FUSED:
+                status, _ = rhs_into(assemble, layout, matrix, vector, unknowns, col_scale, jacobian,
+                                     constraint_vector, t_new, y_new, params, alpha, beta, theta, omega, theta_ddot,
+                                     K[n_stages])
             n_rhs += 1
             if status != STATUS_OK:
                 break

@@ -102,36 +102,62 @@ def ldlt_solve(A, b, x):
     energy). Returns the ratio of the largest to the smallest entry of D, which are the pivots of the LU
     factorisation without pivoting; infinite when A is not positive definite (singular, or wrongly signed).
     """
+    ratio = ldlt_factor(A)
+    if not ratio < np.inf:
+        for i in range(A.shape[0]):
+            x[i] = np.nan
+        return ratio
+    k = A.shape[0]
+    for i in range(k):
+        total = b[i]
+        for p in range(i):
+            value = A[i, p]
+            if value != 0.0:
+                total -= value * x[p]
+        x[i] = total
+    for i in range(k - 1, -1, -1):
+        total = x[i] / A[i, i]
+        for p in range(i + 1, k):
+            value = A[p, i]
+            if value != 0.0:
+                total -= value * x[p]
+        x[i] = total
+    return ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def ldlt_factor(A):
+    """``A = L D L^T`` in place (the lower triangle is read; ``D`` on the diagonal, ``L`` below it) for a
+    symmetric positive definite ``A``; returns the ratio of the largest to the smallest entry of ``D``, infinite
+    when ``A`` is not positive definite (see :func:`ldlt_solve`).
+
+    Terms of a zero entry of ``L`` are skipped: the constraints' ``J W J^T`` of a six-bar has 35 to 39 non-zeros
+    of 91 below its diagonal, so most of the dense loop's products were zeros. The terms that remain are taken in
+    the same order, with the same products, as the dense loop: the same numbers (a skipped term could only have
+    changed the sign of a zero)."""
     k = A.shape[0]
     largest = 0.0
     smallest = np.inf
     for j in range(k):
         pivot = A[j, j]
         for p in range(j):
-            pivot -= A[j, p] * A[j, p] * A[p, p]
+            value = A[j, p]
+            if value != 0.0:
+                pivot -= value * value * A[p, p]
         if not pivot > 0.0 or not np.isfinite(pivot):
-            for i in range(k):
-                x[i] = np.nan
             return np.inf
         largest = max(largest, pivot)
         smallest = min(smallest, pivot)
         A[j, j] = pivot
+        for p in range(j):
+            value = A[j, p]
+            if value != 0.0:
+                weight = A[p, p]
+                for i in range(j + 1, k):
+                    A[i, j] -= A[i, p] * value * weight
         inv = 1.0 / pivot
         for i in range(j + 1, k):
-            total = A[i, j]
-            for p in range(j):
-                total -= A[i, p] * A[j, p] * A[p, p]
-            A[i, j] = total * inv
-    for i in range(k):
-        total = b[i]
-        for p in range(i):
-            total -= A[i, p] * x[p]
-        x[i] = total
-    for i in range(k - 1, -1, -1):
-        total = x[i] / A[i, i]
-        for p in range(i + 1, k):
-            total -= A[p, i] * x[p]
-        x[i] = total
+            A[i, j] = A[i, j] * inv
     return largest / smallest
 
 

@@ -25,7 +25,7 @@ from .abi import (
     data_pointer,
 )
 from .arrays import copy_matrix, copy_row, state_row
-from .linear import gram_into, ldlt_solve, lu_solve, lu_solve_equilibrated
+from .linear import gram_into, ldlt_factor, ldlt_solve, lu_solve, lu_solve_equilibrated
 
 # Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
 RESCALE_ABOVE = 1e4
@@ -90,6 +90,14 @@ def equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, be
 
     ``theta``, ``omega``, ``params`` must be C-contiguous (the generated code reads them through pointers)."""
     A[:, :] = 0.0
+    structural_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def structural_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta):
+    """:func:`equations_into` without zeroing ``A`` first: the generated ``assemble`` writes only the structural
+    non-zeros of ``A``, so the rest must already be zero (the structured solve's path keeps it so, see
+    :func:`unknowns_into`)."""
     call_native(
         assemble, data_pointer(theta), data_pointer(omega), data_pointer(params), data_pointer(A), data_pointer(b)
     )
@@ -132,12 +140,9 @@ def constraint_ratio(system, theta, omega, params):
             return np.inf
         return math.sqrt((half_trace + gap) / smallest)
     G = system[8]
-    g = system[9]
     lam = system[10]
-    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch, then the solve's output
-    for i in range(r):
-        g[i] = 1.0
-    ratio = ldlt_solve(G, g, lam)
+    gram_into(G, J, r, params, -1, lam)  # G = J J^T (unit weights); lam is its scratch
+    ratio = ldlt_factor(G)  # its pivots alone: the ratio needs no solve
     if not ratio < np.inf:
         return np.inf
     return math.sqrt(ratio)
@@ -154,21 +159,40 @@ def unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, para
     (a very light tip, a stiff mass ratio) is not mistaken for a singular position. This is what an integrator's
     stage needs: the geometric test costs about as much again and is judged once per step instead.
 
+    The structured path does not zero ``A`` before assembling it (zeroing the Watt six-bar's 29 x 29 matrix
+    cost about a third of the rest of its evaluation, in a micro-benchmark over the states of a run): ``A`` is
+    zero from :func:`make_system` and only the structural non-zeros are ever written on this path, since the
+    generated solve reads ``A`` without writing it; the dense fallback, which overwrites ``A``, zeroes it after.
+    ``A`` must therefore be the system's own, used only through the kernels of this module.
+
     The system's arrays come one by one, not as the system tuple: each call that receives the tuple cost about
     0.25 us in a micro-benchmark (numba's reference counting of its ten arrays, as far as we can tell), more
     than the slider-crank's whole solve when the tuple was handed down through each right-hand side's calls.
     """
+    solve = layout[LAYOUT_SOLVE]
+    if solve != 0:
+        structural_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
+        ratio = call_native_solve(solve, data_pointer(A), data_pointer(b), data_pointer(x))
+        if ratio <= RESCALE_ABOVE:
+            return ratio
+        ratio = _rescaled_solve(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)
+        A[:, :] = 0.0  # the structured path's invariant: nothing but assemble's non-zeros in A
+        return ratio
     equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
-    if layout[LAYOUT_SOLVE] != 0:
-        ratio = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(A), data_pointer(b), data_pointer(x))
-    elif layout[LAYOUT_SYMMETRIC] != 0:
+    if layout[LAYOUT_SYMMETRIC] != 0:
         ratio = ldlt_solve(A, b, x)
     else:
         ratio = lu_solve(A, b, x)
     if not ratio <= RESCALE_ABOVE:
-        equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
-        ratio = lu_solve_equilibrated(A, b, x, col_scale)
+        ratio = _rescaled_solve(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)
     return ratio
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _rescaled_solve(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta):
+    """The system rebuilt and solved equilibrated by a pivoted LU (:func:`unknowns_into`'s fallback)."""
+    equations_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
+    return lu_solve_equilibrated(A, b, x, col_scale)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

@@ -1,0 +1,69 @@
+"""The generated ``rhs`` (a structured system's assemble and elimination in one function, no matrix in memory)
+gives the very bits of ``assemble`` then ``solve`` through memory, and the same pivot ratio: the kernels' right-hand
+side uses it whenever there are no Baumgarte terms, so any difference would change every integrated run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+from physics.kernels import system as kernel_system
+from physics.kernels.abi import (
+    LAYOUT_ACCELERATION,
+    LAYOUT_RHS,
+    LAYOUT_SOLVE,
+    LAYOUT_TIME,
+    call_native_rhs,
+    call_native_solve,
+    data_pointer,
+)
+from physics.mechanism import engine
+from physics.mechanism.presets import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
+
+
+@njit(cache=False)
+def _both_ways(assemble, layout, t, theta, omega, params, fused_out, fused_ratio, memory_out, memory_ratio):
+    system = kernel_system.make_system(assemble, layout)
+    n = theta.shape[1]
+    y = np.empty(2 * n)
+    dydt = np.empty(2 * n)
+    local = params.copy()
+    for row in range(theta.shape[0]):
+        if layout[LAYOUT_TIME] >= 0:
+            local[layout[LAYOUT_TIME]] = t[row]
+        for i in range(n):
+            y[i] = theta[row, i]
+            y[n + i] = omega[row, i]
+        fused_ratio[row] = call_native_rhs(layout[LAYOUT_RHS], data_pointer(y), data_pointer(local),
+                                           data_pointer(dydt))
+        fused_out[row] = dydt
+        kernel_system.assemble_into(system, theta[row], omega[row], local, 0.0, 0.0)
+        memory_ratio[row] = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(system[2]),
+                                              data_pointer(system[3]), data_pointer(system[4]))
+        for i in range(n):
+            memory_out[row, i] = omega[row, i]
+            memory_out[row, n + i] = system[4][layout[LAYOUT_ACCELERATION + i]]
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar", "stephenson-six-bar", "jansen-leg"])
+def test_the_fused_rhs_gives_the_bits_of_assemble_then_solve(name):
+    mechanism = MECHANISM_PRESETS[name]()
+    run = simulate_mechanism(mechanism, 1.0, 21, method="dae")
+    compiled = engine.compiled_system(mechanism, "dae")
+    params, layout = engine.run_parameters(mechanism, compiled, 0.0, None)
+    assert layout[LAYOUT_RHS] != 0 and layout[LAYOUT_SOLVE] != 0, "a mechanism's DAE has both generated functions"
+    theta, omega = np.ascontiguousarray(run.q), np.ascontiguousarray(run.qdot)
+    # Away from the run's states too (off the constraints, faster), where nothing cancels the same way.
+    rng = np.random.default_rng(7)
+    theta = np.concatenate([theta, theta + 1e-3 * rng.standard_normal(theta.shape)])
+    omega = np.concatenate([omega, 3.0 * omega + rng.standard_normal(omega.shape)])
+    t = np.concatenate([run.t, run.t + 0.37])
+    count, n = theta.shape
+    fused, memory = np.empty((count, 2 * n)), np.empty((count, 2 * n))
+    fused_ratio, memory_ratio = np.empty(count), np.empty(count)
+    _both_ways(compiled.assemble_function, layout, t, theta, omega, params, fused, fused_ratio, memory, memory_ratio)
+    assert np.all(np.isfinite(fused))
+    assert np.array_equal(fused, memory), float(np.max(np.abs(fused - memory)))
+    assert np.array_equal(fused_ratio, memory_ratio)
