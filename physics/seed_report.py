@@ -91,7 +91,7 @@ def _ode45_as_called(preset_name: str, settings: Settings) -> Trajectory:
     y_out = np.full((len(t_eval), 2 * chain.n), np.nan)
     y0 = np.concatenate([preset.theta0, preset.omega0])
     status, n_steps, n_rhs, t_reached, _ = ode45.integrate_ode45_htspan(
-        compiled.assemble_function, compiled.layout, y0, 0.0, settings.t_end, t_eval,
+        compiled.assemble_function, compiled.integration_layout, y0, 0.0, settings.t_end, t_eval,
         settings.t_end / (REPORT_POINTS - 1), params, settings.rtol, settings.atol, alpha, beta, project,
         settings.max_steps, y_out, np.empty(0))
     if status != Status.OK:

@@ -32,7 +32,7 @@ from ..cache_folder import UntrustedFile, cache_dir, discard, mac, mac_matches, 
 from ..errors import LinkageError
 from ..files import write_atomically
 from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
-from ..kernels.abi import make_layout
+from ..kernels.abi import LAYOUT_RHS, make_layout
 from ..kernels.first_compile import announce
 from ..registry import FORMULATION_NAMES
 from .native import NativeModule
@@ -129,26 +129,43 @@ class CompiledSystem:
 
     @property
     def layout(self) -> np.ndarray:
+        """The kernels' layout for one evaluation at a time (samples, position analysis, a solve): without the
+        fused ``rhs``, whose separate module is compiled only for an integration (:attr:`integration_layout`)."""
         if "layout" not in self._functions:
             m = self.module
             solve = self._native("solve") if m.STRUCTURED else 0
-            rhs = self._native("rhs") if m.STRUCTURED else 0
             constraints = self._native("constraints") if m.CONSTRAINT_ROWS else 0
             self._functions["layout"] = make_layout(
                 m.N_LINKS, m.N_UNKNOWNS, m.THETA_DDOT_INDEX, n_parameters=m.N_PARAMETERS, symmetric=m.SYMMETRIC,
-                solve_address=solve, rhs_address=rhs, constraint_rows=m.CONSTRAINT_ROWS, constraint_address=constraints,
+                solve_address=solve, rhs_address=0, constraint_rows=m.CONSTRAINT_ROWS, constraint_address=constraints,
                 time_index=None if m.TIME_INDEX < 0 else m.TIME_INDEX,
             )
         return self._functions["layout"]
 
+    @property
+    def integration_layout(self) -> np.ndarray:
+        """:attr:`layout` with the address of the generated fused ``rhs`` (a structured system's assemble and
+        elimination in one function: the same bits, about half the cost per evaluation), which the integrators'
+        stages call. Its module is compiled on first use: a run that never integrates (a driven mechanism's
+        position analysis, a batch of samples) does not pay for it."""
+        if "integration_layout" not in self._functions:
+            layout = self.layout
+            if self.module.STRUCTURED and getattr(self.module, "LLVM_IR_RHS", ""):
+                layout = layout.copy()
+                layout[LAYOUT_RHS] = self._native("rhs", "LLVM_IR_RHS")
+            self._functions["integration_layout"] = layout
+        return self._functions["integration_layout"]
+
     # ---------------------------------------------------------------- compiled functions (lazy)
-    def _native(self, name: str):
+    def _native(self, name: str, source: str = "LLVM_IR"):
+        """The address of generated function ``name``, compiling the module ``source`` (an IR text of the
+        generated module) on first use."""
         with self._lock:
-            if "native" not in self._functions:
+            if source not in self._functions:
                 start = time.perf_counter()
-                self._functions["native"] = NativeModule(self.module.LLVM_IR)
+                self._functions[source] = NativeModule(getattr(self.module, source))
                 self.build_seconds += time.perf_counter() - start
-            return self._functions["native"].addresses[name]
+            return self._functions[source].addresses[name]
 
     @property
     def assemble_function(self):
@@ -217,12 +234,12 @@ class CompiledSystem:
     # ---------------------------------------------------------------- integrators (physics.kernels)
     def integrate_rk45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                        y_out, cond_out):
-        return explicit_rk.integrate_rk45(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval),
+        return explicit_rk.integrate_rk45(self.assemble_function, self.integration_layout, _c(y0), t0, t_end, _c(t_eval),
                                           _c(params), rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_dop853(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                          y_out, cond_out):
-        return explicit_rk.integrate_dop853(self.assemble_function, self.layout, _c(y0), t0, t_end, _c(t_eval),
+        return explicit_rk.integrate_dop853(self.assemble_function, self.integration_layout, _c(y0), t0, t_end, _c(t_eval),
                                             _c(params), rtol, atol, alpha, beta, project, max_steps, y_out,
                                             cond_out)
 
@@ -230,7 +247,7 @@ class CompiledSystem:
                         y_out, cond_out):
         from ..kernels import ode45  # noqa: PLC0415  (compiled on first use only: few runs ask for it)
 
-        return _first_call(ode45.integrate_ode45, "ode45", self.assemble_function, self.layout, _c(y0), t0, t_end,
+        return _first_call(ode45.integrate_ode45, "ode45", self.assemble_function, self.integration_layout, _c(y0), t0, t_end,
                            _c(t_eval), _c(params), rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_ode45_refined(self, y0, t0, t_end, params, rtol, atol, alpha=0.0, beta=0.0, project=True,
@@ -244,22 +261,22 @@ class CompiledSystem:
         t_out = np.empty(rows)
         y_out = np.empty((rows, len(y0)))
         status, n_steps, _, _, filled = ode45.integrate_ode45_refined(
-            self.assemble_function, self.layout, _c(y0), t0, t_end, _c(params), rtol, atol, alpha, beta, project,
+            self.assemble_function, self.integration_layout, _c(y0), t0, t_end, _c(params), rtol, atol, alpha, beta, project,
             refine, t_out, y_out)
         return t_out[:filled], y_out[:filled], int(status), int(n_steps)
 
     def integrate_midpoint(self, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
-        return _first_call(midpoint.integrate_midpoint, "midpoint", self.assemble_function, self.layout, _c(y0), t0,
+        return _first_call(midpoint.integrate_midpoint, "midpoint", self.assemble_function, self.integration_layout, _c(y0), t0,
                            t_end, h, _c(t_eval), _c(params), alpha, beta, project, y_out, cond_out)
 
     def integrate_variational(self, y0, t0, t_end, h, t_eval, params, y_out, cond_out):
         return _first_call(
             variational.integrate_variational, "variational", self.assemble_function, self.mass_and_force_function,
-            self.layout, _c(y0), t0, t_end, h, _c(t_eval), _c(params), y_out, cond_out,
+            self.integration_layout, _c(y0), t0, t_end, h, _c(t_eval), _c(params), y_out, cond_out,
         )
 
     def rk4_batch_step(self, theta, omega, params, h, alpha, beta, work, cond_out):
-        return _first_call(batch.rk4_batch_step, "RK4 ensemble", self.assemble_function, self.layout, theta, omega,
+        return _first_call(batch.rk4_batch_step, "RK4 ensemble", self.assemble_function, self.integration_layout, theta, omega,
                            _c(params), h, alpha, beta, work, cond_out)
 
     @property

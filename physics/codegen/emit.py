@@ -32,7 +32,8 @@ def emit_module(system: LinearSystem, header: str) -> str:
                 entries.append(((i, j), system.A[i, j]))
     for i in range(k):
         entries.append((("v", i), system.b[i]))
-    functions = [llvm_ir.function_ir("assemble", s, entries, k, "A", "b")]
+    shared = llvm_ir.common_subexpressions([expr for _, expr in entries])  # assemble's, and the fused rhs's
+    functions = [llvm_ir.function_ir("assemble", s, entries, k, "A", "b", cse=shared)]
     if system.mass_matrix is not None and system.lagrangian_force is not None:
         pieces: list[tuple[tuple[int | str, int], object]] = [((i, j), system.mass_matrix[i, j]) for i in range(n) for j in range(n)
                   if system.mass_matrix[i, j] != 0]
@@ -51,9 +52,11 @@ def emit_module(system: LinearSystem, header: str) -> str:
         pieces += [(("v", i), pose[i]) for i in range(size)] + [(("v", size + i), bias[i]) for i in range(size)]
         functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v"))
     order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
+    rhs_functions = []  # a module of its own: compiled only by a process that integrates (the kernels' fast path)
     if order is not None:
         functions.append(llvm_ir.structured_solve_ir(system.A, order))
-        functions.append(llvm_ir.structured_rhs_ir(s, system.A, system.b, order, system.theta_ddot_index))
+        rhs_functions.append(llvm_ir.structured_rhs_ir(s, system.A, system.b, order, system.theta_ddot_index,
+                                                       cse=shared))
 
     lines = []
     lines.append(header.rstrip() + "\n")
@@ -88,5 +91,9 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")
     lines.append('LLVM_IR = """')
     lines.append(llvm_ir.module_ir(functions).rstrip("\n"))
+    lines.append('"""')
+    lines.append("# rhs alone: compiled on the first integration (a driven mechanism's position analysis never calls it).")
+    lines.append('LLVM_IR_RHS = """')
+    lines.append(llvm_ir.module_ir(rhs_functions).rstrip("\n") if rhs_functions else "")
     lines.append('"""')
     return "\n".join(lines) + "\n"

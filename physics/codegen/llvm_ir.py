@@ -113,12 +113,19 @@ class _Function:
         return "\n".join(self.lines + ["  ret void", "}"])
 
 
-def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vector: str) -> str:
+def common_subexpressions(exprs: list) -> tuple[list, list]:
+    """sympy's common subexpressions of ``exprs``: ``(replacements, reduced)``, as the generated functions
+    hoist them (``assemble`` and the fused ``rhs`` share one result: the same values, computed once)."""
+    return sp.cse(exprs, symbols=sp.numbered_symbols("_t"), order="none")
+
+
+def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vector: str, cse=None) -> str:
     """IR of ``name(theta, omega, params, matrix, vector)`` writing ``entries``: ``((row, col), expr)`` into the
-    row-major matrix of size ``matrix_size``, or ``(("v", i), expr)`` into the vector."""
+    row-major matrix of size ``matrix_size``, or ``(("v", i), expr)`` into the vector. ``cse``: the
+    :func:`common_subexpressions` of the entries' expressions when already computed."""
     function = _Function(name, ("theta", "omega", "params", matrix, vector))
     exprs = [e for _, e in entries]
-    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"), order="none")
+    replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
     used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
     for i, sym in enumerate(symbols.theta):
         if sym in used:
@@ -231,13 +238,14 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
     return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
 
 
-def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_index) -> str:
+def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_index, cse=None) -> str:
     """IR of ``double rhs(double* y, double* params, double* dydt)``: the ODE's right-hand side
     ``dydt = [omega, theta_ddot]`` at the state ``y = [theta, omega]`` in one function, ``A`` and ``b`` built as
     ``assemble`` builds them and eliminated as ``solve`` eliminates them, but in registers: no matrix is zeroed,
     stored or loaded, and entries that are numbers fold into the elimination. The same IEEE operations on the
     same values as ``assemble`` then ``solve`` (the same common subexpressions, the same order), so the same
-    bits. Returns ``solve``'s pivot ratio; ``t`` is read from ``params`` as ``assemble`` reads it."""
+    bits. Returns ``solve``'s pivot ratio; ``t`` is read from ``params`` as ``assemble`` reads it. ``cse``:
+    ``assemble``'s :func:`common_subexpressions` of the same expressions in the same order, when computed."""
     k = A.shape[0]
     n = len(symbols.theta)
     function = _Function("rhs", ())
@@ -245,7 +253,7 @@ def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_
                       "entry:"]
     targets = [(i, j) for i in range(k) for j in range(k) if A[i, j] != 0] + [("v", i) for i in range(k)]
     exprs = [A[i, j] for i, j in targets[: len(targets) - k]] + [b[i] for i in range(k)]
-    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"), order="none")
+    replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
     used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
     for i, sym in enumerate(symbols.theta):
         if sym in used:

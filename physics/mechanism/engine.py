@@ -64,11 +64,14 @@ class Integration:
     detail: str = ""
 
 
-def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: float, weights: np.ndarray | None):
+def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: float, weights: np.ndarray | None,
+                   integrating: bool = True):
     """The parameter vector of a run, and the layout to pass with it: when ``weights`` (2 n: positions, then
-    velocities) are given, they are appended to the vector and the layout says where."""
+    velocities) are given, they are appended to the vector and the layout says where. ``integrating``: the
+    layout with the fused right-hand side the integrators call (its module compiled on first use); a driven
+    run's position analysis does not need it."""
     params = parameter_vector(mechanism, t=t_start)
-    layout = compiled.layout
+    layout = compiled.integration_layout if integrating else compiled.layout
     if weights is not None:
         layout = layout.copy()
         layout[LAYOUT_WEIGHTS] = params.size
@@ -186,7 +189,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         scale = sketch_size(mechanism)
         positions = np.tile([1.0, 1.0, 1.0 / scale**2], len(mechanism.bodies))  # as assembly weighs steps
         weights = np.concatenate([positions, 1.0 / dae.mass_diagonal])  # velocities: nearest in kinetic energy
-    params, layout = run_parameters(mechanism, compiled, float(times[0]), weights)
+    params, layout = run_parameters(mechanism, compiled, float(times[0]), weights, integrating=not driven)
     steps = evaluations = 0
     status, message = int(Status.OK), "ok"
     if driven:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from numba import njit
 
+from physics.codegen.cache import clear_memory_cache
 from physics.kernels import system as kernel_system
 from physics.kernels.abi import (
     LAYOUT_ACCELERATION,
@@ -67,3 +68,19 @@ def test_the_fused_rhs_gives_the_bits_of_assemble_then_solve(name):
     assert np.all(np.isfinite(fused))
     assert np.array_equal(fused, memory), float(np.max(np.abs(fused - memory)))
     assert np.array_equal(fused_ratio, memory_ratio)
+
+
+def test_the_fused_rhs_is_compiled_only_for_an_integration():
+    """Its module is separate and compiled on first use: a driven mechanism's run (position analysis, no
+    integration) never compiles it, and an integrated run's kernels get its address."""
+    clear_memory_cache()
+    driven = MECHANISM_PRESETS["jansen-leg"]()
+    simulate_mechanism(driven, 0.5, 11, method="dae")
+    compiled = engine.compiled_system(driven, "dae")
+    assert compiled.module.STRUCTURED and compiled.layout[LAYOUT_RHS] == 0
+    assert "LLVM_IR" in compiled._functions and "LLVM_IR_RHS" not in compiled._functions  # never compiled
+    integrated = MECHANISM_PRESETS["slider-crank"]()
+    simulate_mechanism(integrated, 0.5, 11, method="dae")
+    compiled = engine.compiled_system(integrated, "dae")
+    assert "LLVM_IR_RHS" in compiled._functions
+    assert compiled.integration_layout[LAYOUT_RHS] != 0 and compiled.layout[LAYOUT_RHS] == 0
