@@ -20,6 +20,7 @@ from pydantic import ValidationError
 from physics import LinkageError
 from physics.mechanism import Body, Driver, Gear, Mechanism
 from physics.mechanism.assembly import sketch_size
+from physics.mechanism.model import MAX_INERTIA
 from physics.mechanism.validation import MAX_COORDINATE, MIN_INERTIA, MIN_MASS, check_runnable
 from physics.model import MAX_ANGULAR_SPEED, MECHANISM_MAX_TOLERANCE, MIN_RTOL
 
@@ -297,7 +298,13 @@ def apply_edit(mechanism: Mechanism, name: str, value: object, reference: Mechan
             index = [body.name for body in mechanism.bodies].index(element)
             body = mechanism.bodies[index]
             if kind == "size":
-                new = _scaled(body, number / body_size(body))
+                factor = number / body_size(body)
+                if body.inertia * factor**2 > MAX_INERTIA:  # its scaled inertia: a range of sizes, not pydantic's words
+                    raise refused_range(knob.label, number, allowed_range(
+                        0.0, body_size(body) * math.sqrt(MAX_INERTIA / body.inertia), low_open=True) +
+                        f" (its inertia, {body.inertia:g} kg m² at {body_size(body):g} m, grows with the size squared "
+                        f"and may not pass {MAX_INERTIA:g} kg m²)")
+                new = _scaled(body, factor)
             else:
                 new = Body.model_validate({**body.model_dump(), kind: number})
             data["bodies"][index] = new.model_dump()

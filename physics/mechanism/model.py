@@ -17,6 +17,7 @@ from .joints import GROUND, Driver, Gear, Joint, Prismatic, Revolute, finite_poi
 
 MAX_BODIES = 24
 MAX_POINTS_PER_BODY = 16
+MAX_INERTIA = 1e6  # kg m^2: the largest centroidal inertia a body may have
 
 Point = tuple[float, float]
 __all__ = ["GROUND", "Body", "Driver", "Gear", "Mechanism", "Prismatic", "Revolute"]
@@ -38,7 +39,7 @@ class Body(BaseModel):
     points: dict[str, Point] = Field(min_length=1, max_length=MAX_POINTS_PER_BODY)
     mass: float = Field(ge=0.0, le=1e6, strict=True, allow_inf_nan=False, description="kg")
     com: Point | None = Field(None, description="centre of mass in the sketch; default: mean of the points")
-    inertia: float = Field(ge=0.0, le=1e6, strict=True, allow_inf_nan=False, description="centroidal moment of inertia, kg m^2")
+    inertia: float = Field(ge=0.0, le=MAX_INERTIA, strict=True, allow_inf_nan=False, description="centroidal moment of inertia, kg m^2")
 
     @field_validator("points", mode="before")
     @classmethod

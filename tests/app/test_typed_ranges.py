@@ -25,6 +25,7 @@ from app.mechanism_start import free_coordinates
 from app.parameters import SessionParameters
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Driver, assemble
+from physics.mechanism.model import MAX_INERTIA
 
 
 def refusal(action) -> str:
@@ -116,3 +117,20 @@ def test_each_panel_takes_its_models_tolerance():
     assert apply_setting(MechanismSettings(), "step", 500.0).step == 0.5  # beyond the slider's 100 ms
     assert refusal(lambda: apply_setting(MechanismSettings(), "step", 0.0)) == (
         "fixed step (ms) = 0: allowed range above 0 up to 1000")
+
+
+def test_a_size_whose_inertia_would_pass_the_models_limit_is_refused_with_the_sizes_range():
+    """A size scales its body's inertia by the size squared: past the model's inertia limit the refusal names the
+    range of sizes that keeps it, not the model's own words about the inertia."""
+
+    data = MECHANISM_PRESETS["slider-crank"]().model_dump()
+    next(body for body in data["bodies"] if body["name"] == "crank")["inertia"] = 1e4  # a heavy flywheel
+    mechanism = type(MECHANISM_PRESETS["slider-crank"]()).model_validate(data)
+    crank = mechanism.body("crank")
+    limit = body_size(crank) * math.sqrt(MAX_INERTIA / crank.inertia)
+    assert limit < MAX_SIZE  # inside the size's own range: only the inertia stops it
+    message = refusal(lambda: apply_edit(mechanism, "size:crank", 1.01 * limit))
+    assert message.startswith(f"crank: size (m) = {1.01 * limit:g}: allowed range above 0 up to {limit:g} (its inertia")
+    assert "Input should be" not in message
+    bigger = apply_edit(mechanism, "size:crank", 0.99 * limit, sample_interval=None)
+    assert bigger.body("crank").inertia == pytest.approx(0.99**2 * MAX_INERTIA)
