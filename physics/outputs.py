@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import stat
 import sys
@@ -126,6 +127,18 @@ def write_output(out: str, data: bytes, option: str = "--out") -> None:
         raise LinkageError(f"{option} {out}: could not write ({error.strerror or error})") from None
 
 
+def _finite_or_null(value):
+    """``value`` with every float that is not finite (a stopped copy's tip, a spread with it) as None: JSON has no
+    NaN, and strict readers (a browser's ``JSON.parse``) refuse Python's bare ``NaN``."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {key: _finite_or_null(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(item) for item in value]
+    return value
+
+
 def write_ensemble(out: str | None, document: Mapping, columns: Mapping[str, Sequence[float]],
                    picture: Callable[[], bytes], alive: bool, message: str) -> int:
     """The one writer of an ensemble, a chain's or a mechanism's (``python -m physics ensemble``): an ``--out``
@@ -144,7 +157,7 @@ def write_ensemble(out: str | None, document: Mapping, columns: Mapping[str, Seq
             writer.writerow([repr(float(v)) for v in row])
         write_output(out, buffer.getvalue().encode("utf-8"))
     else:
-        text = json.dumps(document)
+        text = json.dumps(_finite_or_null(document), allow_nan=False)  # strict JSON: a dead copy's NaN is null
         if out:
             write_output(out, (text + "\n").encode("utf-8"))
         else:

@@ -29,6 +29,10 @@ MECHANISM_DIES = ["--preset", "slider-crank", "--count", "2", "--t-end", "0.2", 
 MECHANISM_LIVES = ["--preset", "slider-crank", "--count", "2", "--t-end", "0.2", "--samples", "3"]
 
 
+def _refuse_constant(name: str):
+    raise AssertionError(f"the JSON holds {name}, which strict JSON readers refuse")
+
+
 def run(capsys, *argv: str) -> tuple[int, str, str]:
     code = main(["ensemble", *argv])
     captured = capsys.readouterr()
@@ -52,7 +56,7 @@ def test_every_copy_alive_exits_0_with_the_documented_keys(capsys, tmp_path, arg
                          ids=["chain", "mechanism"])
 def test_a_copy_that_dies_exits_3_with_its_message_and_writes_every_format(capsys, tmp_path, argv, keys):
     code, out, err = run(capsys, *argv)
-    document = json.loads(out)
+    document = json.loads(out, parse_constant=_refuse_constant)  # strict JSON: no NaN or Infinity
     assert code == EXIT_RUN_STOPPED == 3
     assert list(document) == keys and document["alive"][0] == 2 and document["alive"][-1] < 2
     assert err.strip().splitlines()[-1] == f"error: {document['message']}" and "copy 0" in document["message"]
