@@ -127,7 +127,9 @@ def knobs(mechanism: Mechanism, reference: Mechanism | None = None) -> list[Knob
     reference = reference or mechanism
     out: list[Knob] = []
     for body, ref in zip(mechanism.bodies, reference.bodies):
-        size, ref_size = body_size(body), body_size(ref)
+        # to 12 digits, as a person reads it: a size typed, then another, then the first again scales the points
+        # twice, and their distance comes back within rounding (0.049999999999999996 for 0.05), not to the bit
+        size, ref_size = float(f"{body_size(body):.12g}"), body_size(ref)
         if ref_size > 0:
             out.append(Knob(f"size:{body.name}", f"{body.name}: size (m)", round(0.25 * ref_size, 6),
                             round(3.0 * ref_size, 6), _step(ref_size), size,

@@ -134,3 +134,18 @@ def test_a_size_whose_inertia_would_pass_the_models_limit_is_refused_with_the_si
     assert "Input should be" not in message
     bigger = apply_edit(mechanism, "size:crank", 0.99 * limit, sample_interval=None)
     assert bigger.body("crank").inertia == pytest.approx(0.99**2 * MAX_INERTIA)
+
+
+def test_a_size_typed_then_typed_back_shows_the_value_it_had():
+    """Two sizes in a row scale the points twice; the distance comes back within rounding. The control shows a
+    size as a person reads it (12 digits), so typing the first value again shows exactly that value."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+
+    def shown(m):
+        return next(knob.value for knob in knobs(m) if knob.name == "size:crank")
+
+    before = shown(mechanism)
+    for other in (1e-3, 25.0):
+        back = apply_edit(apply_edit(mechanism, "size:crank", other), "size:crank", before)
+        assert shown(back) == before
+        assert body_size(back.body("crank")) == pytest.approx(before, rel=1e-12)
