@@ -11,6 +11,7 @@ from __future__ import annotations
 import colorsys
 import re
 import threading
+from collections.abc import Callable
 
 import numpy as np
 
@@ -65,6 +66,26 @@ def follows_on(dt: float) -> bool:
     copies by ``dt``), rather than starting again from the displayed state: it does for every step forward a
     playing server makes, however few frames it draws, and not for a jump back or far ahead (the timeline)."""
     return 0.0 <= dt <= MAX_FRAME_DT
+
+
+def catch_up(ensemble: Ensemble, t: float, displayed_state: Callable[[], tuple | None],
+             rounds: int = 8) -> float:
+    """Advance copies built from the state at ``t`` to where the display is now; returns the display time they
+    stand for. Why: a playing display moves on while the copies are built (in a worker: the first build
+    compiles, a loaded machine is slow), and a frame that finds them more than ``MAX_FRAME_DT`` behind takes it
+    for a jump and builds them again, which on a loaded machine never ended (CI saw the ensemble rebuilt
+    through 6 s of play). Each round closes the gap the last one left; a display that went back is left to
+    the next frame (a jump back restarts)."""
+    for _ in range(rounds):
+        state = displayed_state()
+        if state is None or not state[0] > t:
+            break
+        gap = state[0] - t
+        ensemble.advance(gap)
+        t = state[0]
+        if gap <= MAX_FRAME_DT / 8:
+            break
+    return t
 
 
 class Analysis:
@@ -224,6 +245,7 @@ class Analysis:
         def work() -> None:
             try:
                 ensemble = Ensemble(chain, theta, omega, method, count, ENSEMBLE_SPREAD, damping=damping)
+                t_copies = catch_up(ensemble, t, s.displayed_state)
                 points = segments(ensemble.joints())
             except Exception as error:
                 self.ensemble_status.content = f"Ensemble failed: {markdown_literal(f'{type(error).__name__}: {error}')}"
@@ -236,9 +258,9 @@ class Analysis:
                 self.ensemble_node = self._scene_api.add_line_segments(
                     ENSEMBLE_NODE, points, copy_colors(count, chain.n), thickness=0.004 * max(1.0, sum(p.L)))
                 self.ensemble = ensemble
-                self._ensemble_t = t
+                self._ensemble_t = t_copies
                 self._spread.clear()
-                self._spread.append(t, ensemble.tip_spread())
+                self._spread.append(t_copies, ensemble.tip_spread())
                 self.spread_plot.set_visible(True)
             self.ensemble_status.content = f"{count} copies, {method}, RK4 step {ensemble.step * 1e3:.3g} ms."
 

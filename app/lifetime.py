@@ -21,6 +21,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 
 ENDING_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 STOP_GRACE_SECONDS = 8.0  # a stop that takes longer (a hung session) is cut short; the children end with us
@@ -59,20 +60,49 @@ def watch_parent(parent: int, interval: float = PARENT_CHECK_SECONDS) -> threadi
     return thread
 
 
+_stop_requested = threading.Event()
+_raise_on_signal = True  # False while :func:`wait_for_stop` waits: the signal only sets the flag it polls
+
+
 def end_on_signals(grace: float = STOP_GRACE_SECONDS, signals: tuple[int, ...] = ENDING_SIGNALS) -> None:
-    """In the command's main thread: SIGTERM and SIGHUP end it as Ctrl+C does (a ``KeyboardInterrupt``, so the
-    server's own stop runs), and once any of them arrived, the process ends within ``grace`` seconds whatever
-    the stop is doing (its children end with it: :func:`die_with_parent`). A second signal ends it at once."""
+    """In the command's main thread: SIGTERM and SIGHUP end it as Ctrl+C does, and once any of them arrived, the
+    process ends within ``grace`` seconds whatever the stop is doing (its children end with it:
+    :func:`die_with_parent`). A second signal ends it at once.
+
+    While the command starts, a signal is a ``KeyboardInterrupt`` (so what was started is stopped); while it
+    serves (:func:`wait_for_stop`) it only sets a flag. Why: Python runs the handler in the main thread between
+    any two bytecodes, also inside a garbage collector's weakref callback (importlib's module locks have one),
+    where an exception is printed as "Exception ignored ... Traceback" and swallowed: the server then served on
+    until the grace timer killed it (exit 129, seen once in CI on SIGHUP)."""
     state = {"ending": False}
 
     def handler(signum, frame) -> None:
         if state["ending"]:
             os._exit(128 + signum)
         state["ending"] = True
+        _stop_requested.set()
         timer = threading.Timer(grace, lambda: os._exit(128 + signum))
         timer.daemon = True
         timer.start()
-        raise KeyboardInterrupt
+        if _raise_on_signal:
+            raise KeyboardInterrupt
 
     for sig in signals:
         signal.signal(sig, handler)
+
+
+def wait_for_stop(interval: float, keep_going: Callable[[], bool] = lambda: True) -> bool:
+    """Block the main thread until an ending signal arrived (True) or ``keep_going()`` turns false (False),
+    checking every ``interval`` s: short waits, since a signal the kernel delivers to another thread (a player,
+    viser's loop) runs its handler only when the main thread wakes. A signal arriving now sets a flag instead of
+    raising (:func:`end_on_signals`), so it cannot be lost in whatever the main thread happens to run."""
+    global _raise_on_signal
+    _raise_on_signal = False
+    try:
+        while not _stop_requested.is_set():
+            if not keep_going():
+                return False
+            _stop_requested.wait(interval)
+        return True
+    finally:
+        _raise_on_signal = True

@@ -667,9 +667,10 @@ class MechanismSession(SessionBase):
             self._new_mechanism(mechanism, play=True)
 
     def reset(self) -> None:
-        """Start again at t = 0 from the start in force (the chain's Reset: its initial angles and speeds)."""
+        """Start again at t = 0 from the start in force (the chain's Reset: its initial angles and speeds). The
+        mechanism is the same, so are its controls: they stay (a box being typed into is not replaced)."""
         with self._lock:
-            self._new_mechanism(self.mechanism, play=True, start=(self.q0, self.qdot0))
+            self._new_mechanism(self.mechanism, play=True, start=(self.q0, self.qdot0), same_kind=True)
 
     # ------------------------------------------------------------------ share links (app/share.py)
     def link_query(self) -> str:

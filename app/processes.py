@@ -241,10 +241,9 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
         ready.put(f"{type(error).__name__}: {error}")
         return
     ready.put("ok")
-    try:
-        while os.getppid() == parent:
-            time.sleep(ORPHAN_CHECK_SECONDS)
-    except KeyboardInterrupt:  # SIGTERM (app/lifetime.py): stop as the first process asked
+    try:  # until SIGTERM (app/lifetime.py: the first process asks) or the first process has gone
+        lifetime.wait_for_stop(ORPHAN_CHECK_SECONDS, keep_going=lambda: os.getppid() == parent)
+    except KeyboardInterrupt:  # SIGINT with its default handler (ignored above, unless a test changed it)
         pass
     finally:
         server.stop()

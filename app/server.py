@@ -24,7 +24,7 @@ import traceback
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 
-from . import memory, replay, share, viser_compat
+from . import lifetime, memory, replay, share, viser_compat
 from . import processes as server_processes
 from . import warm as warm_up
 from .compile_notice import TITLE as COMPILE_TITLE
@@ -414,13 +414,10 @@ class LabServer:
         self.compile_notices.detach()
 
     def serve_forever(self) -> None:
+        """Serve until Ctrl+C, SIGTERM or SIGHUP (app/lifetime.py), then stop every session and process."""
         try:
-            while True:
-                # Short sleeps, not one long one: Python runs a signal's handler in the main thread only, and a
-                # SIGTERM the kernel delivers to another thread (a player, viser's loop) does not interrupt the
-                # main thread's sleep; with one hour's sleep a terminated server served on (test_signals.py)
-                time.sleep(SIGNAL_CHECK_SECONDS)
-        except KeyboardInterrupt:
+            lifetime.wait_for_stop(SIGNAL_CHECK_SECONDS)
+        except KeyboardInterrupt:  # a Ctrl+C with no handler installed (a test's server in the main thread)
             pass
         finally:
             self.stop()

@@ -9,6 +9,7 @@ import numpy as np
 
 from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, follows_on
 from conftest import wait_until
+from physics.presets import get_preset
 from physics.studies import chaos_map as chaos
 
 
@@ -111,3 +112,20 @@ def test_a_slow_frame_advances_the_ensemble_and_a_jump_back_restarts_it():
     assert follows_on(0.0) and follows_on(1.0 / 60.0)
     assert not follows_on(-1e-3)  # the timeline dragged back
     assert not follows_on(60.0)  # or far ahead
+
+
+def test_copies_built_while_the_display_played_on_are_brought_to_it_not_built_again():
+    """On a loaded machine the copies took longer to build than ``MAX_FRAME_DT`` of playback; the next frame
+    took the gap for a jump and built them again, for ever (CI: no ensemble to compare after 6 s of play).
+    ``catch_up`` advances them to the display before they are shown."""
+    from app.analysis import MAX_FRAME_DT, catch_up  # noqa: PLC0415
+    from physics.ensemble import Ensemble  # noqa: PLC0415
+
+    preset = get_preset("triple-a")
+    ensemble = Ensemble(preset.chain, preset.theta0, preset.omega0, "lagrange", 8, 1e-6)
+    display = iter([3.0 * MAX_FRAME_DT, 3.3 * MAX_FRAME_DT, 3.3 * MAX_FRAME_DT + 0.01])  # moves on meanwhile
+    shown = catch_up(ensemble, 0.0, lambda: (next(display), None, None))
+    assert shown == 3.3 * MAX_FRAME_DT + 0.01 and follows_on(shown + 1.0 / 60.0 - shown)
+    assert abs(ensemble.time + ensemble.pending - shown) < 1e-9  # the copies stand where the display is
+    assert catch_up(ensemble, shown, lambda: (shown - 1.0, None, None)) == shown  # a jump back: left to a frame
+    assert catch_up(ensemble, shown, lambda: None) == shown

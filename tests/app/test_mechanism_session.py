@@ -399,7 +399,10 @@ def test_reset_after_a_stopped_run_clears_the_stopped_notice_while_it_plays_on(j
     session.worker.process.wait(10)
     assert wait_until(lambda: (session.notices.text or "").startswith("Simulation stopped"), timeout=60)
     assert session.notices.sticky, "the stopped notice is shown until it is dealt with"
+    boxes = dict(session._typed_boxes)
     session.guard(session.reset)
+    # the same mechanism keeps its controls: a box typed into meanwhile is not replaced under the typing
+    assert session._typed_boxes == boxes and all(session._typed_boxes[n] is b for n, b in boxes.items())
     assert _moving(session, 0.3)
     assert session.player.playing and session.player.runs[0].failed is None
     assert session.notices.text is None, session.notices.text

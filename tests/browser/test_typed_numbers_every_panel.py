@@ -128,7 +128,7 @@ def _type_every_text(page, session, panel: Panel, label: str, name: str) -> list
                 wait_until(lambda: box.input_value() == before, message=f"{label}: the value put back")
                 assert panel.value(name) == value_before, f"{label}: put back as {panel.value(name)!r}"
             if session.player.runs and session.player.runs[0].failed is not None:
-                session.reset()  # a value that stops the run (a huge g) was applied: start again
+                _reset(page, session, panel, name, box)  # a value that stops the run (a huge g) was applied
         else:
             assert field in notice, (label, text, notice)
             # what is allowed: a range ("d1 (m) = 5: allowed range 0 to 1", both panels) or the condition refused
@@ -148,6 +148,16 @@ def _type_every_text(page, session, panel: Panel, label: str, name: str) -> list
             outcomes.append(notice)
         assert not session.closed and session.player.alive
     return outcomes
+
+
+def _reset(page, session, panel: Panel, name: str, box) -> None:
+    """Start again after a value that stopped the run. Reset keeps the panel's controls: it built a
+    mechanism's again, and a box typed into while its removal was on its way to the page was a box the server
+    had dropped (CI: '1,5' after 1000 °/s stopped the geared five-bar was never applied nor refused)."""
+    server_box = panel.box(name)
+    session.reset()
+    assert panel.box(name) is server_box, f"{name}: Reset built the box again"
+    wait_until(lambda: box.input_value() == panel.box(name).value, message=f"{name}: the box after Reset")
 
 
 def _type_into_every_box_shown(page, session, panel: Panel, done: dict[str, list[str]]) -> None:
