@@ -44,7 +44,6 @@ from .registry import (
 )
 from .simulate import simulate
 from .simulate.run import check_assembled
-from .studies.charts import fan_picture, png_bytes
 
 EXIT_BAD_INPUT = 2
 
@@ -247,6 +246,8 @@ def cmd_ensemble(args) -> int:
     document = {"preset": args.preset, "method": args.method, "count": ensemble.count, "spread": ensemble.spread,
                 "step": ensemble.step, **columns, "message": ensemble.message,
                 "final_tips": ensemble.joints()[:, -1, :].tolist()}
+    from .studies.charts import fan_picture, png_bytes  # noqa: PLC0415  (PIL: only for an ensemble's picture)
+
     return write_ensemble(args.out, document, columns,
                           lambda: png_bytes(fan_picture(ensemble.joints(), ensemble.alive)),
                           bool(ensemble.alive.all()), ensemble.message)
