@@ -11,7 +11,7 @@ its loop, because the maximal-coordinate equations of motion would be singular t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -105,6 +105,29 @@ def assemble_prepared(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarra
                       t: float = 0.0) -> Assembled:
     """:func:`assemble` with the mechanism's prepared pieces (:mod:`physics.mechanism.prepared`: its equations,
     spanning tree and weights, built once per mechanism) that the caller already holds."""
+    return assembled_with_jacobian(mechanism, pieces, q_guess, t)[0]
+
+
+def assembled_with_jacobian(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None = None,
+                            t: float = 0.0) -> tuple[Assembled, np.ndarray]:
+    """:func:`assemble_prepared`, and ``Phi_q`` at the assembled pose (read-only; a run projects its start
+    velocities with it). A pure function of the mechanism and ``(q_guess, t)``, so the last few starts of each
+    mechanism are remembered (:meth:`Prepared.remembered`): a run again from the sketch (a changed setting, a
+    study's sweep) does not assemble again. A refusal is never remembered."""
+    guess = None if q_guess is None else np.asarray(q_guess, dtype=float)
+    key = (None if guess is None else (guess.shape, guess.tobytes()), float(t))
+    found = pieces.remembered(key)
+    if found is None:
+        found = _assemble(mechanism, pieces, q_guess, t)
+        found[0].q.setflags(write=False)
+        found[1].setflags(write=False)
+        pieces.remember(key, found)
+    assembled, jacobian = found
+    return replace(assembled, q=assembled.q.copy()), jacobian
+
+
+def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None,
+              t: float) -> tuple[Assembled, np.ndarray]:
     topology = pieces.topology if pieces.topology is not None else analyse_or_refuse(mechanism)
     constraints = pieces.constraints
     size = pieces.sketch_size
@@ -138,7 +161,7 @@ def assemble_prepared(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarra
         topology=topology,
         speed_motors=sum(1 for driver in mechanism.drivers if driver.speed is not None),
         torque_motors=sum(1 for driver in mechanism.drivers if driver.speed is None),
-    )
+    ), jacobian
 
 
 def analyse_or_refuse(mechanism: Mechanism) -> Topology:

@@ -303,20 +303,23 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
     from ..kernels.constants import PROJECTION_TOLERANCE  # noqa: PLC0415
     from ..kernels.projection import project_states  # noqa: PLC0415
 
-    xs, vs = [np.array(x0, dtype=float)], [np.array(v0, dtype=float)]
+    times = np.ascontiguousarray(times, dtype=float)
+    xs, vs = np.empty((times.size, np.size(x0))), np.empty((times.size, np.size(v0)))
+    xs[0], vs[0] = x0, v0
     scale = max(1.0, float(np.max(np.abs(x0))))
-    for t_previous, t in zip(times[:-1], times[1:]):
-        theta = (xs[-1] + vs[-1] * (t - t_previous))[None, :]
-        omega = vs[-1].copy()[None, :]
-        left = project_states(compiled.assemble_function, layout, np.array([float(t)]), theta, omega, params)
-        if not left < 100.0 * PROJECTION_TOLERANCE * scale or not np.all(np.isfinite(theta)):
+    tolerance = 100.0 * PROJECTION_TOLERANCE * scale
+    assemble_function = compiled.assemble_function
+    for k in range(1, times.size):  # each sample starts from the one before: a loop, the kernel does the work
+        theta = (xs[k - 1] + vs[k - 1] * (times[k] - times[k - 1]))[None, :]
+        omega = vs[k - 1].copy()[None, :]
+        left = project_states(assemble_function, layout, times[k : k + 1], theta, omega, params)
+        if not left < tolerance or not np.isfinite(theta).all():
             try:
-                theta[0], omega[0] = fallback(xs[-1], vs[-1], float(t))
+                theta[0], omega[0] = fallback(xs[k - 1], vs[k - 1], float(times[k]))
             except LinkageError as error:  # the motors drive it where its loops cannot close: the run ends here
-                return np.array(xs), np.array(vs), f"at t = {float(t):.6g} s: {error}"
-        xs.append(theta[0])
-        vs.append(omega[0])
-    return np.array(xs), np.array(vs), None
+                return xs[:k], vs[:k], f"at t = {float(times[k]):.6g} s: {error}"
+        xs[k], vs[k] = theta[0], omega[0]
+    return xs, vs, None
 
 
 def _pose(compiled, params, x, v) -> np.ndarray:

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass
+from collections.abc import Hashable
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -38,6 +39,7 @@ if TYPE_CHECKING:
 # Mechanisms kept: the app's few open ones and a study's sweep over one structure's numbers fit many times over;
 # the least recently used goes first.
 PREPARED_ENTRIES = 64
+ASSEMBLIES_KEPT = 8  # starts remembered per mechanism: the sketch, and a few others a study returns to
 
 
 @dataclass(frozen=True)
@@ -65,6 +67,8 @@ class Prepared:
     coordinate_names: tuple[str, ...]
     row_names: tuple[str, ...]
     body_points: BodyPoints
+    # the last few assemblies, by start (:func:`~physics.mechanism.assembly.assembled_with_jacobian`)
+    assemblies: OrderedDict = field(default_factory=OrderedDict, compare=False, repr=False)
 
     @property
     def dae(self) -> MechanismDAE:
@@ -80,6 +84,23 @@ class Prepared:
         from .joint_coordinates import JointCoordinates  # noqa: PLC0415  (it reads assembly, which reads here)
 
         return JointCoordinates(self.constraints.mechanism, self.constraints)
+
+    def remembered(self, key: Hashable):
+        """What :meth:`remember` kept under ``key``, or None."""
+        with _lock:
+            found = self.assemblies.get(key)
+            if found is not None:
+                self.assemblies.move_to_end(key)
+            return found
+
+    def remember(self, key: Hashable, value) -> None:
+        """Keep ``value`` (its arrays read-only) under ``key``, forgetting the oldest beyond
+        :data:`ASSEMBLIES_KEPT`."""
+        with _lock:
+            self.assemblies[key] = value
+            self.assemblies.move_to_end(key)
+            while len(self.assemblies) > ASSEMBLIES_KEPT:
+                self.assemblies.popitem(last=False)
 
     def parameters_at(self, t: float) -> np.ndarray:
         """A fresh parameter vector with its time slot set to ``t`` (:func:`parameter_vector`'s ``t``)."""

@@ -33,7 +33,7 @@ from ..registry import (
 )
 from ..simulate.trajectory import Trajectory
 from . import engine
-from .assembly import assemble_prepared
+from .assembly import assembled_with_jacobian
 from .dae import MechanismDAE
 from .model import Mechanism
 from .prepared import prepared
@@ -49,11 +49,11 @@ __all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_o
 RUN_METHODS = MECHANISM_METHODS
 
 
-def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray,
-                     velocity_rhs: np.ndarray | None = None) -> np.ndarray:
+def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray, velocity_rhs: np.ndarray | None = None,
+                     jacobian: np.ndarray | None = None) -> np.ndarray:
     """The velocity nearest ``qdot`` in kinetic energy that satisfies ``Phi_q qdot = nu`` (``velocity_rhs``:
-    ``nu`` when the caller holds it, :meth:`Constraints.velocity_rhs` otherwise)."""
-    jacobian = dae.constraints.jacobian(q)
+    ``nu``, ``jacobian``: ``Phi_q`` at ``q``, when the caller holds them; computed here otherwise)."""
+    jacobian = dae.constraints.jacobian(q) if jacobian is None else jacobian
     inverse_mass = 1.0 / dae.mass_diagonal
     nu = dae.constraints.velocity_rhs() if velocity_rhs is None else velocity_rhs
     gap = jacobian @ qdot - nu
@@ -109,11 +109,11 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
     pieces = prepared(mechanism)
     dae = pieces.dae  # refuses a body without mass before anything else, as building the DAE did
-    assembled = assemble_prepared(mechanism, pieces, q0, t_start)
+    assembled, jacobian = assembled_with_jacobian(mechanism, pieces, q0, t_start)
     q = assembled.q
     driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
-                            pieces.velocity_rhs)
+                            pieces.velocity_rhs, jacobian)
     return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces)
 
 

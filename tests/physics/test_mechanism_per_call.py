@@ -22,6 +22,7 @@ from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
+from physics.mechanism.model import Mechanism
 from physics.mechanism.parameters import parameter_vector, structure_key
 from physics.mechanism.prepared import clear_prepared, prepared
 from physics.mechanism.run import body_points, coordinate_names
@@ -159,3 +160,41 @@ def test_a_massless_body_is_assembled_but_its_run_refused_every_time():
         with pytest.raises(LinkageError) as refused:
             simulate_mechanism(massless, 0.5, 11)
         assert str(refused.value) == str(direct.value)
+
+
+def test_a_remembered_assembly_equals_a_fresh_one_and_is_the_callers_own():
+    mechanism = MECHANISM_PRESETS["jansen-leg"]()
+    clear_prepared()
+    first = assemble(mechanism, None, 0.3)  # the sketch is rough: Newton steps
+    assert first.newton_steps > 0
+    first.q[:] = 0.0  # the caller's copy: the remembered pose is not changed
+    again = assemble(mechanism, None, 0.3)
+    clear_prepared()
+    fresh = assemble(mechanism, None, 0.3)
+    np.testing.assert_array_equal(again.q, fresh.q)
+    assert (again.residual, again.newton_steps, again.mobility) == (fresh.residual, fresh.newton_steps, fresh.mobility)
+    other_time = assemble(mechanism, None, 0.6)  # another start is another key
+    assert not np.array_equal(other_time.q, fresh.q)
+    np.testing.assert_array_equal(assemble(mechanism, fresh.q, 0.6).q, assemble(mechanism, fresh.q, 0.6).q)
+
+
+def test_a_refusal_is_never_remembered():
+    """An over-constrained loop and a body the ground cannot reach: refused with the same line on every call,
+    and nothing kept for their starts."""
+    document = MECHANISM_PRESETS["crank-rocker"]().model_dump()
+    document["drivers"] = []
+    rocker = next(body for body in document["bodies"] if body["name"] == "rocker")
+    document["bodies"].append({**rocker, "name": "rocker2"})
+    document["joints"] += [{"kind": "revolute", "name": "O4b", "a": "ground.O4", "b": "rocker2.O4"},
+                           {"kind": "revolute", "name": "Bb", "a": "coupler.B", "b": "rocker2.B"}]
+    over = Mechanism.model_validate(document)
+    loose = MECHANISM_PRESETS["slider-crank"]().model_dump()
+    loose["bodies"].append({"name": "loose", "points": {"X": [1.0, 1.0]}, "mass": 1.0, "inertia": 0.1})
+    disconnected = Mechanism.model_validate(loose)
+    for mechanism, fragment in ((over, "over-constrained"), (disconnected, "not connected to the ground")):
+        messages = set()
+        for _ in range(2):
+            with pytest.raises(LinkageError, match=fragment) as refused:
+                assemble(mechanism)
+            messages.add(str(refused.value))
+        assert len(messages) == 1 and not prepared(mechanism).assemblies
