@@ -19,7 +19,7 @@ import pytest
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.assembly import sketch_size
-from physics.mechanism.constraints import Constraints
+from physics.mechanism.constraints import Constraints, _Frame
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
 from physics.mechanism.model import Mechanism
@@ -198,3 +198,17 @@ def test_a_refusal_is_never_remembered():
                 assemble(mechanism)
             messages.add(str(refused.value))
         assert len(messages) == 1 and not prepared(mechanism).assemblies
+
+
+@pytest.mark.parametrize("name", ["geared-five-bar", "jansen-leg", "slider-crank"])
+def test_the_batched_jacobian_is_each_poses_own(name):
+    """Every sample's Phi_q of one batched evaluation equals its own evaluation, entry for entry (the entries go
+    into ``out`` through a flat view; a gear's rows reach a body twice, so entries are summed, not set)."""
+    mechanism = MECHANISM_PRESETS[name]()
+    constraints = Constraints(mechanism)
+    q = assemble(mechanism).q + np.random.default_rng(5).normal(scale=0.1, size=(7, 3 * len(mechanism.bodies)))
+    batched = constraints.jacobian(q)
+    for k, pose in enumerate(q):
+        np.testing.assert_array_equal(batched[k], constraints.jacobian(pose))
+    with pytest.raises(ValueError, match="C-contiguous"):
+        constraints._groups[0].gradient(_Frame(q[0]), np.zeros((constraints.size + 3, len(constraints.rows))).T)
