@@ -309,9 +309,11 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
     scale = max(1.0, float(np.max(np.abs(x0))))
     tolerance = 100.0 * PROJECTION_TOLERANCE * scale
     assemble_function = compiled.assemble_function
+    theta, omega = np.empty((1, xs.shape[1])), np.empty((1, vs.shape[1]))  # the kernel's row, filled anew each time
     for k in range(1, times.size):  # each sample starts from the one before: a loop, the kernel does the work
-        theta = (xs[k - 1] + vs[k - 1] * (times[k] - times[k - 1]))[None, :]
-        omega = vs[k - 1].copy()[None, :]
+        np.multiply(vs[k - 1], times[k] - times[k - 1], out=theta[0])
+        np.add(xs[k - 1], theta[0], out=theta[0])  # the last sample moved on by its velocity
+        omega[0] = vs[k - 1]
         left = project_states(assemble_function, layout, times[k : k + 1], theta, omega, params)
         if not left < tolerance or not np.isfinite(theta).all():
             try:
