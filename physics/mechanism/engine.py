@@ -342,10 +342,11 @@ def _assembled_state(mechanism, to_state, previous_q, t):
 def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, t: float = 0.0):
     """``(qddot, reactions)`` of ``method`` at one assembled state: its own solve, and for a tree formulation
     every body's accelerations from its own and the reactions by Newton's second law on them."""
-    from .dae import MechanismDAE  # noqa: PLC0415
+    from .prepared import prepared  # noqa: PLC0415
 
-    compiled = compiled_system(mechanism, method)
-    params = parameter_vector(mechanism, t=t)
+    pieces = prepared(mechanism)
+    compiled = compiled_system(mechanism, method, pieces.structure_key)
+    params = pieces.parameters_at(t)
     if method == "dae":
         x, v = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     else:
@@ -353,7 +354,7 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
 
         x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float))
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
-    reactions = solved.multipliers if method == "dae" else body_reactions(MechanismDAE(mechanism), solved)
+    reactions = solved.multipliers if method == "dae" else body_reactions(pieces.dae, solved)
     return solved.qddot[0], reactions[0]
 
 
