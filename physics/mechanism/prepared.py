@@ -1,13 +1,15 @@
 """What every run of one mechanism needs before its first step, built once per mechanism's *content*.
 
-A run used to rebuild, on every call, the same pieces from the same description: the constraint equations
-grouped by joint kind (:class:`~physics.mechanism.constraints.Constraints`), the mass diagonal and gravity
+Every run of a mechanism needs the same pieces of the same description: the constraint equations grouped by joint
+kind (:class:`~physics.mechanism.constraints.Constraints`), the mass diagonal and gravity
 (:class:`~physics.mechanism.dae.MechanismDAE`), the spanning tree, the parameter vector, the projection's
 weights, the names of the coordinates and reaction rows, the named points. None of them depends on anything but
 the mechanism's numbers and names, so :func:`prepared` keeps them, keyed on the mechanism's full content (its
 JSON, every field: a mechanism edited in the app is another object with other numbers, and so another key; two
 equal descriptions share one entry). Never keyed on ``id()``: a pydantic model's lists and dicts can be changed
-in place, and a freed object's id is reused.
+in place, and a freed object's id is reused. For the same reason every piece is built from a private deep copy
+of the description (what a piece reads later, such as the joint coordinates built on first use, cannot see a
+change made in place to the caller's object afterwards).
 
 The arrays kept here are read-only, so a caller that wrote into one would fail loudly instead of changing every
 later run. Only successes are kept: a mechanism that is refused (a body without mass, a body the ground cannot
@@ -52,7 +54,8 @@ class Prepared:
     lengths) and of the DAE's projection (positions, then velocities nearest in kinetic energy);
     ``parameters``: :func:`~physics.mechanism.parameters.parameter_vector` at ``t = 0``; ``structure_key``
     names its generated code. A mechanism with a massless body has its equations (``constraints``: assembly
-    needs no mass) but no equations of motion: ``dae`` is None and :meth:`motion` refuses it."""
+    needs no mass) but no equations of motion: ``dae_or_none`` is None and :attr:`dae` refuses it. The time is
+    the parameter vector's last entry (:func:`~physics.mechanism.parameters.parameter_names`)."""
 
     constraints: Constraints
     dae_or_none: MechanismDAE | None
@@ -146,6 +149,7 @@ def _build(mechanism: Mechanism) -> Prepared:
     from .assembly import sketch_size  # noqa: PLC0415  (assembly reads this module)
     from .topology import analyse  # noqa: PLC0415
 
+    mechanism = mechanism.model_copy(deep=True)  # the pieces' own: see the module's text
     constraints = Constraints(mechanism)
     dae: MechanismDAE | None = None
     refusal = ""

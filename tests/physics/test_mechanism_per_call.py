@@ -212,3 +212,19 @@ def test_the_batched_jacobian_is_each_poses_own(name):
         np.testing.assert_array_equal(batched[k], constraints.jacobian(pose))
     with pytest.raises(ValueError, match="C-contiguous"):
         constraints._groups[0].gradient(_Frame(q[0]), np.zeros((constraints.size + 3, len(constraints.rows))).T)
+
+
+def test_a_change_in_place_after_preparing_does_not_reach_the_kept_pieces():
+    """The pieces are built from a private copy: the joint coordinates, built on first use, are the description's
+    as it was when it was prepared, not as the caller's object reads later."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    clear_prepared()
+    pieces = prepared(mechanism)
+    original = MECHANISM_PRESETS["slider-crank"]()
+    mechanism.bodies[0] = mechanism.bodies[0].model_copy(
+        update={"points": {name: (x + 0.05, y) for name, (x, y) in mechanism.bodies[0].points.items()}})
+    assert pieces.constraints.mechanism == original != mechanism
+    q = assemble(original).q
+    expected = JointCoordinates(original, Constraints(original))
+    for which in range(len(expected.names)):
+        assert pieces.joint_coordinates.value(q, which) == expected.value(q, which)
