@@ -11,7 +11,8 @@ its loop, because the maximal-coordinate equations of motion would be singular t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from ..errors import LinkageError
 from .constraints import Constraints
 from .model import Mechanism
 from .topology import Loop, Topology, analyse
+
+if TYPE_CHECKING:
+    from .prepared import Prepared
 
 NEWTON_STEPS = 60
 ASSEMBLY_TOLERANCE = 1e-12  # relative to the sketch's size
@@ -92,10 +96,42 @@ def sketch_size(mechanism: Mechanism) -> float:
 def assemble(mechanism: Mechanism, q_guess: np.ndarray | None = None, t: float = 0.0) -> Assembled:
     """The pose nearest ``q_guess`` (default: the sketch) where every joint closes; LinkageError naming the
     joint that stays open, or the loop that is over-constrained."""
-    topology = analyse_or_refuse(mechanism)
-    constraints = Constraints(mechanism)
-    size = sketch_size(mechanism)
-    weights = np.tile([1.0, 1.0, 1.0 / size], len(mechanism.bodies))  # q = weights * z: rotations in lengths
+    from .prepared import prepared  # noqa: PLC0415  (it reads sketch_size from here)
+
+    return assemble_prepared(mechanism, prepared(mechanism), q_guess, t)
+
+
+def assemble_prepared(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None = None,
+                      t: float = 0.0) -> Assembled:
+    """:func:`assemble` with the mechanism's prepared pieces (:mod:`physics.mechanism.prepared`: its equations,
+    spanning tree and weights, built once per mechanism) that the caller already holds."""
+    return assembled_with_jacobian(mechanism, pieces, q_guess, t)[0]
+
+
+def assembled_with_jacobian(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None = None,
+                            t: float = 0.0) -> tuple[Assembled, np.ndarray]:
+    """:func:`assemble_prepared`, and ``Phi_q`` at the assembled pose (read-only; a run projects its start
+    velocities with it). A pure function of the mechanism and ``(q_guess, t)``, so the last few starts of each
+    mechanism are remembered (:meth:`Prepared.remembered`): a run again from the sketch (a changed setting, a
+    study's sweep) does not assemble again. A refusal is never remembered."""
+    guess = None if q_guess is None else np.asarray(q_guess, dtype=float)
+    key = (None if guess is None else (guess.shape, guess.tobytes()), float(t))
+    found = pieces.remembered(key)
+    if found is None:
+        found = _assemble(mechanism, pieces, q_guess, t)
+        found[0].q.setflags(write=False)
+        found[1].setflags(write=False)
+        pieces.remember(key, found)
+    assembled, jacobian = found
+    return replace(assembled, q=assembled.q.copy()), jacobian
+
+
+def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None,
+              t: float) -> tuple[Assembled, np.ndarray]:
+    topology = pieces.topology if pieces.topology is not None else analyse_or_refuse(mechanism)
+    constraints = pieces.constraints
+    size = pieces.sketch_size
+    weights = pieces.assembly_weights  # q = weights * z: rotations in lengths
     q = constraints.sketch_pose() if q_guess is None else np.array(q_guess, dtype=float)
     residual = constraints.residual(q, t)
     steps = 0
@@ -125,7 +161,7 @@ def assemble(mechanism: Mechanism, q_guess: np.ndarray | None = None, t: float =
         topology=topology,
         speed_motors=sum(1 for driver in mechanism.drivers if driver.speed is not None),
         torque_motors=sum(1 for driver in mechanism.drivers if driver.speed is None),
-    )
+    ), jacobian
 
 
 def analyse_or_refuse(mechanism: Mechanism) -> Topology:
@@ -176,13 +212,16 @@ def track(mechanism: Mechanism, times: np.ndarray, q_start: np.ndarray | None = 
 def kinematics(mechanism: Mechanism, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Velocities and accelerations of a mechanism the drivers fully determine (mobility 0):
     ``Phi_q qdot = nu`` and ``Phi_q qddot = gamma``. LinkageError if it has a free degree of freedom."""
-    constraints = Constraints(mechanism)
+    from .prepared import prepared  # noqa: PLC0415
+
+    pieces = prepared(mechanism)
+    constraints = pieces.constraints
     jacobian = constraints.jacobian(q)
     if jacobian.shape[0] != jacobian.shape[1] or _rank(jacobian) < jacobian.shape[0]:
         raise LinkageError(
             f"{mechanism.name}: its drivers do not fix every body ({constraints.size - _rank(jacobian)} degrees of "
             "freedom left): kinematics alone cannot give its velocities; it needs the equations of motion"
         )
-    qdot = np.linalg.solve(jacobian, constraints.velocity_rhs())
+    qdot = np.linalg.solve(jacobian, pieces.velocity_rhs)
     qddot = np.linalg.solve(jacobian, constraints.acceleration_rhs(q, qdot))
     return qdot, qddot

@@ -40,9 +40,11 @@ class Solution:
 class MechanismDAE:
     """Mass matrix, applied forces and the augmented system of one mechanism."""
 
-    def __init__(self, mechanism: Mechanism) -> None:
+    def __init__(self, mechanism: Mechanism, constraints: Constraints | None = None) -> None:
+        """``constraints``: the mechanism's own equations when a caller already holds them
+        (:mod:`physics.mechanism.prepared`); built here otherwise."""
         self.mechanism = mechanism
-        self.constraints = Constraints(mechanism)
+        self.constraints = Constraints(mechanism) if constraints is None else constraints
         bodies = mechanism.bodies
         self.mass_diagonal = np.array([v for body in bodies for v in (body.mass, body.mass, body.inertia)])
         if np.any(self.mass_diagonal <= 0.0):

@@ -14,6 +14,7 @@ every sample's pose, velocities, accelerations and reactions come out of batched
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,18 +23,23 @@ from ..kernels.abi import LAYOUT_WEIGHTS
 from .model import Mechanism
 from .parameters import parameter_vector, structure, structure_key
 
+if TYPE_CHECKING:
+    from .prepared import Prepared
 
-def compiled_system(mechanism: Mechanism, method: str) -> CompiledSystem:
+
+def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | None = None) -> CompiledSystem:
     """The generated system of ``method`` for ``mechanism``'s structure: from memory, from the cache folder, or
-    derived (sympy, only on a miss) and cached."""
-    shape = structure(mechanism)
-    key = _cache_key(mechanism, method)
+    derived (sympy, only on a miss) and cached. ``key_of_structure``: :func:`structure_key` of ``mechanism``
+    when the caller holds it (:mod:`physics.mechanism.prepared`)."""
+    digest = structure_key(mechanism) if key_of_structure is None else key_of_structure
+    key = _key(digest, method)
 
     def derive():
         from .symbolic import derive_structure  # noqa: PLC0415  (sympy only on a cache miss)
 
+        shape = structure(mechanism)
         return derive_structure(shape, method), (f"a mechanism of {shape.bodies} bodies and "
-                                                 f"{len(shape.joints)} joints, structure {structure_key(mechanism)}")
+                                                 f"{len(shape.joints)} joints, structure {digest}")
 
     return load_generated(key, method, derive)
 
@@ -47,7 +53,11 @@ def is_compiled(mechanism: Mechanism, method: str) -> bool:
 
 def _cache_key(mechanism: Mechanism, method: str) -> str:
     """The generated system's name in the cache: its method and its structure, never its numbers."""
-    return f"{method.replace('_', '')}-mechanism-{structure_key(mechanism)}"
+    return _key(structure_key(mechanism), method)
+
+
+def _key(digest: str, method: str) -> str:
+    return f"{method.replace('_', '')}-mechanism-{digest}"
 
 
 @dataclass(frozen=True)
@@ -65,12 +75,13 @@ class Integration:
 
 
 def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: float, weights: np.ndarray | None,
-                   integrating: bool = True):
+                   integrating: bool = True, base: np.ndarray | None = None):
     """The parameter vector of a run, and the layout to pass with it: when ``weights`` (2 n: positions, then
     velocities) are given, they are appended to the vector and the layout says where. ``integrating``: the
     layout with the fused right-hand side the integrators call (its module compiled on first use); a driven
-    run's position analysis does not need it."""
-    params = parameter_vector(mechanism, t=t_start)
+    run's position analysis does not need it. ``base``: the run's own copy of :func:`parameter_vector` at
+    ``t_start`` when the caller holds it (the integrators write the time slot: never a shared array)."""
+    params = parameter_vector(mechanism, t=t_start) if base is None else base
     layout = compiled.integration_layout if integrating else compiled.layout
     if weights is not None:
         layout = layout.copy()
@@ -158,24 +169,26 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
     return Samples(pose, qdot, qddot, multipliers, residual, condition, jacobian_rows)
 
 
-def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool):
+def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
+        pieces: Prepared | None = None):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
     ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
     each sample is position analysis from the one before and only the formulation's solve is asked for (inverse
     dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
     (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
-    raises LinkageError, as bad input does."""
+    raises LinkageError, as bad input does. ``pieces``: the mechanism's prepared pieces
+    (:mod:`physics.mechanism.prepared`) when the caller holds them."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
-    from .assembly import sketch_size  # noqa: PLC0415
-    from .dae import MechanismDAE  # noqa: PLC0415
-    from .run import body_points, coordinate_names, traced_path  # noqa: PLC0415
+    from .prepared import prepared  # noqa: PLC0415
+    from .run import traced_path  # noqa: PLC0415
 
     method, stabilization = settings.method, settings.stabilization
-    dae = MechanismDAE(mechanism)  # numbers only: masses, gravity, the constraint rows' names
+    pieces = prepared(mechanism) if pieces is None else pieces
+    dae = pieces.dae  # numbers only: masses, gravity, the constraint rows' names
     constraints = dae.constraints
-    compiled = compiled_system(mechanism, method)
+    compiled = compiled_system(mechanism, method, pieces.structure_key)
     tree = method != "dae"
     if tree:
         from .tree_coordinates import tree_state  # noqa: PLC0415
@@ -186,10 +199,10 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         def to_state(_mechanism, q_, qdot_):
             return q_, qdot_
 
-        scale = sketch_size(mechanism)
-        positions = np.tile([1.0, 1.0, 1.0 / scale**2], len(mechanism.bodies))  # as assembly weighs steps
-        weights = np.concatenate([positions, 1.0 / dae.mass_diagonal])  # velocities: nearest in kinetic energy
-    params, layout = run_parameters(mechanism, compiled, float(times[0]), weights, integrating=not driven)
+        # positions as assembly weighs steps, velocities nearest in kinetic energy
+        weights = pieces.projection_weights
+    params, layout = run_parameters(mechanism, compiled, float(times[0]), weights, integrating=not driven,
+                                    base=pieces.parameters_at(float(times[0])))
     steps = evaluations = 0
     status, message = int(Status.OK), "ok"
     if driven:
@@ -235,17 +248,18 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
             _refuse(reason)
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
-    reactions = solved.multipliers if not tree else body_reactions(dae, solved)
+    jacobians = _maximal_jacobians(constraints, solved.q) if tree else None
+    reactions = solved.multipliers if not tree else body_reactions(dae, solved, jacobians)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
-    points = body_points(mechanism)
+    points = pieces.body_points
     return Trajectory(
-        t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, coordinate_names=coordinate_names(mechanism),
+        t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, coordinate_names=pieces.coordinate_names,
         reaction_rows=reactions, kinetic=kinetic, potential=potential, energy=kinetic + potential,
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
-        row_names=tuple(f"{row.joint}: {row.meaning}" for row in constraints.rows), method=method,
+        row_names=pieces.row_names, method=method,
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
-        condition=_conditions(constraints, solved, tree),
+        condition=_conditions(constraints, solved, tree, jacobians),
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
 
@@ -289,20 +303,25 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
     from ..kernels.constants import PROJECTION_TOLERANCE  # noqa: PLC0415
     from ..kernels.projection import project_states  # noqa: PLC0415
 
-    xs, vs = [np.array(x0, dtype=float)], [np.array(v0, dtype=float)]
+    times = np.ascontiguousarray(times, dtype=float)
+    xs, vs = np.empty((times.size, np.size(x0))), np.empty((times.size, np.size(v0)))
+    xs[0], vs[0] = x0, v0
     scale = max(1.0, float(np.max(np.abs(x0))))
-    for t_previous, t in zip(times[:-1], times[1:]):
-        theta = (xs[-1] + vs[-1] * (t - t_previous))[None, :]
-        omega = vs[-1].copy()[None, :]
-        left = project_states(compiled.assemble_function, layout, np.array([float(t)]), theta, omega, params)
-        if not left < 100.0 * PROJECTION_TOLERANCE * scale or not np.all(np.isfinite(theta)):
+    tolerance = 100.0 * PROJECTION_TOLERANCE * scale
+    assemble_function = compiled.assemble_function
+    theta, omega = np.empty((1, xs.shape[1])), np.empty((1, vs.shape[1]))  # the kernel's row, filled anew each time
+    for k in range(1, times.size):  # each sample starts from the one before: a loop, the kernel does the work
+        np.multiply(vs[k - 1], times[k] - times[k - 1], out=theta[0])
+        np.add(xs[k - 1], theta[0], out=theta[0])  # the last sample moved on by its velocity
+        omega[0] = vs[k - 1]
+        left = project_states(assemble_function, layout, times[k : k + 1], theta, omega, params)
+        if not left < tolerance or not np.isfinite(theta).all():
             try:
-                theta[0], omega[0] = fallback(xs[-1], vs[-1], float(t))
+                theta[0], omega[0] = fallback(xs[k - 1], vs[k - 1], float(times[k]))
             except LinkageError as error:  # the motors drive it where its loops cannot close: the run ends here
-                return np.array(xs), np.array(vs), f"at t = {float(t):.6g} s: {error}"
-        xs.append(theta[0])
-        vs.append(omega[0])
-    return np.array(xs), np.array(vs), None
+                return xs[:k], vs[:k], f"at t = {float(times[k]):.6g} s: {error}"
+        xs[k], vs[k] = theta[0], omega[0]
+    return xs, vs, None
 
 
 def _pose(compiled, params, x, v) -> np.ndarray:
@@ -323,10 +342,11 @@ def _assembled_state(mechanism, to_state, previous_q, t):
 def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, t: float = 0.0):
     """``(qddot, reactions)`` of ``method`` at one assembled state: its own solve, and for a tree formulation
     every body's accelerations from its own and the reactions by Newton's second law on them."""
-    from .dae import MechanismDAE  # noqa: PLC0415
+    from .prepared import prepared  # noqa: PLC0415
 
-    compiled = compiled_system(mechanism, method)
-    params = parameter_vector(mechanism, t=t)
+    pieces = prepared(mechanism)
+    compiled = compiled_system(mechanism, method, pieces.structure_key)
+    params = pieces.parameters_at(t)
     if method == "dae":
         x, v = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     else:
@@ -334,19 +354,29 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
 
         x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float))
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
-    reactions = solved.multipliers if method == "dae" else body_reactions(MechanismDAE(mechanism), solved)
+    reactions = solved.multipliers if method == "dae" else body_reactions(pieces.dae, solved)
     return solved.qddot[0], reactions[0]
 
 
-def _conditions(constraints, solved: Samples, tree: bool) -> np.ndarray:
+def _maximal_jacobians(constraints, q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(finite, jacobians)``: which poses of ``q (T, 3 B)`` are finite, and the maximal coordinates' ``Phi_q``
+    at those (one batched evaluation, None when there is none): a tree formulation's run needs it twice, for
+    its conditions and its reactions."""
+    finite = np.all(np.isfinite(q), axis=1)
+    return finite, (constraints.jacobian(q[finite]) if np.any(finite) else None)
+
+
+def _conditions(constraints, solved: Samples, tree: bool,
+                jacobians: tuple[np.ndarray, np.ndarray | None] | None = None) -> np.ndarray:
     """Every sample's condition of the constraint Jacobian ``Phi_q`` (physics/mechanism/singularity.py), one
     batched SVD: for the DAE of the Jacobians its samples already hold, for tree coordinates of the maximal
-    coordinates' ``Phi_q`` at every sample's pose (one batched evaluation); infinite where a pose is not finite."""
+    coordinates' ``Phi_q`` at every sample's pose (``jacobians``: :func:`_maximal_jacobians` of the samples, when
+    the caller holds it); infinite where a pose is not finite."""
     if tree:
-        finite = np.all(np.isfinite(solved.q), axis=1)
+        finite, jacobian_at = _maximal_jacobians(constraints, solved.q) if jacobians is None else jacobians
         out = np.full(len(solved.q), np.inf)
-        if np.any(finite):
-            out[finite] = _singular_value_ratio(constraints.jacobian(solved.q[finite]))
+        if jacobian_at is not None:
+            out[finite] = _singular_value_ratio(jacobian_at)
         return out
     jacobian = solved.constraint_jacobian
     if jacobian.shape[1] == 0:
@@ -384,11 +414,13 @@ def _condition(constraints, q: np.ndarray) -> float:
 _QR_RANK_RATIO = 1e-10
 
 
-def body_reactions(dae, solved: Samples) -> np.ndarray:
+def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray | None] | None = None
+                   ) -> np.ndarray:
     """A tree formulation's reactions of every joint row, from its own accelerations by Newton's second law on
     every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense).
-    Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations, then one batched QR of ``Phi_q^T`` and a
-    triangular solve; a sample near losing rank, or not finite, by ``lstsq`` on its own as before."""
+    Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations (``jacobians``: :func:`_maximal_jacobians`
+    of the samples' poses, when the caller holds it), then one batched QR of ``Phi_q^T`` and a triangular solve;
+    a sample near losing rank, or not finite, by ``lstsq`` on its own as before."""
     count = len(solved.q)
     rows = len(dae.constraints.rows)
     if count == 0 or rows == 0:
@@ -398,7 +430,11 @@ def body_reactions(dae, solved: Samples) -> np.ndarray:
     alone = ~finite
     if np.any(finite) and rows <= dae.constraints.size:
         q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
-        transposed = np.swapaxes(dae.constraints.jacobian(q), 1, 2)  # (T, 3 B, rows)
+        if jacobians is None or jacobians[1] is None:
+            jacobian = dae.constraints.jacobian(q)
+        else:  # the poses' Jacobians, of the samples whose velocities and accelerations are finite too
+            jacobian = jacobians[1][finite[jacobians[0]]]
+        transposed = np.swapaxes(jacobian, 1, 2)  # (T, 3 B, rows)
         imbalance = dae.mass_diagonal * qddot - dae.applied(qdot, q)
         orthogonal, triangle = np.linalg.qr(transposed)
         diagonal = np.abs(np.diagonal(triangle, axis1=1, axis2=2))

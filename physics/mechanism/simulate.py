@@ -33,9 +33,10 @@ from ..registry import (
 )
 from ..simulate.trajectory import Trajectory
 from . import engine
-from .assembly import assemble
+from .assembly import assembled_with_jacobian
 from .dae import MechanismDAE
 from .model import Mechanism
+from .prepared import prepared
 from .reduced import simulate_reduced
 from .run import state_vector
 from .run_settings import ALLOWED, run_options
@@ -48,11 +49,14 @@ __all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_o
 RUN_METHODS = MECHANISM_METHODS
 
 
-def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
-    """The velocity nearest ``qdot`` in kinetic energy that satisfies ``Phi_q qdot = nu``."""
-    jacobian = dae.constraints.jacobian(q)
+def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray, velocity_rhs: np.ndarray | None = None,
+                     jacobian: np.ndarray | None = None) -> np.ndarray:
+    """The velocity nearest ``qdot`` in kinetic energy that satisfies ``Phi_q qdot = nu`` (``velocity_rhs``:
+    ``nu``, ``jacobian``: ``Phi_q`` at ``q``, when the caller holds them; computed here otherwise)."""
+    jacobian = dae.constraints.jacobian(q) if jacobian is None else jacobian
     inverse_mass = 1.0 / dae.mass_diagonal
-    gap = jacobian @ qdot - dae.constraints.velocity_rhs()
+    nu = dae.constraints.velocity_rhs() if velocity_rhs is None else velocity_rhs
+    gap = jacobian @ qdot - nu
     weighted = jacobian * inverse_mass
     correction, *_ = np.linalg.lstsq(weighted @ jacobian.T, gap, rcond=None)
     return qdot - inverse_mass * (jacobian.T @ correction)
@@ -103,12 +107,14 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     times = t_start + np.linspace(0.0, settings.t_end, settings.samples)
     if settings.method == "reduced":
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
-    dae = MechanismDAE(mechanism)
-    assembled = assemble(mechanism, q0, t_start)
+    pieces = prepared(mechanism)
+    dae = pieces.dae  # refuses a body without mass before anything else, as building the DAE did
+    assembled, jacobian = assembled_with_jacobian(mechanism, pieces, q0, t_start)
     q = assembled.q
     driven = assembled.mobility == 0 and not integrate
-    qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float))
-    return engine.run(mechanism, q, qdot, times, settings, driven=driven)
+    qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
+                            pieces.velocity_rhs, jacobian)
+    return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces)
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constraints import Constraints
-from .joint_coordinates import JointCoordinates
 from .model import Mechanism
 from .topology import analyse
 
@@ -23,8 +21,11 @@ def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[n
     of mass and rotations from the sketch): each tree joint's own coordinate
     (:class:`~physics.mechanism.joint_coordinates.JointCoordinates`), a rotation taken as the child's relative
     to its parent, a travel as body ``a``'s along ``b``'s guide."""
-    coordinates = JointCoordinates(mechanism, Constraints(mechanism))
-    topology = analyse(mechanism)
+    from .prepared import prepared  # noqa: PLC0415  (built once per mechanism)
+
+    pieces = prepared(mechanism)
+    coordinates = pieces.joint_coordinates
+    topology = pieces.topology if pieces.topology is not None else analyse(mechanism)
     values, rates = [], []
     for body in topology.parent:  # found breadth-first: every parent before its children
         joint_name, _ = topology.parent[body]

@@ -1,0 +1,126 @@
+"""Figures for BENCHMARKS.md, "Mechanism engine per-call work" (issue 24): one warm call of
+``simulate_mechanism``, in this tree and in another (``--before``, a ``git worktree`` of the commit before the
+work), alternated in one run.
+
+    git worktree add /tmp/percall-before da5222d
+    python -m benchmarks.mechanism_per_call --before /tmp/percall-before [--rounds 5] [--calls 31]
+
+One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
+case once to warm up (compiled code, caches); then, ``--rounds`` times, each case is timed by both workers one
+after the other (which goes first alternates), ``--calls`` calls each, so the two trees meet the machine's load
+together. A figure is the median CPU time of the calling thread (``time.thread_time``: the compiled integrators
+run in it, and on a shared machine the wall time is partly waiting for a core) over a round's calls, and the
+table gives the median over the rounds. The cases:
+
+* ``triple-c``: the triple pendulum preset as a mechanism (``chain_mechanism``, its start velocities from
+  ``chain_state``), RK45 at rtol = atol = 1e-6, 20 s, 200 samples, each formulation with projection; beside it
+  the chain's own engine (``physics.simulate``) on the same preset and settings;
+* ``slider-crank``, ``crank-rocker``, ``geared-five-bar``: RK45 at 1e-6, 2 s, 200 samples, integrated;
+* ``jansen-leg``: its motor fixes every body, so each sample is position analysis (2 s, 200 samples).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+METHODS = ("dae", "lagrange", "newton_euler")
+
+WORKER = r"""
+import json, statistics, sys, time
+import physics
+from physics.model import Settings
+from physics.presets import get_preset
+from physics.mechanism.chains import chain_mechanism, chain_state
+from physics.mechanism.presets import MECHANISM_PRESETS
+from physics.mechanism.simulate import simulate_mechanism
+
+calls = {}
+preset = get_preset("triple-c")
+triple = chain_mechanism(preset.chain, preset.theta0)
+_, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0)
+for method in sys.argv[1].split(","):
+    options = dict(t_end=20.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
+    calls[f"triple-c|{method}"] = (lambda o: lambda: simulate_mechanism(triple, qdot0=qdot0, **o))(options)
+    calls[f"triple-c chain engine|{method}"] = (lambda s: lambda: physics.simulate(
+        preset.chain, preset.theta0, preset.omega0, s))(Settings(**options))
+    for name in ("slider-crank", "crank-rocker", "geared-five-bar", "jansen-leg"):
+        options = dict(t_end=2.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
+        calls[f"{name}|{method}"] = (lambda m, o: lambda: simulate_mechanism(m, **o))(MECHANISM_PRESETS[name](),
+                                                                                     options)
+for call in calls.values():  # warm: compiled code, caches
+    call()
+print(json.dumps(list(calls)), flush=True)
+for line in sys.stdin:  # "CASE COUNT": COUNT timed calls of CASE, their median thread CPU time in ms
+    case, count = line.rsplit(" ", 1)
+    spent = []
+    for _ in range(int(count)):
+        started = time.thread_time()
+        calls[case]()
+        spent.append(time.thread_time() - started)
+    print(1e3 * statistics.median(spent), flush=True)
+"""
+
+
+class Worker:
+    """A process in ``tree`` (its folder, so it imports that tree's code) that times a case when asked."""
+
+    def __init__(self, tree: Path, methods: tuple[str, ...]) -> None:
+        self.process = subprocess.Popen([sys.executable, "-c", WORKER, ",".join(methods)], cwd=tree, text=True,
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        self.cases = json.loads(self._line(tree))
+        self.tree = tree
+
+    def _line(self, tree: Path) -> str:
+        assert self.process.stdout is not None
+        line = self.process.stdout.readline()
+        if not line:
+            raise SystemExit(f"{tree}: the worker stopped (its error is above)")
+        return line
+
+    def time(self, case: str, calls: int) -> float:
+        assert self.process.stdin is not None
+        self.process.stdin.write(f"{case} {calls}\n")
+        self.process.stdin.flush()
+        return float(self._line(self.tree))
+
+    def close(self) -> None:
+        assert self.process.stdin is not None
+        self.process.stdin.close()
+        self.process.wait()
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--before", metavar="DIR", required=True, help="a checkout of the commit before the work")
+    parser.add_argument("--rounds", type=int, default=5, help="alternations per case (default 5)")
+    parser.add_argument("--calls", type=int, default=31, help="timed calls per case and round (default 31)")
+    args = parser.parse_args(argv)
+    workers = {"before": Worker(Path(args.before).resolve(), METHODS), "after": Worker(ROOT, METHODS)}
+    figures: dict[str, dict[str, list[float]]] = {"before": {}, "after": {}}
+    try:
+        for number in range(args.rounds):
+            for case in workers["after"].cases:
+                order = ("before", "after") if number % 2 == 0 else ("after", "before")
+                for label in order:
+                    figures[label].setdefault(case, []).append(workers[label].time(case, args.calls))
+    finally:
+        for worker in workers.values():
+            worker.close()
+    print(f"median thread CPU time per call, ms: the median over {args.rounds} rounds (the two trees alternated "
+          f"case by case) of the median of {args.calls} warm calls\n")
+    print("| case | method | before | after | after / before |")
+    print("|---|---|---|---|---|")
+    for case in workers["after"].cases:
+        name, method = case.split("|")
+        before, after = (statistics.median(figures[label][case]) for label in ("before", "after"))
+        print(f"| {name} | {method} | {before:.2f} | {after:.2f} | {after / before:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
