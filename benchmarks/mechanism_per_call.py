@@ -2,8 +2,8 @@
 ``simulate_mechanism``, in this tree and in another (``--before``, a ``git worktree`` of the commit before the
 work), alternated in one run.
 
-    git worktree add /tmp/percall-before da5222d
-    python -m benchmarks.mechanism_per_call --before /tmp/percall-before [--rounds 5] [--calls 31]
+    git worktree add ../percall-before da5222d
+    python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31]
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case once to warm up (compiled code, caches); then, ``--rounds`` times, each case is timed by both workers one
