@@ -11,6 +11,7 @@ its loop, because the maximal-coordinate equations of motion would be singular t
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -133,6 +134,9 @@ def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None
     size = pieces.sketch_size
     weights = pieces.assembly_weights  # q = weights * z: rotations in lengths
     q = constraints.sketch_pose() if q_guess is None else np.array(q_guess, dtype=float)
+    if not np.all(np.isfinite(q)) or not math.isfinite(t):  # NaN compares false: Newton and the check below
+        # would both be skipped and a NaN pose returned as assembled
+        raise LinkageError(f"q_guess: expected {q.size} finite numbers (x, y, angle of each body) and a finite t")
     residual = constraints.residual(q, t)
     steps = 0
     while np.max(np.abs(residual), initial=0.0) > ASSEMBLY_TOLERANCE * size and steps < NEWTON_STEPS:
@@ -142,7 +146,7 @@ def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None
         residual = constraints.residual(q, t)
         steps += 1
     worst = int(np.argmax(np.abs(residual))) if residual.size else 0
-    if residual.size and abs(residual[worst]) > ASSEMBLY_TOLERANCE * size:
+    if residual.size and not abs(residual[worst]) <= ASSEMBLY_TOLERANCE * size:
         row = constraints.rows[worst]
         raise LinkageError(
             f"joint {row.joint!r}: the mechanism cannot be assembled near the sketch ({row.meaning} stays "

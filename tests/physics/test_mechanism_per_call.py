@@ -228,3 +228,14 @@ def test_a_change_in_place_after_preparing_does_not_reach_the_kept_pieces():
     expected = JointCoordinates(original, Constraints(original))
     for which in range(len(expected.names)):
         assert pieces.joint_coordinates.value(q, which) == expected.value(q, which)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_non_finite_guess_is_refused_not_assembled_to_nan(bad):
+    """NaN compares false, so Newton's loop and the residual check were both skipped and a NaN pose came back
+    as assembled; it is refused in one line naming the argument."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    guess = assemble(mechanism).q.copy()
+    guess[1] = bad
+    with pytest.raises(LinkageError, match="q_guess: expected .* finite numbers"):
+        assemble(mechanism, guess)
