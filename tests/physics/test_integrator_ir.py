@@ -1,0 +1,153 @@
+"""The RK45 and DOP853 drivers written as LLVM IR (physics.codegen.integrator_ir) give the numba kernel's very
+bits: every sample, the status, the step and evaluation counts and where the run stopped. Where the IR driver
+cannot answer as the kernel would, it says so (None) and the kernel runs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import physics
+from physics.codegen import load_compiled, native_integrators
+from physics.kernels import explicit_rk
+from physics.kernels.constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
+from physics.kinematics import joint_positions
+
+KERNELS = {"RK45": explicit_rk.integrate_rk45, "DOP853": explicit_rk.integrate_dop853}
+G_INDEX = -4  # chain.params(): [L.., d.., m.., I.., g, pin_x, pin_y, damping]
+
+
+def _chain_case(preset: str, method: str = "dae", links: int | None = None):
+    chosen = physics.get_preset(preset, links)
+    compiled = load_compiled(method, chosen.chain.n, chosen.chain.pinned)
+    y0 = np.concatenate([chosen.theta0, chosen.omega0]).astype(float)
+    return compiled, y0, chosen.chain.params()
+
+
+def _both(compiled, integrator, y0, t0, t_end, t_eval, params, rtol=1e-6, atol=1e-9, max_steps=1_000_000,
+          alpha=0.0, beta=0.0, project=False):
+    """``(ir_result, ir_samples, kernel_result, kernel_samples)`` of one run; ``ir_result`` None: not answered."""
+    layout = compiled.integration_layout
+    results = []
+    for run in ("ir", "kernel"):
+        y_out = np.full((t_eval.size, y0.size), 7.0)  # anything but NaN: the run must write every row
+        arguments = (layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out,
+                     np.empty(0))
+        if run == "ir":
+            result = native_integrators.integrate(integrator, *arguments)
+        else:
+            result = KERNELS[integrator](compiled.assemble_function, *arguments)
+            result = (int(result[0]), int(result[1]), int(result[2]), float(result[3]), int(result[4]))
+        results += [result, y_out]
+    return tuple(results)
+
+
+def _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples):
+    assert ir_result is not None, "the IR driver handed this run back to the kernel"
+    assert ir_result == kernel_result
+    assert np.array_equal(ir_samples, kernel_samples, equal_nan=True), float(
+        np.nanmax(np.abs(ir_samples - kernel_samples)))
+
+
+@pytest.mark.parametrize("integrator, rtol, atol, t_end", [("RK45", 1e-6, 1e-9, 20.0), ("DOP853", 1e-10, 1e-12, 10.0)])
+@pytest.mark.parametrize("preset, links", [("triple-a", None), ("triple-c", None), ("chain", 10)])
+def test_an_open_chain_gives_the_kernels_bits(preset, links, integrator, rtol, atol, t_end):
+    compiled, y0, params = _chain_case(preset, "dae", links)
+    t_eval = np.linspace(0.0, t_end, 200)
+    ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, t_end, t_eval,
+                                                                 params, rtol, atol)
+    _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples)
+    assert ir_result[0] == STATUS_OK and ir_result[4] == 200 and ir_result[1] > 50
+    assert np.all(np.isfinite(ir_samples))
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+def test_a_pinned_chain_without_stabilisation_takes_the_kernels_geometric_test(integrator):
+    """Two constraint rows, no projection, no Baumgarte terms: the loop's condition is judged as the kernel
+    judges it, after each step and at the start. The four-bar runs through. A chain pinned where its tip is when
+    stretched straight starts at a singular pose (the tip's Jacobian has rank one): there the fused rhs's pivot
+    ratio already asks for the kernel's general path, so the IR driver hands the run back."""
+    compiled, y0, params = _chain_case("four-bar")
+    t_eval = np.linspace(0.0, 10.0, 301)
+    ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 10.0, t_eval,
+                                                                 params, 1e-8, 1e-10)
+    _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples)
+    assert ir_result[0] == STATUS_OK and ir_result[4] == 301
+    straight = np.concatenate([np.full(3, 0.3), np.zeros(3)])
+    pinned = params.copy()
+    pinned[-3:-1] = joint_positions(physics.get_preset("four-bar").chain.array("L"), straight[:3])[-1]
+    ir_result, _, kernel_result, _ = _both(compiled, integrator, straight, 0.0, 10.0, t_eval, pinned)
+    assert ir_result is None and kernel_result[0] == STATUS_SINGULAR
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+def test_a_run_out_of_steps_stops_where_the_kernel_stops(integrator):
+    compiled, y0, params = _chain_case("triple-a")
+    t_eval = np.linspace(0.0, 20.0, 101)
+    ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 20.0, t_eval,
+                                                                 params, max_steps=17)
+    _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples)
+    assert ir_result[0] == STATUS_MAX_STEPS and ir_result[1] == 17
+    assert 0 < ir_result[4] < 101 and np.all(np.isnan(ir_samples[ir_result[4]:]))
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+def test_a_run_of_zero_length_samples_the_start(integrator):
+    compiled, y0, params = _chain_case("triple-a")
+    t_eval = np.array([1.5, 1.5, 1.5])
+    ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 1.5, 1.5, t_eval, params)
+    _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples)
+    assert ir_result == (STATUS_OK, 0, 1, 1.5, 3)
+    assert np.array_equal(ir_samples, np.tile(y0, (3, 1)))
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+def test_a_blow_up_gives_the_kernels_status(integrator):
+    """Gravity past any real value overflows the accelerations: the same NOT_FINITE at the same step. A NaN
+    start is handed back: the fused rhs's pivot ratio is NaN, which sends the kernel down its general path (whose
+    answer is a singular system)."""
+    compiled, y0, params = _chain_case("triple-a")
+    huge = params.copy()
+    huge[G_INDEX] = 1e306
+    t_eval = np.linspace(0.0, 5.0, 51)
+    ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 5.0, t_eval, huge)
+    _assert_identical(ir_result, ir_samples, kernel_result, kernel_samples)
+    assert ir_result[0] == STATUS_NOT_FINITE
+    start = y0.copy()
+    start[1] = np.nan
+    ir_result, _, kernel_result, _ = _both(compiled, integrator, start, 0.0, 5.0, t_eval, params)
+    assert ir_result is None and kernel_result[0] == STATUS_SINGULAR
+
+
+@pytest.mark.parametrize("method", ["lagrange", "newton_euler"])
+def test_a_system_without_a_fused_rhs_is_handed_to_the_kernel(method):
+    """Lagrange's and Newton-Euler's chains have no generated fused ``rhs`` (only a structured system has):
+    the kernel's general path runs, not the IR driver."""
+    compiled, y0, params = _chain_case("triple-a", method)
+    t_eval = np.linspace(0.0, 2.0, 11)
+    ir_result, _, kernel_result, _ = _both(compiled, "DOP853", y0, 0.0, 2.0, t_eval, params)
+    assert ir_result is None and kernel_result[0] == STATUS_OK
+
+
+def test_runs_the_ir_driver_does_not_reproduce_are_handed_to_the_kernel():
+    compiled, y0, params = _chain_case("four-bar")
+    t_eval = np.linspace(0.0, 1.0, 11)
+    baumgarte = _both(compiled, "RK45", y0, 0.0, 1.0, t_eval, params, alpha=5.0, beta=5.0)
+    projecting = _both(compiled, "RK45", y0, 0.0, 1.0, t_eval, params, project=True)
+    assert baumgarte[0] is None and projecting[0] is None
+    assert baumgarte[2][0] == STATUS_OK and projecting[2][0] == STATUS_OK
+
+
+@pytest.mark.parametrize("method", ["dae", "lagrange"])
+def test_a_compiled_systems_integrators_give_the_kernels_bits(method):
+    """CompiledSystem.integrate_rk45 / integrate_dop853 run the IR drivers where they answer (the DAE) and the
+    kernel otherwise (Lagrange): the kernel's result either way."""
+    compiled, y0, params = _chain_case("triple-a", method)
+    t_eval = np.linspace(0.0, 5.0, 101)
+    for integrator, through_system in (("RK45", compiled.integrate_rk45), ("DOP853", compiled.integrate_dop853)):
+        y_system = np.empty((101, 6))
+        result = through_system(y0, 0.0, 5.0, t_eval, params, 1e-8, 1e-10, 0.0, 0.0, False, 100_000, y_system,
+                                np.empty(0))
+        _, _, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 5.0, t_eval, params, 1e-8, 1e-10)
+        assert tuple(result) == kernel_result
+        assert np.array_equal(y_system, kernel_samples)
