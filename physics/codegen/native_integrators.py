@@ -91,8 +91,9 @@ def _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out) -> 
         raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
 
 
-def _c_array(array: np.ndarray, dtype) -> bool:
-    return array.dtype == dtype and array.flags.c_contiguous and array.ndim in (1, 2)
+def _c_array(array, dtype, ndim: int) -> bool:
+    return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
+            and array.ndim == ndim)
 
 
 def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
@@ -107,9 +108,9 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
         return None
     if layout[LAYOUT_RHS] == 0 or layout[LAYOUT_CONSTRAINTS] not in (0, 2):
         return None
-    arrays = (y0, t_eval, params, y_out)
-    if not all(_c_array(array, np.float64) for array in arrays) or not _c_array(layout, np.int64):
-        return None
+    arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
+    if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
+        return None  # the kernel's own typing says what is wrong
     _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _drivers()[method]
     own_params = params.copy()  # the driver writes t into it

@@ -4,6 +4,10 @@ cannot answer as the kernel would, it says so (None) and the kernel runs."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -151,3 +155,28 @@ def test_a_compiled_systems_integrators_give_the_kernels_bits(method):
         _, _, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 5.0, t_eval, params, 1e-8, 1e-10)
         assert tuple(result) == kernel_result
         assert np.array_equal(y_system, kernel_samples)
+
+
+def test_a_dae_chains_run_never_calls_the_numba_driver():
+    """In a fresh process, a DAE chain's compiled RK45 and DOP853 runs (physics.simulate's path) leave numba's
+    driver untouched: no overload compiled or loaded from the cache, so an empty cache has nothing of it to
+    compile."""
+    script = (
+        "import numpy as np, physics\n"
+        "from physics.codegen import load_compiled\n"
+        "from physics.kernels import explicit_rk\n"
+        "p = physics.get_preset('triple-a')\n"
+        "c = load_compiled('dae', 3, False)\n"
+        "y0 = np.concatenate([p.theta0, p.omega0])\n"
+        "t = np.linspace(0.0, 2.0, 21)\n"
+        "for run in (c.integrate_rk45, c.integrate_dop853):\n"
+        "    out = np.empty((21, 6))\n"
+        "    assert run(y0, 0.0, 2.0, t, p.chain.params(), 1e-8, 1e-10, 0.0, 0.0, False, 10**6, out,"
+        " np.empty(0))[0] == 0\n"
+        "print(len(explicit_rk._integrate_explicit_rk.overloads))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
+                            cwd=Path(__file__).resolve().parents[2])
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "0"
+    assert "compiling" not in result.stderr
