@@ -12,9 +12,10 @@ Each right-hand side is the mechanism's generated fused ``rhs`` (:mod:`physics.k
 its address in the layout. Where the kernel would take its general path instead (no fused ``rhs``, or a pivot
 ratio above ``RESCALE_ABOVE``, or NaN), the IR driver stops at once with :data:`STATUS_NEEDS_KERNEL`, and the
 caller runs the numba kernel from the start (:mod:`physics.codegen.native_integrators`): its result is then
-today's, bit for bit. A closed loop without projection (two constraint rows: a pinned chain run with
-stabilisation "none") is judged after each accepted step by the same geometric test as the kernel's
-(:func:`physics.kernels.system.constraint_ratio`'s closed form for two rows); more rows need the kernel.
+today's, bit for bit. Constraints held without projection or Baumgarte terms (stabilisation "none": a pinned
+chain's two rows, a mechanism's joints) are judged at the start and after each accepted step by the kernel's own
+geometric test (:func:`physics.kernels.system.constraint_ratio`: its closed form for two rows, the pivots of
+``J J^T`` otherwise).
 
 Entry points (C calling convention), one per method::
 
@@ -94,11 +95,13 @@ class _Method:
         self.initial_step_exponent = 1.0 / (order + 1)
 
 
-def scratch_length(method: str, n_state: int) -> int:
-    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries: the stage
-    rows ``K``, DOP853's dense-output rows ``F``, eight vectors, ``theta``, ``omega``, ``J`` (2 x n) and ``v``."""
+def scratch_length(method: str, n_state: int, n_constraints: int) -> int:
+    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries and
+    ``n_constraints`` rows: the stage rows ``K``, DOP853's dense-output rows ``F``, eight vectors, ``theta``,
+    ``omega``, the constraints' ``J`` (r x n, one row at least), ``v`` (2 r) and ``G`` (r x r)."""
     rows = _Method(method).n_rows
-    return (rows + tables.DOP853_INTERPOLATOR_POWER + _WORK_VECTORS) * n_state + 2 * n_state + 4
+    r = max(n_constraints, 2)
+    return (rows + tables.DOP853_INTERPOLATOR_POWER + _WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r + r * r
 
 
 def _double(value: float) -> ir.Constant:
@@ -151,9 +154,9 @@ class _Code:
         return self.at(pointer, self.b.mul(_int(row), n_state))
 
     @contextmanager
-    def loop(self, stop, name: str = "loop"):
-        """``for i in range(0, stop)``: yields ``i``."""
-        counter = self.var(_int(0))
+    def loop(self, stop, name: str = "loop", start=None):
+        """``for i in range(start, stop)`` (start 0 by default): yields ``i``."""
+        counter = self.var(_int(0) if start is None else start)
         test, body, done = self.block(f"{name}.test"), self.block(f"{name}.body"), self.block(f"{name}.done")
         self.b.branch(test)
         self.b.position_at_end(test)
@@ -236,14 +239,7 @@ def _two_row_test(module: ir.Module) -> ir.Function:
     code = _Code(function)
     address, slot, n, t, y, params, theta, omega, J, v = function.args
     b = code.b
-    with b.if_then(b.icmp_signed(">=", slot, _int(0))):
-        code.store(t, params, slot)
-    with code.loop(n, "split") as i:
-        code.store(code.load(y, i), theta, i)
-        code.store(code.load(y, b.add(n, i)), omega, i)
-    with code.loop(b.mul(_int(2), n), "zero") as i:
-        code.store(_double(0.0), J, i)
-    b.call(b.inttoptr(address, _CONSTRAINTS_TYPE.as_pointer()), [theta, omega, params, J, v])
+    _load_constraints(code, address, slot, n, _int(2), t, y, params, theta, omega, J, v)
     jxx, jyy, jxy = code.var(_double(0.0)), code.var(_double(0.0)), code.var(_double(0.0))
     with code.loop(n, "gram") as i:
         first, second = code.load(J, i), code.load(J, b.add(n, i))
@@ -267,14 +263,103 @@ def _two_row_test(module: ir.Module) -> ir.Function:
     return function
 
 
+def _load_constraints(code: _Code, address, slot, n, r, t, y, params, theta, omega, J, v) -> None:
+    """The kernel's load_state and constraints_into: ``t`` into its slot, ``y`` split into ``theta`` and
+    ``omega``, ``J`` (r x n) zeroed, then the generated constraints into ``J`` and ``v``."""
+    b = code.b
+    with b.if_then(b.icmp_signed(">=", slot, _int(0))):
+        code.store(t, params, slot)
+    with code.loop(n, "split") as i:
+        code.store(code.load(y, i), theta, i)
+        code.store(code.load(y, b.add(n, i)), omega, i)
+    with code.loop(b.mul(r, n), "zero") as i:
+        code.store(_double(0.0), J, i)
+    b.call(b.inttoptr(address, _CONSTRAINTS_TYPE.as_pointer()), [theta, omega, params, J, v])
+
+
+def _gram_test(module: ir.Module) -> ir.Function:
+    """``i64 gram_test(i64 address, i64 slot, i64 n, i64 r, double t, double* y, double* params, double* theta,
+    double* omega, double* J, double* v, double* G)``: the kernel's ``step_status`` for r != 2 rows: ``G = J J^T``
+    summed as ``physics.kernels.linear.gram_into`` sums it (unit weights, column by column over its non-zeros),
+    the pivots of ``ldlt_factor(G)``, SINGULAR when their ratio's square root passes SINGULAR_PIVOT_RATIO (or G
+    is not positive definite)."""
+    function = ir.Function(module, ir.FunctionType(_I64, [_I64, _I64, _I64, _I64, _DOUBLE] + [_DOUBLE_POINTER] * 7),
+                           "gram_test")
+    function.linkage = "internal"
+    code = _Code(function)
+    address, slot, n, r, t, y, params, theta, omega, J, v, G = function.args
+    b = code.b
+    _load_constraints(code, address, slot, n, r, t, y, params, theta, omega, J, v)
+
+    def entry(matrix, row, column, columns):
+        return code.at(matrix, b.add(b.mul(row, columns), column))
+
+    with code.loop(b.mul(r, r), "gram_zero") as i:
+        code.store(_double(0.0), G, i)
+    with code.loop(n, "gram_column") as c:
+        with code.loop(r, "gram_row") as i:
+            first = b.load(entry(J, i, c, n))
+            with b.if_then(b.fcmp_unordered("!=", first, _double(0.0))):
+                value = b.fmul(first, _double(1.0))  # column_weight: 1 with unit weights
+                with code.loop(r, "gram_pair", start=i) as k:
+                    second = b.load(entry(J, k, c, n))
+                    with b.if_then(b.fcmp_unordered("!=", second, _double(0.0))):
+                        target = entry(G, i, k, r)
+                        b.store(b.fadd(b.load(target), b.fmul(value, second)), target)
+    with code.loop(r, "mirror") as i:
+        with code.loop(r, "mirror_column", start=b.add(i, _int(1))) as j:
+            b.store(b.load(entry(G, i, j, r)), entry(G, j, i, r))
+    largest, smallest = code.var(_double(0.0)), code.var(_double(float("inf")))
+    singular = code.block("singular")
+    with code.loop(r, "ldlt") as j:
+        pivot = code.var(b.load(entry(G, j, j, r)))
+        with code.loop(j, "pivot") as p:
+            value = b.load(entry(G, j, p, r))
+            with b.if_then(b.fcmp_unordered("!=", value, _double(0.0))):
+                term = b.fmul(b.fmul(value, value), b.load(entry(G, p, p, r)))
+                code.set(pivot, b.fsub(code.get(pivot), term))
+        pivot_value = code.get(pivot)
+        positive = b.and_(b.fcmp_ordered(">", pivot_value, _double(0.0)), code.finite(pivot_value))
+        continuing = code.block("ldlt.positive")
+        b.cbranch(positive, continuing, singular)
+        b.position_at_end(continuing)
+        code.set(largest, code.maximum(code.get(largest), pivot_value))
+        code.set(smallest, code.minimum(code.get(smallest), pivot_value))
+        b.store(pivot_value, entry(G, j, j, r))
+        with code.loop(j, "update") as p:
+            value = b.load(entry(G, j, p, r))
+            with b.if_then(b.fcmp_unordered("!=", value, _double(0.0))):
+                weight = b.load(entry(G, p, p, r))
+                with code.loop(r, "update_row", start=b.add(j, _int(1))) as i:
+                    target = entry(G, i, j, r)
+                    b.store(b.fsub(b.load(target), b.fmul(b.fmul(b.load(entry(G, i, p, r)), value), weight)),
+                            target)
+        inverse = b.fdiv(_double(1.0), pivot_value)
+        with code.loop(r, "scale_column", start=b.add(j, _int(1))) as i:
+            target = entry(G, i, j, r)
+            b.store(b.fmul(b.load(target), inverse), target)
+    ratio = b.fdiv(code.get(largest), code.get(smallest))
+    finite_ratio = code.block("finite_ratio")
+    b.cbranch(b.fcmp_ordered("<", ratio, _double(float("inf"))), finite_ratio, singular)
+    b.position_at_end(finite_ratio)
+    b.ret(b.select(b.fcmp_ordered(">", code.sqrt(ratio), _double(SINGULAR_PIVOT_RATIO)), _int(STATUS_SINGULAR),
+                   _int(STATUS_OK)))
+    b.position_at_end(singular)
+    b.ret(_int(STATUS_SINGULAR))  # constraint_ratio's inf
+    code.seal()
+    return function
+
+
 class _Driver:
     """The body of one method's driver (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`, without
     projection, alpha = beta = 0), in the kernel's order of operations."""
 
-    def __init__(self, module: ir.Module, method: _Method, fused: ir.Function, geometric: ir.Function) -> None:
+    def __init__(self, module: ir.Module, method: _Method, fused: ir.Function, two_rows: ir.Function,
+                 gram: ir.Function) -> None:
         self.method = method
         self.fused_function = fused
-        self.geometric_function = geometric
+        self.two_row_function = two_rows
+        self.gram_function = gram
         function = ir.Function(module, DRIVER_TYPE, FUNCTION_NAMES[method.name])
         self.code = _Code(function)
         (self.layout, self.y0, self.t0, self.t_end, self.t_eval, self.n_samples, self.params, self.rtol, self.atol,
@@ -296,7 +381,9 @@ class _Driver:
         self.theta = code.at(scratch, b.mul(_int(offset), self.n_state))
         self.omega = code.at(self.theta, self.n)
         self.J = code.at(self.omega, self.n)
-        self.v = code.at(self.J, b.mul(_int(2), self.n))
+        rows = b.select(b.icmp_signed(">", self.r, _int(2)), self.r, _int(2))
+        self.v = code.at(self.J, b.mul(rows, self.n))
+        self.G = code.at(self.v, b.mul(_int(2), rows))
         self.status = code.var(_int(STATUS_OK))
         self.n_steps = code.var(_int(0))
         self.n_rhs = code.var(_int(0))
@@ -320,8 +407,19 @@ class _Driver:
         return status
 
     def geometric(self, t, y):
-        return self.code.b.call(self.geometric_function, [
-            self.constraint_address, self.slot, self.n, t, y, self.params, self.theta, self.omega, self.J, self.v])
+        """The kernel's step_status with constraints (r != 0): its closed form for two rows, else J J^T's pivots."""
+        code, b = self.code, self.code.b
+        result = code.var(_int(STATUS_OK))
+        with b.if_else(b.icmp_signed("==", self.r, _int(2))) as (two_rows, more_rows):
+            with two_rows:
+                code.set(result, b.call(self.two_row_function, [
+                    self.constraint_address, self.slot, self.n, t, y, self.params, self.theta, self.omega, self.J,
+                    self.v]))
+            with more_rows:
+                code.set(result, b.call(self.gram_function, [
+                    self.constraint_address, self.slot, self.n, self.r, t, y, self.params, self.theta, self.omega,
+                    self.J, self.v, self.G]))
+        return code.get(result)
 
     def stage_sum(self, y, h, weights, count: int, out) -> None:
         """``out[j] = y[j] + h * sum_{r < count} K[r, j] * weights[r]`` (arrays.stage_sum_into)."""
@@ -365,9 +463,7 @@ class _Driver:
     # ---------------------------------------------------------------- the run
     def emit(self) -> None:
         code, b = self.code, self.code.b
-        supported = b.and_(b.icmp_signed("!=", self.rhs_address, _int(0)),
-                           b.or_(b.icmp_signed("==", self.r, _int(0)), b.icmp_signed("==", self.r, _int(2))))
-        with b.if_then(b.not_(supported), likely=False):
+        with b.if_then(b.icmp_signed("==", self.rhs_address, _int(0)), likely=False):
             self.finish(_int(STATUS_NEEDS_KERNEL))
         self.copy(self.y0, self.y)
         self.start()
@@ -657,7 +753,8 @@ def integrators_ir() -> str:
     """The module's IR text: both drivers and their two inlined helpers."""
     module = ir.Module(name="linkage_lab_integrators")
     fused = _fused_rhs(module)
-    geometric = _two_row_test(module)
+    two_rows = _two_row_test(module)
+    gram = _gram_test(module)
     for name in FUNCTION_NAMES:
-        _Driver(module, _Method(name), fused, geometric).emit()
+        _Driver(module, _Method(name), fused, two_rows, gram).emit()
     return str(module)

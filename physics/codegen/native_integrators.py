@@ -3,7 +3,7 @@
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
 ``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
 Baumgarte terms (``alpha`` or ``beta`` not zero), a per-sample condition asked for (``cond_out`` not empty), a
-mechanism without a generated fused ``rhs`` or with more than two constraint rows, or a right-hand side whose
+mechanism without a generated fused ``rhs``, or a right-hand side whose
 pivot ratio asks for the general path somewhere in the run (:data:`~physics.codegen.integrator_ir.STATUS_NEEDS_KERNEL`:
 the caller then runs the kernel from the start, and its answer is today's). Arrays are checked as the kernel
 checks them (the same ``ValueError`` for a programming error).
@@ -106,7 +106,7 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
         return None
     if project and layout[LAYOUT_CONSTRAINTS] != 0:
         return None
-    if layout[LAYOUT_RHS] == 0 or layout[LAYOUT_CONSTRAINTS] not in (0, 2):
+    if layout[LAYOUT_RHS] == 0:
         return None
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
@@ -114,7 +114,7 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
     _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _drivers()[method]
     own_params = params.copy()  # the driver writes t into it
-    scratch = np.empty(scratch_length(method, y0.shape[0]))
+    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS])))
     counts = np.zeros(3, dtype=np.int64)
     t_reached = np.zeros(1)
     y_out.fill(np.nan)
