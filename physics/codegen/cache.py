@@ -35,6 +35,7 @@ from ..kernels import batch, explicit_rk, midpoint, projection, system, variatio
 from ..kernels.abi import LAYOUT_RHS, make_layout
 from ..kernels.first_compile import announce
 from ..registry import FORMULATION_NAMES
+from . import native_integrators
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
@@ -234,14 +235,25 @@ class CompiledSystem:
     # ---------------------------------------------------------------- integrators (physics.kernels)
     def integrate_rk45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                        y_out, cond_out):
-        return explicit_rk.integrate_rk45(self.assemble_function, self.integration_layout, _c(y0), t0, t_end, _c(t_eval),
-                                          _c(params), rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
+        return self._explicit_rk("RK45", explicit_rk.integrate_rk45, y0, t0, t_end, t_eval, params, rtol, atol,
+                                 alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_dop853(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                          y_out, cond_out):
-        return explicit_rk.integrate_dop853(self.assemble_function, self.integration_layout, _c(y0), t0, t_end, _c(t_eval),
-                                            _c(params), rtol, atol, alpha, beta, project, max_steps, y_out,
-                                            cond_out)
+        return self._explicit_rk("DOP853", explicit_rk.integrate_dop853, y0, t0, t_end, t_eval, params, rtol, atol,
+                                 alpha, beta, project, max_steps, y_out, cond_out)
+
+    def _explicit_rk(self, method, kernel, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
+                     max_steps, y_out, cond_out):
+        """RK45 or DOP853 by the drivers generated as LLVM IR (:mod:`physics.codegen.native_integrators`: the
+        kernel's bits, without numba's compilation), or by the numba kernel for a run they hand back."""
+        layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
+        answer = native_integrators.integrate(method, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
+                                              project, max_steps, y_out, cond_out)
+        if answer is not None:
+            return answer
+        return kernel(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
+                      max_steps, y_out, cond_out)
 
     def integrate_ode45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                         y_out, cond_out):

@@ -1,0 +1,126 @@
+"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per process and called.
+
+:func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
+``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
+Baumgarte terms (``alpha`` or ``beta`` not zero), a per-sample condition asked for (``cond_out`` not empty), a
+mechanism without a generated fused ``rhs``, or a right-hand side whose
+pivot ratio asks for the general path somewhere in the run (:data:`~physics.codegen.integrator_ir.STATUS_NEEDS_KERNEL`:
+the caller then runs the kernel from the start, and its answer is today's). Arrays are checked as the kernel
+checks them (the same ``ValueError`` for a programming error).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+import time
+
+import numpy as np
+
+from .integrator_ir import FUNCTION_NAMES, STATUS_NEEDS_KERNEL, integrators_ir, scratch_length
+
+_SIGNATURE = ctypes.CFUNCTYPE(
+    ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
+    ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64, ctypes.c_void_p,
+    ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+)
+_lock = threading.Lock()
+_compiled: dict = {}
+
+
+def compile_seconds() -> float:
+    """Seconds this process spent building and compiling the drivers (0 before the first run)."""
+    return float(_compiled.get("seconds", 0.0))
+
+
+def _target_machine(llvm):
+    """The host CPU at LLVM's code generation level 0 (fast instruction selection): the drivers' time goes into
+    the generated ``rhs`` they call (compiled at O2 in its own module), so their own compilation is kept short
+    (about 0.1 s, against 0.7 s through the O2 pipeline, for a run about 1.3 times as long)."""
+    return llvm.Target.from_default_triple().create_target_machine(
+        cpu=llvm.get_host_cpu_name(), features=llvm.get_host_cpu_features().flatten(), opt=0, codemodel="jitdefault")
+
+
+def _promote_registers(llvm, module) -> None:
+    """The helpers inlined and the scalars' allocas promoted to registers, nothing else: no pass here
+    reassociates or contracts floating-point arithmetic (none is allowed to without fast-math flags)."""
+    builder = llvm.create_pass_builder(_target_machine(llvm), llvm.create_pipeline_tuning_options(speed_level=0))
+    passes = llvm.create_new_module_pass_manager()
+    passes.add_always_inliner_pass()
+    passes.add_sroa_pass()
+    passes.add_instruction_combine_pass()
+    passes.add_simplify_cfg_pass()
+    passes.run(module, builder)
+
+
+def _drivers() -> dict:
+    """``{method: ctypes function}``, compiled on first use."""
+    with _lock:
+        if "functions" not in _compiled:
+            start = time.perf_counter()
+            import llvmlite.binding as llvm  # noqa: PLC0415  (only when a run asks for the drivers)
+
+            llvm.initialize_native_target()
+            llvm.initialize_native_asmprinter()
+            module = llvm.parse_assembly(integrators_ir())
+            module.verify()
+            _promote_registers(llvm, module)
+            engine = llvm.create_mcjit_compiler(module, _target_machine(llvm))
+            engine.finalize_object()
+            _compiled["engine"] = engine  # owns the machine code
+            _compiled["functions"] = {method: _SIGNATURE(engine.get_function_address(name))
+                                      for method, name in FUNCTION_NAMES.items()}
+            _compiled["seconds"] = time.perf_counter() - start
+        return _compiled["functions"]
+
+
+def _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out) -> None:
+    """The kernel's check_arguments, with its messages (programming errors only)."""
+    from ..kernels.abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS  # noqa: PLC0415
+
+    if not (t_end >= t0):
+        raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
+    n = layout[LAYOUT_COORDINATES]
+    if y0.shape[0] != 2 * n:
+        raise ValueError("y0 must have shape (2 n,) for the mechanism's n coordinates")
+    if params.shape[0] < layout[LAYOUT_PARAMETERS]:
+        raise ValueError("params is shorter than the parameter vector the generated code reads")
+    if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
+        raise ValueError("y_out must have shape (len(t_eval), 2 n)")
+    if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:
+        raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
+
+
+def _c_array(array, dtype, ndim: int) -> bool:
+    return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
+            and array.ndim == ndim)
+
+
+def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
+              y_out, cond_out):
+    """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
+    the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
+    from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_RHS  # noqa: PLC0415
+
+    if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
+        return None
+    if project and layout[LAYOUT_CONSTRAINTS] != 0:
+        return None
+    if layout[LAYOUT_RHS] == 0:
+        return None
+    arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
+    if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
+        return None  # the kernel's own typing says what is wrong
+    _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
+    driver = _drivers()[method]
+    own_params = params.copy()  # the driver writes t into it
+    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS])))
+    counts = np.zeros(3, dtype=np.int64)
+    t_reached = np.zeros(1)
+    y_out.fill(np.nan)
+    status = driver(layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end), t_eval.ctypes.data,
+                    t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
+                    y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
+    if status == STATUS_NEEDS_KERNEL:
+        return None
+    return int(status), int(counts[0]), int(counts[1]), float(t_reached[0]), int(counts[2])
