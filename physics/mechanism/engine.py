@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
 from ..kernels.abi import LAYOUT_WEIGHTS
 from .model import Mechanism
@@ -119,8 +120,17 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     assert spec.kernel is not None, spec.name  # Settings sends only compiled-capable integrators here
     kernel = getattr(importlib.import_module(f"..kernels.{KERNEL_MODULES[spec.kernel]}", __package__), spec.kernel)
     y_out = np.empty((t_eval.size, y0.size))
-    cond_out = np.empty(t_eval.size)
+    cond_out = np.empty(0)  # no condition per sample from the kernel (the run reports its own: _conditions)
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
+    if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
+        # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation); the kernel for
+        # a run they hand back (projection, Baumgarte terms, no fused rhs: physics/codegen/native_integrators.py)
+        answer = native_integrators.integrate(spec.name, layout, y0, t0, t1, t_eval, params, settings.rtol,
+                                              settings.atol, alpha, beta, project, settings.max_steps, y_out,
+                                              cond_out)
+        if answer is not None:
+            status, steps, evaluations, t_reached, filled = answer
+            return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
     if spec.needs_lagrangian:  # it holds the loops itself (RATTLE): no stabilisation gains
         result = kernel(compiled.assemble_function, compiled.mass_and_force_function, layout, y0, t0, t1,
                         settings.step, t_eval, params, y_out, cond_out)
