@@ -33,8 +33,8 @@ def _constant(value) -> str:
 class _Function:
     """One IR function under construction: SSA names for every sub-expression, computed once."""
 
-    def __init__(self, name: str, arguments: tuple[str, ...]) -> None:
-        self.lines = [f"define void @{name}({', '.join(f'double* noalias %{a}' for a in arguments)}) {{",
+    def __init__(self, name: str, arguments: tuple[str, ...], returns: str = "void") -> None:
+        self.lines = [f"define {returns} @{name}({', '.join(f'double* noalias %{a}' for a in arguments)}) {{",
                       "entry:"]
         self.values: dict = {}
         self.counter = 0
@@ -109,8 +109,23 @@ class _Function:
         self.values[expr] = result
         return result
 
-    def finish(self) -> str:
-        return "\n".join(self.lines + ["  ret void", "}"])
+    def finish(self, returned: str | None = None) -> str:
+        """The function's text, returning ``returned`` (a double's SSA name) or nothing."""
+        ret = "  ret void" if returned is None else f"  ret double {returned}"
+        return "\n".join(self.lines + [ret, "}"])
+
+    def bind_inputs(self, symbols, exprs, replacements, theta_at: tuple[str, int], omega_at: tuple[str, int]) -> None:
+        """Load the coordinates, speeds and parameters that ``exprs`` use (``theta_at``/``omega_at``: the pointer
+        argument and the offset each vector starts at; the parameters are ``params``), then compute the
+        common subexpressions ``replacements`` once, in their order."""
+        used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+        for (pointer, offset), group in ((theta_at, symbols.theta), (omega_at, symbols.omega),
+                                         (("params", 0), symbols.params)):
+            for i, sym in enumerate(group):
+                if sym in used:
+                    self.values[sym] = self.load(pointer, offset + i)
+        for sym, expr in replacements:
+            self.values[sym] = self.value(expr)
 
 
 def common_subexpressions(exprs: list) -> tuple[list, list]:
@@ -126,18 +141,7 @@ def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vect
     function = _Function(name, ("theta", "omega", "params", matrix, vector))
     exprs = [e for _, e in entries]
     replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
-    used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    for i, sym in enumerate(symbols.theta):
-        if sym in used:
-            function.values[sym] = function.load("theta", i)
-    for i, sym in enumerate(symbols.omega):
-        if sym in used:
-            function.values[sym] = function.load("omega", i)
-    for i, sym in enumerate(symbols.params):
-        if sym in used:
-            function.values[sym] = function.load("params", i)
-    for sym, expr in replacements:
-        function.values[sym] = function.value(expr)
+    function.bind_inputs(symbols, exprs, replacements, ("theta", 0), ("omega", 0))
     for (target, _), expr in zip(entries, reduced):
         if target[0] == "v":
             function.store(vector, target[1], function.value(expr))
@@ -224,8 +228,7 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
     smallest pivot compared a 0.0006 kg m^2 inertia with a Schur complement of 30 1/kg and made every solve of a
     six-bar look ill-conditioned, 5e4, so each fell back to the dense solve)."""
     k = A.shape[0]
-    function = _Function("solve", ())
-    function.lines = ["define double @solve(double* noalias %A, double* noalias %b, double* noalias %x) {", "entry:"]
+    function = _Function("solve", ("A", "b", "x"), returns="double")
     entry = {}
     for i in range(k):
         for j in range(k):
@@ -235,7 +238,7 @@ def structured_solve_ir(A, order: list[tuple[int, int]]) -> str:
     solution, ratio = _eliminate(function, entry, rhs, k, order)
     for j in range(k):
         function.store("x", j, solution[j])
-    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
+    return function.finish(ratio)
 
 
 def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_index, cse=None) -> str:
@@ -248,24 +251,11 @@ def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_
     ``assemble``'s :func:`common_subexpressions` of the same expressions in the same order, when computed."""
     k = A.shape[0]
     n = len(symbols.theta)
-    function = _Function("rhs", ())
-    function.lines = ["define double @rhs(double* noalias %y, double* noalias %params, double* noalias %dydt) {",
-                      "entry:"]
+    function = _Function("rhs", ("y", "params", "dydt"), returns="double")
     targets = [(i, j) for i in range(k) for j in range(k) if A[i, j] != 0] + [("v", i) for i in range(k)]
     exprs = [A[i, j] for i, j in targets[: len(targets) - k]] + [b[i] for i in range(k)]
     replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
-    used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    for i, sym in enumerate(symbols.theta):
-        if sym in used:
-            function.values[sym] = function.load("y", i)
-    for i, sym in enumerate(symbols.omega):
-        if sym in used:
-            function.values[sym] = function.load("y", n + i)
-    for i, sym in enumerate(symbols.params):
-        if sym in used:
-            function.values[sym] = function.load("params", i)
-    for sym, expr in replacements:
-        function.values[sym] = function.value(expr)
+    function.bind_inputs(symbols, exprs, replacements, ("y", 0), ("y", n))
     entry: dict = {}
     rhs: dict = {}
     for target, expr in zip(targets, reduced):
@@ -277,7 +267,7 @@ def structured_rhs_ir(symbols, A, b, order: list[tuple[int, int]], acceleration_
     for i in range(n):
         function.store("dydt", i, function.load("y", n + i))
         function.store("dydt", n + i, solution[int(acceleration_index[i])])
-    return "\n".join(function.lines + [f"  ret double {ratio}", "}"])
+    return function.finish(ratio)
 
 
 def _eliminate(function: _Function, entry: dict, rhs: dict, k: int, order: list[tuple[int, int]]):

@@ -92,56 +92,40 @@ def data_pointer(typingctx, array):
     return signature, codegen
 
 
+def _pointer_call(return_type, n_pointers: int):
+    """The lowering of a call to a generated function at an address (the call's first argument) taking
+    ``n_pointers`` float64 pointers and returning ``return_type`` (LLVM ``void`` or ``double``)."""
+
+    def codegen(context, builder, sig, args):
+        double_pointer = ir.DoubleType().as_pointer()
+        function_type = ir.FunctionType(return_type, [double_pointer] * n_pointers)
+        function = builder.inttoptr(args[0], function_type.as_pointer())
+        result = builder.call(function, args[1:])
+        return context.get_dummy_value() if isinstance(return_type, ir.VoidType) else result
+
+    return codegen
+
+
+def _takes_pointers(address, pointers) -> bool:
+    """Whether a call's arguments type-check: an integer address, then float64 pointers only."""
+    return isinstance(address, types.Integer) and all(arg == _POINTER for arg in pointers)
+
+
 @intrinsic
 def call_native(typingctx, address, theta, omega, params, matrix, vector):
     """Call the generated function at ``address`` (an integer) with five float64 pointers.
 
     Both generated functions share this signature (``assemble`` and ``mass_and_force``). The address must come
     from :mod:`physics.codegen.native` (or a ``numba.cfunc`` of the same signature, in tests): it is trusted."""
-    pointer = types.CPointer(types.float64)
-    if not isinstance(address, types.Integer) or any(arg != pointer for arg in (theta, omega, params, matrix, vector)):
+    if not _takes_pointers(address, (theta, omega, params, matrix, vector)):
         return None
-    signature = types.void(address, pointer, pointer, pointer, pointer, pointer)
-
-    def codegen(context, builder, sig, args):
-        double_pointer = ir.DoubleType().as_pointer()
-        function_type = ir.FunctionType(ir.VoidType(), [double_pointer] * 5)
-        function = builder.inttoptr(args[0], function_type.as_pointer())
-        builder.call(function, args[1:])
-        return context.get_dummy_value()
-
-    return signature, codegen
+    return types.void(address, *[_POINTER] * 5), _pointer_call(ir.VoidType(), 5)
 
 
 @intrinsic
-def call_native_rhs(typingctx, address, state, params, derivative):
-    """Call the generated fused ``rhs`` at ``address``: ``double rhs(double* y, double* params, double* dydt)``."""
-    pointer = types.CPointer(types.float64)
-    if not isinstance(address, types.Integer) or any(arg != pointer for arg in (state, params, derivative)):
+def call_native_ratio(typingctx, address, first, second, result):
+    """Call a generated ``double f(double*, double*, double*)`` at ``address`` and return its pivot ratio:
+    the structured ``solve(A, b, x)`` and the fused ``rhs(y, params, dydt)`` share this signature."""
+    if not _takes_pointers(address, (first, second, result)):
         return None
-    signature = types.float64(address, pointer, pointer, pointer)
-
-    def codegen(context, builder, sig, args):
-        double_pointer = ir.DoubleType().as_pointer()
-        function_type = ir.FunctionType(ir.DoubleType(), [double_pointer] * 3)
-        function = builder.inttoptr(args[0], function_type.as_pointer())
-        return builder.call(function, args[1:])
-
-    return signature, codegen
-
-
-@intrinsic
-def call_native_solve(typingctx, address, matrix, vector, solution):
-    """Call the generated structured ``solve`` at ``address``: ``double solve(double* A, double* b, double* x)``."""
-    pointer = types.CPointer(types.float64)
-    if not isinstance(address, types.Integer) or any(arg != pointer for arg in (matrix, vector, solution)):
-        return None
-    signature = types.float64(address, pointer, pointer, pointer)
-
-    def codegen(context, builder, sig, args):
-        double_pointer = ir.DoubleType().as_pointer()
-        function_type = ir.FunctionType(ir.DoubleType(), [double_pointer] * 3)
-        function = builder.inttoptr(args[0], function_type.as_pointer())
-        return builder.call(function, args[1:])
-
-    return signature, codegen
+    return types.float64(address, *[_POINTER] * 3), _pointer_call(ir.DoubleType(), 3)

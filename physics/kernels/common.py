@@ -16,7 +16,7 @@ from .abi import (
     LAYOUT_PARAMETERS,
     LAYOUT_RHS,
     LAYOUT_TIME,
-    call_native_rhs,
+    call_native_ratio,
     data_pointer,
 )
 from .arrays import copy_row
@@ -42,7 +42,7 @@ def fused_rhs(layout, t, y, params, dydt):
     slot = layout[LAYOUT_TIME]
     if slot >= 0:
         params[slot] = t
-    ratio = call_native_rhs(fused, data_pointer(y), data_pointer(params), data_pointer(dydt))
+    ratio = call_native_ratio(fused, data_pointer(y), data_pointer(params), data_pointer(dydt))
     if not ratio <= RESCALE_ABOVE:
         return NOT_FUSED, ratio
     n = layout[LAYOUT_COORDINATES]

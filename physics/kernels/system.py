@@ -21,7 +21,7 @@ from .abi import (
     LAYOUT_TIME,
     LAYOUT_UNKNOWNS,
     call_native,
-    call_native_solve,
+    call_native_ratio,
     data_pointer,
 )
 from .arrays import copy_matrix, copy_row, state_row
@@ -172,7 +172,7 @@ def unknowns_into(assemble, layout, A, b, x, col_scale, J, v, theta, omega, para
     solve = layout[LAYOUT_SOLVE]
     if solve != 0:
         structural_into(assemble, layout, A, b, J, v, theta, omega, params, alpha, beta)
-        ratio = call_native_solve(solve, data_pointer(A), data_pointer(b), data_pointer(x))
+        ratio = call_native_ratio(solve, data_pointer(A), data_pointer(b), data_pointer(x))
         if ratio <= RESCALE_ABOVE:
             return ratio
         ratio = _rescaled_solve(assemble, layout, A, b, x, col_scale, J, v, theta, omega, params, alpha, beta)

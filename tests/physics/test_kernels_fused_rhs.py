@@ -15,13 +15,14 @@ from physics.kernels.abi import (
     LAYOUT_RHS,
     LAYOUT_SOLVE,
     LAYOUT_TIME,
-    call_native_rhs,
-    call_native_solve,
+    call_native_ratio,
     data_pointer,
 )
 from physics.mechanism import engine
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
+
+from .dae_states import STRUCTURED_PRESETS, preset_dae
 
 
 @njit(cache=False)
@@ -37,34 +38,31 @@ def _both_ways(assemble, layout, t, theta, omega, params, fused_out, fused_ratio
         for i in range(n):
             y[i] = theta[row, i]
             y[n + i] = omega[row, i]
-        fused_ratio[row] = call_native_rhs(layout[LAYOUT_RHS], data_pointer(y), data_pointer(local),
-                                           data_pointer(dydt))
+        fused_ratio[row] = call_native_ratio(layout[LAYOUT_RHS], data_pointer(y), data_pointer(local),
+                                             data_pointer(dydt))
         fused_out[row] = dydt
         kernel_system.assemble_into(system, theta[row], omega[row], local, 0.0, 0.0)
-        memory_ratio[row] = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(system[2]),
+        memory_ratio[row] = call_native_ratio(layout[LAYOUT_SOLVE], data_pointer(system[2]),
                                               data_pointer(system[3]), data_pointer(system[4]))
         for i in range(n):
             memory_out[row, i] = omega[row, i]
             memory_out[row, n + i] = system[4][layout[LAYOUT_ACCELERATION + i]]
 
 
-@pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar", "stephenson-six-bar", "jansen-leg"])
+@pytest.mark.parametrize("name", STRUCTURED_PRESETS)
 def test_the_fused_rhs_gives_the_bits_of_assemble_then_solve(name):
-    mechanism = MECHANISM_PRESETS[name]()
-    run = simulate_mechanism(mechanism, 1.0, 21, method="dae")
-    compiled = engine.compiled_system(mechanism, "dae")
-    params, layout = engine.run_parameters(mechanism, compiled, 0.0, None)
-    assert layout[LAYOUT_RHS] != 0 and layout[LAYOUT_SOLVE] != 0, "a mechanism's DAE has both generated functions"
-    theta, omega = np.ascontiguousarray(run.q), np.ascontiguousarray(run.qdot)
+    dae = preset_dae(name, 1.0, 21)
+    assert dae.layout[LAYOUT_RHS] != 0, "a mechanism's DAE has a fused rhs for the integrators"
     # Away from the run's states too (off the constraints, faster), where nothing cancels the same way.
     rng = np.random.default_rng(7)
-    theta = np.concatenate([theta, theta + 1e-3 * rng.standard_normal(theta.shape)])
-    omega = np.concatenate([omega, 3.0 * omega + rng.standard_normal(omega.shape)])
-    t = np.concatenate([run.t, run.t + 0.37])
+    theta = np.concatenate([dae.theta, dae.theta + 1e-3 * rng.standard_normal(dae.theta.shape)])
+    omega = np.concatenate([dae.omega, 3.0 * dae.omega + rng.standard_normal(dae.omega.shape)])
+    t = np.concatenate([dae.t, dae.t + 0.37])
     count, n = theta.shape
     fused, memory = np.empty((count, 2 * n)), np.empty((count, 2 * n))
     fused_ratio, memory_ratio = np.empty(count), np.empty(count)
-    _both_ways(compiled.assemble_function, layout, t, theta, omega, params, fused, fused_ratio, memory, memory_ratio)
+    _both_ways(dae.compiled.assemble_function, dae.layout, t, theta, omega, dae.params, fused, fused_ratio, memory,
+               memory_ratio)
     assert np.all(np.isfinite(fused))
     assert np.array_equal(fused, memory), float(np.max(np.abs(fused - memory)))
     assert np.array_equal(fused_ratio, memory_ratio)

@@ -15,10 +15,12 @@ import pytest
 from numba import njit
 
 from physics.kernels import system as kernel_system
-from physics.kernels.abi import LAYOUT_SOLVE, call_native_solve, data_pointer
+from physics.kernels.abi import LAYOUT_SOLVE, call_native_ratio, data_pointer
 from physics.mechanism import engine
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
+
+from .dae_states import STRUCTURED_PRESETS, preset_dae
 
 
 @njit(cache=False)
@@ -28,23 +30,18 @@ def _fast_solves(assemble, layout, theta, omega, params, x_out, ratio_out, a_out
         kernel_system.assemble_into(system, theta[row], omega[row], params, 0.0, 0.0)
         a_out[row] = system[2]
         b_out[row] = system[3]
-        ratio_out[row] = call_native_solve(layout[LAYOUT_SOLVE], data_pointer(system[2]), data_pointer(system[3]),
+        ratio_out[row] = call_native_ratio(layout[LAYOUT_SOLVE], data_pointer(system[2]), data_pointer(system[3]),
                                            data_pointer(system[4]))
         x_out[row] = system[4]
 
 
-@pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar", "stephenson-six-bar", "jansen-leg"])
+@pytest.mark.parametrize("name", STRUCTURED_PRESETS)
 def test_the_dae_solve_stays_on_its_fast_path_along_a_run_and_matches_a_dense_solve(name):
-    mechanism = MECHANISM_PRESETS[name]()
-    run = simulate_mechanism(mechanism, 2.0, 41, method="dae")
-    compiled = engine.compiled_system(mechanism, "dae")
-    params, layout = engine.run_parameters(mechanism, compiled, 0.0, None)
-    assert layout[LAYOUT_SOLVE] != 0, "the DAE of a mechanism has a generated sparse elimination"
-    theta, omega = np.ascontiguousarray(run.q), np.ascontiguousarray(run.qdot)
-    count, k = theta.shape[0], int(layout[1])
+    dae = preset_dae(name, 2.0, 41)
+    count, k = dae.theta.shape[0], int(dae.layout[1])
     x, ratio = np.empty((count, k)), np.empty(count)
     a, b = np.empty((count, k, k)), np.empty((count, k))
-    _fast_solves(compiled.assemble_function, layout, theta, omega, params, x, ratio, a, b)
+    _fast_solves(dae.compiled.assemble_function, dae.layout, dae.theta, dae.omega, dae.params, x, ratio, a, b)
     assert np.all(ratio <= kernel_system.RESCALE_ABOVE), (name, float(np.max(ratio)))
     dense = np.linalg.solve(a, b[..., None])[..., 0]
     scale = np.max(np.abs(dense), axis=1, keepdims=True)
