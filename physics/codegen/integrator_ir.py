@@ -749,12 +749,12 @@ class _Driver:
             code.store(b.fadd(b.fmul(h, total), code.load(self.y, j)), self.y_stage, j)
 
 
-def integrators_ir() -> str:
-    """The module's IR text: both drivers and their two inlined helpers."""
+def integrators_ir(methods=None) -> str:
+    """The module's IR text: the drivers of ``methods`` (default: both) and their inlined helpers."""
     module = ir.Module(name="linkage_lab_integrators")
     fused = _fused_rhs(module)
     two_rows = _two_row_test(module)
     gram = _gram_test(module)
-    for name in FUNCTION_NAMES:
+    for name in (FUNCTION_NAMES if methods is None else methods):
         _Driver(module, _Method(name), fused, two_rows, gram).emit()
     return str(module)
