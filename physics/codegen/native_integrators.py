@@ -75,23 +75,6 @@ def _driver(method: str):
         return functions[method]
 
 
-def _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out) -> None:
-    """The kernel's check_arguments, with its messages (programming errors only)."""
-    from ..kernels.abi import LAYOUT_COORDINATES, LAYOUT_PARAMETERS  # noqa: PLC0415
-
-    if not (t_end >= t0):
-        raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
-    n = layout[LAYOUT_COORDINATES]
-    if y0.shape[0] != 2 * n:
-        raise ValueError("y0 must have shape (2 n,) for the mechanism's n coordinates")
-    if params.shape[0] < layout[LAYOUT_PARAMETERS]:
-        raise ValueError("params is shorter than the parameter vector the generated code reads")
-    if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
-        raise ValueError("y_out must have shape (len(t_eval), 2 n)")
-    if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:
-        raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
-
-
 def _c_array(array, dtype, ndim: int) -> bool:
     return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
             and array.ndim == ndim)
@@ -112,7 +95,10 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
         return None  # the kernel's own typing says what is wrong
-    _check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
+    from ..kernels.common import check_arguments  # noqa: PLC0415
+
+    # the kernel's own check, run as plain Python (``py_func``): its messages, and no numba compilation
+    check_arguments.py_func(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _driver(method)
     own_params = params.copy()  # the driver writes t into it
     scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS])))

@@ -29,9 +29,10 @@ def _chain_case(preset: str, method: str = "dae", links: int | None = None):
 
 
 def _both(compiled, integrator, y0, t0, t_end, t_eval, params, rtol=1e-6, atol=1e-9, max_steps=1_000_000,
-          alpha=0.0, beta=0.0, project=False):
-    """``(ir_result, ir_samples, kernel_result, kernel_samples)`` of one run; ``ir_result`` None: not answered."""
-    layout = compiled.integration_layout
+          alpha=0.0, beta=0.0, project=False, layout=None):
+    """``(ir_result, ir_samples, kernel_result, kernel_samples)`` of one run; ``ir_result`` None: not answered.
+    ``layout``: a run's own (a mechanism's, with its weights); default the system's integration layout."""
+    layout = compiled.integration_layout if layout is None else layout
     results = []
     for run in ("ir", "kernel"):
         y_out = np.full((t_eval.size, y0.size), 7.0)  # anything but NaN: the run must write every row
@@ -211,15 +212,7 @@ def test_a_mechanism_without_stabilisation_gives_the_kernels_bits(source, method
     assert layout[LAYOUT_CONSTRAINTS] > 2
     y0 = np.ascontiguousarray(np.concatenate([q, qdot]), dtype=float)
     t_eval = np.linspace(0.0, 2.0, 41)
-    results = []
-    for run in ("ir", "kernel"):
-        y_out = np.full((t_eval.size, y0.size), 7.0)
-        arguments = (layout, y0, 0.0, 2.0, t_eval, params, 1e-9, 1e-9, 0.0, 0.0, False, 100_000, y_out, np.empty(0))
-        if run == "ir":
-            result = native_integrators.integrate(integrator, *arguments)
-        else:
-            result = KERNELS[integrator](compiled.assemble_function, *arguments)
-            result = (int(result[0]), int(result[1]), int(result[2]), float(result[3]), int(result[4]))
-        results += [result, y_out]
+    results = _both(compiled, integrator, y0, 0.0, 2.0, t_eval, params, rtol=1e-9, atol=1e-9, max_steps=100_000,
+                    layout=layout)
     _assert_identical(*results)
     assert results[0][0] == STATUS_OK and results[0][4] == 41 and results[0][1] > 10, results[0]
