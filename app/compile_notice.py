@@ -5,7 +5,10 @@ says so in one line through logging, on the server's stderr. A person looking at
 stderr; without this they would watch a spinner for half a minute with no reason given. The compilation is
 process-wide (every session of the process waits for the same machine code), so every open session gets the
 notice; a session that starts preparing while a compilation is under way says it in its own "Deriving
-equations..." notice (:attr:`CompileNotices.line`).
+equations..." notice (:attr:`CompileNotices.line`). When the compilation is over, physics logs one more record below WARNING
+(``physics.kernels.first_compile.call_announced``; the command line does not print it) and the notice comes down
+from every session and its status line: a notice that said "compiling" after the run had started would be
+wrong.
 """
 
 from __future__ import annotations
@@ -29,8 +32,9 @@ class CompileNotices(logging.Handler):
     ``sessions()``. Attach with :meth:`attach`, detach with :meth:`detach` (a server's stop)."""
 
     def __init__(self, sessions: Callable[[], Iterable[LabSession]]) -> None:
-        super().__init__(level=logging.WARNING)
+        super().__init__(level=logging.INFO)
         self._sessions = sessions
+        self._level_before = logging.NOTSET
         self._lock = threading.Lock()
         self._line: str | None = None
         self._said_at = 0.0
@@ -46,6 +50,9 @@ class CompileNotices(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
+            if record.levelno < logging.WARNING:  # the compilation is over
+                self._withdraw()
+                return
             text = record.getMessage().removeprefix(PREFIX)
             with self._lock:
                 self._line, self._said_at = text, time.monotonic()
@@ -56,9 +63,22 @@ class CompileNotices(logging.Handler):
         except Exception:  # noqa: BLE001 - logging's contract: a failing handler reports, never raises
             self.handleError(record)
 
+    def _withdraw(self) -> None:
+        with self._lock:
+            self._line = None
+        for session in list(self._sessions()):
+            quietly(lambda session=session: session.notices.withdraw(TITLE), "taking down the compile notice")
+
     def attach(self) -> CompileNotices:
-        logging.getLogger(LOGGER).addHandler(self)
+        target = logging.getLogger(LOGGER)
+        self._level_before = target.level
+        if target.getEffectiveLevel() > logging.INFO:
+            target.setLevel(logging.INFO)  # the end of a compilation is logged at INFO
+        target.addHandler(self)
         return self
 
     def detach(self) -> None:
-        logging.getLogger(LOGGER).removeHandler(self)
+        target = logging.getLogger(LOGGER)
+        target.removeHandler(self)
+        if not any(isinstance(handler, CompileNotices) for handler in target.handlers):
+            target.setLevel(self._level_before)

@@ -70,6 +70,18 @@ class Notices:
                 for handle in old:
                     quietly(handle.remove, "removing a notification")
 
+    def withdraw(self, title: str) -> None:
+        """Take down the notice titled ``title`` (its notification and its status line) if it is the one shown:
+        what it said is over (a compilation has finished). Any other notice stays."""
+        with self._lock:
+            if self._shown is None or self._shown[0] != title:
+                return
+            old, self._handles = self._handles, []
+            self.text, self._shown, self._until = None, None, 0.0
+            for handle in old:
+                quietly(handle.remove, "removing a notification")
+        self._on_change()
+
     @property
     def sticky(self) -> bool:
         """Whether a notification that stays until dealt with (no auto close) is on screen."""

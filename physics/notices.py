@@ -23,7 +23,11 @@ def notify(message: str, logger: str = LOGGER_NAME) -> None:
 
 
 class StderrLines(logging.Handler):
-    """Each record as its bare message on the stderr current at the time (pytest's capture, a redirect)."""
+    """Each notice (WARNING and above) as its bare message on the stderr current at the time (pytest's capture,
+    a redirect); records below (a compilation's end, for the app) are not printed."""
+
+    def __init__(self) -> None:
+        super().__init__(level=NOTICE)
 
     def emit(self, record: logging.LogRecord) -> None:
         try:

@@ -33,7 +33,7 @@ from ..errors import LinkageError
 from ..files import write_atomically
 from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
 from ..kernels.abi import LAYOUT_RHS, make_layout
-from ..kernels.first_compile import announce
+from ..kernels.first_compile import call_announced
 from ..registry import FORMULATION_NAMES
 from . import native_integrators
 from .native import NativeModule
@@ -86,8 +86,7 @@ def _c(array) -> np.ndarray:
 
 def _first_call(kernel, what: str, *arguments):
     """``kernel(*arguments)``, after the one line that says it is about to be compiled, when it is."""
-    announce(kernel, arguments, what)
-    return kernel(*arguments)
+    return call_announced(kernel, arguments, what)
 
 
 @dataclass

@@ -28,7 +28,7 @@ from .constants import (
     STATUS_OK,
     STATUS_STEP_TOO_SMALL,
 )
-from .first_compile import announce
+from .first_compile import call_announced
 from .projection import project_state
 from .system import make_system
 from .tables import (
@@ -397,8 +397,7 @@ def integrate_rk45(
     """
     arguments = (assemble, layout, RK45_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
                  _projecting(layout, project), max_steps, y_out, cond_out)
-    announce(_integrate_explicit_rk, arguments, "RK45")
-    return _integrate_explicit_rk(*arguments)
+    return call_announced(_integrate_explicit_rk, arguments, "RK45")
 
 
 def integrate_dop853(
@@ -407,5 +406,4 @@ def integrate_dop853(
     """Dormand-Prince 8(5,3) exactly as scipy's ``solve_ivp(method="DOP853")``; arguments as integrate_rk45."""
     arguments = (assemble, layout, DOP853_A, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
                  _projecting(layout, project), max_steps, y_out, cond_out)
-    announce(_integrate_explicit_rk, arguments, "DOP853")
-    return _integrate_explicit_rk(*arguments)
+    return call_announced(_integrate_explicit_rk, arguments, "DOP853")

@@ -12,7 +12,9 @@ then uses). At most one line per process: the rest of a first run's compilations
 
 from __future__ import annotations
 
+import logging
 import threading
+import time
 
 from ..notices import notify
 
@@ -45,13 +47,33 @@ def compile_line(what: str) -> str:
             "later runs start at once")
 
 
-def announce(dispatcher, args: tuple, what: str) -> None:
-    """The one line, before the call that compiles ``what`` (nothing if it is cached or was said already)."""
+def done_line(what: str, seconds: float) -> str:
+    return f"linkage-lab: compiled the {what} integrator in {seconds:.1f} s"
+
+
+def announce(dispatcher, args: tuple, what: str) -> bool:
+    """The one line, before the call that compiles ``what`` (nothing if it is cached or was said already).
+    Returns whether it was said."""
     if _announced or dispatcher in _checked:  # once per kernel: an ensemble calls its step thousands of times
-        return
+        return False
     with _lock:
         _checked.add(dispatcher)
         if _announced or not will_compile(dispatcher, args):
-            return
+            return False
         _announced.append(what)
     notify(compile_line(what), LOGGER)
+    return True
+
+
+def call_announced(kernel, arguments: tuple, what: str):
+    """``kernel(*arguments)`` after :func:`announce`; when the line was said, a record at INFO once the call has
+    compiled and returned (:func:`done_line`), so that whoever showed the line (the app's notice) can take it
+    down. The command line prints WARNING and above only (:class:`physics.notices.StderrLines`): its one line
+    stays the only one."""
+    said = announce(kernel, arguments, what)
+    start = time.perf_counter()
+    try:
+        return kernel(*arguments)
+    finally:
+        if said:
+            logging.getLogger(LOGGER).info(done_line(what, time.perf_counter() - start))

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from ..kernels import reduced as kernel
-from ..kernels.first_compile import announce
+from ..kernels.first_compile import call_announced
 from .dae import MechanismDAE
 from .joint_coordinates import JointCoordinates
 from .reduced_engine import ReducedEngine, reduced_engine
@@ -144,8 +144,9 @@ class Partition:
                      arrays.geometry, arrays.speed_scale, self.which, self.weights, numbers, self._reference,
                      self._reference_numbers, self._inverse, rows, scalars, shares)
         if self.evaluations == 1:  # one line before an installation's first compilation of the kernel
-            announce(kernel.reduced_state, arguments, "reduced model's")
-        status = kernel.reduced_state(*arguments)
+            status = call_announced(kernel.reduced_state, arguments, "reduced model's")
+        else:
+            status = kernel.reduced_state(*arguments)
         if status != kernel.OK:
             self._check(status, t, float(scalars[kernel.SCALAR_RESIDUAL]))
         sddot = float(scalars[kernel.SCALAR_SDDOT])

@@ -14,6 +14,7 @@ import pytest
 from numba import njit
 
 from physics.kernels import first_compile
+from physics.notices import StderrLines
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -53,6 +54,26 @@ def test_one_line_through_logging_before_the_first_compilation_only(fresh_proces
     assert [(record.name, record.getMessage()) for record in caplog.records] == [
         ("physics.kernels", first_compile.compile_line("RK45"))]
     assert caplog.records[0].getMessage().startswith("linkage-lab: compiling the RK45 integrator once")
+
+
+def test_the_end_of_a_said_compilation_is_logged_below_the_command_lines_threshold(fresh_process_state, caplog,
+                                                                                    capsys):
+    @njit
+    def third(x):
+        return x * 3.0
+
+    with caplog.at_level(logging.INFO, logger="physics"):
+        assert first_compile.call_announced(third, (2.0,), "RK45") == 6.0
+        assert first_compile.call_announced(third, (2.0,), "RK45") == 6.0  # compiled: nothing more
+    said = [(record.levelno, record.getMessage()) for record in caplog.records]
+    assert said[0] == (logging.WARNING, first_compile.compile_line("RK45"))
+    assert len(said) == 2 and said[1][0] == logging.INFO
+    assert said[1][1].startswith("linkage-lab: compiled the RK45 integrator in ")
+    handler = StderrLines()  # the command line's printer: the notice only
+    for record in caplog.records:
+        if handler.filter(record) and record.levelno >= handler.level:
+            handler.emit(record)
+    assert capsys.readouterr().err.splitlines() == [first_compile.compile_line("RK45")]
 
 
 def test_nothing_is_said_for_a_kernel_already_compiled(fresh_process_state, caplog):
