@@ -5,6 +5,7 @@ and bad files refused in one line."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import time
@@ -29,6 +30,12 @@ EDITS = [  # every kind of value a slider-crank's panel has, in the panel's unit
     ("trace", "rod.A"), ("mass:crank", "0.4321"), ("inertia:rod", "0.00123"), ("size:rod", "0.25"),
     ("g", "5.5"), ("angle0:crank", "40"), ("omega0:crank", "90"),
 ]
+
+
+# Which of the loop's joints keeps the largest gap when no pose closes it is not the physics' to say: least squares
+# leaves two nearly equal gaps, and the machine's LAPACK decides which is larger (B on one machine, O4 on another).
+# The refusal must name a joint of that loop.
+OPEN_LOOP = re.compile(r"joint '(O2|A|B|O4)': the mechanism cannot be assembled")
 
 
 def _open_rocker() -> dict:
@@ -169,7 +176,7 @@ def test_a_chain_setup_switches_a_mechanism_session_to_the_chain_and_back(slider
     (_setup({"preset": "slider-crank", "method": "euler"}), "method = 'euler': allowed values", False),
     (_setup({"preset": "walking-robot"}), "preset = 'walking-robot': allowed", True),
     (_setup({"g": 1}, {"name": "x", "bodies": "no"}), "mechanism: bodies", True),
-    (_setup({"g": 1}, _open_rocker()), "joint 'B': the mechanism cannot be assembled", True),
+    (_setup({"g": 1}, _open_rocker()), OPEN_LOOP, True),
     (_setup({"preset": "slider-crank"}, MECHANISM_PRESETS["crank-rocker"]().model_dump(mode="json")),
      "values.preset: a setup with its own mechanism names no preset", True),
 ])
@@ -180,7 +187,8 @@ def test_a_bad_setup_is_one_notice_and_the_session_goes_on(slider_lab, connect, 
     session.set_link_value("g", "6.5")
     session.guard(lambda: session.upload_setup(None, "bad.json", content))
     text = session.notices.text or ""
-    assert words in text and "\n" not in text and "Session paused" not in text, text
+    said = re.search(words, text) if isinstance(words, re.Pattern) else words in text
+    assert said and "\n" not in text and "Session paused" not in text, text
     assert ("Not applied from setup file 'bad.json'" in text) != whole, text
     assert not session.closed and session.player.error is None and _moving(session)
     assert (session.mechanism.g == 6.5) == whole  # refused whole: nothing changed; else the setup's preset
@@ -258,7 +266,7 @@ def test_every_new_session_starts_from_a_mechanism_setup(tmp_path, shared):
             client.close()
     finally:
         server.stop()
-    with pytest.raises(LinkageError, match="joint 'B': the mechanism cannot be assembled"):
+    with pytest.raises(LinkageError, match=OPEN_LOOP):
         path.write_bytes(_setup({"g": 2}, _open_rocker()))
         start_from_state(str(path), "triple-a", None, None, None, from_file=False)
 
