@@ -5,6 +5,7 @@ work), alternated in one run.
     git worktree add ../percall-before da5222d
     python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31]
     python -m benchmarks.mechanism_per_call [--rounds 5] [--calls 31]      # this tree alone
+    python -m benchmarks.mechanism_per_call --only "DOP853 1e-10" --rounds 21   # the seed's case, three ways
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case once to warm up (compiled code, caches); then, ``--rounds`` times, each case is timed by both workers one
@@ -141,8 +142,11 @@ def main(argv: list[str] | None = None) -> None:
                                                          "this tree alone)")
     parser.add_argument("--rounds", type=int, default=5, help="alternations per case (default 5)")
     parser.add_argument("--calls", type=int, default=31, help="timed calls per case and round (default 31)")
+    parser.add_argument("--only", metavar="TEXT", default="",
+                        help="time only the cases whose name and method contain TEXT (default: every case)")
     args = parser.parse_args(argv)
     workers = {"after": Worker(ROOT, METHODS)}
+    workers["after"].cases = [case for case in workers["after"].cases if args.only in case]
     if args.before:
         workers["before"] = Worker(Path(args.before).resolve(), METHODS)
     figures: dict[str, dict[str, list[float]]] = {label: {} for label in workers}
