@@ -117,7 +117,8 @@ def _travel_acceleration(freedom: Translation, a: int, b: int, q, qd, qdd):
 def _held_rows(shape: Structure, cut: tuple[int, ...]) -> list[int]:
     """The DAE's rows (counted from its first multiplier) of the joints left out of the tree and of every speed
     motor: the constraints a run in tree coordinates holds, in the DAE's order."""
-    held, row = [], 0
+    held: list[int] = []
+    row = 0
     for k, joint in enumerate(shape.joints):
         count = len(KINDS[joint.kind].meanings)
         if k in cut:
