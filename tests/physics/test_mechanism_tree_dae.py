@@ -18,12 +18,13 @@ from physics.codegen import cache
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, engine, tree_dae
 from physics.mechanism.chains import chain_mechanism, chain_quantities, chain_state
+from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.model import Mechanism
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.simulate import simulate_mechanism
 
-from .test_mechanism_symbolic import RANDOM_SEEDS, random_mechanisms, renumbered
+from .test_mechanism_symbolic import RANDOM_SEEDS, _closure_rows_in_the_dae, random_mechanisms, renumbered
 
 AGREEMENT = 1e-10  # relative, at one state: the same equations solved three ways (measured: about 1e-14)
 TREE_METHODS = ("lagrange", "newton_euler")
@@ -128,10 +129,11 @@ def test_three_ways_agree_at_random_tree_states(label):
                 assert _relative(sdd, their_sdd) < AGREEMENT, method
                 assert _relative(qddot, their_qddot) < AGREEMENT, method
                 assert _relative(reactions, their_reactions) < AGREEMENT, method
-                held = compiled.constraint_count
-                assert closures.size == held  # the same closures, though in the DAE's order here
-                assert _relative(np.sort(np.abs(reactions[np.asarray(compiled.module.CONSTRAINT_ROWS) - size])),
-                                 np.sort(np.abs(closures))) < AGREEMENT, method
+                # the tree formulation's multipliers are its closures' (cut joints, then motors): the same rows
+                rows_of = _closure_rows_in_the_dae(numbers, Constraints(numbers))
+                assert closures.size == compiled.constraint_count == len(rows_of)
+                assert sorted(rows_of) == list(np.asarray(compiled.module.CONSTRAINT_ROWS) - size)
+                assert _relative(reactions[rows_of], closures) < AGREEMENT, method
             # the maximal DAE at the same pose and velocities
             q, qdot = solved.q[0], solved.qdot[0]
             maximal_full, _ = maximal.solve_full(q, qdot, params)
