@@ -4,6 +4,8 @@ work), alternated in one run.
 
     git worktree add ../percall-before da5222d
     python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31]
+    python -m benchmarks.mechanism_per_call [--rounds 5] [--calls 31]      # this tree alone
+    python -m benchmarks.mechanism_per_call --only "DOP853 1e-10" --rounds 21   # the seed's case, three ways
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case once to warm up (compiled code, caches); then, ``--rounds`` times, each case is timed by both workers one
@@ -16,7 +18,14 @@ table gives the median over the rounds. The cases:
   ``chain_state``), RK45 at rtol = atol = 1e-6, 20 s, 200 samples, each formulation with projection; beside it
   the chain's own engine (``physics.simulate``) on the same preset and settings;
 * ``slider-crank``, ``crank-rocker``, ``geared-five-bar``: RK45 at 1e-6, 2 s, 200 samples, integrated;
-* ``jansen-leg``: its motor fixes every body, so each sample is position analysis (2 s, 200 samples).
+* ``jansen-leg``: its motor fixes every body, so each sample is position analysis (2 s, 200 samples);
+* ``triple-c tree coordinates`` (method ``dae`` only, in a tree that has it): the triple pendulum as a mechanism
+  run by the DAE in tree coordinates (``coordinates="tree"``: the state the chain engine's DAE integrates, joint
+  angles and rates, with the mechanism's maximal DAE solved at each state), RK45 at 1e-6 as above; and, as
+  ``DOP853 1e-10``, the seed's case (DOP853 at rtol = atol = 1e-10, 20 s, 200 samples) run three ways: this mode,
+  the chain engine's DAE and the mechanism's maximal ``dae``.
+
+A case a tree does not have (the tree-coordinates cases in a tree before them) is left blank in its column.
 """
 
 from __future__ import annotations
@@ -32,7 +41,7 @@ ROOT = Path(__file__).resolve().parent.parent
 METHODS = ("dae", "lagrange", "newton_euler")
 
 WORKER = r"""
-import json, statistics, sys, time
+import inspect, json, statistics, sys, time
 import physics
 from physics.model import Settings
 from physics.presets import get_preset
@@ -49,6 +58,35 @@ for method in sys.argv[1].split(","):
     calls[f"triple-c|{method}"] = (lambda o: lambda: simulate_mechanism(triple, qdot0=qdot0, **o))(options)
     calls[f"triple-c chain engine|{method}"] = (lambda s: lambda: physics.simulate(
         preset.chain, preset.theta0, preset.omega0, s))(Settings(**options))
+    if method == "dae" and "coordinates" in inspect.signature(simulate_mechanism).parameters:
+        calls["triple-c tree coordinates|dae"] = (lambda o: lambda: simulate_mechanism(
+            triple, qdot0=qdot0, coordinates="tree", **o))(options)
+        seed = dict(t_end=20.0, samples=200, method="dae", integrator="DOP853", rtol=1e-10, atol=1e-10)
+        calls["triple-c tree coordinates|dae DOP853 1e-10"] = (lambda o: lambda: simulate_mechanism(
+            triple, qdot0=qdot0, coordinates="tree", **o))(seed)
+        calls["triple-c chain engine|dae DOP853 1e-10"] = (lambda s: lambda: physics.simulate(
+            preset.chain, preset.theta0, preset.omega0, s))(Settings(**seed))
+        calls["triple-c|dae DOP853 1e-10"] = (lambda o: lambda: simulate_mechanism(triple, qdot0=qdot0, **o))(seed)
+        # the integrator alone (no assembly, samples, reactions or conditions): the compiled DOP853 on each system
+        import numpy as np
+        from physics.codegen import load_compiled
+        from physics.mechanism.parameters import parameter_vector
+        from physics.mechanism.tree_coordinates import tree_state
+        from physics.mechanism.tree_dae import compiled_tree_dae
+        from physics.simulate.prepared import chain_arrays
+
+        t_eval = np.linspace(0.0, 20.0, 200)
+        q0, _ = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0)
+        alone = {"tree coordinates": (compiled_tree_dae(triple), np.concatenate(tree_state(triple, q0, qdot0)),
+                                      parameter_vector(triple)),
+                 "chain engine": (load_compiled("dae", 3, False),
+                                  np.concatenate([preset.theta0, preset.omega0]).astype(float),
+                                  chain_arrays(preset.chain).params_with(0.0))}
+        for label, (system, y0, params) in alone.items():
+            calls[f"triple-c {label}, integrator alone|dae DOP853 1e-10"] = (
+                lambda c, y, p: lambda: c.integrate_dop853(y, 0.0, 20.0, t_eval, p.copy(), 1e-10, 1e-10, 0.0, 0.0,
+                                                           True, 10**6, np.empty((200, y.size)), np.empty(0)))(
+                system, y0, params)
     for name in ("slider-crank", "crank-rocker", "geared-five-bar", "jansen-leg"):
         options = dict(t_end=2.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
         calls[f"{name}|{method}"] = (lambda m, o: lambda: simulate_mechanism(m, **o))(MECHANISM_PRESETS[name](),
@@ -84,6 +122,9 @@ class Worker:
         return line
 
     def time(self, case: str, calls: int) -> float:
+        """The median CPU time of ``calls`` calls of ``case``; NaN for a case this tree does not have."""
+        if case not in self.cases:
+            return float("nan")
         assert self.process.stdin is not None
         self.process.stdin.write(f"{case} {calls}\n")
         self.process.stdin.flush()
@@ -97,28 +138,46 @@ class Worker:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--before", metavar="DIR", required=True, help="a checkout of the commit before the work")
+    parser.add_argument("--before", metavar="DIR", help="a checkout of the commit before the work (without it: "
+                                                         "this tree alone)")
     parser.add_argument("--rounds", type=int, default=5, help="alternations per case (default 5)")
     parser.add_argument("--calls", type=int, default=31, help="timed calls per case and round (default 31)")
+    parser.add_argument("--only", metavar="TEXT", default="",
+                        help="time only the cases whose name and method contain TEXT (default: every case)")
     args = parser.parse_args(argv)
-    workers = {"before": Worker(Path(args.before).resolve(), METHODS), "after": Worker(ROOT, METHODS)}
-    figures: dict[str, dict[str, list[float]]] = {"before": {}, "after": {}}
+    workers = {"after": Worker(ROOT, METHODS)}
+    workers["after"].cases = [case for case in workers["after"].cases if args.only in case]
+    if args.before:
+        workers["before"] = Worker(Path(args.before).resolve(), METHODS)
+    figures: dict[str, dict[str, list[float]]] = {label: {} for label in workers}
     try:
         for number in range(args.rounds):
             for case in workers["after"].cases:
-                order = ("before", "after") if number % 2 == 0 else ("after", "before")
+                order = [label for label in (("before", "after") if number % 2 == 0 else ("after", "before"))
+                         if label in workers]
                 for label in order:
                     figures[label].setdefault(case, []).append(workers[label].time(case, args.calls))
     finally:
         for worker in workers.values():
             worker.close()
-    print(f"median thread CPU time per call, ms: the median over {args.rounds} rounds (the two trees alternated "
-          f"case by case) of the median of {args.calls} warm calls\n")
+    together = "the two trees alternated case by case" if args.before else "this tree alone"
+    print(f"median thread CPU time per call, ms: the median over {args.rounds} rounds ({together}) of the median "
+          f"of {args.calls} warm calls\n")
+    if not args.before:
+        print("| case | method | ms |")
+        print("|---|---|---|")
+        for case in workers["after"].cases:
+            name, method = case.split("|")
+            print(f"| {name} | {method} | {statistics.median(figures['after'][case]):.2f} |")
+        return
     print("| case | method | before | after | after / before |")
     print("|---|---|---|---|---|")
     for case in workers["after"].cases:
         name, method = case.split("|")
         before, after = (statistics.median(figures[label][case]) for label in ("before", "after"))
+        if before != before:  # NaN: the tree before has no such case
+            print(f"| {name} | {method} | | {after:.2f} | |")
+            continue
         print(f"| {name} | {method} | {before:.2f} | {after:.2f} | {after / before:.2f} |")
 
 

@@ -49,3 +49,17 @@ def chain_state(chain: Chain, theta_sketch, theta, omega) -> tuple[np.ndarray, n
     q = np.column_stack([centres, np.asarray(theta) - np.asarray(theta_sketch)]).ravel()
     qdot = np.column_stack([rates, np.asarray(omega, dtype=float)]).ravel()
     return q, qdot
+
+
+def chain_quantities(chain: Chain, theta_sketch, run) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A run of :func:`chain_mechanism` in the chain's own conventions and shapes: ``(theta, omega)`` (T, n), the
+    absolute angles from the downward vertical (the sketch's plus each bar's turn) and their rates, the joint
+    reactions ``(T, n, 2)`` (pin ``O``, then ``J1 .. J(n-1)``: the force ON bar k+1 BY bar k, the chain's
+    ``R_k``) and, for a pinned chain, the tip's ``(T, 2)`` (pin ``H``: the force ON bar n BY the ground; ``(T, 0)``
+    for an open chain). The reactions are the run's own rows: the DAE's multipliers for ``method="dae"``."""
+    n = chain.n
+    theta = run.q[:, 2::3] + np.asarray(theta_sketch, dtype=float)
+    omega = run.qdot[:, 2::3]
+    reactions = run.reaction_rows[:, : 2 * n].reshape(-1, n, 2)
+    tip = run.reaction_rows[:, 2 * n : 2 * n + 2] if chain.pin is not None else np.zeros((run.t.size, 0))
+    return theta, omega, reactions, tip

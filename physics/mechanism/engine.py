@@ -180,7 +180,7 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
 
 
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
-        pieces: Prepared | None = None):
+        pieces: Prepared | None = None, coordinates: str = "maximal"):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
     ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
@@ -188,7 +188,9 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
     (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
     raises LinkageError, as bad input does. ``pieces``: the mechanism's prepared pieces
-    (:mod:`physics.mechanism.prepared`) when the caller holds them."""
+    (:mod:`physics.mechanism.prepared`) when the caller holds them. ``coordinates="tree"`` (method ``dae``
+    only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
+    the run's reactions."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .prepared import prepared  # noqa: PLC0415
@@ -198,8 +200,13 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     pieces = prepared(mechanism) if pieces is None else pieces
     dae = pieces.dae  # numbers only: masses, gravity, the constraint rows' names
     constraints = dae.constraints
-    compiled = compiled_system(mechanism, method, pieces.structure_key)
-    tree = method != "dae"
+    if coordinates == "tree":  # the DAE's system in the tree formulations' state (physics/mechanism/tree_dae.py)
+        from .tree_dae import compiled_tree_dae  # noqa: PLC0415
+
+        compiled = compiled_tree_dae(mechanism, pieces.structure_key)
+    else:
+        compiled = compiled_system(mechanism, method, pieces.structure_key)
+    tree = method != "dae" or coordinates == "tree"
     if tree:
         from .tree_coordinates import tree_state  # noqa: PLC0415
 
@@ -259,7 +266,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
     jacobians = _maximal_jacobians(constraints, solved.q) if tree else None
-    reactions = solved.multipliers if not tree else body_reactions(dae, solved, jacobians)
+    own_reactions = not tree or coordinates == "tree"  # the DAE's multipliers: every joint's rows
+    reactions = solved.multipliers if own_reactions else body_reactions(dae, solved, jacobians)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points

@@ -40,6 +40,7 @@ from .prepared import prepared
 from .reduced import simulate_reduced
 from .run import state_vector
 from .run_settings import ALLOWED, run_options
+from .tree_dae import check_coordinates
 
 __all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
            "simulate_mechanism"]
@@ -80,6 +81,7 @@ def simulate_mechanism(
     max_steps: int | None = None,
     backend: str = DEFAULT_BACKEND,
     settings: Settings | None = None,
+    coordinates: str = "maximal",
 ) -> Trajectory:
     """Run for ``t_end`` seconds from ``t_start`` (a motor's angle follows absolute time), from the pose
     assembled nearest ``q0`` (default: the sketch) with velocities ``qdot0`` (default: rest) projected onto the
@@ -90,18 +92,22 @@ def simulate_mechanism(
     once as a chain's ``settings`` (:func:`run_options`). ``integrate``: None chooses (kinematics alone when the
     motors fix every body); True forces integration. To continue a run, pass its last ``t``, ``q`` and ``qdot``
     as ``t_start``, ``q0``, ``qdot0``. A run stopped midway returns the samples up to the stop with its
-    ``status`` and ``message``; bad input, and a start that cannot be evaluated, raise LinkageError."""
+    ``status`` and ``message``; bad input, and a start that cannot be evaluated, raise LinkageError.
+    ``coordinates="tree"`` (method ``dae`` only) integrates the DAE in the spanning tree's joint coordinates, as
+    the seed's DAE integrates a chain's joint angles (:mod:`physics.mechanism.tree_dae`)."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
                           max_steps=max_steps, backend=backend, settings=settings)
-    return run_mechanism(mechanism, options, q0=q0, qdot0=qdot0, t_start=float(t_start), integrate=integrate)
+    return run_mechanism(mechanism, options, q0=q0, qdot0=qdot0, t_start=float(t_start), integrate=integrate,
+                         coordinates=coordinates)
 
 
 def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | None = None,
                   qdot0: np.ndarray | None = None, t_start: float = 0.0,
-                  integrate: bool | None = None) -> Trajectory:
+                  integrate: bool | None = None, coordinates: str = "maximal") -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
+    check_coordinates(coordinates, settings.method)
     q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
     times = t_start + np.linspace(0.0, settings.t_end, settings.samples)
@@ -114,7 +120,7 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
                             pieces.velocity_rhs, jacobian)
-    return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces)
+    return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates)
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,
