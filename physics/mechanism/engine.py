@@ -13,7 +13,7 @@ every sample's pose, velocities, accelerations and reactions come out of batched
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -258,8 +258,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
             _refuse(reason)
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
-    jacobians = _maximal_jacobians(constraints, solved.q) if tree else None
-    reactions = solved.multipliers if not tree else body_reactions(dae, solved, jacobians)
+    reactions, condition = _on_request(dae, compiled, params, times, solved, tree)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points
@@ -269,12 +268,43 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
         row_names=pieces.row_names, method=method,
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
-        condition=_conditions(constraints, solved, tree, jacobians),
+        condition=condition,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
 
 
 POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
+
+
+def _on_request(dae, compiled, params, times, solved: Samples, tree: bool):
+    """``(reaction_rows, condition)`` of a run, each computed when first read (:class:`OnRequest`): a tree
+    formulation's reactions by Newton's second law (:func:`body_reactions`) and every sample's condition of
+    ``Phi_q`` (:func:`_conditions`), from the samples the run keeps, so their bits are the ones the run computed
+    before it left them to its reader. The computations keep the poses, velocities and accelerations, not the
+    Jacobians (``(T, r, n)`` floats a long run's reader may never ask for): the DAE's condition evaluates the
+    generated constraint rows again at the same times, states and parameters; a tree formulation evaluates the
+    maximal ``Phi_q`` when the first of its two fields is read and lets it go when the second is."""
+    from ..simulate.trajectory import OnRequest  # noqa: PLC0415
+
+    constraints = dae.constraints
+    kept = replace(solved, multipliers=None, residual=None, kernel_condition=None, constraint_jacobian=None)
+    if tree:
+        memo: list = []
+
+        def jacobians():
+            if not memo:
+                memo.append(_maximal_jacobians(constraints, kept.q))
+            return memo[0]
+
+        return (OnRequest(lambda: body_reactions(dae, kept, jacobians())),
+                OnRequest(lambda: _conditions(constraints, kept, True, jacobians())))
+    params = params.copy()  # the run's own, as its samples were solved with it
+
+    def dae_conditions():
+        jacobian = compiled.constraint_states(times, kept.q, kept.qdot, params)[0]
+        return _conditions(constraints, replace(kept, constraint_jacobian=jacobian), False)
+
+    return solved.multipliers, OnRequest(dae_conditions)
 
 
 def _failure(mechanism, compiled, params, constraints, code: int, t_reached: float, x, v, detail: str) -> str:
