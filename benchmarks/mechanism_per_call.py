@@ -3,7 +3,7 @@
 work), alternated in one run.
 
     git worktree add ../percall-before da5222d
-    python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31]
+    python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31] [--cases triple-c]
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case once to warm up (compiled code, caches); then, ``--rounds`` times, each case is timed by both workers one
@@ -14,7 +14,9 @@ table gives the median over the rounds. The cases:
 
 * ``triple-c``: the triple pendulum preset as a mechanism (``chain_mechanism``, its start velocities from
   ``chain_state``), RK45 at rtol = atol = 1e-6, 20 s, 200 samples, each formulation with projection; beside it
-  the chain's own engine (``physics.simulate``) on the same preset and settings;
+  the chain's own engine (``physics.simulate``) on the same preset and settings; and the mechanism's call with
+  its ``condition`` and ``reaction_rows`` read (what the app and the ``mechanism`` command read of every run:
+  a field computed on request, physics/simulate/trajectory.py ``OnRequest``, is computed by the read);
 * ``slider-crank``, ``crank-rocker``, ``geared-five-bar``: RK45 at 1e-6, 2 s, 200 samples, integrated;
 * ``jansen-leg``: its motor fixes every body, so each sample is position analysis (2 s, 200 samples).
 """
@@ -40,6 +42,9 @@ from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 
+def _read(run):  # what the app and the mechanism command read of every run (a field on request is computed)
+    return run.condition, run.reaction_rows
+
 calls = {}
 preset = get_preset("triple-c")
 triple = chain_mechanism(preset.chain, preset.theta0)
@@ -47,6 +52,8 @@ _, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0
 for method in sys.argv[1].split(","):
     options = dict(t_end=20.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
     calls[f"triple-c|{method}"] = (lambda o: lambda: simulate_mechanism(triple, qdot0=qdot0, **o))(options)
+    calls[f"triple-c, condition and reactions read|{method}"] = (lambda o: lambda: _read(
+        simulate_mechanism(triple, qdot0=qdot0, **o)))(options)
     calls[f"triple-c chain engine|{method}"] = (lambda s: lambda: physics.simulate(
         preset.chain, preset.theta0, preset.omega0, s))(Settings(**options))
     for name in ("slider-crank", "crank-rocker", "geared-five-bar", "jansen-leg"):
@@ -100,12 +107,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--before", metavar="DIR", required=True, help="a checkout of the commit before the work")
     parser.add_argument("--rounds", type=int, default=5, help="alternations per case (default 5)")
     parser.add_argument("--calls", type=int, default=31, help="timed calls per case and round (default 31)")
+    parser.add_argument("--cases", default="", help="comma-separated beginnings of the case names to time "
+                                                    "(default: every case)")
     args = parser.parse_args(argv)
+    wanted = tuple(part.strip() for part in args.cases.split(",") if part.strip())
     workers = {"before": Worker(Path(args.before).resolve(), METHODS), "after": Worker(ROOT, METHODS)}
     figures: dict[str, dict[str, list[float]]] = {"before": {}, "after": {}}
     try:
+        cases = [case for case in workers["after"].cases if not wanted or case.startswith(wanted)]
         for number in range(args.rounds):
-            for case in workers["after"].cases:
+            for case in cases:
                 order = ("before", "after") if number % 2 == 0 else ("after", "before")
                 for label in order:
                     figures[label].setdefault(case, []).append(workers[label].time(case, args.calls))
@@ -116,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
           f"case by case) of the median of {args.calls} warm calls\n")
     print("| case | method | before | after | after / before |")
     print("|---|---|---|---|---|")
-    for case in workers["after"].cases:
+    for case in cases:
         name, method = case.split("|")
         before, after = (statistics.median(figures[label][case]) for label in ("before", "after"))
         print(f"| {name} | {method} | {before:.2f} | {after:.2f} | {after / before:.2f} |")

@@ -13,7 +13,7 @@ every sample's pose, velocities, accelerations and reactions come out of batched
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -187,7 +187,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     each sample is position analysis from the one before and only the formulation's solve is asked for (inverse
     dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
     (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
-    raises LinkageError, as bad input does. ``pieces``: the mechanism's prepared pieces
+    raises LinkageError, as bad input does. The run's ``condition`` and a tree formulation's ``reaction_rows`` are
+    computed when first read (:func:`_on_request`). ``pieces``: the mechanism's prepared pieces
     (:mod:`physics.mechanism.prepared`) when the caller holds them."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
@@ -287,7 +288,8 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool):
     from ..simulate.trajectory import OnRequest  # noqa: PLC0415
 
     constraints = dae.constraints
-    kept = replace(solved, multipliers=None, residual=None, kernel_condition=None, constraint_jacobian=None)
+    empty = np.zeros(0)
+    kept = Samples(solved.q, solved.qdot, solved.qddot, empty, empty, empty, empty)
     if tree:
         memo: list = []
 
@@ -302,7 +304,8 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool):
 
     def dae_conditions():
         jacobian = compiled.constraint_states(times, kept.q, kept.qdot, params)[0]
-        return _conditions(constraints, replace(kept, constraint_jacobian=jacobian), False)
+        return _conditions(constraints, Samples(kept.q, kept.qdot, kept.qddot, empty, empty, empty, jacobian),
+                           False)
 
     return solved.multipliers, OnRequest(dae_conditions)
 

@@ -239,3 +239,63 @@ def test_a_non_finite_guess_is_refused_not_assembled_to_nan(bad):
     guess[1] = bad
     with pytest.raises(LinkageError, match="q_guess: expected .* finite numbers"):
         assemble(mechanism, guess)
+
+
+# A run's condition and a tree formulation's reaction rows are computed when first read (physics.simulate.
+# trajectory.OnRequest): until then the run holds the computation; reading gives exactly the arrays the eager
+# code computed from the same samples (engine._conditions, engine.body_reactions), bit for bit.
+
+
+def _spied_run(monkeypatch, mechanism, method, **options):
+    """A run, and the Samples its engine solved (the eager computations' input)."""
+    from physics.mechanism import engine
+
+    seen = []
+    original = engine.samples
+
+    def spy(*args, **kwargs):
+        seen.append(original(*args, **kwargs))
+        return seen[-1]
+
+    monkeypatch.setattr(engine, "samples", spy)
+    run = simulate_mechanism(mechanism, 2.0, 41, method=method, integrator="RK45", rtol=1e-7, atol=1e-7, **options)
+    (solved,) = seen
+    return run, engine._first(solved, run.t.size)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", ["slider-crank", "geared-five-bar", "jansen-leg"])
+def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypatch, name, method):
+    from physics.mechanism import engine
+    from physics.simulate.trajectory import OnRequest
+
+    mechanism = MECHANISM_PRESETS[name]()
+    run, solved = _spied_run(monkeypatch, mechanism, method)
+    assert isinstance(run.__dict__["_condition_value"], OnRequest)  # nothing computed by the run itself
+    assert isinstance(run.__dict__["_reaction_rows_value"], OnRequest) == (method != "dae")
+    constraints = prepared(mechanism).dae.constraints
+    eager_condition = engine._conditions(constraints, solved, method != "dae")
+    eager_reactions = (solved.multipliers if method == "dae"
+                       else engine.body_reactions(prepared(mechanism).dae, solved))
+    assert run.condition.shape == run.t.shape and np.array_equal(run.condition, eager_condition)
+    assert run.reaction_rows.shape == (run.t.size, len(run.row_names))
+    assert np.array_equal(run.reaction_rows, eager_reactions)
+    assert run.condition is run.condition  # computed once, then kept
+    assert not isinstance(run.__dict__["_condition_value"], OnRequest)
+
+
+def test_fields_on_request_survive_pickling_copies_and_slicing():
+    import pickle
+
+    run = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange", integrator="RK45",
+                             rtol=1e-7, atol=1e-7)
+    reference = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange",
+                                   integrator="RK45", rtol=1e-7, atol=1e-7)
+    copied = dataclasses.replace(run)  # reads every field: the ones on request are computed here
+    _assert_identical(copied, reference)
+    _assert_identical(pickle.loads(pickle.dumps(reference)), reference)
+    fresh = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange", integrator="RK45",
+                               rtol=1e-7, atol=1e-7)
+    unpickled = pickle.loads(pickle.dumps(fresh))  # pickled before either field was read
+    assert np.array_equal(unpickled.condition, reference.condition)
+    assert np.array_equal(unpickled.reaction_rows, reference.reaction_rows)
