@@ -7,17 +7,20 @@
 * A run on a warm cache is bit-identical to one on a cleared cache, for every formulation; the integrators write
   the time slot of their own copy, never the cached vector; the cached arrays are read-only.
 * A massless body: assembly still works from the cache, a run is refused as before, on every call.
+* A run's condition and a tree formulation's reaction rows are computed when first read, and then equal bit for
+  bit what the eager code computes from the run's own samples; a pickle or a copy computes them first.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import pickle
 
 import numpy as np
 import pytest
 
 from physics.errors import LinkageError
-from physics.mechanism import MECHANISM_PRESETS, assemble
+from physics.mechanism import MECHANISM_PRESETS, assemble, engine
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, _Frame
 from physics.mechanism.dae import MechanismDAE
@@ -29,6 +32,7 @@ from physics.mechanism.run import body_points, coordinate_names
 from physics.mechanism.simulate import simulate_mechanism
 from physics.mechanism.topology import analyse
 from physics.mechanism.tree_coordinates import tree_state
+from physics.simulate.trajectory import OnRequest
 
 METHODS = ("dae", "lagrange", "newton_euler")
 
@@ -248,8 +252,6 @@ def test_a_non_finite_guess_is_refused_not_assembled_to_nan(bad):
 
 def _spied_run(monkeypatch, mechanism, method, **options):
     """A run, and the Samples its engine solved (the eager computations' input)."""
-    from physics.mechanism import engine
-
     seen = []
     original = engine.samples
 
@@ -266,9 +268,6 @@ def _spied_run(monkeypatch, mechanism, method, **options):
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", ["slider-crank", "geared-five-bar", "jansen-leg"])
 def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypatch, name, method):
-    from physics.mechanism import engine
-    from physics.simulate.trajectory import OnRequest
-
     mechanism = MECHANISM_PRESETS[name]()
     run, solved = _spied_run(monkeypatch, mechanism, method)
     assert isinstance(run.__dict__["_condition_value"], OnRequest)  # nothing computed by the run itself
@@ -284,9 +283,7 @@ def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypa
     assert not isinstance(run.__dict__["_condition_value"], OnRequest)
 
 
-def test_fields_on_request_survive_pickling_copies_and_slicing():
-    import pickle
-
+def test_fields_on_request_survive_pickling_and_copies():
     run = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange", integrator="RK45",
                              rtol=1e-7, atol=1e-7)
     reference = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange",
