@@ -277,13 +277,19 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
 POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
 
 
+# The DAE's Jacobians at the samples are kept for its condition up to this size (an app's chunk, a short run: a
+# read then costs no second evaluation); a longer run's are evaluated again when its condition is read.
+KEPT_JACOBIAN_BYTES = 4 << 20
+
+
 def _on_request(dae, compiled, params, times, solved: Samples, tree: bool):
     """``(reaction_rows, condition)`` of a run, each computed when first read (:class:`OnRequest`): a tree
     formulation's reactions by Newton's second law (:func:`body_reactions`) and every sample's condition of
     ``Phi_q`` (:func:`_conditions`), from the samples the run keeps, so their bits are the ones the run computed
-    before it left them to its reader. The computations keep the poses, velocities and accelerations, not the
-    Jacobians (``(T, r, n)`` floats a long run's reader may never ask for): the DAE's condition evaluates the
-    generated constraint rows again at the same times, states and parameters; a tree formulation evaluates the
+    before it left them to its reader. The computations keep the poses, velocities and accelerations, and the
+    Jacobians only up to :data:`KEPT_JACOBIAN_BYTES` (``(T, r, n)`` floats a long run's reader may never ask for):
+    the DAE's condition of a longer run evaluates the generated constraint rows again at the same times, states
+    and parameters (the same bits); a tree formulation evaluates the
     maximal ``Phi_q`` when the first of its two fields is read and lets it go when the second is."""
     from ..simulate.trajectory import OnRequest  # noqa: PLC0415
 
@@ -300,10 +306,11 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool):
 
         return (OnRequest(lambda: body_reactions(dae, kept, jacobians())),
                 OnRequest(lambda: _conditions(constraints, kept, True, jacobians())))
+    held = solved.constraint_jacobian if solved.constraint_jacobian.nbytes <= KEPT_JACOBIAN_BYTES else None
     params = params.copy()  # the run's own, as its samples were solved with it
 
     def dae_conditions():
-        jacobian = compiled.constraint_states(times, kept.q, kept.qdot, params)[0]
+        jacobian = compiled.constraint_states(times, kept.q, kept.qdot, params)[0] if held is None else held
         return _conditions(constraints, Samples(kept.q, kept.qdot, kept.qddot, empty, empty, empty, jacobian),
                            False)
 

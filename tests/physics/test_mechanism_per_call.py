@@ -265,9 +265,11 @@ def _spied_run(monkeypatch, mechanism, method, **options):
     return run, engine._first(solved, run.t.size)
 
 
+@pytest.mark.parametrize("kept_bytes", [engine.KEPT_JACOBIAN_BYTES, 0])  # the DAE's Jacobians kept, evaluated again
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", ["slider-crank", "geared-five-bar", "jansen-leg"])
-def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypatch, name, method):
+def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypatch, name, method, kept_bytes):
+    monkeypatch.setattr(engine, "KEPT_JACOBIAN_BYTES", kept_bytes)
     mechanism = MECHANISM_PRESETS[name]()
     run, solved = _spied_run(monkeypatch, mechanism, method)
     assert isinstance(run.__dict__["_condition_value"], OnRequest)  # nothing computed by the run itself
