@@ -204,10 +204,12 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     if tree:
         from .tree_coordinates import tree_state  # noqa: PLC0415
 
-        to_state = tree_state
+        def to_state(_mechanism, q_, qdot_) -> tuple[np.ndarray, np.ndarray]:
+            return tree_state(_mechanism, q_, qdot_, pieces)
+
         weights = None
     else:
-        def to_state(_mechanism, q_, qdot_):
+        def to_state(_mechanism, q_, qdot_) -> tuple[np.ndarray, np.ndarray]:
             return q_, qdot_
 
         # positions as assembly weighs steps, velocities nearest in kinetic energy
