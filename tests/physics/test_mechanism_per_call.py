@@ -21,7 +21,7 @@ import pytest
 
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, assemble, engine
-from physics.mechanism.assembly import sketch_size
+from physics.mechanism.assembly import assembled_with_jacobian, sketch_size
 from physics.mechanism.constraints import Constraints, _Frame
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
@@ -29,7 +29,7 @@ from physics.mechanism.model import Mechanism
 from physics.mechanism.parameters import parameter_vector, structure_key
 from physics.mechanism.prepared import clear_prepared, prepared
 from physics.mechanism.run import body_points, coordinate_names
-from physics.mechanism.simulate import simulate_mechanism
+from physics.mechanism.simulate import project_velocity, simulate_mechanism
 from physics.mechanism.topology import analyse
 from physics.mechanism.tree_coordinates import tree_state
 from physics.simulate.trajectory import OnRequest
@@ -298,3 +298,18 @@ def test_fields_on_request_survive_pickling_and_copies():
     unpickled = pickle.loads(pickle.dumps(fresh))  # pickled before either field was read
     assert np.array_equal(unpickled.condition, reference.condition)
     assert np.array_equal(unpickled.reaction_rows, reference.reaction_rows)
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "stephenson-six-bar", "jansen-leg"])
+def test_a_start_already_on_the_velocity_constraints_is_returned_as_the_solve_would(name):
+    mechanism = MECHANISM_PRESETS[name]()
+    pieces = prepared(mechanism)
+    assembled, jacobian = assembled_with_jacobian(mechanism, pieces, None, 0.0)
+    inverse_mass = 1.0 / pieces.dae.mass_diagonal
+    for qdot in (np.zeros_like(assembled.q), -np.zeros_like(assembled.q)):
+        gap = jacobian @ qdot - pieces.velocity_rhs
+        correction = np.linalg.lstsq((jacobian * inverse_mass) @ jacobian.T, gap, rcond=None)[0]
+        solved = qdot - inverse_mass * (jacobian.T @ correction)  # the least-squares path, always taken before
+        projected = project_velocity(pieces.dae, assembled.q, qdot, pieces.velocity_rhs, jacobian)
+        assert np.array_equal(projected, solved) and np.array_equal(np.signbit(projected), np.signbit(solved))
+        assert projected is not qdot
