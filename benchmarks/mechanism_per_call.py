@@ -3,7 +3,7 @@
 work), alternated in one run.
 
     git worktree add ../percall-before da5222d
-    python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31]
+    python -m benchmarks.mechanism_per_call --before ../percall-before [--rounds 5] [--calls 31] [--cases triple-c]
     python -m benchmarks.mechanism_per_call [--rounds 5] [--calls 31]      # this tree alone
     python -m benchmarks.mechanism_per_call --only "DOP853 1e-10" --rounds 21   # the seed's case, three ways
 
@@ -16,7 +16,9 @@ table gives the median over the rounds. The cases:
 
 * ``triple-c``: the triple pendulum preset as a mechanism (``chain_mechanism``, its start velocities from
   ``chain_state``), RK45 at rtol = atol = 1e-6, 20 s, 200 samples, each formulation with projection; beside it
-  the chain's own engine (``physics.simulate``) on the same preset and settings;
+  the chain's own engine (``physics.simulate``) on the same preset and settings; and the mechanism's call with
+  its ``condition`` and ``reaction_rows`` read (what the app and the ``mechanism`` command read of every run:
+  a field computed on request, physics/simulate/trajectory.py ``OnRequest``, is computed by the read);
 * ``slider-crank``, ``crank-rocker``, ``geared-five-bar``: RK45 at 1e-6, 2 s, 200 samples, integrated;
 * ``jansen-leg``: its motor fixes every body, so each sample is position analysis (2 s, 200 samples);
 * ``triple-c tree coordinates`` (method ``dae`` only, in a tree that has it): the triple pendulum as a mechanism
@@ -49,6 +51,9 @@ from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 
+def _read(run):  # what the app and the mechanism command read of every run (a field on request is computed)
+    return run.condition, run.reaction_rows
+
 calls = {}
 preset = get_preset("triple-c")
 triple = chain_mechanism(preset.chain, preset.theta0)
@@ -56,6 +61,8 @@ _, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0
 for method in sys.argv[1].split(","):
     options = dict(t_end=20.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
     calls[f"triple-c|{method}"] = (lambda o: lambda: simulate_mechanism(triple, qdot0=qdot0, **o))(options)
+    calls[f"triple-c, condition and reactions read|{method}"] = (lambda o: lambda: _read(
+        simulate_mechanism(triple, qdot0=qdot0, **o)))(options)
     calls[f"triple-c chain engine|{method}"] = (lambda s: lambda: physics.simulate(
         preset.chain, preset.theta0, preset.omega0, s))(Settings(**options))
     if method == "dae" and "coordinates" in inspect.signature(simulate_mechanism).parameters:
@@ -144,15 +151,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--calls", type=int, default=31, help="timed calls per case and round (default 31)")
     parser.add_argument("--only", metavar="TEXT", default="",
                         help="time only the cases whose name and method contain TEXT (default: every case)")
+    parser.add_argument("--cases", default="", help="comma-separated beginnings of the case names to time "
+                                                    "(default: every case)")
     args = parser.parse_args(argv)
+    wanted = tuple(part.strip() for part in args.cases.split(",") if part.strip())
     workers = {"after": Worker(ROOT, METHODS)}
     workers["after"].cases = [case for case in workers["after"].cases if args.only in case]
     if args.before:
         workers["before"] = Worker(Path(args.before).resolve(), METHODS)
     figures: dict[str, dict[str, list[float]]] = {label: {} for label in workers}
     try:
+        cases = [case for case in workers["after"].cases if not wanted or case.startswith(wanted)]
         for number in range(args.rounds):
-            for case in workers["after"].cases:
+            for case in cases:
                 order = [label for label in (("before", "after") if number % 2 == 0 else ("after", "before"))
                          if label in workers]
                 for label in order:
@@ -166,13 +177,13 @@ def main(argv: list[str] | None = None) -> None:
     if not args.before:
         print("| case | method | ms |")
         print("|---|---|---|")
-        for case in workers["after"].cases:
+        for case in cases:
             name, method = case.split("|")
             print(f"| {name} | {method} | {statistics.median(figures['after'][case]):.2f} |")
         return
     print("| case | method | before | after | after / before |")
     print("|---|---|---|---|---|")
-    for case in workers["after"].cases:
+    for case in cases:
         name, method = case.split("|")
         before, after = (statistics.median(figures[label][case]) for label in ("before", "after"))
         if before != before:  # NaN: the tree before has no such case

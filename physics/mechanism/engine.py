@@ -187,7 +187,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     each sample is position analysis from the one before and only the formulation's solve is asked for (inverse
     dynamics); the integrator is not used. A failure midway comes back as the run's ``status`` and ``message``
     (a singular pose names its joints) with every sample up to it; a start that cannot be evaluated at all
-    raises LinkageError, as bad input does. ``pieces``: the mechanism's prepared pieces
+    raises LinkageError, as bad input does. The run's ``condition`` and a tree formulation's ``reaction_rows`` are
+    computed when first read (:func:`_on_request`). ``pieces``: the mechanism's prepared pieces
     (:mod:`physics.mechanism.prepared`) when the caller holds them. ``coordinates="tree"`` (method ``dae``
     only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
     the run's reactions."""
@@ -210,10 +211,12 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     if tree:
         from .tree_coordinates import tree_state  # noqa: PLC0415
 
-        to_state = tree_state
+        def to_state(_mechanism, q_, qdot_) -> tuple[np.ndarray, np.ndarray]:
+            return tree_state(_mechanism, q_, qdot_, pieces)
+
         weights = None
     else:
-        def to_state(_mechanism, q_, qdot_):
+        def to_state(_mechanism, q_, qdot_) -> tuple[np.ndarray, np.ndarray]:
             return q_, qdot_
 
         # positions as assembly weighs steps, velocities nearest in kinetic energy
@@ -265,9 +268,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
             _refuse(reason)
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
-    jacobians = _maximal_jacobians(constraints, solved.q) if tree else None
     own_reactions = not tree or coordinates == "tree"  # the DAE's multipliers: every joint's rows
-    reactions = solved.multipliers if own_reactions else body_reactions(dae, solved, jacobians)
+    reactions, condition = _on_request(dae, compiled, params, times, solved, tree, own_reactions)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points
@@ -277,12 +279,53 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
         row_names=pieces.row_names, method=method,
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
-        condition=_conditions(constraints, solved, tree, jacobians),
+        condition=condition,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
 
 
 POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
+
+
+# The DAE's Jacobians at the samples are kept for its condition up to this size (an app's chunk, a short run: a
+# read then costs no second evaluation); a longer run's are evaluated again when its condition is read.
+KEPT_JACOBIAN_BYTES = 4 << 20
+
+
+def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_reactions: bool):
+    """``(reaction_rows, condition)`` of a run, each computed when first read (:class:`OnRequest`): a tree
+    formulation's reactions by Newton's second law (:func:`body_reactions`) and every sample's condition of
+    ``Phi_q`` (:func:`_conditions`), from the samples the run keeps, so their bits are the ones the run computed
+    before it left them to its reader. The computations keep the poses, velocities and accelerations, and the
+    Jacobians only up to :data:`KEPT_JACOBIAN_BYTES` (``(T, r, n)`` floats a long run's reader may never ask for):
+    the DAE's condition of a longer run evaluates the generated constraint rows again at the same times, states
+    and parameters (the same bits); a tree formulation evaluates the
+    maximal ``Phi_q`` when the first of its two fields is read and lets it go when the second is.
+    ``own_reactions``: the run's multipliers are its reactions (the DAE, maximal or in tree coordinates)."""
+    from ..simulate.trajectory import OnRequest  # noqa: PLC0415
+
+    constraints = dae.constraints
+    empty = np.zeros(0)
+    kept = Samples(solved.q, solved.qdot, solved.qddot, empty, empty, empty, empty)
+    if tree:
+        memo: list = []
+
+        def jacobians():
+            if not memo:
+                memo.append(_maximal_jacobians(constraints, kept.q))
+            return memo[0]
+
+        reactions = solved.multipliers if own_reactions else OnRequest(lambda: body_reactions(dae, kept, jacobians()))
+        return reactions, OnRequest(lambda: _conditions(constraints, kept, True, jacobians()))
+    held = solved.constraint_jacobian if solved.constraint_jacobian.nbytes <= KEPT_JACOBIAN_BYTES else None
+    params = params.copy()  # the run's own, as its samples were solved with it
+
+    def dae_conditions():
+        jacobian = compiled.constraint_states(times, kept.q, kept.qdot, params)[0] if held is None else held
+        return _conditions(constraints, Samples(kept.q, kept.qdot, kept.qddot, empty, empty, empty, jacobian),
+                           False)
+
+    return solved.multipliers, OnRequest(dae_conditions)
 
 
 def _failure(mechanism, compiled, params, constraints, code: int, t_reached: float, x, v, detail: str) -> str:

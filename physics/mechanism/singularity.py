@@ -4,7 +4,8 @@ At a change point (a parallelogram four-bar with every link in line) or at a dea
 drive through, the rows of the constraint Jacobian ``Phi_q`` become dependent: its smallest singular value
 falls to zero, two branches of motion meet, and the maximal-coordinate equations of motion (and the tree
 formulations' closures) are singular. The four-bar's closed-form classification (``physics/assembly.py``) has
-no counterpart for a general mechanism; this measure does the same job for any of them, at every sample.
+no counterpart for a general mechanism; this measure does the same job for any of them, at every sample (a
+run's ``condition``, computed when first read: physics/mechanism/engine.py ``_on_request``).
 """
 
 from __future__ import annotations

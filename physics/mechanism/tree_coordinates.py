@@ -10,20 +10,27 @@ coordinates (:mod:`physics.mechanism.symbolic_tree`). Numbers only (no sympy): a
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .model import Mechanism
 from .topology import analyse
 
+if TYPE_CHECKING:
+    from .prepared import Prepared
 
-def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+
+def tree_state(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, pieces: Prepared | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Tree coordinates and rates ``(s, sd)`` of a maximal-coordinate state ``(q, qdot)`` (3 per body, centres
     of mass and rotations from the sketch): each tree joint's own coordinate
     (:class:`~physics.mechanism.joint_coordinates.JointCoordinates`), a rotation taken as the child's relative
-    to its parent, a travel as body ``a``'s along ``b``'s guide."""
+    to its parent, a travel as body ``a``'s along ``b``'s guide. ``pieces``: the mechanism's prepared pieces
+    when the caller holds them (a run does: looking them up writes the description as JSON, about 60 us)."""
     from .prepared import prepared  # noqa: PLC0415  (built once per mechanism)
 
-    pieces = prepared(mechanism)
+    pieces = prepared(mechanism) if pieces is None else pieces
     coordinates = pieces.joint_coordinates
     topology = pieces.topology if pieces.topology is not None else analyse(mechanism)
     values, rates = [], []

@@ -15,9 +15,9 @@ kinematics (:class:`PointPaths`), never while integrating.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -34,6 +34,44 @@ _EMPTY_WIDTH = {
 
 def _absent() -> np.ndarray:
     return np.zeros((0, 0))
+
+
+class OnRequest:
+    """A per-sample field given as the computation that makes it, run when the field is first read and kept.
+
+    A mechanism's run leaves two of its fields to whoever reads them (:mod:`physics.mechanism.engine`): the
+    condition of every sample's constraint Jacobian (a batched SVD) and a tree formulation's reaction rows (a
+    batched least-squares solve), together more than half of a warm short run's time; the integration and the
+    CSV/JSON columns do not need them until a reader asks. ``compute`` returns exactly the array the run would
+    have stored (the same function of the same inputs), so reading the field gives the same bits as before."""
+
+    __slots__ = ("compute",)
+
+    def __init__(self, compute: Callable[[], np.ndarray]) -> None:
+        self.compute = compute
+
+
+class _ComputedWhenRead:
+    """The descriptor of a :class:`Trajectory` field that may be given as :class:`OnRequest`: reading the field
+    runs the computation once and keeps its array (so ``run.condition`` is always an ndarray for a reader).
+    ``empty``: the shape of the field left out (a fresh array each time, as a default factory gives it)."""
+
+    def __init__(self, empty: tuple[int, ...]) -> None:
+        self.empty = empty
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.slot = f"_{name}_value"
+
+    def __get__(self, instance: Any, owner: type | None = None) -> np.ndarray:
+        if instance is None:  # the dataclass's default: an empty array, made fresh in __set__
+            return None  # type: ignore[return-value]
+        value = instance.__dict__[self.slot]
+        if isinstance(value, OnRequest):
+            value = instance.__dict__[self.slot] = value.compute()
+        return value
+
+    def __set__(self, instance: Any, value: np.ndarray | OnRequest | None) -> None:
+        instance.__dict__[self.slot] = np.zeros(self.empty) if value is None else value
 
 
 class PointPaths(Protocol):
@@ -82,7 +120,8 @@ class Trajectory:
     kinetic: np.ndarray
     potential: np.ndarray
     energy: np.ndarray
-    condition: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # (a mechanism's run gives it as OnRequest: computed when first read)
+    condition: _ComputedWhenRead = _ComputedWhenRead(empty=(0,))
     status: int = Status.OK  # a Status value (0 ok, < 0 failed midway)
     message: str = "ok"
     n_steps: int = 0
@@ -105,7 +144,7 @@ class Trajectory:
     q: np.ndarray = field(default_factory=_absent)
     qdot: np.ndarray = field(default_factory=_absent)
     coordinate_names: tuple[str, ...] = ()
-    reaction_rows: np.ndarray = field(default_factory=_absent)
+    reaction_rows: _ComputedWhenRead = _ComputedWhenRead(empty=(0, 0))  # a tree formulation's: OnRequest
     row_names: tuple[str, ...] = ()
     residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stabilization: str = ""  # how the closures were held ("projection", "baumgarte", "none"); "" for a chain
@@ -116,9 +155,17 @@ class Trajectory:
         """The fields a run left out become ``(T, 0)`` arrays (``(T, 0, 2)`` for per-joint vectors)."""
         count = self.t.shape[0]
         for name, width in _EMPTY_WIDTH.items():
+            if isinstance(self.__dict__.get(f"_{name}_value"), OnRequest):
+                continue  # its computation gives its T rows when it is read
             value = getattr(self, name)
             if value.size == 0 and value.shape[:1] != (count,):
                 setattr(self, name, np.zeros((count, *width)))
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled (a study's worker process, a copy) with every field computed: a computation is not data."""
+        for name in ("condition", "reaction_rows"):
+            getattr(self, name)
+        return self.__dict__
 
     @property
     def success(self) -> bool:

@@ -7,18 +7,21 @@
 * A run on a warm cache is bit-identical to one on a cleared cache, for every formulation; the integrators write
   the time slot of their own copy, never the cached vector; the cached arrays are read-only.
 * A massless body: assembly still works from the cache, a run is refused as before, on every call.
+* A run's condition and a tree formulation's reaction rows are computed when first read, and then equal bit for
+  bit what the eager code computes from the run's own samples; a pickle or a copy computes them first.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import pickle
 
 import numpy as np
 import pytest
 
 from physics.errors import LinkageError
-from physics.mechanism import MECHANISM_PRESETS, assemble
-from physics.mechanism.assembly import sketch_size
+from physics.mechanism import MECHANISM_PRESETS, assemble, engine
+from physics.mechanism.assembly import assembled_with_jacobian, sketch_size
 from physics.mechanism.constraints import Constraints, _Frame
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
@@ -26,9 +29,10 @@ from physics.mechanism.model import Mechanism
 from physics.mechanism.parameters import parameter_vector, structure_key
 from physics.mechanism.prepared import clear_prepared, prepared
 from physics.mechanism.run import body_points, coordinate_names
-from physics.mechanism.simulate import simulate_mechanism
+from physics.mechanism.simulate import project_velocity, simulate_mechanism
 from physics.mechanism.topology import analyse
 from physics.mechanism.tree_coordinates import tree_state
+from physics.simulate.trajectory import OnRequest
 
 METHODS = ("dae", "lagrange", "newton_euler")
 
@@ -239,3 +243,73 @@ def test_a_non_finite_guess_is_refused_not_assembled_to_nan(bad):
     guess[1] = bad
     with pytest.raises(LinkageError, match="q_guess: expected .* finite numbers"):
         assemble(mechanism, guess)
+
+
+# A run's condition and a tree formulation's reaction rows are computed when first read (physics.simulate.
+# trajectory.OnRequest): until then the run holds the computation; reading gives exactly the arrays the eager
+# code computed from the same samples (engine._conditions, engine.body_reactions), bit for bit.
+
+
+def _spied_run(monkeypatch, mechanism, method, **options):
+    """A run, and the Samples its engine solved (the eager computations' input)."""
+    seen = []
+    original = engine.samples
+
+    def spy(*args, **kwargs):
+        seen.append(original(*args, **kwargs))
+        return seen[-1]
+
+    monkeypatch.setattr(engine, "samples", spy)
+    run = simulate_mechanism(mechanism, 2.0, 41, method=method, integrator="RK45", rtol=1e-7, atol=1e-7, **options)
+    (solved,) = seen
+    return run, engine._first(solved, run.t.size)
+
+
+@pytest.mark.parametrize("kept_bytes", [engine.KEPT_JACOBIAN_BYTES, 0])  # the DAE's Jacobians kept, evaluated again
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", ["slider-crank", "geared-five-bar", "jansen-leg"])
+def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypatch, name, method, kept_bytes):
+    monkeypatch.setattr(engine, "KEPT_JACOBIAN_BYTES", kept_bytes)
+    mechanism = MECHANISM_PRESETS[name]()
+    run, solved = _spied_run(monkeypatch, mechanism, method)
+    assert isinstance(run.__dict__["_condition_value"], OnRequest)  # nothing computed by the run itself
+    assert isinstance(run.__dict__["_reaction_rows_value"], OnRequest) == (method != "dae")
+    constraints = prepared(mechanism).dae.constraints
+    eager_condition = engine._conditions(constraints, solved, method != "dae")
+    eager_reactions = (solved.multipliers if method == "dae"
+                       else engine.body_reactions(prepared(mechanism).dae, solved))
+    assert run.condition.shape == run.t.shape and np.array_equal(run.condition, eager_condition)
+    assert run.reaction_rows.shape == (run.t.size, len(run.row_names))
+    assert np.array_equal(run.reaction_rows, eager_reactions)
+    assert run.condition is run.condition  # computed once, then kept
+    assert not isinstance(run.__dict__["_condition_value"], OnRequest)
+
+
+def test_fields_on_request_survive_pickling_and_copies():
+    run = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange", integrator="RK45",
+                             rtol=1e-7, atol=1e-7)
+    reference = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange",
+                                   integrator="RK45", rtol=1e-7, atol=1e-7)
+    copied = dataclasses.replace(run)  # reads every field: the ones on request are computed here
+    _assert_identical(copied, reference)
+    _assert_identical(pickle.loads(pickle.dumps(reference)), reference)
+    fresh = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 1.0, 21, method="lagrange", integrator="RK45",
+                               rtol=1e-7, atol=1e-7)
+    unpickled = pickle.loads(pickle.dumps(fresh))  # pickled before either field was read
+    assert np.array_equal(unpickled.condition, reference.condition)
+    assert np.array_equal(unpickled.reaction_rows, reference.reaction_rows)
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "stephenson-six-bar", "jansen-leg"])
+def test_a_start_already_on_the_velocity_constraints_is_returned_as_the_solve_would(name):
+    mechanism = MECHANISM_PRESETS[name]()
+    pieces = prepared(mechanism)
+    assembled, jacobian = assembled_with_jacobian(mechanism, pieces, None, 0.0)
+    inverse_mass = 1.0 / pieces.dae.mass_diagonal
+    for qdot in (np.zeros_like(assembled.q), -np.zeros_like(assembled.q)):
+        gap = jacobian @ qdot - pieces.velocity_rhs
+        correction = np.linalg.lstsq((jacobian * inverse_mass) @ jacobian.T, gap, rcond=None)[0]
+        solved = qdot - inverse_mass * (jacobian.T @ correction)  # the least-squares path, always taken before
+        projected = project_velocity(pieces.dae, assembled.q, qdot, pieces.velocity_rhs, jacobian)
+        assert np.array_equal(projected, solved) and np.array_equal(np.signbit(projected), np.signbit(solved))
+        assert projected is not qdot
