@@ -56,8 +56,7 @@ def test_one_line_through_logging_before_the_first_compilation_only(fresh_proces
     assert caplog.records[0].getMessage().startswith("linkage-lab: compiling the RK45 integrator once")
 
 
-def test_the_end_of_a_said_compilation_is_logged_below_the_command_lines_threshold(fresh_process_state, caplog,
-                                                                                    capsys):
+def test_the_end_of_a_said_compilation_is_logged_below_the_command_lines_threshold(fresh_process_state, caplog):
     @njit
     def third(x):
         return x * 3.0
@@ -65,14 +64,23 @@ def test_the_end_of_a_said_compilation_is_logged_below_the_command_lines_thresho
     with caplog.at_level(logging.INFO, logger="physics"):
         assert first_compile.call_announced(third, (2.0,), "RK45") == 6.0
         assert first_compile.call_announced(third, (2.0,), "RK45") == 6.0  # compiled: nothing more
-    said = [(record.levelno, record.getMessage()) for record in caplog.records]
-    assert said[0] == (logging.WARNING, first_compile.compile_line("RK45"))
-    assert len(said) == 2 and said[1][0] == logging.INFO
-    assert said[1][1].startswith("linkage-lab: compiled the RK45 integrator in ")
-    handler = StderrLines()  # the command line's printer: the notice only
-    for record in caplog.records:
-        if handler.filter(record) and record.levelno >= handler.level:
-            handler.emit(record)
+    said = [(record.name, record.levelno, record.getMessage()) for record in caplog.records]
+    assert said[0] == ("physics.kernels", logging.WARNING, first_compile.compile_line("RK45"))
+    assert len(said) == 2 and said[1][:2] == ("physics.kernels", logging.INFO)
+    assert said[1][2].startswith("linkage-lab: compiled the RK45 integrator in ")
+
+
+def test_the_command_lines_printer_prints_notices_only(capsys):
+    """The end of a compilation (INFO) is for the app; the command line keeps its one line."""
+    logger = logging.getLogger("physics.tests.stderr_lines")  # a logger of its own: no other test's handlers
+    logger.propagate, logger.level = False, logging.INFO
+    handler = StderrLines()
+    logger.addHandler(handler)
+    try:
+        logger.info(first_compile.done_line("RK45", 2.0))
+        logger.warning(first_compile.compile_line("RK45"))
+    finally:
+        logger.removeHandler(handler)
     assert capsys.readouterr().err.splitlines() == [first_compile.compile_line("RK45")]
 
 
