@@ -53,7 +53,7 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
         arguments = (layout, y0, 0.0, t_end, t_eval, params, rtol, atol, 0.0, 0.0, False, max_steps, outputs[which],
                      np.empty(0))
         if which == "ir":
-            return native_integrators.integrate(integrator, *arguments)
+            return native_integrators.integrate(integrator, compiled.assemble_function, *arguments)
         return kernel(compiled.assemble_function, *arguments)
 
     results = {which: run(which) for which in outputs}  # warm-up: machine code compiled or loaded
