@@ -52,26 +52,40 @@ def _promote_registers(llvm, module) -> None:
     passes.run(module, builder)
 
 
-def _driver(method: str):
-    """The ctypes function of ``method``'s driver, compiled on its first use in this process: each method in a
-    module of its own, so a run compiles only the driver it calls (half the time of both)."""
+def compile_functions(key: str, ir_text, names) -> dict[str, int]:
+    """The machine-code addresses of functions ``names`` of the module ``ir_text()`` (IR text of the project's
+    own generator), compiled on the first call for ``key`` in this process and kept for its life; the seconds
+    go to :func:`compile_seconds`."""
     with _lock:
-        functions = _compiled.setdefault("functions", {})
-        if method not in functions:
+        modules = _compiled.setdefault("modules", {})
+        if key not in modules:
             start = time.perf_counter()
             import llvmlite.binding as llvm  # noqa: PLC0415  (only when a run asks for the drivers)
 
             llvm.initialize_native_target()
             llvm.initialize_native_asmprinter()
-            module = llvm.parse_assembly(integrators_ir((method,)))
+            module = llvm.parse_assembly(ir_text())
             module.verify()
             _promote_registers(llvm, module)
             engine = llvm.create_mcjit_compiler(module, _target_machine(llvm))
             engine.finalize_object()
             _compiled.setdefault("engines", []).append(engine)  # owns the machine code
-            functions[method] = _SIGNATURE(engine.get_function_address(FUNCTION_NAMES[method]))
+            modules[key] = {name: engine.get_function_address(name) for name in names}
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
-        return functions[method]
+        return modules[key]
+
+
+def _driver(method: str):
+    """The ctypes function of ``method``'s driver, compiled on its first use in this process: each method in a
+    module of its own, so a run compiles only the driver it calls (half the time of both)."""
+    name = FUNCTION_NAMES[method]
+    with _lock:
+        functions = _compiled.setdefault("functions", {})
+        if method in functions:
+            return functions[method]
+    address = compile_functions(method, lambda: integrators_ir((method,)), (name,))[name]
+    with _lock:
+        return functions.setdefault(method, _SIGNATURE(address))
 
 
 def _c_array(array, dtype, ndim: int) -> bool:
