@@ -127,6 +127,30 @@ def _fused_rhs(module: ir.Module) -> ir.Function:
     return function
 
 
+def _evaluate(module: ir.Module, fused: ir.Function, linear: LinearFunctions) -> ir.Function:
+    """``i64 evaluate(i64 rhs, i64 assemble, i64* layout, double* A, double* b, double* x, double* col_scale,
+    double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt)``: one
+    right-hand side as the kernel's rhs_into evaluates it without Baumgarte terms: the fused ``rhs`` (at address
+    ``rhs``) when there is one, the general path when there is none or it answers NOT_FUSED. One function called
+    from every stage (not inlined at each: the driver's IR stays about as short as with the fused call alone)."""
+    function = ir.Function(module, ir.FunctionType(_I64, [_I64, _I64, _I64_POINTER] + [_DOUBLE_POINTER] * 6
+                                                   + [_DOUBLE] + [_DOUBLE_POINTER] * 5), "evaluate")
+    function.linkage = "internal"
+    code = _Code(function)
+    rhs, assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt = function.args
+    b = code.b
+    with b.if_then(b.icmp_signed("!=", rhs, _int(0)), likely=True):
+        slot = code.load(layout, _int(LAYOUT_TIME))
+        n = code.load(layout, _int(LAYOUT_COORDINATES))
+        status = b.call(fused, [rhs, slot, n, t, y, params, dydt])
+        with b.if_then(b.icmp_signed("!=", status, _int(_NOT_FUSED)), likely=True):
+            b.ret(status)
+    b.ret(b.call(linear.general_rhs, [assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega,
+                                      dydt]))
+    code.seal()
+    return function
+
+
 def _two_row_test(module: ir.Module) -> ir.Function:
     """``i64 geometric(i64 address, i64 slot, i64 n, double t, double* y, double* params, double* theta,
     double* omega, double* J, double* v)``: the kernel's ``step_status`` for two constraint rows (load_state,
@@ -253,11 +277,10 @@ class _Driver:
     """The body of one method's driver (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`, without
     projection, alpha = beta = 0), in the kernel's order of operations."""
 
-    def __init__(self, module: ir.Module, method: _Method, fused: ir.Function, two_rows: ir.Function,
-                 gram: ir.Function, linear: LinearFunctions) -> None:
+    def __init__(self, module: ir.Module, method: _Method, evaluate: ir.Function, two_rows: ir.Function,
+                 gram: ir.Function) -> None:
         self.method = method
-        self.fused_function = fused
-        self.linear = linear
+        self.evaluate_function = evaluate
         self.two_row_function = two_rows
         self.gram_function = gram
         function = ir.Function(module, DRIVER_TYPE, FUNCTION_NAMES[method.name])
@@ -307,16 +330,10 @@ class _Driver:
         there is one, and the general path (:mod:`physics.codegen.linear_ir`) when there is none or it answers
         NOT_FUSED. Returns the status (OK, SINGULAR or NOT_FINITE)."""
         code, b = self.code, self.code.b
-        status = code.var(_int(_NOT_FUSED))
-        with b.if_then(b.icmp_signed("!=", self.rhs_address, _int(0)), likely=True):
-            code.set(status, b.call(self.fused_function,
-                                    [self.rhs_address, self.slot, self.n, t, y, self.params, dydt]))
         code.set(self.n_rhs, b.add(code.get(self.n_rhs), _int(1)))
-        with b.if_then(b.icmp_signed("==", code.get(status), _int(_NOT_FUSED)), likely=False):
-            code.set(status, b.call(self.linear.general_rhs, [
-                self.assemble, self.layout, self.A, self.b_vector, self.x, self.col_scale, self.J, self.v, t, y,
-                self.params, self.theta, self.omega, dydt]))
-        return code.get(status)
+        return b.call(self.evaluate_function, [
+            self.rhs_address, self.assemble, self.layout, self.A, self.b_vector, self.x, self.col_scale, self.J,
+            self.v, t, y, self.params, self.theta, self.omega, dydt])
 
     def geometric(self, t, y):
         """The kernel's step_status with constraints (r != 0): its closed form for two rows, else J J^T's pivots."""
@@ -669,7 +686,7 @@ def integrators_ir(methods=None) -> str:
     fused = _fused_rhs(module)
     two_rows = _two_row_test(module)
     gram = _gram_test(module)
-    linear = add_linear_functions(module)
+    evaluate = _evaluate(module, fused, add_linear_functions(module))
     for name in (FUNCTION_NAMES if methods is None else methods):
-        _Driver(module, _Method(name), fused, two_rows, gram, linear).emit()
+        _Driver(module, _Method(name), evaluate, two_rows, gram).emit()
     return str(module)
