@@ -7,9 +7,16 @@ BENCHMARKS.md).
   drivers are compiled once per process; numba's compilation of the kernel they stand in for is about 20 s);
 * ``case_c``: seed case C (triple-c, RK45, rtol = atol = 1e-6, 20 s, 200 samples), DAE formulation (the IR
   drivers answer a system with a generated fused ``rhs``: the DAE's);
-* ``triple_a_dop853``: triple-a, DOP853, rtol 1e-10, atol 1e-12, 10 s, 200 samples, DAE.
+* ``triple_a_dop853``: triple-a, DOP853, rtol 1e-10, atol 1e-12, 10 s, 200 samples, DAE;
+* ``case_c_lagrange``, ``case_c_newton_euler``, ``triple_a_dop853_lagrange``: the same runs for the formulations
+  without a fused ``rhs``, whose every evaluation takes the general solve (``physics/codegen/linear_ir.py``);
+* ``samples_*``: the samples' pass of seed case C's 200 samples (``build_trajectory``'s per-sample solve,
+  positions and energies, joint reactions), the IR functions (``physics/codegen/native_samples.py``) against
+  the numba kernels, called as ``build_trajectory`` calls them;
+* ``simulate_case_c``: ``physics.simulate`` of seed case C end to end (default method, Lagrange), the whole
+  per-call figure (this tree only: run the same ``--simulate-only`` in another tree to compare).
 
-Each run is timed warm (machine code loaded, one call before), the IR driver and the kernel alternating call by
+Each run is timed warm (machine code loaded, one call before), the IR and the numba kernel alternating call by
 call; medians in milliseconds, with whether both gave the same bits. One JSON object on stdout.
 """
 
@@ -34,13 +41,14 @@ def _compile_seconds(count: int) -> list[float]:
                                  text=True).stdout.strip()) for _ in range(count)]
 
 
-def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, repeats: int) -> dict:
+def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, repeats: int,
+          method: str = "dae") -> dict:
     import physics  # noqa: PLC0415
     from physics.codegen import load_compiled, native_integrators  # noqa: PLC0415
     from physics.kernels import explicit_rk  # noqa: PLC0415
 
     chosen = physics.get_preset(preset)
-    compiled = load_compiled("dae", chosen.chain.n, chosen.chain.pinned)
+    compiled = load_compiled(method, chosen.chain.n, chosen.chain.pinned)
     layout = compiled.integration_layout
     y0 = np.concatenate([chosen.theta0, chosen.omega0]).astype(float)
     t_eval = np.linspace(0.0, t_end, 200)
@@ -53,7 +61,7 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
         arguments = (layout, y0, 0.0, t_end, t_eval, params, rtol, atol, 0.0, 0.0, False, max_steps, outputs[which],
                      np.empty(0))
         if which == "ir":
-            return native_integrators.integrate(integrator, *arguments)
+            return native_integrators.integrate(integrator, compiled.assemble_function, *arguments)
         return kernel(compiled.assemble_function, *arguments)
 
     results = {which: run(which) for which in outputs}  # warm-up: machine code compiled or loaded
@@ -70,16 +78,87 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
             "steps": int(results["numba"][1]), "identical": bool(identical)}
 
 
+def _samples(method: str, repeats: int) -> dict:
+    """Seed case C's samples' pass: the per-sample solve, observables and joint reactions, IR against numba."""
+    import physics  # noqa: PLC0415
+    from physics.codegen import load_compiled, native_samples  # noqa: PLC0415
+    from physics.kernels import observables, system  # noqa: PLC0415
+    from physics.simulate.prepared import chain_arrays  # noqa: PLC0415
+
+    chosen = physics.get_preset("triple-c")
+    settings = physics.Settings(method=method, integrator="RK45", rtol=1e-6, atol=1e-6, t_end=20.0, samples=200)
+    run = physics.simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+    compiled = load_compiled(method, chosen.chain.n, chosen.chain.pinned)
+    theta, omega = np.ascontiguousarray(run.theta), np.ascontiguousarray(run.omega)
+    bars, params, n, rows = chain_arrays(chosen.chain), chosen.chain.params(), chosen.chain.n, theta.shape[0]
+    kernels = {"ir": (native_samples.solve_states, native_samples.chain_observables,
+                      native_samples.chain_joint_reactions),
+               "numba": (system.solve_states, observables.chain_observables, observables.chain_joint_reactions)}
+    outputs: dict = {}
+
+    def run_pass(which: str):
+        solve, observe, react = kernels[which]
+        x, cond = np.empty((rows, compiled.n_unknowns)), np.empty(rows)
+        solve(compiled.assemble_function, compiled.layout, theta, omega, params, 0.0, 0.0, x, cond)
+        arrays = (np.empty((rows, n + 1, 2)), np.empty((rows, 2)), np.empty(rows), np.empty(rows),
+                  np.empty((rows, 2)))
+        observe(theta, omega, bars.L, bars.d, bars.m, bars.I, bars.g, n - 1, float(bars.tip.along),
+                float(bars.tip.across), *arrays)
+        reactions = np.empty((rows, n, 2))
+        react(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), bars.L, bars.d, bars.m, bars.g,
+              np.zeros((0, 2)), reactions)
+        outputs[which] = (x, cond, *arrays, reactions)
+
+    for which in kernels:
+        run_pass(which)
+    seconds: dict = {which: [] for which in kernels}
+    for repeat in range(repeats):
+        for which in (("ir", "numba") if repeat % 2 == 0 else ("numba", "ir")):
+            start = time.perf_counter()
+            run_pass(which)
+            seconds[which].append(time.perf_counter() - start)
+    identical = all(np.array_equal(a, b) for a, b in zip(outputs["ir"], outputs["numba"], strict=True))
+    return {"ir_median_ms": 1e3 * statistics.median(seconds["ir"]),
+            "numba_median_ms": 1e3 * statistics.median(seconds["numba"]), "identical": bool(identical)}
+
+
+def simulate_case_c(repeats: int) -> dict:
+    """``physics.simulate`` of seed case C (RK45, rtol = atol = 1e-6, 20 s, 200 samples), warm, per call."""
+    import physics  # noqa: PLC0415
+
+    chosen = physics.get_preset("triple-c")
+    settings = physics.Settings(integrator="RK45", rtol=1e-6, atol=1e-6, t_end=20.0, samples=200)
+    physics.simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+    seconds = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        physics.simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+        seconds.append(time.perf_counter() - start)
+    return {"method": settings.method, "median_ms": 1e3 * statistics.median(seconds)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=21)
     parser.add_argument("--compiles", type=int, default=5)
+    parser.add_argument("--simulate-only", action="store_true",
+                        help="only simulate_case_c (what another tree can run too, by the same snippet)")
     arguments = parser.parse_args()
+    if arguments.simulate_only:
+        print(json.dumps({"simulate_case_c": simulate_case_c(arguments.repeats)}, indent=2))
+        return
     compiles = _compile_seconds(arguments.compiles)
+    repeats = arguments.repeats
     report = {
         "compile": {"median_s": statistics.median(compiles), "samples_s": compiles},
-        "case_c": _case("triple-c", "RK45", 1e-6, 1e-6, 20.0, arguments.repeats),
-        "triple_a_dop853": _case("triple-a", "DOP853", 1e-10, 1e-12, 10.0, arguments.repeats),
+        "case_c": _case("triple-c", "RK45", 1e-6, 1e-6, 20.0, repeats),
+        "triple_a_dop853": _case("triple-a", "DOP853", 1e-10, 1e-12, 10.0, repeats),
+        "case_c_lagrange": _case("triple-c", "RK45", 1e-6, 1e-6, 20.0, repeats, "lagrange"),
+        "case_c_newton_euler": _case("triple-c", "RK45", 1e-6, 1e-6, 20.0, repeats, "newton_euler"),
+        "triple_a_dop853_lagrange": _case("triple-a", "DOP853", 1e-10, 1e-12, 10.0, repeats, "lagrange"),
+        "samples_lagrange": _samples("lagrange", repeats),
+        "samples_dae": _samples("dae", repeats),
+        "simulate_case_c": simulate_case_c(repeats),
     }
     print(json.dumps(report, indent=2))
 

@@ -35,7 +35,7 @@ from ..kernels import batch, explicit_rk, midpoint, projection, system, variatio
 from ..kernels.abi import LAYOUT_RHS, make_layout
 from ..kernels.first_compile import call_announced
 from ..registry import FORMULATION_NAMES
-from . import native_integrators
+from . import native_integrators, native_samples
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
@@ -207,6 +207,25 @@ class CompiledSystem:
         x, cond = self.solve_full_batch(theta, omega, params, alpha, beta)
         return x[0], float(cond[0])
 
+    def solve_samples(self, theta, omega, params, alpha=0.0, beta=0.0):
+        """:meth:`solve_full_batch` for a run's samples (C-contiguous (K, n) states), by the samples' pass
+        generated as LLVM IR (:mod:`physics.codegen.native_samples`): the same bits, and nothing for numba to
+        compile in an empty cache. The other entry points keep the numba kernels (their cache is what the cache
+        trust tests exercise)."""
+        x = np.empty((theta.shape[0], self.n_unknowns))
+        cond = np.empty(theta.shape[0])
+        native_samples.solve_states(self.assemble_function, self.layout, theta, omega, _c(params), float(alpha),
+                                    float(beta), x, cond)
+        return x, cond
+
+    def sample_matrices(self, theta, omega, params):
+        """:meth:`matrices` for a run's samples (C-contiguous (K, n) states), by the samples' pass in IR."""
+        k = self.n_unknowns
+        A = np.empty((theta.shape[0], k, k))
+        b = np.empty((theta.shape[0], k))
+        native_samples.assemble_states(self.assemble_function, self.layout, theta, omega, _c(params), A, b)
+        return A, b
+
     def matrices(self, theta, omega, params):
         """The numeric A (K, k, k) and b (K, k) at a batch of states (for condition numbers and teaching)."""
         theta = np.atleast_2d(_c(theta))
@@ -245,10 +264,11 @@ class CompiledSystem:
     def _explicit_rk(self, method, kernel, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
                      max_steps, y_out, cond_out):
         """RK45 or DOP853 by the drivers generated as LLVM IR (:mod:`physics.codegen.native_integrators`: the
-        kernel's bits, without numba's compilation), or by the numba kernel for a run they hand back."""
+        kernel's bits, without numba's compilation), or by the numba kernel for a run they hand back (projection,
+        Baumgarte terms, a per-sample condition)."""
         layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
-        answer = native_integrators.integrate(method, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta,
-                                              project, max_steps, y_out, cond_out)
+        answer = native_integrators.integrate(method, self.assemble_function, layout, y0, t0, t_end, t_eval, params,
+                                              rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
         if answer is not None:
             return answer
         return kernel(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,

@@ -8,29 +8,27 @@ IEEE additions, multiplications, divisions, ``sqrt`` and ``pow`` (no fast-math, 
 comparisons (numba's ``min``/``max`` are selects on ``<``/``>``, reproduced as such), so that every sample,
 step count and status is bit-identical to the kernel's.
 
-Each right-hand side is the mechanism's generated fused ``rhs`` (:mod:`physics.kernels.abi`), called through
-its address in the layout. Where the kernel would take its general path instead (no fused ``rhs``, or a pivot
-ratio above ``RESCALE_ABOVE``, or NaN), the IR driver stops at once with :data:`STATUS_NEEDS_KERNEL`, and the
-caller runs the numba kernel from the start (:mod:`physics.codegen.native_integrators`): its result is then
-today's, bit for bit. Constraints held without projection or Baumgarte terms (stabilisation "none": a pinned
+Each right-hand side is evaluated as the kernel's ``rhs_into`` evaluates it: the mechanism's generated fused
+``rhs`` (:mod:`physics.kernels.abi`), called through its address in the layout, and where the kernel would take
+its general path instead (no fused ``rhs``: Lagrange, Newton–Euler; or a pivot ratio above ``RESCALE_ABOVE``, or
+NaN), the general solve written as IR (:mod:`physics.codegen.linear_ir`: assemble, then the structured solve,
+L D L^T or pivoted LU, and the equilibrated fallback). Constraints held without projection or Baumgarte terms (stabilisation "none": a pinned
 chain's two rows, a mechanism's joints) are judged at the start and after each accepted step by the kernel's own
 geometric test (:func:`physics.kernels.system.constraint_ratio`: its closed form for two rows, the pivots of
 ``J J^T`` otherwise).
 
 Entry points (C calling convention), one per method::
 
-    i64 integrate_rk45(i64* layout, double* y0, double t0, double t_end, double* t_eval, i64 n_samples,
+    i64 integrate_rk45(i64 assemble, i64* layout, double* y0, double t0, double t_end, double* t_eval, i64 n_samples,
                        double* params, double rtol, double atol, i64 max_steps, double* y_out,
                        double* scratch, i64* counts, double* t_reached)
 
 ``params`` is the caller's copy (the time slot is written), ``y_out`` (n_samples, 2 n) row-major, already NaN,
 ``scratch`` :func:`scratch_length` doubles; ``counts`` receives ``[n_steps, n_rhs, n_filled]``. Returns the
-status (:mod:`physics.kernels.constants`, or :data:`STATUS_NEEDS_KERNEL`).
+status (:mod:`physics.kernels.constants`).
 """
 
 from __future__ import annotations
-
-from contextlib import contextmanager
 
 from llvmlite import ir
 
@@ -41,6 +39,7 @@ from ..kernels.abi import (
     LAYOUT_COORDINATES,
     LAYOUT_RHS,
     LAYOUT_TIME,
+    LAYOUT_UNKNOWNS,
 )
 from ..kernels.constants import (
     MAX_FACTOR,
@@ -54,21 +53,15 @@ from ..kernels.constants import (
     STATUS_STEP_TOO_SMALL,
 )
 from ..kernels.system import RESCALE_ABOVE
+from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
+from .linear_ir import LinearFunctions, add_linear_functions
 
-# The IR driver could not answer as the kernel would (see the module docstring): run the numba kernel instead.
-# Positive, unlike every kernel status.
-STATUS_NEEDS_KERNEL = 1
 _NOT_FUSED = 1  # the fused rhs's own answer "evaluate by the general path" (physics.kernels.common.NOT_FUSED)
 
-_DOUBLE = ir.DoubleType()
-_I64 = ir.IntType(64)
-_BOOL = ir.IntType(1)
-_DOUBLE_POINTER = _DOUBLE.as_pointer()
-_I64_POINTER = _I64.as_pointer()
 _RHS_TYPE = ir.FunctionType(_DOUBLE, [_DOUBLE_POINTER] * 3)
 _CONSTRAINTS_TYPE = ir.FunctionType(ir.VoidType(), [_DOUBLE_POINTER] * 5)
 DRIVER_TYPE = ir.FunctionType(_I64, [
-    _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE_POINTER, _I64, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _I64,
+    _I64, _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE_POINTER, _I64, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _I64,
     _DOUBLE_POINTER, _DOUBLE_POINTER, _I64_POINTER, _DOUBLE_POINTER,
 ])
 FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
@@ -95,110 +88,16 @@ class _Method:
         self.initial_step_exponent = 1.0 / (order + 1)
 
 
-def scratch_length(method: str, n_state: int, n_constraints: int) -> int:
-    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries and
-    ``n_constraints`` rows: the stage rows ``K``, DOP853's dense-output rows ``F``, eight vectors, ``theta``,
-    ``omega``, the constraints' ``J`` (r x n, one row at least), ``v`` (2 r) and ``G`` (r x r)."""
+def scratch_length(method: str, n_state: int, n_constraints: int, n_unknowns: int) -> int:
+    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries,
+    ``n_constraints`` rows and ``n_unknowns`` unknowns: the stage rows ``K``, DOP853's dense-output rows ``F``,
+    eight vectors, ``theta``, ``omega``, the constraints' ``J`` (r x n, two rows at least), ``v`` (2 r), ``G``
+    (r x r), and the general solve's ``A`` (k x k), ``b``, ``x`` and ``col_scale`` (k each)."""
     rows = _Method(method).n_rows
     r = max(n_constraints, 2)
-    return (rows + tables.DOP853_INTERPOLATOR_POWER + _WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r + r * r
-
-
-def _double(value: float) -> ir.Constant:
-    return ir.Constant(_DOUBLE, float(value))
-
-
-def _int(value: int) -> ir.Constant:
-    return ir.Constant(_I64, int(value))
-
-
-class _Code:
-    """An IR function under construction: mutable scalars live in entry-block allocas (promoted to registers by
-    LLVM's mem2reg), loops and branches are plain blocks."""
-
-    def __init__(self, function: ir.Function) -> None:
-        self.function = function
-        self.allocas = function.append_basic_block("allocas")
-        self.b = ir.IRBuilder(function.append_basic_block("start"))
-        self._alloca_builder = ir.IRBuilder(self.allocas)
-
-    def seal(self) -> None:
-        """The alloca block falls through to the code (called once everything is emitted)."""
-        self._alloca_builder.branch(self.function.blocks[1])
-
-    def var(self, initial) -> ir.AllocaInstr:
-        slot = self._alloca_builder.alloca(initial.type)
-        self.b.store(initial, slot)
-        return slot
-
-    def get(self, slot):
-        return self.b.load(slot)
-
-    def set(self, slot, value) -> None:
-        self.b.store(value, slot)
-
-    def block(self, name: str) -> ir.Block:
-        return self.function.append_basic_block(name)
-
-    def at(self, pointer, index):
-        return self.b.gep(pointer, [index], inbounds=True)
-
-    def load(self, pointer, index):
-        return self.b.load(self.at(pointer, index))
-
-    def store(self, value, pointer, index) -> None:
-        self.b.store(value, self.at(pointer, index))
-
-    def row(self, pointer, row: int, n_state):
-        """Row ``row`` of a row-major matrix of ``n_state`` columns."""
-        return self.at(pointer, self.b.mul(_int(row), n_state))
-
-    @contextmanager
-    def loop(self, stop, name: str = "loop", start=None):
-        """``for i in range(start, stop)`` (start 0 by default): yields ``i``."""
-        counter = self.var(_int(0) if start is None else start)
-        test, body, done = self.block(f"{name}.test"), self.block(f"{name}.body"), self.block(f"{name}.done")
-        self.b.branch(test)
-        self.b.position_at_end(test)
-        index = self.get(counter)
-        self.b.cbranch(self.b.icmp_signed("<", index, stop), body, done)
-        self.b.position_at_end(body)
-        yield index
-        self.set(counter, self.b.add(index, _int(1)))
-        self.b.branch(test)
-        self.b.position_at_end(done)
-
-    def jump(self, target: ir.Block) -> None:
-        """Branch to ``target``; code emitted after it lands in a fresh (unreachable) block."""
-        self.b.branch(target)
-        self.b.position_at_end(self.block("after"))
-
-    def fabs(self, x):
-        return self.b.call(self.intrinsic("llvm.fabs", [_DOUBLE]), [x])
-
-    def sqrt(self, x):
-        return self.b.call(self.intrinsic("llvm.sqrt", [_DOUBLE]), [x])
-
-    def pow(self, x, y):
-        return self.b.call(self.intrinsic("llvm.pow", [_DOUBLE]), [x, y])
-
-    def intrinsic(self, name: str, types):
-        return self.function.module.declare_intrinsic(name, types)
-
-    def minimum(self, accumulator, value):
-        """numba's ``min(accumulator, value)`` for floats: ``value if value < accumulator else accumulator``."""
-        return self.b.select(self.b.fcmp_ordered("<", value, accumulator), value, accumulator)
-
-    def maximum(self, accumulator, value):
-        """numba's ``max(accumulator, value)``: ``value if value > accumulator else accumulator``."""
-        return self.b.select(self.b.fcmp_ordered(">", value, accumulator), value, accumulator)
-
-    def finite(self, x):
-        """``np.isfinite(x)``: |x| < inf (false for NaN)."""
-        return self.b.fcmp_ordered("<", self.fabs(x), _double(float("inf")))
-
-    def to_double(self, integer):
-        return self.b.sitofp(integer, _DOUBLE)
+    k = n_unknowns
+    return ((rows + tables.DOP853_INTERPOLATOR_POWER + _WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r
+            + r * r + k * k + 3 * k)
 
 
 def _fused_rhs(module: ir.Module) -> ir.Function:
@@ -224,6 +123,30 @@ def _fused_rhs(module: ir.Module) -> ir.Function:
         with b.if_then(b.not_(code.finite(code.load(dydt, b.add(n, i))))):
             b.ret(_int(STATUS_NOT_FINITE))
     b.ret(_int(STATUS_OK))
+    code.seal()
+    return function
+
+
+def _evaluate(module: ir.Module, fused: ir.Function, linear: LinearFunctions) -> ir.Function:
+    """``i64 evaluate(i64 rhs, i64 assemble, i64* layout, double* A, double* b, double* x, double* col_scale,
+    double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt)``: one
+    right-hand side as the kernel's rhs_into evaluates it without Baumgarte terms: the fused ``rhs`` (at address
+    ``rhs``) when there is one, the general path when there is none or it answers NOT_FUSED. One function called
+    from every stage (not inlined at each: the driver's IR stays about as short as with the fused call alone)."""
+    function = ir.Function(module, ir.FunctionType(_I64, [_I64, _I64, _I64_POINTER] + [_DOUBLE_POINTER] * 6
+                                                   + [_DOUBLE] + [_DOUBLE_POINTER] * 5), "evaluate")
+    function.linkage = "internal"
+    code = _Code(function)
+    rhs, assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt = function.args
+    b = code.b
+    with b.if_then(b.icmp_signed("!=", rhs, _int(0)), likely=True):
+        slot = code.load(layout, _int(LAYOUT_TIME))
+        n = code.load(layout, _int(LAYOUT_COORDINATES))
+        status = b.call(fused, [rhs, slot, n, t, y, params, dydt])
+        with b.if_then(b.icmp_signed("!=", status, _int(_NOT_FUSED)), likely=True):
+            b.ret(status)
+    b.ret(b.call(linear.general_rhs, [assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega,
+                                      dydt]))
     code.seal()
     return function
 
@@ -354,15 +277,15 @@ class _Driver:
     """The body of one method's driver (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`, without
     projection, alpha = beta = 0), in the kernel's order of operations."""
 
-    def __init__(self, module: ir.Module, method: _Method, fused: ir.Function, two_rows: ir.Function,
+    def __init__(self, module: ir.Module, method: _Method, evaluate: ir.Function, two_rows: ir.Function,
                  gram: ir.Function) -> None:
         self.method = method
-        self.fused_function = fused
+        self.evaluate_function = evaluate
         self.two_row_function = two_rows
         self.gram_function = gram
         function = ir.Function(module, DRIVER_TYPE, FUNCTION_NAMES[method.name])
         self.code = _Code(function)
-        (self.layout, self.y0, self.t0, self.t_end, self.t_eval, self.n_samples, self.params, self.rtol, self.atol,
+        (self.assemble, self.layout, self.y0, self.t0, self.t_end, self.t_eval, self.n_samples, self.params, self.rtol, self.atol,
          self.max_steps, self.y_out, scratch, self.counts, self.t_reached) = function.args
         code, b = self.code, self.code.b
         self.n = code.load(self.layout, _int(LAYOUT_COORDINATES))
@@ -384,6 +307,11 @@ class _Driver:
         rows = b.select(b.icmp_signed(">", self.r, _int(2)), self.r, _int(2))
         self.v = code.at(self.J, b.mul(rows, self.n))
         self.G = code.at(self.v, b.mul(_int(2), rows))
+        self.k = code.load(self.layout, _int(LAYOUT_UNKNOWNS))
+        self.A = code.at(self.G, b.mul(rows, rows))
+        self.b_vector = code.at(self.A, b.mul(self.k, self.k))
+        self.x = code.at(self.b_vector, self.k)
+        self.col_scale = code.at(self.x, self.k)
         self.status = code.var(_int(STATUS_OK))
         self.n_steps = code.var(_int(0))
         self.n_rhs = code.var(_int(0))
@@ -398,13 +326,14 @@ class _Driver:
         self.code.jump(self.exit)
 
     def fused(self, t, y, dydt):
-        """One right-hand side, counted; NOT_FUSED leaves for the kernel. Returns the status (OK or NOT_FINITE)."""
+        """One right-hand side, counted, as the kernel's rhs_into evaluates it: the generated fused ``rhs`` when
+        there is one, and the general path (:mod:`physics.codegen.linear_ir`) when there is none or it answers
+        NOT_FUSED. Returns the status (OK, SINGULAR or NOT_FINITE)."""
         code, b = self.code, self.code.b
-        status = b.call(self.fused_function, [self.rhs_address, self.slot, self.n, t, y, self.params, dydt])
         code.set(self.n_rhs, b.add(code.get(self.n_rhs), _int(1)))
-        with b.if_then(b.icmp_signed("==", status, _int(_NOT_FUSED)), likely=False):
-            self.finish(_int(STATUS_NEEDS_KERNEL))
-        return status
+        return b.call(self.evaluate_function, [
+            self.rhs_address, self.assemble, self.layout, self.A, self.b_vector, self.x, self.col_scale, self.J,
+            self.v, t, y, self.params, self.theta, self.omega, dydt])
 
     def geometric(self, t, y):
         """The kernel's step_status with constraints (r != 0): its closed form for two rows, else J J^T's pivots."""
@@ -463,8 +392,10 @@ class _Driver:
     # ---------------------------------------------------------------- the run
     def emit(self) -> None:
         code, b = self.code, self.code.b
-        with b.if_then(b.icmp_signed("==", self.rhs_address, _int(0)), likely=False):
-            self.finish(_int(STATUS_NEEDS_KERNEL))
+        with code.loop(b.mul(self.k, self.k), "zero_matrix") as i:  # make_system's zero A (the structured path's)
+            code.store(_double(0.0), self.A, i)
+        with code.loop(self.k, "unit_scale") as i:
+            code.store(_double(1.0), self.col_scale, i)
         self.copy(self.y0, self.y)
         self.start()
         self.initial_step()
@@ -755,6 +686,7 @@ def integrators_ir(methods=None) -> str:
     fused = _fused_rhs(module)
     two_rows = _two_row_test(module)
     gram = _gram_test(module)
+    evaluate = _evaluate(module, fused, add_linear_functions(module))
     for name in (FUNCTION_NAMES if methods is None else methods):
-        _Driver(module, _Method(name), fused, two_rows, gram).emit()
+        _Driver(module, _Method(name), evaluate, two_rows, gram).emit()
     return str(module)

@@ -2,11 +2,10 @@
 
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
 ``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
-Baumgarte terms (``alpha`` or ``beta`` not zero), a per-sample condition asked for (``cond_out`` not empty), a
-mechanism without a generated fused ``rhs``, or a right-hand side whose
-pivot ratio asks for the general path somewhere in the run (:data:`~physics.codegen.integrator_ir.STATUS_NEEDS_KERNEL`:
-the caller then runs the kernel from the start, and its answer is today's). Arrays are checked as the kernel
-checks them (the same ``ValueError`` for a programming error).
+Baumgarte terms (``alpha`` or ``beta`` not zero), or a per-sample condition asked for (``cond_out`` not empty).
+Every other run is answered, with or without a generated fused ``rhs`` (the general solve is IR too,
+:mod:`physics.codegen.linear_ir`). Arrays are checked as the kernel checks them (the same ``ValueError`` for a
+programming error).
 """
 
 from __future__ import annotations
@@ -17,10 +16,10 @@ import time
 
 import numpy as np
 
-from .integrator_ir import FUNCTION_NAMES, STATUS_NEEDS_KERNEL, integrators_ir, scratch_length
+from .integrator_ir import FUNCTION_NAMES, integrators_ir, scratch_length
 
 _SIGNATURE = ctypes.CFUNCTYPE(
-    ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
+    ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
     ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64, ctypes.c_void_p,
     ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
 )
@@ -53,26 +52,40 @@ def _promote_registers(llvm, module) -> None:
     passes.run(module, builder)
 
 
-def _driver(method: str):
-    """The ctypes function of ``method``'s driver, compiled on its first use in this process: each method in a
-    module of its own, so a run compiles only the driver it calls (half the time of both)."""
+def compile_functions(key: str, ir_text, names) -> dict[str, int]:
+    """The machine-code addresses of functions ``names`` of the module ``ir_text()`` (IR text of the project's
+    own generator), compiled on the first call for ``key`` in this process and kept for its life; the seconds
+    go to :func:`compile_seconds`."""
     with _lock:
-        functions = _compiled.setdefault("functions", {})
-        if method not in functions:
+        modules = _compiled.setdefault("modules", {})
+        if key not in modules:
             start = time.perf_counter()
             import llvmlite.binding as llvm  # noqa: PLC0415  (only when a run asks for the drivers)
 
             llvm.initialize_native_target()
             llvm.initialize_native_asmprinter()
-            module = llvm.parse_assembly(integrators_ir((method,)))
+            module = llvm.parse_assembly(ir_text())
             module.verify()
             _promote_registers(llvm, module)
             engine = llvm.create_mcjit_compiler(module, _target_machine(llvm))
             engine.finalize_object()
             _compiled.setdefault("engines", []).append(engine)  # owns the machine code
-            functions[method] = _SIGNATURE(engine.get_function_address(FUNCTION_NAMES[method]))
+            modules[key] = {name: engine.get_function_address(name) for name in names}
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
-        return functions[method]
+        return modules[key]
+
+
+def _driver(method: str):
+    """The ctypes function of ``method``'s driver, compiled on its first use in this process: each method in a
+    module of its own, so a run compiles only the driver it calls (half the time of both)."""
+    name = FUNCTION_NAMES[method]
+    with _lock:
+        functions = _compiled.setdefault("functions", {})
+        if method in functions:
+            return functions[method]
+    address = compile_functions(method, lambda: integrators_ir((method,)), (name,))[name]
+    with _lock:
+        return functions.setdefault(method, _SIGNATURE(address))
 
 
 def _c_array(array, dtype, ndim: int) -> bool:
@@ -80,17 +93,15 @@ def _c_array(array, dtype, ndim: int) -> bool:
             and array.ndim == ndim)
 
 
-def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
-              y_out, cond_out):
+def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
+              max_steps, y_out, cond_out):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
     the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_RHS  # noqa: PLC0415
+    from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS  # noqa: PLC0415
 
     if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
         return None
     if project and layout[LAYOUT_CONSTRAINTS] != 0:
-        return None
-    if layout[LAYOUT_RHS] == 0:
         return None
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
@@ -101,13 +112,12 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
     check_arguments.py_func(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _driver(method)
     own_params = params.copy()  # the driver writes t into it
-    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS])))
+    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS]),
+                                     int(layout[LAYOUT_UNKNOWNS])))
     counts = np.zeros(3, dtype=np.int64)
     t_reached = np.zeros(1)
     y_out.fill(np.nan)
-    status = driver(layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end), t_eval.ctypes.data,
-                    t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
+    status = driver(int(assemble), layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end),
+                    t_eval.ctypes.data, t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
                     y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
-    if status == STATUS_NEEDS_KERNEL:
-        return None
     return int(status), int(counts[0]), int(counts[1]), float(t_reached[0]), int(counts[2])

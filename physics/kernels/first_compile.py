@@ -8,6 +8,11 @@ takes seconds (``COMPILE_SECONDS``), so a command, a notebook or the app says so
 Whether a call compiles is read from numba's own state, never guessed: an overload already in memory, or an
 entry for exactly these argument types in the cache's index (read through the same authenticated reader numba
 then uses). At most one line per process: the rest of a first run's compilations are part of the same wait.
+
+What is generated as LLVM IR and compiled with llvmlite in every process (the RK45 and DOP853 drivers of a run
+without projection or Baumgarte terms, the samples' pass: :mod:`physics.codegen.native_integrators`,
+:mod:`physics.codegen.native_samples`) takes well under a second and says nothing: the line is said only where a
+numba kernel is about to compile.
 """
 
 from __future__ import annotations

@@ -124,10 +124,10 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
         # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation); the kernel for
-        # a run they hand back (projection, Baumgarte terms, no fused rhs: physics/codegen/native_integrators.py)
-        answer = native_integrators.integrate(spec.name, layout, y0, t0, t1, t_eval, params, settings.rtol,
-                                              settings.atol, alpha, beta, project, settings.max_steps, y_out,
-                                              cond_out)
+        # a run they hand back (projection, Baumgarte terms: physics/codegen/native_integrators.py)
+        answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
+                                              params, settings.rtol, settings.atol, alpha, beta, project,
+                                              settings.max_steps, y_out, cond_out)
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")

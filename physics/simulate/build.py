@@ -8,15 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..codegen.native_samples import chain_joint_reactions, chain_observables
 from ..errors import LinkageError
-from ..kernels.observables import chain_joint_reactions, chain_observables
 from .prepared import chain_arrays
 from .trajectory import Trajectory
 
 
 def system_condition(compiled, theta, omega, params) -> np.ndarray:
     """2-norm condition number of the formulation's matrix A at each sampled state (T,)."""
-    A, _ = compiled.matrices(theta, omega, params)
+    A, _ = compiled.sample_matrices(theta, omega, params)
     with np.errstate(all="ignore"):
         return np.linalg.cond(A)
 
@@ -26,7 +26,9 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
 
     The generated system is solved once per sample here (one batched call): it gives the reactions and the
     condition estimate together, so the integrator need not evaluate either at the samples. The joint reactions
-    follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass).
+    follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass). The
+    passes are generated LLVM IR (:mod:`physics.codegen.native_samples`, the numba kernels' bits): a first run
+    compiles them in a fraction of a second, where numba took seconds.
     """
     n = chain.n
     theta, omega = np.ascontiguousarray(y[:, :n]), np.ascontiguousarray(y[:, n:])
@@ -53,7 +55,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
     if samples:
-        x, batch_cond = compiled.solve_full_batch(theta, omega, params, alpha, beta)
+        x, batch_cond = compiled.solve_samples(theta, omega, params, alpha, beta)
         if cond is None or len(cond) != samples:
             cond = batch_cond
         if reaction_index.size:

@@ -98,8 +98,10 @@ def test_nothing_is_said_for_a_kernel_already_compiled(fresh_process_state, capl
 def _simulate(cache: Path) -> subprocess.CompletedProcess:
     environment = {**os.environ, "LINKAGE_LAB_CACHE": str(cache), "PYTHONPATH": str(ROOT)}
     environment.pop("NUMBA_CACHE_DIR", None)
-    command = [sys.executable, "-m", "physics", "simulate", "--preset", "triple-a", "--t-end", "0.2", "--samples",
-               "3", "--out", os.devnull]
+    # a pinned chain held by projection: a run the numba kernel integrates (an open chain's default run takes the
+    # drivers generated as LLVM IR, which compile in a fraction of a second and say nothing: test_samples_ir.py)
+    command = [sys.executable, "-m", "physics", "simulate", "--preset", "four-bar", "--stabilization", "projection",
+               "--t-end", "0.2", "--samples", "3", "--out", os.devnull]
     return subprocess.run(command, cwd=ROOT, env=environment, capture_output=True, text=True, timeout=900)
 
 

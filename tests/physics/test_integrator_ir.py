@@ -1,6 +1,8 @@
 """The RK45 and DOP853 drivers written as LLVM IR (physics.codegen.integrator_ir) give the numba kernel's very
 bits: every sample, the status, the step and evaluation counts and where the run stopped. Where the IR driver
-cannot answer as the kernel would, it says so (None) and the kernel runs."""
+cannot answer as the kernel would (projection, Baumgarte terms, a per-sample condition), it says so (None)
+and the kernel runs. Where the kernel takes its general linear solve (no fused rhs: Lagrange, Newton-Euler; or
+a pivot ratio that asks for it), the IR driver takes the same solve written as IR (physics.codegen.linear_ir)."""
 
 from __future__ import annotations
 
@@ -39,7 +41,7 @@ def _both(compiled, integrator, y0, t0, t_end, t_eval, params, rtol=1e-6, atol=1
         arguments = (layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps, y_out,
                      np.empty(0))
         if run == "ir":
-            result = native_integrators.integrate(integrator, *arguments)
+            result = native_integrators.integrate(integrator, compiled.assemble_function, *arguments)
         else:
             result = KERNELS[integrator](compiled.assemble_function, *arguments)
             result = (int(result[0]), int(result[1]), int(result[2]), float(result[3]), int(result[4]))
@@ -71,7 +73,7 @@ def test_a_pinned_chain_without_stabilisation_takes_the_kernels_geometric_test(i
     """Two constraint rows, no projection, no Baumgarte terms: the loop's condition is judged as the kernel
     judges it, after each step and at the start. The four-bar runs through. A chain pinned where its tip is when
     stretched straight starts at a singular pose (the tip's Jacobian has rank one): there the fused rhs's pivot
-    ratio already asks for the kernel's general path, so the IR driver hands the run back."""
+    ratio asks for the general path (the equilibrated LU), which finds the system singular, as the kernel's."""
     compiled, y0, params = _chain_case("four-bar")
     t_eval = np.linspace(0.0, 10.0, 301)
     ir_result, ir_samples, kernel_result, kernel_samples = _both(compiled, integrator, y0, 0.0, 10.0, t_eval,
@@ -81,8 +83,9 @@ def test_a_pinned_chain_without_stabilisation_takes_the_kernels_geometric_test(i
     straight = np.concatenate([np.full(3, 0.3), np.zeros(3)])
     pinned = params.copy()
     pinned[-3:-1] = joint_positions(physics.get_preset("four-bar").chain.array("L"), straight[:3])[-1]
-    ir_result, _, kernel_result, _ = _both(compiled, integrator, straight, 0.0, 10.0, t_eval, pinned)
-    assert ir_result is None and kernel_result[0] == STATUS_SINGULAR
+    results = _both(compiled, integrator, straight, 0.0, 10.0, t_eval, pinned)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_SINGULAR
 
 
 @pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
@@ -109,8 +112,8 @@ def test_a_run_of_zero_length_samples_the_start(integrator):
 @pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
 def test_a_blow_up_gives_the_kernels_status(integrator):
     """Gravity past any real value overflows the accelerations: the same NOT_FINITE at the same step. A NaN
-    start is handed back: the fused rhs's pivot ratio is NaN, which sends the kernel down its general path (whose
-    answer is a singular system)."""
+    start: the fused rhs's pivot ratio is NaN, which sends the kernel and the IR driver down the general path
+    (whose answer is a singular system)."""
     compiled, y0, params = _chain_case("triple-a")
     huge = params.copy()
     huge[G_INDEX] = 1e306
@@ -120,18 +123,23 @@ def test_a_blow_up_gives_the_kernels_status(integrator):
     assert ir_result[0] == STATUS_NOT_FINITE
     start = y0.copy()
     start[1] = np.nan
-    ir_result, _, kernel_result, _ = _both(compiled, integrator, start, 0.0, 5.0, t_eval, params)
-    assert ir_result is None and kernel_result[0] == STATUS_SINGULAR
+    results = _both(compiled, integrator, start, 0.0, 5.0, t_eval, params)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_SINGULAR
 
 
+@pytest.mark.parametrize("integrator, rtol, atol, t_end", [("RK45", 1e-6, 1e-9, 20.0), ("DOP853", 1e-10, 1e-12, 10.0)])
+@pytest.mark.parametrize("preset, links", [("triple-a", None), ("four-bar", None), ("chain", 10)])
 @pytest.mark.parametrize("method", ["lagrange", "newton_euler"])
-def test_a_system_without_a_fused_rhs_is_handed_to_the_kernel(method):
+def test_a_system_without_a_fused_rhs_gives_the_kernels_bits(method, preset, links, integrator, rtol, atol, t_end):
     """Lagrange's and Newton-Euler's chains have no generated fused ``rhs`` (only a structured system has):
-    the kernel's general path runs, not the IR driver."""
-    compiled, y0, params = _chain_case("triple-a", method)
-    t_eval = np.linspace(0.0, 2.0, 11)
-    ir_result, _, kernel_result, _ = _both(compiled, "DOP853", y0, 0.0, 2.0, t_eval, params)
-    assert ir_result is None and kernel_result[0] == STATUS_OK
+    every evaluation takes the general solve (Lagrange's L D L^T, Newton-Euler's pivoted LU, and a pinned
+    chain's multipliers), in IR as in the kernel; open and pinned chains."""
+    compiled, y0, params = _chain_case(preset, method, links)
+    t_eval = np.linspace(0.0, t_end, 200)
+    results = _both(compiled, integrator, y0, 0.0, t_end, t_eval, params, rtol, atol)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_OK and results[0][4] == 200 and results[0][1] > 20
 
 
 def test_runs_the_ir_driver_does_not_reproduce_are_handed_to_the_kernel():
@@ -145,8 +153,8 @@ def test_runs_the_ir_driver_does_not_reproduce_are_handed_to_the_kernel():
 
 @pytest.mark.parametrize("method", ["dae", "lagrange"])
 def test_a_compiled_systems_integrators_give_the_kernels_bits(method):
-    """CompiledSystem.integrate_rk45 / integrate_dop853 run the IR drivers where they answer (the DAE) and the
-    kernel otherwise (Lagrange): the kernel's result either way."""
+    """CompiledSystem.integrate_rk45 / integrate_dop853 run the IR drivers (the DAE's fused rhs, Lagrange's
+    general solve): the kernel's result either way."""
     compiled, y0, params = _chain_case("triple-a", method)
     t_eval = np.linspace(0.0, 5.0, 101)
     for integrator, through_system in (("RK45", compiled.integrate_rk45), ("DOP853", compiled.integrate_dop853)):
@@ -216,3 +224,29 @@ def test_a_mechanism_without_stabilisation_gives_the_kernels_bits(source, method
                     layout=layout)
     _assert_identical(*results)
     assert results[0][0] == STATUS_OK and results[0][4] == 41 and results[0][1] > 10, results[0]
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+@pytest.mark.parametrize("method", ["lagrange", "newton_euler", "dae"])
+def test_a_light_tip_takes_the_equilibrated_solve_with_the_kernels_bits(method, integrator):
+    """A tip a million times lighter than the other bars: the plain solve's pivot ratio passes RESCALE_ABOVE at
+    every state, so each evaluation is redone equilibrated (linear.lu_solve_equilibrated), the DAE's after its
+    fused rhs answered NOT_FUSED. The IR's rescaled solve gives the kernel's bits (and its status: the DAE's
+    equilibrated system is judged singular at the start)."""
+    from physics.kernels.linear import ldlt_solve, lu_solve  # noqa: PLC0415
+    from physics.kernels.system import RESCALE_ABOVE  # noqa: PLC0415
+
+    compiled, y0, params = _chain_case("triple-a", method)
+    light = params.copy()
+    light[8] *= 1e-6  # m_3 of [L1..3, d1..3, m1..3, I1..3, ...]
+    light[11] *= 1e-6  # I_3
+    A, b = compiled.matrix(y0[:3], y0[3:], light)
+    plain = (ldlt_solve if compiled.layout[4] else lu_solve).py_func(A.copy(), b.copy(), np.empty(b.size))
+    assert plain > RESCALE_ABOVE
+    t_eval = np.linspace(0.0, 2.0, 51)
+    results = _both(compiled, integrator, y0, 0.0, 2.0, t_eval, light, 1e-8, 1e-10)
+    _assert_identical(*results)
+    if method == "dae":  # its equilibrated multipliers' pivots pass SINGULAR_PIVOT_RATIO: the kernel stops too
+        assert results[0][0] == STATUS_SINGULAR
+    else:
+        assert results[0][0] == STATUS_OK and results[0][4] == 51
