@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 from .integrator_ir import FUNCTION_NAMES, STATUS_NEEDS_KERNEL, integrators_ir, scratch_length
+from .machine_code import compile_module, llvm_binding
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
@@ -26,10 +27,11 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 )
 _lock = threading.Lock()
 _compiled: dict = {}
+VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
 
 
 def compile_seconds() -> float:
-    """Seconds this process spent building and compiling the drivers (0 before the first run)."""
+    """Seconds this process spent building and compiling (or loading) the drivers (0 before the first run)."""
     return float(_compiled.get("seconds", 0.0))
 
 
@@ -54,21 +56,16 @@ def _promote_registers(llvm, module) -> None:
 
 
 def _driver(method: str):
-    """The ctypes function of ``method``'s driver, compiled on its first use in this process: each method in a
-    module of its own, so a run compiles only the driver it calls (half the time of both)."""
+    """The ctypes function of ``method``'s driver, on its first use in this process: each method in a module of
+    its own, so a run compiles (or loads from the machine-code cache, :mod:`physics.codegen.machine_code`) only
+    the driver it calls."""
     with _lock:
         functions = _compiled.setdefault("functions", {})
         if method not in functions:
             start = time.perf_counter()
-            import llvmlite.binding as llvm  # noqa: PLC0415  (only when a run asks for the drivers)
-
-            llvm.initialize_native_target()
-            llvm.initialize_native_asmprinter()
-            module = llvm.parse_assembly(integrators_ir((method,)))
-            module.verify()
-            _promote_registers(llvm, module)
-            engine = llvm.create_mcjit_compiler(module, _target_machine(llvm))
-            engine.finalize_object()
+            llvm = llvm_binding()
+            engine = compile_module(integrators_ir((method,)), VARIANT, lambda module: _promote_registers(llvm, module),
+                                    lambda: _target_machine(llvm))
             _compiled.setdefault("engines", []).append(engine)  # owns the machine code
             functions[method] = _SIGNATURE(engine.get_function_address(FUNCTION_NAMES[method]))
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
