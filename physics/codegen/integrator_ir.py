@@ -35,16 +35,10 @@ from contextlib import contextmanager
 from llvmlite import ir
 
 from ..kernels import tables
-from ..kernels.abi import (
-    LAYOUT_CONSTRAINT_FUNCTION,
-    LAYOUT_CONSTRAINTS,
-    LAYOUT_COORDINATES,
-    LAYOUT_RHS,
-    LAYOUT_TIME,
-)
 from ..kernels.constants import (
     MAX_FACTOR,
     MIN_FACTOR,
+    RESCALE_ABOVE,
     SAFETY,
     SINGULAR_PIVOT_RATIO,
     STATUS_MAX_STEPS,
@@ -53,7 +47,13 @@ from ..kernels.constants import (
     STATUS_SINGULAR,
     STATUS_STEP_TOO_SMALL,
 )
-from ..kernels.system import RESCALE_ABOVE
+from ..kernels.layout import (
+    LAYOUT_CONSTRAINT_FUNCTION,
+    LAYOUT_CONSTRAINTS,
+    LAYOUT_COORDINATES,
+    LAYOUT_RHS,
+    LAYOUT_TIME,
+)
 
 # The IR driver could not answer as the kernel would (see the module docstring): run the numba kernel instead.
 # Positive, unlike every kernel status.

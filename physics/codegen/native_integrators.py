@@ -1,4 +1,4 @@
-"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per process and called.
+"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per installation (the machine code kept in the cache) and called.
 
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
 ``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
@@ -17,6 +17,8 @@ import time
 
 import numpy as np
 
+from ..kernels.checks import check_arguments
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_RHS
 from .integrator_ir import FUNCTION_NAMES, STATUS_NEEDS_KERNEL, integrators_ir, scratch_length
 from .machine_code import compile_module, llvm_binding
 
@@ -81,8 +83,6 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
               y_out, cond_out):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
     the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_RHS  # noqa: PLC0415
-
     if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
         return None
     if project and layout[LAYOUT_CONSTRAINTS] != 0:
@@ -92,10 +92,8 @@ def integrate(method: str, layout, y0, t0, t_end, t_eval, params, rtol, atol, al
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
         return None  # the kernel's own typing says what is wrong
-    from ..kernels.common import check_arguments  # noqa: PLC0415
-
-    # the kernel's own check, run as plain Python (``py_func``): its messages, and no numba compilation
-    check_arguments.py_func(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
+    # the kernel's own check (physics.kernels.checks, which numba compiles for the kernel), as plain Python
+    check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _driver(method)
     own_params = params.copy()  # the driver writes t into it
     scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS])))

@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import LinkageError
-from ..kernels.observables import chain_joint_reactions, chain_observables
 from .prepared import chain_arrays
 from .trajectory import Trajectory
 
@@ -28,6 +27,11 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     condition estimate together, so the integrator need not evaluate either at the samples. The joint reactions
     follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass).
     """
+    from ..kernels.observables import (  # noqa: PLC0415  (numba: when a run reaches its samples, not at import)
+        chain_joint_reactions,
+        chain_observables,
+    )
+
     n = chain.n
     theta, omega = np.ascontiguousarray(y[:, :n]), np.ascontiguousarray(y[:, n:])
     bars = chain_arrays(chain)
