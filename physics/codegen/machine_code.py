@@ -15,7 +15,9 @@ is compiled again and stored afresh.
 
 The file's name is a digest of everything that shapes the machine code: the IR text, what is done to it before
 code generation (``variant`` and the source of the modules that do it), the llvmlite version, and the host's
-target triple, CPU name and CPU features (an object made for another CPU is never picked up).
+target triple, CPU name and CPU features (an object made for another CPU is never picked up). The drivers' IR is
+itself a function of the project's source, so they are named by :func:`sources_digest` instead of their text,
+and a process that loads them does not build the IR at all.
 """
 
 from __future__ import annotations
@@ -77,12 +79,29 @@ def _shaping_digest() -> bytes:
 
 
 def object_name(ir_text: str, variant: str) -> str:
-    """The cache file name of ``ir_text``'s machine code as compiled by ``variant`` on this host."""
+    """The cache file name of ``ir_text``'s machine code as compiled by ``variant`` on this host (``ir_text``:
+    the IR, or a text that determines it, such as :func:`sources_digest` and what the IR is built for)."""
     h = hashlib.sha256()
     h.update(b"linkage-lab object v1\0" + variant.encode() + b"\0" + host().encode() + b"\0")
     h.update(_shaping_digest())
     h.update(ir_text.encode())
     return h.hexdigest()[:32] + SUFFIX
+
+
+def sources_digest() -> str:
+    """Digest of every source file of :mod:`physics.codegen` and :mod:`physics.kernels` (and numpy's version,
+    which reads their tables): all that the drivers' IR is built from, so it names their machine code without
+    building the IR."""
+    if "sources" not in _memo:
+        import numpy  # noqa: PLC0415  (imported already by every caller; its version is part of the digest)
+
+        package = Path(__file__).resolve().parent.parent
+        h = hashlib.sha256(numpy.__version__.encode())
+        for folder in ("codegen", "kernels"):
+            for path in sorted((package / folder).glob("*.py")):
+                h.update(f"{folder}/{path.name}".encode() + b"\0" + path.read_bytes())
+        _memo["sources"] = h.hexdigest()
+    return str(_memo["sources"])
 
 
 def defined_functions(ir_text: str) -> set[str]:
@@ -164,14 +183,19 @@ def _remove_stale(where: Path) -> None:
             pass
 
 
-def compile_module(ir_text: str, variant: str, prepare: Callable, target_machine: Callable):
+def compile_module(ir_text: str | Callable[[], str], variant: str, prepare: Callable, target_machine: Callable,
+                   key: str | None = None):
     """An MCJIT execution engine holding ``ir_text``'s machine code, finalised: loaded from the cache when a
     trusted object file of it is there, else compiled (``prepare(module)`` runs the caller's passes on the
     parsed IR; ``target_machine()`` makes a fresh target machine, as every engine owns its own) and stored.
-    ``variant`` names the caller's passes and code generation level."""
+    ``variant`` names the caller's passes and code generation level. ``key``: a text that determines the IR
+    (then ``ir_text`` may be a function that builds it, called only to compile); default the IR text itself."""
     llvm = llvm_binding()
+    if key is None:
+        ir_text = ir_text if isinstance(ir_text, str) else ir_text()
+        key = ir_text
     where = folder()
-    path = where / object_name(ir_text, variant) if where is not None else None
+    path = where / object_name(key, variant) if where is not None else None
     code = _trusted_object(path) if path is not None else None
     if path is not None and code is not None:
         engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), target_machine())
@@ -183,7 +207,7 @@ def compile_module(ir_text: str, variant: str, prepare: Callable, target_machine
         except OSError:
             pass
         return engine
-    module = llvm.parse_assembly(ir_text)
+    module = llvm.parse_assembly(ir_text if isinstance(ir_text, str) else ir_text())
     module.verify()
     prepare(module)
     engine = llvm.create_mcjit_compiler(module, target_machine())

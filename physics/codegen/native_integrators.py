@@ -20,7 +20,7 @@ import numpy as np
 from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_RHS
 from .integrator_ir import FUNCTION_NAMES, STATUS_NEEDS_KERNEL, integrators_ir, scratch_length
-from .machine_code import compile_module, llvm_binding
+from .machine_code import compile_module, llvm_binding, sources_digest
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
@@ -66,8 +66,9 @@ def _driver(method: str):
         if method not in functions:
             start = time.perf_counter()
             llvm = llvm_binding()
-            engine = compile_module(integrators_ir((method,)), VARIANT, lambda module: _promote_registers(llvm, module),
-                                    lambda: _target_machine(llvm))
+            engine = compile_module(lambda: integrators_ir((method,)), VARIANT,
+                                    lambda module: _promote_registers(llvm, module), lambda: _target_machine(llvm),
+                                    key=f"driver {method}\n{sources_digest()}")  # the IR is built on a miss only
             _compiled.setdefault("engines", []).append(engine)  # owns the machine code
             functions[method] = _SIGNATURE(engine.get_function_address(FUNCTION_NAMES[method]))
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
