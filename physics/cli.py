@@ -26,6 +26,7 @@ from .codegen.inventory import cache_info, clear_cache, describe
 from .ensemble import DEFAULT_STEP, Ensemble
 from .errors import LinkageError
 from .evaluate import accelerations
+from .kernels import numba_start
 from .kernels.constants import RK4_WORK_ROWS
 from .kinematics import joint_positions
 from .long_run import simulate_in_segments
@@ -420,32 +421,6 @@ def run_external(name: str, argv: list[str]) -> int:
     return int(getattr(importlib.import_module(module_name), func)(argv) or 0)
 
 
-class _NoScipyLinalg:
-    """An import hook that answers "not installed" for scipy while it is in ``sys.meta_path``."""
-
-    def find_spec(self, name, path=None, target=None):
-        if name in ("scipy", "scipy.linalg"):
-            raise ImportError("scipy.linalg is not needed by numba's kernels here")
-        return None
-
-
-def start_numba_without_blas() -> None:
-    """When numba's CPU target starts it imports scipy.linalg (a quarter of a second) only to offer BLAS to
-    ``np.dot`` and ``np.linalg`` in compiled code, which Linkage Lab's kernels never call. A command-line process
-    is ours alone, so it starts numba's array support with that probe answered "no" (numba then compiles
-    ``np.dot`` as unsupported in this process). scipy itself imports normally afterwards (the reduced model,
-    ``--backend scipy``, the equilibrium solver)."""
-    if "numba.np.arraymath" in sys.modules or "scipy.linalg" in sys.modules:
-        return
-    hook = _NoScipyLinalg()
-    sys.meta_path.insert(0, hook)
-    try:
-        # Must run here, with the hook in place: this import is the point of the function.
-        import numba.np.arraymath  # noqa: F401, PLC0415  (runs numba's BLAS probe now)
-    finally:
-        sys.meta_path.remove(hook)
-
-
 MECHANISM_COMMANDS = ("simulate", "accelerations", "fbd", "equilibrium", "warm", "ensemble")  # take a mechanism too
 
 
@@ -488,7 +463,7 @@ def refuse_empty_values(argv: list[str]) -> None:
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     install_stderr_lines()  # the library's notices (physics.notices) as the one-line stderr text they always were
-    start_numba_without_blas()
+    numba_start.start_without_blas()  # when numba loads: only a run that reaches a numba kernel
     try:
         refuse_empty_values(argv)
         if argv[:1] and argv[0] in MECHANISM_COMMANDS and asks_for_mechanism(argv[1:]):

@@ -31,9 +31,8 @@ import numpy as np
 from ..cache_folder import UntrustedFile, cache_dir, discard, mac, mac_matches, read_trusted, warn
 from ..errors import LinkageError
 from ..files import write_atomically
-from ..kernels import batch, explicit_rk, midpoint, projection, system, variational
-from ..kernels.abi import LAYOUT_RHS, make_layout
 from ..kernels.first_compile import call_announced
+from ..kernels.layout import LAYOUT_RHS, make_layout
 from ..registry import FORMULATION_NAMES
 from . import native_integrators, native_samples
 from .native import NativeModule
@@ -41,7 +40,7 @@ from .native import NativeModule
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
-_GENERATOR_FILES = ("kernels/abi.py", "model.py")
+_GENERATOR_FILES = ("kernels/abi.py", "kernels/layout.py", "model.py")
 _GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py", "mechanism/joints/*.py",
                        "mechanism/model.py", "mechanism/topology.py")  # a mechanism's derivations, the model
 # they read and the spanning tree's search (the order of the tree formulations' coordinates)
@@ -181,6 +180,8 @@ class CompiledSystem:
     # ---------------------------------------------------------------- one state, or a batch of states
     def accel_batch(self, theta, omega, params, alpha=0.0, beta=0.0):
         """Angular accelerations (K, n) and condition estimates (K,) for states (K, n)."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         theta_ddot = np.empty_like(theta)
         cond = np.empty(theta.shape[0])
@@ -195,6 +196,8 @@ class CompiledSystem:
 
     def solve_full_batch(self, theta, omega, params, alpha=0.0, beta=0.0):
         """``x`` of shape (K, k) and condition estimates (K,) for a batch of states (K, n)."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         x = np.empty((theta.shape[0], self.n_unknowns))
         cond = np.empty(theta.shape[0])
@@ -228,6 +231,8 @@ class CompiledSystem:
 
     def matrices(self, theta, omega, params):
         """The numeric A (K, k, k) and b (K, k) at a batch of states (for condition numbers and teaching)."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         k = self.n_unknowns
         A = np.empty((theta.shape[0], k, k))
@@ -243,6 +248,8 @@ class CompiledSystem:
 
     def mass_and_force(self, theta, omega, params):
         """The Lagrangian's mass matrix (n, n) and force (n,) at one state (Lagrange only)."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         M = np.empty((theta.shape[0], self.n, self.n))
         force = np.empty((theta.shape[0], self.n))
@@ -253,26 +260,29 @@ class CompiledSystem:
     # ---------------------------------------------------------------- integrators (physics.kernels)
     def integrate_rk45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                        y_out, cond_out):
-        return self._explicit_rk("RK45", explicit_rk.integrate_rk45, y0, t0, t_end, t_eval, params, rtol, atol,
+        return self._explicit_rk("RK45", "integrate_rk45", y0, t0, t_end, t_eval, params, rtol, atol,
                                  alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_dop853(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                          y_out, cond_out):
-        return self._explicit_rk("DOP853", explicit_rk.integrate_dop853, y0, t0, t_end, t_eval, params, rtol, atol,
+        return self._explicit_rk("DOP853", "integrate_dop853", y0, t0, t_end, t_eval, params, rtol, atol,
                                  alpha, beta, project, max_steps, y_out, cond_out)
 
-    def _explicit_rk(self, method, kernel, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
+    def _explicit_rk(self, method, kernel_name, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
                      max_steps, y_out, cond_out):
         """RK45 or DOP853 by the drivers generated as LLVM IR (:mod:`physics.codegen.native_integrators`: the
-        kernel's bits, without numba's compilation), or by the numba kernel for a run they hand back (projection,
-        Baumgarte terms, a per-sample condition)."""
+        kernel's bits, without numba's compilation), or by the numba kernel ``kernel_name`` of
+        :mod:`physics.kernels.explicit_rk` for a run they hand back (projection, Baumgarte terms, a per-sample
+        condition; numba is imported only then)."""
         layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
         answer = native_integrators.integrate(method, self.assemble_function, layout, y0, t0, t_end, t_eval, params,
                                               rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)
         if answer is not None:
             return answer
-        return kernel(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
-                      max_steps, y_out, cond_out)
+        from ..kernels import explicit_rk  # noqa: PLC0415  (numba: only for a run the IR drivers hand back)
+
+        return getattr(explicit_rk, kernel_name)(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol,
+                                                 atol, alpha, beta, project, max_steps, y_out, cond_out)
 
     def integrate_ode45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                         y_out, cond_out):
@@ -297,16 +307,22 @@ class CompiledSystem:
         return t_out[:filled], y_out[:filled], int(status), int(n_steps)
 
     def integrate_midpoint(self, y0, t0, t_end, h, t_eval, params, alpha, beta, project, y_out, cond_out):
+        from ..kernels import midpoint  # noqa: PLC0415  (numba: only when a kernel runs)
+
         return _first_call(midpoint.integrate_midpoint, "midpoint", self.assemble_function, self.integration_layout, _c(y0), t0,
                            t_end, h, _c(t_eval), _c(params), alpha, beta, project, y_out, cond_out)
 
     def integrate_variational(self, y0, t0, t_end, h, t_eval, params, y_out, cond_out):
+        from ..kernels import variational  # noqa: PLC0415  (numba: only when a kernel runs)
+
         return _first_call(
             variational.integrate_variational, "variational", self.assemble_function, self.mass_and_force_function,
             self.integration_layout, _c(y0), t0, t_end, h, _c(t_eval), _c(params), y_out, cond_out,
         )
 
     def rk4_batch_step(self, theta, omega, params, h, alpha, beta, work, cond_out):
+        from ..kernels import batch  # noqa: PLC0415  (numba: only when a kernel runs)
+
         return _first_call(batch.rk4_batch_step, "RK4 ensemble", self.assemble_function, self.integration_layout, theta, omega,
                            _c(params), h, alpha, beta, work, cond_out)
 
@@ -325,6 +341,8 @@ class CompiledSystem:
 
     def constraint_states(self, t, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The held constraints at states (K, n) and times (K,): ``J`` (K, r, n), ``phi`` (K, r), ``phi_dot`` (K, r)."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         r = self.constraint_count
         matrix = np.zeros((theta.shape[0], r, theta.shape[1]))
@@ -337,6 +355,8 @@ class CompiledSystem:
     def kinematics_states(self, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Tree coordinates' kinematics at states (K, n): ``d pose/d theta`` (K, 3B, n), ``pose`` (K, 3B) and the
         bias (K, 3B) with ``qddot = J theta_ddot + bias``."""
+        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta = np.atleast_2d(_c(theta))
         size = self.pose_size
         matrix = np.zeros((theta.shape[0], size, theta.shape[1]))
@@ -348,6 +368,8 @@ class CompiledSystem:
     def project(self, theta, omega, params, t=0.0) -> float:
         """Project ``theta``, ``omega`` (n,) in place onto the held constraints (positions, then velocities) at
         time ``t``; returns the position residual left (0 when nothing is held)."""
+        from ..kernels import projection  # noqa: PLC0415  (numba: only when a kernel runs)
+
         theta_rows = np.ascontiguousarray(theta, dtype=np.float64).reshape(1, -1)
         omega_rows = np.ascontiguousarray(omega, dtype=np.float64).reshape(1, -1)
         residual = projection.project_states(self.assemble_function, self.layout, np.array([float(t)]), theta_rows,

@@ -33,17 +33,10 @@ from __future__ import annotations
 from llvmlite import ir
 
 from ..kernels import tables
-from ..kernels.abi import (
-    LAYOUT_CONSTRAINT_FUNCTION,
-    LAYOUT_CONSTRAINTS,
-    LAYOUT_COORDINATES,
-    LAYOUT_RHS,
-    LAYOUT_TIME,
-    LAYOUT_UNKNOWNS,
-)
 from ..kernels.constants import (
     MAX_FACTOR,
     MIN_FACTOR,
+    RESCALE_ABOVE,
     SAFETY,
     SINGULAR_PIVOT_RATIO,
     STATUS_MAX_STEPS,
@@ -52,7 +45,14 @@ from ..kernels.constants import (
     STATUS_SINGULAR,
     STATUS_STEP_TOO_SMALL,
 )
-from ..kernels.system import RESCALE_ABOVE
+from ..kernels.layout import (
+    LAYOUT_CONSTRAINT_FUNCTION,
+    LAYOUT_CONSTRAINTS,
+    LAYOUT_COORDINATES,
+    LAYOUT_RHS,
+    LAYOUT_TIME,
+    LAYOUT_UNKNOWNS,
+)
 from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
 from .linear_ir import LinearFunctions, add_linear_functions
 

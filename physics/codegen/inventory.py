@@ -31,9 +31,11 @@ def cache_info() -> dict:
             entries.append({"method": match[1], "links": int(match[2]), "closure": match[3], "digest": match[4],
                             "file": path.name, "bytes": _size([path])})
     numba = folder / "numba"
-    generated = [p for p in (numba / "generated").glob("*") if p.is_file()]
+    native = folder / "native"  # physics.codegen.machine_code: the IR modules' object files
+    generated = [p for p in (numba / "generated").glob("*") if p.is_file()] + [p for p in native.glob("*") if p.is_file()]
     kernels = [p for p in numba.rglob("*") if p.is_file() and "generated" not in p.parts]
-    other = [p for p in folder.rglob("*") if p.is_file() and numba not in p.parents and not _ENTRY.match(p.name)]
+    other = [p for p in folder.rglob("*") if p.is_file() and numba not in p.parents and native not in p.parents
+             and not _ENTRY.match(p.name)]
     parts = {
         "generated_source": _size(folder / str(e["file"]) for e in entries),
         "generated_machine_code": _size(generated),

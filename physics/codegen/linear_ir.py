@@ -19,7 +19,15 @@ from contextlib import contextmanager
 
 from llvmlite import ir
 
-from ..kernels.abi import (
+from ..kernels.constants import (
+    RELATIVE_NOISE,
+    RESCALE_ABOVE,
+    SINGULAR_PIVOT_RATIO,
+    STATUS_NOT_FINITE,
+    STATUS_OK,
+    STATUS_SINGULAR,
+)
+from ..kernels.layout import (
     LAYOUT_ACCELERATION,
     LAYOUT_CONSTRAINT_FUNCTION,
     LAYOUT_CONSTRAINTS,
@@ -29,9 +37,6 @@ from ..kernels.abi import (
     LAYOUT_TIME,
     LAYOUT_UNKNOWNS,
 )
-from ..kernels.constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from ..kernels.linear import RELATIVE_NOISE
-from ..kernels.system import RESCALE_ABOVE
 from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
 
 _INF = float("inf")

@@ -1,4 +1,4 @@
-"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per process and called.
+"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per installation (the machine code kept in the cache) and called.
 
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
 ``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
@@ -16,7 +16,10 @@ import time
 
 import numpy as np
 
+from ..kernels.checks import check_arguments
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS
 from .integrator_ir import FUNCTION_NAMES, integrators_ir, scratch_length
+from .machine_code import compile_module, llvm_binding, sources_digest
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
@@ -25,10 +28,11 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 )
 _lock = threading.Lock()
 _compiled: dict = {}
+VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
 
 
 def compile_seconds() -> float:
-    """Seconds this process spent building and compiling the drivers (0 before the first run)."""
+    """Seconds this process spent building and compiling (or loading) the drivers (0 before the first run)."""
     return float(_compiled.get("seconds", 0.0))
 
 
@@ -54,21 +58,17 @@ def _promote_registers(llvm, module) -> None:
 
 def compile_functions(key: str, ir_text, names) -> dict[str, int]:
     """The machine-code addresses of functions ``names`` of the module ``ir_text()`` (IR text of the project's
-    own generator), compiled on the first call for ``key`` in this process and kept for its life; the seconds
-    go to :func:`compile_seconds`."""
+    own generator), compiled (or loaded from the machine-code cache, :mod:`physics.codegen.machine_code`) on
+    the first call for ``key`` in this process and kept for its life; the seconds go to :func:`compile_seconds`.
+    ``key`` names the IR among the modules this generator makes: with the digest of its sources it names the
+    machine code, so a process that loads it never builds the IR."""
     with _lock:
         modules = _compiled.setdefault("modules", {})
         if key not in modules:
             start = time.perf_counter()
-            import llvmlite.binding as llvm  # noqa: PLC0415  (only when a run asks for the drivers)
-
-            llvm.initialize_native_target()
-            llvm.initialize_native_asmprinter()
-            module = llvm.parse_assembly(ir_text())
-            module.verify()
-            _promote_registers(llvm, module)
-            engine = llvm.create_mcjit_compiler(module, _target_machine(llvm))
-            engine.finalize_object()
+            llvm = llvm_binding()
+            engine = compile_module(ir_text, VARIANT, lambda module: _promote_registers(llvm, module),
+                                    lambda: _target_machine(llvm), key=f"{key}\n{sources_digest()}")
             _compiled.setdefault("engines", []).append(engine)  # owns the machine code
             modules[key] = {name: engine.get_function_address(name) for name in names}
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
@@ -97,8 +97,6 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
               max_steps, y_out, cond_out):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
     the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS  # noqa: PLC0415
-
     if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
         return None
     if project and layout[LAYOUT_CONSTRAINTS] != 0:
@@ -106,10 +104,8 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
         return None  # the kernel's own typing says what is wrong
-    from ..kernels.common import check_arguments  # noqa: PLC0415
-
-    # the kernel's own check, run as plain Python (``py_func``): its messages, and no numba compilation
-    check_arguments.py_func(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
+    # the kernel's own check (physics.kernels.checks, which numba compiles for the kernel), as plain Python
+    check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     driver = _driver(method)
     own_params = params.copy()  # the driver writes t into it
     scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS]),

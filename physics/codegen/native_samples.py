@@ -12,7 +12,7 @@ import ctypes
 
 import numpy as np
 
-from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .native_integrators import compile_functions
 from .samples_ir import FUNCTION_NAMES, samples_ir, scratch_length
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from llvmlite import ir
 
-from ..kernels.abi import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .ir_code import _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
 from .linear_ir import LinearFunctions, _entry, _fill
 

@@ -1,4 +1,5 @@
-"""Integration kernels compiled once per installation, for every mechanism.
+"""Integration kernels compiled once per installation, for every mechanism (numba loads with the first kernel
+module a run imports: each imports :mod:`.disk_cache` first; the package itself imports nothing).
 
 Each kernel takes the address of the mechanism's generated ``assemble`` (and, for the variational integrator,
 its ``mass_and_force``) as an integer, plus the mechanism's ``layout`` array (:mod:`physics.kernels.abi`), so
@@ -27,4 +28,3 @@ A failing run never raises. Only programming errors do (``ValueError``): arrays 
 ``t_end < t0`` (the kernels integrate forward only) or a fixed step ``h`` that is not positive.
 """
 
-from . import disk_cache  # noqa: F401  (first: numba must see its cache locator before any kernel is defined)

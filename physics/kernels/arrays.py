@@ -2,6 +2,8 @@
 
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
+
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def copy_row(source, target, row):

@@ -2,6 +2,7 @@
 
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .system import make_system, solve_accel
 
 

@@ -10,18 +10,18 @@ import math
 import numpy as np
 from numba import njit
 
+from . import checks, disk_cache  # noqa: F401  (disk_cache: numba's cache locator, before any kernel here is defined)
 from .abi import (
     LAYOUT_ACCELERATION,
     LAYOUT_COORDINATES,
-    LAYOUT_PARAMETERS,
     LAYOUT_RHS,
     LAYOUT_TIME,
     call_native_ratio,
     data_pointer,
 )
 from .arrays import copy_row
-from .constants import SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
-from .system import RESCALE_ABOVE, constraint_ratio, has_constraints, load_state, solve_accel, unknowns_into
+from .constants import RESCALE_ABOVE, SINGULAR_PIVOT_RATIO, STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
+from .system import constraint_ratio, has_constraints, load_state, solve_accel, unknowns_into
 
 # fused_rhs's status when the generated rhs could not answer (none, or its pivot ratio asks for the fallback).
 NOT_FUSED = 1
@@ -152,20 +152,8 @@ def rms_norm(x):
     return math.sqrt(total) / math.sqrt(x.shape[0])
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
-def check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out):
-    """Programming errors only (the caller validates user input): wrong shapes or a backward interval."""
-    if not (t_end >= t0):
-        raise ValueError("t_end must be >= t0 (the kernels integrate forward only)")
-    n = layout[LAYOUT_COORDINATES]
-    if y0.shape[0] != 2 * n:
-        raise ValueError("y0 must have shape (2 n,) for the mechanism's n coordinates")
-    if params.shape[0] < layout[LAYOUT_PARAMETERS]:
-        raise ValueError("params is shorter than the parameter vector the generated code reads")
-    if y_out.shape[0] != t_eval.shape[0] or y_out.shape[1] != y0.shape[0]:
-        raise ValueError("y_out must have shape (len(t_eval), 2 n)")
-    if cond_out.shape[0] != t_eval.shape[0] and cond_out.shape[0] != 0:
-        raise ValueError("cond_out must have shape (len(t_eval),), or (0,) to skip the per-sample condition")
+# compiled from the plain function the IR drivers also run (one check, one set of messages)
+check_arguments = njit(cache=True, error_model="numpy", nogil=True)(checks.check_arguments)
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

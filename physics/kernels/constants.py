@@ -17,6 +17,10 @@ SINGULAR_CONDITION_NUMBER = 1e12
 # 16 digits lost. Past it the accelerations are not worth integrating. Every path (kernels, scipy back end,
 # ensembles, single evaluations) uses this one name.
 SINGULAR_PIVOT_RATIO = 1e6
+# Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
+RESCALE_ABOVE = 1e4
+# Entries below this fraction of the largest are rounding noise (about 500 units in the last place).
+RELATIVE_NOISE = 1e-13
 
 # scipy.integrate._ivp.rk: step-size controller constants.
 SAFETY = 0.9  # multiply steps computed from asymptotic behaviour of errors by this

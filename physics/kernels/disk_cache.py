@@ -2,7 +2,7 @@
 
 numba keeps compiled machine code as pickles (``.nbi`` index, ``.nbc`` data) and unpickles them without a
 check: a damaged file ends every later run with a traceback, and a planted one runs its author's code. So, for
-the kernels' functions only (generated code keeps no machine code on disk):
+the kernels' functions only (the machine code of generated LLVM IR is kept by :mod:`physics.codegen.machine_code`):
 
 * a cache locator puts the kernels' files under ``<cache folder>/numba/kernels-<digest>/`` (the folder
   :mod:`physics.cache_folder` has checked to be private; these two subfolders are checked the same way, and one
@@ -40,6 +40,7 @@ import numba
 from numba.core import caching
 
 from ..cache_folder import UntrustedFile, cache_dir, check_folder, discard, mac, mac_matches, read_trusted, warn
+from . import numba_start
 
 _KERNELS = Path(__file__).resolve().parent
 MAC_MAGIC = b"\nlinkage-lab-hmac-sha256:"
@@ -304,5 +305,6 @@ def tidy() -> None:
         _remove_stale_temporaries(folder)
 
 
+numba_start.on_numba_import()
 install()
 tidy()

@@ -5,6 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .abi import LAYOUT_CONSTRAINTS
 from .arrays import copy_row, stage_sum_into
 from .common import (

@@ -7,8 +7,8 @@ from a singular position, so it doubles as the detector that stops a run before 
 import numpy as np
 from numba import njit
 
-# Entries below this fraction of the largest are rounding noise (about 500 units in the last place).
-RELATIVE_NOISE = 1e-13
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
+from .constants import RELATIVE_NOISE
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

@@ -3,6 +3,7 @@
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .arrays import copy_row
 from .common import (
     check_arguments,

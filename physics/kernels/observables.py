@@ -10,6 +10,8 @@ import math
 
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
+
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def chain_observables(

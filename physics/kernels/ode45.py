@@ -39,6 +39,7 @@ Arguments and return value as :func:`physics.kernels.explicit_rk.integrate_rk45`
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .arrays import copy_row, stage_sum_into
 from .common import check_arguments, initial_samples, ode_rhs, rhs_into, sample_condition, start_rhs, step_status
 from .constants import STATUS_MAX_STEPS, STATUS_NOT_FINITE, STATUS_OK, STATUS_STEP_TOO_SMALL

@@ -12,6 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .abi import LAYOUT_CONSTRAINTS, LAYOUT_WEIGHTS
 from .arrays import state_row
 from .common import all_finite

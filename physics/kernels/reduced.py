@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .abi import LAYOUT_ACCELERATION, LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_TIME, LAYOUT_UNKNOWNS
 from .linear import lu_factor, lu_factor_solve
 from .system import constraints_into, equations_into

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .abi import (
     LAYOUT_ACCELERATION,
     LAYOUT_CONSTRAINT_FUNCTION,
@@ -25,10 +26,8 @@ from .abi import (
     data_pointer,
 )
 from .arrays import copy_matrix, copy_row, state_row
+from .constants import RESCALE_ABOVE
 from .linear import gram_into, ldlt_factor, ldlt_solve, lu_solve, lu_solve_equilibrated
-
-# Above this pivot ratio the fast solve is redone with equilibration (well below the singular threshold).
-RESCALE_ABOVE = 1e4
 
 
 @njit(cache=True, error_model="numpy", nogil=True)

@@ -5,6 +5,7 @@
 import numpy as np
 from numba import njit
 
+from . import disk_cache  # noqa: F401  (numba's cache locator, before any kernel here is defined)
 from .abi import LAYOUT_CONSTRAINTS
 from .common import all_finite, check_arguments, fixed_steps, initial_samples, ode_rhs, start_rhs, step_status
 from .constants import (

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
-from ..kernels.abi import LAYOUT_WEIGHTS
+from ..kernels.layout import LAYOUT_WEIGHTS
 from .model import Mechanism
 from .parameters import parameter_vector, structure, structure_key
 
@@ -118,7 +118,6 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
         filled = int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
         return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), filled, detail)
     assert spec.kernel is not None, spec.name  # Settings sends only compiled-capable integrators here
-    kernel = getattr(importlib.import_module(f"..kernels.{KERNEL_MODULES[spec.kernel]}", __package__), spec.kernel)
     y_out = np.empty((t_eval.size, y0.size))
     cond_out = np.empty(0)  # no condition per sample from the kernel (the run reports its own: _conditions)
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
@@ -131,6 +130,8 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
+    # the numba kernel (numba is imported here, not for a run the IR drivers answered)
+    kernel = getattr(importlib.import_module(f"..kernels.{KERNEL_MODULES[spec.kernel]}", __package__), spec.kernel)
     if spec.needs_lagrangian:  # it holds the loops itself (RATTLE): no stabilisation gains
         result = kernel(compiled.assemble_function, compiled.mass_and_force_function, layout, y0, t0, t1,
                         settings.step, t_eval, params, y_out, cond_out)
