@@ -233,6 +233,26 @@ def mac_matches(name: str, data: bytes, tag: bytes | str) -> bool:
     return hmac.compare_digest(mac(name, data).encode(), tag)
 
 
+
+# A cached file's trailer: this magic, the HMAC-SHA256 of the payload (keyed per user and named by the file's
+# name) in 64 hex digits, a newline. One format for numba's files and the IR modules' machine code.
+MAC_MAGIC = b"\nlinkage-lab-hmac-sha256:"
+TRAILER_BYTES = len(MAC_MAGIC) + 64 + 1
+
+
+def tagged(name: str, payload: bytes) -> bytes:
+    """``payload`` with its MAC trailer, as stored under the file name ``name``."""
+    return payload + MAC_MAGIC + mac(name, payload).encode() + b"\n"
+
+
+def tag_problem(name: str, data: bytes) -> str | None:
+    """Why ``data`` (a whole file as read) does not carry a valid MAC trailer, or None when it does."""
+    if len(data) < TRAILER_BYTES or not data.endswith(b"\n") or not data[-TRAILER_BYTES:].startswith(MAC_MAGIC):
+        return "no MAC: not written by this user's Linkage Lab, or cut short"
+    if not mac_matches(name, data[:-TRAILER_BYTES], data[-TRAILER_BYTES + len(MAC_MAGIC) : -1]):
+        return "MAC differs: changed, or not written by this user's Linkage Lab"
+    return None
+
 class UntrustedFile(Exception):
     """A cache file that must not be loaded: the message says why (for the one line the caller prints)."""
 

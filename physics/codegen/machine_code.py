@@ -30,13 +30,21 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from ..cache_folder import UntrustedFile, cache_dir, check_folder, discard, mac, mac_matches, read_trusted, warn
+from ..cache_folder import (
+    TRAILER_BYTES,
+    UntrustedFile,
+    cache_dir,
+    check_folder,
+    discard,
+    read_trusted,
+    tag_problem,
+    tagged,
+    warn,
+)
 from ..files import write_atomically
 
 FOLDER = "native"
 SUFFIX = ".o"
-MAC_MAGIC = b"\nlinkage-lab-hmac-sha256:"
-_TRAILER_BYTES = len(MAC_MAGIC) + 64 + 1  # the magic, 64 hex digits, a newline
 STALE_SECONDS = 30 * 24 * 3600.0  # object files not loaded for a month (other IR, another llvmlite or CPU)
 _SHAPING_SOURCES = ("machine_code.py", "native.py", "native_integrators.py")  # what is done to the IR
 _DEFINED = re.compile(r"^define [^@\n]*@\"?([A-Za-z_.$][\w.$]*)\"?\(", re.MULTILINE)
@@ -145,27 +153,20 @@ def _trusted_object(path: Path) -> bytes | None:
     except UntrustedFile as error:
         problem: str | None = str(error)
     else:
-        problem = _tag_problem(path.name, data)
+        problem = tag_problem(path.name, data)
         if problem is None:
-            return data[:-_TRAILER_BYTES]
+            return data[:-TRAILER_BYTES]
     warn(f"machine-code cache file {path} is damaged or not trusted ({problem}); discarded and rebuilt")
     discard(path)
     return None
 
-
-def _tag_problem(name: str, data: bytes) -> str | None:
-    if len(data) < _TRAILER_BYTES or not data.endswith(b"\n") or not data[-_TRAILER_BYTES:].startswith(MAC_MAGIC):
-        return "no MAC: not written by this user's Linkage Lab, or cut short"
-    if not mac_matches(name, data[:-_TRAILER_BYTES], data[-_TRAILER_BYTES + len(MAC_MAGIC) : -1]):
-        return "MAC differs: changed, or not written by this user's Linkage Lab"
-    return None
 
 
 def _store(path: Path, code: bytes) -> None:
     """The object file and its MAC trailer, written 0600 under a temporary name and renamed into place (a
     failure only costs the next process a compilation)."""
     try:
-        write_atomically(path, code + MAC_MAGIC + mac(path.name, code).encode() + b"\n", mode=0o600)
+        write_atomically(path, tagged(path.name, code), mode=0o600)
     except OSError:
         return
     if not _tidied:

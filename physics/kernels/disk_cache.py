@@ -39,12 +39,20 @@ from pathlib import Path
 import numba
 from numba.core import caching
 
-from ..cache_folder import UntrustedFile, cache_dir, check_folder, discard, mac, mac_matches, read_trusted, warn
+from ..cache_folder import (
+    TRAILER_BYTES,
+    UntrustedFile,
+    cache_dir,
+    check_folder,
+    discard,
+    read_trusted,
+    tag_problem,
+    tagged,
+    warn,
+)
 from . import numba_start
 
 _KERNELS = Path(__file__).resolve().parent
-MAC_MAGIC = b"\nlinkage-lab-hmac-sha256:"
-_TRAILER_BYTES = len(MAC_MAGIC) + 64 + 1  # the magic, 64 hex digits, a newline
 STALE_TEMPORARY_SECONDS = 3600.0
 _lock = threading.Lock()
 _ensured: set[str] = set()
@@ -160,14 +168,6 @@ class _Discarded(OSError):
     """A cache file that failed its checks and was removed (an OSError: numba's ``load`` then recompiles)."""
 
 
-def _tag_problem(name: str, data: bytes) -> str | None:
-    """Why ``data`` (a whole file as read) does not carry a valid MAC trailer, or None when it does."""
-    if len(data) < _TRAILER_BYTES or not data.endswith(b"\n") or not data[-_TRAILER_BYTES:].startswith(MAC_MAGIC):
-        return "no MAC: not written by this user's Linkage Lab, or cut short"
-    if not mac_matches(name, data[:-_TRAILER_BYTES], data[-_TRAILER_BYTES + len(MAC_MAGIC) : -1]):
-        return "MAC differs: changed, or not written by this user's Linkage Lab"
-    return None
-
 
 def _remove_group(folder: Path, stem: str, reason: str) -> None:
     """Remove one function's index and data files: numba recompiles it on next use."""
@@ -192,11 +192,11 @@ class AuthenticatedCacheFile(caching.IndexDataCacheFile):
         file = Path(path)
         try:
             data = read_trusted(file)
-            problem = _tag_problem(file.name, data)
+            problem = tag_problem(file.name, data)
         except UntrustedFile as error:
             problem = str(error)
         if problem is None:
-            return data[:-_TRAILER_BYTES]
+            return data[:-TRAILER_BYTES]
         self._discard(f"{file.name}: {problem}")
         raise _Discarded(problem)
 
@@ -210,7 +210,7 @@ class AuthenticatedCacheFile(caching.IndexDataCacheFile):
         fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
         try:
             with os.fdopen(fd, "wb") as stream:
-                stream.write(payload + MAC_MAGIC + mac(name, payload).encode() + b"\n")
+                stream.write(tagged(name, payload))
             os.replace(temporary, path)
         except BaseException:
             try:

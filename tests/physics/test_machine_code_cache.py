@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from physics import cache_folder
 from physics.codegen import machine_code
 
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
@@ -37,6 +38,7 @@ entry:
 """
 CHILD = r"""
 import ctypes, json, sys
+from physics import cache_folder
 from physics.codegen import machine_code
 from physics.codegen.native import NativeModule
 
@@ -92,7 +94,7 @@ DAMAGES = {
     "empty": lambda data: b"",
     "garbage": lambda data: os.urandom(max(len(data), 64)),
     "flipped": lambda data: data[:100] + bytes([data[100] ^ 0xFF]) + data[101:],
-    "without its tag": lambda data: data[: data.rindex(machine_code.MAC_MAGIC)],
+    "without its tag": lambda data: data[: data.rindex(cache_folder.MAC_MAGIC)],
 }
 
 
