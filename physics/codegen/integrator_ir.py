@@ -24,8 +24,8 @@ Entry points (C calling convention), one per method::
                        double* scratch, i64* counts, double* t_reached)
 
 ``params`` is the caller's copy (the time slot is written), ``y_out`` (n_samples, 2 n) row-major, already NaN,
-``scratch`` :func:`scratch_length` doubles; ``counts`` receives ``[n_steps, n_rhs, n_filled]``. Returns the
-status (:mod:`physics.kernels.constants`).
+``scratch`` :func:`physics.codegen.ir_shapes.integrator_scratch_length` doubles; ``counts`` receives
+``[n_steps, n_rhs, n_filled]``. Returns the status (:mod:`physics.kernels.constants`).
 """
 
 from __future__ import annotations

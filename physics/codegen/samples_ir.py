@@ -23,7 +23,8 @@ Entry points (C calling convention)::
                                double* d, double* m, double g, i64 pinned, double* tip_reaction,
                                double* joint_reactions)
 
-Arrays are row-major and C-contiguous; ``scratch`` holds :func:`scratch_length` doubles.
+Arrays are row-major and C-contiguous; ``scratch`` holds
+:func:`physics.codegen.ir_shapes.samples_scratch_length` doubles.
 """
 
 from __future__ import annotations
