@@ -5,7 +5,7 @@ time and its CPU time (user + system): on a shared machine the wall time is most
 the CPU column first.
 
     git worktree add ../before a17353d
-    python -m benchmarks.warm_path --before ../before [--repeat 3]
+    python -m benchmarks.warm_path --before ../before [--repeat 3] [--warm-only]
 
 Each tree gets a private cache folder (``LINKAGE_LAB_CACHE``) filled once by a warm-up run of every command
 (the integrators compiled, the generated systems written, their machine code kept where the tree keeps it).
@@ -70,13 +70,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.warm_path")
     parser.add_argument("--before", type=Path, required=True, help="a worktree of the commit before the work")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--warm-only", action="store_true",
+                        help="only the two warm triple-a figures (the cold leg takes minutes a round)")
     args = parser.parse_args(argv)
     if not Path(TIME).exists():
         raise SystemExit(f"{TIME} is needed (GNU time)")
     trees = {"before": args.before.resolve(), "after": ROOT}
     scratch = Path(tempfile.mkdtemp(prefix="linkage-lab-warm-path-"))
     try:
-        return _measure(trees, scratch, args.repeat)
+        commands = {name: spec for name, spec in COMMANDS.items() if not (args.warm_only and spec[1])}
+        return _measure(trees, scratch, args.repeat, commands)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
@@ -85,16 +88,17 @@ def _cell(values: list[float]) -> str:
     return f"{statistics.median(values):.2f}, {min(values):.2f} ({', '.join(f'{v:.2f}' for v in values)})"
 
 
-def _measure(trees: dict[str, Path], scratch: Path, repeat: int) -> int:
+def _measure(trees: dict[str, Path], scratch: Path, repeat: int,
+             commands: dict[str, tuple[list[str], bool]]) -> int:
     caches = {label: scratch / label for label in trees}
     print(f"load average at start: {' '.join(f'{v:.1f}' for v in os.getloadavg())}", flush=True)
     for label, tree in trees.items():  # compile the integrators once per tree, and the modules' bytecode
-        for command, _ in COMMANDS.values():
+        for command, _ in commands.values():
             _whole(tree, caches[label], command, scratch)
             _whole(tree, caches[label], command, scratch)  # what a first run leaves for the next one
     figures: dict[tuple[str, str], list[tuple[float, float]]] = {}
     for _ in range(repeat):
-        for name, (command, cold) in COMMANDS.items():
+        for name, (command, cold) in commands.items():
             for label, tree in trees.items():  # alternated: both trees see the same machine
                 if cold:
                     _forget_generated(caches[label])
@@ -102,7 +106,7 @@ def _measure(trees: dict[str, Path], scratch: Path, repeat: int) -> int:
     print("| figure | before, CPU s: median, least (rounds) | after, CPU s | before / after (CPU medians) | "
           "before, wall s | after, wall s |")
     print("|---|---|---|---|---|---|")
-    for name in COMMANDS:
+    for name in commands:
         before, after = figures[(name, "before")], figures[(name, "after")]
         cpu = [[value[1] for value in values] for values in (before, after)]
         wall = [[value[0] for value in values] for values in (before, after)]

@@ -24,8 +24,8 @@ Entry points (C calling convention), one per method::
                        double* scratch, i64* counts, double* t_reached)
 
 ``params`` is the caller's copy (the time slot is written), ``y_out`` (n_samples, 2 n) row-major, already NaN,
-``scratch`` :func:`scratch_length` doubles; ``counts`` receives ``[n_steps, n_rhs, n_filled]``. Returns the
-status (:mod:`physics.kernels.constants`).
+``scratch`` :func:`physics.codegen.ir_shapes.integrator_scratch_length` doubles; ``counts`` receives
+``[n_steps, n_rhs, n_filled]``. Returns the status (:mod:`physics.kernels.constants`).
 """
 
 from __future__ import annotations
@@ -54,6 +54,9 @@ from ..kernels.layout import (
     LAYOUT_UNKNOWNS,
 )
 from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
+from .ir_shapes import INTEGRATOR_FUNCTION_NAMES as FUNCTION_NAMES
+from .ir_shapes import WORK_VECTORS as _WORK_VECTORS
+from .ir_shapes import stage_rows
 from .linear_ir import LinearFunctions, add_linear_functions
 
 _NOT_FUSED = 1  # the fused rhs's own answer "evaluate by the general path" (physics.kernels.common.NOT_FUSED)
@@ -64,8 +67,6 @@ DRIVER_TYPE = ir.FunctionType(_I64, [
     _I64, _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE_POINTER, _I64, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _I64,
     _DOUBLE_POINTER, _DOUBLE_POINTER, _I64_POINTER, _DOUBLE_POINTER,
 ])
-FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
-_WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
 
 
 class _Method:
@@ -77,27 +78,15 @@ class _Method:
         if self.dop853:
             self.A, self.B, self.C = tables.DOP853_A, tables.DOP853_B, tables.DOP853_C
             self.n_stages = tables.DOP853_N_STAGES
-            self.n_rows = tables.DOP853_N_STAGES_EXTENDED
+            self.n_rows = stage_rows(name)
             order = tables.DOP853_ERROR_ORDER
         else:
             self.A, self.B, self.C = tables.RK45_A, tables.RK45_B, tables.RK45_C
             self.n_stages = tables.RK45_N_STAGES
-            self.n_rows = tables.RK45_N_STAGES + 1
+            self.n_rows = stage_rows(name)
             order = tables.RK45_ERROR_ORDER
         self.error_exponent = -1.0 / (order + 1)
         self.initial_step_exponent = 1.0 / (order + 1)
-
-
-def scratch_length(method: str, n_state: int, n_constraints: int, n_unknowns: int) -> int:
-    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries,
-    ``n_constraints`` rows and ``n_unknowns`` unknowns: the stage rows ``K``, DOP853's dense-output rows ``F``,
-    eight vectors, ``theta``, ``omega``, the constraints' ``J`` (r x n, two rows at least), ``v`` (2 r), ``G``
-    (r x r), and the general solve's ``A`` (k x k), ``b``, ``x`` and ``col_scale`` (k each)."""
-    rows = _Method(method).n_rows
-    r = max(n_constraints, 2)
-    k = n_unknowns
-    return ((rows + tables.DOP853_INTERPOLATOR_POWER + _WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r
-            + r * r + k * k + 3 * k)
 
 
 def _fused_rhs(module: ir.Module) -> ir.Function:

@@ -18,7 +18,8 @@ import numpy as np
 
 from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS
-from .integrator_ir import FUNCTION_NAMES, integrators_ir, scratch_length
+from .ir_shapes import INTEGRATOR_FUNCTION_NAMES as FUNCTION_NAMES
+from .ir_shapes import integrator_scratch_length as scratch_length
 from .machine_code import compile_module, llvm_binding, sources_digest
 
 _SIGNATURE = ctypes.CFUNCTYPE(
@@ -29,6 +30,14 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 _lock = threading.Lock()
 _compiled: dict = {}
 VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
+
+
+def integrators_ir(methods=None) -> str:
+    """:func:`physics.codegen.integrator_ir.integrators_ir`, imported on a machine-code cache miss only: a warm
+    process loads the drivers' machine code and never needs the IR builders or ``llvmlite.ir``."""
+    from .integrator_ir import integrators_ir as build  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
+
+    return build(methods)
 
 
 def compile_seconds() -> float:

@@ -13,8 +13,9 @@ import ctypes
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
+from .ir_shapes import SAMPLES_FUNCTION_NAMES as FUNCTION_NAMES
+from .ir_shapes import samples_scratch_length as scratch_length
 from .native_integrators import compile_functions
-from .samples_ir import FUNCTION_NAMES, samples_ir, scratch_length
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -26,6 +27,14 @@ _SIGNATURES = {
     "chain_joint_reactions": ctypes.CFUNCTYPE(None, _I, _I, _P, _P, _P, _P, _P, _P, _D, _I, _P, _P),
 }
 _functions: dict = {}
+
+
+def samples_ir() -> str:
+    """:func:`physics.codegen.samples_ir.samples_ir`, imported on a machine-code cache miss only (a warm process
+    loads the machine code and never needs the IR builders or ``llvmlite.ir``)."""
+    from .samples_ir import samples_ir as build  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
+
+    return build()
 
 
 def _function(name: str):

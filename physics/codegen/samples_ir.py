@@ -23,7 +23,8 @@ Entry points (C calling convention)::
                                double* d, double* m, double g, i64 pinned, double* tip_reaction,
                                double* joint_reactions)
 
-Arrays are row-major and C-contiguous; ``scratch`` holds :func:`scratch_length` doubles.
+Arrays are row-major and C-contiguous; ``scratch`` holds
+:func:`physics.codegen.ir_shapes.samples_scratch_length` doubles.
 """
 
 from __future__ import annotations
@@ -34,15 +35,7 @@ from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKN
 from .ir_code import _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
 from .linear_ir import LinearFunctions, _entry, _fill
 
-FUNCTION_NAMES = ("solve_states", "assemble_states", "chain_observables", "chain_joint_reactions")
 _POINTER_CALL = ir.FunctionType(ir.VoidType(), [_DOUBLE_POINTER] * 5)
-
-
-def scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
-    """Doubles of ``solve_states``' scratch: make_system's ``A`` (k x k), ``b``, ``x``, ``col_scale`` (k), ``J``
-    (r x n), ``v`` (2 r) and ``G`` (r x r), one constraint row at least."""
-    k, r = n_unknowns, max(n_constraints, 1)
-    return k * k + 3 * k + r * n + 2 * r + r * r
 
 
 def _external(module: ir.Module, name: str, arguments) -> _Code:

@@ -1,0 +1,40 @@
+"""The names and scratch sizes of the IR modules' entry points, apart from the IR that builds them.
+
+A run calls the drivers of :mod:`physics.codegen.integrator_ir` and the samples' pass of
+:mod:`physics.codegen.samples_ir` by these names with scratch of these sizes, but their machine code normally
+comes from the cache (:mod:`physics.codegen.machine_code`): kept here, they spare a warm process the IR
+builders and ``llvmlite.ir``, which only a cache miss needs.
+"""
+
+from __future__ import annotations
+
+from ..kernels import tables
+
+INTEGRATOR_FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
+WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
+SAMPLES_FUNCTION_NAMES = ("solve_states", "assemble_states", "chain_observables", "chain_joint_reactions")
+
+
+def stage_rows(method: str) -> int:
+    """Rows of stage derivatives ``K`` the driver of ``method`` keeps: DOP853's extended stages, or RK45's
+    stages and the last evaluation (any name but "DOP853" is RK45, as the numba driver selects it)."""
+    return tables.DOP853_N_STAGES_EXTENDED if method == "DOP853" else tables.RK45_N_STAGES + 1
+
+
+def integrator_scratch_length(method: str, n_state: int, n_constraints: int, n_unknowns: int) -> int:
+    """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries,
+    ``n_constraints`` rows and ``n_unknowns`` unknowns: the stage rows ``K``, DOP853's dense-output rows ``F``,
+    eight vectors, ``theta``, ``omega``, the constraints' ``J`` (r x n, two rows at least), ``v`` (2 r), ``G``
+    (r x r), and the general solve's ``A`` (k x k), ``b``, ``x`` and ``col_scale`` (k each)."""
+    rows = stage_rows(method)
+    r = max(n_constraints, 2)
+    k = n_unknowns
+    return ((rows + tables.DOP853_INTERPOLATOR_POWER + WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r
+            + r * r + k * k + 3 * k)
+
+
+def samples_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
+    """Doubles of ``solve_states``' scratch: make_system's ``A`` (k x k), ``b``, ``x``, ``col_scale`` (k), ``J``
+    (r x n), ``v`` (2 r) and ``G`` (r x r), one constraint row at least."""
+    k, r = n_unknowns, max(n_constraints, 1)
+    return k * k + 3 * k + r * n + 2 * r + r * r
