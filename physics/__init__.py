@@ -4,6 +4,7 @@ Pure Python (numpy, scipy, sympy, numba, pydantic); it never imports the GUI. Th
 re-exported here; see docs/architecture.md for conventions and shapes.
 """
 
+from . import blas_start  # noqa: F401  (first: numpy, with one BLAS thread in a command-line process)
 from .codegen import CompiledSystem, equations_latex, load_compiled
 from .codegen.cache import is_generated
 from .codegen.prebuild import code_missing
