@@ -20,10 +20,7 @@ import numpy as np
 
 from .arguments import Parser, parse_floats, parse_integers, parse_set
 from .assembly import assemble, grashof, project_velocity
-from .case_file import read_cases
 from .codegen import load_compiled
-from .codegen.inventory import cache_info, clear_cache, describe
-from .ensemble import DEFAULT_STEP, Ensemble
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kernels import numba_start
@@ -183,6 +180,8 @@ def _with_grashof(result: dict, chain) -> dict:
 
 def cmd_accelerations(args) -> int:
     if args.input:
+        from .case_file import read_cases  # noqa: PLC0415  (its pydantic model: only for --input)
+
         cases = read_cases(args.input)
         pinned_default = get_preset(args.preset, args.links).chain.pinned if args.preset else False
         results = []
@@ -211,6 +210,8 @@ ENSEMBLE_SUFFIXES = (".json", ".csv", ".png")  # what `ensemble --out` writes, c
 def cmd_ensemble(args) -> int:
     """N copies whose initial angles differ by ``spread``, advanced together (physics.ensemble): how fast the fan
     opens. JSON (default), CSV (a ``.csv`` file) or a PNG of the copies at the end (a ``.png`` file)."""
+    from .ensemble import DEFAULT_STEP, Ensemble  # noqa: PLC0415  (off the path of simulate, as every command's own)
+
     chain, theta0, omega0, preset = _build_setup(args)
     t_end = preset.t_end if args.t_end is None else args.t_end
     if not (math.isfinite(t_end) and 0.0 < t_end <= 1e5):
@@ -293,6 +294,8 @@ def cmd_warm(args) -> int:
 
 def cmd_cache(args) -> int:
     """Where the cache is, what it holds and its size (``--info``, the default), or empty it (``--clear``)."""
+    from .codegen.inventory import cache_info, clear_cache, describe  # noqa: PLC0415  (only for this command)
+
     if args.clear:
         removed = clear_cache()
         print(f"removed {removed['removed_mechanisms']} mechanisms and {removed['removed_bytes'] / 1024 / 1024:.2f} "
