@@ -6,10 +6,14 @@ chain's integration (the LLVM IR driver, its machine code from the cache) runs w
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+
+from physics import blas_start
 
 CHILD = r"""
 import contextlib, io, json, sys
@@ -27,6 +31,11 @@ IR_BUILDERS = {"physics.codegen.integrator_ir", "physics.codegen.samples_ir", "p
                "physics.codegen.ir_code"}
 
 
+# What only other commands use: the case file's pydantic model (accelerations --input), the ensemble and the cache
+# inventory (physics/cli.py imports each in its own command).
+OTHER_COMMANDS_MODULES = {"physics.case_file", "physics.ensemble", "physics.codegen.inventory"}
+
+
 @pytest.mark.parametrize("method", ["lagrange", "dae"])
 def test_warm_simulate_loads_no_sympy_no_heavy_scipy_and_no_ir_builders(method):
     arguments = [sys.executable, "-c", CHILD, "--method", method]
@@ -41,6 +50,8 @@ def test_warm_simulate_loads_no_sympy_no_heavy_scipy_and_no_ir_builders(method):
     assert "physics.codegen.native_integrators" in modules  # the run went through the IR drivers
     builders = IR_BUILDERS & modules
     assert not builders, sorted(builders)
+    other_commands = OTHER_COMMANDS_MODULES & modules
+    assert not other_commands, sorted(other_commands)
 
 
 IMPORTS_ONLY = r"""
@@ -94,3 +105,48 @@ def test_a_warm_dae_integration_runs_on_cached_machine_code_without_numba():
     assert report["status"] == 0 and report["finite"]
     assert report["counts"] == {"compiled": 0, "loaded": 3}  # assemble/solve, the fused rhs, the DOP853 driver
     assert report["numba"] == []
+
+
+LIBRARY_PROCESS = r"""
+import json, os, sys
+if sys.argv[1:] == ["as-the-command-line"]:  # what ``python -m physics`` shows while it imports the package
+    sys.argv[:] = ["-m"]
+    sys.orig_argv[:] = [sys.executable, "-m", "physics", "simulate"]
+import physics
+print(json.dumps({"threads": len(os.listdir("/proc/self/task")), "variable": os.environ.get("OPENBLAS_NUM_THREADS")}))
+"""
+
+
+def _threads_of_a_warm_simulate(extra_environment: dict[str, str]) -> int:
+    """The threads of a real ``python -m physics simulate`` process, counted while it writes its table: the table
+    is far longer than a pipe holds, so the process waits on the pipe, past every import, until it is read."""
+    command = [sys.executable, "-m", "physics", "simulate", "--preset", "triple-a", "--samples", "5001"]
+    environment = {key: value for key, value in os.environ.items() if key not in blas_start.THREAD_VARIABLES}
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                               env={**environment, **extra_environment})
+    try:
+        assert process.stdout is not None and process.stdout.read(1) == b"t"  # the header: the run is done
+        threads = len(os.listdir(f"/proc/{process.pid}/task"))
+        process.stdout.read()
+    finally:
+        process.wait(timeout=600)
+    assert process.returncode == 0
+    return threads
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads through Linux's /proc")
+def test_the_command_line_runs_numpy_with_one_blas_thread_and_leaves_the_environment_as_it_was():
+    """physics.blas_start: OpenBLAS's worker pool only spins in a command-line run (a warm simulate's CPU); the
+    command line starts numpy without it unless the user chose a thread count, a library process keeps it, and
+    the variable that asks for it is gone once numpy is loaded."""
+    environment = {key: value for key, value in os.environ.items() if key not in blas_start.THREAD_VARIABLES}
+    library, emulated = (
+        json.loads(subprocess.run([sys.executable, "-c", LIBRARY_PROCESS, *argument], capture_output=True, text=True,
+                                  env=environment, timeout=600, check=True).stdout.strip().splitlines()[-1])
+        for argument in ([], ["as-the-command-line"]))
+    assert library["variable"] is None and emulated["variable"] is None  # nothing left for a command's children
+    if library["threads"] < 2:
+        pytest.skip("OpenBLAS starts no worker thread on this machine (one core, or another BLAS)")
+    assert emulated["threads"] == 1
+    assert _threads_of_a_warm_simulate({}) == 1
+    assert _threads_of_a_warm_simulate({"OPENBLAS_NUM_THREADS": "2"}) == 2  # the user's choice stands
