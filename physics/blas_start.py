@@ -21,6 +21,8 @@ from __future__ import annotations
 import os
 import sys
 
+from .program import program_name
+
 CONSOLE_SCRIPT = "linkage-physics"  # [project.scripts] in pyproject.toml (physics.cli.CONSOLE_SCRIPT)
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
 
@@ -41,7 +43,7 @@ def command_line_process() -> bool:
     script."""
     if sys.argv[:1] == ["-m"]:
         return _module_run(list(getattr(sys, "orig_argv", []))) == "physics"
-    return bool(sys.argv) and os.path.basename(sys.argv[0]) == CONSOLE_SCRIPT
+    return bool(sys.argv) and program_name(CONSOLE_SCRIPT, "") == CONSOLE_SCRIPT
 
 
 def start_numpy() -> None:
