@@ -1098,7 +1098,7 @@ class MechanismSession(SessionBase):
         label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
-        condition = float(ring.get("condition", index))
+        condition = self.spec.condition_at(ring, index)  # this pose's alone (MechanismSpec.chunk leaves it)
         if condition > NEAR_SINGULAR_CONDITION:  # a change point or a dead centre is close
             text += f"\n\nnear a singular pose: Jacobian condition {condition:.2g}"
         if self.status.content != text:
