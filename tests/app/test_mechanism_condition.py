@@ -9,9 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from app import mechanism_session
 from app.mechanism_runs import MechanismSettings, MechanismSpec, start_state
 from app.mechanism_workers import _chunk
+from conftest import lab_of, wait_until
 from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.singularity import jacobian_condition
 from physics.simulate.trajectory import OnRequest
 
 CHUNK = {"t_end": 0.5, "samples": 31}
@@ -56,3 +59,20 @@ def test_the_reduced_model_measures_no_condition_and_the_status_line_shows_none(
     spec = MechanismSpec("main", mechanism, MechanismSettings(method="reduced", **CHUNK))
     ring = _stored(spec, spec.simulate(mechanism, q0, qdot0, spec.settings))
     assert [spec.condition_at(ring, k) for k in range(len(ring))] == [0.0] * len(ring)
+
+
+slider_lab = lab_of("slider-crank")
+
+
+def test_the_status_line_shows_the_condition_of_the_shown_pose(slider_lab, connect, monkeypatch):
+    """The session's status line reads the shown sample's condition through condition_at: with the "near a
+    singular pose" threshold lowered below every condition, it names the figure of the pose on show."""
+    _, session = connect(slider_lab)
+    assert wait_until(lambda: len(session.player.runs[0].ring) > 10, timeout=60)
+    session.player.pause()
+    monkeypatch.setattr(mechanism_session, "NEAR_SINGULAR_CONDITION", 0.5)
+    run = session.player.runs[0]
+    index = run.ring.index_at(session.player.display_time)
+    expected = jacobian_condition(run.spec.constraints, run.ring.get("q", index))
+    session._refresh_status()
+    assert f"near a singular pose: Jacobian condition {expected:.2g}" in session.status.content
