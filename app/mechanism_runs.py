@@ -9,6 +9,7 @@ run from the last stored sample (``q0, qdot0, t_start``). Plain data and numpy; 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Literal
 
@@ -21,6 +22,7 @@ from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
 from physics.mechanism.run import BodyPoints, body_points, coordinate_names, run_table
+from physics.mechanism.singularity import jacobian_condition
 from physics.mechanism.validation import check_runnable
 from physics.model import MECHANISM_MAX_TOLERANCE, MIN_RTOL, IntegratorName, StabilizationName
 
@@ -221,6 +223,7 @@ class MechanismSpec:
     points: BodyPoints = field(init=False)  # its named points (physics.mechanism.run): the drawing's paths
     # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
     structure: str = field(init=False)
+    constraints: Constraints = field(init=False)  # its Phi(q, t): the condition at a shown sample (condition_at)
 
     state_fields = ("q", "qdot")
     pinned = False
@@ -229,8 +232,9 @@ class MechanismSpec:
         self.draw = drawing(self.chain)
         self.points = body_points(self.chain)
         self.structure = structure_of(self.chain)
+        self.constraints = Constraints(self.chain)
         if not self.row_names:
-            self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in Constraints(self.chain).rows)
+            self.row_names = tuple(f"{row.joint}: {row.meaning}" for row in self.constraints.rows)
         self.pin_arrows = pin_arrows(self.chain, self.draw, self.row_names)
 
     @property
@@ -285,10 +289,26 @@ class MechanismSpec:
         }
 
     def chunk(self, traj: MechanismChunk) -> dict[str, np.ndarray]:
+        """A chunk's stored samples. The run's ``condition`` (every sample's SVD of ``Phi_q``, computed when
+        first read: physics.simulate.trajectory.OnRequest) is not read: only the status line shows it, at one
+        sample, so each sample of a run that measures it is stored as NaN, "measure it when shown"
+        (:meth:`condition_at`). The reduced model's run measures none (0 stored, as before)."""
         run = traj.run
+        deferred = np.full(len(run.t), np.nan) if self.settings.method != "reduced" else None  # type: ignore[attr-defined]
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
-                             run.reaction_rows, run.condition,  # type: ignore[attr-defined]
+                             run.reaction_rows, deferred,  # type: ignore[attr-defined]
                              paths=run.body_points or self.points)  # type: ignore[attr-defined]
+
+    def condition_at(self, ring: TrajectoryRing, index: int) -> float:
+        """The condition of ``Phi_q`` at stored sample ``index`` (how near a singular pose it is), measured now
+        when the chunk left it to the reader (NaN, :meth:`chunk`): the run's own measure of its samples
+        (physics.mechanism.singularity.jacobian_condition, largest over smallest singular value; infinite at a
+        pose that is not finite), of one pose instead of every sample of every chunk."""
+        stored = float(ring.get("condition", index))
+        if not math.isnan(stored):
+            return stored
+        q = ring.get("q", index)
+        return jacobian_condition(self.constraints, q) if np.all(np.isfinite(q)) else math.inf
 
     def still_sample(self, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> dict[str, np.ndarray]:
         """The start pose alone (a start that cannot move): no energies or reactions."""

@@ -1055,7 +1055,7 @@ class MechanismSession(SessionBase):
             if self.compare:
                 self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
         if frame.restarted or frame.counter % STATUS_EVERY == 0:
-            self._show_status(frame.t, ring, rf.index)
+            self._show_status(frame.t, ring, rf.index, cast(MechanismSpec, run.spec))
             quietly(lambda: self._show_timeline(frame.t, ring.t_first, frame.restarted), "moving the timeline")
             couples = ("Couples on the body: " + "; ".join(self.free_body.couples)) if self.free_body.on \
                 and self.free_body.couples else ""
@@ -1083,7 +1083,9 @@ class MechanismSession(SessionBase):
         if self.torque_plot is not None and rows:
             self.torque_plot.update(data["t"], *(data["reactions"][:, k] for k in rows))
 
-    def _show_status(self, t: float, ring, index: int) -> None:
+    def _show_status(self, t: float, ring, index: int, spec: MechanismSpec) -> None:
+        """The status line at stored sample ``index`` of ``ring``, the ring of ``spec``'s run (whose mechanism
+        measures the shown pose's condition: the session's own spec may be another's already)."""
         energy = float(ring.get("energy", index))
         if self.energy_ref is None and len(ring):
             self.energy_ref = float(ring.get("energy", 0))
@@ -1098,7 +1100,7 @@ class MechanismSession(SessionBase):
         label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
-        condition = float(ring.get("condition", index))
+        condition = spec.condition_at(ring, index)  # this pose's alone (MechanismSpec.chunk leaves it)
         if condition > NEAR_SINGULAR_CONDITION:  # a change point or a dead centre is close
             text += f"\n\nnear a singular pose: Jacobian condition {condition:.2g}"
         if self.status.content != text:
@@ -1107,8 +1109,10 @@ class MechanismSession(SessionBase):
     def _refresh_status(self) -> None:
         if self.closed or not self.player.runs or not len(self.player.runs[0].ring):
             return
-        ring = self.player.runs[0].ring
-        quietly(lambda: self._show_status(self.player.display_time, ring, ring.index_at(self.player.display_time)),
+        run = self.player.runs[0]
+        ring = run.ring
+        quietly(lambda: self._show_status(self.player.display_time, ring, ring.index_at(self.player.display_time),
+                                          cast(MechanismSpec, run.spec)),
                 "refreshing the status line")
 
     def _prepare(self, spec: MechanismSpec, q0: np.ndarray, qdot0: np.ndarray) -> None:

@@ -14,6 +14,7 @@ reported as the run's failure (one notice; Reset goes on with a new worker).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import signal
@@ -55,8 +56,11 @@ def _chunk(description: str, t_end: float, samples: int, q0, qdot0, t_start: flo
     from .mechanism_runs import run_settings  # noqa: PLC0415 - as above
 
     settings = run_settings(t_end, samples, method, stabilization, rtol, integrator, step, baumgarte)
-    return simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
-                              settings=settings)
+    run = simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
+                             settings=settings)
+    # Sent without its condition, which pickling would compute for every sample (Trajectory.__getstate__): the
+    # server measures it at the one sample its status line shows (app.mechanism_runs.MechanismSpec.condition_at)
+    return dataclasses.replace(run, condition=np.zeros(0))
 
 
 def _serve(connection) -> None:

@@ -278,7 +278,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         t=np.asarray(times, dtype=float), q=solved.q, qdot=solved.qdot, coordinate_names=pieces.coordinate_names,
         reaction_rows=reactions, kinetic=kinetic, potential=potential, energy=kinetic + potential,
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
-        row_names=pieces.row_names, method=method,
+        row_names=pieces.row_names, method=method, coordinates="tree" if tree else "maximal",
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
         condition=condition,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,

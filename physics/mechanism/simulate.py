@@ -137,7 +137,7 @@ def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0
         raise LinkageError("integrate = False: does not apply to method 'reduced' (it always integrates)")
     reduced = simulate_reduced(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
                                t_start=t_start, rtol=settings.rtol, atol=settings.atol, stop_as_status=True)
-    return replace(reduced.run, method="reduced", stabilization="position analysis", integrated=True,
-                   integrator=REDUCED_INTEGRATOR)
+    return replace(reduced.run, method="reduced", coordinates="reduced", stabilization="position analysis",
+                   integrated=True, integrator=REDUCED_INTEGRATOR)
 
 

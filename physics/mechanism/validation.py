@@ -201,6 +201,16 @@ class _Follower:
         self.constraints = Constraints(mechanism)
         self.size = sketch_size(mechanism)
         self.weights = np.tile([1.0, 1.0, 1.0 / self.size], len(mechanism.bodies))
+        # the last pose returned and its Phi_q (Phi_q depends on q alone): the next pose's first Newton step
+        # starts from that pose, so its Jacobian is the one the rank test has just made (a fifth of a sweep's
+        # Jacobians made once instead of twice)
+        self._held: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _jacobian(self, q: np.ndarray) -> np.ndarray:
+        held = self._held
+        if held is not None and np.array_equal(held[0], q):
+            return held[1]
+        return self.constraints.jacobian(q)
 
     def __call__(self, q: np.ndarray, t: float) -> np.ndarray | None:
         constraints, weights, tolerance = self.constraints, self.weights, ASSEMBLY_TOLERANCE * self.size
@@ -208,15 +218,16 @@ class _Follower:
         residual = constraints.residual(q, t)
         steps = 0
         while np.max(np.abs(residual), initial=0.0) > tolerance and steps < NEWTON_STEPS:
-            step, *_ = np.linalg.lstsq(constraints.jacobian(q) * weights, -residual, rcond=None)
+            step, *_ = np.linalg.lstsq(self._jacobian(q) * weights, -residual, rcond=None)
             q = q + weights * step
             residual = constraints.residual(q, t)
             steps += 1
         if residual.size and np.max(np.abs(residual)) > tolerance:
             return None
-        jacobian = constraints.jacobian(q)
+        jacobian = self._jacobian(q)
         if jacobian.size:
             values = np.linalg.svd(jacobian, compute_uv=False)
             if int(np.sum(values > RANK_TOLERANCE * max(values[0], 1e-300))) < jacobian.shape[0]:
                 return None
+        self._held = (q, jacobian)
         return q

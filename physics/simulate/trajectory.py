@@ -107,7 +107,8 @@ class Trajectory:
 
     A general mechanism (:mod:`physics.mechanism`): ``q, qdot (T, 3 B)`` (x, y, phi of every body's centre of
     mass, named by ``coordinate_names``), ``reaction_rows (T, rows)`` (every constraint row's multiplier, named
-    by ``row_names``), ``residual (T,)`` (the largest constraint residual), ``stabilization`` and ``integrated``
+    by ``row_names``), ``residual (T,)`` (the largest constraint residual), ``coordinates`` (the state the run
+    integrated in: ``maximal``, ``tree`` or ``reduced``), ``stabilization`` and ``integrated``
     (False: every sample by position analysis, the motors fix every body), ``body_points`` (its named points).
 
     Named points, both kinds: :attr:`point_names`, :meth:`point` (``(T, 2)`` by name), :attr:`points` (all of
@@ -148,6 +149,10 @@ class Trajectory:
     row_names: tuple[str, ...] = ()
     residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stabilization: str = ""  # how the closures were held ("projection", "baumgarte", "none"); "" for a chain
+    # the state a mechanism's run integrated or solved in, which ``method`` alone does not say (the DAE runs in
+    # either): "maximal" (every body's x, y, phi), "tree" (the spanning tree's joint coordinates: Lagrange,
+    # Newton-Euler, the DAE with coordinates="tree"), "reduced" (one joint coordinate); "" for a chain
+    coordinates: str = ""
     integrated: bool = True  # False: every sample by position analysis (the motors fix every body)
     body_points: PointPaths | None = None  # a mechanism's named points; None: none named (a chain names its joints)
 
@@ -228,9 +233,10 @@ class Trajectory:
         if not self.is_mechanism:
             size = f"links={self.n}"
         elif self.integrated:
-            size = f"bodies={self.bodies}, stabilization={self.stabilization!r}, n_steps={self.n_steps}"
+            size = (f"bodies={self.bodies}, coordinates={self.coordinates!r}, stabilization={self.stabilization!r}, "
+                    f"n_steps={self.n_steps}")
         else:
-            size = f"bodies={self.bodies}"
+            size = f"bodies={self.bodies}, coordinates={self.coordinates!r}"
         return (f"Trajectory(method={self.method!r}, integrator={self.integrator!r}, {size}, "
                 f"samples={self.t.shape[0]}, t={time_span(self.t)}, status={status}{extra})")
 

@@ -68,3 +68,20 @@ def test_a_chain_run_leaves_the_mechanism_fields_empty():
     assert not run.is_mechanism and run.n == 3 and run.bodies == 0
     assert run.q.shape == (11, 0) and run.reaction_rows.shape == (11, 0) and run.row_names == ()
     assert list(run.columns())[:2] == ["t", "theta1"]
+
+
+def test_a_mechanism_run_records_the_coordinates_it_ran_in():
+    """The DAE runs in maximal or in tree coordinates and ``method`` is "dae" for both: the run says which, and
+    its one-line repr shows it (a chain's run has no such choice and records none)."""
+    mechanism = MECHANISM_PRESETS["slider-crank"]()
+    expected = {("dae", "maximal"): "maximal", ("dae", "tree"): "tree", ("lagrange", "maximal"): "tree",
+                ("newton_euler", "maximal"): "tree", ("reduced", "maximal"): "reduced"}
+    for (method, coordinates), recorded in expected.items():
+        run = simulate_mechanism(mechanism, 0.2, 11, method=method, coordinates=coordinates)
+        assert run.method == method and run.coordinates == recorded, (method, coordinates)
+        assert f"coordinates={recorded!r}" in repr(run)
+    driven = simulate_mechanism(MECHANISM_PRESETS["crank-rocker"](), 0.2, 11)
+    assert not driven.integrated and driven.coordinates == "maximal" and "coordinates='maximal'" in repr(driven)
+    preset = physics.get_preset("triple-a")
+    chain_run = physics.simulate(preset.chain, preset.theta0, preset.omega0, physics.Settings(t_end=0.2, samples=11))
+    assert chain_run.coordinates == "" and "coordinates" not in repr(chain_run)
