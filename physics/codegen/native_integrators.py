@@ -19,7 +19,10 @@ import numpy as np
 from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS
 from .integrator_ir import FUNCTION_NAMES, integrators_ir, scratch_length
-from .machine_code import compile_module, llvm_binding, sources_digest
+from .machine_code import compile_module, is_cached, llvm_binding, sources_digest
+from .specialised_ir import ADDRESS_SLOTS as SPECIALISED_ADDRESS_SLOTS
+from .specialised_ir import SPECIALISED_NAMES, specialised_ir
+from .specialised_ir import symbol_names as specialised_names
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
@@ -28,6 +31,7 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 )
 _lock = threading.Lock()
 _compiled: dict = {}
+SPECIALISED_VARIANT = "specialised-driver-O2"  # LLVM's O2 pipeline and code generation at level 2
 VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
 
 
@@ -88,25 +92,67 @@ def _driver(method: str):
         return functions.setdefault(method, _SIGNATURE(address))
 
 
+def _specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
+    """The layout without its addresses (1 where the system has that function), all of the layout that shapes
+    the specialised IR, and the machine-code cache's key of that IR."""
+    shape = [1 if slot in SPECIALISED_ADDRESS_SLOTS and value != 0 else int(value) for slot, value in enumerate(layout)]
+    return shape, f"specialised {method}\n{shape}\n{system_digest}\n{sources_digest()}"
+
+
+def specialised_cached(method: str, layout: np.ndarray, system_digest: str) -> bool:
+    """Whether the machine code of :func:`specialised_driver` for these arguments is in the cache already."""
+    return is_cached(_specialised_key(method, layout, system_digest)[1], SPECIALISED_VARIANT)
+
+
+def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
+    """Whether the IR drivers answer a run of these settings (else :func:`integrate` hands it back)."""
+    return (alpha == 0.0 and beta == 0.0 and cond_out.shape[0] == 0
+            and not (project and layout[LAYOUT_CONSTRAINTS] != 0))
+
+
+def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_digest: str):
+    """``(driver, engine)``: ``method``'s driver specialised for one system (:mod:`physics.codegen.specialised_ir`),
+    a ctypes function of the generic driver's signature valid while ``engine`` lives (the caller keeps it with
+    the system whose machine code it calls). ``layout``: the system's integration layout, ``assemble`` its
+    ``assemble``'s address, ``system_digest`` a digest of its IR texts (the symbols' names). Compiled at O2 (or
+    loaded from the machine-code cache) on the first call for a system in a process."""
+    from . import native  # noqa: PLC0415  (its O2 pipeline and target machine, as for the generated systems)
+
+    names = specialised_names(system_digest)
+    shape, key = _specialised_key(method, layout, system_digest)
+    start = time.perf_counter()
+    with _lock:
+        llvm = llvm_binding()
+        llvm.add_symbol(names["assemble"], int(assemble))  # bound before linking, the module or its object file
+        for slot in SPECIALISED_ADDRESS_SLOTS:
+            if layout[slot] != 0:
+                llvm.add_symbol(names[str(slot)], int(layout[slot]))
+        engine = compile_module(lambda: specialised_ir(method, shape, system_digest), SPECIALISED_VARIANT,
+                                native._optimize, native._target_machine, key=key)
+        _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
+    address = engine.get_function_address(SPECIALISED_NAMES[method])
+    return _SIGNATURE(address), engine
+
+
 def _c_array(array, dtype, ndim: int) -> bool:
     return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
             and array.ndim == ndim)
 
 
 def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
-              max_steps, y_out, cond_out):
+              max_steps, y_out, cond_out, driver=None):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
-    the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
-        return None
-    if project and layout[LAYOUT_CONSTRAINTS] != 0:
+    the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when).
+    ``driver``: the driver :func:`specialised_driver` made for this ``layout`` (default the generic one)."""
+    if not answers(layout, alpha, beta, project, cond_out):
         return None
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
         return None  # the kernel's own typing says what is wrong
     # the kernel's own check (physics.kernels.checks, which numba compiles for the kernel), as plain Python
     check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
-    driver = _driver(method)
+    if driver is None:
+        driver = _driver(method)
     own_params = params.copy()  # the driver writes t into it
     scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS]),
                                      int(layout[LAYOUT_UNKNOWNS])))

@@ -1,0 +1,74 @@
+"""The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir` specialised for one system.
+
+The generic drivers read every size (``n``, ``k``, ``r``, the slots of the accelerations) from the layout at run
+time, so their loops and the general solve (:mod:`physics.codegen.linear_ir`) run over sizes LLVM cannot see.
+Here the same IR is given one system's layout as a constant table: a wrapper with the driver's signature calls
+the generic driver (inlined) with that table instead of the caller's layout, and with the system's generated
+functions (``assemble``, the fused ``rhs``, the structured solve, the constraints) as declared external symbols
+instead of addresses read at run time. LLVM's O2 pipeline then folds the sizes into the code, unrolls the loops
+over them and calls the generated functions directly.
+
+No arithmetic changes: the operations, their order and their operands are the generic driver's, without
+fast-math flags (nothing may be reassociated or contracted), so every sample, count and status is the generic
+driver's, bit for bit (``tests/physics/test_specialised_ir.py``).
+
+The symbols' names carry a digest of the system's own IR texts (never an address), so the specialised module's
+text is the same in every process and its machine code is found in the machine-code cache
+(:mod:`physics.codegen.machine_code`); the loading process binds each name to its address before linking.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+
+from ..kernels.layout import LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS, LAYOUT_SOLVE
+from .integrator_ir import DRIVER_TYPE, FUNCTION_NAMES, integrators_module
+from .ir_code import _I64
+
+ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)  # the layout's entries that are addresses
+SPECIALISED_NAMES = {method: f"{name}_specialised" for method, name in FUNCTION_NAMES.items()}
+_OPAQUE = ir.FunctionType(ir.VoidType(), [])  # declared type of the external symbols: only their address is used
+
+
+def symbol_names(system_digest: str) -> dict[str, str]:
+    """The external symbols of a system whose IR texts have digest ``system_digest``: ``assemble`` and one per
+    address slot of the layout (keyed by the slot's number as text)."""
+    names = {"assemble": f"linkage_lab_{system_digest}_assemble"}
+    names.update({str(slot): f"linkage_lab_{system_digest}_slot{slot}" for slot in ADDRESS_SLOTS})
+    return names
+
+
+def specialised_ir(method: str, layout_values: list[int], system_digest: str) -> str:
+    """The IR text of ``method``'s driver specialised for the layout ``layout_values`` (the integration layout
+    with its address slots set to 0 where the system has no such function, anything else where it has one: the
+    address itself never enters the text). The entry point is ``SPECIALISED_NAMES[method]``, of the generic
+    driver's signature; its ``assemble`` and ``layout`` arguments are ignored."""
+    if method not in FUNCTION_NAMES:
+        raise ValueError(f"method = {method!r}: expected one of {sorted(FUNCTION_NAMES)}")
+    module = integrators_module((method,))
+    generic = module.get_global(FUNCTION_NAMES[method])
+    generic.linkage = "internal"
+    generic.attributes.add("alwaysinline")
+    names = symbol_names(system_digest)
+
+    def address_of(name: str):
+        return ir.Function(module, _OPAQUE, name).ptrtoint(_I64)
+
+    entries = []
+    for slot, value in enumerate(layout_values):
+        if slot in ADDRESS_SLOTS and value != 0:
+            entries.append(address_of(names[str(slot)]))
+        else:
+            entries.append(ir.Constant(_I64, int(value)))
+    table_type = ir.ArrayType(_I64, len(entries))
+    table = ir.GlobalVariable(module, table_type, "specialised_layout")
+    table.linkage = "private"
+    table.global_constant = True
+    table.initializer = ir.Constant(table_type, entries)
+    wrapper = ir.Function(module, DRIVER_TYPE, SPECIALISED_NAMES[method])
+    builder = ir.IRBuilder(wrapper.append_basic_block("entry"))
+    arguments = list(wrapper.args)
+    arguments[0] = address_of(names["assemble"])
+    arguments[1] = table.gep([ir.Constant(_I64, 0), ir.Constant(_I64, 0)])
+    builder.ret(builder.call(generic, arguments))
+    return str(module)
