@@ -31,7 +31,7 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 )
 _lock = threading.Lock()
 _compiled: dict = {}
-SPECIALISED_VARIANT = "specialised-driver-O2"  # LLVM's O2 pipeline and code generation at level 2
+SPECIALISED_VARIANT = "driver-O2"  # LLVM's O2 pipeline and code generation at level 2
 VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
 
 

@@ -9,6 +9,7 @@ float64 of the kernel's shapes: the callers (:mod:`physics.simulate.build`,
 from __future__ import annotations
 
 import ctypes
+import math
 
 import numpy as np
 
@@ -89,3 +90,80 @@ def chain_joint_reactions(theta, omega, theta_ddot, L, d, m, g, tip_reaction, jo
         rows, n, _pointer(theta, (rows, n)), _pointer(omega, (rows, n)), _pointer(theta_ddot, (rows, n)),
         _pointer(L, (n,)), _pointer(d, (n,)), _pointer(m, (n,)), float(g), int(pinned),
         _pointer(tip_reaction, (rows if pinned else 0, 2)), _pointer(joint_reactions, (rows, n, 2)))
+
+
+
+_SAMPLE_ARRAYS = ("theta", "omega", "joints", "trace_xy", "kinetic", "potential", "tip_velocity", "x", "cond",
+                  "theta_ddot", "tip_reaction", "joint_reactions")
+
+
+class SampleArrays:
+    """What :func:`trajectory_samples` computes for a run's rows: consecutive views of one buffer, each
+    C-contiguous; ``offsets[name]`` is where each starts in the buffer (in doubles), ``length`` where the
+    last ends."""
+
+    __slots__ = (*_SAMPLE_ARRAYS, "offsets", "length")
+
+    def __init__(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray | None = None) -> None:
+        shapes = ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
+                  (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2))
+        self.offsets: dict[str, int] = {}
+        offset = 0
+        for name, shape in zip(_SAMPLE_ARRAYS, shapes, strict=True):
+            size = math.prod(shape)
+            self.offsets[name] = offset
+            if values is not None:
+                setattr(self, name, values[offset:offset + size].reshape(shape))
+            offset += size
+        self.length = offset
+
+
+def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
+                       trace_across, theta_ddot_index, tip_reaction_index) -> SampleArrays:
+    """The three passes :func:`physics.simulate.build.build_trajectory` makes over a run's samples
+    (:func:`solve_states`, :func:`chain_observables`, :func:`chain_joint_reactions`: the same functions, the
+    same bits) with every array in one buffer made here (the states copied in, the bars and the parameters
+    too), so each pointer is the buffer's address plus an offset: two address look-ups and three calls, where
+    the three checked entry points convert 25 arrays.
+
+    ``y``: the states (rows, 2 n); ``bars``: ``[L, d, m, I]`` as one (4 n,) array; ``params`` 1-D;
+    ``theta_ddot_index`` (n,) and ``tip_reaction_index`` ((2,) for a pinned chain, else empty): where the
+    accelerations and the pin's force sit among the ``k`` unknowns. A pinned chain's ``tip_reaction`` is the
+    pin's force at each sample, the input of the joint reactions."""
+    n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
+    rows = len(y)
+    if np.shape(y) != (rows, 2 * n) or np.shape(bars) != (4 * n,) or np.ndim(params) != 1:
+        raise ValueError(f"expected states (rows, {2 * n}), bars ({4 * n},) and a 1-D params")
+    if not 0 <= int(trace_bar) < n:
+        raise ValueError(f"trace_bar = {trace_bar}: must index one of the {n} bars")
+    theta_ddot_index = np.asarray(theta_ddot_index, dtype=np.int64)
+    tip_reaction_index = np.asarray(tip_reaction_index, dtype=np.int64)
+    if theta_ddot_index.shape != (n,) or tip_reaction_index.shape not in ((0,), (2,)):
+        raise ValueError(f"expected {n} acceleration indices and 0 or 2 pin-force indices")
+    # (the indices only go to np.take, which refuses one outside the k unknowns)
+    pinned = tip_reaction_index.size != 0
+    body = SampleArrays(rows, n, k, pinned).length
+    values = np.empty(body + 4 * n + len(params) + scratch_length(n, k, r))
+    arrays = SampleArrays(rows, n, k, pinned, values)
+    arrays.theta[...] = y[:, :n]  # copies: float64 whatever y's type, and C-contiguous
+    arrays.omega[...] = y[:, n:]
+    values[body:body + 4 * n] = bars
+    values[body + 4 * n:body + 4 * n + len(params)] = params
+    base = values.ctypes.data
+    at = {name: base + 8 * offset for name, offset in arrays.offsets.items()}
+    L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
+    own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
+    if rows:
+        _function("solve_states")(int(assemble), _pointer(layout, (None,), np.int64), rows, at["theta"],
+                                  at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
+    _function("chain_observables")(
+        rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),
+        float(trace_across), at["joints"], at["trace_xy"], at["kinetic"], at["potential"], at["tip_velocity"])
+    if rows:
+        np.take(arrays.x, theta_ddot_index, axis=1, out=arrays.theta_ddot)
+        if pinned:
+            np.take(arrays.x, tip_reaction_index, axis=1, out=arrays.tip_reaction)
+    _function("chain_joint_reactions")(
+        rows, n, at["theta"], at["omega"], at["theta_ddot"], L, d, m, float(g), int(pinned), at["tip_reaction"],
+        at["joint_reactions"])
+    return arrays
