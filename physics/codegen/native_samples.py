@@ -103,6 +103,18 @@ class SampleArrays:
     last ends."""
 
     __slots__ = (*_SAMPLE_ARRAYS, "offsets", "length")
+    theta: np.ndarray
+    omega: np.ndarray
+    joints: np.ndarray
+    trace_xy: np.ndarray
+    kinetic: np.ndarray
+    potential: np.ndarray
+    tip_velocity: np.ndarray
+    x: np.ndarray
+    cond: np.ndarray
+    theta_ddot: np.ndarray
+    tip_reaction: np.ndarray
+    joint_reactions: np.ndarray
 
     def __init__(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray | None = None) -> None:
         shapes = ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
