@@ -153,13 +153,25 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
     check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
     if driver is None:
         driver = _driver(method)
-    own_params = params.copy()  # the driver writes t into it
-    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS]),
-                                     int(layout[LAYOUT_UNKNOWNS])))
-    counts = np.zeros(3, dtype=np.int64)
-    t_reached = np.zeros(1)
+    # One buffer for everything the driver reads or writes besides the layout and y_out: [counts (3 int64),
+    # t_reached, y0, t_eval, params (the driver writes t into this copy), scratch]; each pointer is the buffer's
+    # address plus an offset (an address look-up costs a microsecond or two, a small copy much less).
+    n_state, n_samples, n_params = y0.shape[0], t_eval.shape[0], params.shape[0]
+    scratch = scratch_length(method, n_state, int(layout[LAYOUT_CONSTRAINTS]), int(layout[LAYOUT_UNKNOWNS]))
+    at_y0 = 4
+    at_t_eval = at_y0 + n_state
+    at_params = at_t_eval + n_samples
+    at_scratch = at_params + n_params
+    values = np.empty(at_scratch + scratch)
+    counts = values[:3].view(np.int64)
+    counts.fill(0)
+    values[3] = 0.0
+    values[at_y0:at_t_eval] = y0
+    values[at_t_eval:at_params] = t_eval
+    values[at_params:at_scratch] = params
+    base = values.ctypes.data
     y_out.fill(np.nan)
-    status = driver(int(assemble), layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end),
-                    t_eval.ctypes.data, t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
-                    y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
-    return int(status), int(counts[0]), int(counts[1]), float(t_reached[0]), int(counts[2])
+    status = driver(int(assemble), layout.ctypes.data, base + 8 * at_y0, float(t0), float(t_end),
+                    base + 8 * at_t_eval, n_samples, base + 8 * at_params, float(rtol), float(atol), int(max_steps),
+                    y_out.ctypes.data, base + 8 * at_scratch, base, base + 24)
+    return int(status), int(counts[0]), int(counts[1]), float(values[3]), int(counts[2])
