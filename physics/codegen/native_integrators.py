@@ -92,16 +92,17 @@ def _driver(method: str):
         return functions.setdefault(method, _SIGNATURE(address))
 
 
-def _specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
-    """The layout without its addresses (1 where the system has that function), all of the layout that shapes
+def specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
+    """For ``method`` ("RK45", "DOP853" or "samples", the samples' solve): the layout without its addresses (1 where the system has that function), all of the layout that shapes
     the specialised IR, and the machine-code cache's key of that IR."""
     shape = [1 if slot in SPECIALISED_ADDRESS_SLOTS and value != 0 else int(value) for slot, value in enumerate(layout)]
     return shape, f"specialised {method}\n{shape}\n{system_digest}\n{sources_digest()}"
 
 
 def specialised_cached(method: str, layout: np.ndarray, system_digest: str) -> bool:
-    """Whether the machine code of :func:`specialised_driver` for these arguments is in the cache already."""
-    return is_cached(_specialised_key(method, layout, system_digest)[1], SPECIALISED_VARIANT)
+    """Whether the machine code of :func:`specialised_driver` (``method`` "samples":
+    :func:`physics.codegen.native_samples.specialised_solve`) for these arguments is in the cache already."""
+    return is_cached(specialised_key(method, layout, system_digest)[1], SPECIALISED_VARIANT)
 
 
 def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
@@ -110,16 +111,13 @@ def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
             and not (project and layout[LAYOUT_CONSTRAINTS] != 0))
 
 
-def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_digest: str):
-    """``(driver, engine)``: ``method``'s driver specialised for one system (:mod:`physics.codegen.specialised_ir`),
-    a ctypes function of the generic driver's signature valid while ``engine`` lives (the caller keeps it with
-    the system whose machine code it calls). ``layout``: the system's integration layout, ``assemble`` its
-    ``assemble``'s address, ``system_digest`` a digest of its IR texts (the symbols' names). Compiled at O2 (or
-    loaded from the machine-code cache) on the first call for a system in a process."""
+def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest: str, key: str):
+    """An engine holding a module of :mod:`physics.codegen.specialised_ir` (``ir_text()`` builds it): the
+    system's symbols bound to its addresses, then compiled at O2 or loaded from the machine-code cache under
+    ``key`` (:func:`specialised_key`)."""
     from . import native  # noqa: PLC0415  (its O2 pipeline and target machine, as for the generated systems)
 
     names = specialised_names(system_digest)
-    shape, key = _specialised_key(method, layout, system_digest)
     start = time.perf_counter()
     with _lock:
         llvm = llvm_binding()
@@ -127,9 +125,20 @@ def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_di
         for slot in SPECIALISED_ADDRESS_SLOTS:
             if layout[slot] != 0:
                 llvm.add_symbol(names[str(slot)], int(layout[slot]))
-        engine = compile_module(lambda: specialised_ir(method, shape, system_digest), SPECIALISED_VARIANT,
-                                native._optimize, native._target_machine, key=key)
+        engine = compile_module(ir_text, SPECIALISED_VARIANT, native._optimize, native._target_machine, key=key)
         _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
+    return engine
+
+
+def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_digest: str):
+    """``(driver, engine)``: ``method``'s driver specialised for one system (:mod:`physics.codegen.specialised_ir`),
+    a ctypes function of the generic driver's signature valid while ``engine`` lives (the caller keeps it with
+    the system whose machine code it calls). ``layout``: the system's integration layout, ``assemble`` its
+    ``assemble``'s address, ``system_digest`` a digest of its IR texts (the symbols' names). Compiled at O2 (or
+    loaded from the machine-code cache) on the first call for a system in a process."""
+    shape, key = specialised_key(method, layout, system_digest)
+    engine = specialised_engine(lambda: specialised_ir(method, shape, system_digest), layout, assemble,
+                                system_digest, key)
     address = engine.get_function_address(SPECIALISED_NAMES[method])
     return _SIGNATURE(address), engine
 

@@ -14,8 +14,9 @@ import math
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
-from .native_integrators import compile_functions
+from .native_integrators import compile_functions, specialised_engine, specialised_key
 from .samples_ir import FUNCTION_NAMES, samples_ir, scratch_length
+from .specialised_ir import SAMPLES_SOLVE_NAME, specialised_samples_ir
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -35,6 +36,16 @@ def _function(name: str):
         for each in FUNCTION_NAMES:
             _functions.setdefault(each, _SIGNATURES[each](addresses[each]))
     return _functions[name]
+
+
+def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
+    """``(solve, engine)``: ``solve_states`` specialised for one system (its ``layout``, the one for one
+    evaluation at a time), a ctypes function of ``solve_states``' signature valid while ``engine`` lives; the
+    same bits as the generic one. Compiled at O2 or loaded from the machine-code cache."""
+    shape, key = specialised_key("samples", layout, system_digest)
+    engine = specialised_engine(lambda: specialised_samples_ir(shape, system_digest), layout, assemble,
+                                system_digest, key)
+    return _SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)), engine
 
 
 def _pointer(array: np.ndarray, shape: tuple, dtype=np.float64) -> int:
@@ -116,22 +127,29 @@ class SampleArrays:
     tip_reaction: np.ndarray
     joint_reactions: np.ndarray
 
-    def __init__(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray | None = None) -> None:
-        shapes = ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
-                  (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2))
+    def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
+        """The offsets and the length only; :meth:`views` gives the arrays their storage."""
         self.offsets: dict[str, int] = {}
         offset = 0
-        for name, shape in zip(_SAMPLE_ARRAYS, shapes, strict=True):
-            size = math.prod(shape)
+        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
             self.offsets[name] = offset
-            if values is not None:
-                setattr(self, name, values[offset:offset + size].reshape(shape))
-            offset += size
+            offset += math.prod(shape)
         self.length = offset
+
+    @staticmethod
+    def _shapes(rows: int, n: int, k: int, pinned: bool) -> tuple:
+        return ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
+                (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2))
+
+    def views(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray) -> None:
+        """Each array a view of ``values`` at its offset."""
+        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
+            start = self.offsets[name]
+            setattr(self, name, values[start:start + math.prod(shape)].reshape(shape))
 
 
 def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
-                       trace_across, theta_ddot_index, tip_reaction_index) -> SampleArrays:
+                       trace_across, theta_ddot_index, tip_reaction_index, solve=None) -> SampleArrays:
     """The three passes :func:`physics.simulate.build.build_trajectory` makes over a run's samples
     (:func:`solve_states`, :func:`chain_observables`, :func:`chain_joint_reactions`: the same functions, the
     same bits) with every array in one buffer made here (the states copied in, the bars and the parameters
@@ -141,7 +159,8 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     ``y``: the states (rows, 2 n); ``bars``: ``[L, d, m, I]`` as one (4 n,) array; ``params`` 1-D;
     ``theta_ddot_index`` (n,) and ``tip_reaction_index`` ((2,) for a pinned chain, else empty): where the
     accelerations and the pin's force sit among the ``k`` unknowns. A pinned chain's ``tip_reaction`` is the
-    pin's force at each sample, the input of the joint reactions."""
+    pin's force at each sample, the input of the joint reactions. ``solve``: the system's
+    :func:`specialised_solve` (default the generic ``solve_states``)."""
     n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
     rows = len(y)
     if np.shape(y) != (rows, 2 * n) or np.shape(bars) != (4 * n,) or np.ndim(params) != 1:
@@ -154,9 +173,10 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
         raise ValueError(f"expected {n} acceleration indices and 0 or 2 pin-force indices")
     # (the indices only go to np.take, which refuses one outside the k unknowns)
     pinned = tip_reaction_index.size != 0
-    body = SampleArrays(rows, n, k, pinned).length
+    arrays = SampleArrays(rows, n, k, pinned)
+    body = arrays.length
     values = np.empty(body + 4 * n + len(params) + scratch_length(n, k, r))
-    arrays = SampleArrays(rows, n, k, pinned, values)
+    arrays.views(rows, n, k, pinned, values)
     arrays.theta[...] = y[:, :n]  # copies: float64 whatever y's type, and C-contiguous
     arrays.omega[...] = y[:, n:]
     values[body:body + 4 * n] = bars
@@ -166,7 +186,7 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
     own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
     if rows:
-        _function("solve_states")(int(assemble), _pointer(layout, (None,), np.int64), rows, at["theta"],
+        (solve or _function("solve_states"))(int(assemble), _pointer(layout, (None,), np.int64), rows, at["theta"],
                                   at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
     _function("chain_observables")(
         rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),

@@ -40,7 +40,8 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     tip_reaction_index = compiled.tip_reaction_index
     arrays = trajectory_samples(compiled.assemble_function, compiled.layout, y, params, alpha, beta, bars.bars,
                                 bars.g, trace.bar - 1, float(trace.along), float(trace.across),
-                                compiled.theta_ddot_index, tip_reaction_index if chain.pinned else ())
+                                compiled.theta_ddot_index, tip_reaction_index if chain.pinned else (),
+                                compiled.samples_solve() if samples else None)
     theta, omega, joints, kinetic, potential = arrays.theta, arrays.omega, arrays.joints, arrays.kinetic, arrays.potential
     energy = kinetic + potential
     reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, len(reaction_index), 2))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import physics
-from physics.codegen import load_compiled, native_integrators, specialised_ir
+from physics.codegen import load_compiled, native_integrators, native_samples, specialised_ir
 from physics.kernels import explicit_rk
 from physics.kernels.constants import STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
 
@@ -26,7 +26,7 @@ def _system(preset: str, method: str, links: int | None = None):
 
 def _specialised(compiled, integrator: str):
     """The system's specialised driver, made directly (not by the second-run rule)."""
-    compiled._functions.setdefault("explicit runs", {})[integrator] = 1
+    compiled._functions.setdefault("specialised calls", {})[integrator] = 1
     driver = compiled._specialised_driver(integrator)
     if driver is None:  # not cached: the second run makes it
         driver = compiled._specialised_driver(integrator)
@@ -130,3 +130,30 @@ def test_a_system_switches_to_the_specialised_driver_at_its_second_run(monkeypat
         made = "specialised RK45" in compiled._functions
         assert made == (len(outputs) == 2)
     assert outputs[0][0] == outputs[1][0] and np.array_equal(outputs[0][1], outputs[1][1])
+
+
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+@pytest.mark.parametrize("method", ["lagrange", "newton_euler", "dae"])
+def test_the_specialised_samples_solve_gives_the_kernels_bits(method, preset):
+    """The samples' solve specialised for the system: every unknown and condition estimate as numba's
+    solve_states, open and pinned chains, with and without Baumgarte terms."""
+    from physics.kernels import system  # noqa: PLC0415
+
+    chosen = physics.get_preset(preset)
+    run = physics.simulate(chosen.chain, chosen.theta0, chosen.omega0,
+                           physics.Settings(method=method, t_end=3.0, samples=61, stabilization="none"))
+    compiled = load_compiled(method, chosen.chain.n, chosen.chain.pinned)
+    compiled._functions.setdefault("specialised calls", {})["samples"] = 1
+    solve = compiled.samples_solve() or compiled.samples_solve()
+    assert solve is not None
+    theta, omega, params = np.ascontiguousarray(run.theta), np.ascontiguousarray(run.omega), chosen.chain.params()
+    y = np.concatenate([theta, omega], axis=1)
+    tip_index = compiled.tip_reaction_index if chosen.chain.pinned else ()
+    for alpha, beta in ((0.0, 0.0), (5.0, 20.0)):
+        ours = native_samples.trajectory_samples(compiled.assemble_function, compiled.layout, y, params, alpha, beta,
+                                                 np.zeros(4 * chosen.chain.n) + 1.0, 9.81, 0, 0.0, 0.0,
+                                                 compiled.theta_ddot_index, tip_index, solve)
+        x, cond = np.empty_like(ours.x), np.empty_like(ours.cond)
+        system.solve_states(compiled.assemble_function, compiled.layout, theta, omega, params, alpha, beta, x, cond)
+        _assert_identical(None, ours.x, None, x)
+        _assert_identical(None, ours.cond, None, cond)
