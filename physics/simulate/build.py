@@ -28,7 +28,10 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     condition estimate together, so the integrator need not evaluate either at the samples. The joint reactions
     follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass). The
     passes are generated LLVM IR (:mod:`physics.codegen.native_samples`, the numba kernels' bits): a first run
-    compiles them in a fraction of a second, where numba took seconds.
+    compiles them in a fraction of a second, where numba took seconds. Their arrays share one buffer
+    (:func:`~physics.codegen.native_samples.trajectory_samples`: three calls, no per-array conversion), and a
+    system run again in the process solves its samples with its specialised solve
+    (:meth:`~physics.codegen.cache.CompiledSystem.samples_solve`).
     """
     n = chain.n
     bars = chain_arrays(chain)
