@@ -38,6 +38,9 @@ from . import native_integrators, native_samples
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+# A system's specialised drivers and samples' solve (physics.codegen.specialised_ir) compiled in a background
+# thread (False: in the call that asks, as the tests and benchmarks want to know when it is there).
+SPECIALISE_IN_BACKGROUND = True
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "kernels/layout.py", "model.py")
@@ -290,9 +293,9 @@ class CompiledSystem:
     def _specialised_driver(self, method: str):
         """``method``'s IR driver specialised for this system (:mod:`physics.codegen.specialised_ir`: the same
         bits, its sizes folded into the code; seed case C's RK45 integration in about 0.2 ms instead of 0.5), or
-        None for the generic one. Its O2 compilation (0.3-0.5 s for three bars) is paid only where it pays: when
-        its machine code is in the cache already, or at this system's second run of ``method`` in this process
-        (a one-off run, the CLI's, keeps the generic driver and no compilation)."""
+        None for the generic one. Its O2 compilation (0.3-1 s for three bars) is paid only where it pays: loaded
+        when its machine code is in the cache already, else compiled from this system's second run of
+        ``method`` in this process on (:meth:`_specialised`: a one-off run, the CLI's, compiles nothing)."""
         layout = self.integration_layout
         return self._specialised(method, layout, lambda digest: native_integrators.specialised_driver(
             method, layout, self.assemble_function, digest))
@@ -305,9 +308,11 @@ class CompiledSystem:
             layout, self.assemble_function, digest))
 
     def _specialised(self, what: str, layout, make):
-        """``make(digest)``'s function, kept with its engine as long as this system: made at this system's
-        second call for ``what`` in this process, or at the first when its machine code is cached; None
-        before."""
+        """``make(digest)``'s function, kept with its engine as long as this system, or None (the caller takes
+        the generic function) until it is there: loaded at the first call for ``what`` when its machine code is
+        cached; else compiled from this system's second call in this process on, in a background thread
+        (:data:`SPECIALISE_IN_BACKGROUND`), so that no run waits for its O2 compilation (0.3-1 s): the app's
+        next chunks and an ensemble's next runs take the generic function meanwhile."""
         key = f"specialised {what}"
         with self._lock:
             if key in self._functions:
@@ -318,13 +323,33 @@ class CompiledSystem:
                 texts = (self.module.LLVM_IR, getattr(self.module, "LLVM_IR_RHS", ""))
                 self._functions["system digest"] = hashlib.sha256("\0".join(texts).encode()).hexdigest()[:24]
             digest = self._functions["system digest"]
-        if calls[what] < 2 and not native_integrators.specialised_cached(what, layout, digest):
+            building = self._functions.setdefault("specialised building", set())
+            if what in building:
+                return None
+        cached = native_integrators.specialised_cached(what, layout, digest)
+        if calls[what] < 2 and not cached:
             return None
-        start = time.perf_counter()
-        made = make(digest)
+
+        def build() -> None:
+            start = time.perf_counter()
+            try:
+                made = make(digest)
+            finally:
+                with self._lock:
+                    building.discard(what)
+            with self._lock:
+                self.build_seconds += time.perf_counter() - start
+                self._functions.setdefault(key, made)
+
+        if cached or not SPECIALISE_IN_BACKGROUND:
+            build()
+            return self._functions[key][0]
         with self._lock:
-            self.build_seconds += time.perf_counter() - start
-            return self._functions.setdefault(key, made)[0]
+            if what in building:
+                return None
+            building.add(what)
+        threading.Thread(target=build, name=f"specialise {what}", daemon=True).start()
+        return None
 
     def integrate_ode45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
                         y_out, cond_out):

@@ -119,7 +119,9 @@ def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest
 
     names = specialised_names(system_digest)
     start = time.perf_counter()
-    with _lock:
+    # both compile locks: this may run in a background thread (CompiledSystem._specialised) beside a generated
+    # module's compilation, and LLVM's global context is not to be shared between two at once
+    with _lock, native._lock:
         llvm = llvm_binding()
         llvm.add_symbol(names["assemble"], int(assemble))  # bound before linking, the module or its object file
         for slot in SPECIALISED_ADDRESS_SLOTS:

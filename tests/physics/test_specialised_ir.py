@@ -1,7 +1,8 @@
 """The IR drivers specialised for one system (physics.codegen.specialised_ir: the system's layout a constant
 table, its generated functions external symbols, LLVM's O2 pipeline) give the numba kernel's very bits, as the
 generic IR drivers do: every sample, the status, the counts and where the run stopped. A compiled system
-switches to them at its second run in a process, or at once when their machine code is cached."""
+switches to them at once when their machine code is cached, else from its second run in a process on (compiled
+in a background thread by default)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,16 @@ import numpy as np
 import pytest
 
 import physics
-from physics.codegen import load_compiled, native_integrators, native_samples, specialised_ir
+from physics.codegen import cache, load_compiled, native_integrators, native_samples, specialised_ir
 from physics.kernels import explicit_rk
 from physics.kernels.constants import STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
+
+
+@pytest.fixture(autouse=True)
+def _specialise_in_the_call(monkeypatch):
+    """Specialised functions made in the call that asks (not in a background thread), so a test knows when."""
+    monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)
+
 
 KERNELS = {"RK45": explicit_rk.integrate_rk45, "DOP853": explicit_rk.integrate_dop853}
 G_INDEX = -4  # chain.params(): [L.., d.., m.., I.., g, pin_x, pin_y, damping]
@@ -115,8 +123,6 @@ def test_the_specialised_text_holds_no_address():
 def test_a_system_switches_to_the_specialised_driver_at_its_second_run(monkeypatch):
     """Not cached: the first run keeps the generic driver (no O2 compilation for a one-off run), the second
     makes the specialised one, and both runs give the same bits."""
-    from physics.codegen import cache  # noqa: PLC0415
-
     cache.clear_memory_cache()
     monkeypatch.setattr(native_integrators, "specialised_cached", lambda *arguments: False)
     compiled, y0, params = _system("triple-c", "newton_euler")
@@ -157,3 +163,29 @@ def test_the_specialised_samples_solve_gives_the_kernels_bits(method, preset):
         system.solve_states(compiled.assemble_function, compiled.layout, theta, omega, params, alpha, beta, x, cond)
         _assert_identical(None, ours.x, None, x)
         _assert_identical(None, ours.cond, None, cond)
+
+
+def test_the_specialised_driver_is_compiled_in_the_background(monkeypatch):
+    """By default the second run does not wait for the O2 compilation: it takes the generic driver while a
+    thread compiles, and a run after the thread is done takes the specialised one (the same bits)."""
+    import threading  # noqa: PLC0415
+
+    cache.clear_memory_cache()
+    monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", True)
+    monkeypatch.setattr(native_integrators, "specialised_cached", lambda *arguments: False)
+    compiled, y0, params = _system("triple-c", "lagrange")
+    t_eval = np.linspace(0.0, 20.0, 200)
+    outputs = []
+    for _ in range(2):
+        y_out = np.empty((200, 6))
+        result = compiled.integrate_rk45(y0, 0.0, 20.0, t_eval, params, 1e-6, 1e-6, 0.0, 0.0, False, 100_000, y_out,
+                                         np.empty(0))
+        outputs.append((result, y_out))
+    for thread in threading.enumerate():
+        if thread.name == "specialise RK45":
+            thread.join()
+    assert "specialised RK45" in compiled._functions
+    y_out = np.empty((200, 6))
+    result = compiled.integrate_rk45(y0, 0.0, 20.0, t_eval, params, 1e-6, 1e-6, 0.0, 0.0, False, 100_000, y_out,
+                                     np.empty(0))
+    assert all(earlier == result and np.array_equal(samples, y_out) for earlier, samples in outputs)
