@@ -348,7 +348,8 @@ class CompiledSystem:
             if what in building:
                 return None
             building.add(what)
-        threading.Thread(target=build, name=f"specialise {what}", daemon=True).start()
+        # not a daemon: a process that ends meanwhile waits for it rather than tearing LLVM down under it
+        threading.Thread(target=build, name=f"specialise {what}", daemon=False).start()
         return None
 
     def integrate_ode45(self, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project, max_steps,
