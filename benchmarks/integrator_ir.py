@@ -5,6 +5,7 @@ BENCHMARKS.md).
 
 * ``compile``: seconds to build the drivers' IR and compile it with llvmlite, each in a fresh process (the
   drivers are compiled once per process; numba's compilation of the kernel they stand in for is about 20 s);
+* ``specialised_median_ms``: the same driver specialised for the system (:mod:`physics.codegen.specialised_ir`);
 * ``case_c``: seed case C (triple-c, RK45, rtol = atol = 1e-6, 20 s, 200 samples), DAE formulation (the IR
   drivers answer a system with a generated fused ``rhs``: the DAE's);
 * ``triple_a_dop853``: triple-a, DOP853, rtol 1e-10, atol 1e-12, 10 s, 200 samples, DAE;
@@ -55,25 +56,34 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
     params = chosen.chain.params()
     kernel = explicit_rk.integrate_rk45 if integrator == "RK45" else explicit_rk.integrate_dop853
     max_steps = physics.Settings().max_steps
-    outputs = {"ir": np.empty((200, y0.size)), "numba": np.empty((200, y0.size))}
+    outputs = {"ir": np.empty((200, y0.size)), "specialised": np.empty((200, y0.size)),
+               "numba": np.empty((200, y0.size))}
+    from physics.codegen import cache  # noqa: PLC0415
+
+    cache.SPECIALISE_IN_BACKGROUND = False  # made in the call that asks: its 2nd
+    specialised = compiled._specialised_driver(integrator) or compiled._specialised_driver(integrator)
 
     def run(which: str):
         arguments = (layout, y0, 0.0, t_end, t_eval, params, rtol, atol, 0.0, 0.0, False, max_steps, outputs[which],
                      np.empty(0))
-        if which == "ir":
-            return native_integrators.integrate(integrator, compiled.assemble_function, *arguments)
+        if which != "numba":
+            return native_integrators.integrate(integrator, compiled.assemble_function, *arguments,
+                                                driver=specialised if which == "specialised" else None)
         return kernel(compiled.assemble_function, *arguments)
 
     results = {which: run(which) for which in outputs}  # warm-up: machine code compiled or loaded
     seconds: dict = {which: [] for which in outputs}
+    names = list(outputs)
     for repeat in range(repeats):
-        for which in (("ir", "numba") if repeat % 2 == 0 else ("numba", "ir")):
+        shift = repeat % len(names)
+        for which in names[shift:] + names[:shift]:
             start = time.perf_counter()
             run(which)
             seconds[which].append(time.perf_counter() - start)
-    identical = (results["ir"] is not None and tuple(results["ir"]) == tuple(results["numba"])
-                 and np.array_equal(outputs["ir"], outputs["numba"]))
+    identical = all(results[which] is not None and tuple(results[which]) == tuple(results["numba"])
+                    and np.array_equal(outputs[which], outputs["numba"]) for which in ("ir", "specialised"))
     return {"ir_median_ms": 1e3 * statistics.median(seconds["ir"]),
+            "specialised_median_ms": 1e3 * statistics.median(seconds["specialised"]),
             "numba_median_ms": 1e3 * statistics.median(seconds["numba"]),
             "steps": int(results["numba"][1]), "identical": bool(identical)}
 

@@ -671,6 +671,12 @@ class _Driver:
 
 def integrators_ir(methods=None) -> str:
     """The module's IR text: the drivers of ``methods`` (default: both) and their inlined helpers."""
+    return str(integrators_module(methods))
+
+
+def integrators_module(methods=None) -> ir.Module:
+    """:func:`integrators_ir`'s module before it is written out (:mod:`physics.codegen.specialised_ir` adds one
+    system's specialised entry points to it)."""
     module = ir.Module(name="linkage_lab_integrators")
     fused = _fused_rhs(module)
     two_rows = _two_row_test(module)
@@ -678,4 +684,4 @@ def integrators_ir(methods=None) -> str:
     evaluate = _evaluate(module, fused, add_linear_functions(module))
     for name in (FUNCTION_NAMES if methods is None else methods):
         _Driver(module, _Method(name), evaluate, two_rows, gram).emit()
-    return str(module)
+    return module

@@ -9,10 +9,24 @@ builders and ``llvmlite.ir``, which only a cache miss needs.
 from __future__ import annotations
 
 from ..kernels import tables
+from ..kernels.layout import LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS, LAYOUT_SOLVE
 
 INTEGRATOR_FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
 WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
 SAMPLES_FUNCTION_NAMES = ("solve_states", "assemble_states", "chain_observables", "chain_joint_reactions")
+# The drivers and the samples' solve specialised for one system (physics/codegen/specialised_ir.py): their entry
+# points, and the layout's entries that are addresses (external symbols named from the system's IR digest).
+ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)
+SPECIALISED_NAMES = {method: f"{name}_specialised" for method, name in INTEGRATOR_FUNCTION_NAMES.items()}
+SAMPLES_SOLVE_NAME = "solve_states_specialised"
+
+
+def symbol_names(system_digest: str) -> dict[str, str]:
+    """The external symbols of a system whose IR texts have digest ``system_digest``: ``assemble`` and one per
+    address slot of the layout (keyed by the slot's number as text)."""
+    names = {"assemble": f"linkage_lab_{system_digest}_assemble"}
+    names.update({str(slot): f"linkage_lab_{system_digest}_slot{slot}" for slot in ADDRESS_SLOTS})
+    return names
 
 
 def stage_rows(method: str) -> int:

@@ -184,6 +184,13 @@ def _remove_stale(where: Path) -> None:
             pass
 
 
+def is_cached(key: str, variant: str) -> bool:
+    """Whether the cache folder holds an object file for ``key`` and ``variant`` (its trust is checked only when
+    :func:`compile_module` loads it): lets a caller choose to compile a module only when it is worth it."""
+    where = folder()
+    return where is not None and (where / object_name(key, variant)).is_file()
+
+
 def compile_module(ir_text: str | Callable[[], str], variant: str, prepare: Callable, target_machine: Callable,
                    key: str | None = None):
     """An MCJIT execution engine holding ``ir_text``'s machine code, finalised: loaded from the cache when a

@@ -18,9 +18,12 @@ import numpy as np
 
 from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS
+from .ir_shapes import ADDRESS_SLOTS as SPECIALISED_ADDRESS_SLOTS
 from .ir_shapes import INTEGRATOR_FUNCTION_NAMES as FUNCTION_NAMES
+from .ir_shapes import SPECIALISED_NAMES
 from .ir_shapes import integrator_scratch_length as scratch_length
-from .machine_code import compile_module, llvm_binding, sources_digest
+from .ir_shapes import symbol_names as specialised_names
+from .machine_code import compile_module, is_cached, llvm_binding, sources_digest
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
@@ -29,6 +32,7 @@ _SIGNATURE = ctypes.CFUNCTYPE(
 )
 _lock = threading.Lock()
 _compiled: dict = {}
+SPECIALISED_VARIANT = "driver-O2"  # LLVM's O2 pipeline and code generation at level 2
 VARIANT = "driver-O0"  # the passes of _promote_registers and code generation at level 0 (the object file's key)
 
 
@@ -97,32 +101,103 @@ def _driver(method: str):
         return functions.setdefault(method, _SIGNATURE(address))
 
 
+def specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
+    """For ``method`` ("RK45", "DOP853" or "samples", the samples' solve): the layout without its addresses (1 where the system has that function), all of the layout that shapes
+    the specialised IR, and the machine-code cache's key of that IR."""
+    shape = [1 if slot in SPECIALISED_ADDRESS_SLOTS and value != 0 else int(value) for slot, value in enumerate(layout)]
+    return shape, f"specialised {method}\n{shape}\n{system_digest}\n{sources_digest()}"
+
+
+def specialised_cached(method: str, layout: np.ndarray, system_digest: str) -> bool:
+    """Whether the machine code of :func:`specialised_driver` (``method`` "samples":
+    :func:`physics.codegen.native_samples.specialised_solve`) for these arguments is in the cache already."""
+    return is_cached(specialised_key(method, layout, system_digest)[1], SPECIALISED_VARIANT)
+
+
+def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
+    """Whether the IR drivers answer a run of these settings (else :func:`integrate` hands it back)."""
+    return (alpha == 0.0 and beta == 0.0 and cond_out.shape[0] == 0
+            and not (project and layout[LAYOUT_CONSTRAINTS] != 0))
+
+
+def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest: str, key: str):
+    """An engine holding a module of :mod:`physics.codegen.specialised_ir` (``ir_text()`` builds it): the
+    system's symbols bound to its addresses, then compiled at O2 or loaded from the machine-code cache under
+    ``key`` (:func:`specialised_key`)."""
+    from . import native  # noqa: PLC0415  (its O2 pipeline and target machine, as for the generated systems)
+
+    names = specialised_names(system_digest)
+    start = time.perf_counter()
+    # both compile locks: this may run in a background thread (CompiledSystem._specialised) beside a generated
+    # module's compilation, and LLVM's global context is not to be shared between two at once
+    with _lock, native._lock:
+        llvm = llvm_binding()
+        llvm.add_symbol(names["assemble"], int(assemble))  # bound before linking, the module or its object file
+        for slot in SPECIALISED_ADDRESS_SLOTS:
+            if layout[slot] != 0:
+                llvm.add_symbol(names[str(slot)], int(layout[slot]))
+        engine = compile_module(ir_text, SPECIALISED_VARIANT, native._optimize, native._target_machine, key=key)
+        _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
+    return engine
+
+
+def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_digest: str):
+    """``(driver, engine)``: ``method``'s driver specialised for one system (:mod:`physics.codegen.specialised_ir`),
+    a ctypes function of the generic driver's signature valid while ``engine`` lives (the caller keeps it with
+    the system whose machine code it calls). ``layout``: the system's integration layout, ``assemble`` its
+    ``assemble``'s address, ``system_digest`` a digest of its IR texts (the symbols' names). Compiled at O2 (or
+    loaded from the machine-code cache) on the first call for a system in a process."""
+    shape, key = specialised_key(method, layout, system_digest)
+
+    def ir_text() -> str:
+        from .specialised_ir import specialised_ir  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
+
+        return specialised_ir(method, shape, system_digest)
+
+    engine = specialised_engine(ir_text, layout, assemble,
+                                system_digest, key)
+    address = engine.get_function_address(SPECIALISED_NAMES[method])
+    return _SIGNATURE(address), engine
+
+
 def _c_array(array, dtype, ndim: int) -> bool:
     return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
             and array.ndim == ndim)
 
 
 def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params, rtol, atol, alpha, beta, project,
-              max_steps, y_out, cond_out):
+              max_steps, y_out, cond_out, driver=None):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
-    the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
-        return None
-    if project and layout[LAYOUT_CONSTRAINTS] != 0:
+    the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when).
+    ``driver``: the driver :func:`specialised_driver` made for this ``layout`` (default the generic one)."""
+    if not answers(layout, alpha, beta, project, cond_out):
         return None
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
         return None  # the kernel's own typing says what is wrong
     # the kernel's own check (physics.kernels.checks, which numba compiles for the kernel), as plain Python
     check_arguments(layout, y0, t0, t_end, t_eval, params, y_out, cond_out)
-    driver = _driver(method)
-    own_params = params.copy()  # the driver writes t into it
-    scratch = np.empty(scratch_length(method, y0.shape[0], int(layout[LAYOUT_CONSTRAINTS]),
-                                     int(layout[LAYOUT_UNKNOWNS])))
-    counts = np.zeros(3, dtype=np.int64)
-    t_reached = np.zeros(1)
+    if driver is None:
+        driver = _driver(method)
+    # One buffer for everything the driver reads or writes besides the layout and y_out: [counts (3 int64),
+    # t_reached, y0, t_eval, params (the driver writes t into this copy), scratch]; each pointer is the buffer's
+    # address plus an offset (an address look-up costs a microsecond or two, a small copy much less).
+    n_state, n_samples, n_params = y0.shape[0], t_eval.shape[0], params.shape[0]
+    scratch = scratch_length(method, n_state, int(layout[LAYOUT_CONSTRAINTS]), int(layout[LAYOUT_UNKNOWNS]))
+    at_y0 = 4
+    at_t_eval = at_y0 + n_state
+    at_params = at_t_eval + n_samples
+    at_scratch = at_params + n_params
+    values = np.empty(at_scratch + scratch)
+    counts = values[:3].view(np.int64)
+    counts.fill(0)
+    values[3] = 0.0
+    values[at_y0:at_t_eval] = y0
+    values[at_t_eval:at_params] = t_eval
+    values[at_params:at_scratch] = params
+    base = values.ctypes.data
     y_out.fill(np.nan)
-    status = driver(int(assemble), layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end),
-                    t_eval.ctypes.data, t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
-                    y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
-    return int(status), int(counts[0]), int(counts[1]), float(t_reached[0]), int(counts[2])
+    status = driver(int(assemble), layout.ctypes.data, base + 8 * at_y0, float(t0), float(t_end),
+                    base + 8 * at_t_eval, n_samples, base + 8 * at_params, float(rtol), float(atol), int(max_steps),
+                    y_out.ctypes.data, base + 8 * at_scratch, base, base + 24)
+    return int(status), int(counts[0]), int(counts[1]), float(values[3]), int(counts[2])

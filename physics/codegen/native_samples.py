@@ -9,13 +9,15 @@ float64 of the kernel's shapes: the callers (:mod:`physics.simulate.build`,
 from __future__ import annotations
 
 import ctypes
+import math
 
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .ir_shapes import SAMPLES_FUNCTION_NAMES as FUNCTION_NAMES
+from .ir_shapes import SAMPLES_SOLVE_NAME
 from .ir_shapes import samples_scratch_length as scratch_length
-from .native_integrators import compile_functions
+from .native_integrators import compile_functions, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -43,6 +45,22 @@ def _function(name: str):
         for each in FUNCTION_NAMES:
             _functions.setdefault(each, _SIGNATURES[each](addresses[each]))
     return _functions[name]
+
+
+def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
+    """``(solve, engine)``: ``solve_states`` specialised for one system (its ``layout``, the one for one
+    evaluation at a time), a ctypes function of ``solve_states``' signature valid while ``engine`` lives; the
+    same bits as the generic one. Compiled at O2 or loaded from the machine-code cache."""
+    shape, key = specialised_key("samples", layout, system_digest)
+
+    def ir_text() -> str:
+        from .specialised_ir import specialised_samples_ir  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
+
+        return specialised_samples_ir(shape, system_digest)
+
+    engine = specialised_engine(ir_text, layout, assemble,
+                                system_digest, key)
+    return _SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)), engine
 
 
 def _pointer(array: np.ndarray, shape: tuple, dtype=np.float64) -> int:
@@ -98,3 +116,101 @@ def chain_joint_reactions(theta, omega, theta_ddot, L, d, m, g, tip_reaction, jo
         rows, n, _pointer(theta, (rows, n)), _pointer(omega, (rows, n)), _pointer(theta_ddot, (rows, n)),
         _pointer(L, (n,)), _pointer(d, (n,)), _pointer(m, (n,)), float(g), int(pinned),
         _pointer(tip_reaction, (rows if pinned else 0, 2)), _pointer(joint_reactions, (rows, n, 2)))
+
+
+
+_SAMPLE_ARRAYS = ("theta", "omega", "joints", "trace_xy", "kinetic", "potential", "tip_velocity", "x", "cond",
+                  "theta_ddot", "tip_reaction", "joint_reactions")
+
+
+class SampleArrays:
+    """What :func:`trajectory_samples` computes for a run's rows: consecutive views of one buffer, each
+    C-contiguous; ``offsets[name]`` is where each starts in the buffer (in doubles), ``length`` where the
+    last ends."""
+
+    __slots__ = (*_SAMPLE_ARRAYS, "offsets", "length")
+    theta: np.ndarray
+    omega: np.ndarray
+    joints: np.ndarray
+    trace_xy: np.ndarray
+    kinetic: np.ndarray
+    potential: np.ndarray
+    tip_velocity: np.ndarray
+    x: np.ndarray
+    cond: np.ndarray
+    theta_ddot: np.ndarray
+    tip_reaction: np.ndarray
+    joint_reactions: np.ndarray
+
+    def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
+        """The offsets and the length only; :meth:`views` gives the arrays their storage."""
+        self.offsets: dict[str, int] = {}
+        offset = 0
+        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
+            self.offsets[name] = offset
+            offset += math.prod(shape)
+        self.length = offset
+
+    @staticmethod
+    def _shapes(rows: int, n: int, k: int, pinned: bool) -> tuple:
+        return ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
+                (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2))
+
+    def views(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray) -> None:
+        """Each array a view of ``values`` at its offset."""
+        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
+            start = self.offsets[name]
+            setattr(self, name, values[start:start + math.prod(shape)].reshape(shape))
+
+
+def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
+                       trace_across, theta_ddot_index, tip_reaction_index, solve=None) -> SampleArrays:
+    """The three passes :func:`physics.simulate.build.build_trajectory` makes over a run's samples
+    (:func:`solve_states`, :func:`chain_observables`, :func:`chain_joint_reactions`: the same functions, the
+    same bits) with every array in one buffer made here (the states copied in, the bars and the parameters
+    too), so each pointer is the buffer's address plus an offset: two address look-ups and three calls, where
+    the three checked entry points convert 25 arrays.
+
+    ``y``: the states (rows, 2 n); ``bars``: ``[L, d, m, I]`` as one (4 n,) array; ``params`` 1-D;
+    ``theta_ddot_index`` (n,) and ``tip_reaction_index`` ((2,) for a pinned chain, else empty): where the
+    accelerations and the pin's force sit among the ``k`` unknowns. A pinned chain's ``tip_reaction`` is the
+    pin's force at each sample, the input of the joint reactions. ``solve``: the system's
+    :func:`specialised_solve` (default the generic ``solve_states``)."""
+    n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
+    rows = len(y)
+    if np.shape(y) != (rows, 2 * n) or np.shape(bars) != (4 * n,) or np.ndim(params) != 1:
+        raise ValueError(f"expected states (rows, {2 * n}), bars ({4 * n},) and a 1-D params")
+    if not 0 <= int(trace_bar) < n:
+        raise ValueError(f"trace_bar = {trace_bar}: must index one of the {n} bars")
+    theta_ddot_index = np.asarray(theta_ddot_index, dtype=np.int64)
+    tip_reaction_index = np.asarray(tip_reaction_index, dtype=np.int64)
+    if theta_ddot_index.shape != (n,) or tip_reaction_index.shape not in ((0,), (2,)):
+        raise ValueError(f"expected {n} acceleration indices and 0 or 2 pin-force indices")
+    # (the indices only go to np.take, which refuses one outside the k unknowns)
+    pinned = tip_reaction_index.size != 0
+    arrays = SampleArrays(rows, n, k, pinned)
+    body = arrays.length
+    values = np.empty(body + 4 * n + len(params) + scratch_length(n, k, r))
+    arrays.views(rows, n, k, pinned, values)
+    arrays.theta[...] = y[:, :n]  # copies: float64 whatever y's type, and C-contiguous
+    arrays.omega[...] = y[:, n:]
+    values[body:body + 4 * n] = bars
+    values[body + 4 * n:body + 4 * n + len(params)] = params
+    base = values.ctypes.data
+    at = {name: base + 8 * offset for name, offset in arrays.offsets.items()}
+    L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
+    own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
+    if rows:
+        (solve or _function("solve_states"))(int(assemble), _pointer(layout, (None,), np.int64), rows, at["theta"],
+                                  at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
+    _function("chain_observables")(
+        rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),
+        float(trace_across), at["joints"], at["trace_xy"], at["kinetic"], at["potential"], at["tip_velocity"])
+    if rows:
+        np.take(arrays.x, theta_ddot_index, axis=1, out=arrays.theta_ddot)
+        if pinned:
+            np.take(arrays.x, tip_reaction_index, axis=1, out=arrays.tip_reaction)
+    _function("chain_joint_reactions")(
+        rows, n, at["theta"], at["omega"], at["theta_ddot"], L, d, m, float(g), int(pinned), at["tip_reaction"],
+        at["joint_reactions"])
+    return arrays

@@ -78,6 +78,11 @@ def _solve_states(module: ir.Module, linear: LinearFunctions) -> None:
     code.seal()
 
 
+def add_solve_states(module: ir.Module, linear: LinearFunctions) -> None:
+    """``solve_states`` added to ``module`` (:mod:`physics.codegen.specialised_ir` specialises it)."""
+    _solve_states(module, linear)
+
+
 def _assemble_states(module: ir.Module) -> None:
     """system.assemble_states: per row, ``A`` zeroed and the generated ``assemble`` (no Baumgarte terms),
     written straight into the row of ``A_out`` and ``b_out`` (the same numbers the kernel copies there)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codegen.native_samples import chain_joint_reactions, chain_observables
+from ..codegen.native_samples import trajectory_samples
 from ..errors import LinkageError
 from .prepared import chain_arrays
 from .trajectory import Trajectory
@@ -28,48 +28,35 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     condition estimate together, so the integrator need not evaluate either at the samples. The joint reactions
     follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass). The
     passes are generated LLVM IR (:mod:`physics.codegen.native_samples`, the numba kernels' bits): a first run
-    compiles them in a fraction of a second, where numba took seconds.
+    compiles them in a fraction of a second, where numba took seconds. Their arrays share one buffer
+    (:func:`~physics.codegen.native_samples.trajectory_samples`: three calls, no per-array conversion), and a
+    system run again in the process solves its samples with its specialised solve
+    (:meth:`~physics.codegen.cache.CompiledSystem.samples_solve`).
     """
     n = chain.n
-    theta, omega = np.ascontiguousarray(y[:, :n]), np.ascontiguousarray(y[:, n:])
     bars = chain_arrays(chain)
-    L, d, m, I = bars.L, bars.d, bars.m, bars.I
     samples = len(t)
     trace = settings.trace or bars.tip
     if trace.bar > n:
         raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {n}")
-    joints = np.empty((samples, n + 1, 2))
-    trace_xy = np.empty((samples, 2))
-    kinetic = np.empty(samples)
-    potential = np.empty(samples)
-    tip_velocity = np.empty((samples, 2))
-    chain_observables(theta, omega, L, d, m, I, bars.g, trace.bar - 1, float(trace.along),
-                      float(trace.across), joints, trace_xy, kinetic, potential, tip_velocity)
-    energy = kinetic + potential
-
     reaction_index = compiled.reaction_index
     tip_reaction_index = compiled.tip_reaction_index
-    reactions = np.zeros((samples, len(reaction_index), 2))
-    joint_reactions = np.zeros((samples, n, 2))
-    tip_reaction = np.zeros((samples, len(tip_reaction_index)))
+    arrays = trajectory_samples(compiled.assemble_function, compiled.layout, y, params, alpha, beta, bars.bars,
+                                bars.g, trace.bar - 1, float(trace.along), float(trace.across),
+                                compiled.theta_ddot_index, tip_reaction_index if chain.pinned else (),
+                                compiled.samples_solve() if samples else None)
+    theta, omega, joints, kinetic, potential = arrays.theta, arrays.omega, arrays.joints, arrays.kinetic, arrays.potential
+    energy = kinetic + potential
+    reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, len(reaction_index), 2))
+    tip_reaction = (arrays.x[:, tip_reaction_index] if tip_reaction_index.size
+                    else np.zeros((samples, len(tip_reaction_index))))
+    if cond is None or len(cond) != samples:
+        cond = arrays.cond
     constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
     constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
-    if samples:
-        x, batch_cond = compiled.solve_samples(theta, omega, params, alpha, beta)
-        if cond is None or len(cond) != samples:
-            cond = batch_cond
-        if reaction_index.size:
-            reactions = x[:, reaction_index]
-        if tip_reaction_index.size:
-            tip_reaction = x[:, tip_reaction_index]
-        pin_force = np.ascontiguousarray(tip_reaction) if chain.pinned else np.zeros((0, 2))
-        chain_joint_reactions(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), L, d, m, bars.g,
-                              pin_force, joint_reactions)
-    else:
-        cond = np.zeros(0)
     if chain.pinned:
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = tip_velocity
+        constraint_velocity = arrays.tip_velocity
         if samples:
             # Near a singular position the pivot ratio understates the trouble: report the true 2-norm
             # condition number of the system actually solved.
@@ -82,12 +69,12 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
         omega=omega,
         joints=joints,
         tip_xy=joints[:, -1, :],
-        trace_xy=trace_xy,
+        trace_xy=arrays.trace_xy,
         kinetic=kinetic,
         potential=potential,
         energy=energy,
         reactions=reactions,
-        joint_reactions=joint_reactions,
+        joint_reactions=arrays.joint_reactions,
         tip_reaction=tip_reaction,
         constraint_xy=constraint_xy,
         constraint_velocity=constraint_velocity,

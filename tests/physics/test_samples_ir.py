@@ -120,6 +120,55 @@ def test_a_wrong_array_is_refused_before_any_pointer_is_handed_over():
                                     omega, chain.params(), 0.0, 0.0, x, np.empty(5))
 
 
+@pytest.mark.parametrize("preset, links", CASES)
+@pytest.mark.parametrize("method", ["lagrange", "dae"])
+def test_the_one_buffer_pass_is_the_kernels(method, preset, links):
+    """trajectory_samples (every array in one buffer, three calls) gives the numba kernels' bits: the unknowns,
+    the condition estimates, positions, energies, the tip's velocity and the joint reactions (a pinned chain's
+    from the pin's force among the unknowns)."""
+    chain, compiled, theta, omega = _states(preset, method, links, samples=101)
+    bars, params, n, rows = chain_arrays(chain), chain.params(), chain.n, theta.shape[0]
+    tip_index = compiled.tip_reaction_index if chain.pinned else np.zeros(0, dtype=np.int64)
+    ours = native_samples.trajectory_samples(
+        compiled.assemble_function, compiled.layout, np.concatenate([theta, omega], axis=1), params, 0.0, 0.0,
+        bars.bars, bars.g, 0, 0.3, -0.2, compiled.theta_ddot_index, tip_index)
+    x, cond = np.empty((rows, compiled.n_unknowns)), np.empty(rows)
+    system.solve_states(compiled.assemble_function, compiled.layout, theta, omega, params, 0.0, 0.0, x, cond)
+    observed = (np.empty((rows, n + 1, 2)), np.empty((rows, 2)), np.empty(rows), np.empty(rows), np.empty((rows, 2)))
+    observables.chain_observables(theta, omega, bars.L, bars.d, bars.m, bars.I, bars.g, 0, 0.3, -0.2, *observed)
+    joint_reactions = np.empty((rows, n, 2))
+    tip = np.ascontiguousarray(x[:, tip_index]) if chain.pinned else np.zeros((0, 2))
+    observables.chain_joint_reactions(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), bars.L,
+                                      bars.d, bars.m, bars.g, tip, joint_reactions)
+    for mine, theirs in ((ours.theta, theta), (ours.omega, omega), (ours.x, x), (ours.cond, cond),
+                         (ours.joints, observed[0]), (ours.trace_xy, observed[1]), (ours.kinetic, observed[2]),
+                         (ours.potential, observed[3]), (ours.tip_velocity, observed[4]),
+                         (ours.joint_reactions, joint_reactions)):
+        _equal(mine, theirs)
+    assert np.all(np.isfinite(ours.joint_reactions))
+
+
+def test_the_one_buffer_pass_refuses_wrong_shapes():
+    chain, compiled, theta, omega = _states("triple-a", "lagrange", samples=5)
+    bars, y = chain_arrays(chain), np.concatenate([theta, omega], axis=1)
+
+    def run(states=y, packed=bars.bars, trace_bar=0, theta_ddot_index=compiled.theta_ddot_index):
+        return native_samples.trajectory_samples(compiled.assemble_function, compiled.layout, states, chain.params(),
+                                                 0.0, 0.0, packed, bars.g, trace_bar, 0.0, 0.0, theta_ddot_index, ())
+
+    assert run().kinetic.shape == (5,)
+    with pytest.raises(ValueError, match="states"):
+        run(states=y[:, :5])
+    with pytest.raises(ValueError, match="bars"):
+        run(packed=bars.L)
+    with pytest.raises(ValueError, match="trace_bar"):
+        run(trace_bar=3)
+    with pytest.raises(ValueError, match="acceleration indices"):
+        run(theta_ddot_index=compiled.theta_ddot_index[:2])
+    with pytest.raises(IndexError):
+        run(theta_ddot_index=compiled.theta_ddot_index + compiled.n_unknowns)
+
+
 @pytest.mark.parametrize("method", ["lagrange", "newton_euler", "dae"])
 def test_an_empty_cache_run_compiles_no_numba_kernel(method, tmp_path):
     """The first run of an installation (a fresh cache folder) integrates with the IR drivers and computes its
