@@ -19,6 +19,8 @@ then its centres, and ``part_instance`` would look for the wrong instance.
 from __future__ import annotations
 
 import dataclasses
+import functools
+import threading
 
 import numpy as np
 
@@ -44,11 +46,26 @@ MESH_COLOR = (120, 120, 120)  # the line between a gear pair's two pins
 MESH_WIDTH_SHARE = 0.35  # of a bar's width: the gear's line reads as a link of another kind than the bodies
 
 
+def _locked(method):
+    """``method`` under the scene's lock: the animation loop shows frames while a menu choice or a switch of
+    mechanism removes and rebuilds the nodes on another thread, and a frame must never see half a rebuild (a
+    node already removed, the next drawing not yet built)."""
+
+    @functools.wraps(method)
+    def under_lock(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return under_lock
+
+
 class MechanismScene:
-    """Nodes of one mechanism under ``root``; :meth:`build` once per drawing, :meth:`show` every frame."""
+    """Nodes of one mechanism under ``root``; :meth:`build` once per drawing, :meth:`show` every frame (either
+    thread: both hold the scene's lock)."""
 
     def __init__(self, target, root: str = "/linkage", palette: list | None = None) -> None:
         self.target, self.palette = target, palette or BAR_COLORS  # compare mode: one colour per method
+        self._lock = threading.RLock()
         self.root = root.rstrip("/")
         self.draw: Drawing | None = None
         self._handles: list = []
@@ -63,6 +80,7 @@ class MechanismScene:
     def reach(self) -> float:
         return self.draw.size if self.draw is not None else 1.0
 
+    @_locked
     def build(self, draw: Drawing, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
         """Create every node for ``draw``, standing at ``points_xy`` (P, 2) and ``com_xy`` (B, 2). The same
         drawing with other sizes (a body resized on its slider) only rescales the bars and moves the parts."""
@@ -153,6 +171,7 @@ class MechanismScene:
         spheres = np.concatenate([points_xy, np.asarray(com_xy, dtype=float)])
         return bar_positions, bar_wxyzs, to_world(spheres).astype(np.float32)
 
+    @_locked
     def show(self, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
         """Move every part to one frame (two messages at most; bodies are rigid, so no bar changes length)."""
         if self.draw is None or self._spheres is None:
@@ -170,6 +189,7 @@ class MechanismScene:
             self._sphere_positions = sphere_positions
             update_node_props(self._spheres, {"batched_positions": sphere_positions})
 
+    @_locked
     def poses(self) -> dict[str, dict]:
         """Every part's pose by part name (JSON-able), as :meth:`app.scene.LinkageScene.poses`."""
         out: dict[str, dict] = {}
@@ -180,6 +200,7 @@ class MechanismScene:
                                                "wxyz": [float(v) for v in self._bar_wxyzs[k]], "visible": True}
         return out
 
+    @_locked
     def remove(self) -> None:
         for handle in self._handles:
             quietly(handle.remove, "removing a scene node")
