@@ -272,8 +272,8 @@ class CompiledSystem:
                      max_steps, y_out, cond_out):
         """RK45 or DOP853 by the drivers generated as LLVM IR (:mod:`physics.codegen.native_integrators`: the
         kernel's bits, without numba's compilation), or by the numba kernel ``kernel_name`` of
-        :mod:`physics.kernels.explicit_rk` for a run they hand back (projection, Baumgarte terms, a per-sample
-        condition; numba is imported only then)."""
+        :mod:`physics.kernels.explicit_rk` for a run they hand back (a per-sample condition; numba is imported
+        only then)."""
         layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
         answer = native_integrators.integrate(method, self.assemble_function, layout, y0, t0, t_end, t_eval, params,
                                               rtol, atol, alpha, beta, project, max_steps, y_out, cond_out)

@@ -1,11 +1,11 @@
 """The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per installation (the machine code kept in the cache) and called.
 
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
-``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
-Baumgarte terms (``alpha`` or ``beta`` not zero), or a per-sample condition asked for (``cond_out`` not empty).
-Every other run is answered, with or without a generated fused ``rhs`` (the general solve is IR too,
-:mod:`physics.codegen.linear_ir`). Arrays are checked as the kernel checks them (the same ``ValueError`` for a
-programming error).
+``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a per-sample
+condition asked for (``cond_out`` not empty), or arrays of another type or order than the kernel's. Every other
+run is answered, stabilised or not (projection onto the constraints, Baumgarte terms), with or without a
+generated fused ``rhs`` (the general solve is IR too, :mod:`physics.codegen.linear_ir`). Arrays are checked as
+the kernel checks them (the same ``ValueError`` for a programming error).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from .machine_code import compile_module, llvm_binding, sources_digest
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
-    ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64, ctypes.c_void_p,
-    ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+    ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+    ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
 )
 _lock = threading.Lock()
 _compiled: dict = {}
@@ -97,9 +97,7 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
               max_steps, y_out, cond_out):
     """The kernel's ``(status, n_steps, n_rhs, t_reached, n_filled)`` for ``method`` ("RK45" or "DOP853"), with
     the kernel's arguments, or ``None`` when the numba kernel must run it (the module docstring says when)."""
-    if alpha != 0.0 or beta != 0.0 or cond_out.shape[0] != 0:
-        return None
-    if project and layout[LAYOUT_CONSTRAINTS] != 0:
+    if cond_out.shape[0] != 0:
         return None
     arrays = ((y0, 1), (t_eval, 1), (params, 1), (y_out, 2))
     if not all(_c_array(array, np.float64, ndim) for array, ndim in arrays) or not _c_array(layout, np.int64, 1):
@@ -112,8 +110,9 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
                                      int(layout[LAYOUT_UNKNOWNS])))
     counts = np.zeros(3, dtype=np.int64)
     t_reached = np.zeros(1)
+    projecting = bool(project) and layout[LAYOUT_CONSTRAINTS] != 0  # the kernel's _projecting
     y_out.fill(np.nan)
     status = driver(int(assemble), layout.ctypes.data, y0.ctypes.data, float(t0), float(t_end),
-                    t_eval.ctypes.data, t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol), int(max_steps),
-                    y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
+                    t_eval.ctypes.data, t_eval.shape[0], own_params.ctypes.data, float(rtol), float(atol),
+                    float(alpha), float(beta), int(projecting), int(max_steps), y_out.ctypes.data, scratch.ctypes.data, counts.ctypes.data, t_reached.ctypes.data)
     return int(status), int(counts[0]), int(counts[1]), float(t_reached[0]), int(counts[2])

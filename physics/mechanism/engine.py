@@ -122,8 +122,8 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     cond_out = np.empty(0)  # no condition per sample from the kernel (the run reports its own: _conditions)
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
-        # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation); the kernel for
-        # a run they hand back (projection, Baumgarte terms: physics/codegen/native_integrators.py)
+        # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation, stabilised or
+        # not); the kernel for a run they hand back (physics/codegen/native_integrators.py)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
                                               params, settings.rtol, settings.atol, alpha, beta, project,
                                               settings.max_steps, y_out, cond_out)
