@@ -39,11 +39,8 @@ from ..kernels import tables
 from ..kernels.constants import (
     MAX_FACTOR,
     MIN_FACTOR,
-    PROJECTION_MAX_ITERATIONS,
-    PROJECTION_TOLERANCE,
     RESCALE_ABOVE,
     SAFETY,
-    SINGULAR_CONDITION_NUMBER,
     SINGULAR_PIVOT_RATIO,
     STATUS_MAX_STEPS,
     STATUS_NOT_FINITE,
@@ -58,10 +55,10 @@ from ..kernels.layout import (
     LAYOUT_RHS,
     LAYOUT_TIME,
     LAYOUT_UNKNOWNS,
-    LAYOUT_WEIGHTS,
 )
 from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
 from .linear_ir import LinearFunctions, add_linear_functions, gram_into, two_row_ratio
+from .projection_ir import ProjectionFunctions
 
 _NOT_FUSED = 1  # the fused rhs's own answer "evaluate by the general path" (physics.kernels.common.NOT_FUSED)
 
@@ -257,112 +254,6 @@ def _gram_test(module: ir.Module) -> ir.Function:
     b.ret(_int(STATUS_SINGULAR))  # constraint_ratio's inf
     code.seal()
     return function
-
-
-def _correct(module: ir.Module, linear: LinearFunctions) -> ir.Function:
-    """``i1 correct(i64 n, i64 r, double* J, double* G, double* lam, double* params, i64 offset, double* gap,
-    double* coordinates)``: the kernel's ``projection._correct``: ``coordinates -= W J^T (J W J^T)^-1 gap``, the
-    weights at ``offset`` of params (unit when < 0); ``J W J^T`` summed as ``linear.gram_into`` sums it, solved
-    in closed form for two rows and by L D L^T otherwise; false (nothing changed) where it is singular to
-    working precision (SINGULAR_CONDITION_NUMBER)."""
-    code = _function_of(module, "correct", _BOOL, [_I64, _I64] + [_DOUBLE_POINTER] * 4 + [_I64]
-                        + [_DOUBLE_POINTER] * 2)
-    n, r, J, G, lam, params, offset, gap, coordinates = code.function.args
-    b = code.b
-
-    def weight(column):
-        """linear.column_weight: ``params[offset + column]``, or 1 when ``offset < 0`` (read only then)."""
-        value = code.var(_double(1.0))
-        with b.if_then(b.icmp_signed(">=", offset, _int(0))):
-            code.set(value, code.load(params, b.add(offset, column)))
-        return code.get(value)
-
-    gram_into(code, G, J, n, r, weight)
-    with b.if_else(b.icmp_signed("==", r, _int(2))) as (two_rows, more_rows):
-        with two_rows:
-            a, off_diagonal, c2 = code.load(G, _int(0)), code.load(G, _int(1)), code.load(G, _int(3))
-            det = b.fsub(b.fmul(a, c2), b.fmul(off_diagonal, off_diagonal))
-            trace = b.fadd(a, c2)
-            threshold = b.fdiv(b.fmul(trace, trace), _double(SINGULAR_CONDITION_NUMBER))
-            with b.if_then(b.not_(b.fcmp_ordered(">", det, threshold))):
-                b.ret(ir.Constant(_BOOL, 0))
-            gap0, gap1 = code.load(gap, _int(0)), code.load(gap, _int(1))
-            code.store(b.fdiv(b.fsub(b.fmul(c2, gap0), b.fmul(off_diagonal, gap1)), det), lam, _int(0))
-            code.store(b.fdiv(b.fsub(b.fmul(a, gap1), b.fmul(off_diagonal, gap0)), det), lam, _int(1))
-        with more_rows:
-            ratio = b.call(linear.ldlt_solve, [r, G, gap, lam])  # reads gap without writing it (the kernel's g)
-            with b.if_then(b.not_(b.fcmp_ordered("<=", ratio, _double(SINGULAR_CONDITION_NUMBER)))):
-                b.ret(ir.Constant(_BOOL, 0))
-    with code.loop(n, "apply") as c:
-        total = code.var(_double(0.0))
-        with code.loop(r, "apply_row") as i:
-            code.set(total, b.fadd(code.get(total), b.fmul(code.load(J, b.add(b.mul(i, n), c)), code.load(lam, i))))
-        target = code.at(coordinates, c)
-        b.store(b.fsub(b.load(target), b.fmul(weight(c), code.get(total))), target)
-    b.ret(ir.Constant(_BOOL, 1))
-    code.seal()
-    return code.function
-
-
-def _project(module: ir.Module, linear: LinearFunctions, correct: ir.Function) -> ir.Function:
-    """``i1 project(i64* layout, double t, double* y, double* params, double* theta, double* omega, double* J,
-    double* v, double* G, double* lam)``: the kernel's ``projection.project_state`` for r != 0: load_state,
-    ``position_onto`` (Gauss-Newton until ``|phi|`` < PROJECTION_TOLERANCE or PROJECTION_MAX_ITERATIONS, or a
-    singular ``J W J^T``), ``velocity_onto`` with the constraints of the final positions, ``y`` written back;
-    false when it is not finite (the kernel's NOT_FINITE)."""
-    code = _function_of(module, "project", _BOOL, [_I64_POINTER, _DOUBLE] + [_DOUBLE_POINTER] * 8)
-    layout, t, y, params, theta, omega, J, v, G, lam = code.function.args
-    b = code.b
-    n = code.load(layout, _int(LAYOUT_COORDINATES))
-    r = code.load(layout, _int(LAYOUT_CONSTRAINTS))
-    offset = code.load(layout, _int(LAYOUT_WEIGHTS))
-    slot = code.load(layout, _int(LAYOUT_TIME))
-    with b.if_then(b.icmp_signed(">=", slot, _int(0))):
-        code.store(t, params, slot)
-    with code.loop(n, "split") as i:
-        code.store(code.load(y, i), theta, i)
-        code.store(code.load(y, b.add(n, i)), omega, i)
-    iteration = code.var(_int(0))
-    body, positioned = code.block("position.body"), code.block("position.done")
-    b.branch(body)
-    b.position_at_end(body)  # every iteration ends in a break or a correction: no test before the first
-    b.call(linear.constraints_into, [layout, J, v, theta, omega, params])
-    total = code.var(_double(0.0))
-    with code.loop(r, "residual") as i:
-        value = code.load(v, i)
-        code.set(total, b.fadd(code.get(total), b.fmul(value, value)))
-    residual = code.sqrt(code.get(total))
-    count = code.get(iteration)
-    finished = b.or_(b.fcmp_ordered("<", residual, _double(PROJECTION_TOLERANCE)),
-                     b.icmp_signed("==", count, _int(PROJECTION_MAX_ITERATIONS)))
-    with b.if_then(finished):
-        code.jump(positioned)
-    corrected = b.call(correct, [n, r, J, G, lam, params, offset, v, theta])
-    with b.if_then(b.not_(corrected)):
-        code.jump(positioned)
-    code.set(iteration, b.add(count, _int(1)))
-    b.branch(body)
-    b.position_at_end(positioned)
-    velocity_offset = b.select(b.icmp_signed("<", offset, _int(0)), offset, b.add(offset, n))
-    b.call(correct, [n, r, J, G, lam, params, velocity_offset, code.at(v, r), omega])
-    finite = code.var(ir.Constant(_BOOL, 1))
-    with code.loop(n, "write_back") as i:
-        position, velocity = code.load(theta, i), code.load(omega, i)
-        code.store(position, y, i)
-        code.store(velocity, y, b.add(n, i))
-    with code.loop(b.mul(_int(2), n), "finite") as i:
-        with b.if_then(b.not_(code.finite(code.load(y, i)))):
-            code.set(finite, ir.Constant(_BOOL, 0))
-    b.ret(code.get(finite))
-    code.seal()
-    return code.function
-
-
-def _function_of(module: ir.Module, name: str, result, arguments) -> _Code:
-    """An internal function of the module under construction."""
-    function = ir.Function(module, ir.FunctionType(result, arguments), name)
-    function.linkage = "internal"
-    return _Code(function)
 
 
 class _Driver:
@@ -803,7 +694,7 @@ def integrators_ir(methods=None) -> str:
     gram = _gram_test(module)
     linear = add_linear_functions(module)
     evaluate = _evaluate(module, fused, linear)
-    project = _project(module, linear, _correct(module, linear))
+    project = ProjectionFunctions(module, linear).project
     for name in (FUNCTION_NAMES if methods is None else methods):
         _Driver(module, _Method(name), evaluate, two_rows, gram, project).emit()
     return str(module)
