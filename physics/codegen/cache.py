@@ -34,7 +34,7 @@ from ..files import write_atomically
 from ..kernels.first_compile import call_announced
 from ..kernels.layout import LAYOUT_RHS, make_layout
 from ..registry import FORMULATION_NAMES
-from . import native_integrators, native_samples
+from . import native_integrators, native_samples, native_states
 from .native import NativeModule
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
@@ -275,8 +275,8 @@ class CompiledSystem:
                      max_steps, y_out, cond_out):
         """RK45 or DOP853 by the drivers generated as LLVM IR (:mod:`physics.codegen.native_integrators`: the
         kernel's bits, without numba's compilation), or by the numba kernel ``kernel_name`` of
-        :mod:`physics.kernels.explicit_rk` for a run they hand back (projection, Baumgarte terms, a per-sample
-        condition; numba is imported only then)."""
+        :mod:`physics.kernels.explicit_rk` for a run they hand back (a per-sample condition; numba is imported
+        only then)."""
         layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
         driver = (self._specialised_driver(method)
                   if native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
@@ -408,40 +408,37 @@ class CompiledSystem:
         return np.array(self.module.MULTIPLIER_INDEX, dtype=np.int64)
 
     def constraint_states(self, t, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The held constraints at states (K, n) and times (K,): ``J`` (K, r, n), ``phi`` (K, r), ``phi_dot`` (K, r)."""
-        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
-
+        """The held constraints at states (K, n) and times (K,): ``J`` (K, r, n), ``phi`` (K, r), ``phi_dot`` (K, r)
+        (the loop of :func:`physics.kernels.system.native_states` generated as IR: its bits, no numba)."""
         theta = np.atleast_2d(_c(theta))
         r = self.constraint_count
         matrix = np.zeros((theta.shape[0], r, theta.shape[1]))
         vector = np.zeros((theta.shape[0], 2 * r))
         if r:
-            system.native_states(self._native("constraints"), self.layout, _c(np.broadcast_to(t, theta.shape[:1])),
-                                 theta, np.atleast_2d(_c(omega)), _c(params), matrix, vector)
+            native_states.native_states(self._native("constraints"), self.layout,
+                                        _c(np.broadcast_to(t, theta.shape[:1])), theta, np.atleast_2d(_c(omega)),
+                                        _c(params), matrix, vector)
         return matrix, vector[:, :r], vector[:, r:]
 
     def kinematics_states(self, theta, omega, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Tree coordinates' kinematics at states (K, n): ``d pose/d theta`` (K, 3B, n), ``pose`` (K, 3B) and the
-        bias (K, 3B) with ``qddot = J theta_ddot + bias``."""
-        from ..kernels import system  # noqa: PLC0415  (numba: only when a kernel runs)
-
+        bias (K, 3B) with ``qddot = J theta_ddot + bias`` (as :meth:`constraint_states`, by IR)."""
         theta = np.atleast_2d(_c(theta))
         size = self.pose_size
         matrix = np.zeros((theta.shape[0], size, theta.shape[1]))
         vector = np.zeros((theta.shape[0], 2 * size))
-        system.native_states(self._native("kinematics"), self.layout, np.zeros(theta.shape[0]), theta,
-                             np.atleast_2d(_c(omega)), _c(params), matrix, vector)
+        native_states.native_states(self._native("kinematics"), self.layout, np.zeros(theta.shape[0]), theta,
+                                    np.atleast_2d(_c(omega)), _c(params), matrix, vector)
         return matrix, vector[:, :size], vector[:, size:]
 
     def project(self, theta, omega, params, t=0.0) -> float:
         """Project ``theta``, ``omega`` (n,) in place onto the held constraints (positions, then velocities) at
-        time ``t``; returns the position residual left (0 when nothing is held)."""
-        from ..kernels import projection  # noqa: PLC0415  (numba: only when a kernel runs)
-
+        time ``t``; returns the position residual left (0 when nothing is held). The kernels' projection generated
+        as IR (:mod:`physics.codegen.native_states`): their bits, no numba."""
         theta_rows = np.ascontiguousarray(theta, dtype=np.float64).reshape(1, -1)
         omega_rows = np.ascontiguousarray(omega, dtype=np.float64).reshape(1, -1)
-        residual = projection.project_states(self.assemble_function, self.layout, np.array([float(t)]), theta_rows,
-                                             omega_rows, _c(params))
+        residual = native_states.project_states(self.layout, np.array([float(t)]), theta_rows, omega_rows,
+                                                _c(params))
         theta[...] = theta_rows[0]
         omega[...] = omega_rows[0]
         return float(residual)

@@ -2,26 +2,29 @@
 
 numba spends about 20 s of an empty-cache run typing and lowering the integrators
 (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`); the same loop emitted here as LLVM IR compiles in a
-fraction of a second with llvmlite. The IR is the numba kernel's algorithm for a run *without projection* and
-*without Baumgarte terms* (``alpha = beta = 0``), written operation for operation in the kernel's order: the same
-IEEE additions, multiplications, divisions, ``sqrt`` and ``pow`` (no fast-math, no FMA contraction), the same
-comparisons (numba's ``min``/``max`` are selects on ``<``/``>``, reproduced as such), so that every sample,
-step count and status is bit-identical to the kernel's.
+fraction of a second with llvmlite. The IR is the numba kernel's algorithm, written operation for operation in
+the kernel's order: the same IEEE additions, multiplications, divisions, ``sqrt`` and ``pow`` (no fast-math, no
+FMA contraction), the same comparisons (numba's ``min``/``max`` are selects on ``<``/``>``, reproduced as such),
+so that every sample, step count and status is bit-identical to the kernel's.
 
-Each right-hand side is evaluated as the kernel's ``rhs_into`` evaluates it: the mechanism's generated fused
-``rhs`` (:mod:`physics.kernels.abi`), called through its address in the layout, and where the kernel would take
-its general path instead (no fused ``rhs``: Lagrange, Newton–Euler; or a pivot ratio above ``RESCALE_ABOVE``, or
-NaN), the general solve written as IR (:mod:`physics.codegen.linear_ir`: assemble, then the structured solve,
-L D L^T or pivoted LU, and the equilibrated fallback). Constraints held without projection or Baumgarte terms (stabilisation "none": a pinned
-chain's two rows, a mechanism's joints) are judged at the start and after each accepted step by the kernel's own
-geometric test (:func:`physics.kernels.system.constraint_ratio`: its closed form for two rows, the pivots of
-``J J^T`` otherwise).
+Each right-hand side is evaluated as the kernel's ``rhs_into`` evaluates it: without Baumgarte terms, the
+mechanism's generated fused ``rhs`` (:mod:`physics.kernels.abi`), called through its address in the layout, and
+where the kernel would take its general path instead (no fused ``rhs``: Lagrange, Newton–Euler; a pivot ratio
+above ``RESCALE_ABOVE``, or NaN; Baumgarte terms, ``alpha`` or ``beta`` not zero), the general solve written as
+IR (:mod:`physics.codegen.linear_ir`: assemble with the Baumgarte terms on the constraints' rows, then the
+structured solve, L D L^T or pivoted LU, and the equilibrated fallback). Constraints (a pinned chain's two rows,
+a mechanism's joints) are judged at the start and after each accepted step by the kernel's own geometric test
+(:func:`physics.kernels.system.constraint_ratio`: its closed form for two rows, the pivots of ``J J^T``
+otherwise). A projecting run (``project`` not zero: asked for, and constraints held) projects the start, each
+accepted step (with a fresh derivative) and each sample as :func:`physics.kernels.projection.project_state`
+does: Gauss-Newton on the positions, then the velocities, by the least (weighted) change, with the kernel's
+statuses (NOT_FINITE where a projected state is not finite).
 
 Entry points (C calling convention), one per method::
 
     i64 integrate_rk45(i64 assemble, i64* layout, double* y0, double t0, double t_end, double* t_eval, i64 n_samples,
-                       double* params, double rtol, double atol, i64 max_steps, double* y_out,
-                       double* scratch, i64* counts, double* t_reached)
+                       double* params, double rtol, double atol, double alpha, double beta, i64 project,
+                       i64 max_steps, double* y_out, double* scratch, i64* counts, double* t_reached)
 
 ``params`` is the caller's copy (the time slot is written), ``y_out`` (n_samples, 2 n) row-major, already NaN,
 ``scratch`` :func:`physics.codegen.ir_shapes.integrator_scratch_length` doubles; ``counts`` receives
@@ -57,15 +60,16 @@ from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code,
 from .ir_shapes import INTEGRATOR_FUNCTION_NAMES as FUNCTION_NAMES
 from .ir_shapes import WORK_VECTORS as _WORK_VECTORS
 from .ir_shapes import stage_rows
-from .linear_ir import LinearFunctions, add_linear_functions
+from .linear_ir import LinearFunctions, add_linear_functions, gram_into, two_row_ratio
+from .projection_ir import ProjectionFunctions
 
 _NOT_FUSED = 1  # the fused rhs's own answer "evaluate by the general path" (physics.kernels.common.NOT_FUSED)
 
 _RHS_TYPE = ir.FunctionType(_DOUBLE, [_DOUBLE_POINTER] * 3)
 _CONSTRAINTS_TYPE = ir.FunctionType(ir.VoidType(), [_DOUBLE_POINTER] * 5)
 DRIVER_TYPE = ir.FunctionType(_I64, [
-    _I64, _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE_POINTER, _I64, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _I64,
-    _DOUBLE_POINTER, _DOUBLE_POINTER, _I64_POINTER, _DOUBLE_POINTER,
+    _I64, _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE_POINTER, _I64, _DOUBLE_POINTER, _DOUBLE, _DOUBLE,
+    _DOUBLE, _DOUBLE, _I64, _I64, _DOUBLE_POINTER, _DOUBLE_POINTER, _I64_POINTER, _DOUBLE_POINTER,
 ])
 
 
@@ -118,24 +122,29 @@ def _fused_rhs(module: ir.Module) -> ir.Function:
 
 def _evaluate(module: ir.Module, fused: ir.Function, linear: LinearFunctions) -> ir.Function:
     """``i64 evaluate(i64 rhs, i64 assemble, i64* layout, double* A, double* b, double* x, double* col_scale,
-    double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt)``: one
-    right-hand side as the kernel's rhs_into evaluates it without Baumgarte terms: the fused ``rhs`` (at address
-    ``rhs``) when there is one, the general path when there is none or it answers NOT_FUSED. One function called
-    from every stage (not inlined at each: the driver's IR stays about as short as with the fused call alone)."""
+    double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt,
+    double alpha, double beta)``: one right-hand side as the kernel's rhs_into evaluates it: without Baumgarte
+    terms (``alpha == beta == 0``) the fused ``rhs`` (at address ``rhs``) when there is one, the general path
+    (with the Baumgarte terms) when there is none, it answers NOT_FUSED or the gains are not zero. One function
+    called from every stage (not inlined at each: the driver's IR stays about as short as with the fused call
+    alone)."""
     function = ir.Function(module, ir.FunctionType(_I64, [_I64, _I64, _I64_POINTER] + [_DOUBLE_POINTER] * 6
-                                                   + [_DOUBLE] + [_DOUBLE_POINTER] * 5), "evaluate")
+                                                   + [_DOUBLE] + [_DOUBLE_POINTER] * 5 + [_DOUBLE, _DOUBLE]),
+                           "evaluate")
     function.linkage = "internal"
     code = _Code(function)
-    rhs, assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt = function.args
+    rhs, assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt, alpha, beta = (
+        function.args)
     b = code.b
-    with b.if_then(b.icmp_signed("!=", rhs, _int(0)), likely=True):
+    fusing = b.and_(b.fcmp_ordered("==", alpha, _double(0.0)), b.fcmp_ordered("==", beta, _double(0.0)))
+    with b.if_then(b.and_(b.icmp_signed("!=", rhs, _int(0)), fusing), likely=True):
         slot = code.load(layout, _int(LAYOUT_TIME))
         n = code.load(layout, _int(LAYOUT_COORDINATES))
         status = b.call(fused, [rhs, slot, n, t, y, params, dydt])
         with b.if_then(b.icmp_signed("!=", status, _int(_NOT_FUSED)), likely=True):
             b.ret(status)
     b.ret(b.call(linear.general_rhs, [assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega,
-                                      dydt]))
+                                      dydt, alpha, beta]))
     code.seal()
     return function
 
@@ -152,25 +161,12 @@ def _two_row_test(module: ir.Module) -> ir.Function:
     address, slot, n, t, y, params, theta, omega, J, v = function.args
     b = code.b
     _load_constraints(code, address, slot, n, _int(2), t, y, params, theta, omega, J, v)
-    jxx, jyy, jxy = code.var(_double(0.0)), code.var(_double(0.0)), code.var(_double(0.0))
-    with code.loop(n, "gram") as i:
-        first, second = code.load(J, i), code.load(J, b.add(n, i))
-        code.set(jxx, b.fadd(code.get(jxx), b.fmul(first, first)))
-        code.set(jyy, b.fadd(code.get(jyy), b.fmul(second, second)))
-        code.set(jxy, b.fadd(code.get(jxy), b.fmul(first, second)))
-    xx, yy, xy = code.get(jxx), code.get(jyy), code.get(jxy)
-    half_trace = b.fmul(_double(0.5), b.fadd(xx, yy))
-    radicand = b.fsub(b.fmul(half_trace, half_trace), b.fsub(b.fmul(xx, yy), b.fmul(xy, xy)))
-    gap = code.sqrt(code.maximum(_double(0.0), radicand))
-    smallest = b.fsub(half_trace, gap)
-    singular, regular = code.block("singular"), code.block("regular")
-    b.cbranch(b.fcmp_ordered(">", smallest, _double(0.0)), regular, singular)
-    b.position_at_end(singular)
-    b.ret(_int(STATUS_SINGULAR))  # ratio inf > SINGULAR_PIVOT_RATIO
-    b.position_at_end(regular)
-    ratio = code.sqrt(b.fdiv(b.fadd(half_trace, gap), smallest))
+    singular = code.block("singular")
+    ratio = two_row_ratio(code, J, n, singular)
     b.ret(b.select(b.fcmp_ordered(">", ratio, _double(SINGULAR_PIVOT_RATIO)), _int(STATUS_SINGULAR),
                    _int(STATUS_OK)))
+    b.position_at_end(singular)
+    b.ret(_int(STATUS_SINGULAR))  # ratio inf > SINGULAR_PIVOT_RATIO
     code.seal()
     return function
 
@@ -206,21 +202,7 @@ def _gram_test(module: ir.Module) -> ir.Function:
     def entry(matrix, row, column, columns):
         return code.at(matrix, b.add(b.mul(row, columns), column))
 
-    with code.loop(b.mul(r, r), "gram_zero") as i:
-        code.store(_double(0.0), G, i)
-    with code.loop(n, "gram_column") as c:
-        with code.loop(r, "gram_row") as i:
-            first = b.load(entry(J, i, c, n))
-            with b.if_then(b.fcmp_unordered("!=", first, _double(0.0))):
-                value = b.fmul(first, _double(1.0))  # column_weight: 1 with unit weights
-                with code.loop(r, "gram_pair", start=i) as k:
-                    second = b.load(entry(J, k, c, n))
-                    with b.if_then(b.fcmp_unordered("!=", second, _double(0.0))):
-                        target = entry(G, i, k, r)
-                        b.store(b.fadd(b.load(target), b.fmul(value, second)), target)
-    with code.loop(r, "mirror") as i:
-        with code.loop(r, "mirror_column", start=b.add(i, _int(1))) as j:
-            b.store(b.load(entry(G, i, j, r)), entry(G, j, i, r))
+    gram_into(code, G, J, n, r, lambda column: _double(1.0))  # unit weights
     largest, smallest = code.var(_double(0.0)), code.var(_double(float("inf")))
     singular = code.block("singular")
     with code.loop(r, "ldlt") as j:
@@ -263,19 +245,21 @@ def _gram_test(module: ir.Module) -> ir.Function:
 
 
 class _Driver:
-    """The body of one method's driver (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`, without
-    projection, alpha = beta = 0), in the kernel's order of operations."""
+    """The body of one method's driver (:func:`physics.kernels.explicit_rk._integrate_explicit_rk`), in the
+    kernel's order of operations."""
 
     def __init__(self, module: ir.Module, method: _Method, evaluate: ir.Function, two_rows: ir.Function,
-                 gram: ir.Function) -> None:
+                 gram: ir.Function, project: ir.Function) -> None:
         self.method = method
         self.evaluate_function = evaluate
         self.two_row_function = two_rows
         self.gram_function = gram
+        self.project_function = project
         function = ir.Function(module, DRIVER_TYPE, FUNCTION_NAMES[method.name])
         self.code = _Code(function)
-        (self.assemble, self.layout, self.y0, self.t0, self.t_end, self.t_eval, self.n_samples, self.params, self.rtol, self.atol,
-         self.max_steps, self.y_out, scratch, self.counts, self.t_reached) = function.args
+        (self.assemble, self.layout, self.y0, self.t0, self.t_end, self.t_eval, self.n_samples, self.params, self.rtol,
+         self.atol, self.alpha, self.beta, projecting, self.max_steps, self.y_out, scratch, self.counts,
+         self.t_reached) = function.args
         code, b = self.code, self.code.b
         self.n = code.load(self.layout, _int(LAYOUT_COORDINATES))
         self.n_state = b.mul(_int(2), self.n)
@@ -301,6 +285,8 @@ class _Driver:
         self.b_vector = code.at(self.A, b.mul(self.k, self.k))
         self.x = code.at(self.b_vector, self.k)
         self.col_scale = code.at(self.x, self.k)
+        self.lam = code.at(self.col_scale, self.k)
+        self.projecting = b.icmp_signed("!=", projecting, _int(0))
         self.status = code.var(_int(STATUS_OK))
         self.n_steps = code.var(_int(0))
         self.n_rhs = code.var(_int(0))
@@ -322,7 +308,12 @@ class _Driver:
         code.set(self.n_rhs, b.add(code.get(self.n_rhs), _int(1)))
         return b.call(self.evaluate_function, [
             self.rhs_address, self.assemble, self.layout, self.A, self.b_vector, self.x, self.col_scale, self.J,
-            self.v, t, y, self.params, self.theta, self.omega, dydt])
+            self.v, t, y, self.params, self.theta, self.omega, dydt, self.alpha, self.beta])
+
+    def project(self, t, y):
+        """The kernel's project_state of ``y`` at ``t`` in place: true when the result is finite."""
+        return self.code.b.call(self.project_function, [self.layout, t, y, self.params, self.theta, self.omega,
+                                                        self.J, self.v, self.G, self.lam])
 
     def geometric(self, t, y):
         """The kernel's step_status with constraints (r != 0): its closed form for two rows, else J J^T's pivots."""
@@ -404,8 +395,12 @@ class _Driver:
                 b.branch(self.exit)
 
     def start(self) -> None:
-        """start_rhs and initial_samples; a run of zero length ends here."""
+        """A projecting run's projection of the start (NOT_FINITE before any evaluation), start_rhs and
+        initial_samples; a run of zero length ends here."""
         code, b = self.code, self.code.b
+        with b.if_then(self.projecting):
+            with b.if_then(b.not_(self.project(self.t0, self.y))):
+                self.finish(_int(STATUS_NOT_FINITE))
         status = self.fused(self.t0, self.y, self.f)
         all_finite = code.var(ir.Constant(_BOOL, 1))
         with code.loop(self.n_state, "start_finite") as j:
@@ -556,6 +551,14 @@ class _Driver:
         with code.loop(n_state, "next") as j:
             code.store(code.load(self.y_new, j), self.y_next, j)
             code.store(code.load(last_row, j), self.f_next, j)
+        with b.if_then(self.projecting):  # the next state projected, with a fresh derivative
+            with b.if_then(b.not_(self.project(t_new, self.y_next))):
+                code.set(self.status, _int(STATUS_NOT_FINITE))
+                code.jump(done)
+            status = self.fused(t_new, self.y_next, self.f_next)
+            with b.if_then(b.icmp_signed("!=", status, _int(STATUS_OK))):
+                code.set(self.status, status)
+                code.jump(done)
         self.samples(t, t_new, h, done)
         self.copy(self.y_next, self.y)
         self.copy(self.f_next, self.f)
@@ -621,6 +624,8 @@ class _Driver:
             self.dop853_sample(x)
         else:
             self.rk45_sample(x, h)
+        with b.if_then(self.projecting):  # each sample projected (its finiteness is not judged)
+            self.project(code.load(self.t_eval, code.get(self.i_sample)), self.y_stage)
         self.write_sample(self.y_stage)
         b.branch(test)
         b.position_at_end(skip)
@@ -681,7 +686,9 @@ def integrators_module(methods=None) -> ir.Module:
     fused = _fused_rhs(module)
     two_rows = _two_row_test(module)
     gram = _gram_test(module)
-    evaluate = _evaluate(module, fused, add_linear_functions(module))
+    linear = add_linear_functions(module)
+    evaluate = _evaluate(module, fused, linear)
+    project = ProjectionFunctions(module, linear).project
     for name in (FUNCTION_NAMES if methods is None else methods):
-        _Driver(module, _Method(name), evaluate, two_rows, gram).emit()
+        _Driver(module, _Method(name), evaluate, two_rows, gram, project).emit()
     return module

@@ -39,12 +39,13 @@ def integrator_scratch_length(method: str, n_state: int, n_constraints: int, n_u
     """Doubles of scratch the driver of ``method`` needs for a state of ``n_state`` (= 2 n) entries,
     ``n_constraints`` rows and ``n_unknowns`` unknowns: the stage rows ``K``, DOP853's dense-output rows ``F``,
     eight vectors, ``theta``, ``omega``, the constraints' ``J`` (r x n, two rows at least), ``v`` (2 r), ``G``
-    (r x r), and the general solve's ``A`` (k x k), ``b``, ``x`` and ``col_scale`` (k each)."""
+    (r x r), the general solve's ``A`` (k x k), ``b``, ``x`` and ``col_scale`` (k each), and the projection's
+    multipliers ``lam`` (r)."""
     rows = stage_rows(method)
     r = max(n_constraints, 2)
     k = n_unknowns
     return ((rows + tables.DOP853_INTERPOLATOR_POWER + WORK_VECTORS) * n_state + n_state + r * n_state // 2 + 2 * r
-            + r * r + k * k + 3 * k)
+            + r * r + k * k + 3 * k + r)
 
 
 def samples_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:

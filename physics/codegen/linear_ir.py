@@ -64,6 +64,52 @@ def _fill(code: _Code, pointer, count, value: float, name: str) -> None:
         code.store(_double(value), pointer, i)
 
 
+def gram_into(code: _Code, G, J, n, r, weight) -> None:
+    """``G[:r, :r] = J W J^T`` as :func:`physics.kernels.linear.gram_into` sums it: column by column over the
+    column's non-zeros (``!=`` unordered, as numba's), the upper triangle summed and mirrored. ``weight(c)``
+    emits column ``c``'s weight (the constant 1 for unit weights). One emitter for the constraints' geometric
+    test (:func:`physics.kernels.system.constraint_ratio`) and the projection (``projection._correct``)."""
+    b = code.b
+    _fill(code, G, b.mul(r, r), 0.0, "gram_zero")
+    with code.loop(n, "gram_column") as c:
+        column_weight = weight(c)
+        with code.loop(r, "gram_row") as i:
+            first = b.load(_entry(code, J, i, c, n))
+            with b.if_then(b.fcmp_unordered("!=", first, _double(0.0))):
+                value = b.fmul(first, column_weight)
+                with code.loop(r, "gram_pair", start=i) as j:
+                    second = b.load(_entry(code, J, j, c, n))
+                    with b.if_then(b.fcmp_unordered("!=", second, _double(0.0))):
+                        target = _entry(code, G, i, j, r)
+                        b.store(b.fadd(b.load(target), b.fmul(value, second)), target)
+    with code.loop(r, "mirror") as i:
+        with code.loop(r, "mirror_column", start=b.add(i, _int(1))) as j:
+            b.store(b.load(_entry(code, G, i, j, r)), _entry(code, G, j, i, r))
+
+
+def two_row_ratio(code: _Code, J, n, singular: ir.Block):
+    """sigma_max / sigma_min of a two-row ``J`` (2 x n) by :func:`physics.kernels.system.constraint_ratio`'s
+    closed form (the eigenvalues of the 2 x 2 Gram matrix): branches to ``singular`` where the smallest is not
+    positive (the kernel's inf), else returns the ratio in the block the builder is left in. The one emitter
+    of this form, for the samples' pass and the integrators' step test alike."""
+    b = code.b
+    jxx, jyy, jxy = code.var(_double(0.0)), code.var(_double(0.0)), code.var(_double(0.0))
+    with code.loop(n, "gram") as i:
+        first, second = code.load(J, i), code.load(J, b.add(n, i))
+        code.set(jxx, b.fadd(code.get(jxx), b.fmul(first, first)))
+        code.set(jyy, b.fadd(code.get(jyy), b.fmul(second, second)))
+        code.set(jxy, b.fadd(code.get(jxy), b.fmul(first, second)))
+    xx, yy, xy = code.get(jxx), code.get(jyy), code.get(jxy)
+    half_trace = b.fmul(_double(0.5), b.fadd(xx, yy))
+    radicand = b.fsub(b.fmul(half_trace, half_trace), b.fsub(b.fmul(xx, yy), b.fmul(xy, xy)))
+    gap = code.sqrt(code.maximum(_double(0.0), radicand))
+    smallest = b.fsub(half_trace, gap)
+    regular = code.block("two_rows.regular")
+    b.cbranch(b.fcmp_ordered(">", smallest, _double(0.0)), regular, singular)
+    b.position_at_end(regular)
+    return code.sqrt(b.fdiv(b.fadd(half_trace, gap), smallest))
+
+
 @contextmanager
 def _downward(code: _Code, count, name: str):
     """``for i in range(count - 1, -1, -1)``: yields ``i`` (as :meth:`_Code.loop` yields its index)."""
@@ -348,34 +394,13 @@ class LinearFunctions:
         b.call(self.constraints_into, [layout, J, v, theta, omega, params])
         n, r = code.load(layout, _int(LAYOUT_COORDINATES)), code.load(layout, _int(LAYOUT_CONSTRAINTS))
         with b.if_then(b.icmp_signed("==", r, _int(2))):
-            jxx, jyy, jxy = code.var(_double(0.0)), code.var(_double(0.0)), code.var(_double(0.0))
-            with code.loop(n, "gram") as i:
-                first, second = code.load(J, i), code.load(J, b.add(n, i))
-                code.set(jxx, b.fadd(code.get(jxx), b.fmul(first, first)))
-                code.set(jyy, b.fadd(code.get(jyy), b.fmul(second, second)))
-                code.set(jxy, b.fadd(code.get(jxy), b.fmul(first, second)))
-            xx, yy, xy = code.get(jxx), code.get(jyy), code.get(jxy)
-            half_trace = b.fmul(_double(0.5), b.fadd(xx, yy))
-            radicand = b.fsub(b.fmul(half_trace, half_trace), b.fsub(b.fmul(xx, yy), b.fmul(xy, xy)))
-            gap = code.sqrt(code.maximum(_double(0.0), radicand))
-            smallest = b.fsub(half_trace, gap)
-            with b.if_then(b.not_(b.fcmp_ordered(">", smallest, _double(0.0)))):
-                b.ret(_double(_INF))
-            b.ret(code.sqrt(b.fdiv(b.fadd(half_trace, gap), smallest)))
-        _fill(code, G, b.mul(r, r), 0.0, "gram_zero")
-        with code.loop(n, "gram_column") as c:
-            with code.loop(r, "gram_row") as i:
-                first = b.load(_entry(code, J, i, c, n))
-                with b.if_then(b.fcmp_unordered("!=", first, _double(0.0))):
-                    value = b.fmul(first, _double(1.0))  # column_weight: 1 with unit weights
-                    with code.loop(r, "gram_pair", start=i) as j:
-                        second = b.load(_entry(code, J, j, c, n))
-                        with b.if_then(b.fcmp_unordered("!=", second, _double(0.0))):
-                            target = _entry(code, G, i, j, r)
-                            b.store(b.fadd(b.load(target), b.fmul(value, second)), target)
-        with code.loop(r, "mirror") as i:
-            with code.loop(r, "mirror_column", start=b.add(i, _int(1))) as j:
-                b.store(b.load(_entry(code, G, i, j, r)), _entry(code, G, j, i, r))
+            singular = code.block("two_rows.singular")
+            ratio = two_row_ratio(code, J, n, singular)
+            b.ret(ratio)
+            b.position_at_end(singular)
+            b.ret(_double(_INF))
+            b.position_at_end(code.block("two_rows.after"))
+        gram_into(code, G, J, n, r, lambda column: _double(1.0))  # unit weights
         ratio = b.call(self.ldlt_factor, [r, G])
         with b.if_then(b.not_(b.fcmp_ordered("<", ratio, _double(_INF)))):
             b.ret(_double(_INF))
@@ -385,12 +410,14 @@ class LinearFunctions:
 
     def _general_rhs(self) -> ir.Function:
         """``i64 general_rhs(i64 assemble, i64* layout, double* A, double* b, double* x, double* col_scale,
-        double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt)``:
-        common.rhs_into's general path without Baumgarte terms (load_state, unknowns_into, the accelerations into
-        ``dydt``): OK, SINGULAR or NOT_FINITE."""
+        double* J, double* v, double t, double* y, double* params, double* theta, double* omega, double* dydt,
+        double alpha, double beta)``: common.rhs_into's general path (load_state, unknowns_into with the
+        Baumgarte gains ``alpha``, ``beta``, the accelerations into ``dydt``): OK, SINGULAR or NOT_FINITE."""
         code = _function(self.module, "general_rhs", _I64,
-                         [_I64, _I64_POINTER] + [_DOUBLE_POINTER] * 6 + [_DOUBLE] + [_DOUBLE_POINTER] * 5)
-        assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt = code.function.args
+                         [_I64, _I64_POINTER] + [_DOUBLE_POINTER] * 6 + [_DOUBLE] + [_DOUBLE_POINTER] * 5
+                         + [_DOUBLE, _DOUBLE])
+        (assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt, alpha,
+         beta) = code.function.args
         b = code.b
         n = code.load(layout, _int(LAYOUT_COORDINATES))
         slot = code.load(layout, _int(LAYOUT_TIME))
@@ -400,7 +427,7 @@ class LinearFunctions:
             code.store(code.load(y, i), theta, i)
             code.store(code.load(y, b.add(n, i)), omega, i)
         condition = b.call(self.unknowns, [assemble, layout, A, b_vector, x, col_scale, J, v, theta, omega, params,
-                                           _double(0.0), _double(0.0)])
+                                           alpha, beta])
         finite = code.var(b.fcmp_ordered("==", condition, condition))
         with code.loop(n, "accelerations") as i:
             acceleration = code.load(x, code.load(layout, b.add(_int(LAYOUT_ACCELERATION), i)))

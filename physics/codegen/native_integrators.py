@@ -1,11 +1,11 @@
 """The RK45 and DOP853 drivers of :mod:`physics.codegen.integrator_ir`, compiled once per installation (the machine code kept in the cache) and called.
 
 :func:`integrate` answers a run exactly as :func:`physics.kernels.explicit_rk.integrate_rk45` /
-``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a projecting run,
-Baumgarte terms (``alpha`` or ``beta`` not zero), or a per-sample condition asked for (``cond_out`` not empty).
-Every other run is answered, with or without a generated fused ``rhs`` (the general solve is IR too,
-:mod:`physics.codegen.linear_ir`). Arrays are checked as the kernel checks them (the same ``ValueError`` for a
-programming error).
+``integrate_dop853`` would, or returns ``None`` when the numba kernel must run it instead: a per-sample
+condition asked for (``cond_out`` not empty), or arrays of another type or order than the kernel's. Every other
+run is answered, stabilised or not (projection onto the constraints, Baumgarte terms), with or without a
+generated fused ``rhs`` (the general solve is IR too, :mod:`physics.codegen.linear_ir`). Arrays are checked as
+the kernel checks them (the same ``ValueError`` for a programming error).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from .machine_code import compile_module, is_cached, llvm_binding, sources_diges
 
 _SIGNATURE = ctypes.CFUNCTYPE(
     ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p,
-    ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64, ctypes.c_void_p,
-    ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+    ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+    ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
 )
 _lock = threading.Lock()
 _compiled: dict = {}
@@ -115,9 +115,9 @@ def specialised_cached(method: str, layout: np.ndarray, system_digest: str) -> b
 
 
 def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
-    """Whether the IR drivers answer a run of these settings (else :func:`integrate` hands it back)."""
-    return (alpha == 0.0 and beta == 0.0 and cond_out.shape[0] == 0
-            and not (project and layout[LAYOUT_CONSTRAINTS] != 0))
+    """Whether the IR drivers answer a run of these settings (else :func:`integrate` hands it back): every run
+    but one that asks for a condition estimate per sample (Baumgarte terms and projection are theirs too)."""
+    return cond_out.shape[0] == 0
 
 
 def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest: str, key: str):
@@ -196,8 +196,10 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
     values[at_t_eval:at_params] = t_eval
     values[at_params:at_scratch] = params
     base = values.ctypes.data
+    projecting = bool(project) and layout[LAYOUT_CONSTRAINTS] != 0  # the kernel's _projecting
     y_out.fill(np.nan)
     status = driver(int(assemble), layout.ctypes.data, base + 8 * at_y0, float(t0), float(t_end),
-                    base + 8 * at_t_eval, n_samples, base + 8 * at_params, float(rtol), float(atol), int(max_steps),
-                    y_out.ctypes.data, base + 8 * at_scratch, base, base + 24)
+                    base + 8 * at_t_eval, n_samples, base + 8 * at_params, float(rtol), float(atol), float(alpha),
+                    float(beta), int(projecting), int(max_steps), y_out.ctypes.data, base + 8 * at_scratch, base,
+                    base + 24)
     return int(status), int(counts[0]), int(counts[1]), float(values[3]), int(counts[2])

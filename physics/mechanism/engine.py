@@ -122,8 +122,8 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     cond_out = np.empty(0)  # no condition per sample from the kernel (the run reports its own: _conditions)
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
-        # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation); the kernel for
-        # a run they hand back (projection, Baumgarte terms: physics/codegen/native_integrators.py)
+        # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation, stabilised or
+        # not); the kernel for a run they hand back (physics/codegen/native_integrators.py)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
                                               params, settings.rtol, settings.atol, alpha, beta, project,
                                               settings.max_steps, y_out, cond_out)
@@ -167,7 +167,8 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
             ) -> Samples:
     """Solve the formulation's system at every sample (no Baumgarte terms) and map its coordinates to every
     body's pose: the identity for the DAE, the generated kinematics for tree coordinates."""
-    full, condition = compiled.solve_full_batch(x, v, params)
+    # the samples' pass generated as IR (the kernel's bits, nothing for numba to compile)
+    full, condition = compiled.solve_samples(np.ascontiguousarray(x), np.ascontiguousarray(v), params)
     acceleration = full[:, compiled.theta_ddot_index]
     multipliers = full[:, compiled.multiplier_index]
     jacobian_rows, phi, _ = compiled.constraint_states(times, x, v, params)
@@ -358,25 +359,24 @@ def _first(solved: Samples, count: int) -> Samples:
 def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallback):
     """Every sample of a mechanism its motors fully determine, by position and velocity analysis on the
     formulation's own constraints: from the last sample moved on by its velocity, Gauss-Newton onto
-    ``phi(x, t) = 0`` and the velocity that keeps it there (the kernels' projection, a few microseconds per
-    sample). Where Newton has not closed the loops, the sample is assembled again in Python (``fallback``).
+    ``phi(x, t) = 0`` and the velocity that keeps it there (the kernels' projection generated as IR,
+    :mod:`physics.codegen.native_states`: a few microseconds per sample, and no numba). Where Newton has not closed the loops, the sample is assembled again in Python (``fallback``).
     Returns ``(x, v, None)``, or the samples up to where no pose closes the loops and the reason."""
+    from ..codegen.native_states import project_states  # noqa: PLC0415
     from ..errors import LinkageError  # noqa: PLC0415
     from ..kernels.constants import PROJECTION_TOLERANCE  # noqa: PLC0415
-    from ..kernels.projection import project_states  # noqa: PLC0415
 
     times = np.ascontiguousarray(times, dtype=float)
     xs, vs = np.empty((times.size, np.size(x0))), np.empty((times.size, np.size(v0)))
     xs[0], vs[0] = x0, v0
     scale = max(1.0, float(np.max(np.abs(x0))))
     tolerance = 100.0 * PROJECTION_TOLERANCE * scale
-    assemble_function = compiled.assemble_function
     theta, omega = np.empty((1, xs.shape[1])), np.empty((1, vs.shape[1]))  # the kernel's row, filled anew each time
     for k in range(1, times.size):  # each sample starts from the one before: a loop, the kernel does the work
         np.multiply(vs[k - 1], times[k] - times[k - 1], out=theta[0])
         np.add(xs[k - 1], theta[0], out=theta[0])  # the last sample moved on by its velocity
         omega[0] = vs[k - 1]
-        left = project_states(assemble_function, layout, times[k : k + 1], theta, omega, params)
+        left = project_states(layout, times[k : k + 1], theta, omega, params)
         if not left < tolerance or not np.isfinite(theta).all():
             try:
                 theta[0], omega[0] = fallback(xs[k - 1], vs[k - 1], float(times[k]))

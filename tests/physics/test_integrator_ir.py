@@ -1,7 +1,7 @@
 """The RK45 and DOP853 drivers written as LLVM IR (physics.codegen.integrator_ir) give the numba kernel's very
-bits: every sample, the status, the step and evaluation counts and where the run stopped. Where the IR driver
-cannot answer as the kernel would (projection, Baumgarte terms, a per-sample condition), it says so (None)
-and the kernel runs. Where the kernel takes its general linear solve (no fused rhs: Lagrange, Newton-Euler; or
+bits: every sample, the status, the step and evaluation counts and where the run stopped, stabilised or not
+(projection onto the constraints, Baumgarte terms). Where the IR driver cannot answer as the kernel would (a
+per-sample condition), it says so (None) and the kernel runs. Where the kernel takes its general linear solve (no fused rhs: Lagrange, Newton-Euler; or
 a pivot ratio that asks for it), the IR driver takes the same solve written as IR (physics.codegen.linear_ir)."""
 
 from __future__ import annotations
@@ -142,13 +142,62 @@ def test_a_system_without_a_fused_rhs_gives_the_kernels_bits(method, preset, lin
     assert results[0][0] == STATUS_OK and results[0][4] == 200 and results[0][1] > 20
 
 
-def test_runs_the_ir_driver_does_not_reproduce_are_handed_to_the_kernel():
+def test_a_run_asking_for_the_per_sample_condition_is_handed_to_the_kernel():
     compiled, y0, params = _chain_case("four-bar")
     t_eval = np.linspace(0.0, 1.0, 11)
-    baumgarte = _both(compiled, "RK45", y0, 0.0, 1.0, t_eval, params, alpha=5.0, beta=5.0)
-    projecting = _both(compiled, "RK45", y0, 0.0, 1.0, t_eval, params, project=True)
-    assert baumgarte[0] is None and projecting[0] is None
-    assert baumgarte[2][0] == STATUS_OK and projecting[2][0] == STATUS_OK
+    y_out = np.empty((11, y0.size))
+    answer = native_integrators.integrate("RK45", compiled.assemble_function, compiled.integration_layout, y0, 0.0,
+                                          1.0, t_eval, params, 1e-6, 1e-9, 0.0, 0.0, True, 10_000, y_out,
+                                          np.empty(11))
+    assert answer is None
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+@pytest.mark.parametrize("stabilisation", ["projection", "baumgarte"])
+@pytest.mark.parametrize("method", ["dae", "newton_euler"])
+def test_a_stabilised_four_bar_gives_the_kernels_bits(method, stabilisation, integrator):
+    """The four-bar's default run (projection onto the pin: every accepted step and every sample, positions
+    then velocities) and a Baumgarte run (alpha = beta = 5: the general solve with the terms on the
+    constraints' rows, the fused rhs never called), by the IR drivers as by the kernel."""
+    compiled, y0, params = _chain_case("four-bar", method)
+    t_eval = np.linspace(0.0, 10.0, 301)
+    gains = {"alpha": 5.0, "beta": 5.0} if stabilisation == "baumgarte" else {"project": True}
+    results = _both(compiled, integrator, y0, 0.0, 10.0, t_eval, params, 1e-8, 1e-10, **gains)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_OK and results[0][4] == 301 and results[0][1] > 50
+    if stabilisation == "projection":  # held to the projection's tolerance at every sample
+        pin = params[-3:-1]
+        tips = np.array([joint_positions(physics.get_preset("four-bar").chain.array("L"), row[:3])[-1]
+                         for row in results[1]])
+        assert np.max(np.abs(tips - pin)) < 1e-12
+
+
+@pytest.mark.parametrize("integrator", ["RK45", "DOP853"])
+def test_a_projecting_runs_failures_give_the_kernels_status(integrator):
+    """A NaN start: its projection is not finite, NOT_FINITE before any evaluation (no sample). A start at the
+    singular straight pose: the projection leaves it (J W J^T singular), the run stops SINGULAR. Out of steps,
+    and a blow-up (gravity past any real value), each where the kernel stops."""
+    compiled, y0, params = _chain_case("four-bar")
+    t_eval = np.linspace(0.0, 5.0, 51)
+    start = y0.copy()
+    start[1] = np.nan
+    results = _both(compiled, integrator, start, 0.0, 5.0, t_eval, params, project=True)
+    _assert_identical(*results)
+    assert results[0] == (STATUS_NOT_FINITE, 0, 0, 0.0, 0)
+    straight = np.concatenate([np.full(3, 0.3), np.zeros(3)])
+    pinned = params.copy()
+    pinned[-3:-1] = joint_positions(physics.get_preset("four-bar").chain.array("L"), straight[:3])[-1]
+    results = _both(compiled, integrator, straight, 0.0, 5.0, t_eval, pinned, project=True)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_SINGULAR
+    results = _both(compiled, integrator, y0, 0.0, 5.0, t_eval, params, project=True, max_steps=9)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_MAX_STEPS and results[0][1] == 9
+    huge = params.copy()
+    huge[G_INDEX] = 1e306
+    results = _both(compiled, integrator, y0, 0.0, 5.0, t_eval, huge, project=True)
+    _assert_identical(*results)
+    assert results[0][0] == STATUS_NOT_FINITE
 
 
 @pytest.mark.parametrize("method", ["dae", "lagrange"])
@@ -250,3 +299,53 @@ def test_a_light_tip_takes_the_equilibrated_solve_with_the_kernels_bits(method, 
         assert results[0][0] == STATUS_SINGULAR
     else:
         assert results[0][0] == STATUS_OK and results[0][4] == 51
+
+
+def _mechanism_runs(monkeypatch, name: str, **options):
+    """A mechanism preset's run through the engine twice: by the IR drivers (each call answered, counted) and
+    with them refused (the numba kernel integrates), as ``(ir_trajectory, kernel_trajectory)``."""
+    from physics.mechanism.presets import MECHANISM_PRESETS  # noqa: PLC0415
+    from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
+
+    integrate = native_integrators.integrate
+    answered = []
+
+    def counted(*arguments):
+        answer = integrate(*arguments)
+        answered.append(answer is not None)
+        return answer
+
+    runs = []
+    for refuse in (False, True):
+        monkeypatch.setattr(native_integrators, "integrate", (lambda *arguments: None) if refuse else counted)
+        runs.append(simulate_mechanism(MECHANISM_PRESETS[name](), 2.0, 41, integrate=True, **options))
+    monkeypatch.setattr(native_integrators, "integrate", integrate)
+    assert answered == [True]
+    return runs
+
+
+def _assert_same_run(ir_run, kernel_run):
+    for field in ("t", "q", "qdot"):
+        assert np.array_equal(getattr(ir_run, field), getattr(kernel_run, field)), field
+    assert (ir_run.status, ir_run.n_steps, ir_run.n_rhs) == (kernel_run.status, kernel_run.n_steps, kernel_run.n_rhs)
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "crank-rocker", "chebyshev-lambda", "watt-six-bar",
+                                  "stephenson-six-bar", "jansen-leg", "geared-five-bar"])
+def test_every_mechanism_preset_with_projection_gives_the_kernels_bits(name, monkeypatch):
+    """The general mechanisms' default (projection, DOP853, weighted: rotations by the sketch's size, velocities
+    by the inverse mass matrix), integrated for 2 s, by the engine's call of the IR driver and by the kernel:
+    the same samples, status and counts; RK45 in the tree coordinates (unit weights)."""
+    ir_run, kernel_run = _mechanism_runs(monkeypatch, name, stabilization="projection")
+    _assert_same_run(ir_run, kernel_run)
+    assert ir_run.t.size == 41 and ir_run.n_steps > 5
+    ir_run, kernel_run = _mechanism_runs(monkeypatch, name, stabilization="projection", integrator="RK45",
+                                         coordinates="tree", rtol=1e-8, atol=1e-8)
+    _assert_same_run(ir_run, kernel_run)
+
+
+@pytest.mark.parametrize("name", ["slider-crank", "watt-six-bar"])
+def test_a_mechanism_with_baumgarte_terms_gives_the_kernels_bits(name, monkeypatch):
+    ir_run, kernel_run = _mechanism_runs(monkeypatch, name, stabilization="baumgarte")
+    _assert_same_run(ir_run, kernel_run)
+    assert ir_run.t.size == 41

@@ -1,0 +1,71 @@
+"""The projection's and the per-sample loops of :mod:`physics.codegen.projection_ir`, compiled once per process
+(the machine code kept in the cache) and called through ctypes.
+
+Each function takes the arguments of the numba kernel it replaces (:func:`physics.kernels.projection.project_states`,
+:func:`physics.kernels.system.native_states`) and fills the same outputs with the same bits, so that a driven
+mechanism's position analysis and every mechanism's samples need no numba compilation. Arrays are checked
+before any pointer is handed over (a wrong one is a programming error: ``ValueError``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES
+from .native_integrators import compile_functions
+from .projection_ir import STATES_FUNCTION_NAMES, scratch_length, states_ir
+
+_P = ctypes.c_void_p
+_I = ctypes.c_int64
+_SIGNATURES = {
+    "project_states": ctypes.CFUNCTYPE(ctypes.c_double, _P, _I, _P, _P, _P, _P, _P),
+    "native_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _I, _I, _P, _P),
+}
+_functions: dict = {}
+
+
+def _function(name: str):
+    if name not in _functions:
+        addresses = compile_functions("states", states_ir, STATES_FUNCTION_NAMES)
+        for each in STATES_FUNCTION_NAMES:
+            _functions.setdefault(each, _SIGNATURES[each](addresses[each]))
+    return _functions[name]
+
+
+def _pointer(array, shape: tuple, dtype=np.float64) -> int:
+    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
+    ``dtype`` and of ``shape`` (None: any length on that axis)."""
+    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
+            and array.ndim == len(shape) and all(want is None or have == want
+                                                 for have, want in zip(array.shape, shape, strict=True))):
+        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
+    return int(array.ctypes.data)
+
+
+def project_states(layout, t, theta, omega, params) -> float:
+    """:func:`physics.kernels.projection.project_states`: rows of ``theta``, ``omega`` (K, n) projected in place
+    at times ``t`` (K,) (a copy of ``params`` takes each time); the largest position residual left."""
+    n, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_CONSTRAINTS])
+    rows = theta.shape[0]
+    own_params = np.array(params, dtype=np.float64)  # the time slot is written
+    scratch = np.empty(scratch_length(n, r))
+    return float(_function("project_states")(
+        _pointer(layout, (None,), np.int64), rows, _pointer(t, (rows,)), _pointer(theta, (rows, n)),
+        _pointer(omega, (rows, n)), _pointer(own_params, (None,)), scratch.ctypes.data))
+
+
+def native_states(function: int, layout, t, theta, omega, params, matrix_out, vector_out) -> None:
+    """:func:`physics.kernels.system.native_states`: the generated ``function`` (``constraints``, ``kinematics``)
+    at each row of ``theta``, ``omega`` (K, n) and time ``t`` (K,): its matrix into ``matrix_out`` (K, rows,
+    columns; zeroed first) and its vector into ``vector_out`` (K, m)."""
+    n = int(layout[LAYOUT_COORDINATES])
+    rows = theta.shape[0]
+    if matrix_out.ndim != 3 or vector_out.ndim != 2:
+        raise ValueError("matrix_out must be (K, rows, columns) and vector_out (K, m)")
+    own_params = np.array(params, dtype=np.float64)  # the time slot is written
+    _function("native_states")(
+        int(function), _pointer(layout, (None,), np.int64), rows, _pointer(t, (rows,)), _pointer(theta, (rows, n)),
+        _pointer(omega, (rows, n)), _pointer(own_params, (None,)), matrix_out.shape[1] * matrix_out.shape[2],
+        vector_out.shape[1], _pointer(matrix_out, (rows, None, None)), _pointer(vector_out, (rows, None)))
