@@ -14,6 +14,7 @@ from ..kernels.layout import LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS, LAYOUT_SOLV
 INTEGRATOR_FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
 WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
 SAMPLES_FUNCTION_NAMES = ("solve_states", "assemble_states", "chain_observables", "chain_joint_reactions")
+STATES_FUNCTION_NAMES = ("project_states", "native_states")  # physics/codegen/projection_ir.py
 # The drivers and the samples' solve specialised for one system (physics/codegen/specialised_ir.py): their entry
 # points, and the layout's entries that are addresses (external symbols named from the system's IR digest).
 ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)
@@ -53,3 +54,9 @@ def samples_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
     (r x n), ``v`` (2 r) and ``G`` (r x r), one constraint row at least."""
     k, r = n_unknowns, max(n_constraints, 1)
     return k * k + 3 * k + r * n + 2 * r + r * r
+
+
+def states_scratch_length(n: int, r: int) -> int:
+    """Doubles of ``project_states``' scratch: ``J`` (r x n), ``v`` (2 r), ``G`` (r x r) and ``lam`` (r)."""
+    r = max(r, 1)
+    return r * n + 2 * r + r * r + r

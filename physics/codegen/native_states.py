@@ -14,8 +14,9 @@ import ctypes
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES
+from .ir_shapes import STATES_FUNCTION_NAMES
+from .ir_shapes import states_scratch_length as scratch_length
 from .native_integrators import compile_functions
-from .projection_ir import STATES_FUNCTION_NAMES, scratch_length, states_ir
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -24,6 +25,14 @@ _SIGNATURES = {
     "native_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _I, _I, _P, _P),
 }
 _functions: dict = {}
+
+
+def states_ir() -> str:
+    """:func:`physics.codegen.projection_ir.states_ir`, imported on a machine-code cache miss only (a warm process
+    loads the machine code and never needs the IR builders or ``llvmlite.ir``)."""
+    from .projection_ir import states_ir as build  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
+
+    return build()
 
 
 def _function(name: str):

@@ -31,7 +31,6 @@ from .linear_ir import LinearFunctions, add_linear_functions, gram_into
 _TRUE = ir.Constant(_BOOL, 1)
 _FALSE = ir.Constant(_BOOL, 0)
 _NATIVE_CALL = ir.FunctionType(ir.VoidType(), [_DOUBLE_POINTER] * 5)  # theta, omega, params, matrix, vector
-STATES_FUNCTION_NAMES = ("project_states", "native_states")
 
 
 def _function(module: ir.Module, name: str, result, arguments, linkage: str = "internal") -> _Code:
@@ -39,12 +38,6 @@ def _function(module: ir.Module, name: str, result, arguments, linkage: str = "i
     if linkage:
         function.linkage = linkage
     return _Code(function)
-
-
-def scratch_length(n: int, r: int) -> int:
-    """Doubles of ``project_states``' scratch: ``J`` (r x n), ``v`` (2 r), ``G`` (r x r) and ``lam`` (r)."""
-    r = max(r, 1)
-    return r * n + 2 * r + r * r + r
 
 
 class ProjectionFunctions:
