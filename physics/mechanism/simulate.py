@@ -37,7 +37,6 @@ from .assembly import assembled_with_jacobian
 from .dae import MechanismDAE
 from .model import Mechanism
 from .prepared import prepared
-from .reduced import simulate_reduced
 from .run import state_vector
 from .run_settings import ALLOWED, run_options
 from .tree_dae import check_coordinates
@@ -135,6 +134,8 @@ def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0
                            f"positions come from position analysis, so the loops close exactly); leave it out")
     if integrate is False:
         raise LinkageError("integrate = False: does not apply to method 'reduced' (it always integrates)")
+    from .reduced import simulate_reduced  # noqa: PLC0415  (its numba kernel: imported by a reduced run only)
+
     reduced = simulate_reduced(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
                                t_start=t_start, rtol=settings.rtol, atol=settings.atol, stop_as_status=True)
     return replace(reduced.run, method="reduced", coordinates="reduced", stabilization="position analysis",

@@ -107,6 +107,34 @@ def test_a_warm_dae_integration_runs_on_cached_machine_code_without_numba():
     assert report["numba"] == []
 
 
+MECHANISM_COMMAND = r"""
+import contextlib, io, json, sys
+from physics.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    code = main(sys.argv[1:])
+print(json.dumps({"code": code,
+                  "numba": sorted(name for name in sys.modules if name == "numba" or name.startswith("numba."))}))
+"""
+
+
+@pytest.mark.parametrize("command", [
+    ["mechanism", "--preset", "jansen-leg", "--t-end", "1"],  # driven: position analysis by the IR projection
+    ["mechanism", "--preset", "slider-crank", "--t-end", "1"],  # integrated, projected in maximal coordinates
+    ["simulate", "--preset", "four-bar", "--t-end", "1"],  # the chain's default: projection onto the pin
+], ids=["jansen-leg", "slider-crank", "four-bar"])
+def test_a_warm_stabilised_run_never_imports_numba(command, tmp_path):
+    """Projection and position analysis are IR too, so a warm run of the presets' defaults loads no numba at all
+    (importing it costs 0.2 to 0.4 s): the reduced model's kernel, the one numba kernel a mechanism command may
+    call, is imported by a reduced run only."""
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(tmp_path / "cache"))
+    for _ in range(2):  # the first fills the cache
+        result = subprocess.run([sys.executable, "-c", MECHANISM_COMMAND, *command], capture_output=True, text=True,
+                                timeout=600, check=True, env=env)
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0
+    assert report["numba"] == []
+
+
 LIBRARY_PROCESS = r"""
 import json, os, sys
 if sys.argv[1:] == ["as-the-command-line"]:  # what ``python -m physics`` shows while it imports the package
