@@ -17,7 +17,7 @@ from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKN
 from .ir_shapes import SAMPLES_FUNCTION_NAMES as FUNCTION_NAMES
 from .ir_shapes import SAMPLES_SOLVE_NAME
 from .ir_shapes import samples_scratch_length as scratch_length
-from .native_integrators import compile_functions, specialised_engine, specialised_key
+from .native_integrators import compile_functions, layout_address, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -71,22 +71,6 @@ def _pointer(array: np.ndarray, shape: tuple, dtype=np.float64) -> int:
                                                  for have, want in zip(array.shape, shape, strict=True))):
         raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
     return array.ctypes.data
-
-
-_layout_addresses: dict[int, tuple[np.ndarray, int]] = {}
-
-
-def _layout_address(layout: np.ndarray) -> int:
-    """``_pointer(layout, (None,), np.int64)``, checked once per layout object: a system's layout lives as long
-    as the system and is handed over run after run (the entry holds the array, so its id is not reused)."""
-    entry = _layout_addresses.get(id(layout))
-    if entry is not None and entry[0] is layout:
-        return entry[1]
-    address = _pointer(layout, (None,), np.int64)
-    if len(_layout_addresses) >= 64:  # a few systems at once; forget them all past that
-        _layout_addresses.clear()
-    _layout_addresses[id(layout)] = (layout, address)
-    return address
 
 
 def solve_states(assemble: int, layout, theta, omega, params, alpha, beta, x_out, cond_out) -> None:
@@ -251,7 +235,7 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
     own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
     if rows:
-        (solve or _function("solve_states"))(int(assemble), _layout_address(layout), rows, at["theta"],
+        (solve or _function("solve_states"))(int(assemble), layout_address(layout), rows, at["theta"],
                                   at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
     _function("chain_observables")(
         rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),

@@ -44,7 +44,7 @@ def _start_state(n: int, theta0, omega0) -> np.ndarray:
     if (type(theta0) is np.ndarray and type(omega0) is np.ndarray and theta0.shape == (n,)
             and omega0.shape == (n,) and theta0.dtype == np.float64 and omega0.dtype == np.float64):
         y0 = np.concatenate([theta0, omega0])
-        if bool(np.all(np.abs(y0) <= _state_limits(n))):  # False for NaN and infinities too
+        if (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
             return y0
     theta0, omega0 = check_state(n, theta0, omega0)
     return np.concatenate([theta0, omega0])
