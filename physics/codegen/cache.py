@@ -115,15 +115,26 @@ class CompiledSystem:
 
     @property
     def theta_ddot_index(self) -> np.ndarray:
-        return np.array(self.module.THETA_DDOT_INDEX, dtype=np.int64)
+        return self._index("THETA_DDOT_INDEX", (-1,))
 
     @property
     def reaction_index(self) -> np.ndarray:
-        return np.array(self.module.REACTION_INDEX, dtype=np.int64).reshape(-1, 2)
+        return self._index("REACTION_INDEX", (-1, 2))
 
     @property
     def tip_reaction_index(self) -> np.ndarray:
-        return np.array(self.module.TIP_REACTION_INDEX, dtype=np.int64)
+        return self._index("TIP_REACTION_INDEX", (-1,))
+
+    def _index(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """The module's index tuple ``name`` as an int64 array of ``shape``, made once per system and read-only
+        (every run's samples read them: three small arrays a run otherwise)."""
+        key = f"index {name}"
+        index = self._functions.get(key)
+        if index is None:
+            index = np.array(getattr(self.module, name), dtype=np.int64).reshape(shape)
+            index.setflags(write=False)
+            index = self._functions.setdefault(key, index)
+        return index
 
     @property
     def has_lagrangian(self) -> bool:

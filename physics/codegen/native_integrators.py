@@ -160,6 +160,27 @@ def specialised_driver(method: str, layout: np.ndarray, assemble: int, system_di
     return _SIGNATURE(address), engine
 
 
+_layout_addresses: dict[int, tuple[np.ndarray, int]] = {}
+MAX_LAYOUTS = 64  # layouts remembered at once (a few systems'; all forgotten past that)
+
+
+def layout_address(layout: np.ndarray) -> int:
+    """The data address of ``layout``, a C-contiguous int64 array (else ValueError), found once per layout
+    object: a system's layout lives as long as the system and is handed over run after run, and an address
+    look-up costs 2-3 us (the entry holds the array, so its id is not reused while remembered)."""
+    entry = _layout_addresses.get(id(layout))
+    if entry is not None and entry[0] is layout:
+        return entry[1]
+    if not _c_array(layout, np.int64, 1):
+        raise ValueError("expected a C-contiguous 1-D int64 layout")
+    address = layout.ctypes.data
+    with _lock:
+        if len(_layout_addresses) >= MAX_LAYOUTS:
+            _layout_addresses.clear()
+        _layout_addresses[id(layout)] = (layout, address)
+    return address
+
+
 def _c_array(array, dtype, ndim: int) -> bool:
     return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
             and array.ndim == ndim)
@@ -198,7 +219,7 @@ def integrate(method: str, assemble: int, layout, y0, t0, t_end, t_eval, params,
     base = values.ctypes.data
     projecting = bool(project) and layout[LAYOUT_CONSTRAINTS] != 0  # the kernel's _projecting
     y_out.fill(np.nan)
-    status = driver(int(assemble), layout.ctypes.data, base + 8 * at_y0, float(t0), float(t_end),
+    status = driver(int(assemble), layout_address(layout), base + 8 * at_y0, float(t0), float(t_end),
                     base + 8 * at_t_eval, n_samples, base + 8 * at_params, float(rtol), float(atol), float(alpha),
                     float(beta), int(projecting), int(max_steps), y_out.ctypes.data, base + 8 * at_scratch, base,
                     base + 24)

@@ -17,7 +17,7 @@ from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKN
 from .ir_shapes import SAMPLES_FUNCTION_NAMES as FUNCTION_NAMES
 from .ir_shapes import SAMPLES_SOLVE_NAME
 from .ir_shapes import samples_scratch_length as scratch_length
-from .native_integrators import compile_functions, specialised_engine, specialised_key
+from .native_integrators import compile_functions, layout_address, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -144,12 +144,9 @@ class SampleArrays:
 
     def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
         """The offsets and the length only; :meth:`views` gives the arrays their storage."""
-        self.offsets: dict[str, int] = {}
-        offset = 0
-        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
-            self.offsets[name] = offset
-            offset += math.prod(shape)
-        self.length = offset
+        plan = _plan(rows, n, k, pinned)
+        self.offsets = plan.offsets
+        self.length = plan.length
 
     @staticmethod
     def _shapes(rows: int, n: int, k: int, pinned: bool) -> tuple:
@@ -158,9 +155,40 @@ class SampleArrays:
 
     def views(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray) -> None:
         """Each array a view of ``values`` at its offset."""
-        for name, shape in zip(_SAMPLE_ARRAYS, self._shapes(rows, n, k, pinned), strict=True):
-            start = self.offsets[name]
-            setattr(self, name, values[start:start + math.prod(shape)].reshape(shape))
+        for name, start, stop, shape in _plan(rows, n, k, pinned).views:
+            setattr(self, name, values[start:stop].reshape(shape))
+
+
+class _Plan:
+    """Where each of :class:`SampleArrays`' arrays sits in the buffer for one ``(rows, n, k, pinned)``: worked
+    out once per shape (the app and an ensemble ask for the same shape run after run), not per call."""
+
+    __slots__ = ("length", "offsets", "views")
+
+    def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
+        self.offsets: dict[str, int] = {}
+        views = []
+        offset = 0
+        for name, shape in zip(_SAMPLE_ARRAYS, SampleArrays._shapes(rows, n, k, pinned), strict=True):
+            self.offsets[name] = offset
+            views.append((name, offset, offset + math.prod(shape), shape))
+            offset += math.prod(shape)
+        self.views = tuple(views)
+        self.length = offset
+
+
+_plans: dict[tuple[int, int, int, bool], _Plan] = {}
+MAX_PLANS = 64  # shapes remembered at once (a few sample counts of a few systems)
+
+
+def _plan(rows: int, n: int, k: int, pinned: bool) -> _Plan:
+    key = (rows, n, k, pinned)
+    plan = _plans.get(key)
+    if plan is None:
+        if len(_plans) >= MAX_PLANS:
+            _plans.clear()
+        plan = _plans[key] = _Plan(rows, n, k, pinned)
+    return plan
 
 
 def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
@@ -178,7 +206,10 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     :func:`specialised_solve` (default the generic ``solve_states``)."""
     n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
     rows = len(y)
-    if np.shape(y) != (rows, 2 * n) or np.shape(bars) != (4 * n,) or np.ndim(params) != 1:
+    if (type(y) is np.ndarray and type(bars) is np.ndarray and type(params) is np.ndarray  # the usual call
+            and y.shape == (rows, 2 * n) and bars.shape == (4 * n,) and params.ndim == 1):
+        pass
+    elif np.shape(y) != (rows, 2 * n) or np.shape(bars) != (4 * n,) or np.ndim(params) != 1:
         raise ValueError(f"expected states (rows, {2 * n}), bars ({4 * n},) and a 1-D params")
     if not 0 <= int(trace_bar) < n:
         raise ValueError(f"trace_bar = {trace_bar}: must index one of the {n} bars")
@@ -188,10 +219,13 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
         raise ValueError(f"expected {n} acceleration indices and 0 or 2 pin-force indices")
     # (the indices only go to np.take, which refuses one outside the k unknowns)
     pinned = tip_reaction_index.size != 0
-    arrays = SampleArrays(rows, n, k, pinned)
+    plan = _plan(rows, n, k, pinned)
+    arrays = SampleArrays.__new__(SampleArrays)
+    arrays.offsets, arrays.length = plan.offsets, plan.length
     body = arrays.length
     values = np.empty(body + 4 * n + len(params) + scratch_length(n, k, r))
-    arrays.views(rows, n, k, pinned, values)
+    for name, start, stop, shape in plan.views:
+        setattr(arrays, name, values[start:stop].reshape(shape))
     arrays.theta[...] = y[:, :n]  # copies: float64 whatever y's type, and C-contiguous
     arrays.omega[...] = y[:, n:]
     values[body:body + 4 * n] = bars
@@ -201,7 +235,7 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
     own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
     if rows:
-        (solve or _function("solve_states"))(int(assemble), _pointer(layout, (None,), np.int64), rows, at["theta"],
+        (solve or _function("solve_states"))(int(assemble), layout_address(layout), rows, at["theta"],
                                   at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
     _function("chain_observables")(
         rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),

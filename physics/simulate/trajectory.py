@@ -159,10 +159,11 @@ class Trajectory:
     def __post_init__(self) -> None:
         """The fields a run left out become ``(T, 0)`` arrays (``(T, 0, 2)`` for per-joint vectors)."""
         count = self.t.shape[0]
-        for name, width in _EMPTY_WIDTH.items():
-            if isinstance(self.__dict__.get(f"_{name}_value"), OnRequest):
+        stored = self.__dict__
+        for name, key, width in _EMPTY_FIELDS:  # read from __dict__: one look-up a field (this runs every run)
+            value = stored[key]
+            if isinstance(value, OnRequest):
                 continue  # its computation gives its T rows when it is read
-            value = getattr(self, name)
             if value.size == 0 and value.shape[:1] != (count,):
                 setattr(self, name, np.zeros((count, *width)))
 
@@ -292,6 +293,15 @@ class Trajectory:
             cols["trace_x"] = self.trace_xy[:, 0]
             cols["trace_y"] = self.trace_xy[:, 1]
         return cols
+
+
+# (field, where an instance's __dict__ holds its value: a _ComputedWhenRead field under its slot's name, the
+# others under their own, and the trailing shape it gets when left out): Trajectory.__post_init__ reads these
+_EMPTY_FIELDS = tuple(
+    (name, descriptor.slot if isinstance(descriptor := Trajectory.__dict__.get(name), _ComputedWhenRead) else name,
+     width)
+    for name, width in _EMPTY_WIDTH.items()
+)
 
 
 class _NamedPoints(Mapping[str, np.ndarray]):
