@@ -245,6 +245,7 @@ class Analysis:
         def work() -> None:
             try:
                 ensemble = Ensemble(chain, theta, omega, method, count, ENSEMBLE_SPREAD, damping=damping)
+                ensemble.prepare()  # its first compilation here, not in a frame (catch_up may take no step)
                 t_copies = catch_up(ensemble, t, s.displayed_state)
                 points = segments(ensemble.joints())
             except Exception as error:

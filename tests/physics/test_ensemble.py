@@ -110,3 +110,18 @@ def test_anchoring_moves_copy_zero_and_keeps_every_difference():
     assert np.allclose(ensemble.omega - ensemble.omega[0], omega - omega[0], atol=1e-15, rtol=0)
     with pytest.raises(LinkageError):
         ensemble.anchor(np.full(3, np.nan), target_omega)
+
+
+def test_prepare_compiles_on_a_scratch_copy_and_leaves_the_copies_as_they_were():
+    """The app compiles the step in its worker (Ensemble.prepare) so that no frame waits for it: the copies, their
+    time and their conditions must be exactly as if it had not been called."""
+    preset = get_preset("triple-a")
+    prepared = Ensemble(preset.chain, preset.theta0, preset.omega0, count=5, spread=1e-6, step=0.01)
+    plain = Ensemble(preset.chain, preset.theta0, preset.omega0, count=5, spread=1e-6, step=0.01)
+    prepared.prepare()
+    assert np.array_equal(prepared.theta, plain.theta) and np.array_equal(prepared.omega, plain.omega)
+    assert prepared.steps_taken == 0 and np.array_equal(prepared.condition, plain.condition)
+    prepared.advance(0.1)
+    plain.advance(0.1)
+    assert np.array_equal(prepared.theta, plain.theta) and np.array_equal(prepared.omega, plain.omega)
+    assert prepared.message == plain.message == "ok" and prepared.alive.all()

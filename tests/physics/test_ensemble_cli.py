@@ -10,6 +10,7 @@ import math
 import pytest
 
 from physics.cli import main
+from physics.kernels.first_compile import compile_line
 from physics.outputs import EXIT_RUN_STOPPED, write_ensemble
 
 CHAIN_KEYS = ["preset", "method", "count", "spread", "step", "t", "tip_spread", "alive", "energy_drift", "message",
@@ -33,6 +34,17 @@ def _refuse_constant(name: str):
     raise AssertionError(f"the JSON holds {name}, which strict JSON readers refuse")
 
 
+def said_at_most_the_first_compile_line(err: str) -> bool:
+    """Whether stderr holds nothing, or only the one line a process says before its first numba compilation
+    (physics.kernels.first_compile): a run from an empty cache (CI's, or a test worker that is the first to need
+    the ensemble's kernel) says it, a warm one does not, and which a test gets depends on the order of the tests."""
+    lines = err.splitlines()
+    if not lines:
+        return True
+    what = lines[0].removeprefix("linkage-lab: compiling the ").partition(" integrator once")[0]
+    return len(lines) == 1 and err == compile_line(what) + "\n"
+
+
 def run(capsys, *argv: str) -> tuple[int, str, str]:
     code = main(["ensemble", *argv])
     captured = capsys.readouterr()
@@ -44,11 +56,11 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
 def test_every_copy_alive_exits_0_with_the_documented_keys(capsys, tmp_path, argv, keys):
     code, out, err = run(capsys, *argv)
     document = json.loads(out)
-    assert code == 0 and err == "" and list(document) == keys
+    assert code == 0 and said_at_most_the_first_compile_line(err) and list(document) == keys, err
     assert document["alive"] == [document["count"]] * 3
-    code, _, _ = run(capsys, *argv, "--out", str(tmp_path / "fan.csv"))
+    code, out, err = run(capsys, *argv, "--out", str(tmp_path / "fan.csv"))  # compiled by now: nothing to say
     rows = list(csv.reader((tmp_path / "fan.csv").open()))
-    assert code == 0 and rows[0] == COLUMNS and len(rows) == 4
+    assert code == 0 and out == "" and err == "" and rows[0] == COLUMNS and len(rows) == 4
     assert [float(v) for v in rows[1]] == [document[name][0] for name in COLUMNS]
 
 
