@@ -13,8 +13,6 @@ from ..kernels.layout import LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS, LAYOUT_SOLV
 
 INTEGRATOR_FUNCTION_NAMES = {"RK45": "integrate_rk45", "DOP853": "integrate_dop853"}
 WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
-SAMPLES_FUNCTION_NAMES = ("solve_states", "assemble_states", "chain_observables", "chain_joint_reactions")
-STATES_FUNCTION_NAMES = ("project_states", "native_states")  # physics/codegen/projection_ir.py
 # The drivers and the samples' solve specialised for one system (physics/codegen/specialised_ir.py): their entry
 # points, and the layout's entries that are addresses (external symbols named from the system's IR digest).
 ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)

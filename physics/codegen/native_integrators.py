@@ -11,8 +11,10 @@ the kernel checks them (the same ``ValueError`` for a programming error).
 from __future__ import annotations
 
 import ctypes
+import importlib
 import threading
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -86,6 +88,29 @@ def compile_functions(key: str, ir_text, names) -> dict[str, int]:
             modules[key] = {name: engine.get_function_address(name) for name in names}
             _compiled["seconds"] = _compiled.get("seconds", 0.0) + time.perf_counter() - start
         return modules[key]
+
+
+def ir_builder(module: str, function: str) -> Callable[[], str]:
+    """The IR text of ``physics.codegen.<module>.<function>()``, its module imported when the text is asked for,
+    that is on a machine-code cache miss only: a warm process loads the machine code and never imports the IR
+    builders or ``llvmlite.ir``."""
+
+    def build() -> str:
+        return getattr(importlib.import_module(f".{module}", __package__), function)()
+
+    return build
+
+
+_tables: dict[str, dict] = {}
+
+
+def ctypes_functions(key: str, ir_text: Callable[[], str], signatures: dict) -> dict:
+    """``{name: ctypes function}`` for every ``name: CFUNCTYPE`` of ``signatures``, the functions of the module
+    ``ir_text()`` compiled or loaded once per process under ``key`` (:func:`compile_functions`)."""
+    if key not in _tables:
+        addresses = compile_functions(key, ir_text, tuple(signatures))
+        _tables.setdefault(key, {name: signature(addresses[name]) for name, signature in signatures.items()})
+    return _tables[key]
 
 
 def _driver(method: str):

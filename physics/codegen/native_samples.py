@@ -14,10 +14,9 @@ import math
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
-from .ir_shapes import SAMPLES_FUNCTION_NAMES as FUNCTION_NAMES
 from .ir_shapes import SAMPLES_SOLVE_NAME
 from .ir_shapes import samples_scratch_length as scratch_length
-from .native_integrators import compile_functions, layout_address, specialised_engine, specialised_key
+from .native_integrators import ctypes_functions, ir_builder, layout_address, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -28,23 +27,11 @@ _SIGNATURES = {
     "chain_observables": ctypes.CFUNCTYPE(None, _I, _I, _P, _P, _P, _P, _P, _P, _D, _I, _D, _D, _P, _P, _P, _P, _P),
     "chain_joint_reactions": ctypes.CFUNCTYPE(None, _I, _I, _P, _P, _P, _P, _P, _P, _D, _I, _P, _P),
 }
-_functions: dict = {}
-
-
-def samples_ir() -> str:
-    """:func:`physics.codegen.samples_ir.samples_ir`, imported on a machine-code cache miss only (a warm process
-    loads the machine code and never needs the IR builders or ``llvmlite.ir``)."""
-    from .samples_ir import samples_ir as build  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
-
-    return build()
+_BUILD = ir_builder("samples_ir", "samples_ir")
 
 
 def _function(name: str):
-    if name not in _functions:
-        addresses = compile_functions("samples", samples_ir, FUNCTION_NAMES)
-        for each in FUNCTION_NAMES:
-            _functions.setdefault(each, _SIGNATURES[each](addresses[each]))
-    return _functions[name]
+    return ctypes_functions("samples", _BUILD, _SIGNATURES)[name]
 
 
 def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):

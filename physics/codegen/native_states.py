@@ -14,9 +14,8 @@ import ctypes
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES
-from .ir_shapes import STATES_FUNCTION_NAMES
 from .ir_shapes import states_scratch_length as scratch_length
-from .native_integrators import compile_functions
+from .native_integrators import ctypes_functions, ir_builder
 
 _P = ctypes.c_void_p
 _I = ctypes.c_int64
@@ -24,23 +23,11 @@ _SIGNATURES = {
     "project_states": ctypes.CFUNCTYPE(ctypes.c_double, _P, _I, _P, _P, _P, _P, _P),
     "native_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _I, _I, _P, _P),
 }
-_functions: dict = {}
-
-
-def states_ir() -> str:
-    """:func:`physics.codegen.projection_ir.states_ir`, imported on a machine-code cache miss only (a warm process
-    loads the machine code and never needs the IR builders or ``llvmlite.ir``)."""
-    from .projection_ir import states_ir as build  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
-
-    return build()
+_BUILD = ir_builder("projection_ir", "states_ir")
 
 
 def _function(name: str):
-    if name not in _functions:
-        addresses = compile_functions("states", states_ir, STATES_FUNCTION_NAMES)
-        for each in STATES_FUNCTION_NAMES:
-            _functions.setdefault(each, _SIGNATURES[each](addresses[each]))
-    return _functions[name]
+    return ctypes_functions("states", _BUILD, _SIGNATURES)[name]
 
 
 def _pointer(array, shape: tuple, dtype=np.float64) -> int:
