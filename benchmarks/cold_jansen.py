@@ -13,9 +13,11 @@ Two figures, the structure new to the cache in each round:
 * ``generated file removed``: every ``.py`` of the cache folder's top level removed before each run (what
   ``benchmarks.warm_path`` and ``benchmarks.cold_structure`` do): the leg is derived, its code generated,
   but the machine code of that code (``native/*.o``, named by a digest of its IR) is found and loaded;
-* ``generated file and machine code removed``: ``native/`` emptied as well, so the generated IR is compiled by
-  LLVM too, as for a structure this installation has never run (the leg is fully driven: it uses no
-  integrator's machine code, so nothing else of ``native/`` is lost; numba's kernels stay).
+* ``generated file and machine code removed``: the leg's own machine code removed as well (the files of
+  ``native/`` that the leg's warm-up runs added), so its generated IR (and its specialised drivers) is compiled by
+  LLVM too, as for a structure this installation has never run. What every structure shares stays: the
+  integrators' and the projection module's machine code, made by a run of the crank-rocker before the leg's warm-up
+  (an earlier version emptied all of ``native/``, which made a new structure pay for those too).
 
 Prints a Markdown table (median and least of ``--repeat`` rounds, then every round) and the load average at the
 start and end.
@@ -35,15 +37,21 @@ from .warm_path import TIME, _whole
 
 ROOT = Path(__file__).resolve().parent.parent
 COMMAND = ["-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end", "10"]
+# run first in each cache: the machine code every structure shares (integrators, projection) is made by it
+SHARED_CODE = ["-m", "physics", "mechanism", "--preset", "crank-rocker", "--t-end", "1"]
 FIGURES = {"generated file removed": False, "generated file and machine code removed": True}
 
 
-def _forget(cache: Path, machine_code: bool) -> None:
+def _machine_code(cache: Path) -> set[Path]:
+    return set((cache / "native").glob("*"))
+
+
+def _forget(cache: Path, own_machine_code: set[Path] | None) -> None:
+    """Remove the generated modules, and ``own_machine_code`` (the leg's) when given."""
     for generated in cache.glob("*.py"):
         generated.unlink()
-    if machine_code:
-        for compiled in (cache / "native").glob("*"):
-            compiled.unlink()
+    for compiled in own_machine_code or ():
+        compiled.unlink(missing_ok=True)
 
 
 def _cell(values: list[float]) -> str:
@@ -62,15 +70,21 @@ def main(argv: list[str] | None = None) -> int:
     try:
         caches = {label: scratch / label for label in trees}
         print(f"load average at start: {' '.join(f'{v:.1f}' for v in os.getloadavg())}", flush=True)
+        own_code: dict[str, set[Path]] = {}
         for label, tree in trees.items():
+            _whole(tree, caches[label], SHARED_CODE, scratch)
+            shared = _machine_code(caches[label])
             for _ in range(2):
                 _whole(tree, caches[label], COMMAND, scratch)
+            own_code[label] = _machine_code(caches[label]) - shared
+            if not own_code[label]:
+                raise SystemExit(f"{label}: the leg's runs added no machine code to native/: nothing to remove")
         figures: dict[tuple[str, str], list[tuple[float, float]]] = {}
         for number in range(args.repeat):
             for name, machine_code in FIGURES.items():
                 order = list(trees) if number % 2 == 0 else list(reversed(trees))
                 for label in order:  # alternated: both trees see the same machine
-                    _forget(caches[label], machine_code)
+                    _forget(caches[label], own_code[label] if machine_code else None)
                     figures.setdefault((name, label), []).append(_whole(trees[label], caches[label], COMMAND,
                                                                         scratch))
         print("| cold Jansen leg, 10 s | before, CPU s: median, least (rounds) | after, CPU s | before / after "
