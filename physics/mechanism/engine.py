@@ -33,7 +33,7 @@ def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | N
     """The generated system of ``method`` for ``mechanism``'s structure: from memory, from the cache folder, or
     derived (sympy, only on a miss) and cached. ``key_of_structure``: :func:`structure_key` of ``mechanism``
     when the caller holds it (:mod:`physics.mechanism.prepared`). ``rotations``: what a tree formulation's pin
-    coordinate is (:data:`~physics.mechanism.tree_coordinates.ROTATIONS`), a choice of the compiled system and
+    coordinate is (:data:`~physics.mechanism.parameters.ROTATIONS`), a choice of the compiled system and
     so part of its key; the DAE's maximal coordinates have one meaning, so it ignores it."""
     from .tree_coordinates import check_rotations  # noqa: PLC0415
 
@@ -206,7 +206,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     (:mod:`physics.mechanism.prepared`) when the caller holds them. ``coordinates="tree"`` (method ``dae``
     only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
     the run's reactions. ``rotations``: what a pin's tree coordinate is, for a run in tree coordinates
-    (:data:`~physics.mechanism.tree_coordinates.ROTATIONS`: the system compiled and the state integrated; the
+    (:data:`~physics.mechanism.parameters.ROTATIONS`: the system compiled and the state integrated; the
     samples, reactions and energies are the maximal coordinates' either way)."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415

@@ -103,7 +103,7 @@ def simulate_mechanism(
     coordinate is the child's rotation relative to its parent (``"relative"``, the default) or the child's own
     rotation from the sketch (``"absolute"``: a chain sketched hanging straight down then integrates exactly the
     chain engine's angles). A choice of the run, not of the mechanism's file: it changes the state integrated and
-    the code compiled (:data:`physics.mechanism.tree_coordinates.ROTATIONS`), never the machine."""
+    the code compiled (:data:`physics.mechanism.parameters.ROTATIONS`), never the machine."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
                           max_steps=max_steps, backend=backend, settings=settings)

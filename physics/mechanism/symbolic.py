@@ -14,14 +14,14 @@ import functools
 
 from ..derive.formulation import LinearSystem
 from .model import Mechanism
-from .parameters import Structure, parameter_symbols, structure
+from .parameters import ROTATIONS, Structure, parameter_symbols, structure
 
 METHODS = ("dae", "lagrange", "newton_euler")
 
 
 def derive_system(mechanism: Mechanism, method: str, rotations: str = "relative") -> LinearSystem:
     """``method``'s linear system for ``mechanism``'s structure, with its equations named after its parts;
-    ``rotations`` (a tree formulation's: :data:`~physics.mechanism.tree_coordinates.ROTATIONS`) what a pin's
+    ``rotations`` (a tree formulation's: :data:`~physics.mechanism.parameters.ROTATIONS`) what a pin's
     coordinate is."""
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: allowed {', '.join(METHODS)}")
@@ -36,9 +36,8 @@ def derive_structure(shape: Structure, method: str, rotations: str = "relative")
     """The derivation itself, once per (structure, method, rotations) in a process; names keep ``{bK}``/``{jK}``
     fields (callers pass all three arguments, so one entry serves each). ``rotations`` is a tree formulation's (what a pin's coordinate is, :mod:`.symbolic_tree`); the DAE
     integrates every body's own rotation whatever it says, so it derives one system for both."""
-    from .tree_coordinates import check_rotations  # noqa: PLC0415
-
-    check_rotations(rotations)
+    if rotations not in ROTATIONS:
+        raise ValueError(f"rotations = {rotations!r}: allowed values {', '.join(ROTATIONS)}")
     if method == "dae" and rotations != "relative":
         return derive_structure(shape, method, "relative")
     params = parameter_symbols(shape)

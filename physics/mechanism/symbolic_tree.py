@@ -9,7 +9,7 @@ derivation serves every mechanism of that structure.
 Coordinates as in today's tree (the spanning tree of :func:`physics.mechanism.topology.analyse`, the same
 breadth-first search over joints in order): a pin's is the child's rotation relative to its parent, zero in the
 sketch (``rotations="relative"``, the default), or the child's own rotation from the sketch
-(``rotations="absolute"``: :data:`physics.mechanism.tree_coordinates.ROTATIONS`, so a chain sketched hanging
+(``rotations="absolute"``: :data:`physics.mechanism.parameters.ROTATIONS`, so a chain sketched hanging
 straight down integrates its absolute angles, as the chain engine does); a slider's is its travel along the
 guide from where the sketch draws it, either way. A body's angle is then the sum of its pins' coordinates up the
 tree (relative) or its nearest pin's coordinate (absolute: a slider keeps its parent's angle); every formulation
@@ -31,9 +31,8 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .joints import KINDS, MOTOR, Kinematics, Rotation, Row, Translation
-from .parameters import ParameterSymbols, Structure
+from .parameters import ROTATIONS, ParameterSymbols, Structure
 from .topology import breadth_first
-from .tree_coordinates import check_rotations
 
 ZERO = sp.Integer(0)
 MINUS_ONE = sp.Integer(-1)
@@ -289,9 +288,10 @@ class TreeGeometry:
 
 
 def tree_geometry(shape: Structure, params: ParameterSymbols, rotations: str = "relative") -> TreeGeometry:
-    """The tree's positions; ``rotations`` (:data:`~physics.mechanism.tree_coordinates.ROTATIONS`) says what a
+    """The tree's positions; ``rotations`` (:data:`~physics.mechanism.parameters.ROTATIONS`) says what a
     pin's coordinate is (see the module's text)."""
-    check_rotations(rotations)
+    if rotations not in ROTATIONS:  # the boundary refuses it in its words (tree_coordinates.check_rotations)
+        raise ValueError(f"rotations = {rotations!r}: allowed values {', '.join(ROTATIONS)}")
     absolute = rotations == "absolute"
     tree = spanning_tree(shape)
     size = len(tree.order)

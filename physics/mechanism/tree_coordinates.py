@@ -3,7 +3,7 @@
 A tree joint's coordinate is the one its kind carries (:meth:`~physics.mechanism.joints.JointKind.freedom`), read
 off the state as every joint coordinate is (:mod:`physics.mechanism.joint_coordinates`): a rotation (a pin's: the
 child's rotation relative to its parent, zero in the sketch; or, with absolute rotations, the child's own
-rotation from the sketch: see :data:`ROTATIONS`) or a travel (a slider's: along the guide from where
+rotation from the sketch: see :data:`physics.mechanism.parameters.ROTATIONS`) or a travel (a slider's: along the guide from where
 the sketch draws it). The spanning tree is :func:`physics.mechanism.topology.
 analyse`'s, its bodies parents first (in the order it finds them): the order of the generated tree formulations'
 coordinates (:mod:`physics.mechanism.symbolic_tree`). Numbers only (no sympy): a run on a warm cache needs it.
@@ -16,24 +16,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .model import Mechanism
+from .parameters import ROTATIONS
 from .topology import analyse
 
 if TYPE_CHECKING:
     from .prepared import Prepared
 
-# What a pin's tree coordinate is, chosen when a tree formulation is compiled and run (never written in a
-# mechanism's file: the same mechanism is the same machine either way, only the integrated state differs):
-# "relative", the child's rotation relative to its parent (the default: every mechanism run so far, its bits and
-# its cached code); "absolute", the child body's own rotation from the sketch. A chain sketched hanging straight
-# down (theta_sketch = 0) then integrates exactly the chain engine's state, its absolute angles theta from the
-# downward vertical, so a chain run as a mechanism differs from the chain engine's run by rounding, not by the
-# integrator's tolerance (physics/mechanism/chains.py). Part of the generated code's key
-# (physics.mechanism.engine.compiled_system): relative and absolute never share generated code.
-ROTATIONS = ("relative", "absolute")
-
-
 def check_rotations(rotations: str) -> None:
-    """Refuse, in one line, a ``rotations`` that is not one of :data:`ROTATIONS`."""
+    """Refuse, in one line, a ``rotations`` that is not one of :data:`~physics.mechanism.parameters.ROTATIONS`
+    (the boundary's check: the derivations only assert it)."""
     if rotations not in ROTATIONS:
         from ..errors import LinkageError  # noqa: PLC0415
 
