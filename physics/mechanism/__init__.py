@@ -30,11 +30,12 @@ __all__ = [
 ]
 
 
-def derived_system(mechanism: Mechanism, method: str):
+def derived_system(mechanism: Mechanism, method: str, rotations: str = "relative"):
     """``method``'s (``dae``, ``lagrange``, ``newton_euler``) symbolic system of ``mechanism``: the linear
     equations ``A x = b`` its runs integrate, in the structure's symbols (``q``, ``qd``, ``qdd`` per body's x, y,
-    phi; the parameter vector), with rows named after its bodies and joints. sympy loads only when called (the
+    phi; the parameter vector), with rows named after its bodies and joints; ``rotations``: a tree formulation's
+    pin coordinates (:data:`physics.mechanism.parameters.ROTATIONS`). sympy loads only when called (the
     app's Equations folder)."""
     from .symbolic import derive_system  # noqa: PLC0415 - sympy: only when asked for
 
-    return derive_system(mechanism, method)
+    return derive_system(mechanism, method, rotations)

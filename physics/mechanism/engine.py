@@ -28,37 +28,49 @@ if TYPE_CHECKING:
     from .prepared import Prepared
 
 
-def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | None = None) -> CompiledSystem:
+def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | None = None,
+                    rotations: str = "relative") -> CompiledSystem:
     """The generated system of ``method`` for ``mechanism``'s structure: from memory, from the cache folder, or
     derived (sympy, only on a miss) and cached. ``key_of_structure``: :func:`structure_key` of ``mechanism``
-    when the caller holds it (:mod:`physics.mechanism.prepared`)."""
+    when the caller holds it (:mod:`physics.mechanism.prepared`). ``rotations``: what a tree formulation's pin
+    coordinate is (:data:`~physics.mechanism.parameters.ROTATIONS`), a choice of the compiled system and
+    so part of its key; the DAE's maximal coordinates have one meaning, so it ignores it."""
+    from .tree_coordinates import check_rotations  # noqa: PLC0415
+
+    check_rotations(rotations)
+    rotations = "relative" if method == "dae" else rotations
     digest = structure_key(mechanism) if key_of_structure is None else key_of_structure
-    key = _key(digest, method)
+    key = _key(digest, method, rotations)
 
     def derive():
         from .symbolic import derive_structure  # noqa: PLC0415  (sympy only on a cache miss)
 
         shape = structure(mechanism)
-        return derive_structure(shape, method), (f"a mechanism of {shape.bodies} bodies and "
-                                                 f"{len(shape.joints)} joints, structure {digest}")
+        return derive_structure(shape, method, rotations), (f"a mechanism of {shape.bodies} bodies and "
+                                                            f"{len(shape.joints)} joints, structure {digest}"
+                                                            f"{', absolute rotations' * (rotations == 'absolute')}")
 
     return load_generated(key, method, derive)
 
 
-def is_compiled(mechanism: Mechanism, method: str) -> bool:
+def is_compiled(mechanism: Mechanism, method: str, rotations: str = "relative") -> bool:
     """True when ``method``'s generated system for this structure is loaded or cached (no sympy needed)."""
     from ..codegen.cache import is_generated_key  # noqa: PLC0415
 
-    return is_generated_key(_cache_key(mechanism, method))
+    return is_generated_key(_cache_key(mechanism, method, rotations))
 
 
-def _cache_key(mechanism: Mechanism, method: str) -> str:
-    """The generated system's name in the cache: its method and its structure, never its numbers."""
-    return _key(structure_key(mechanism), method)
+def _cache_key(mechanism: Mechanism, method: str, rotations: str = "relative") -> str:
+    """The generated system's name in the cache: its method, its structure and (for a tree formulation) what
+    its pins' coordinates are, never its numbers."""
+    return _key(structure_key(mechanism), method, "relative" if method == "dae" else rotations)
 
 
-def _key(digest: str, method: str) -> str:
-    return f"{method.replace('_', '')}-mechanism-{digest}"
+def _key(digest: str, method: str, rotations: str = "relative") -> str:
+    """The relative rotations' key is the one every cached mechanism has had; absolute ones add a word, so the
+    two never share generated code."""
+    kind = "" if rotations == "relative" else f"{rotations}-"
+    return f"{method.replace('_', '')}-mechanism-{kind}{digest}"
 
 
 @dataclass(frozen=True)
@@ -182,7 +194,7 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
 
 
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
-        pieces: Prepared | None = None, coordinates: str = "maximal"):
+        pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative"):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
     ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
@@ -193,7 +205,9 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     computed when first read (:func:`_on_request`). ``pieces``: the mechanism's prepared pieces
     (:mod:`physics.mechanism.prepared`) when the caller holds them. ``coordinates="tree"`` (method ``dae``
     only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
-    the run's reactions."""
+    the run's reactions. ``rotations``: what a pin's tree coordinate is, for a run in tree coordinates
+    (:data:`~physics.mechanism.parameters.ROTATIONS`: the system compiled and the state integrated; the
+    samples, reactions and energies are the maximal coordinates' either way)."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .prepared import prepared  # noqa: PLC0415
@@ -206,15 +220,15 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     if coordinates == "tree":  # the DAE's system in the tree formulations' state (physics/mechanism/tree_dae.py)
         from .tree_dae import compiled_tree_dae  # noqa: PLC0415
 
-        compiled = compiled_tree_dae(mechanism, pieces.structure_key)
+        compiled = compiled_tree_dae(mechanism, pieces.structure_key, rotations)
     else:
-        compiled = compiled_system(mechanism, method, pieces.structure_key)
+        compiled = compiled_system(mechanism, method, pieces.structure_key, rotations)
     tree = method != "dae" or coordinates == "tree"
     if tree:
         from .tree_coordinates import tree_state  # noqa: PLC0415
 
         def to_state(_mechanism, q_, qdot_) -> tuple[np.ndarray, np.ndarray]:
-            return tree_state(_mechanism, q_, qdot_, pieces)
+            return tree_state(_mechanism, q_, qdot_, pieces, rotations)
 
         weights = None
     else:
@@ -401,20 +415,22 @@ def _assembled_state(mechanism, to_state, previous_q, t):
     return to_state(mechanism, q, kinematics(mechanism, q)[0])
 
 
-def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, t: float = 0.0):
+def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, t: float = 0.0,
+            rotations: str = "relative"):
     """``(qddot, reactions)`` of ``method`` at one assembled state: its own solve, and for a tree formulation
-    every body's accelerations from its own and the reactions by Newton's second law on them."""
+    (its pins' coordinates by ``rotations``) every body's accelerations from its own and the reactions by
+    Newton's second law on them."""
     from .prepared import prepared  # noqa: PLC0415
 
     pieces = prepared(mechanism)
-    compiled = compiled_system(mechanism, method, pieces.structure_key)
+    compiled = compiled_system(mechanism, method, pieces.structure_key, rotations)
     params = pieces.parameters_at(t)
     if method == "dae":
         x, v = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     else:
         from .tree_coordinates import tree_state  # noqa: PLC0415
 
-        x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float))
+        x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float), pieces, rotations)
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
     reactions = solved.multipliers if method == "dae" else body_reactions(pieces.dae, solved)
     return solved.qddot[0], reactions[0]

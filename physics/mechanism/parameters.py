@@ -36,6 +36,16 @@ if TYPE_CHECKING:  # sympy is imported where symbols are made: a run from cached
 TIME = "t"
 GRAVITY = "g"
 
+# What a pin's tree coordinate is, chosen when a tree formulation is compiled and run (never written in a
+# mechanism's file: the same mechanism is the same machine either way, only the integrated state differs):
+# "relative", the child's rotation relative to its parent (the default: every mechanism run so far, its bits and
+# its cached code); "absolute", the child body's own rotation from the sketch. A chain sketched hanging straight
+# down (theta_sketch = 0) then integrates exactly the chain engine's state, its absolute angles theta from the
+# downward vertical, so a chain run as a mechanism differs from the chain engine's run by rounding, not by the
+# integrator's tolerance (physics/mechanism/chains.py). Part of the generated code's key
+# (physics.mechanism.engine.compiled_system), as the structure is: relative and absolute never share generated code.
+ROTATIONS = ("relative", "absolute")
+
 
 @dataclass(frozen=True)
 class JointShape:

@@ -39,6 +39,7 @@ from .model import Mechanism
 from .prepared import prepared
 from .run import state_vector
 from .run_settings import ALLOWED, run_options
+from .tree_coordinates import check_rotations
 from .tree_dae import check_coordinates
 
 __all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
@@ -84,6 +85,7 @@ def simulate_mechanism(
     backend: str = DEFAULT_BACKEND,
     settings: Settings | None = None,
     coordinates: str = "maximal",
+    rotations: str = "relative",
 ) -> Trajectory:
     """Run for ``t_end`` seconds from ``t_start`` (a motor's angle follows absolute time), from the pose
     assembled nearest ``q0`` (default: the sketch) with velocities ``qdot0`` (default: rest) projected onto the
@@ -96,20 +98,32 @@ def simulate_mechanism(
     as ``t_start``, ``q0``, ``qdot0``. A run stopped midway returns the samples up to the stop with its
     ``status`` and ``message``; bad input, and a start that cannot be evaluated, raise LinkageError.
     ``coordinates="tree"`` (method ``dae`` only) integrates the DAE in the spanning tree's joint coordinates, as
-    the seed's DAE integrates a chain's joint angles (:mod:`physics.mechanism.tree_dae`)."""
+    the seed's DAE integrates a chain's joint angles (:mod:`physics.mechanism.tree_dae`). ``rotations``
+    (a run in tree coordinates only: lagrange, newton_euler, or dae with ``coordinates="tree"``): a pin's tree
+    coordinate is the child's rotation relative to its parent (``"relative"``, the default) or the child's own
+    rotation from the sketch (``"absolute"``: a chain sketched hanging straight down then integrates exactly the
+    chain engine's angles). A choice of the run, not of the mechanism's file: it changes the state integrated and
+    the code compiled (:data:`physics.mechanism.parameters.ROTATIONS`), never the machine."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
                           max_steps=max_steps, backend=backend, settings=settings)
     return run_mechanism(mechanism, options, q0=q0, qdot0=qdot0, t_start=float(t_start), integrate=integrate,
-                         coordinates=coordinates)
+                         coordinates=coordinates, rotations=rotations)
 
 
 def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | None = None,
                   qdot0: np.ndarray | None = None, t_start: float = 0.0,
-                  integrate: bool | None = None, coordinates: str = "maximal") -> Trajectory:
+                  integrate: bool | None = None, coordinates: str = "maximal",
+                  rotations: str = "relative") -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
     check_coordinates(coordinates, settings.method)
+    check_rotations(rotations)
+    if rotations != "relative" and (settings.method == "reduced" or (settings.method == "dae"
+                                                                      and coordinates == "maximal")):
+        raise LinkageError(f"rotations = {rotations!r}: applies to a run in tree coordinates only (method "
+                           f"lagrange or newton_euler, or dae with coordinates 'tree'; got method "
+                           f"{settings.method!r}); leave it out")
     q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
     times = t_start + np.linspace(0.0, settings.t_end, settings.samples)
@@ -122,7 +136,8 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
                             pieces.velocity_rhs, jacobian)
-    return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates)
+    return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates,
+                      rotations=rotations)
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,

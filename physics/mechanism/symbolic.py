@@ -14,24 +14,32 @@ import functools
 
 from ..derive.formulation import LinearSystem
 from .model import Mechanism
-from .parameters import Structure, parameter_symbols, structure
+from .parameters import ROTATIONS, Structure, parameter_symbols, structure
 
 METHODS = ("dae", "lagrange", "newton_euler")
 
 
-def derive_system(mechanism: Mechanism, method: str) -> LinearSystem:
-    """``method``'s linear system for ``mechanism``'s structure, with its equations named after its parts."""
+def derive_system(mechanism: Mechanism, method: str, rotations: str = "relative") -> LinearSystem:
+    """``method``'s linear system for ``mechanism``'s structure, with its equations named after its parts;
+    ``rotations`` (a tree formulation's: :data:`~physics.mechanism.parameters.ROTATIONS`) what a pin's
+    coordinate is."""
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: allowed {', '.join(METHODS)}")
-    system = derive_structure(structure(mechanism), method)
+    system = derive_structure(structure(mechanism), method, rotations)
     names = {f"b{k}": body.name for k, body in enumerate(mechanism.bodies)}
     names.update({f"j{k}": joint.name for k, joint in enumerate(mechanism.joints)})
     return dataclasses.replace(system, equation_names=[name.format(**names) for name in system.equation_names])
 
 
 @functools.lru_cache(maxsize=64)
-def derive_structure(shape: Structure, method: str) -> LinearSystem:
-    """The derivation itself, once per (structure, method) in a process; names keep ``{bK}``/``{jK}`` fields."""
+def derive_structure(shape: Structure, method: str, rotations: str = "relative") -> LinearSystem:
+    """The derivation itself, once per (structure, method, rotations) in a process; names keep ``{bK}``/``{jK}``
+    fields (callers pass all three arguments, so one entry serves each). ``rotations`` is a tree formulation's (what a pin's coordinate is, :mod:`.symbolic_tree`); the DAE
+    integrates every body's own rotation whatever it says, so it derives one system for both."""
+    if rotations not in ROTATIONS:
+        raise ValueError(f"rotations = {rotations!r}: allowed values {', '.join(ROTATIONS)}")
+    if method == "dae" and rotations != "relative":
+        return derive_structure(shape, method, "relative")
     params = parameter_symbols(shape)
     if method == "dae":
         from .symbolic_dae import derive_dae  # noqa: PLC0415  (each formulation's module only when asked for)
@@ -40,11 +48,11 @@ def derive_structure(shape: Structure, method: str) -> LinearSystem:
     elif method == "lagrange":
         from .symbolic_lagrange import derive_lagrange  # noqa: PLC0415
 
-        system = derive_lagrange(shape, params)
+        system = derive_lagrange(shape, params, rotations)
     else:
         from .symbolic_newton_euler import derive_newton_euler  # noqa: PLC0415
 
-        system = derive_newton_euler(shape, params)
+        system = derive_newton_euler(shape, params, rotations)
     # Only masses and inertias are known not to vanish (a body must have mass to run); a point, a centre of
     # mass or a guide's direction component is zero in many valid mechanisms, so no pivot may rely on one.
     positive = {symbol for body in params.bodies for symbol in (body.mass, body.inertia)}

@@ -6,7 +6,7 @@ with ``T = sum 1/2 m_i |v_i|^2 + 1/2 I_i w_i^2``, ``V = sum m_i g y_i``, ``D`` t
 (pins: ``1/2 c (relative spin)^2``, sliders: ``1/2 c (sliding speed)^2``) and ``Q`` the torque motors' work.
 
 The positions are those of :mod:`.symbolic_tree`: every point a sum of vectors, each turned by one body's angle
-(a sum of pin coordinates) and some multiplied by a slider's travel. They are differentiated by the rotation rule
+(a sum of pin coordinates, or with absolute rotations one) and some multiplied by a slider's travel. They are differentiated by the rotation rule
 ``d/ds_j R(phi_f) v = perp(R(phi_f) v)`` when pin j turns frame f, once per piece, as the chain's derivation
 differentiates its bars' unit vectors (physics/derive/lagrange.py): never by walking a long expression, and with
 no second derivative written out. From the partial velocities ``e_ij = d r_i / d s_j``, by the chain rule,
@@ -63,9 +63,13 @@ class _Calculus:
         self.pins = {body: frozenset(pins) for body, pins in geometry.pins.items()}
         self.spin: dict = {-1: ZERO}
         self.alpha: dict = {-1: ZERO}
+        absolute = geometry.rotations == "absolute"
         for index, body in enumerate(geometry.tree.order):
             parent = geometry.tree.parent[body][1]
             turning = index in self.pins[body] and index not in self.pins[parent]
+            if turning and absolute:  # the coordinate is the body's own rotation
+                self.spin[body], self.alpha[body] = geometry.sd[index], geometry.sdd[index]
+                continue
             self.spin[body] = plus(self.spin[parent], geometry.sd[index]) if turning else self.spin[parent]
             self.alpha[body] = plus(self.alpha[parent], geometry.sdd[index]) if turning else self.alpha[parent]
         self._frames: dict = {}
@@ -141,8 +145,9 @@ def _gradient(reader: LinearReader, rate, coordinates: dict) -> dict:
     return {coordinates[u]: value for u, value in coefficients.items() if value != 0}
 
 
-def derive_lagrange(shape: Structure, params: ParameterSymbols) -> LinearSystem:
-    geometry = tree_geometry(shape, params)
+def derive_lagrange(shape: Structure, params: ParameterSymbols, rotations: str = "relative") -> LinearSystem:
+    """The system of the module's text; ``rotations``: what a pin's coordinate is (:mod:`.symbolic_tree`)."""
+    geometry = tree_geometry(shape, params, rotations)
     calculus = _Calculus(geometry)
     kinematics = _Kinematics(geometry, calculus)
     s, sd, sdd = geometry.s, geometry.sd, geometry.sdd

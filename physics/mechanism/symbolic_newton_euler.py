@@ -9,7 +9,7 @@ every tree joint, the bodies beyond it (its subtree) taken together, so that the
 
 The accelerations come from rigid-body kinematics, body after body from the ground: a point at ``rho`` from a
 body's centre of mass moves with ``a_G + alpha perp(rho) - w^2 rho``; a pin adds its coordinate's rate to the
-child's spin; a slider adds the sliding terms ``u sdd + 2 w perp(u) sd`` along its turning guide. The closures
+child's spin (with absolute rotations its rate is the child's spin); a slider adds the sliding terms ``u sdd + 2 w perp(u) sd`` along its turning guide. The closures
 (cut joints, speed motors) are the same statements about their points' accelerations, with the multipliers as
 the forces they apply. The matrix is read off the equations (:func:`physics.derive.formulation.linear_system`);
 the constraint Jacobian off the velocity-level statements. Nothing comes from the Lagrange or DAE derivations:
@@ -68,8 +68,11 @@ class _Motion:
                 child_arm, parent_arm = ((freedom.arm_a, freedom.arm_b) if joint.a == body
                                          else (freedom.arm_b, freedom.arm_a))
                 velocity, acceleration = self.point(parent, parent_arm)
-                self.spin[body] = plus(self.spin[parent], sd[index])
-                self.alpha[body] = plus(self.alpha[parent], sdd[index])
+                if geometry.rotations == "absolute":  # the coordinate is the child's own rotation
+                    self.spin[body], self.alpha[body] = sd[index], sdd[index]
+                else:
+                    self.spin[body] = plus(self.spin[parent], sd[index])
+                    self.alpha[body] = plus(self.alpha[parent], sdd[index])
                 end_arm = child_arm
             else:
                 assert isinstance(freedom, Translation), f"joint {k}: a tree joint carries a rotation or a travel"
@@ -116,8 +119,10 @@ class _Kinematics(TreeKinematics):
         return (self.geometry.world(body, arm), *self.motion.point(body, arm))
 
 
-def derive_newton_euler(shape: Structure, params: ParameterSymbols) -> LinearSystem:
-    geometry = tree_geometry(shape, params)
+def derive_newton_euler(shape: Structure, params: ParameterSymbols, rotations: str = "relative") -> LinearSystem:
+    """The system of the module's text; ``rotations``: what a pin's coordinate is (:mod:`.symbolic_tree`): the
+    balances are the same statements either way, only the unknowns ``sdd`` they are read off in differ."""
+    geometry = tree_geometry(shape, params, rotations)
     motion = _Motion(geometry)
     s, sd, sdd = geometry.s, geometry.sd, geometry.sdd
     tree = geometry.tree

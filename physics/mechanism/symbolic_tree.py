@@ -8,7 +8,12 @@ derivation serves every mechanism of that structure.
 
 Coordinates as in today's tree (the spanning tree of :func:`physics.mechanism.topology.analyse`, the same
 breadth-first search over joints in order): a pin's is the child's rotation relative to its parent, zero in the
-sketch; a slider's is its travel along the guide from where the sketch draws it. The joints left out of the tree
+sketch (``rotations="relative"``, the default), or the child's own rotation from the sketch
+(``rotations="absolute"``: :data:`physics.mechanism.parameters.ROTATIONS`, so a chain sketched hanging
+straight down integrates its absolute angles, as the chain engine does); a slider's is its travel along the
+guide from where the sketch draws it, either way. A body's angle is then the sum of its pins' coordinates up the
+tree (relative) or its nearest pin's coordinate (absolute: a slider keeps its parent's angle); every formulation
+reads it from ``pins[body]`` and never assumes which. The joints left out of the tree
 (in joint order; a gear pair, which joins no bodies, is always one) and the speed motors (in driver order) are the
 constraint rows, in the DAE's form, so every formulation's multipliers mean the same (a pin's: the force ON body
 ``a`` BY body ``b``). Every row comes from its joint kind (:meth:`physics.mechanism.joints.JointKind.rows`),
@@ -26,7 +31,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .joints import KINDS, MOTOR, Kinematics, Rotation, Row, Translation
-from .parameters import ParameterSymbols, Structure
+from .parameters import ROTATIONS, ParameterSymbols, Structure
 from .topology import breadth_first
 
 ZERO = sp.Integer(0)
@@ -197,7 +202,7 @@ class Place:
 class TreeGeometry:
     """Every body's angle (from the sketch) and centre of mass in the tree coordinates ``s``: ``angle[body]`` an
     expression, ``place[body]`` its centre as a :class:`Place`, ``pins[body]`` the pin coordinates whose sum is
-    its angle (``pins[-1]`` empty: the ground)."""
+    its angle (``pins[-1]`` empty: the ground; with absolute rotations at most one)."""
 
     shape: Structure
     params: ParameterSymbols
@@ -209,6 +214,7 @@ class TreeGeometry:
     place: dict = field(default_factory=dict)
     pins: dict = field(default_factory=dict)
     offsets: dict = field(default_factory=dict)  # a tree slider's sketch offset along its guide, by joint
+    rotations: str = "relative"  # a pin's coordinate: the child's rotation relative to its parent, or its own
     _turned: dict = field(default_factory=dict)
     _values: dict = field(default_factory=dict)
 
@@ -281,11 +287,16 @@ class TreeGeometry:
         return ZERO if body < 0 else self.angle[body]
 
 
-def tree_geometry(shape: Structure, params: ParameterSymbols) -> TreeGeometry:
+def tree_geometry(shape: Structure, params: ParameterSymbols, rotations: str = "relative") -> TreeGeometry:
+    """The tree's positions; ``rotations`` (:data:`~physics.mechanism.parameters.ROTATIONS`) says what a
+    pin's coordinate is (see the module's text)."""
+    if rotations not in ROTATIONS:  # the boundary refuses it in its words (tree_coordinates.check_rotations)
+        raise ValueError(f"rotations = {rotations!r}: allowed values {', '.join(ROTATIONS)}")
+    absolute = rotations == "absolute"
     tree = spanning_tree(shape)
     size = len(tree.order)
     geometry = TreeGeometry(
-        shape=shape, params=params, tree=tree,
+        shape=shape, params=params, tree=tree, rotations=rotations,
         s=tuple(sp.symbols(f"s0:{size}", real=True)), sd=tuple(sp.symbols(f"sd0:{size}", real=True)),
         sdd=tuple(sp.symbols(f"sdd0:{size}", real=True)),
     )
@@ -298,8 +309,12 @@ def tree_geometry(shape: Structure, params: ParameterSymbols) -> TreeGeometry:
         if isinstance(freedom, Rotation):
             child_arm, parent_arm = ((freedom.arm_a, freedom.arm_b) if joint.a == body
                                      else (freedom.arm_b, freedom.arm_a))
-            geometry.pins[body] = (*geometry.pins[parent], index)
-            geometry.angle[body] = plus(geometry.body_angle(parent), geometry.s[index])
+            if absolute:  # the child's own rotation: the coordinate is its angle
+                geometry.pins[body] = (index,)
+                geometry.angle[body] = geometry.s[index]
+            else:
+                geometry.pins[body] = (*geometry.pins[parent], index)
+                geometry.angle[body] = plus(geometry.body_angle(parent), geometry.s[index])
             geometry.place[body] = start + Place((Term(parent, tuple(parent_arm)),
                                                   Term(body, (negative(child_arm[0]), negative(child_arm[1])))))
             continue

@@ -11,7 +11,7 @@ at each state is the DAE's, unchanged, with
   vectors turned by its frames' angles, some multiplied by a slider's travel; its velocity by the rotation rule),
   substituted for ``q`` and ``qdot``, and
 * one more unknown and one more row per tree coordinate: its acceleration read off the bodies' accelerations
-  (a pin's ``sdd = alpha_child - alpha_parent``; a slider's travel ``c = U . (p_a - p_b) - offset`` with
+  (a pin's ``sdd = alpha_child - alpha_parent``, or ``alpha_child`` with absolute rotations; a slider's travel ``c = U . (p_a - p_b) - offset`` with
   ``U = R(phi_b) u`` differentiated twice through rigid-body kinematics, linear in the bodies' accelerations).
 
 So one solve gives ``[qddot (3 B), every reaction (the DAE's rows, in its layout), sdd (n)]``; the integrators
@@ -130,10 +130,11 @@ def _held_rows(shape: Structure, cut: tuple[int, ...]) -> list[int]:
     return held
 
 
-def derive_tree_dae(shape: Structure, params: ParameterSymbols, dae: LinearSystem) -> LinearSystem:
+def derive_tree_dae(shape: Structure, params: ParameterSymbols, dae: LinearSystem, rotations: str = "relative"
+                    ) -> LinearSystem:
     """The system of the module's text from ``dae``, the structure's maximal DAE (:mod:`.symbolic_dae`, in the
-    same parameter symbols ``params``)."""
-    geometry = tree_geometry(shape, params)
+    same parameter symbols ``params``); ``rotations``: what a pin's coordinate is (:mod:`.symbolic_tree`)."""
+    geometry = tree_geometry(shape, params, rotations)
     tree = geometry.tree
     s, sd, sdd = geometry.s, geometry.sd, geometry.sdd
     n, size = len(s), 3 * shape.bodies
@@ -152,7 +153,8 @@ def derive_tree_dae(shape: Structure, params: ParameterSymbols, dae: LinearSyste
         joint = shape.joints[number]
         freedom = geometry.freedom(number)
         if isinstance(freedom, Rotation):
-            parent_alpha = qdd[3 * parent + 2] if parent >= 0 else ZERO
+            # relative: sdd = alpha_child - alpha_parent; absolute: sdd = alpha_child
+            parent_alpha = qdd[3 * parent + 2] if parent >= 0 and geometry.rotations == "relative" else ZERO
             rows.append(plus(sdd[m], negative(qdd[3 * body + 2]), parent_alpha))
         else:
             assert isinstance(freedom, Translation), f"joint {number}: a tree joint carries a rotation or a travel"

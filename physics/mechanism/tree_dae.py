@@ -24,6 +24,7 @@ from ..codegen.cache import CompiledSystem, load_generated
 from ..errors import LinkageError
 from .model import Mechanism
 from .parameters import structure, structure_key
+from .tree_coordinates import check_rotations
 
 FORMULATION = "tree_dae"
 COORDINATES = ("maximal", "tree")  # the values of simulate_mechanism's ``coordinates``
@@ -39,10 +40,13 @@ def check_coordinates(coordinates: str, method: str) -> None:
                            f"coordinates); leave it out or choose method 'dae'")
 
 
-def compiled_tree_dae(mechanism: Mechanism, key_of_structure: str | None = None) -> CompiledSystem:
+def compiled_tree_dae(mechanism: Mechanism, key_of_structure: str | None = None,
+                      rotations: str = "relative") -> CompiledSystem:
     """The generated DAE in tree coordinates for ``mechanism``'s structure: from memory, from the cache folder,
     or derived (sympy, only on a miss) and cached, exactly as :func:`physics.mechanism.engine.compiled_system`
-    keeps the three formulations (the key names the structure, never its numbers)."""
+    keeps the three formulations (the key names the structure and ``rotations``, what a pin's coordinate is,
+    never its numbers)."""
+    check_rotations(rotations)
     digest = structure_key(mechanism) if key_of_structure is None else key_of_structure
 
     def derive():
@@ -51,21 +55,25 @@ def compiled_tree_dae(mechanism: Mechanism, key_of_structure: str | None = None)
         from .symbolic_tree_dae import derive_tree_dae  # noqa: PLC0415
 
         shape = structure(mechanism)
-        system = derive_tree_dae(shape, parameter_symbols(shape), derive_structure(shape, "dae"))
+        system = derive_tree_dae(shape, parameter_symbols(shape), derive_structure(shape, "dae", "relative"),
+                                 rotations)
         return system, (f"the DAE in tree coordinates of a mechanism of {shape.bodies} bodies and "
-                        f"{len(shape.joints)} joints, structure {digest}")
+                        f"{len(shape.joints)} joints, structure {digest}"
+                        f"{', absolute rotations' * (rotations == 'absolute')}")
 
-    return load_generated(f"treedae-mechanism-{digest}", FORMULATION, derive)
+    kind = "" if rotations == "relative" else f"{rotations}-"  # relative: the key every cached one has had
+    return load_generated(f"treedae-mechanism-{kind}{digest}", FORMULATION, derive)
 
 
-def instant(mechanism: Mechanism, s: np.ndarray, sd: np.ndarray, t: float = 0.0
+def instant(mechanism: Mechanism, s: np.ndarray, sd: np.ndarray, t: float = 0.0, rotations: str = "relative"
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(sdd, qddot, reactions)`` at the tree state ``(s, sd)`` and time ``t``: one solve of the generated system
-    (every body's acceleration, every reaction row in the DAE's layout, the tree coordinates' accelerations)."""
+    """``(sdd, qddot, reactions)`` at the tree state ``(s, sd)`` (its pins' coordinates by ``rotations``) and time
+    ``t``: one solve of the generated system (every body's acceleration, every reaction row in the DAE's layout,
+    the tree coordinates' accelerations)."""
     from .prepared import prepared  # noqa: PLC0415
 
     pieces = prepared(mechanism)
-    compiled = compiled_tree_dae(mechanism, pieces.structure_key)
+    compiled = compiled_tree_dae(mechanism, pieces.structure_key, rotations)
     full, _ = compiled.solve_full(np.asarray(s, dtype=float), np.asarray(sd, dtype=float), pieces.parameters_at(t))
     size = 3 * len(mechanism.bodies)
     return full[compiled.theta_ddot_index], full[:size], full[compiled.multiplier_index]
