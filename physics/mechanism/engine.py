@@ -510,6 +510,8 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     out = np.empty((count, rows))
     alone = ~finite
     if closed_form is not None:
+        if finite.all():  # a run's samples are: no copies
+            return closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
         if np.any(finite):
             q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
             out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot)

@@ -44,42 +44,37 @@ PIN = "revolute"
 class TreeReactions:
     """The constant pieces of the closed form for one mechanism (every array read-only).
 
-    ``force_rows (J, 2)``: each pin's x and y rows; ``signed_subtree (J, B)``: ``s`` where a body hangs from
-    the pin (itself included), 0 elsewhere; ``side_body, side_pin, side_sign, side_arm`` ``(P,)``, ``(P,)``,
-    ``(P,)``, ``(P, 2)``: every pin end on a moving body, its pin, ``+1`` for the pin's body ``a`` (``-1`` for
-    ``b``) and its arm from the body's centre of mass in the sketch; ``side_incidence (P, B)`` which body each end
-    is on; ``motor_rows (K,)`` the speed motors' rows and ``signed_motor_subtree (K, B)`` the motor's sign on the
-    body below its pin (``+1`` for ``b``) where a body is reached from it through motored pins."""
+    ``linear (3 B, rows)``: the reactions' part linear in the imbalance ``M qddot - Q``: each pin's x and y rows
+    ``s`` times the imbalance's x and y summed over the bodies hanging from the pin (itself included), each
+    motor's row its sign on the body below its pin (``+1`` for ``b``) times the moment imbalance summed over the
+    bodies reached from that body through motored pins. ``side_body, side_pin, side_sign, side_arm`` ``(P,)``,
+    ``(P,)``, ``(P,)``, ``(P, 2)``: every pin end on a moving body, its pin, ``+1`` for the pin's body ``a``
+    (``-1`` for ``b``) and its arm from the body's centre of mass in the sketch; ``force_rows (J, 2)`` each pin's
+    x and y rows; ``motor_rows (K,)`` the speed motors' rows and ``torque_to_motor (P, K)`` what a pin end's
+    torque on its body takes from each motor's row (the pose-dependent part)."""
 
-    rows: int
+    linear: np.ndarray
     force_rows: np.ndarray
-    signed_subtree: np.ndarray
     side_body: np.ndarray
     side_pin: np.ndarray
     side_sign: np.ndarray
     side_arm: np.ndarray
-    side_incidence: np.ndarray
     motor_rows: np.ndarray
-    signed_motor_subtree: np.ndarray
+    torque_to_motor: np.ndarray
 
     def solve(self, mass_diagonal: np.ndarray, applied: np.ndarray, q: np.ndarray, qddot: np.ndarray) -> np.ndarray:
         """Every sample's reaction rows ``(T, rows)`` from its poses ``q``, accelerations ``qddot`` and applied
-        forces ``applied = Q`` (each ``(T, 3 B)``, finite)."""
-        count = q.shape[0]
-        imbalance = (mass_diagonal * qddot - applied).reshape(count, -1, 3)  # (T, B, 3): m a - F, I alpha - tau
-        pins = np.einsum("jb,tbk->tjk", self.signed_subtree, imbalance[..., :2])  # (T, J, 2)
-        out = np.empty((count, self.rows))
-        out[:, self.force_rows[:, 0]] = pins[..., 0]
-        out[:, self.force_rows[:, 1]] = pins[..., 1]
+        forces ``applied = Q`` (each ``(T, 3 B)``, finite): one product with :attr:`linear`, and for speed
+        motors the pins' torques about each body's centre of mass taken off."""
+        out = (mass_diagonal * qddot - applied) @ self.linear  # m a - F, I alpha - tau by body: (T, rows)
         if self.motor_rows.size:
             angle = q[:, 2::3][:, self.side_body]  # (T, P)
             cos, sin = np.cos(angle), np.sin(angle)
             arm_x = cos * self.side_arm[:, 0] - sin * self.side_arm[:, 1]
             arm_y = sin * self.side_arm[:, 0] + cos * self.side_arm[:, 1]
-            force = pins[:, self.side_pin] * self.side_sign[:, None]  # (T, P, 2): on the end's body
-            torque = arm_x * force[..., 1] - arm_y * force[..., 0]
-            left = imbalance[..., 2] - torque @ self.side_incidence  # (T, B): what the motors carry
-            out[:, self.motor_rows] = left @ self.signed_motor_subtree.T
+            force_x = out[:, self.force_rows[self.side_pin, 0]] * self.side_sign  # (T, P): on the end's body
+            force_y = out[:, self.force_rows[self.side_pin, 1]] * self.side_sign
+            out[:, self.motor_rows] -= (arm_x * force_y - arm_y * force_x) @ self.torque_to_motor
         return out
 
 
@@ -115,8 +110,8 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
         return found
 
     force_rows = np.empty((len(pin_of), 2), dtype=int)
-    signed_subtree = np.zeros((len(pin_of), count))
-    motor_rows, signed_motor_subtree = [], []
+    linear = np.zeros((3 * count, len(constraints.rows)))
+    motor_rows, motor_bodies = [], []
     side_body, side_pin, side_sign, side_arm = [], [], [], []
     for number, joint in enumerate(mechanism.joints):
         ends = kind_of(joint).bodies(joint)
@@ -125,7 +120,9 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
         child = child_of[joint.name]
         sign = 1.0 if child == a else -1.0
         force_rows[number] = [row_of[(joint.name, meaning)] for meaning in meanings]
-        signed_subtree[number, subtree(child, False)] = sign
+        hanging = np.array(subtree(child, False))
+        linear[3 * hanging, force_rows[number, 0]] = sign
+        linear[3 * hanging + 1, force_rows[number, 1]] = sign
         values = kind_of(joint).values(joint, mechanism)
         for body, arm, end_sign in ((a, values[0:2], 1.0), (b, values[2:4], -1.0)):
             if body != GROUND:
@@ -135,19 +132,17 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
                 side_arm.append(arm)
         if joint.name in speeds:
             motor_rows.append(row_of[(joint.name, MOTOR.meanings[0])])
-            row = np.zeros(count)
-            row[subtree(child, True)] = 1.0 if child == b else -1.0
-            signed_motor_subtree.append(row)
-    side_incidence = np.zeros((len(side_body), count))
-    side_incidence[np.arange(len(side_body)), side_body] = 1.0
+            turning = np.zeros(count)
+            turning[subtree(child, True)] = 1.0 if child == b else -1.0
+            linear[2::3, motor_rows[-1]] = turning
+            motor_bodies.append(turning)
+    incidence = np.zeros((len(side_body), count))
+    incidence[np.arange(len(side_body)), side_body] = 1.0
     built = TreeReactions(
-        rows=len(constraints.rows), force_rows=force_rows, signed_subtree=signed_subtree,
-        side_body=np.array(side_body, dtype=int), side_pin=np.array(side_pin, dtype=int),
-        side_sign=np.array(side_sign), side_arm=np.array(side_arm, dtype=float).reshape(-1, 2),
-        side_incidence=side_incidence, motor_rows=np.array(motor_rows, dtype=int),
-        signed_motor_subtree=np.array(signed_motor_subtree).reshape(-1, count))
+        linear=linear, force_rows=force_rows, side_body=np.array(side_body, dtype=int),
+        side_pin=np.array(side_pin, dtype=int), side_sign=np.array(side_sign),
+        side_arm=np.array(side_arm, dtype=float).reshape(-1, 2), motor_rows=np.array(motor_rows, dtype=int),
+        torque_to_motor=incidence @ np.array(motor_bodies).reshape(-1, count).T)
     for name in TreeReactions.__dataclass_fields__:
-        value = getattr(built, name)
-        if isinstance(value, np.ndarray):
-            value.setflags(write=False)
+        getattr(built, name).setflags(write=False)
     return built
