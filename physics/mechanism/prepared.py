@@ -97,6 +97,15 @@ class Prepared:
 
         return plan(self.constraints, self.topology)
 
+    @property
+    def full_rank_by_structure(self) -> bool:
+        """True when ``Phi_q`` has full row rank at every pose by the structure alone: an open tree of pins
+        (:attr:`tree_reactions` is not None). Ordered by bodies from the ground, a body's rows (its pin to its
+        parent, and the pin's speed motor) hold ``+-I`` in its translation columns and ``+-1`` in its rotation
+        column, nothing in its descendants' columns: block triangular, every diagonal block of full row rank.
+        Assembly then needs no rank (an SVD) to know the mobility."""
+        return self.tree_reactions is not None
+
     def remembered(self, key: Hashable):
         """What :meth:`remember` kept under ``key``, or None."""
         with _lock:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from physics.mechanism import engine
-from physics.mechanism.assembly import assemble
+from physics.mechanism.assembly import _rank, assemble
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joints.prismatic import Prismatic
@@ -197,3 +197,20 @@ def test_a_run_of_an_open_tree_reads_no_jacobian_for_its_reactions(monkeypatch):
 def _tree_states(mechanism: Mechanism, run):
     pairs = [tree_state(mechanism, q, qdot) for q, qdot in zip(run.q, run.qdot, strict=True)]
     return np.array([x for x, _ in pairs]), np.array([v for _, v in pairs])
+
+
+def test_an_open_tree_of_pins_has_full_row_rank_at_random_poses():
+    """What lets assembly skip the rank's SVD for an open tree of pins (Prepared.full_rank_by_structure): the
+    numerical rank assembly would compute equals the number of rows at random poses and numbers; a slider tree
+    and a loop are not claimed."""
+    rng = np.random.default_rng(5)
+    trees = [random_chain(rng, n, motors=True) for n in range(1, 6)] + [random_tree(rng) for _ in range(3)]
+    for mechanism in trees:
+        pieces = prepared(mechanism)
+        assert pieces.full_rank_by_structure
+        for _ in range(5):
+            q = pieces.constraints.sketch_pose() + rng.normal(scale=2.0, size=pieces.constraints.size)
+            jacobian = pieces.constraints.jacobian(q)
+            assert _rank(jacobian) == jacobian.shape[0]
+    assert not prepared(random_tree(rng, slider=True)).full_rank_by_structure
+    assert not prepared(closed_loop(rng)).full_rank_by_structure
