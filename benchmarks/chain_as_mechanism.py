@@ -17,7 +17,11 @@ the preset's start, projection where it applies. For each chain and method the c
   computed on request: the read is part of the call; the DAE's are its multipliers); the DAE in the tree's joint
   coordinates (``coordinates="tree"``, the state the chain engine's DAE integrates);
 * ``mechanism, condition read too``: as above, also reading ``condition`` (every sample's condition of
-  ``Phi_q``, a batched SVD), as the app and the ``mechanism`` command do.
+  ``Phi_q``, a batched SVD), as the app and the ``mechanism`` command do;
+* ``mechanism, a new start each call``: as ``mechanism``, from ``chain_state`` at the preset's angles moved by
+  a different 1e-9 rad each call (``q0`` and ``qdot0``): the start is assembled each time, not remembered, as
+  for a chain engine that hands every run to the mechanism engine (the four-bar's moved tip takes Newton steps
+  back onto its pin ``H``).
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case a few times to warm up (compiled code, caches, the drivers specialised per system); then, ``--rounds``
@@ -42,12 +46,18 @@ METHODS = ("newton_euler", "lagrange", "dae")
 CHAINS = ("triple-c", "four-bar")
 
 WORKER = r"""
-import inspect, json, statistics, sys, time
+import inspect, itertools, json, statistics, sys, time
 import physics
 from physics.model import Settings
 from physics.presets import get_preset
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.simulate import simulate_mechanism
+
+counter = itertools.count(1)  # a start never seen before: assembled, not remembered (physics/mechanism/prepared.py)
+
+def new_start(mechanism, preset, options):
+    q0, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0 + 1e-9 * next(counter), preset.omega0)
+    return simulate_mechanism(mechanism, q0=q0, qdot0=qdot0, **options).reaction_rows
 
 tree_dae = "coordinates" in inspect.signature(simulate_mechanism).parameters
 calls = {}
@@ -65,6 +75,8 @@ for name in sys.argv[1].split(","):
         calls[f"{name}|mechanism, condition read too|{method}"] = (lambda m, v, o: lambda: (
             lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, qdot0=v, **o)))(
             mechanism, qdot0, {**options, **extra})
+        calls[f"{name}|mechanism, a new start each call|{method}"] = (lambda m, p, o: lambda: new_start(m, p, o))(
+            mechanism, preset, {**options, **extra})
 for _ in range(3):  # warm: compiled code, caches, the specialised drivers (compiled in the background)
     for call in calls.values():
         call()
@@ -147,7 +159,7 @@ def main(argv: list[str] | None = None) -> None:
     print("| chain | case | " + " | ".join(f"{method} {label}" for method in METHODS for label in labels) + " |")
     print("|---|---|" + "---|" * (len(METHODS) * len(labels)))
     for chain in CHAINS:
-        for kind in ("chain engine", "mechanism", "mechanism, condition read too"):
+        for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call"):
             cells = []
             for method in METHODS:
                 for label in labels:

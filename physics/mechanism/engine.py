@@ -122,20 +122,18 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     y_out = np.empty((t_eval.size, y0.size))
     cond_out = np.empty(0)  # no condition per sample from the kernel (the run reports its own: _conditions)
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
-    if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853") and layout is compiled.integration_layout:
-        # the system's own layout (a tree formulation's, no projection weights appended): its own entry point,
-        # which takes the driver specialised for it (physics.codegen.specialised_ir: the same bits, seed case C's
-        # integration in about 0.2 ms instead of 0.5) once it is compiled, as a chain's run does
-        status, steps, evaluations, t_reached, filled = getattr(compiled, spec.kernel)(
-            y0, t0, t1, t_eval, params, settings.rtol, settings.atol, alpha, beta, project, settings.max_steps,
-            y_out, cond_out)
-        return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
         # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation, stabilised or
         # not); the kernel for a run they hand back (physics/codegen/native_integrators.py)
+        # with the system's own layout (a tree formulation's: no projection weights appended), the driver
+        # specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
+        # C's integration in about 0.2 ms instead of 0.5), as the system's own integrate_rk45 takes it for a chain
+        driver = (compiled._specialised_driver(spec.name)  # noqa: SLF001  (CompiledSystem's rule, not copied here)
+                  if layout is compiled.integration_layout
+                  and native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
                                               params, settings.rtol, settings.atol, alpha, beta, project,
-                                              settings.max_steps, y_out, cond_out)
+                                              settings.max_steps, y_out, cond_out, driver)
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
