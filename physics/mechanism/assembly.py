@@ -153,7 +153,8 @@ def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None
             f"{abs(residual[worst]):.3g} after {steps} Newton steps); check the lengths its bodies' points give"
         )
     jacobian = constraints.jacobian(q)
-    rank = _rank(jacobian)
+    # an open tree of pins has every row independent at every pose (Prepared.full_rank_by_structure): no SVD
+    rank = jacobian.shape[0] if pieces.full_rank_by_structure else _rank(jacobian)
     if rank < jacobian.shape[0]:
         raise LinkageError(over_constrained_message(constraints, jacobian, topology.loops))
     return Assembled(

@@ -26,6 +26,7 @@ from .parameters import parameter_vector, structure, structure_key
 
 if TYPE_CHECKING:
     from .prepared import Prepared
+    from .tree_reactions import TreeReactions
 
 
 def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | None = None,
@@ -136,9 +137,15 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
         # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation, stabilised or
         # not); the kernel for a run they hand back (physics/codegen/native_integrators.py)
+        # with the system's own layout (a tree formulation's: no projection weights appended), the driver
+        # specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
+        # C's integration in about 0.2 ms instead of 0.5), as the system's own integrate_rk45 takes it for a chain
+        driver = (compiled._specialised_driver(spec.name)  # noqa: SLF001  (CompiledSystem's rule, not copied here)
+                  if layout is compiled.integration_layout
+                  and native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
                                               params, settings.rtol, settings.atol, alpha, beta, project,
-                                              settings.max_steps, y_out, cond_out)
+                                              settings.max_steps, y_out, cond_out, driver)
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
@@ -285,7 +292,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
     own_reactions = not tree or coordinates == "tree"  # the DAE's multipliers: every joint's rows
-    reactions, condition = _on_request(dae, compiled, params, times, solved, tree, own_reactions)
+    reactions, condition = _on_request(dae, compiled, params, times, solved, tree, own_reactions,
+                                       pieces.tree_reactions if tree and not own_reactions else None)
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points
@@ -308,7 +316,8 @@ POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, ever
 KEPT_JACOBIAN_BYTES = 4 << 20
 
 
-def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_reactions: bool):
+def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_reactions: bool,
+                closed_form: TreeReactions | None = None):
     """``(reaction_rows, condition)`` of a run, each computed when first read (:class:`OnRequest`): a tree
     formulation's reactions by Newton's second law (:func:`body_reactions`) and every sample's condition of
     ``Phi_q`` (:func:`_conditions`), from the samples the run keeps, so their bits are the ones the run computed
@@ -317,7 +326,9 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
     the DAE's condition of a longer run evaluates the generated constraint rows again at the same times, states
     and parameters (the same bits); a tree formulation evaluates the
     maximal ``Phi_q`` when the first of its two fields is read and lets it go when the second is.
-    ``own_reactions``: the run's multipliers are its reactions (the DAE, maximal or in tree coordinates)."""
+    ``own_reactions``: the run's multipliers are its reactions (the DAE, maximal or in tree coordinates).
+    ``closed_form``: the mechanism's :class:`~physics.mechanism.tree_reactions.TreeReactions` (an open tree of
+    pins): its reactions need no Jacobian."""
     from ..simulate.trajectory import OnRequest  # noqa: PLC0415
 
     constraints = dae.constraints
@@ -331,7 +342,8 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
                 memo.append(_maximal_jacobians(constraints, kept.q))
             return memo[0]
 
-        reactions = solved.multipliers if own_reactions else OnRequest(lambda: body_reactions(dae, kept, jacobians()))
+        reactions = solved.multipliers if own_reactions else OnRequest(lambda: body_reactions(
+            dae, kept, None if closed_form is not None else jacobians(), closed_form=closed_form))
         return reactions, OnRequest(lambda: _conditions(constraints, kept, True, jacobians()))
     held = solved.constraint_jacobian if solved.constraint_jacobian.nbytes <= KEPT_JACOBIAN_BYTES else None
     params = params.copy()  # the run's own, as its samples were solved with it
@@ -432,7 +444,8 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
 
         x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float), pieces, rotations)
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
-    reactions = solved.multipliers if method == "dae" else body_reactions(pieces.dae, solved)
+    reactions = (solved.multipliers if method == "dae"
+                 else body_reactions(pieces.dae, solved, closed_form=pieces.tree_reactions))
     return solved.qddot[0], reactions[0]
 
 
@@ -492,13 +505,17 @@ def _condition(constraints, q: np.ndarray) -> float:
 _QR_RANK_RATIO = 1e-10
 
 
-def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray | None] | None = None
-                   ) -> np.ndarray:
+def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray | None] | None = None, *,
+                   closed_form: TreeReactions | None = None) -> np.ndarray:
     """A tree formulation's reactions of every joint row, from its own accelerations by Newton's second law on
     every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense).
     Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations (``jacobians``: :func:`_maximal_jacobians`
     of the samples' poses, when the caller holds it), then one batched QR of ``Phi_q^T`` and a triangular solve;
-    a sample near losing rank, or not finite, by ``lstsq`` on its own as before."""
+    a sample near losing rank, or not finite, by ``lstsq`` on its own as before. ``closed_form``: the
+    mechanism's :class:`~physics.mechanism.tree_reactions.TreeReactions` when it is an open tree of pins
+    (:attr:`~physics.mechanism.prepared.Prepared.tree_reactions`): the same system solved from the leaves to the
+    root, no Jacobian and no QR (it assumes the accelerations consistent with the joints, as a run's are; without
+    it an inconsistent ``qddot`` gets the least-squares answer)."""
     count = len(solved.q)
     rows = len(dae.constraints.rows)
     if count == 0 or rows == 0:
@@ -506,7 +523,13 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     finite = np.all(np.isfinite(solved.q) & np.isfinite(solved.qdot) & np.isfinite(solved.qddot), axis=1)
     out = np.empty((count, rows))
     alone = ~finite
-    if np.any(finite) and rows <= dae.constraints.size:
+    if closed_form is not None:
+        if finite.all():  # a run's samples are: no copies
+            return closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
+        if np.any(finite):
+            q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
+            out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot)
+    elif np.any(finite) and rows <= dae.constraints.size:
         q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
         if jacobians is None or jacobians[1] is None:
             jacobian = dae.constraints.jacobian(q)
