@@ -312,8 +312,10 @@ class CompiledSystem:
             method, layout, self.assemble_function, digest))
 
     def samples_solve(self):
-        """The samples' ``solve_states`` specialised for this system (the same bits, about 0.02 ms instead of
-        0.05 for seed case C's 200 samples), by the rule of :meth:`_specialised_driver`; None: the generic one."""
+        """The samples' ``solve_states`` and whole pass specialised for this system
+        (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms
+        instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`_specialised_driver`; None: the
+        generic ones."""
         layout = self.layout
         return self._specialised("samples", layout, lambda digest: native_samples.specialised_solve(
             layout, self.assemble_function, digest))

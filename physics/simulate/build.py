@@ -29,8 +29,8 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     follow from the accelerations by Newton's law per bar (:mod:`physics.reactions`, in a compiled pass). The
     passes are generated LLVM IR (:mod:`physics.codegen.native_samples`, the numba kernels' bits): a first run
     compiles them in a fraction of a second, where numba took seconds. Their arrays share one buffer
-    (:func:`~physics.codegen.native_samples.trajectory_samples`: three calls, no per-array conversion), and a
-    system run again in the process solves its samples with its specialised solve
+    (:func:`~physics.codegen.native_samples.trajectory_samples`: one call, no per-array conversion), and a
+    system run again in the process takes its specialised samples' pass
     (:meth:`~physics.codegen.cache.CompiledSystem.samples_solve`).
     """
     n = chain.n
@@ -46,7 +46,7 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
                                 compiled.theta_ddot_index, tip_reaction_index if chain.pinned else (),
                                 compiled.samples_solve() if samples else None)
     theta, omega, joints, kinetic, potential = arrays.theta, arrays.omega, arrays.joints, arrays.kinetic, arrays.potential
-    energy = kinetic + potential
+    energy = arrays.energy  # kinetic + potential, added in the same pass
     reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, len(reaction_index), 2))
     tip_reaction = (arrays.x[:, tip_reaction_index] if tip_reaction_index.size
                     else np.zeros((samples, len(tip_reaction_index))))
