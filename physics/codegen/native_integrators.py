@@ -126,6 +126,11 @@ def _driver(method: str):
         return functions.setdefault(method, _SIGNATURE(address))
 
 
+def generic_driver(method: str):
+    """The ctypes function of ``method``'s generic driver ("RK45" or "DOP853"), compiled or loaded once."""
+    return _driver(method)
+
+
 def specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
     """For ``method`` ("RK45", "DOP853" or "samples", the samples' solve): the layout without its addresses (1 where the system has that function), all of the layout that shapes
     the specialised IR, and the machine-code cache's key of that IR."""

@@ -38,6 +38,11 @@ def _function(name: str):
     return ctypes_functions("samples", _BUILD, _SIGNATURES)[name]
 
 
+def generic_samples_pass():
+    """The ctypes function of the generic ``samples_pass`` (compiled or loaded once per process)."""
+    return _function("samples_pass")
+
+
 def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
     """``(functions, engine)``: ``solve_states`` and ``samples_pass`` specialised for one system (its ``layout``,
     the one for one evaluation at a time), a :class:`SpecialisedSamples` of ctypes functions of the generic

@@ -33,19 +33,32 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
     system run again in the process takes its specialised samples' pass
     (:meth:`~physics.codegen.cache.CompiledSystem.samples_solve`).
     """
-    n = chain.n
     bars = chain_arrays(chain)
-    samples = len(t)
-    trace = settings.trace or bars.tip
-    if trace.bar > n:
-        raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {n}")
-    reaction_index = compiled.reaction_index
+    trace = trace_point(chain, settings, bars)
     tip_reaction_index = compiled.tip_reaction_index
     arrays = trajectory_samples(compiled.assemble_function, compiled.layout, y, params, alpha, beta, bars.bars,
                                 bars.g, trace.bar - 1, float(trace.along), float(trace.across),
                                 compiled.theta_ddot_index, tip_reaction_index if chain.pinned else (),
-                                compiled.samples_solve() if samples else None)
-    theta, omega, joints, kinetic, potential = arrays.theta, arrays.omega, arrays.joints, arrays.kinetic, arrays.potential
+                                compiled.samples_solve() if len(t) else None)
+    return trajectory_from_samples(chain, settings, compiled, params, t, arrays, cond)
+
+
+def trace_point(chain, settings, bars):
+    """The point a run traces (the settings', else the tip), its bar checked against the chain."""
+    trace = settings.trace or bars.tip
+    if trace.bar > chain.n:
+        raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {chain.n}")
+    return trace
+
+
+def trajectory_from_samples(chain, settings, compiled, params, t, arrays, cond=None) -> Trajectory:
+    """The Trajectory of sample times ``t`` and the samples' pass ``arrays``
+    (:class:`~physics.codegen.native_samples.SampleArrays`, for as many rows as ``t``): views of them where a
+    field is one of them, a pinned chain's constraint drift and condition numbers computed here."""
+    samples = len(t)
+    reaction_index = compiled.reaction_index
+    tip_reaction_index = compiled.tip_reaction_index
+    theta, omega, joints = arrays.theta, arrays.omega, arrays.joints
     energy = arrays.energy  # kinetic + potential, added in the same pass
     reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, len(reaction_index), 2))
     tip_reaction = (arrays.x[:, tip_reaction_index] if tip_reaction_index.size
@@ -70,8 +83,8 @@ def build_trajectory(chain, settings, compiled, params, t, y, cond=None, alpha=0
         joints=joints,
         tip_xy=joints[:, -1, :],
         trace_xy=arrays.trace_xy,
-        kinetic=kinetic,
-        potential=potential,
+        kinetic=arrays.kinetic,
+        potential=arrays.potential,
         energy=energy,
         reactions=reactions,
         joint_reactions=arrays.joint_reactions,
