@@ -57,40 +57,27 @@ def trajectory_from_samples(chain, settings, compiled, params, t, arrays, cond=N
     field is one of them, a pinned chain's constraint drift and condition numbers computed here."""
     samples = len(t)
     reaction_index = compiled.reaction_index
-    tip_reaction_index = compiled.tip_reaction_index
     theta, omega, joints = arrays.theta, arrays.omega, arrays.joints
-    energy = arrays.energy  # kinetic + potential, added in the same pass
-    reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, len(reaction_index), 2))
-    tip_reaction = (arrays.x[:, tip_reaction_index] if tip_reaction_index.size
-                    else np.zeros((samples, len(tip_reaction_index))))
+    reactions = arrays.x[:, reaction_index] if reaction_index.size else np.zeros((samples, 0, 2))
     if cond is None or len(cond) != samples:
         cond = arrays.cond
-    constraint_xy = np.zeros((samples, 2 if chain.pinned else 0))
-    constraint_velocity = np.zeros((samples, 2 if chain.pinned else 0))
     if chain.pinned:
+        tip_reaction_index = compiled.tip_reaction_index
+        tip_reaction = (arrays.x[:, tip_reaction_index] if tip_reaction_index.size
+                        else np.zeros((samples, len(tip_reaction_index))))
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
         constraint_velocity = arrays.tip_velocity
         if samples:
             # Near a singular position the pivot ratio understates the trouble: report the true 2-norm
             # condition number of the system actually solved.
             cond = system_condition(compiled, theta, omega, params)
-    return Trajectory(
-        method=settings.method,
-        integrator=settings.integrator,
-        t=t,
-        theta=theta,
-        omega=omega,
-        joints=joints,
-        tip_xy=joints[:, -1, :],
-        trace_xy=arrays.trace_xy,
-        kinetic=arrays.kinetic,
-        potential=arrays.potential,
-        energy=energy,
-        reactions=reactions,
-        joint_reactions=arrays.joint_reactions,
-        tip_reaction=tip_reaction,
-        constraint_xy=constraint_xy,
-        constraint_velocity=constraint_velocity,
-        condition=cond,
-        trace_is_explicit=settings.trace is not None,
+    else:
+        tip_reaction = np.zeros((samples, 0))  # an open chain's system has no pin force among its unknowns
+        constraint_xy = np.zeros((samples, 0))
+        constraint_velocity = np.zeros((samples, 0))
+    return Trajectory.of_chain(
+        settings.method, settings.integrator, t, arrays.trace_xy, arrays.kinetic, arrays.potential,
+        arrays.energy,  # kinetic + potential, added in the same pass
+        cond, theta, omega, joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity,
+        arrays.joint_reactions, settings.trace is not None,
     )

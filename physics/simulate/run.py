@@ -44,13 +44,19 @@ def _start_state(n: int, theta0, omega0) -> np.ndarray:
     if (type(theta0) is np.ndarray and type(omega0) is np.ndarray and theta0.shape == (n,)
             and omega0.shape == (n,) and theta0.dtype == np.float64 and omega0.dtype == np.float64):
         y0 = np.concatenate([theta0, omega0])
-        if (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
+        if n <= FEW_LINKS:  # a few floats compare faster in Python than through three numpy calls
+            values = y0.tolist()
+            if (all(-MAX_ANGLE <= value <= MAX_ANGLE for value in values[:n])  # False for NaN and infinities
+                    and all(-MAX_ANGULAR_SPEED <= value <= MAX_ANGULAR_SPEED for value in values[n:])):
+                return y0
+        elif (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
             return y0
     theta0, omega0 = check_state(n, theta0, omega0)
     return np.concatenate([theta0, omega0])
 
 
 _limits: dict[int, np.ndarray] = {}
+FEW_LINKS = 8
 
 
 def _state_limits(n: int) -> np.ndarray:
@@ -121,11 +127,12 @@ def simulate(
 
         return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start)
     compiled = load_compiled(settings.method, n, chain.pinned)
-    params = chain_arrays(chain).params_with(settings.damping)
+    bars = chain_arrays(chain)
+    params = bars.params_with(settings.damping)
     alpha, beta, project = _stabilization_gains(chain, settings)
     t_eval = _sample_times(t_start, settings.t_end, settings.samples)
     if settings.backend != SCIPY and settings.integrator in ONE_BUFFER_METHODS and ONE_BUFFER:
-        trajectory = _run_in_one_buffer(chain, settings, compiled, y0, t_eval, params, alpha, beta, project)
+        trajectory = _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project)
         return trajectory
     if settings.backend == SCIPY:
         # scipy boundary: scipy's integrators are imported only for this back end.
@@ -178,12 +185,11 @@ ONE_BUFFER_METHODS = {"RK45": "RK45", "DOP853": "DOP853"}
 ONE_BUFFER = True
 
 
-def _run_in_one_buffer(chain, settings, compiled, y0, t_eval, params, alpha, beta, project) -> Trajectory:
+def _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project) -> Trajectory:
     """A compiled RK45/DOP853 run of a chain by :func:`physics.codegen.native_run.integrate_and_sample`: the
     system's specialised driver and samples' pass when it has them (``CompiledSystem``'s rules), else the
     generic ones; the Trajectory from the buffer's views."""
     method = ONE_BUFFER_METHODS[settings.integrator]
-    bars = chain_arrays(chain)
     trace = trace_point(chain, settings, bars)
     layout = compiled.integration_layout
     driver, samples_pass = compiled.run_functions(method)
