@@ -211,6 +211,18 @@ def layout_address(layout: np.ndarray) -> int:
     return address
 
 
+def checked_address(array, shape: tuple, dtype=np.float64) -> int:
+    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
+    ``dtype`` and of ``shape`` (None: any length on that axis); else ``ValueError`` before any pointer is handed
+    over (the IR modules' checked entry points, :mod:`physics.codegen.native_samples` and
+    :mod:`physics.codegen.native_states`)."""
+    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
+            and array.ndim == len(shape) and all(want is None or have == want
+                                                 for have, want in zip(array.shape, shape, strict=True))):
+        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
+    return int(array.ctypes.data)
+
+
 def _c_array(array, dtype, ndim: int) -> bool:
     return (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
             and array.ndim == ndim)

@@ -19,6 +19,7 @@ from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKN
 from .ir_shapes import SAMPLES_PASS_NAME, SAMPLES_SOLVE_NAME
 from .ir_shapes import samples_pass_scratch_length as pass_scratch_length
 from .ir_shapes import samples_scratch_length as scratch_length
+from .native_integrators import checked_address as _pointer
 from .native_integrators import ctypes_functions, ir_builder, layout_address, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
@@ -60,16 +61,6 @@ def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
     functions = SpecialisedSamples(_SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)),
                                    _SIGNATURES["samples_pass"](engine.get_function_address(SAMPLES_PASS_NAME)))
     return functions, engine
-
-
-def _pointer(array: np.ndarray, shape: tuple, dtype=np.float64) -> int:
-    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
-    ``dtype`` and of ``shape`` (None: any length on that axis)."""
-    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
-            and array.ndim == len(shape) and all(want is None or have == want
-                                                 for have, want in zip(array.shape, shape, strict=True))):
-        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
-    return array.ctypes.data
 
 
 def solve_states(assemble: int, layout, theta, omega, params, alpha, beta, x_out, cond_out) -> None:
