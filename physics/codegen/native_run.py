@@ -20,7 +20,7 @@ from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_UNKNOWNS
 from .ir_shapes import integrator_scratch_length, samples_pass_scratch_length
 from .native_integrators import layout_address
-from .native_samples import SampleArrays, _index_address, _kept_alive, _plan
+from .native_samples import SampleArrays, _plan, index_address
 
 _NO_CONDITION = np.empty(0)
 
@@ -81,17 +81,16 @@ def integrate_and_sample(driver, samples_pass, assemble: int, integration_layout
     pinned = len(tip_reaction_index) != 0
     if bars.shape != (4 * n,) or not 0 <= int(trace_bar) < n:
         raise ValueError(f"expected bars ({4 * n},) and a trace bar among the {n} bars")
-    _kept_alive.clear()
-    accelerations = _index_address(theta_ddot_index, n, k, "acceleration")
-    pin_force = _index_address(tip_reaction_index, 2, k, "pin-force") if pinned else 0
+    if samples == 0:
+        raise ValueError("expected at least one sample time")
+    accelerations, _held = index_address(theta_ddot_index, n, k, "acceleration")  # held until the calls return
+    pin_force, _pin_held = index_address(tip_reaction_index, 2, k, "pin-force") if pinned else (0, None)
     at = _buffer(method, n, k, r, samples, n_params, pinned)
     values = np.empty(at.length)
     y_out = values[at.y_out:at.samples].reshape(samples, n_state)
     check_arguments(integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
                     _NO_CONDITION)
-    counts = values[:3].view(np.int64)
-    counts.fill(0)
-    values[3] = 0.0
+    values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
     values[at.y0:at.t_eval] = y0
     values[at.t_eval:at.params] = t_eval
     values[at.params:at.driver_scratch] = params
@@ -112,12 +111,12 @@ def integrate_and_sample(driver, samples_pass, assemble: int, integration_layout
                  float(alpha), float(beta), base + 8 * at.bars, float(g), int(trace_bar), float(trace_along),
                  float(trace_across), accelerations, pin_force, int(pinned), base + 8 * at.samples,
                  base + 8 * at.samples_scratch)
-    _kept_alive.clear()
     plan = _plan(rows, n, k, pinned)
     arrays = SampleArrays.__new__(SampleArrays)
     arrays.offsets, arrays.length = plan.offsets, plan.length
     start = at.samples
     for name, first, stop, shape in plan.views:
         setattr(arrays, name, values[start + first:start + stop].reshape(shape))
-    return (int(status), int(counts[0]), int(counts[1]), float(values[3]), values[at.t_eval:at.t_eval + rows],
-            y_out[:rows], arrays)
+    n_steps, n_rhs, _ = values[:3].view(np.int64).tolist()
+    return (int(status), n_steps, n_rhs, float(values[3]), values[at.t_eval:at.t_eval + rows], y_out[:rows],
+            arrays)

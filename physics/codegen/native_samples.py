@@ -198,29 +198,25 @@ _checked_indices: dict[int, tuple[np.ndarray, int, int]] = {}
 MAX_INDICES = 64
 
 
-def _index_address(index, count: int, k: int, what: str) -> int:
-    """The address of ``index``, ``count`` int64 positions among ``k`` unknowns (ValueError for another shape,
-    IndexError for a position outside them, as ``np.take`` raises), checked once per read-only array (a
-    system's index arrays, :class:`physics.codegen.cache.CompiledSystem`), else at every call."""
+def index_address(index, count: int, k: int, what: str) -> tuple[int, np.ndarray]:
+    """``(address, array)``: ``index`` as ``count`` int64 positions among ``k`` unknowns (ValueError for another
+    shape, IndexError for a position outside them, as ``np.take`` raises) and the address of its data, checked
+    once per read-only array (a system's index arrays, :class:`physics.codegen.cache.CompiledSystem`), else at
+    every call. The caller holds ``array`` until its native call returns (it may be a converted copy)."""
     entry = _checked_indices.get(id(index))
     if entry is not None and entry[0] is index and entry[2] == k:
-        return entry[1]
+        return entry[1], index
     array = np.ascontiguousarray(index, dtype=np.int64)
     if array.shape != (count,):
         raise ValueError(f"expected {count} {what} indices")
     if count and not (0 <= int(array.min()) and int(array.max()) < k):
         raise IndexError(f"{what} indices {array.tolist()} outside the {k} unknowns")
-    address = array.ctypes.data
+    address = int(array.ctypes.data)
     if array is index and not index.flags.writeable:
         if len(_checked_indices) >= MAX_INDICES:
             _checked_indices.clear()
         _checked_indices[id(index)] = (index, address, k)
-    else:
-        _kept_alive.append(array)  # the caller's call below reads it; dropped at the next call
-    return address
-
-
-_kept_alive: list[np.ndarray] = []
+    return address, array
 
 
 def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
@@ -246,9 +242,8 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
     if not 0 <= int(trace_bar) < n:
         raise ValueError(f"trace_bar = {trace_bar}: must index one of the {n} bars")
     pinned = len(tip_reaction_index) != 0
-    _kept_alive.clear()
-    accelerations = _index_address(theta_ddot_index, n, k, "acceleration")
-    pin_force = _index_address(tip_reaction_index, 2, k, "pin-force") if pinned else 0
+    accelerations, _held = index_address(theta_ddot_index, n, k, "acceleration")
+    pin_force, _pin_held = index_address(tip_reaction_index, 2, k, "pin-force") if pinned else (0, None)
     plan = _plan(rows, n, k, pinned)
     at_states, at_bars, at_params = plan.inputs
     at_scratch = at_params + len(params)
@@ -265,5 +260,4 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
         int(assemble), layout_address(layout), rows, base + 8 * at_states, base + 8 * at_params, float(alpha),
         float(beta), base + 8 * at_bars, float(g), int(trace_bar), float(trace_along), float(trace_across),
         accelerations, pin_force, int(pinned), base, base + 8 * at_scratch)
-    _kept_alive.clear()
     return arrays
