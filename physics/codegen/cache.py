@@ -474,6 +474,7 @@ class CompiledSystem:
 
 
 _loaded: dict = {}
+_chain_systems: dict = {}  # (formulation, n, pinned) -> the system _loaded holds under its key
 _lock = threading.Lock()
 
 
@@ -573,12 +574,20 @@ def _generate(path: Path, derive, formulation: str, digest: str) -> bytes:
 
 def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSystem:
     """Ready numeric functions for a chain's formulation; derived and generated only when the cache lacks them."""
+    if type(n) is int and type(pinned) is bool:  # every run asks: a loaded chain system in one look-up
+        system = _chain_systems.get((formulation, n, pinned))
+        if system is not None:
+            return system
     if formulation not in FORMULATION_NAMES:
         raise LinkageError(f"method = {formulation!r}: allowed {', '.join(FORMULATION_NAMES)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= MAX_LINKS:
         raise LinkageError(f"links = {n!r}: allowed an integer 1 <= links <= {MAX_LINKS}")
-    return _load(_key(formulation, int(n), bool(pinned)), formulation, int(n), bool(pinned),
-                 lambda: _chain_system(formulation, int(n), bool(pinned)))
+    key = _key(formulation, int(n), bool(pinned))
+    system = _load(key, formulation, int(n), bool(pinned), lambda: _chain_system(formulation, int(n), bool(pinned)))
+    with _lock:
+        if _loaded.get(key) is system:  # (not cleared meanwhile)
+            _chain_systems[(formulation, int(n), bool(pinned))] = system
+    return system
 
 
 def load_generated(key: str, formulation: str, derive) -> CompiledSystem:
@@ -629,6 +638,7 @@ def clear_memory_cache() -> None:
     """Forget loaded modules (tests use it to exercise the disk cache)."""
     with _lock:
         _loaded.clear()
+        _chain_systems.clear()
 
 
 def is_generated(formulation: str, n: int, pinned: bool = False) -> bool:
