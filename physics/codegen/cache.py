@@ -474,7 +474,8 @@ class CompiledSystem:
 
 
 _loaded: dict = {}
-_chain_systems: dict = {}  # (formulation, n, pinned) -> the system _loaded holds under its key
+# (formulation, n, pinned) -> the system _loaded holds under its key
+_chain_systems: dict[tuple[str, int, bool], CompiledSystem] = {}
 _lock = threading.Lock()
 
 
@@ -575,9 +576,9 @@ def _generate(path: Path, derive, formulation: str, digest: str) -> bytes:
 def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSystem:
     """Ready numeric functions for a chain's formulation; derived and generated only when the cache lacks them."""
     if type(n) is int and type(pinned) is bool:  # every run asks: a loaded chain system in one look-up
-        system = _chain_systems.get((formulation, n, pinned))
-        if system is not None:
-            return system
+        found = _chain_systems.get((formulation, n, pinned))
+        if found is not None:
+            return found
     if formulation not in FORMULATION_NAMES:
         raise LinkageError(f"method = {formulation!r}: allowed {', '.join(FORMULATION_NAMES)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= MAX_LINKS:
