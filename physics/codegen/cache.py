@@ -311,9 +311,27 @@ class CompiledSystem:
         return self._specialised(method, layout, lambda digest: native_integrators.specialised_driver(
             method, layout, self.assemble_function, digest))
 
+    def run_functions(self, method: str):
+        """``(driver, samples_pass)`` for a run of ``method`` ("RK45" or "DOP853") in one buffer
+        (:func:`physics.codegen.native_run.integrate_and_sample`): this system's specialised ones where
+        :meth:`_specialised_driver` and :meth:`samples_solve` give them, else the generic ones."""
+        key = f"run functions {method}"
+        functions = self._functions.get(key)
+        if functions is not None:
+            return functions
+        driver = self._specialised_driver(method)
+        specialised = self.samples_solve()
+        if driver is not None and specialised is not None:  # final: kept (the rules are not asked again)
+            functions = self._functions[key] = (driver, specialised.samples_pass)
+            return functions
+        return (driver or native_integrators.generic_driver(method),
+                specialised.samples_pass if specialised is not None else native_samples.generic_samples_pass())
+
     def samples_solve(self):
-        """The samples' ``solve_states`` specialised for this system (the same bits, about 0.02 ms instead of
-        0.05 for seed case C's 200 samples), by the rule of :meth:`_specialised_driver`; None: the generic one."""
+        """The samples' ``solve_states`` and whole pass specialised for this system
+        (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms
+        instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`_specialised_driver`; None: the
+        generic ones."""
         layout = self.layout
         return self._specialised("samples", layout, lambda digest: native_samples.specialised_solve(
             layout, self.assemble_function, digest))
@@ -456,6 +474,8 @@ class CompiledSystem:
 
 
 _loaded: dict = {}
+# (formulation, n, pinned) -> the system _loaded holds under its key
+_chain_systems: dict[tuple[str, int, bool], CompiledSystem] = {}
 _lock = threading.Lock()
 
 
@@ -555,12 +575,20 @@ def _generate(path: Path, derive, formulation: str, digest: str) -> bytes:
 
 def load_compiled(formulation: str, n: int, pinned: bool = False) -> CompiledSystem:
     """Ready numeric functions for a chain's formulation; derived and generated only when the cache lacks them."""
+    if type(n) is int and type(pinned) is bool:  # every run asks: a loaded chain system in one look-up
+        found = _chain_systems.get((formulation, n, pinned))
+        if found is not None:
+            return found
     if formulation not in FORMULATION_NAMES:
         raise LinkageError(f"method = {formulation!r}: allowed {', '.join(FORMULATION_NAMES)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= MAX_LINKS:
         raise LinkageError(f"links = {n!r}: allowed an integer 1 <= links <= {MAX_LINKS}")
-    return _load(_key(formulation, int(n), bool(pinned)), formulation, int(n), bool(pinned),
-                 lambda: _chain_system(formulation, int(n), bool(pinned)))
+    key = _key(formulation, int(n), bool(pinned))
+    system = _load(key, formulation, int(n), bool(pinned), lambda: _chain_system(formulation, int(n), bool(pinned)))
+    with _lock:
+        if _loaded.get(key) is system:  # (not cleared meanwhile)
+            _chain_systems[(formulation, int(n), bool(pinned))] = system
+    return system
 
 
 def load_generated(key: str, formulation: str, derive) -> CompiledSystem:
@@ -611,6 +639,7 @@ def clear_memory_cache() -> None:
     """Forget loaded modules (tests use it to exercise the disk cache)."""
     with _lock:
         _loaded.clear()
+        _chain_systems.clear()
 
 
 def is_generated(formulation: str, n: int, pinned: bool = False) -> bool:

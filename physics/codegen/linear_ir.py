@@ -110,6 +110,22 @@ def two_row_ratio(code: _Code, J, n, singular: ir.Block):
     return code.sqrt(b.fdiv(b.fadd(half_trace, gap), smallest))
 
 
+def load_state(code: _Code, layout, t, y, params, theta, omega):
+    """common.load_state's IR, emitted where a function starts from a state ``y``: ``t`` into ``params`` at the
+    layout's time slot (when there is one), ``y`` split into ``theta`` and ``omega``; returns ``n`` (loaded from
+    the layout). One emitter for the general rhs and the projection: the text each emits is what each emitted
+    before (the machine-code cache keys on it)."""
+    b = code.b
+    n = code.load(layout, _int(LAYOUT_COORDINATES))
+    slot = code.load(layout, _int(LAYOUT_TIME))
+    with b.if_then(b.icmp_signed(">=", slot, _int(0))):
+        code.store(t, params, slot)
+    with code.loop(n, "split") as i:
+        code.store(code.load(y, i), theta, i)
+        code.store(code.load(y, b.add(n, i)), omega, i)
+    return n
+
+
 @contextmanager
 def _downward(code: _Code, count, name: str):
     """``for i in range(count - 1, -1, -1)``: yields ``i`` (as :meth:`_Code.loop` yields its index)."""
@@ -419,13 +435,7 @@ class LinearFunctions:
         (assemble, layout, A, b_vector, x, col_scale, J, v, t, y, params, theta, omega, dydt, alpha,
          beta) = code.function.args
         b = code.b
-        n = code.load(layout, _int(LAYOUT_COORDINATES))
-        slot = code.load(layout, _int(LAYOUT_TIME))
-        with b.if_then(b.icmp_signed(">=", slot, _int(0))):
-            code.store(t, params, slot)
-        with code.loop(n, "split") as i:
-            code.store(code.load(y, i), theta, i)
-            code.store(code.load(y, b.add(n, i)), omega, i)
+        n = load_state(code, layout, t, y, params, theta, omega)
         condition = b.call(self.unknowns, [assemble, layout, A, b_vector, x, col_scale, J, v, theta, omega, params,
                                            alpha, beta])
         finite = code.var(b.fcmp_ordered("==", condition, condition))

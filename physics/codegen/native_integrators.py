@@ -126,6 +126,11 @@ def _driver(method: str):
         return functions.setdefault(method, _SIGNATURE(address))
 
 
+def generic_driver(method: str):
+    """The ctypes function of ``method``'s generic driver ("RK45" or "DOP853"), compiled or loaded once."""
+    return _driver(method)
+
+
 def specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
     """For ``method`` ("RK45", "DOP853" or "samples", the samples' solve): the layout without its addresses (1 where the system has that function), all of the layout that shapes
     the specialised IR, and the machine-code cache's key of that IR."""
@@ -204,6 +209,18 @@ def layout_address(layout: np.ndarray) -> int:
             _layout_addresses.clear()
         _layout_addresses[id(layout)] = (layout, address)
     return address
+
+
+def checked_address(array, shape: tuple, dtype=np.float64) -> int:
+    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
+    ``dtype`` and of ``shape`` (None: any length on that axis); else ``ValueError`` before any pointer is handed
+    over (the IR modules' checked entry points, :mod:`physics.codegen.native_samples` and
+    :mod:`physics.codegen.native_states`)."""
+    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
+            and array.ndim == len(shape) and all(want is None or have == want
+                                                 for have, want in zip(array.shape, shape, strict=True))):
+        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
+    return int(array.ctypes.data)
 
 
 def _c_array(array, dtype, ndim: int) -> bool:

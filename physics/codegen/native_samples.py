@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
-from .ir_shapes import SAMPLES_SOLVE_NAME
+from .ir_shapes import SAMPLES_PASS_NAME, SAMPLES_SOLVE_NAME
+from .ir_shapes import samples_pass_scratch_length as pass_scratch_length
 from .ir_shapes import samples_scratch_length as scratch_length
+from .native_integrators import checked_address as _pointer
 from .native_integrators import ctypes_functions, ir_builder, layout_address, specialised_engine, specialised_key
 
 _P = ctypes.c_void_p
@@ -26,6 +30,7 @@ _SIGNATURES = {
     "assemble_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _P),
     "chain_observables": ctypes.CFUNCTYPE(None, _I, _I, _P, _P, _P, _P, _P, _P, _D, _I, _D, _D, _P, _P, _P, _P, _P),
     "chain_joint_reactions": ctypes.CFUNCTYPE(None, _I, _I, _P, _P, _P, _P, _P, _P, _D, _I, _P, _P),
+    "samples_pass": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _D, _D, _P, _D, _I, _D, _D, _P, _P, _I, _P, _P),
 }
 _BUILD = ir_builder("samples_ir", "samples_ir")
 
@@ -34,10 +39,16 @@ def _function(name: str):
     return ctypes_functions("samples", _BUILD, _SIGNATURES)[name]
 
 
+def generic_samples_pass():
+    """The ctypes function of the generic ``samples_pass`` (compiled or loaded once per process)."""
+    return _function("samples_pass")
+
+
 def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
-    """``(solve, engine)``: ``solve_states`` specialised for one system (its ``layout``, the one for one
-    evaluation at a time), a ctypes function of ``solve_states``' signature valid while ``engine`` lives; the
-    same bits as the generic one. Compiled at O2 or loaded from the machine-code cache."""
+    """``(functions, engine)``: ``solve_states`` and ``samples_pass`` specialised for one system (its ``layout``,
+    the one for one evaluation at a time), a :class:`SpecialisedSamples` of ctypes functions of the generic
+    ones' signatures valid while ``engine`` lives; the same bits as the generic ones. Compiled at O2 or loaded
+    from the machine-code cache."""
     shape, key = specialised_key("samples", layout, system_digest)
 
     def ir_text() -> str:
@@ -47,17 +58,9 @@ def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
 
     engine = specialised_engine(ir_text, layout, assemble,
                                 system_digest, key)
-    return _SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)), engine
-
-
-def _pointer(array: np.ndarray, shape: tuple, dtype=np.float64) -> int:
-    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
-    ``dtype`` and of ``shape`` (None: any length on that axis)."""
-    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
-            and array.ndim == len(shape) and all(want is None or have == want
-                                                 for have, want in zip(array.shape, shape, strict=True))):
-        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
-    return array.ctypes.data
+    functions = SpecialisedSamples(_SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)),
+                                   _SIGNATURES["samples_pass"](engine.get_function_address(SAMPLES_PASS_NAME)))
+    return functions, engine
 
 
 def solve_states(assemble: int, layout, theta, omega, params, alpha, beta, x_out, cond_out) -> None:
@@ -106,16 +109,17 @@ def chain_joint_reactions(theta, omega, theta_ddot, L, d, m, g, tip_reaction, jo
 
 
 
-_SAMPLE_ARRAYS = ("theta", "omega", "joints", "trace_xy", "kinetic", "potential", "tip_velocity", "x", "cond",
-                  "theta_ddot", "tip_reaction", "joint_reactions")
+SAMPLE_ARRAYS = ("theta", "omega", "joints", "trace_xy", "kinetic", "potential", "tip_velocity", "x", "cond",
+                 "theta_ddot", "tip_reaction", "joint_reactions", "energy")
 
 
 class SampleArrays:
     """What :func:`trajectory_samples` computes for a run's rows: consecutive views of one buffer, each
-    C-contiguous; ``offsets[name]`` is where each starts in the buffer (in doubles), ``length`` where the
-    last ends."""
+    C-contiguous, in the order of :data:`SAMPLE_ARRAYS` (``samples_pass`` of :mod:`physics.codegen.samples_ir`
+    finds them at the same offsets); ``offsets[name]`` is where each starts in the buffer (in doubles),
+    ``length`` where the last ends."""
 
-    __slots__ = (*_SAMPLE_ARRAYS, "offsets", "length")
+    __slots__ = (*SAMPLE_ARRAYS, "offsets", "length")
     theta: np.ndarray
     omega: np.ndarray
     joints: np.ndarray
@@ -128,6 +132,7 @@ class SampleArrays:
     theta_ddot: np.ndarray
     tip_reaction: np.ndarray
     joint_reactions: np.ndarray
+    energy: np.ndarray  # kinetic + potential
 
     def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
         """The offsets and the length only; :meth:`views` gives the arrays their storage."""
@@ -138,7 +143,7 @@ class SampleArrays:
     @staticmethod
     def _shapes(rows: int, n: int, k: int, pinned: bool) -> tuple:
         return ((rows, n), (rows, n), (rows, n + 1, 2), (rows, 2), (rows,), (rows,), (rows, 2), (rows, k),
-                (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2))
+                (rows,), (rows, n), (rows if pinned else 0, 2), (rows, n, 2), (rows,))
 
     def views(self, rows: int, n: int, k: int, pinned: bool, values: np.ndarray) -> None:
         """Each array a view of ``values`` at its offset."""
@@ -148,20 +153,23 @@ class SampleArrays:
 
 class _Plan:
     """Where each of :class:`SampleArrays`' arrays sits in the buffer for one ``(rows, n, k, pinned)``: worked
-    out once per shape (the app and an ensemble ask for the same shape run after run), not per call."""
+    out once per shape (the app and an ensemble ask for the same shape run after run), not per call. After the
+    arrays: the states, the bars, the parameters and the scratch (``inputs``: their offsets)."""
 
-    __slots__ = ("length", "offsets", "views")
+    __slots__ = ("inputs", "length", "offsets", "views")
 
     def __init__(self, rows: int, n: int, k: int, pinned: bool) -> None:
         self.offsets: dict[str, int] = {}
         views = []
         offset = 0
-        for name, shape in zip(_SAMPLE_ARRAYS, SampleArrays._shapes(rows, n, k, pinned), strict=True):
+        for name, shape in zip(SAMPLE_ARRAYS, SampleArrays._shapes(rows, n, k, pinned), strict=True):
             self.offsets[name] = offset
             views.append((name, offset, offset + math.prod(shape), shape))
             offset += math.prod(shape)
         self.views = tuple(views)
         self.length = offset
+        # (states, bars, params); the parameters' length is the caller's, so the scratch follows them
+        self.inputs = (offset, offset + rows * 2 * n, offset + rows * 2 * n + 4 * n)
 
 
 _plans: dict[tuple[int, int, int, bool], _Plan] = {}
@@ -178,19 +186,52 @@ def _plan(rows: int, n: int, k: int, pinned: bool) -> _Plan:
     return plan
 
 
+class SpecialisedSamples(NamedTuple):
+    """A system's specialised samples' functions (:func:`specialised_solve`): ``solve_states`` and the whole
+    pass ``samples_pass``, each of its generic function's signature."""
+
+    solve: Callable
+    samples_pass: Callable
+
+
+_checked_indices: dict[int, tuple[np.ndarray, int, int]] = {}
+MAX_INDICES = 64
+
+
+def index_address(index, count: int, k: int, what: str) -> tuple[int, np.ndarray]:
+    """``(address, array)``: ``index`` as ``count`` int64 positions among ``k`` unknowns (ValueError for another
+    shape, IndexError for a position outside them, as ``np.take`` raises) and the address of its data, checked
+    once per read-only array (a system's index arrays, :class:`physics.codegen.cache.CompiledSystem`), else at
+    every call. The caller holds ``array`` until its native call returns (it may be a converted copy)."""
+    entry = _checked_indices.get(id(index))
+    if entry is not None and entry[0] is index and entry[2] == k:
+        return entry[1], index
+    array = np.ascontiguousarray(index, dtype=np.int64)
+    if array.shape != (count,):
+        raise ValueError(f"expected {count} {what} indices")
+    if count and not (0 <= int(array.min()) and int(array.max()) < k):
+        raise IndexError(f"{what} indices {array.tolist()} outside the {k} unknowns")
+    address = int(array.ctypes.data)
+    if array is index and not index.flags.writeable:
+        if len(_checked_indices) >= MAX_INDICES:
+            _checked_indices.clear()
+        _checked_indices[id(index)] = (index, address, k)
+    return address, array
+
+
 def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, trace_bar, trace_along,
                        trace_across, theta_ddot_index, tip_reaction_index, solve=None) -> SampleArrays:
     """The three passes :func:`physics.simulate.build.build_trajectory` makes over a run's samples
-    (:func:`solve_states`, :func:`chain_observables`, :func:`chain_joint_reactions`: the same functions, the
-    same bits) with every array in one buffer made here (the states copied in, the bars and the parameters
-    too), so each pointer is the buffer's address plus an offset: two address look-ups and three calls, where
-    the three checked entry points convert 25 arrays.
+    (:func:`solve_states`, :func:`chain_observables`, :func:`chain_joint_reactions`: the same operations, the
+    same bits) and the energies, in one native call (``samples_pass``: row by row, each bar's sine and cosine
+    computed once per sample) writing every array into one buffer made here (the states, the bars and the
+    parameters copied in too, so each pointer is the buffer's address plus an offset).
 
     ``y``: the states (rows, 2 n); ``bars``: ``[L, d, m, I]`` as one (4 n,) array; ``params`` 1-D;
     ``theta_ddot_index`` (n,) and ``tip_reaction_index`` ((2,) for a pinned chain, else empty): where the
     accelerations and the pin's force sit among the ``k`` unknowns. A pinned chain's ``tip_reaction`` is the
     pin's force at each sample, the input of the joint reactions. ``solve``: the system's
-    :func:`specialised_solve` (default the generic ``solve_states``)."""
+    :class:`SpecialisedSamples` (:func:`specialised_solve`; default the generic functions)."""
     n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
     rows = len(y)
     if (type(y) is np.ndarray and type(bars) is np.ndarray and type(params) is np.ndarray  # the usual call
@@ -200,38 +241,23 @@ def trajectory_samples(assemble: int, layout, y, params, alpha, beta, bars, g, t
         raise ValueError(f"expected states (rows, {2 * n}), bars ({4 * n},) and a 1-D params")
     if not 0 <= int(trace_bar) < n:
         raise ValueError(f"trace_bar = {trace_bar}: must index one of the {n} bars")
-    theta_ddot_index = np.asarray(theta_ddot_index, dtype=np.int64)
-    tip_reaction_index = np.asarray(tip_reaction_index, dtype=np.int64)
-    if theta_ddot_index.shape != (n,) or tip_reaction_index.shape not in ((0,), (2,)):
-        raise ValueError(f"expected {n} acceleration indices and 0 or 2 pin-force indices")
-    # (the indices only go to np.take, which refuses one outside the k unknowns)
-    pinned = tip_reaction_index.size != 0
+    pinned = len(tip_reaction_index) != 0
+    accelerations, _held = index_address(theta_ddot_index, n, k, "acceleration")
+    pin_force, _pin_held = index_address(tip_reaction_index, 2, k, "pin-force") if pinned else (0, None)
     plan = _plan(rows, n, k, pinned)
+    at_states, at_bars, at_params = plan.inputs
+    at_scratch = at_params + len(params)
+    values = np.empty(at_scratch + pass_scratch_length(n, k, r))
+    values[at_states:at_bars].reshape(rows, 2 * n)[...] = y  # a copy: float64 whatever y's type, C-contiguous
+    values[at_bars:at_params] = bars
+    values[at_params:at_scratch] = params
     arrays = SampleArrays.__new__(SampleArrays)
     arrays.offsets, arrays.length = plan.offsets, plan.length
-    body = arrays.length
-    values = np.empty(body + 4 * n + len(params) + scratch_length(n, k, r))
     for name, start, stop, shape in plan.views:
         setattr(arrays, name, values[start:stop].reshape(shape))
-    arrays.theta[...] = y[:, :n]  # copies: float64 whatever y's type, and C-contiguous
-    arrays.omega[...] = y[:, n:]
-    values[body:body + 4 * n] = bars
-    values[body + 4 * n:body + 4 * n + len(params)] = params
     base = values.ctypes.data
-    at = {name: base + 8 * offset for name, offset in arrays.offsets.items()}
-    L, d, m, inertia = (base + 8 * (body + i * n) for i in range(4))
-    own_params, scratch = base + 8 * (body + 4 * n), base + 8 * (body + 4 * n + len(params))
-    if rows:
-        (solve or _function("solve_states"))(int(assemble), layout_address(layout), rows, at["theta"],
-                                  at["omega"], own_params, float(alpha), float(beta), at["x"], at["cond"], scratch)
-    _function("chain_observables")(
-        rows, n, at["theta"], at["omega"], L, d, m, inertia, float(g), int(trace_bar), float(trace_along),
-        float(trace_across), at["joints"], at["trace_xy"], at["kinetic"], at["potential"], at["tip_velocity"])
-    if rows:
-        np.take(arrays.x, theta_ddot_index, axis=1, out=arrays.theta_ddot)
-        if pinned:
-            np.take(arrays.x, tip_reaction_index, axis=1, out=arrays.tip_reaction)
-    _function("chain_joint_reactions")(
-        rows, n, at["theta"], at["omega"], at["theta_ddot"], L, d, m, float(g), int(pinned), at["tip_reaction"],
-        at["joint_reactions"])
+    (_function("samples_pass") if solve is None else solve.samples_pass)(
+        int(assemble), layout_address(layout), rows, base + 8 * at_states, base + 8 * at_params, float(alpha),
+        float(beta), base + 8 * at_bars, float(g), int(trace_bar), float(trace_along), float(trace_across),
+        accelerations, pin_force, int(pinned), base, base + 8 * at_scratch)
     return arrays

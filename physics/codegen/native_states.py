@@ -15,6 +15,7 @@ import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES
 from .ir_shapes import states_scratch_length as scratch_length
+from .native_integrators import checked_address as _pointer
 from .native_integrators import ctypes_functions, ir_builder
 
 _P = ctypes.c_void_p
@@ -28,16 +29,6 @@ _BUILD = ir_builder("projection_ir", "states_ir")
 
 def _function(name: str):
     return ctypes_functions("states", _BUILD, _SIGNATURES)[name]
-
-
-def _pointer(array, shape: tuple, dtype=np.float64) -> int:
-    """The address of ``array``'s data after checking it is what the generated code reads: C-contiguous, of
-    ``dtype`` and of ``shape`` (None: any length on that axis)."""
-    if not (isinstance(array, np.ndarray) and array.dtype == dtype and array.flags.c_contiguous
-            and array.ndim == len(shape) and all(want is None or have == want
-                                                 for have, want in zip(array.shape, shape, strict=True))):
-        raise ValueError(f"expected a C-contiguous {np.dtype(dtype).name} array of shape {shape}")
-    return int(array.ctypes.data)
 
 
 def project_states(layout, t, theta, omega, params) -> float:

@@ -26,7 +26,7 @@ from llvmlite import ir
 from ..kernels.constants import PROJECTION_MAX_ITERATIONS, PROJECTION_TOLERANCE, SINGULAR_CONDITION_NUMBER
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_TIME, LAYOUT_WEIGHTS
 from .ir_code import _BOOL, _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
-from .linear_ir import LinearFunctions, add_linear_functions, gram_into
+from .linear_ir import LinearFunctions, add_linear_functions, gram_into, load_state
 
 _TRUE = ir.Constant(_BOOL, 1)
 _FALSE = ir.Constant(_BOOL, 0)
@@ -141,13 +141,7 @@ class ProjectionFunctions:
         code = _function(self.module, "project", _BOOL, [_I64_POINTER, _DOUBLE] + [_DOUBLE_POINTER] * 8)
         layout, t, y, params, theta, omega, J, v, G, lam = code.function.args
         b = code.b
-        n = code.load(layout, _int(LAYOUT_COORDINATES))
-        slot = code.load(layout, _int(LAYOUT_TIME))
-        with b.if_then(b.icmp_signed(">=", slot, _int(0))):
-            code.store(t, params, slot)
-        with code.loop(n, "split") as i:
-            code.store(code.load(y, i), theta, i)
-            code.store(code.load(y, b.add(n, i)), omega, i)
+        n = load_state(code, layout, t, y, params, theta, omega)
         b.call(self.onto, [layout, theta, omega, params, J, v, G, lam])
         with code.loop(n, "write_back") as i:
             code.store(code.load(theta, i), y, i)

@@ -13,14 +13,14 @@ import math
 
 import numpy as np
 
-from ..codegen import load_compiled
+from ..codegen import load_compiled, native_run
 from ..errors import LinkageError
 from ..kernels.constants import SINGULAR_PIVOT_RATIO
 from ..kinematics import joint_positions
 from ..model import MAX_ANGLE, MAX_ANGULAR_SPEED, Chain, Settings, check_state
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
-from .build import build_trajectory
+from .build import build_trajectory, trace_point, trajectory_from_samples
 from .prepared import chain_arrays
 from .trajectory import Trajectory
 
@@ -44,13 +44,19 @@ def _start_state(n: int, theta0, omega0) -> np.ndarray:
     if (type(theta0) is np.ndarray and type(omega0) is np.ndarray and theta0.shape == (n,)
             and omega0.shape == (n,) and theta0.dtype == np.float64 and omega0.dtype == np.float64):
         y0 = np.concatenate([theta0, omega0])
-        if (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
+        if n <= FEW_LINKS:  # a few floats compare faster in Python than through three numpy calls
+            values = y0.tolist()
+            if (all(-MAX_ANGLE <= value <= MAX_ANGLE for value in values[:n])  # False for NaN and infinities
+                    and all(-MAX_ANGULAR_SPEED <= value <= MAX_ANGULAR_SPEED for value in values[n:])):
+                return y0
+        elif (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
             return y0
     theta0, omega0 = check_state(n, theta0, omega0)
     return np.concatenate([theta0, omega0])
 
 
 _limits: dict[int, np.ndarray] = {}
+FEW_LINKS = 8
 
 
 def _state_limits(n: int) -> np.ndarray:
@@ -121,9 +127,13 @@ def simulate(
 
         return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start)
     compiled = load_compiled(settings.method, n, chain.pinned)
-    params = chain_arrays(chain).params_with(settings.damping)
+    bars = chain_arrays(chain)
+    params = bars.params_with(settings.damping)
     alpha, beta, project = _stabilization_gains(chain, settings)
     t_eval = _sample_times(t_start, settings.t_end, settings.samples)
+    if settings.backend != SCIPY and settings.integrator in ONE_BUFFER_METHODS and ONE_BUFFER:
+        trajectory = _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project)
+        return trajectory
     if settings.backend == SCIPY:
         # scipy boundary: scipy's integrators are imported only for this back end.
         from .scipy_backend import integrate_scipy  # noqa: PLC0415
@@ -166,6 +176,37 @@ def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
             _times.clear()
         times = _times[key] = np.linspace(t_start, t_start + t_end, samples)
     return times.copy()
+
+
+# The compiled RK45 and DOP853 runs take the one-buffer path (physics.codegen.native_run): the driver and the
+# samples' pass in one array, the same functions and bits as the path through build_trajectory, which every other
+# run takes (ONE_BUFFER = False sends these there too: tests compare the two).
+ONE_BUFFER_METHODS = {"RK45": "RK45", "DOP853": "DOP853"}
+ONE_BUFFER = True
+
+
+def _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project) -> Trajectory:
+    """A compiled RK45/DOP853 run of a chain by :func:`physics.codegen.native_run.integrate_and_sample`: the
+    system's specialised driver and samples' pass when it has them (``CompiledSystem``'s rules), else the
+    generic ones; the Trajectory from the buffer's views."""
+    method = ONE_BUFFER_METHODS[settings.integrator]
+    trace = trace_point(chain, settings, bars)
+    layout = compiled.integration_layout
+    driver, samples_pass = compiled.run_functions(method)
+    status, n_steps, n_rhs, t_reached, t, _, arrays = native_run.integrate_and_sample(
+        driver, samples_pass, compiled.assemble_function, layout, compiled.layout, y0, t_eval, params,
+        settings.rtol, settings.atol, alpha, beta, project, settings.max_steps, bars.bars, bars.g, trace.bar - 1,
+        float(trace.along), float(trace.across), compiled.theta_ddot_index,
+        compiled.tip_reaction_index if chain.pinned else (), method)
+    if status == Status.OK and len(t) < len(t_eval):
+        status = Status.NOT_FINITE
+    trajectory = trajectory_from_samples(chain, settings, compiled, params, t, arrays)
+    trajectory.status = status
+    trajectory.message = _OK_MESSAGE if status == Status.OK else status_message(status, t_reached)
+    trajectory.n_steps = n_steps
+    trajectory.n_rhs = n_rhs
+    trajectory.stats["t_reached"] = t_reached
+    return trajectory
 
 
 def _finite_rows(y_out: np.ndarray) -> int:

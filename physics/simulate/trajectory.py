@@ -167,6 +167,32 @@ class Trajectory:
             if value.size == 0 and value.shape[:1] != (count,):
                 setattr(self, name, np.zeros((count, *width)))
 
+    @classmethod
+    def of_chain(cls, method: str, integrator: str, t: np.ndarray, trace_xy: np.ndarray, kinetic: np.ndarray,
+                 potential: np.ndarray, energy: np.ndarray, condition: np.ndarray, theta: np.ndarray,
+                 omega: np.ndarray, joints: np.ndarray, tip_xy: np.ndarray, reactions: np.ndarray,
+                 tip_reaction: np.ndarray, constraint_xy: np.ndarray, constraint_velocity: np.ndarray,
+                 joint_reactions: np.ndarray, trace_is_explicit: bool) -> Trajectory:
+        """A chain's run, the same object as ``Trajectory(...)`` with these fields (every one given with its
+        ``T`` rows) gives, made without the dataclass's ``__init__``: its defaults, its default factories and
+        ``__post_init__``'s check of twelve fields are a tenth of a short compiled run's time around its
+        native calls (the entries in the order ``__init__`` sets them; ``tests/physics/test_one_buffer.py``
+        compares the two)."""
+        count = t.shape[0]
+        run = cls.__new__(cls)
+        run.__dict__.update({
+            "method": method, "integrator": integrator, "t": t, "trace_xy": trace_xy, "kinetic": kinetic,
+            "potential": potential, "energy": energy, "_condition_value": condition, "status": Status.OK,
+            "message": "ok", "n_steps": 0, "n_rhs": 0, "theta": theta, "omega": omega, "joints": joints,
+            "tip_xy": tip_xy, "reactions": reactions, "tip_reaction": tip_reaction, "constraint_xy": constraint_xy,
+            "constraint_velocity": constraint_velocity, "stats": {}, "joint_reactions": joint_reactions,
+            "trace_is_explicit": trace_is_explicit, "q": np.zeros((count, 0)), "qdot": np.zeros((count, 0)),
+            "coordinate_names": (), "_reaction_rows_value": np.zeros((count, 0)), "row_names": (),
+            "residual": np.zeros(0), "stabilization": "", "coordinates": "", "integrated": True,
+            "body_points": None,
+        })
+        return run
+
     def __getstate__(self) -> dict[str, Any]:
         """Pickled (a study's worker process, a copy) with every field computed: a computation is not data."""
         for name in ("condition", "reaction_rows"):
