@@ -61,7 +61,7 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
     from physics.codegen import cache  # noqa: PLC0415
 
     cache.SPECIALISE_IN_BACKGROUND = False  # made in the call that asks: its 2nd
-    specialised = compiled._specialised_driver(integrator) or compiled._specialised_driver(integrator)
+    specialised = compiled.specialised_driver(integrator) or compiled.specialised_driver(integrator)
 
     def run(which: str):
         arguments = (layout, y0, 0.0, t_end, t_eval, params, rtol, atol, 0.0, 0.0, False, max_steps, outputs[which],

@@ -289,7 +289,7 @@ class CompiledSystem:
         :mod:`physics.kernels.explicit_rk` for a run they hand back (a per-sample condition; numba is imported
         only then)."""
         layout, y0, t_eval, params = self.integration_layout, _c(y0), _c(t_eval), _c(params)
-        driver = (self._specialised_driver(method)
+        driver = (self.specialised_driver(method)
                   if native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(method, self.assemble_function, layout, y0, t0, t_end, t_eval, params,
                                               rtol, atol, alpha, beta, project, max_steps, y_out, cond_out,
@@ -301,7 +301,7 @@ class CompiledSystem:
         return getattr(explicit_rk, kernel_name)(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol,
                                                  atol, alpha, beta, project, max_steps, y_out, cond_out)
 
-    def _specialised_driver(self, method: str):
+    def specialised_driver(self, method: str):
         """``method``'s IR driver specialised for this system (:mod:`physics.codegen.specialised_ir`: the same
         bits, its sizes folded into the code; seed case C's RK45 integration in about 0.2 ms instead of 0.5), or
         None for the generic one. Its O2 compilation (0.3-1 s for three bars) is paid only where it pays: loaded
@@ -314,12 +314,12 @@ class CompiledSystem:
     def run_functions(self, method: str):
         """``(driver, samples_pass)`` for a run of ``method`` ("RK45" or "DOP853") in one buffer
         (:func:`physics.codegen.native_run.integrate_and_sample`): this system's specialised ones where
-        :meth:`_specialised_driver` and :meth:`samples_solve` give them, else the generic ones."""
+        :meth:`specialised_driver` and :meth:`samples_solve` give them, else the generic ones."""
         key = f"run functions {method}"
         functions = self._functions.get(key)
         if functions is not None:
             return functions
-        driver = self._specialised_driver(method)
+        driver = self.specialised_driver(method)
         specialised = self.samples_solve()
         if driver is not None and specialised is not None:  # final: kept (the rules are not asked again)
             functions = self._functions[key] = (driver, specialised.samples_pass)
@@ -330,7 +330,7 @@ class CompiledSystem:
     def samples_solve(self):
         """The samples' ``solve_states`` and whole pass specialised for this system
         (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms
-        instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`_specialised_driver`; None: the
+        instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`specialised_driver`; None: the
         generic ones."""
         layout = self.layout
         return self._specialised("samples", layout, lambda digest: native_samples.specialised_solve(

@@ -140,7 +140,7 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
         # with the system's own layout (a tree formulation's: no projection weights appended), the driver
         # specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
         # C's integration in about 0.2 ms instead of 0.5), as the system's own integrate_rk45 takes it for a chain
-        driver = (compiled._specialised_driver(spec.name)  # noqa: SLF001  (CompiledSystem's rule, not copied here)
+        driver = (compiled.specialised_driver(spec.name)  # CompiledSystem's rule, not copied here
                   if layout is compiled.integration_layout
                   and native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,

@@ -35,9 +35,9 @@ def _system(preset: str, method: str, links: int | None = None):
 def _specialised(compiled, integrator: str):
     """The system's specialised driver, made directly (not by the second-run rule)."""
     compiled._functions.setdefault("specialised calls", {})[integrator] = 1
-    driver = compiled._specialised_driver(integrator)
+    driver = compiled.specialised_driver(integrator)
     if driver is None:  # not cached: the second run makes it
-        driver = compiled._specialised_driver(integrator)
+        driver = compiled.specialised_driver(integrator)
     assert driver is not None
     return driver
 
