@@ -3,8 +3,9 @@
 
 Each function takes the arguments of the numba kernel it replaces (:func:`physics.kernels.projection.project_states`,
 :func:`physics.kernels.system.native_states`) and fills the same outputs with the same bits, so that a driven
-mechanism's position analysis and every mechanism's samples need no numba compilation. Arrays are checked
-before any pointer is handed over (a wrong one is a programming error: ``ValueError``).
+mechanism's position analysis and every mechanism's samples need no numba compilation; :func:`driven_sequence`
+runs that position analysis row after row in one call, as a loop of :func:`project_states` calls would.
+Arrays are checked before any pointer is handed over (a wrong one is a programming error: ``ValueError``).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ _P = ctypes.c_void_p
 _I = ctypes.c_int64
 _SIGNATURES = {
     "project_states": ctypes.CFUNCTYPE(ctypes.c_double, _P, _I, _P, _P, _P, _P, _P),
+    "driven_sequence": ctypes.CFUNCTYPE(ctypes.c_int64, _P, _I, _I, ctypes.c_double, _P, _P, _P, _P, _P),
     "native_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _I, _I, _P, _P),
 }
 _BUILD = ir_builder("projection_ir", "states_ir")
@@ -41,6 +43,29 @@ def project_states(layout, t, theta, omega, params) -> float:
     return float(_function("project_states")(
         _pointer(layout, (None,), np.int64), rows, _pointer(t, (rows,)), _pointer(theta, (rows, n)),
         _pointer(omega, (rows, n)), _pointer(own_params, (None,)), scratch.ctypes.data))
+
+
+def driven_sequence(layout, t, xs, vs, params, start: int, tolerance: float) -> int:
+    """A driven mechanism's position analysis from row ``start`` (>= 1) of ``xs``, ``vs`` (K, n) at times ``t``
+    (K,) on, in one call: each row ``k`` written as row ``k - 1`` moved on by its velocity (``xs[k-1] +
+    vs[k-1] (t[k] - t[k-1])``, velocity ``vs[k-1]``) and projected as :func:`project_states` projects it (a copy
+    of ``params`` takes each time), until a row whose residual (as :func:`project_states` returns it) is not
+    below ``tolerance`` or whose position is not finite: that row's index is returned (its contents are the
+    failed attempt, for the caller to replace), or K when every row was kept. One call instead of a
+    :func:`project_states` call per row: the per-row Python and argument checks were most of a driven run."""
+    n = int(layout[LAYOUT_COORDINATES])
+    rows = xs.shape[0] if isinstance(xs, np.ndarray) and xs.ndim == 2 else -1
+    if not 1 <= int(start):
+        raise ValueError(f"start must be at least 1 (row start - 1 is the first prediction's), not {start}")
+    addresses = (_pointer(layout, (None,), np.int64), _pointer(t, (rows,)), _pointer(xs, (rows, n)),
+                 _pointer(vs, (rows, n)))
+    if int(start) >= rows:
+        return rows
+    own_params = np.array(params, dtype=np.float64)  # the time slot is written
+    scratch = np.empty(scratch_length(n, int(layout[LAYOUT_CONSTRAINTS])))
+    return int(_function("driven_sequence")(
+        addresses[0], rows, int(start), float(tolerance), addresses[1], addresses[2], addresses[3],
+        _pointer(own_params, (None,)), scratch.ctypes.data))
 
 
 def native_states(function: int, layout, t, theta, omega, params, matrix_out, vector_out) -> None:
