@@ -6,20 +6,25 @@ its samples' constraints need no numba kernel.
 :class:`ProjectionFunctions` adds the internal functions to a module: ``correct`` (the least weighted change
 ``W J^T (J W J^T)^-1 gap``), ``onto`` (positions by Gauss-Newton, then velocities) and ``project`` (a state
 ``y = [theta, omega]`` in place, the integrators' ``project_state``). :func:`states_ir` is a module of its own
-with three entry points (C calling convention)::
+with two entry points (C calling convention)::
 
     double project_states(i64* layout, i64 rows, double* t, double* theta, double* omega, double* params,
                           double* scratch)
-    i64 driven_sequence(i64* layout, i64 rows, i64 start, double tolerance, double* t, double* xs, double* vs,
-                        double* params, double* scratch)
     void native_states(i64 function, i64* layout, i64 rows, double* t, double* theta, double* omega,
                        double* params, i64 matrix_size, i64 vector_size, double* matrix_out, double* vector_out)
 
 the kernels' :func:`~physics.kernels.projection.project_states` (rows projected in place; the largest position
-residual left), a driven mechanism's position analysis from row ``start`` on (each row predicted from the one
-before and projected; the first row it cannot keep, or ``rows``) and :func:`~physics.kernels.system.native_states`
-(a generated ``constraints`` or ``kinematics`` at each row). ``params`` is the caller's copy (the time slot is
-written); ``scratch`` holds :func:`~physics.codegen.ir_shapes.states_scratch_length` doubles.
+residual left) and :func:`~physics.kernels.system.native_states` (a generated ``constraints`` or ``kinematics``
+at each row). :func:`driven_ir` is another, with one::
+
+    i64 driven_sequence(i64* layout, i64 rows, i64 start, double tolerance, double* t, double* xs, double* vs,
+                        double* params, double* scratch)
+
+a driven mechanism's position analysis from row ``start`` on (each row predicted from the one before and
+projected as ``project_states`` projects it; the first row it cannot keep, or ``rows``), a module of its own so
+that it is compiled through LLVM's O2 pipeline (:mod:`physics.codegen.native_states`) while the other two keep
+their short compilation. ``params`` is the caller's copy (the time slot is written); ``scratch`` holds
+:func:`~physics.codegen.ir_shapes.states_scratch_length` doubles.
 """
 
 from __future__ import annotations
@@ -258,11 +263,16 @@ def _native_states(module: ir.Module) -> None:
 
 
 def states_ir() -> str:
-    """The module's IR text: ``project_states``, ``driven_sequence`` and ``native_states`` with their internal
-    helpers."""
+    """The module's IR text: ``project_states`` and ``native_states`` with their internal helpers."""
     module = ir.Module(name="linkage_lab_states")
-    projection = ProjectionFunctions(module, add_linear_functions(module))
-    _project_states(module, projection)
-    _driven_sequence(module, projection)
+    _project_states(module, ProjectionFunctions(module, add_linear_functions(module)))
     _native_states(module)
+    return str(module)
+
+
+def driven_ir() -> str:
+    """The module's IR text: ``driven_sequence`` with its internal helpers (the projection's, as in
+    :func:`states_ir`)."""
+    module = ir.Module(name="linkage_lab_driven")
+    _driven_sequence(module, ProjectionFunctions(module, add_linear_functions(module)))
     return str(module)

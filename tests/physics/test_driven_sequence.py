@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from physics.codegen import native_states
+from physics.codegen.projection_ir import driven_ir, states_ir
 from physics.kernels.constants import PROJECTION_TOLERANCE
 from physics.mechanism import MECHANISM_PRESETS, Mechanism, engine
 from physics.mechanism.assembly import assemble
@@ -142,3 +143,14 @@ def test_a_wrong_array_is_refused_before_any_pointer_is_handed_over():
         call(layout, t, xs[0], vs, params, 1, 1e-9)
     with pytest.raises(ValueError, match="start must be at least 1"):
         call(layout, t, xs, vs, params, 0, 1e-9)
+
+
+def test_the_sequence_ir_is_deterministic_and_free_of_fast_math():
+    """Its module goes through LLVM's O2 pipeline: the bits stay the row-by-row loop's only because no
+    instruction allows reassociation or contraction (and the machine code is cached under the sources' digest,
+    which needs the same text from the same sources)."""
+    text = driven_ir()
+    assert text == driven_ir() and 'define i64 @"driven_sequence"' in text
+    for flag in ("fast", "reassoc", "contract", "afn", "arcp", "nnan", "ninf", "nsz"):
+        assert f" {flag} " not in text, flag
+    assert "driven_sequence" not in states_ir()  # its own module: the states' keeps its short compilation
