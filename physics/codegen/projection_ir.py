@@ -1,5 +1,5 @@
 """The kernels' projection onto the constraints (:mod:`physics.kernels.projection`) written as LLVM IR, operation
-for operation, and the two per-sample loops a mechanism's run calls beside it: with these, a run held by
+for operation, and the per-sample loops a mechanism's run calls beside it: with these, a run held by
 projection (the four-bar's and every general mechanism's default), a driven mechanism's position analysis and
 its samples' constraints need no numba kernel.
 
@@ -15,8 +15,16 @@ with two entry points (C calling convention)::
 
 the kernels' :func:`~physics.kernels.projection.project_states` (rows projected in place; the largest position
 residual left) and :func:`~physics.kernels.system.native_states` (a generated ``constraints`` or ``kinematics``
-at each row). ``params`` is the caller's copy (the time slot is written); ``scratch`` holds
-:func:`scratch_length` doubles.
+at each row). :func:`driven_ir` is another, with one::
+
+    i64 driven_sequence(i64* layout, i64 rows, i64 start, double tolerance, double* t, double* xs, double* vs,
+                        double* params, double* scratch)
+
+a driven mechanism's position analysis from row ``start`` on (each row predicted from the one before and
+projected as ``project_states`` projects it; the first row it cannot keep, or ``rows``), a module of its own so
+that it is compiled through LLVM's O2 pipeline (:mod:`physics.codegen.native_states`) while the other two keep
+their short compilation. ``params`` is the caller's copy (the time slot is written); ``scratch`` holds
+:func:`~physics.codegen.ir_shapes.states_scratch_length` doubles.
 """
 
 from __future__ import annotations
@@ -181,6 +189,56 @@ def _project_states(module: ir.Module, projection: ProjectionFunctions) -> None:
     code.seal()
 
 
+def _driven_sequence(module: ir.Module, projection: ProjectionFunctions) -> None:
+    """A driven mechanism's position analysis (:func:`physics.mechanism.engine._position_analysis`), row after
+    row in one call: for ``k`` from ``start`` on, row ``k - 1`` moved on by its velocity (``x + v (t_k -
+    t_{k-1})``, each operation as numpy does it on the row) with its velocity kept, then projected as
+    ``project_states`` projects one row (the time into the caller's copy of params, :meth:`ProjectionFunctions.onto`).
+    Stops at the first row it cannot keep, the one Python assembles instead: ``max(0, residual)`` (the figure
+    ``project_states`` returns for a row, so a NaN residual reads 0 as it does there) not below ``tolerance``,
+    or a position not finite. Returns that row's index, or ``rows`` when every row was kept."""
+    code = _function(module, "driven_sequence", _I64, [_I64_POINTER, _I64, _I64, _DOUBLE] + [_DOUBLE_POINTER] * 5,
+                     linkage="")
+    layout, rows, start, tolerance, t, xs, vs, params, scratch = code.function.args
+    b = code.b
+    n = code.load(layout, _int(LAYOUT_COORDINATES))
+    r = code.load(layout, _int(LAYOUT_CONSTRAINTS))
+    slot = code.load(layout, _int(LAYOUT_TIME))
+    held = b.select(b.icmp_signed(">", r, _int(1)), r, _int(1))
+    J = scratch
+    v = code.at(J, b.mul(held, n))
+    G = code.at(v, b.mul(_int(2), held))
+    lam = code.at(G, b.mul(held, held))
+    stopped = code.block("stopped")
+    stop_row = code.var(rows)
+    with code.loop(rows, "rows", start=start) as row:
+        previous = b.sub(row, _int(1))
+        theta_row, omega_row = code.at(xs, b.mul(row, n)), code.at(vs, b.mul(row, n))
+        theta_before, omega_before = code.at(xs, b.mul(previous, n)), code.at(vs, b.mul(previous, n))
+        step = b.fsub(code.load(t, row), code.load(t, previous))
+        with code.loop(n, "predict") as i:
+            velocity = code.load(omega_before, i)
+            code.store(b.fadd(code.load(theta_before, i), b.fmul(velocity, step)), theta_row, i)
+            code.store(velocity, omega_row, i)
+        with b.if_then(b.icmp_signed(">=", slot, _int(0))):
+            code.store(code.load(t, row), params, slot)
+        left = code.var(_double(0.0))
+        with b.if_then(b.icmp_signed("!=", r, _int(0))):
+            residual = b.call(projection.onto, [layout, theta_row, omega_row, params, J, v, G, lam])
+            code.set(left, code.maximum(_double(0.0), residual))
+        kept = code.var(b.fcmp_ordered("<", code.get(left), tolerance))
+        with code.loop(n, "finite") as i:
+            with b.if_then(b.not_(code.finite(code.load(theta_row, i)))):
+                code.set(kept, _FALSE)
+        with b.if_then(b.not_(code.get(kept))):
+            code.set(stop_row, row)
+            code.jump(stopped)
+    b.branch(stopped)
+    b.position_at_end(stopped)
+    b.ret(code.get(stop_row))
+    code.seal()
+
+
 def _native_states(module: ir.Module) -> None:
     """system.native_states: per row, the time into the caller's copy of params, the matrix row zeroed (the
     generated function writes its structural non-zeros only), then the function at the row's state."""
@@ -209,4 +267,12 @@ def states_ir() -> str:
     module = ir.Module(name="linkage_lab_states")
     _project_states(module, ProjectionFunctions(module, add_linear_functions(module)))
     _native_states(module)
+    return str(module)
+
+
+def driven_ir() -> str:
+    """The module's IR text: ``driven_sequence`` with its internal helpers (the projection's, as in
+    :func:`states_ir`)."""
+    module = ir.Module(name="linkage_lab_driven")
+    _driven_sequence(module, ProjectionFunctions(module, add_linear_functions(module)))
     return str(module)

@@ -382,13 +382,19 @@ def _first(solved: Samples, count: int) -> Samples:
     return Samples(*(getattr(solved, name)[:count] for name in Samples.__dataclass_fields__))
 
 
+# Position analysis row by row through project_states (one native call per sample, as before the one-call
+# sequence): False keeps that loop, for the tests that compare the two bit for bit.
+ONE_CALL = True
+
+
 def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallback):
     """Every sample of a mechanism its motors fully determine, by position and velocity analysis on the
     formulation's own constraints: from the last sample moved on by its velocity, Gauss-Newton onto
     ``phi(x, t) = 0`` and the velocity that keeps it there (the kernels' projection generated as IR,
-    :mod:`physics.codegen.native_states`: a few microseconds per sample, and no numba). Where Newton has not closed the loops, the sample is assembled again in Python (``fallback``).
-    Returns ``(x, v, None)``, or the samples up to where no pose closes the loops and the reason."""
-    from ..codegen.native_states import project_states  # noqa: PLC0415
+    :mod:`physics.codegen.native_states`), every sample in one native call (:data:`ONE_CALL`, a few microseconds
+    per sample and no numba) that stops where Newton has not closed the loops: that sample is assembled again in
+    Python (``fallback``) and the call goes on from the next. Returns ``(x, v, None)``, or the samples up to
+    where no pose closes the loops and the reason."""
     from ..errors import LinkageError  # noqa: PLC0415
     from ..kernels.constants import PROJECTION_TOLERANCE  # noqa: PLC0415
 
@@ -397,6 +403,28 @@ def _position_analysis(mechanism, compiled, layout, params, times, x0, v0, fallb
     xs[0], vs[0] = x0, v0
     scale = max(1.0, float(np.max(np.abs(x0))))
     tolerance = 100.0 * PROJECTION_TOLERANCE * scale
+    if not ONE_CALL:
+        return _row_by_row(layout, params, times, xs, vs, tolerance, fallback)
+    from ..codegen.native_states import driven_sequence  # noqa: PLC0415
+
+    k = 1
+    while True:
+        k = driven_sequence(layout, times, xs, vs, params, k, tolerance)
+        if k >= times.size:
+            return xs, vs, None
+        try:  # Newton did not close row k: assembled from row k - 1 (the native call's attempt replaced)
+            xs[k], vs[k] = fallback(xs[k - 1], vs[k - 1], float(times[k]))
+        except LinkageError as error:  # the motors drive it where its loops cannot close: the run ends here
+            return xs[:k], vs[:k], f"at t = {float(times[k]):.6g} s: {error}"
+        k += 1
+
+
+def _row_by_row(layout, params, times, xs, vs, tolerance, fallback):
+    """:func:`_position_analysis` as it was before the one-call sequence: a :func:`project_states` call per
+    sample, the prediction and the test in Python (the reference the sequence is held to, bit for bit)."""
+    from ..codegen.native_states import project_states  # noqa: PLC0415
+    from ..errors import LinkageError  # noqa: PLC0415
+
     theta, omega = np.empty((1, xs.shape[1])), np.empty((1, vs.shape[1]))  # the kernel's row, filled anew each time
     for k in range(1, times.size):  # each sample starts from the one before: a loop, the kernel does the work
         np.multiply(vs[k - 1], times[k] - times[k - 1], out=theta[0])
