@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 import shlex
 import subprocess
 import sys
@@ -294,6 +295,32 @@ def test_warm_derives_a_mechanism_presets_three_formulations(capsys):
     # warmed once, every formulation of this structure is in the cache, whatever its numbers
     code, out, _ = run(capsys, "warm", "--preset", "slider-crank", "--set", "crank.mass=0.3", "--set", "g=1")
     assert code == 0 and all(line.endswith("s (cached)") for line in out.splitlines()), out
+
+
+# After warm, a run in a new process: how many modules it compiled and loaded (physics.codegen.machine_code.COUNTS)
+_RUN_AND_COUNT = """
+import json, sys
+from physics.cli import main
+from physics.codegen import machine_code
+code = main(["mechanism", "--preset", "crank-rocker", "--t-end", "1", "--json"])
+print(json.dumps({"code": code, **machine_code.COUNTS}), file=sys.stderr)
+"""
+
+
+@pytest.mark.slow
+def test_warm_of_a_fully_driven_mechanism_leaves_its_first_run_nothing_to_compile(tmp_path):
+    """A mechanism its motors fully drive runs by position analysis (the driven sequence's own machine code,
+    physics.codegen.native_states), not by an integrator: warm must prepare that too, so that the first run after
+    it compiles nothing (without the position-analysis run in warm, this run compiled one module)."""
+    environment = {**os.environ, "LINKAGE_LAB_CACHE": str(tmp_path / "cache")}
+    warmed = subprocess.run([sys.executable, "-m", "physics", "warm", "--preset", "crank-rocker"],
+                            capture_output=True, text=True, env=environment, timeout=600)
+    assert warmed.returncode == 0, warmed.stderr
+    assert warmed.stdout.splitlines()[-1] == "position analysis crank-rocker: ready", warmed.stdout
+    counted = subprocess.run([sys.executable, "-c", _RUN_AND_COUNT], capture_output=True, text=True,
+                             env=environment, timeout=600)
+    counts = json.loads(counted.stderr.strip().splitlines()[-1])
+    assert counts["code"] == 0 and counts["compiled"] == 0 and counts["loaded"] >= 1, (counts, counted.stderr)
 
 
 def test_a_chain_study_names_a_mechanism_preset_as_one():
