@@ -163,11 +163,11 @@ class ProjectionFunctions:
         return code.function
 
 
-def _project_states(module: ir.Module, projection: ProjectionFunctions) -> None:
-    """projection.project_states: per row, the time into the caller's copy of params, then (with constraints)
-    positions and velocities projected in place; the largest position residual (numba's ``max``)."""
-    code = _function(module, "project_states", _DOUBLE, [_I64_POINTER, _I64] + [_DOUBLE_POINTER] * 5, linkage="")
-    layout, rows, t, theta, omega, params, scratch = code.function.args
+def _layout_and_scratch(code: _Code, layout, scratch):
+    """What a row's projection reads of the layout (coordinates ``n``, constraint rows ``r``, the parameter slot
+    of the time) and the caller's scratch cut into the projection's four work arrays (``J`` r x n, ``v``, ``G``
+    r x r, ``lam``; at least one row each), emitted in one order so the modules' IR text, the machine-code
+    cache's key, stays the same."""
     b = code.b
     n = code.load(layout, _int(LAYOUT_COORDINATES))
     r = code.load(layout, _int(LAYOUT_CONSTRAINTS))
@@ -177,6 +177,16 @@ def _project_states(module: ir.Module, projection: ProjectionFunctions) -> None:
     v = code.at(J, b.mul(held, n))
     G = code.at(v, b.mul(_int(2), held))
     lam = code.at(G, b.mul(held, held))
+    return n, r, slot, (J, v, G, lam)
+
+
+def _project_states(module: ir.Module, projection: ProjectionFunctions) -> None:
+    """projection.project_states: per row, the time into the caller's copy of params, then (with constraints)
+    positions and velocities projected in place; the largest position residual (numba's ``max``)."""
+    code = _function(module, "project_states", _DOUBLE, [_I64_POINTER, _I64] + [_DOUBLE_POINTER] * 5, linkage="")
+    layout, rows, t, theta, omega, params, scratch = code.function.args
+    b = code.b
+    n, r, slot, (J, v, G, lam) = _layout_and_scratch(code, layout, scratch)
     worst = code.var(_double(0.0))
     with code.loop(rows, "rows") as row:
         with b.if_then(b.icmp_signed(">=", slot, _int(0))):
@@ -201,14 +211,7 @@ def _driven_sequence(module: ir.Module, projection: ProjectionFunctions) -> None
                      linkage="")
     layout, rows, start, tolerance, t, xs, vs, params, scratch = code.function.args
     b = code.b
-    n = code.load(layout, _int(LAYOUT_COORDINATES))
-    r = code.load(layout, _int(LAYOUT_CONSTRAINTS))
-    slot = code.load(layout, _int(LAYOUT_TIME))
-    held = b.select(b.icmp_signed(">", r, _int(1)), r, _int(1))
-    J = scratch
-    v = code.at(J, b.mul(held, n))
-    G = code.at(v, b.mul(_int(2), held))
-    lam = code.at(G, b.mul(held, held))
+    n, r, slot, (J, v, G, lam) = _layout_and_scratch(code, layout, scratch)
     stopped = code.block("stopped")
     stop_row = code.var(rows)
     with code.loop(rows, "rows", start=start) as row:
