@@ -26,9 +26,10 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
+
+from .workers import run_once
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = [(preset, "dae") for preset in ("slider-crank", "crank-rocker", "chebyshev-lambda", "watt-six-bar",
@@ -77,12 +78,8 @@ print(json.dumps(out))
 
 
 def _round(tree: Path, calls: int) -> dict[str, list[float]]:
-    env = dict(os.environ, PYTHONPATH=str(tree), LINKAGE_LAB_MECHANISM_WORKERS="0")
-    done = subprocess.run([sys.executable, "-c", WORKER, json.dumps(CASES), json.dumps(SECONDS), str(calls)],
-                          cwd=tree, env=env, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{tree}: {done.stderr.strip()[-800:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    return run_once(tree, WORKER, [json.dumps(CASES), json.dumps(SECONDS), str(calls)],
+                    LINKAGE_LAB_MECHANISM_WORKERS="0")
 
 
 def main(argv: list[str] | None = None) -> int:

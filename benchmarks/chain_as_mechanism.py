@@ -41,6 +41,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from .workers import TIMED_CASES_LOOP
+
 ROOT = Path(__file__).resolve().parent.parent
 METHODS = ("newton_euler", "lagrange", "dae")
 CHAINS = ("triple-c", "four-bar")
@@ -81,16 +83,8 @@ for _ in range(3):  # warm: compiled code, caches, the specialised drivers (comp
     for call in calls.values():
         call()
     time.sleep(1.0)
-print(json.dumps(list(calls)), flush=True)
-for line in sys.stdin:  # "CASE COUNT": COUNT timed calls of CASE, their median thread CPU time in ms
-    case, count = line.rsplit(" ", 1)
-    spent = []
-    for _ in range(int(count)):
-        started = time.thread_time()
-        calls[case]()
-        spent.append(time.thread_time() - started)
-    print(1e3 * statistics.median(spent), flush=True)
 """
+WORKER += TIMED_CASES_LOOP
 
 
 class Worker:

@@ -23,9 +23,10 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
+
+from .workers import run_once
 
 ROOT = Path(__file__).resolve().parent.parent
 SPANS = ((2.0, 121), (10.0, 601))
@@ -70,12 +71,7 @@ print(json.dumps(out))
 
 
 def _round(tree: Path, presets: list[str], calls: int) -> dict[str, list[float]]:
-    env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, "-c", WORKER, json.dumps(presets), json.dumps(SPANS), str(calls)],
-                          cwd=tree, env=env, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{tree}: {done.stderr.strip()[-800:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    return run_once(tree, WORKER, [json.dumps(presets), json.dumps(SPANS), str(calls)])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -39,6 +39,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from .workers import TIMED_CASES_LOOP
+
 ROOT = Path(__file__).resolve().parent.parent
 METHODS = ("dae", "lagrange", "newton_euler")
 
@@ -100,16 +102,8 @@ for method in sys.argv[1].split(","):
                                                                                      options)
 for call in calls.values():  # warm: compiled code, caches
     call()
-print(json.dumps(list(calls)), flush=True)
-for line in sys.stdin:  # "CASE COUNT": COUNT timed calls of CASE, their median thread CPU time in ms
-    case, count = line.rsplit(" ", 1)
-    spent = []
-    for _ in range(int(count)):
-        started = time.thread_time()
-        calls[case]()
-        spent.append(time.thread_time() - started)
-    print(1e3 * statistics.median(spent), flush=True)
 """
+WORKER += TIMED_CASES_LOOP
 
 
 class Worker:
