@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from physics import METHOD_NAMES, LinkageError, preset_names
-from physics.files import read_limited
+from physics.file_io import read_limited
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.notices import install_stderr_lines
 from physics.program import program_name, version_text

@@ -14,7 +14,7 @@ from typing import Optional
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, field_validator, model_validator
 
 from .errors import LinkageError
-from .files import read_limited
+from .file_io import read_limited
 from .model import MAX_LINKS
 
 MAX_FILE_BYTES = 16 * 1024 * 1024

@@ -19,7 +19,7 @@ import sys
 
 from .arguments import Parser
 from .errors import LinkageError
-from .files import read_limited
+from .file_io import read_limited
 from .mechanism.chains import chain_mechanism
 from .mechanism.files import MAX_FILE_BYTES, load_mechanism
 from .mechanism.mjcf import MAX_TIMESTEP, MJCF_TIMESTEP, to_mjcf

@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from .errors import LinkageError
-from .files import write_atomically
+from .file_io import write_atomically
 
 # The exit status of a command whose run (or one copy of an ensemble) stopped before its end: what was computed is
 # written (docs/cli.md); 2 is bad input, refused before any work.
@@ -113,7 +113,7 @@ def check_output_folder(out: str, option: str = "--out") -> None:
 
 
 def write_output(out: str, data: bytes, option: str = "--out") -> None:
-    """Write ``data`` to ``out`` atomically (physics.files); a device such as ``/dev/null`` is written directly.
+    """Write ``data`` to ``out`` atomically (physics.file_io); a device such as ``/dev/null`` is written directly.
     A failure is one line (LinkageError), never a traceback."""
     path = Path(out)
     try:

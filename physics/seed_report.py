@@ -34,7 +34,7 @@ import numpy as np
 
 from .codegen import load_compiled
 from .fbd import fbd_svg, free_body_at
-from .files import write_atomically
+from .file_io import write_atomically
 from .kernels import ode45
 from .model import FORMULATION_NAMES, Settings, validated
 from .presets import get_preset

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..cache_folder import UntrustedFile, cache_dir, discard, mac, mac_matches, read_trusted, warn
 from ..errors import LinkageError
-from ..files import write_atomically
+from ..file_io import write_atomically
 from ..kernels.first_compile import call_announced
 from ..kernels.layout import LAYOUT_RHS, make_layout
 from ..registry import FORMULATION_NAMES

@@ -41,7 +41,7 @@ from ..cache_folder import (
     tagged,
     warn,
 )
-from ..files import write_atomically
+from ..file_io import write_atomically
 
 FOLDER = "native"
 SUFFIX = ".o"

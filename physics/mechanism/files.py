@@ -15,7 +15,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..errors import LinkageError
-from ..files import read_limited
+from ..file_io import read_limited
 from .joints import KINDS
 from .model import Body, Driver, Mechanism
 

@@ -26,7 +26,7 @@ import pytest
 from physics import long_run
 from physics.cli import main
 from physics.errors import LinkageError
-from physics.files import read_limited, write_atomically
+from physics.file_io import read_limited, write_atomically
 from physics.mechanism import MECHANISM_PRESETS, Mechanism, validation
 from physics.mechanism import simulate as mechanism_simulate
 from physics.mechanism.validation import MAX_MOTOR_SPEED, check_runnable
@@ -195,7 +195,7 @@ def test_outputs_follow_the_umask(tmp_path, capsys, umask, mode):
 def test_a_killed_writer_leaves_a_temporary_file_the_next_write_removes(tmp_path):
     out = tmp_path / "run.csv"
     # a writer killed with SIGKILL in the middle of its write (inside fsync), as kill -9 would
-    script = ("import os, sys\nfrom physics import files\n"
+    script = ("import os, sys\nfrom physics import file_io as files\n"
               "files.os.fsync = lambda fd: os.kill(os.getpid(), 9)\n"
               "files.write_atomically(sys.argv[1], b'x' * 1000000)\n")
     result = subprocess.run([sys.executable, "-c", script, str(out)], cwd=ROOT, capture_output=True, timeout=120)
