@@ -21,7 +21,12 @@ the preset's start, projection where it applies. For each chain and method the c
 * ``mechanism, a new start each call``: as ``mechanism``, from ``chain_state`` at the preset's angles moved by
   a different 1e-9 rad each call (``q0`` and ``qdot0``): the start is assembled each time, not remembered, as
   for a chain engine that hands every run to the mechanism engine (the four-bar's moved tip takes Newton steps
-  back onto its pin ``H``).
+  back onto its pin ``H``);
+* ``absolute rotations`` and its ``condition read too`` and ``a new start each call``: the three cases above
+  with ``rotations="absolute"``, the chain sketched hanging straight down (``chain_mechanism(chain, 0)``) and
+  started from ``chain_state`` at the preset's angles: the mechanism engine integrating exactly the chain
+  engine's state, as ``physics.simulate`` routed to it runs (issue 24; docs/mechanisms.md, "Absolute
+  rotations"). A tree without the keyword leaves these cells empty.
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case a few times to warm up (compiled code, caches, the drivers specialised per system); then, ``--rounds``
@@ -46,6 +51,8 @@ from .workers import TIMED_CASES_LOOP
 ROOT = Path(__file__).resolve().parent.parent
 METHODS = ("newton_euler", "lagrange", "dae")
 CHAINS = ("triple-c", "four-bar")
+KINDS = ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call",
+         "absolute rotations", "absolute rotations, condition read too", "absolute rotations, a new start each call")
 
 WORKER = r"""
 import inspect, itertools, json, statistics, sys, time
@@ -57,19 +64,32 @@ from physics.mechanism.simulate import simulate_mechanism
 
 counter = itertools.count(1)  # a start never seen before: assembled, not remembered (physics/mechanism/prepared.py)
 
-def new_start(mechanism, preset, options):
-    q0, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0 + 1e-9 * next(counter), preset.omega0)
+def new_start(mechanism, preset, options, sketch):
+    q0, qdot0 = chain_state(preset.chain, sketch, preset.theta0 + 1e-9 * next(counter), preset.omega0)
     return simulate_mechanism(mechanism, q0=q0, qdot0=qdot0, **options).reaction_rows
 
-tree_dae = "coordinates" in inspect.signature(simulate_mechanism).parameters
+parameters = inspect.signature(simulate_mechanism).parameters
+tree_dae = "coordinates" in parameters
 calls = {}
 for name in sys.argv[1].split(","):
     preset = get_preset(name)
     mechanism = chain_mechanism(preset.chain, preset.theta0)
     _, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0)
+    down = 0.0 * preset.theta0  # sketched hanging straight down: absolute rotations integrate the chain's angles
+    hanging = chain_mechanism(preset.chain, down)
+    start = chain_state(preset.chain, down, preset.theta0, preset.omega0)
     for method in sys.argv[2].split(","):
         options = dict(t_end=20.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
         extra = dict(coordinates="tree") if method == "dae" and tree_dae else {}
+        if "rotations" in parameters:
+            absolute = {**options, **extra, "rotations": "absolute"}
+            calls[f"{name}|absolute rotations|{method}"] = (lambda m, s, o: lambda: simulate_mechanism(
+                m, q0=s[0], qdot0=s[1], **o).reaction_rows)(hanging, start, absolute)
+            calls[f"{name}|absolute rotations, condition read too|{method}"] = (lambda m, s, o: lambda: (
+                lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, q0=s[0], qdot0=s[1], **o)))(
+                hanging, start, absolute)
+            calls[f"{name}|absolute rotations, a new start each call|{method}"] = (
+                lambda m, p, o, d: lambda: new_start(m, p, o, d))(hanging, preset, absolute, down)
         calls[f"{name}|chain engine|{method}"] = (lambda s, p: lambda: physics.simulate(
             p.chain, p.theta0, p.omega0, s))(Settings(**options), preset)
         calls[f"{name}|mechanism|{method}"] = (lambda m, v, o: lambda: simulate_mechanism(
@@ -77,8 +97,8 @@ for name in sys.argv[1].split(","):
         calls[f"{name}|mechanism, condition read too|{method}"] = (lambda m, v, o: lambda: (
             lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, qdot0=v, **o)))(
             mechanism, qdot0, {**options, **extra})
-        calls[f"{name}|mechanism, a new start each call|{method}"] = (lambda m, p, o: lambda: new_start(m, p, o))(
-            mechanism, preset, {**options, **extra})
+        calls[f"{name}|mechanism, a new start each call|{method}"] = (
+            lambda m, p, o: lambda: new_start(m, p, o, p.theta0))(mechanism, preset, {**options, **extra})
 for _ in range(3):  # warm: compiled code, caches, the specialised drivers (compiled in the background)
     for call in calls.values():
         call()
@@ -153,7 +173,7 @@ def main(argv: list[str] | None = None) -> None:
     print("| chain | case | " + " | ".join(f"{method} {label}" for method in METHODS for label in labels) + " |")
     print("|---|---|" + "---|" * (len(METHODS) * len(labels)))
     for chain in CHAINS:
-        for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call"):
+        for kind in KINDS:
             cells = []
             for method in METHODS:
                 for label in labels:

@@ -26,7 +26,7 @@ from .parameters import parameter_vector, structure, structure_key
 
 if TYPE_CHECKING:
     from .prepared import Prepared
-    from .tree_reactions import TreeReactions
+    from .tree_reactions import LoopReactions, TreeReactions
 
 
 def compiled_system(mechanism: Mechanism, method: str, key_of_structure: str | None = None,
@@ -317,7 +317,7 @@ KEPT_JACOBIAN_BYTES = 4 << 20
 
 
 def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_reactions: bool,
-                closed_form: TreeReactions | None = None):
+                closed_form: TreeReactions | LoopReactions | None = None):
     """``(reaction_rows, condition)`` of a run, each computed when first read (:class:`OnRequest`): a tree
     formulation's reactions by Newton's second law (:func:`body_reactions`) and every sample's condition of
     ``Phi_q`` (:func:`_conditions`), from the samples the run keeps, so their bits are the ones the run computed
@@ -534,16 +534,18 @@ _QR_RANK_RATIO = 1e-10
 
 
 def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray | None] | None = None, *,
-                   closed_form: TreeReactions | None = None) -> np.ndarray:
+                   closed_form: TreeReactions | LoopReactions | None = None) -> np.ndarray:
     """A tree formulation's reactions of every joint row, from its own accelerations by Newton's second law on
     every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense).
     Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations (``jacobians``: :func:`_maximal_jacobians`
     of the samples' poses, when the caller holds it), then one batched QR of ``Phi_q^T`` and a triangular solve;
     a sample near losing rank, or not finite, by ``lstsq`` on its own as before. ``closed_form``: the
-    mechanism's :class:`~physics.mechanism.tree_reactions.TreeReactions` when it is an open tree of pins
+    mechanism's :class:`~physics.mechanism.tree_reactions.TreeReactions` when it is an open tree of pins, its
+    :class:`~physics.mechanism.tree_reactions.LoopReactions` when its pins close loops
     (:attr:`~physics.mechanism.prepared.Prepared.tree_reactions`): the same system solved from the leaves to the
-    root, no Jacobian and no QR (it assumes the accelerations consistent with the joints, as a run's are; without
-    it an inconsistent ``qddot`` gets the least-squares answer)."""
+    root (a loop's cut pins and motors from a small system first), no Jacobian and no QR, except for a loop's
+    sample near a dead centre (its NaN rows: the QR as before). It assumes the accelerations consistent with the
+    joints, as a run's are; without it an inconsistent ``qddot`` gets the least-squares answer."""
     count = len(solved.q)
     rows = len(dae.constraints.rows)
     if count == 0 or rows == 0:
@@ -553,11 +555,15 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     alone = ~finite
     if closed_form is not None:
         if finite.all():  # a run's samples are: no copies
-            return closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
-        if np.any(finite):
+            out = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
+        elif np.any(finite):
             q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
             out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot)
-    elif np.any(finite) and rows <= dae.constraints.size:
+        # a loop's sample near a dead centre comes back NaN (tree_reactions.LoopReactions): the QR answers it
+        finite &= ~np.all(np.isfinite(out), axis=1)
+        if not (finite.any() or alone.any()):
+            return out
+    if np.any(finite) and rows <= dae.constraints.size:
         q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
         if jacobians is None or jacobians[1] is None:
             jacobian = dae.constraints.jacobian(q)
@@ -572,6 +578,8 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
         where = np.flatnonzero(finite)
         out[where[full_rank]] = np.linalg.solve(triangle[full_rank], projected[..., None])[..., 0]
         alone[where[~full_rank]] = True
+    elif closed_form is not None:
+        alone |= finite  # the closed form's NaN rows
     else:
         alone[:] = True
     for k in np.flatnonzero(alone):

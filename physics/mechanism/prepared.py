@@ -37,7 +37,7 @@ from .topology import Topology
 
 if TYPE_CHECKING:
     from .joint_coordinates import JointCoordinates
-    from .tree_reactions import TreeReactions
+    from .tree_reactions import LoopReactions, TreeReactions
 
 # Mechanisms kept: the app's few open ones and a study's sweep over one structure's numbers fit many times over;
 # the least recently used goes first.
@@ -90,21 +90,26 @@ class Prepared:
         return JointCoordinates(self.constraints.mechanism, self.constraints)
 
     @cached_property
-    def tree_reactions(self) -> TreeReactions | None:
+    def tree_reactions(self) -> TreeReactions | LoopReactions | None:
         """The closed form of a tree formulation's reactions (:mod:`physics.mechanism.tree_reactions`) when every
-        joint is a pin of the spanning tree; None otherwise (the reactions keep the QR). Built on first use."""
-        from .tree_reactions import plan  # noqa: PLC0415
+        joint is a pin: of the spanning tree (:class:`TreeReactions`) or closing loops (:class:`LoopReactions`);
+        None otherwise (the reactions keep the QR). Built on first use."""
+        from .tree_reactions import plan, plan_loops  # noqa: PLC0415
 
-        return plan(self.constraints, self.topology)
+        open_tree = plan(self.constraints, self.topology)
+        return open_tree if open_tree is not None else plan_loops(self.constraints, self.topology)
 
     @property
     def full_rank_by_structure(self) -> bool:
         """True when ``Phi_q`` has full row rank at every pose by the structure alone: an open tree of pins
-        (:attr:`tree_reactions` is not None). Ordered by bodies from the ground, a body's rows (its pin to its
+        (:attr:`tree_reactions` a :class:`~physics.mechanism.tree_reactions.TreeReactions`; loops have dead
+        centres). Ordered by bodies from the ground, a body's rows (its pin to its
         parent, and the pin's speed motor) hold ``+-I`` in its translation columns and ``+-1`` in its rotation
         column, nothing in its descendants' columns: block triangular, every diagonal block of full row rank.
         Assembly then needs no rank (an SVD) to know the mobility."""
-        return self.tree_reactions is not None
+        from .tree_reactions import TreeReactions  # noqa: PLC0415
+
+        return isinstance(self.tree_reactions, TreeReactions)
 
     def remembered(self, key: Hashable):
         """What :meth:`remember` kept under ``key``, or None."""

@@ -23,7 +23,24 @@ children's pins, so the reactions follow from the leaves to the root (the backwa
 Every reaction row keeps its meaning and sign (``lambda[JOINT: row]``, the force ON body ``a`` BY body ``b``, a
 motor's torque on ``b``); the answer is the exact solution of the same consistent system the QR solves, so the
 two agree to rounding. The closed form reads the maximal ``q, qdot, qddot`` only, whatever coordinates the
-formulation integrated. Loops, gears and sliders keep the QR (:func:`plan` gives None for them).
+formulation integrated.
+
+**Loops of pins** (:class:`LoopReactions`, :func:`plan_loops`: every joint a pin, each loop closed by a cut pin,
+speed motors on any pin; the four-bar, a chain with its tip pinned to the ground): the cut pins' forces and the
+speed motors' torques are the unknowns of a small system, the rest follows from the force balances as above.
+Turning the subtree below a tree pin ``k`` about that pin's point ``P_k`` moves no tree pin, so the moment of
+the subtree's imbalance ``M qddot - Q`` about ``P_k`` is carried by the cut pins' forces and the motors' torques
+that cross the subtree's boundary alone: one equation per tree pin, ``(P_a - P_k) x lambda_C`` for a cut pin
+whose body ``a`` hangs below ``k`` (``-(P_b - P_k) x lambda_C`` for its ``b``, each end at its own point, as in
+``Phi_q``), ``+-mu`` for a motor with one body below ``k``. It is ``Phi_q^T lambda = M qddot - Q`` multiplied by
+the tree's velocity modes (``(Phi_C J)^T lambda_C = J^T (M qddot - Q)``, the closure's Jacobian in tree
+coordinates): ``B`` equations (one per body) for ``2 C + K`` unknowns (``C`` cut pins, ``K`` speed motors, at most
+``B`` when the mobility is not negative), solved in the least-squares sense by a modified Gram-Schmidt QR
+written out over every sample at once (a few columns, no LAPACK call per sample). Then a tree pin's force is
+``s`` times the subtree's summed force imbalance less the cut pins' forces on the subtree. A sample whose small
+system is near losing rank (a dead centre) gets NaN rows, which :func:`physics.mechanism.engine.body_reactions`
+solves by the QR of ``Phi_q^T`` as before. Gears and sliders keep the QR (:func:`plan` and :func:`plan_loops`
+give None for them).
 """
 
 from __future__ import annotations
@@ -146,3 +163,214 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
     for name in TreeReactions.__dataclass_fields__:
         getattr(built, name).setflags(write=False)
     return built
+
+
+# A sample whose small system's QR has min |R_jj| below this times max |R_jj| is left to the QR of Phi_q^T (NaN
+# rows): stricter than the QR's own rank test (engine._QR_RANK_RATIO), so near a dead centre the reference path
+# answers.
+_LOOP_RANK_RATIO = 1e-8
+
+
+@dataclass(frozen=True)
+class LoopReactions:
+    """The constant pieces of the closed form of a mechanism of pins with loops (every array read-only): every
+    quantity the small system needs is linear in ``q`` and each body's ``cos phi, sin phi`` (the pins' points,
+    arms and gaps) or in the imbalance ``M qddot - Q`` (the subtrees' sums), so each comes out of one product
+    with a constant matrix. ``N`` tree pins (one per body), ``P`` pairs (tree pin ``k``, body ``i`` below it),
+    ``C`` cut pins, ``K`` speed motors, ``U = 2 C + K`` unknowns.
+
+    ``geometry (5 B, 2 P + 2 N + 2 C N)`` and ``geometry_constant`` (the ground's points): from ``[q, cos phi,
+    sin phi]``, the pairs' ``x_i - P_k`` and the tree pins' gaps ``P_a - P_b`` (x), the same in y, then each
+    cut pin's two columns of the small system (``-arm_y``, ``arm_x``: its force's moment about each ``P_k``,
+    an end ``a`` below ``k`` at ``P_a - P_k``, an end ``b`` at minus that, less the gaps of the tree pins inside
+    that carry it). ``sums (3 B, rows + 2 P + 3 N)``: from the imbalance, every row's part before the unknowns
+    (each tree pin's x and y rows ``s`` times the subtree's summed force, as :attr:`TreeReactions.linear`), the
+    pairs' ``f_y`` with the tree pins' ``-lambda_y``, then ``f_x`` with ``-lambda_x``, then each subtree's summed
+    torque. ``moments (P + N, N)``: the pairs' and the inner tree pins' (a tree pin ``j`` joining two bodies
+    below ``k``) share of each moment equation. ``motor_columns (N, K)``: a motor's torque in each moment
+    equation (``+1`` for its ``b`` below ``k``, ``-1`` for its ``a``). ``unknowns_to_rows (U, rows)``: the
+    unknowns' own rows, and each cut pin's force taken off the tree pins whose subtree holds one of its bodies."""
+
+    geometry: np.ndarray
+    geometry_constant: np.ndarray
+    sums: np.ndarray
+    moments: np.ndarray
+    motor_columns: np.ndarray
+    unknowns_to_rows: np.ndarray
+
+    def solve(self, mass_diagonal: np.ndarray, applied: np.ndarray, q: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+        """Every sample's reaction rows ``(T, rows)`` as :meth:`TreeReactions.solve` gives them; a sample whose
+        small system is near losing rank gets NaN rows (the caller's QR answers it)."""
+        rows = self.unknowns_to_rows.shape[1]
+        count = self.motor_columns.shape[0]
+        half = self.moments.shape[0]  # P + N
+        summed = (mass_diagonal * qddot - applied) @ self.sums  # (T, rows + 2 P + 3 N)
+        angle = q[:, 2::3]
+        shape = np.concatenate((q, np.cos(angle), np.sin(angle)), axis=1) @ self.geometry + self.geometry_constant
+        # each tree pin's moment equation: the subtree's imbalance about its point, and gap x lambda of the pins
+        # inside (the pose's closure residual: exact for any pose, as Phi_q's rows are)
+        moment = ((shape[:, :half] * summed[:, rows:rows + half]
+                   - shape[:, half:2 * half] * summed[:, rows + half:rows + 2 * half]) @ self.moments
+                  + summed[:, rows + 2 * half:])
+        columns = [shape[:, start:start + count] for start in range(2 * half, shape.shape[1], count)]
+        columns += [np.broadcast_to(column, moment.shape) for column in self.motor_columns.T]
+        return summed[:, :rows] + _least_squares(columns, moment) @ self.unknowns_to_rows
+
+
+def _least_squares(columns: list[np.ndarray], rhs: np.ndarray) -> np.ndarray:
+    """``(T, U)``: the least-squares solution of every sample's ``[columns] z = rhs`` (each column and ``rhs``
+    ``(T, N)``) by modified Gram-Schmidt with the right-hand side carried along as a last column (backward
+    stable for least squares, Bjorck), every later column projected at once, and back substitution; NaN where
+    the columns are near dependent (:data:`_LOOP_RANK_RATIO`)."""
+    count = len(columns)
+    samples = rhs.shape[0]
+    work = np.stack([*columns, rhs], axis=1)  # (T, U + 1, N), a copy
+    triangle = np.empty((samples, count, count + 1))  # R, the right-hand side's projections last
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero column: its NaN caught by the rank test
+        for j in range(count):
+            unit = work[:, j]
+            norm = np.sqrt(np.einsum("tn,tn->t", unit, unit))
+            triangle[:, j, j] = norm
+            unit /= norm[:, None]
+            later = np.einsum("tn,tkn->tk", unit, work[:, j + 1:])
+            triangle[:, j, j + 1:] = later
+            work[:, j + 1:] -= later[:, :, None] * unit[:, None, :]
+        out = np.empty((samples, count))
+        for j in reversed(range(count)):
+            value = triangle[:, j, count] - np.einsum("tk,tk->t", triangle[:, j, j + 1:count], out[:, j + 1:])
+            out[:, j] = value / triangle[:, j, j]
+        diagonal = np.diagonal(triangle[:, :, :count], axis1=1, axis2=2)  # the norms: never negative
+        near = ~(diagonal.min(axis=1, initial=np.inf) > _LOOP_RANK_RATIO * diagonal.max(axis=1, initial=0.0))
+    out[near] = np.nan
+    return out
+
+
+def plan_loops(constraints: Constraints, topology: Topology | None) -> LoopReactions | None:
+    """The closed form's pieces for a mechanism of pins with loops (speed and torque motors on any pin); None
+    for anything else: an open tree (:func:`plan`), a gear or a slider, more unknowns than bodies (a mobility
+    below zero: redundant rows, the QR's minimum-norm answer)."""
+    mechanism = constraints.mechanism
+    if topology is None or not topology.loops or any(kind_of(joint).name != PIN for joint in mechanism.joints):
+        return None
+    bodies = {name: k for k, name in enumerate(topology.bodies)}
+    row_of = {(row.joint, row.meaning): number for number, row in enumerate(constraints.rows)}
+    meanings = kind_of(mechanism.joints[0]).meanings
+    joints = {joint.name: joint for joint in mechanism.joints}
+    tree = list(topology.parent.items())  # (child, (pin, parent)), parents before children
+    cuts = [joints[loop.cut_joint] for loop in topology.loops]
+    speeds = [driver.joint for driver in mechanism.drivers if driver.speed is not None]
+    count = len(bodies)
+    if len(tree) != count or 2 * len(cuts) + len(speeds) > count:
+        return None
+    below: dict[str, list[str]] = {}
+    for child, (_, parent_body) in tree:
+        below.setdefault(parent_body, []).append(child)
+
+    def subtree(body: str) -> list[int]:
+        found, stack = [], [body]
+        while stack:
+            here = stack.pop()
+            found.append(bodies[here])
+            stack += below.get(here, [])
+        return found
+
+    features = 5 * count  # [q (3 B), cos phi (B), sin phi (B)]
+
+    def point(body: str, arm) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
+        """A point's x and y as coefficients of the features, and its constant part (a ground point's)."""
+        x, y = np.zeros(features), np.zeros(features)
+        if body == GROUND:
+            return x, y, (float(arm[0]), float(arm[1]))
+        b = bodies[body]
+        x[3 * b], x[3 * count + b], x[4 * count + b] = 1.0, arm[0], -arm[1]
+        y[3 * b + 1], y[3 * count + b], y[4 * count + b] = 1.0, arm[1], arm[0]
+        return x, y, (0.0, 0.0)
+
+    def ends(joint) -> list[tuple[np.ndarray, np.ndarray, tuple[float, float]]]:
+        values = kind_of(joint).values(joint, mechanism)
+        a, b = _ends(joint)
+        return [point(a, values[0:2]), point(b, values[2:4])]
+
+    rows = len(constraints.rows)
+    hanging = np.zeros((count, count))  # hanging[k, i]: body i hangs below tree pin k (its child included)
+    signs, force_rows, pivots, gaps = [], [], [], []
+    for k, (child, (pin_name, _)) in enumerate(tree):
+        pin = joints[pin_name]
+        a, _ = _ends(pin)
+        signs.append(1.0 if child == a else -1.0)
+        force_rows.append([row_of[(pin_name, meaning)] for meaning in meanings])
+        hanging[k, subtree(child)] = 1.0
+        (ax, ay, a_constant), (bx, by, b_constant) = ends(pin)
+        pivots.append((ax, ay) if child == a else (bx, by))  # the pin's point on its child: never the ground
+        gaps.append((ax - bx, ay - by, (a_constant[0] - b_constant[0], a_constant[1] - b_constant[1])))
+    inner = hanging[:, [bodies[child] for child, _ in tree]].T.copy()  # inner[j, k]: j's child below k
+    np.fill_diagonal(inner, 0.0)
+    pair_pin, pair_body = np.nonzero(hanging)
+    pairs = pair_pin.size
+    unknowns = 2 * len(cuts) + len(speeds)
+    geometry = np.zeros((features, 2 * pairs + 2 * count + 2 * len(cuts) * count))
+    constant = np.zeros(geometry.shape[1])
+    half = pairs + count
+    for number, (pin_k, body_i) in enumerate(zip(pair_pin.tolist(), pair_body.tolist(), strict=True)):
+        geometry[3 * body_i, number], geometry[3 * body_i + 1, half + number] = 1.0, 1.0  # x_i - P_k, y_i - P_k
+        geometry[:, number] -= pivots[pin_k][0]
+        geometry[:, half + number] -= pivots[pin_k][1]
+    for j, (gap_x, gap_y, gap_constant) in enumerate(gaps):
+        geometry[:, pairs + j], geometry[:, half + pairs + j] = gap_x, gap_y
+        constant[pairs + j], constant[half + pairs + j] = gap_constant
+
+    def below_pin(body: str) -> np.ndarray:
+        return hanging[:, bodies[body]] if body != GROUND else np.zeros(count)
+
+    unknowns_to_rows = np.zeros((unknowns, rows))
+    for number, cut in enumerate(cuts):
+        a, b = _ends(cut)
+        below_a, below_b = below_pin(a), below_pin(b)
+        weight = np.array(signs) * (below_a - below_b)  # how much of lambda_C tree pin j's rows lose
+        (ax, ay, a_constant), (bx, by, b_constant) = ends(cut)
+        for k in range(count):  # the arm of lambda_C in tree pin k's moment equation
+            arm_x = below_a[k] * (ax - pivots[k][0]) - below_b[k] * (bx - pivots[k][0])
+            arm_y = below_a[k] * (ay - pivots[k][1]) - below_b[k] * (by - pivots[k][1])
+            arm_constant = below_a[k] * np.array(a_constant) - below_b[k] * np.array(b_constant)
+            for j in np.flatnonzero(inner[:, k]).tolist():
+                arm_x = arm_x - weight[j] * gaps[j][0]
+                arm_y = arm_y - weight[j] * gaps[j][1]
+                arm_constant = arm_constant - weight[j] * np.array(gaps[j][2])
+            column = 2 * half + 2 * number * count + k  # -arm_y (lambda_x's column), then arm_x (lambda_y's)
+            geometry[:, column], constant[column] = -arm_y, -arm_constant[1]
+            geometry[:, column + count], constant[column + count] = arm_x, arm_constant[0]
+        for axis, meaning in enumerate(meanings):
+            unknowns_to_rows[2 * number + axis, row_of[(cut.name, meaning)]] = 1.0
+            for k in range(count):
+                unknowns_to_rows[2 * number + axis, force_rows[k][axis]] -= weight[k]
+    motor_columns = np.zeros((count, len(speeds)))
+    for number, joint_name in enumerate(speeds):
+        a, b = _ends(joints[joint_name])
+        motor_columns[:, number] = below_pin(b) - below_pin(a)  # its torque: +mu on b, -mu on a
+        unknowns_to_rows[2 * len(cuts) + number, row_of[(joint_name, MOTOR.meanings[0])]] = 1.0
+    sums = np.zeros((3 * count, rows + 2 * half + count))
+    for k in range(count):
+        members = np.flatnonzero(hanging[k])
+        for axis in (0, 1):
+            sums[3 * members + axis, force_rows[k][axis]] = signs[k]
+        sums[3 * members + 2, rows + 2 * half + k] = 1.0  # the subtree's torque
+    for number, body_i in enumerate(pair_body.tolist()):
+        sums[3 * body_i + 1, rows + number] = 1.0  # f_y of the pair's body
+        sums[3 * body_i, rows + half + number] = 1.0  # f_x
+    sums[:, rows + pairs:rows + half] = -sums[:, [y for _, y in force_rows]]  # -lambda_y of each tree pin
+    sums[:, rows + half + pairs:rows + 2 * half] = -sums[:, [x for x, _ in force_rows]]  # -lambda_x
+    moments = np.zeros((half, count))
+    moments[np.arange(pairs), pair_pin] = 1.0
+    moments[pairs:] = inner
+    built = LoopReactions(geometry=geometry, geometry_constant=constant, sums=sums, moments=moments,
+                          motor_columns=motor_columns, unknowns_to_rows=unknowns_to_rows)
+    for name in LoopReactions.__dataclass_fields__:
+        getattr(built, name).setflags(write=False)
+    return built
+
+
+def _ends(joint) -> tuple[str, str]:
+    """A pin's two bodies (``"ground"`` for a ground point)."""
+    ends = kind_of(joint).bodies(joint)
+    assert ends is not None  # a pin joins two bodies
+    return ends

@@ -1,22 +1,29 @@
 """A tree formulation's reactions in closed form (physics/mechanism/tree_reactions.py): for an open tree of pins,
 with speed and torque motors and dampers on its pins, the backward recursion gives every reaction row the QR of
 ``Phi_q^T`` gives (engine.body_reactions) and the maximal DAE's multipliers, at random assembled states and random
-numbers; a loop or a slider keeps the QR, and a run of an open tree reads no Jacobian for its reactions."""
+numbers; so do loops of pins (the cut pins and motors from a small system first: random four-bars with and
+without motors, two loops, every preset of pins with loops on its own runs, poses a little off closure), a
+near-singular small system falls back to the QR, a slider or a gear keeps the QR, and a run of pins reads no
+Jacobian for its reactions."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 
-from physics.mechanism import engine
+from physics.mechanism import engine, tree_reactions
 from physics.mechanism.assembly import _rank, assemble
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joints.prismatic import Prismatic
 from physics.mechanism.model import Body, Driver, Mechanism, Revolute
 from physics.mechanism.prepared import prepared
+from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
 from physics.mechanism.tree_coordinates import tree_state
+from physics.mechanism.tree_reactions import LoopReactions
 
 RELATIVE = 1e-12
 STATES = 6
@@ -89,12 +96,32 @@ def random_tree(rng, slider: bool = False) -> Mechanism:
                      bodies=bodies, joints=joints, drivers=drivers)
 
 
-def closed_loop(rng) -> Mechanism:
-    """A three-bar chain whose tip is pinned to the ground: a four-bar, one loop."""
+def closed_loop(rng, motors: bool = False) -> Mechanism:
+    """A three-bar chain whose tip is pinned to the ground (the pin's sides in random order): a four-bar, one
+    loop; with ``motors`` a slow speed motor on a random pin (mobility 0: slow, so the random states' times
+    keep it near the sketch, where the loop closes) and a torque motor on another."""
     chain = random_chain(rng, 3)
     tip = chain.bodies[-1].points["D"]
-    return chain.model_copy(update={"ground": {"O": (0.0, 0.0), "H": tip},
-                                    "joints": [*chain.joints, Revolute(name="H", a="bar3.D", b="ground.H")]})
+    ends = ["bar3.D", "ground.H"]
+    if rng.random() < 0.5:
+        ends.reverse()
+    joints = [*chain.joints, Revolute(name="H", a=ends[0], b=ends[1])]
+    drivers = []
+    if motors:
+        speed, torque = rng.choice([joint.name for joint in joints], size=2, replace=False)
+        drivers = [Driver(joint=str(speed), speed=float(rng.uniform(-0.1, 0.1))),
+                   Driver(joint=str(torque), torque=float(rng.uniform(-5, 5)))]
+    return chain.model_copy(update={"ground": {"O": (0.0, 0.0), "H": tip}, "joints": joints, "drivers": drivers})
+
+
+def two_loops(rng) -> Mechanism:
+    """A five-bar chain with its tip and the end of its third bar pinned to the ground: two loops, mobility 1,
+    a torque motor on one pin."""
+    chain = random_chain(rng, 5)
+    ground = {"O": (0.0, 0.0), "H": chain.bodies[-1].points["D"], "K": chain.bodies[2].points["D"]}
+    pins = [Revolute(name="H", a="ground.H", b="bar5.D"), Revolute(name="K", a="bar3.D", b="ground.K")]
+    return chain.model_copy(update={"ground": ground, "joints": [*chain.joints, *pins],
+                                    "drivers": [Driver(joint="J2", torque=float(rng.uniform(-5, 5)))]})
 
 
 def _states(rng, mechanism: Mechanism):
@@ -159,8 +186,81 @@ def test_open_tree_with_speed_and_torque_motors_takes_the_closed_form():
         _assert_close(fast, multipliers)
 
 
-@pytest.mark.parametrize("make", [lambda rng: random_tree(rng, slider=True), closed_loop], ids=["slider", "loop"])
-def test_slider_and_loop_keep_the_qr(make):
+LOOPS = {"four-bar": closed_loop, "four-bar with motors": lambda rng: closed_loop(rng, motors=True),
+         "two loops": two_loops}
+
+
+@pytest.mark.parametrize("make", list(LOOPS.values()), ids=list(LOOPS))
+def test_loops_of_pins_closed_form_equals_the_qr_and_the_dae(make):
+    rng = np.random.default_rng(23)
+    for _ in range(4):
+        mechanism = make(rng)
+        closed_form = _closed_form(mechanism)
+        assert isinstance(closed_form, LoopReactions)
+        dae, solved, multipliers = _states(rng, mechanism)
+        fast = engine.body_reactions(dae, solved, closed_form=closed_form)
+        _assert_close(fast, engine.body_reactions(dae, solved))
+        _assert_close(fast, multipliers)
+
+
+def test_a_loop_off_its_closure_still_equals_the_qr():
+    """The closed form reads each pin's two points where they are: at a pose whose pins are 1e-6 apart (not a
+    run's, whose tree pins close exactly) it still solves ``Phi_q^T lambda = M qddot - Q`` as the QR does, for
+    the accelerations the DAE gives there."""
+    rng = np.random.default_rng(29)
+    for make in LOOPS.values():
+        mechanism = make(rng)
+        dae, solved, _ = _states(rng, mechanism)
+        moved = solved.q + rng.normal(scale=1e-6, size=solved.q.shape)
+        answers = [dae.solve(q, qdot) for q, qdot in zip(moved, solved.qdot, strict=True)]
+        off = dataclasses.replace(solved, q=moved, qddot=np.array([answer.qddot for answer in answers]))
+        assert np.max(np.abs([dae.constraints.residual(q) for q in moved])) > 1e-7
+        _assert_close(engine.body_reactions(dae, off, closed_form=_closed_form(mechanism)),
+                      engine.body_reactions(dae, off))
+        _assert_close(engine.body_reactions(dae, off), np.array([answer.reactions for answer in answers]))
+
+
+def test_a_near_singular_small_system_falls_back_to_the_qr(monkeypatch):
+    """A sample whose small system is near losing rank comes back NaN from the closed form and is answered by
+    the QR: with the rank test made to refuse every sample, the answer is the QR's bit for bit; dependent
+    columns give NaN."""
+    rng = np.random.default_rng(31)
+    mechanism = closed_loop(rng)
+    dae, solved, _ = _states(rng, mechanism)
+    monkeypatch.setattr(tree_reactions, "_LOOP_RANK_RATIO", 2.0)
+    closed_form = _closed_form(mechanism)
+    assert np.isnan(closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q,
+                                      solved.qddot)).all()
+    assert np.array_equal(engine.body_reactions(dae, solved, closed_form=closed_form),
+                          engine.body_reactions(dae, solved))
+    monkeypatch.undo()
+    column = rng.normal(size=(4, 3))
+    answer = tree_reactions._least_squares([column, 2.0 * column], rng.normal(size=(4, 3)))
+    assert np.isnan(answer).all()
+    independent = tree_reactions._least_squares([column, rng.normal(size=(4, 3))], rng.normal(size=(4, 3)))
+    assert np.isfinite(independent).all()
+
+
+@pytest.mark.parametrize("name", ["crank-rocker", "chebyshev-lambda", "watt-six-bar", "stephenson-six-bar",
+                                  "jansen-leg"])
+def test_presets_with_loops_of_pins_take_the_closed_form_on_their_runs(name):
+    """Every preset of pins with loops (driven or free, one to three loops): a tree formulation's run reads the
+    closed form's reactions, equal to the QR's from the same samples."""
+    mechanism = MECHANISM_PRESETS[name]()
+    pieces = prepared(mechanism)
+    assert isinstance(pieces.tree_reactions, LoopReactions) and not pieces.full_rank_by_structure
+    for method in ("newton_euler", "lagrange"):
+        run = simulate_mechanism(mechanism, 0.5, 26, method=method, rotations="absolute")
+        accelerations = engine.samples(engine.compiled_system(mechanism, method, rotations="absolute"),
+                                       pieces.parameters, run.t, *_tree_states(mechanism, run, "absolute"))
+        _assert_close(run.reaction_rows, engine.body_reactions(pieces.dae, accelerations))
+
+
+@pytest.mark.parametrize("make", [lambda rng: random_tree(rng, slider=True),
+                                  lambda rng: MECHANISM_PRESETS["geared-five-bar"](),
+                                  lambda rng: MECHANISM_PRESETS["slider-crank"]()],
+                         ids=["slider tree", "geared-five-bar", "slider-crank"])
+def test_slider_and_gear_keep_the_qr(make):
     rng = np.random.default_rng(11)
     for _ in range(3):
         mechanism = make(rng)
@@ -169,9 +269,9 @@ def test_slider_and_loop_keep_the_qr(make):
         _assert_close(engine.body_reactions(dae, solved), multipliers)
 
 
-def test_a_run_of_an_open_tree_reads_no_jacobian_for_its_reactions(monkeypatch):
-    """Observable: the reactions of a Newton-Euler run of a chain come without evaluating ``Phi_q`` (the QR's
-    input), and equal the QR's answer from the same samples; a closed loop's still evaluate it."""
+def test_a_run_of_pins_reads_no_jacobian_for_its_reactions(monkeypatch):
+    """Observable: the reactions of a Newton-Euler run of a chain or a four-bar come without evaluating
+    ``Phi_q`` (the QR's input), and equal the QR's answer from the same samples; a slider's still evaluate it."""
     evaluated = []
     original = Constraints.jacobian
 
@@ -181,7 +281,8 @@ def test_a_run_of_an_open_tree_reads_no_jacobian_for_its_reactions(monkeypatch):
 
     monkeypatch.setattr(Constraints, "jacobian", counting)
     rng = np.random.default_rng(3)
-    for mechanism, fast in ((random_chain(rng, 3, motors=True), True), (closed_loop(rng), False)):
+    for mechanism, fast in ((random_chain(rng, 3, motors=True), True), (closed_loop(rng), True),
+                            (MECHANISM_PRESETS["slider-crank"](), False)):
         run = simulate_mechanism(mechanism, 1.0, 21, method="newton_euler", integrator="RK45", rtol=1e-8,
                                  atol=1e-8)
         evaluated.clear()
@@ -194,8 +295,8 @@ def test_a_run_of_an_open_tree_reads_no_jacobian_for_its_reactions(monkeypatch):
         _assert_close(reactions, engine.body_reactions(dae, accelerations))
 
 
-def _tree_states(mechanism: Mechanism, run):
-    pairs = [tree_state(mechanism, q, qdot) for q, qdot in zip(run.q, run.qdot, strict=True)]
+def _tree_states(mechanism: Mechanism, run, rotations: str = "relative"):
+    pairs = [tree_state(mechanism, q, qdot, rotations=rotations) for q, qdot in zip(run.q, run.qdot, strict=True)]
     return np.array([x for x, _ in pairs]), np.array([v for _, v in pairs])
 
 
