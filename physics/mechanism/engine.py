@@ -556,13 +556,13 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     if closed_form is not None:
         if finite.all():  # a run's samples are: no copies
             out = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
+            if not np.isnan(out).any():  # an open tree's always; a loop's unless near a dead centre
+                return out
         elif np.any(finite):
             q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
             out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot)
         # a loop's sample near a dead centre comes back NaN (tree_reactions.LoopReactions): the QR answers it
-        finite &= ~np.all(np.isfinite(out), axis=1)
-        if not (finite.any() or alone.any()):
-            return out
+        finite &= np.isnan(out).any(axis=1)
     if np.any(finite) and rows <= dae.constraints.size:
         q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
         if jacobians is None or jacobians[1] is None:

@@ -200,48 +200,56 @@ class LoopReactions:
 
     def solve(self, mass_diagonal: np.ndarray, applied: np.ndarray, q: np.ndarray, qddot: np.ndarray) -> np.ndarray:
         """Every sample's reaction rows ``(T, rows)`` as :meth:`TreeReactions.solve` gives them; a sample whose
-        small system is near losing rank gets NaN rows (the caller's QR answers it)."""
+        small system is near losing rank gets NaN rows (the caller's QR answers it). Computed with the samples
+        along the last axis (each quantity a contiguous row of ``T`` numbers), so the small system's columns
+        are rows of one product, not copies."""
         rows = self.unknowns_to_rows.shape[1]
         count = self.motor_columns.shape[0]
         half = self.moments.shape[0]  # P + N
-        summed = (mass_diagonal * qddot - applied) @ self.sums  # (T, rows + 2 P + 3 N)
-        angle = q[:, 2::3]
-        shape = np.concatenate((q, np.cos(angle), np.sin(angle)), axis=1) @ self.geometry + self.geometry_constant
+        summed = self.sums.T @ (mass_diagonal * qddot - applied).T  # (rows + 2 P + 3 N, T)
+        pose = q.T
+        angle = pose[2::3]
+        shape = (self.geometry.T @ np.concatenate((pose, np.cos(angle), np.sin(angle)))
+                 + self.geometry_constant[:, None])  # (2 P + 2 N + 2 C N, T)
         # each tree pin's moment equation: the subtree's imbalance about its point, and gap x lambda of the pins
         # inside (the pose's closure residual: exact for any pose, as Phi_q's rows are)
-        moment = ((shape[:, :half] * summed[:, rows:rows + half]
-                   - shape[:, half:2 * half] * summed[:, rows + half:rows + 2 * half]) @ self.moments
-                  + summed[:, rows + 2 * half:])
-        columns = [shape[:, start:start + count] for start in range(2 * half, shape.shape[1], count)]
-        columns += [np.broadcast_to(column, moment.shape) for column in self.motor_columns.T]
-        return summed[:, :rows] + _least_squares(columns, moment) @ self.unknowns_to_rows
+        moment = (self.moments.T @ (shape[:half] * summed[rows:rows + half]
+                                    - shape[half:2 * half] * summed[rows + half:rows + 2 * half])
+                  + summed[rows + 2 * half:])  # (N, T)
+        columns = [shape[start:start + count] for start in range(2 * half, shape.shape[0], count)]
+        columns += [np.broadcast_to(column[:, None], moment.shape) for column in self.motor_columns.T]
+        out = summed[:rows] + self.unknowns_to_rows.T @ _least_squares(columns, moment)
+        return np.ascontiguousarray(out.T)
 
 
 def _least_squares(columns: list[np.ndarray], rhs: np.ndarray) -> np.ndarray:
-    """``(T, U)``: the least-squares solution of every sample's ``[columns] z = rhs`` (each column and ``rhs``
-    ``(T, N)``) by modified Gram-Schmidt with the right-hand side carried along as a last column (backward
-    stable for least squares, Bjorck), every later column projected at once, and back substitution; NaN where
-    the columns are near dependent (:data:`_LOOP_RANK_RATIO`)."""
+    """``(U, T)``: the least-squares solution of every sample's ``[columns] z = rhs`` (each column and ``rhs``
+    ``(N, T)``, a sample per column) by modified Gram-Schmidt with the right-hand side carried along (backward
+    stable for least squares, Bjorck) and back substitution; NaN where the columns are near dependent
+    (:data:`_LOOP_RANK_RATIO`)."""
     count = len(columns)
-    samples = rhs.shape[0]
-    work = np.stack([*columns, rhs], axis=1)  # (T, U + 1, N), a copy
-    triangle = np.empty((samples, count, count + 1))  # R, the right-hand side's projections last
-    with np.errstate(divide="ignore", invalid="ignore"):  # a zero column: its NaN caught by the rank test
+    work = list(columns)
+    diagonal, triangle, projected = [], {}, []
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero column: its NaN is caught by the rank test
         for j in range(count):
-            unit = work[:, j]
-            norm = np.sqrt(np.einsum("tn,tn->t", unit, unit))
-            triangle[:, j, j] = norm
-            unit /= norm[:, None]
-            later = np.einsum("tn,tkn->tk", unit, work[:, j + 1:])
-            triangle[:, j, j + 1:] = later
-            work[:, j + 1:] -= later[:, :, None] * unit[:, None, :]
-        out = np.empty((samples, count))
+            norm = np.sqrt(np.einsum("nt,nt->t", work[j], work[j]))
+            diagonal.append(norm)
+            unit = work[j] / norm
+            for later in range(j + 1, count):
+                triangle[j, later] = np.einsum("nt,nt->t", unit, work[later])
+                work[later] = work[later] - triangle[j, later] * unit
+            projected.append(np.einsum("nt,nt->t", unit, rhs))
+            rhs = rhs - projected[-1] * unit
+        out = np.empty((count, rhs.shape[1]))
         for j in reversed(range(count)):
-            value = triangle[:, j, count] - np.einsum("tk,tk->t", triangle[:, j, j + 1:count], out[:, j + 1:])
-            out[:, j] = value / triangle[:, j, j]
-        diagonal = np.diagonal(triangle[:, :, :count], axis1=1, axis2=2)  # the norms: never negative
-        near = ~(diagonal.min(axis=1, initial=np.inf) > _LOOP_RANK_RATIO * diagonal.max(axis=1, initial=0.0))
-    out[near] = np.nan
+            value = projected[j]
+            for later in range(j + 1, count):
+                value = value - triangle[j, later] * out[later]
+            out[j] = value / diagonal[j]
+        norms = np.array(diagonal).reshape(count, -1)
+        near = ~(norms.min(axis=0, initial=np.inf) > _LOOP_RANK_RATIO * norms.max(axis=0, initial=0.0))
+    if near.any():
+        out[:, near] = np.nan
     return out
 
 

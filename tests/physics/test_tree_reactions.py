@@ -234,10 +234,10 @@ def test_a_near_singular_small_system_falls_back_to_the_qr(monkeypatch):
     assert np.array_equal(engine.body_reactions(dae, solved, closed_form=closed_form),
                           engine.body_reactions(dae, solved))
     monkeypatch.undo()
-    column = rng.normal(size=(4, 3))
-    answer = tree_reactions._least_squares([column, 2.0 * column], rng.normal(size=(4, 3)))
+    column = rng.normal(size=(3, 4))  # (N, T): three equations, four samples
+    answer = tree_reactions._least_squares([column, 2.0 * column], rng.normal(size=(3, 4)))
     assert np.isnan(answer).all()
-    independent = tree_reactions._least_squares([column, rng.normal(size=(4, 3))], rng.normal(size=(4, 3)))
+    independent = tree_reactions._least_squares([column, rng.normal(size=(3, 4))], rng.normal(size=(3, 4)))
     assert np.isfinite(independent).all()
 
 
