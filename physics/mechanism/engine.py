@@ -328,8 +328,10 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
     maximal ``Phi_q`` when the first of its two fields is read and lets it go when the second is.
     ``own_reactions``: the run's multipliers are its reactions (the DAE, maximal or in tree coordinates).
     ``closed_form``: the mechanism's :class:`~physics.mechanism.tree_reactions.TreeReactions` (an open tree of
-    pins): its reactions need no Jacobian."""
+    pins) or :class:`~physics.mechanism.tree_reactions.LoopReactions` (pins closing loops, given the run's
+    multipliers): its reactions need no Jacobian."""
     from ..simulate.trajectory import OnRequest  # noqa: PLC0415
+    from .tree_reactions import LoopReactions  # noqa: PLC0415
 
     constraints = dae.constraints
     empty = np.zeros(0)
@@ -342,8 +344,11 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
                 memo.append(_maximal_jacobians(constraints, kept.q))
             return memo[0]
 
+        # a loop's closed form takes the run's own multipliers of its cut joints and motors (a small array)
+        held = solved.multipliers if isinstance(closed_form, LoopReactions) else None
         reactions = solved.multipliers if own_reactions else OnRequest(lambda: body_reactions(
-            dae, kept, None if closed_form is not None else jacobians(), closed_form=closed_form))
+            dae, kept, None if closed_form is not None else jacobians(), closed_form=closed_form,
+            multipliers=held))
         return reactions, OnRequest(lambda: _conditions(constraints, kept, True, jacobians()))
     held = solved.constraint_jacobian if solved.constraint_jacobian.nbytes <= KEPT_JACOBIAN_BYTES else None
     params = params.copy()  # the run's own, as its samples were solved with it
@@ -473,8 +478,17 @@ def instant(mechanism: Mechanism, method: str, q: np.ndarray, qdot: np.ndarray, 
         x, v = tree_state(mechanism, np.asarray(q, dtype=float), np.asarray(qdot, dtype=float), pieces, rotations)
     solved = samples(compiled, params, np.array([float(t)]), x[None, :], v[None, :])
     reactions = (solved.multipliers if method == "dae"
-                 else body_reactions(pieces.dae, solved, closed_form=pieces.tree_reactions))
+                 else body_reactions(pieces.dae, solved, closed_form=pieces.tree_reactions,
+                                     multipliers=_loop_multipliers(pieces.tree_reactions, solved)))
     return solved.qddot[0], reactions[0]
+
+
+def _loop_multipliers(closed_form, solved: Samples) -> np.ndarray | None:
+    """A tree formulation's own multipliers (its cut joints' and speed motors' rows) for a loop's closed form
+    (:class:`~physics.mechanism.tree_reactions.LoopReactions`), None for anything else."""
+    from .tree_reactions import LoopReactions  # noqa: PLC0415
+
+    return solved.multipliers if isinstance(closed_form, LoopReactions) else None
 
 
 def _maximal_jacobians(constraints, q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -534,7 +548,8 @@ _QR_RANK_RATIO = 1e-10
 
 
 def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray | None] | None = None, *,
-                   closed_form: TreeReactions | LoopReactions | None = None) -> np.ndarray:
+                   closed_form: TreeReactions | LoopReactions | None = None,
+                   multipliers: np.ndarray | None = None) -> np.ndarray:
     """A tree formulation's reactions of every joint row, from its own accelerations by Newton's second law on
     every body: ``Phi_q^T lambda = M qddot - Q`` (consistent, so solved exactly in the least-squares sense).
     Every sample at once: ``Phi_q`` and ``Q`` by batched evaluations (``jacobians``: :func:`_maximal_jacobians`
@@ -545,7 +560,9 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     (:attr:`~physics.mechanism.prepared.Prepared.tree_reactions`): the same system solved from the leaves to the
     root (a loop's cut pins and motors from a small system first), no Jacobian and no QR, except for a loop's
     sample near a dead centre (its NaN rows: the QR as before). It assumes the accelerations consistent with the
-    joints, as a run's are; without it an inconsistent ``qddot`` gets the least-squares answer."""
+    joints, as a run's are; without it an inconsistent ``qddot`` gets the least-squares answer. ``multipliers``
+    (a loop's closed form only): the tree formulation's own multipliers at the samples, its cut joints' and
+    speed motors' reactions, so only the tree pins' rows are computed."""
     count = len(solved.q)
     rows = len(dae.constraints.rows)
     if count == 0 or rows == 0:
@@ -554,13 +571,16 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     out = np.empty((count, rows))
     alone = ~finite
     if closed_form is not None:
+        held = {} if multipliers is None else {"multipliers": multipliers}
         if finite.all():  # a run's samples are: no copies
-            out = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot)
+            out = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot,
+                                    **held)
             if not np.isnan(out).any():  # an open tree's always; a loop's unless near a dead centre
                 return out
         elif np.any(finite):
             q, qdot, qddot = solved.q[finite], solved.qdot[finite], solved.qddot[finite]
-            out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot)
+            held = {} if multipliers is None else {"multipliers": multipliers[finite]}
+            out[finite] = closed_form.solve(dae.mass_diagonal, dae.applied(qdot, q), q, qddot, **held)
         # a loop's sample near a dead centre comes back NaN (tree_reactions.LoopReactions): the QR answers it
         finite &= np.isnan(out).any(axis=1)
     if np.any(finite) and rows <= dae.constraints.size:

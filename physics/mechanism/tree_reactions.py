@@ -198,12 +198,19 @@ class LoopReactions:
     motor_columns: np.ndarray
     unknowns_to_rows: np.ndarray
 
-    def solve(self, mass_diagonal: np.ndarray, applied: np.ndarray, q: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+    def solve(self, mass_diagonal: np.ndarray, applied: np.ndarray, q: np.ndarray, qddot: np.ndarray,
+              multipliers: np.ndarray | None = None) -> np.ndarray:
         """Every sample's reaction rows ``(T, rows)`` as :meth:`TreeReactions.solve` gives them; a sample whose
-        small system is near losing rank gets NaN rows (the caller's QR answers it). Computed with the samples
-        along the last axis (each quantity a contiguous row of ``T`` numbers), so the small system's columns
-        are rows of one product, not copies."""
+        small system is near losing rank gets NaN rows (the caller's QR answers it). ``multipliers (T, U)``:
+        the tree formulation's own multipliers of the samples when the caller holds them (its rows are the cut
+        joints' in joint order, then the speed motors' in driver order, in the DAE's meaning:
+        :mod:`physics.mechanism.symbolic_tree`), which are the small system's answer: only the tree pins' rows
+        are computed. Computed with the samples along the last axis (each quantity a contiguous row of ``T``
+        numbers), so the small system's columns are rows of one product, not copies."""
         rows = self.unknowns_to_rows.shape[1]
+        if multipliers is not None:
+            linear = self.sums[:, :rows]  # the tree pins' rows: the subtrees' summed force imbalance
+            return (mass_diagonal * qddot - applied) @ linear + multipliers @ self.unknowns_to_rows
         count = self.motor_columns.shape[0]
         half = self.moments.shape[0]  # P + N
         summed = self.sums.T @ (mass_diagonal * qddot - applied).T  # (rows + 2 P + 3 N, T)

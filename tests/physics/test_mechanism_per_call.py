@@ -278,7 +278,9 @@ def test_condition_and_reactions_on_request_equal_the_eager_computation(monkeypa
     eager_condition = engine._conditions(constraints, solved, method != "dae")
     eager_reactions = (solved.multipliers if method == "dae"  # the closed form where the run takes it (loops)
                        else engine.body_reactions(prepared(mechanism).dae, solved,
-                                                  closed_form=prepared(mechanism).tree_reactions))
+                                                  closed_form=prepared(mechanism).tree_reactions,
+                                                  multipliers=engine._loop_multipliers(
+                                                      prepared(mechanism).tree_reactions, solved)))
     assert run.condition.shape == run.t.shape and np.array_equal(run.condition, eager_condition)
     assert run.reaction_rows.shape == (run.t.size, len(run.row_names))
     assert np.array_equal(run.reaction_rows, eager_reactions)

@@ -245,15 +245,33 @@ def test_a_near_singular_small_system_falls_back_to_the_qr(monkeypatch):
                                   "jansen-leg"])
 def test_presets_with_loops_of_pins_take_the_closed_form_on_their_runs(name):
     """Every preset of pins with loops (driven or free, one to three loops): a tree formulation's run reads the
-    closed form's reactions, equal to the QR's from the same samples."""
+    closed form's reactions from its own multipliers of the cut joints and motors, equal to the QR's and to the
+    small system's (no multipliers) from the same samples; the multipliers are the small system's answer."""
     mechanism = MECHANISM_PRESETS[name]()
     pieces = prepared(mechanism)
-    assert isinstance(pieces.tree_reactions, LoopReactions) and not pieces.full_rank_by_structure
+    closed_form = pieces.tree_reactions
+    assert isinstance(closed_form, LoopReactions) and not pieces.full_rank_by_structure
     for method in ("newton_euler", "lagrange"):
         run = simulate_mechanism(mechanism, 0.5, 26, method=method, rotations="absolute")
-        accelerations = engine.samples(engine.compiled_system(mechanism, method, rotations="absolute"),
-                                       pieces.parameters, run.t, *_tree_states(mechanism, run, "absolute"))
-        _assert_close(run.reaction_rows, engine.body_reactions(pieces.dae, accelerations))
+        solved = engine.samples(engine.compiled_system(mechanism, method, rotations="absolute"),
+                                pieces.parameters, run.t, *_tree_states(mechanism, run, "absolute"))
+        assert solved.multipliers.shape == (run.t.size, closed_form.unknowns_to_rows.shape[0])
+        small_system = engine.body_reactions(pieces.dae, solved, closed_form=closed_form)
+        _assert_close(run.reaction_rows, engine.body_reactions(pieces.dae, solved))
+        _assert_close(run.reaction_rows, small_system)
+        _assert_close(solved.multipliers, small_system[:, _cut_and_motor_rows(mechanism)])
+
+
+def _cut_and_motor_rows(mechanism: Mechanism) -> list[int]:
+    """The rows of the cut joints (joint order) then of the speed motors (driver order): a tree formulation's
+    multipliers."""
+    pieces = prepared(mechanism)
+    rows = pieces.constraints.rows
+    cuts = {loop.cut_joint for loop in pieces.topology.loops}
+    motors = [driver.joint for driver in mechanism.drivers if driver.speed is not None]
+    found = [k for k, row in enumerate(rows) if row.joint in cuts and row.meaning != "driven angle"]
+    return found + [next(k for k, row in enumerate(rows) if row.joint == joint and row.meaning == "driven angle")
+                    for joint in motors]
 
 
 @pytest.mark.parametrize("make", [lambda rng: random_tree(rng, slider=True),
