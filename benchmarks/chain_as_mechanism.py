@@ -22,11 +22,14 @@ the preset's start, projection where it applies. For each chain and method the c
   a different 1e-9 rad each call (``q0`` and ``qdot0``): the start is assembled each time, not remembered, as
   for a chain engine that hands every run to the mechanism engine (the four-bar's moved tip takes Newton steps
   back onto its pin ``H``);
-* ``absolute rotations`` and its ``condition read too`` and ``a new start each call``: the three cases above
-  with ``rotations="absolute"``, the chain sketched hanging straight down (``chain_mechanism(chain, 0)``) and
-  started from ``chain_state`` at the preset's angles: the mechanism engine integrating exactly the chain
-  engine's state, as ``physics.simulate`` routed to it runs (issue 24; docs/mechanisms.md, "Absolute
-  rotations"). A tree without the keyword leaves these cells empty.
+* ``mechanism (absolute)``, ``... condition read too``, ``... a new start each call``: the three cases above as
+  the one pipeline runs a chain (issue 24): the chain sketched at ``theta = 0`` (``chain_mechanism(chain,
+  0)``), started at the preset's state (``chain_state``) with ``rotations="absolute"``, so a pin's tree
+  coordinate is the bar's own angle and the run integrates exactly the chain engine's state (seed case C: the
+  same 192 steps and 1502 right-hand sides), and ``the solve's condition read``: ``condition="solve"``, the
+  condition a chain's run reports (its own solve's estimate, which the run has already; a tree without
+  ``condition="solve"`` leaves its cells empty); the open chain and the four-bar, and a tree without
+  ``rotations`` leaves them empty too.
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case a few times to warm up (compiled code, caches, the drivers specialised per system); then, ``--rounds``
@@ -51,8 +54,6 @@ from .workers import TIMED_CASES_LOOP
 ROOT = Path(__file__).resolve().parent.parent
 METHODS = ("newton_euler", "lagrange", "dae")
 CHAINS = ("triple-c", "four-bar")
-KINDS = ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call",
-         "absolute rotations", "absolute rotations, condition read too", "absolute rotations, a new start each call")
 
 WORKER = r"""
 import inspect, itertools, json, statistics, sys, time
@@ -64,32 +65,22 @@ from physics.mechanism.simulate import simulate_mechanism
 
 counter = itertools.count(1)  # a start never seen before: assembled, not remembered (physics/mechanism/prepared.py)
 
-def new_start(mechanism, preset, options, sketch):
+def new_start(mechanism, preset, options, absolute=False):
+    sketch = 0.0 * preset.theta0 if absolute else preset.theta0
     q0, qdot0 = chain_state(preset.chain, sketch, preset.theta0 + 1e-9 * next(counter), preset.omega0)
     return simulate_mechanism(mechanism, q0=q0, qdot0=qdot0, **options).reaction_rows
 
-parameters = inspect.signature(simulate_mechanism).parameters
-tree_dae = "coordinates" in parameters
+tree_dae = "coordinates" in inspect.signature(simulate_mechanism).parameters
+absolute = "rotations" in inspect.signature(simulate_mechanism).parameters
+solve_condition = "condition" in inspect.signature(simulate_mechanism).parameters
 calls = {}
 for name in sys.argv[1].split(","):
     preset = get_preset(name)
     mechanism = chain_mechanism(preset.chain, preset.theta0)
     _, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0)
-    down = 0.0 * preset.theta0  # sketched hanging straight down: absolute rotations integrate the chain's angles
-    hanging = chain_mechanism(preset.chain, down)
-    start = chain_state(preset.chain, down, preset.theta0, preset.omega0)
     for method in sys.argv[2].split(","):
         options = dict(t_end=20.0, samples=200, method=method, integrator="RK45", rtol=1e-6, atol=1e-6)
         extra = dict(coordinates="tree") if method == "dae" and tree_dae else {}
-        if "rotations" in parameters:
-            absolute = {**options, **extra, "rotations": "absolute"}
-            calls[f"{name}|absolute rotations|{method}"] = (lambda m, s, o: lambda: simulate_mechanism(
-                m, q0=s[0], qdot0=s[1], **o).reaction_rows)(hanging, start, absolute)
-            calls[f"{name}|absolute rotations, condition read too|{method}"] = (lambda m, s, o: lambda: (
-                lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, q0=s[0], qdot0=s[1], **o)))(
-                hanging, start, absolute)
-            calls[f"{name}|absolute rotations, a new start each call|{method}"] = (
-                lambda m, p, o, d: lambda: new_start(m, p, o, d))(hanging, preset, absolute, down)
         calls[f"{name}|chain engine|{method}"] = (lambda s, p: lambda: physics.simulate(
             p.chain, p.theta0, p.omega0, s))(Settings(**options), preset)
         calls[f"{name}|mechanism|{method}"] = (lambda m, v, o: lambda: simulate_mechanism(
@@ -97,8 +88,24 @@ for name in sys.argv[1].split(","):
         calls[f"{name}|mechanism, condition read too|{method}"] = (lambda m, v, o: lambda: (
             lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, qdot0=v, **o)))(
             mechanism, qdot0, {**options, **extra})
-        calls[f"{name}|mechanism, a new start each call|{method}"] = (
-            lambda m, p, o: lambda: new_start(m, p, o, p.theta0))(mechanism, preset, {**options, **extra})
+        calls[f"{name}|mechanism, a new start each call|{method}"] = (lambda m, p, o: lambda: new_start(m, p, o))(
+            mechanism, preset, {**options, **extra})
+        if absolute:  # the route's run: sketched at theta = 0, the state from the preset's start, absolute rotations
+            zero = 0.0 * preset.theta0
+            sketched = chain_mechanism(preset.chain, zero)
+            q0, v0 = chain_state(preset.chain, zero, preset.theta0, preset.omega0)
+            opts = {**options, **extra, "rotations": "absolute"}
+            calls[f"{name}|mechanism (absolute)|{method}"] = (lambda m, q, v, o: lambda: simulate_mechanism(
+                m, q0=q, qdot0=v, **o).reaction_rows)(sketched, q0, v0, opts)
+            calls[f"{name}|mechanism (absolute), condition read too|{method}"] = (lambda m, q, v, o: lambda: (
+                lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, q0=q, qdot0=v, **o)))(
+                sketched, q0, v0, opts)
+            if solve_condition:
+                calls[f"{name}|mechanism (absolute), the solve's condition read|{method}"] = (
+                    lambda m, q, v, o: lambda: (lambda run: (run.reaction_rows, run.condition))(
+                        simulate_mechanism(m, q0=q, qdot0=v, condition="solve", **o)))(sketched, q0, v0, opts)
+            calls[f"{name}|mechanism (absolute), a new start each call|{method}"] = (
+                lambda m, p, o: lambda: new_start(m, p, o, absolute=True))(sketched, preset, opts)
 for _ in range(3):  # warm: compiled code, caches, the specialised drivers (compiled in the background)
     for call in calls.values():
         call()
@@ -173,7 +180,10 @@ def main(argv: list[str] | None = None) -> None:
     print("| chain | case | " + " | ".join(f"{method} {label}" for method in METHODS for label in labels) + " |")
     print("|---|---|" + "---|" * (len(METHODS) * len(labels)))
     for chain in CHAINS:
-        for kind in KINDS:
+        for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call",
+                     "mechanism (absolute)", "mechanism (absolute), condition read too",
+                     "mechanism (absolute), the solve's condition read",
+                     "mechanism (absolute), a new start each call"):
             cells = []
             for method in METHODS:
                 for label in labels:
@@ -185,7 +195,8 @@ def main(argv: list[str] | None = None) -> None:
                     value = statistics.median(values)
                     ratio = "" if kind == "chain engine" else f" ({value / statistics.median(base):.1f}x)"
                     cells.append(f"{value:.2f}{ratio}")
-            print(f"| {chain} | {kind} | " + " | ".join(cells) + " |")
+            if any(cells):  # a case no tree has (the four-bar's absolute ones): no row
+                print(f"| {chain} | {kind} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
