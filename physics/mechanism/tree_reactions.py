@@ -37,8 +37,11 @@ the tree's velocity modes (``(Phi_C J)^T lambda_C = J^T (M qddot - Q)``, the clo
 coordinates): ``B`` equations (one per body) for ``2 C + K`` unknowns (``C`` cut pins, ``K`` speed motors, at most
 ``B`` when the mobility is not negative), solved in the least-squares sense by a modified Gram-Schmidt QR
 written out over every sample at once (a few columns, no LAPACK call per sample). Then a tree pin's force is
-``s`` times the subtree's summed force imbalance less the cut pins' forces on the subtree. A sample whose small
-system is near losing rank (a dead centre) gets NaN rows, which :func:`physics.mechanism.engine.body_reactions`
+``s`` times the subtree's summed force imbalance less the cut pins' forces on the subtree. A run has the small
+system's answer already: its tree formulation holds the cut joints' and speed motors' rows and solved for their
+multipliers (in the DAE's meaning), so a run's reactions take those (:func:`physics.mechanism.engine.
+_loop_multipliers`) and compute only the tree pins' rows; the small system answers any other samples. A sample
+whose small system is near losing rank (a dead centre) gets NaN rows, which :func:`physics.mechanism.engine.body_reactions`
 solves by the QR of ``Phi_q^T`` as before. Gears and sliders keep the QR (:func:`plan` and :func:`plan_loops`
 give None for them).
 """
