@@ -21,7 +21,13 @@ the preset's start, projection where it applies. For each chain and method the c
 * ``mechanism, a new start each call``: as ``mechanism``, from ``chain_state`` at the preset's angles moved by
   a different 1e-9 rad each call (``q0`` and ``qdot0``): the start is assembled each time, not remembered, as
   for a chain engine that hands every run to the mechanism engine (the four-bar's moved tip takes Newton steps
-  back onto its pin ``H``).
+  back onto its pin ``H``);
+* ``mechanism (absolute)``, ``... condition read too``, ``... a new start each call``: the three cases above as
+  the one pipeline runs a chain (issue 24): the chain sketched at ``theta = 0`` (``chain_mechanism(chain,
+  0)``), started at the preset's state (``chain_state``) with ``rotations="absolute"``, so a pin's tree
+  coordinate is the bar's own angle and the run integrates exactly the chain engine's state (seed case C: the
+  same 192 steps and 1502 right-hand sides); open chains only (the four-bar's cells stay empty), and a tree
+  without ``rotations`` leaves them empty too.
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
 case a few times to warm up (compiled code, caches, the drivers specialised per system); then, ``--rounds``
@@ -57,11 +63,13 @@ from physics.mechanism.simulate import simulate_mechanism
 
 counter = itertools.count(1)  # a start never seen before: assembled, not remembered (physics/mechanism/prepared.py)
 
-def new_start(mechanism, preset, options):
-    q0, qdot0 = chain_state(preset.chain, preset.theta0, preset.theta0 + 1e-9 * next(counter), preset.omega0)
+def new_start(mechanism, preset, options, absolute=False):
+    sketch = 0.0 * preset.theta0 if absolute else preset.theta0
+    q0, qdot0 = chain_state(preset.chain, sketch, preset.theta0 + 1e-9 * next(counter), preset.omega0)
     return simulate_mechanism(mechanism, q0=q0, qdot0=qdot0, **options).reaction_rows
 
 tree_dae = "coordinates" in inspect.signature(simulate_mechanism).parameters
+absolute = "rotations" in inspect.signature(simulate_mechanism).parameters
 calls = {}
 for name in sys.argv[1].split(","):
     preset = get_preset(name)
@@ -79,6 +87,18 @@ for name in sys.argv[1].split(","):
             mechanism, qdot0, {**options, **extra})
         calls[f"{name}|mechanism, a new start each call|{method}"] = (lambda m, p, o: lambda: new_start(m, p, o))(
             mechanism, preset, {**options, **extra})
+        if absolute and preset.chain.pin is None:  # the route's run: sketched at theta = 0, the state from the preset's start, absolute rotations
+            zero = 0.0 * preset.theta0
+            sketched = chain_mechanism(preset.chain, zero)
+            q0, v0 = chain_state(preset.chain, zero, preset.theta0, preset.omega0)
+            opts = {**options, **extra, "rotations": "absolute"}
+            calls[f"{name}|mechanism (absolute)|{method}"] = (lambda m, q, v, o: lambda: simulate_mechanism(
+                m, q0=q, qdot0=v, **o).reaction_rows)(sketched, q0, v0, opts)
+            calls[f"{name}|mechanism (absolute), condition read too|{method}"] = (lambda m, q, v, o: lambda: (
+                lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, q0=q, qdot0=v, **o)))(
+                sketched, q0, v0, opts)
+            calls[f"{name}|mechanism (absolute), a new start each call|{method}"] = (
+                lambda m, p, o: lambda: new_start(m, p, o, absolute=True))(sketched, preset, opts)
 for _ in range(3):  # warm: compiled code, caches, the specialised drivers (compiled in the background)
     for call in calls.values():
         call()
@@ -153,7 +173,9 @@ def main(argv: list[str] | None = None) -> None:
     print("| chain | case | " + " | ".join(f"{method} {label}" for method in METHODS for label in labels) + " |")
     print("|---|---|" + "---|" * (len(METHODS) * len(labels)))
     for chain in CHAINS:
-        for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call"):
+        for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call",
+                     "mechanism (absolute)", "mechanism (absolute), condition read too",
+                     "mechanism (absolute), a new start each call"):
             cells = []
             for method in METHODS:
                 for label in labels:
@@ -165,7 +187,8 @@ def main(argv: list[str] | None = None) -> None:
                     value = statistics.median(values)
                     ratio = "" if kind == "chain engine" else f" ({value / statistics.median(base):.1f}x)"
                     cells.append(f"{value:.2f}{ratio}")
-            print(f"| {chain} | {kind} | " + " | ".join(cells) + " |")
+            if any(cells):  # a case no tree has (the four-bar's absolute ones): no row
+                print(f"| {chain} | {kind} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
