@@ -30,6 +30,14 @@ class MechanismSamples:
     of the kinematics (``(T, 0, n)`` and ``(T, 0)`` without)."""
 
     __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias")
+    full: np.ndarray
+    condition: np.ndarray
+    jacobian: np.ndarray
+    phi: np.ndarray
+    phi_dot: np.ndarray
+    pose_jacobian: np.ndarray
+    pose: np.ndarray
+    bias: np.ndarray
 
 
 def _functions():
