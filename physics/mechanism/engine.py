@@ -13,6 +13,7 @@ every sample's pose, velocities, accelerations and reactions come out of batched
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -288,8 +289,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
                            project=stabilization == "projection")
         steps, evaluations = result.n_steps, result.n_rhs
-        finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
-        filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
+        filled = _finite_prefix(result.states, result.filled)
         if result.status != 0 or filled < times.size:
             code = result.status if result.status != 0 else int(Status.NOT_FINITE)
             last = result.states[filled - 1] if filled else np.concatenate([x0, v0])
@@ -303,8 +303,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         n = compiled.n
         x, v = result.states[:times.size, :n], result.states[:times.size, n:]
     solved = samples(compiled, params, times, x, v)
-    bad = ~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)
-    if np.any(bad):
+    bad = None if _all_good(solved) else ~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)
+    if bad is not None and np.any(bad):
         first = int(np.argmax(bad))
         if not np.all(np.isfinite(solved.q[first])):
             reason = f"{mechanism.name}: {Status.describe(int(Status.NOT_FINITE), float(times[first]))}"
@@ -333,6 +333,23 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         condition=condition,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
+
+
+def _finite_prefix(states: np.ndarray, filled: int) -> int:
+    """How many of the first ``filled`` rows of ``states`` are finite before the first that is not: all of them
+    when their sum is finite (one pass, no (T, 2 n) mask: the rule of a chain's run), else counted row by row."""
+    if math.isfinite(float(states[:filled].sum())):
+        return filled
+    finite = np.all(np.isfinite(states[:filled]), axis=1)
+    return filled if finite.all() else int(np.argmin(finite))
+
+
+def _all_good(solved: Samples) -> bool:
+    """True when every sample's solve is well conditioned (kernel condition below 1e12, NaN not) and its
+    accelerations finite: the test a run's samples pass, without the masks (a NaN or an infinity makes the
+    maximum or the sum fail it, and the masks then find the first bad sample)."""
+    condition = solved.kernel_condition
+    return bool(float(condition.max(initial=0.0)) < 1e12) and math.isfinite(float(solved.qddot.sum()))
 
 
 POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
