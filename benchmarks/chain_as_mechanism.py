@@ -26,7 +26,8 @@ the preset's start, projection where it applies. For each chain and method the c
   the one pipeline runs a chain (issue 24): the chain sketched at ``theta = 0`` (``chain_mechanism(chain,
   0)``), started at the preset's state (``chain_state``) with ``rotations="absolute"``, so a pin's tree
   coordinate is the bar's own angle and the run integrates exactly the chain engine's state (seed case C: the
-  same 192 steps and 1502 right-hand sides); open chains only (the four-bar's cells stay empty), and a tree
+  same 192 steps and 1502 right-hand sides), and ``the solve's condition read``: ``condition="solve"``, the
+  condition a chain's run reports (its own solve's estimate, which the run has already); open chains only (the four-bar's cells stay empty), and a tree
   without ``rotations`` leaves them empty too.
 
 One worker process per tree (``python -c ...`` in the tree's folder, so it imports that tree's code) runs every
@@ -70,6 +71,7 @@ def new_start(mechanism, preset, options, absolute=False):
 
 tree_dae = "coordinates" in inspect.signature(simulate_mechanism).parameters
 absolute = "rotations" in inspect.signature(simulate_mechanism).parameters
+solve_condition = "condition" in inspect.signature(simulate_mechanism).parameters
 calls = {}
 for name in sys.argv[1].split(","):
     preset = get_preset(name)
@@ -97,6 +99,10 @@ for name in sys.argv[1].split(","):
             calls[f"{name}|mechanism (absolute), condition read too|{method}"] = (lambda m, q, v, o: lambda: (
                 lambda run: (run.reaction_rows, run.condition))(simulate_mechanism(m, q0=q, qdot0=v, **o)))(
                 sketched, q0, v0, opts)
+            if solve_condition:
+                calls[f"{name}|mechanism (absolute), the solve's condition read|{method}"] = (
+                    lambda m, q, v, o: lambda: (lambda run: (run.reaction_rows, run.condition))(
+                        simulate_mechanism(m, q0=q, qdot0=v, condition="solve", **o)))(sketched, q0, v0, opts)
             calls[f"{name}|mechanism (absolute), a new start each call|{method}"] = (
                 lambda m, p, o: lambda: new_start(m, p, o, absolute=True))(sketched, preset, opts)
 for _ in range(3):  # warm: compiled code, caches, the specialised drivers (compiled in the background)
@@ -175,6 +181,7 @@ def main(argv: list[str] | None = None) -> None:
     for chain in CHAINS:
         for kind in ("chain engine", "mechanism", "mechanism, condition read too", "mechanism, a new start each call",
                      "mechanism (absolute)", "mechanism (absolute), condition read too",
+                     "mechanism (absolute), the solve's condition read",
                      "mechanism (absolute), a new start each call"):
             cells = []
             for method in METHODS:

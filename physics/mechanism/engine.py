@@ -229,7 +229,8 @@ def _samples_in_one_buffer(compiled: CompiledSystem, params: np.ndarray, times: 
 
 
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
-        pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative"):
+        pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative",
+        condition: str = "jacobian"):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
     ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
@@ -242,7 +243,10 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
     the run's reactions. ``rotations``: what a pin's tree coordinate is, for a run in tree coordinates
     (:data:`~physics.mechanism.parameters.ROTATIONS`: the system compiled and the state integrated; the
-    samples, reactions and energies are the maximal coordinates' either way)."""
+    samples, reactions and energies are the maximal coordinates' either way). ``condition``: ``"jacobian"``, the
+    run's ``condition`` is the maximal ``Phi_q``'s at each sample (computed when read); ``"solve"``, the condition
+    estimate of the formulation's own solve at each sample, which the samples' solve gives (a chain's run's
+    meaning, :func:`physics.mechanism.simulate.simulate_mechanism`)."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .prepared import prepared  # noqa: PLC0415
@@ -319,8 +323,10 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
     own_reactions = not tree or coordinates == "tree"  # the DAE's multipliers: every joint's rows
-    reactions, condition = _on_request(dae, compiled, params, times, solved, tree, own_reactions,
-                                       pieces.tree_reactions if tree and not own_reactions else None)
+    reactions, conditions = _on_request(dae, compiled, params, times, solved, tree, own_reactions,
+                                        pieces.tree_reactions if tree and not own_reactions else None)
+    if condition == "solve":  # the solve's own estimate (the kernels' rule: a chain's run reports the same)
+        conditions = solved.kernel_condition
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points
@@ -330,7 +336,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
         row_names=pieces.row_names, method=method, coordinates="tree" if tree else "maximal",
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
-        condition=condition,
+        condition=conditions,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
 
