@@ -12,7 +12,7 @@ its loop, because the maximal-coordinate equations of motion would be singular t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -124,7 +124,17 @@ def assembled_with_jacobian(mechanism: Mechanism, pieces: Prepared, q_guess: np.
         found[1].setflags(write=False)
         pieces.remember(key, found)
     assembled, jacobian = found
-    return replace(assembled, q=assembled.q.copy()), jacobian
+    return _with_own_pose(assembled), jacobian
+
+
+def _with_own_pose(assembled: Assembled) -> Assembled:
+    """``replace(assembled, q=assembled.q.copy())`` without the dataclass's ``__init__`` (every field is
+    already checked; a run from a remembered start spends a tenth of its Python in it): the caller's own pose,
+    writable, the rest shared (numbers and a frozen topology)."""
+    copied = object.__new__(Assembled)
+    copied.__dict__.update(assembled.__dict__)
+    copied.__dict__["q"] = assembled.q.copy()
+    return copied
 
 
 def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None,
