@@ -12,7 +12,7 @@ its loop, because the maximal-coordinate equations of motion would be singular t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +28,9 @@ if TYPE_CHECKING:
 NEWTON_STEPS = 60
 ASSEMBLY_TOLERANCE = 1e-12  # relative to the sketch's size
 RANK_TOLERANCE = 1e-9  # singular values below this (relative to the largest) are treated as zero
+# A mechanism of pins assembled through its rows written out for pins (Prepared.pin_rows: the generic rows'
+# numbers); False: through the generic rows, for the tests that compare the two bit for bit.
+PIN_ROWS = True
 
 
 @dataclass(frozen=True)
@@ -124,7 +127,17 @@ def assembled_with_jacobian(mechanism: Mechanism, pieces: Prepared, q_guess: np.
         found[1].setflags(write=False)
         pieces.remember(key, found)
     assembled, jacobian = found
-    return replace(assembled, q=assembled.q.copy()), jacobian
+    return _with_own_pose(assembled), jacobian
+
+
+def _with_own_pose(assembled: Assembled) -> Assembled:
+    """``replace(assembled, q=assembled.q.copy())`` without the dataclass's ``__init__`` (every field is
+    already checked; a run from a remembered start spends a tenth of its Python in it): the caller's own pose,
+    writable, the rest shared (numbers and a frozen topology)."""
+    copied = object.__new__(Assembled)
+    copied.__dict__.update(assembled.__dict__)
+    copied.__dict__["q"] = assembled.q.copy()
+    return copied
 
 
 def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None,
@@ -137,13 +150,15 @@ def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None
     if not np.all(np.isfinite(q)) or not math.isfinite(t):  # NaN compares false: Newton and the check below
         # would both be skipped and a NaN pose returned as assembled
         raise LinkageError(f"q_guess: expected {q.size} finite numbers (x, y, angle of each body) and a finite t")
-    residual = constraints.residual(q, t)
+    # a mechanism of pins: its rows written out (the same numbers, a tenth of the time: physics/mechanism/pin_rows.py)
+    rows = pieces.pin_rows if PIN_ROWS else None
+    residual, at_q = (constraints.residual(q, t), None) if rows is None else rows.rows_at(q)  # at_q: Phi_q or None
     steps = 0
     while np.max(np.abs(residual), initial=0.0) > ASSEMBLY_TOLERANCE * size and steps < NEWTON_STEPS:
-        jacobian = constraints.jacobian(q) * weights
+        jacobian = (constraints.jacobian(q) if at_q is None else at_q) * weights
         step, *_ = np.linalg.lstsq(jacobian, -residual, rcond=None)
         q = q + weights * step
-        residual = constraints.residual(q, t)
+        residual, at_q = (constraints.residual(q, t), None) if rows is None else rows.rows_at(q)
         steps += 1
     worst = int(np.argmax(np.abs(residual))) if residual.size else 0
     if residual.size and not abs(residual[worst]) <= ASSEMBLY_TOLERANCE * size:
@@ -152,7 +167,7 @@ def _assemble(mechanism: Mechanism, pieces: Prepared, q_guess: np.ndarray | None
             f"joint {row.joint!r}: the mechanism cannot be assembled near the sketch ({row.meaning} stays "
             f"{abs(residual[worst]):.3g} after {steps} Newton steps); check the lengths its bodies' points give"
         )
-    jacobian = constraints.jacobian(q)
+    jacobian = constraints.jacobian(q) if at_q is None else at_q
     # an open tree of pins has every row independent at every pose (Prepared.full_rank_by_structure): no SVD
     rank = jacobian.shape[0] if pieces.full_rank_by_structure else _rank(jacobian)
     if rank < jacobian.shape[0]:

@@ -13,6 +13,7 @@ every sample's pose, velocities, accelerations and reactions come out of batched
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -185,7 +186,10 @@ class Samples:
 def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: np.ndarray, v: np.ndarray
             ) -> Samples:
     """Solve the formulation's system at every sample (no Baumgarte terms) and map its coordinates to every
-    body's pose: the identity for the DAE, the generated kinematics for tree coordinates."""
+    body's pose: the identity for the DAE, the generated kinematics for tree coordinates. The native calls in one
+    buffer (:data:`ONE_BUFFER_SAMPLES`: the same functions and bits, a tenth of a millisecond less a run)."""
+    if ONE_BUFFER_SAMPLES:
+        return _samples_in_one_buffer(compiled, params, times, x, v)
     # the samples' pass generated as IR (the kernel's bits, nothing for numba to compile)
     full, condition = compiled.solve_samples(np.ascontiguousarray(x), np.ascontiguousarray(v), params)
     acceleration = full[:, compiled.theta_ddot_index]
@@ -200,8 +204,33 @@ def samples(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: 
     return Samples(pose, qdot, qddot, multipliers, residual, condition, jacobian_rows)
 
 
+# The samples' native calls in one buffer (physics.codegen.mechanism_samples); False: one CompiledSystem call
+# each, for the tests that compare the two bit for bit.
+ONE_BUFFER_SAMPLES = True
+
+
+def _samples_in_one_buffer(compiled: CompiledSystem, params: np.ndarray, times: np.ndarray, x: np.ndarray,
+                           v: np.ndarray) -> Samples:
+    """:func:`samples` by :func:`physics.codegen.mechanism_samples.mechanism_samples`: the system's specialised
+    samples' solve where it has one (:meth:`CompiledSystem.samples_solve`), the same arithmetic after it."""
+    from ..codegen.mechanism_samples import mechanism_samples  # noqa: PLC0415
+
+    specialised = compiled.samples_solve()
+    arrays = mechanism_samples(compiled, np.asarray(times, dtype=float), x, v, params,
+                               None if specialised is None else specialised.solve)
+    acceleration = arrays.full[:, compiled.theta_ddot_index]
+    multipliers = arrays.full[:, compiled.multiplier_index]
+    residual = np.max(np.abs(arrays.phi), axis=1, initial=0.0)
+    if compiled.pose_size == 0:
+        return Samples(x, v, acceleration, multipliers, residual, arrays.condition, arrays.jacobian)
+    qdot = np.einsum("kij,kj->ki", arrays.pose_jacobian, v)
+    qddot = np.einsum("kij,kj->ki", arrays.pose_jacobian, acceleration) + arrays.bias
+    return Samples(arrays.pose, qdot, qddot, multipliers, residual, arrays.condition, arrays.jacobian)
+
+
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
-        pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative"):
+        pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative",
+        condition: str = "jacobian"):
     """A run of ``mechanism`` by ``settings`` (a :class:`physics.model.Settings`: method, integrator, back end,
     tolerances, step, step budget, stabilisation and its gains) from the assembled state ``(q, qdot)`` at
     ``times[0]``, as a :class:`physics.Trajectory`. ``driven``: the motors fix every body, so
@@ -214,7 +243,10 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     only): the DAE integrated in the tree coordinates (:mod:`physics.mechanism.tree_dae`), its multipliers
     the run's reactions. ``rotations``: what a pin's tree coordinate is, for a run in tree coordinates
     (:data:`~physics.mechanism.parameters.ROTATIONS`: the system compiled and the state integrated; the
-    samples, reactions and energies are the maximal coordinates' either way)."""
+    samples, reactions and energies are the maximal coordinates' either way). ``condition``: ``"jacobian"``, the
+    run's ``condition`` is the maximal ``Phi_q``'s at each sample (computed when read); ``"solve"``, the condition
+    estimate of the formulation's own solve at each sample, which the samples' solve gives (a chain's run's
+    meaning, :func:`physics.mechanism.simulate.simulate_mechanism`)."""
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .prepared import prepared  # noqa: PLC0415
@@ -261,8 +293,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         result = integrate(compiled, layout, params, x0, v0, times, settings, alpha=gains[0], beta=gains[1],
                            project=stabilization == "projection")
         steps, evaluations = result.n_steps, result.n_rhs
-        finite = np.all(np.isfinite(result.states[:result.filled]), axis=1)
-        filled = result.filled if finite.all() else int(np.argmin(finite))  # the finite samples before any other
+        filled = _finite_prefix(result.states, result.filled)
         if result.status != 0 or filled < times.size:
             code = result.status if result.status != 0 else int(Status.NOT_FINITE)
             last = result.states[filled - 1] if filled else np.concatenate([x0, v0])
@@ -276,8 +307,8 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         n = compiled.n
         x, v = result.states[:times.size, :n], result.states[:times.size, n:]
     solved = samples(compiled, params, times, x, v)
-    bad = ~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)
-    if np.any(bad):
+    bad = None if _all_good(solved) else ~(solved.kernel_condition < 1e12) | ~np.all(np.isfinite(solved.qddot), axis=1)
+    if bad is not None and np.any(bad):
         first = int(np.argmax(bad))
         if not np.all(np.isfinite(solved.q[first])):
             reason = f"{mechanism.name}: {Status.describe(int(Status.NOT_FINITE), float(times[first]))}"
@@ -292,8 +323,10 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         status, message = code, reason
         times, solved = times[:first], _first(solved, first)
     own_reactions = not tree or coordinates == "tree"  # the DAE's multipliers: every joint's rows
-    reactions, condition = _on_request(dae, compiled, params, times, solved, tree, own_reactions,
-                                       pieces.tree_reactions if tree and not own_reactions else None)
+    reactions, conditions = _on_request(dae, compiled, params, times, solved, tree, own_reactions,
+                                        pieces.tree_reactions if tree and not own_reactions else None)
+    if condition == "solve":  # the solve's own estimate (the kernels' rule: a chain's run reports the same)
+        conditions = solved.kernel_condition
     kinetic = 0.5 * np.sum(dae.mass_diagonal * solved.qdot**2, axis=1)
     potential = -np.sum(dae.gravity[1::3] * solved.q[:, 1::3], axis=1)
     points = pieces.body_points
@@ -303,9 +336,26 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
         residual=solved.residual, trace_xy=traced_path(points, mechanism.trace, solved.q), body_points=points,
         row_names=pieces.row_names, method=method, coordinates="tree" if tree else "maximal",
         stabilization=stabilization, integrated=not driven, n_steps=steps, n_rhs=evaluations,
-        condition=condition,
+        condition=conditions,
         integrator=POSITION_ANALYSIS if driven else settings.integrator, status=status, message=message,
     )
+
+
+def _finite_prefix(states: np.ndarray, filled: int) -> int:
+    """How many of the first ``filled`` rows of ``states`` are finite before the first that is not: all of them
+    when their sum is finite (one pass, no (T, 2 n) mask: the rule of a chain's run), else counted row by row."""
+    if math.isfinite(float(states[:filled].sum())):
+        return filled
+    finite = np.all(np.isfinite(states[:filled]), axis=1)
+    return filled if finite.all() else int(np.argmin(finite))
+
+
+def _all_good(solved: Samples) -> bool:
+    """True when every sample's solve is well conditioned (kernel condition below 1e12, NaN not) and its
+    accelerations finite: the test a run's samples pass, without the masks (a NaN or an infinity makes the
+    maximum or the sum fail it, and the masks then find the first bad sample)."""
+    condition = solved.kernel_condition
+    return bool(float(condition.max(initial=0.0)) < 1e12) and math.isfinite(float(solved.qddot.sum()))
 
 
 POSITION_ANALYSIS = "position analysis"  # a driven run's integrator: none, every sample closes the loops anew
@@ -567,14 +617,21 @@ def body_reactions(dae, solved: Samples, jacobians: tuple[np.ndarray, np.ndarray
     rows = len(dae.constraints.rows)
     if count == 0 or rows == 0:
         return np.zeros((count, rows))
+    held = {} if multipliers is None else {"multipliers": multipliers}
+    answer = None
+    if closed_form is not None and math.isfinite(float(solved.q.sum() + solved.qdot.sum() + solved.qddot.sum())):
+        # every sample finite (a finite sum says so without the masks), as a run's are: no copies
+        answer = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot,
+                                   **held)
+        if not np.isnan(answer).any():  # an open tree's always; a loop's unless near a dead centre
+            return answer
     finite = np.all(np.isfinite(solved.q) & np.isfinite(solved.qdot) & np.isfinite(solved.qddot), axis=1)
     out = np.empty((count, rows))
     alone = ~finite
     if closed_form is not None:
-        held = {} if multipliers is None else {"multipliers": multipliers}
         if finite.all():  # a run's samples are: no copies
-            out = closed_form.solve(dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot,
-                                    **held)
+            out = answer if answer is not None else closed_form.solve(
+                dae.mass_diagonal, dae.applied(solved.qdot, solved.q), solved.q, solved.qddot, **held)
             if not np.isnan(out).any():  # an open tree's always; a loop's unless near a dead centre
                 return out
         elif np.any(finite):

@@ -37,6 +37,7 @@ from .topology import Topology
 
 if TYPE_CHECKING:
     from .joint_coordinates import JointCoordinates
+    from .pin_rows import PinRows
     from .tree_reactions import LoopReactions, TreeReactions
 
 # Mechanisms kept: the app's few open ones and a study's sweep over one structure's numbers fit many times over;
@@ -98,6 +99,14 @@ class Prepared:
 
         open_tree = plan(self.constraints, self.topology)
         return open_tree if open_tree is not None else plan_loops(self.constraints, self.topology)
+
+    @cached_property
+    def pin_rows(self) -> PinRows | None:
+        """``Phi`` and ``Phi_q`` at one pose written out for pins (:mod:`physics.mechanism.pin_rows`: the generic
+        rows' numbers) when every row is a pin's; None otherwise. Built on first use."""
+        from .pin_rows import pin_rows  # noqa: PLC0415
+
+        return pin_rows(self.constraints.mechanism, self.constraints)
 
     @property
     def full_rank_by_structure(self) -> bool:

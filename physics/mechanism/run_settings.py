@@ -79,9 +79,40 @@ def _number(field: str, value) -> float:
     return number
 
 
+_checked: dict[tuple, Settings] = {}
+MAX_CHECKED = 64  # argument sets remembered at once (the app's chunks, a study's runs: a few each)
+
+
 def run_options(*, t_end, samples, t_start=0.0, method="dae", stabilization="projection", rtol=1e-10, atol=1e-10,
                 integrator="DOP853", step=None, max_steps=None, backend=DEFAULT_BACKEND,
                 settings: Settings | None = None, baumgarte_alpha=None, baumgarte_beta=None) -> Settings:
+    """:func:`checked_run_options`, remembered: the same arguments (each of the same type: ``200`` and ``200.0``
+    are different arguments, one of them refused) give the same frozen :class:`Settings` without checking and
+    validating them again (a tenth of a warm short run's Python). Only accepted arguments are kept."""
+    arguments = (t_end, samples, t_start, method, stabilization, rtol, atol, integrator, step, max_steps, backend,
+                 settings, baumgarte_alpha, baumgarte_beta)
+    try:
+        # a float by its bits (-0.0 is not 0.0 here), anything else by its value
+        key = tuple((type(value), value.hex() if isinstance(value, float) else value) for value in arguments)
+        found = _checked.get(key)
+    except TypeError:  # an argument that cannot be a key (a list): checked, and refused, below
+        key, found = None, None
+    if found is not None:
+        return found
+    checked = checked_run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
+                                  stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
+                                  max_steps=max_steps, backend=backend, settings=settings,
+                                  baumgarte_alpha=baumgarte_alpha, baumgarte_beta=baumgarte_beta)
+    if key is not None:
+        if len(_checked) >= MAX_CHECKED:
+            _checked.clear()
+        _checked[key] = checked
+    return checked
+
+
+def checked_run_options(*, t_end, samples, t_start=0.0, method="dae", stabilization="projection", rtol=1e-10,
+                        atol=1e-10, integrator="DOP853", step=None, max_steps=None, backend=DEFAULT_BACKEND,
+                        settings: Settings | None = None, baumgarte_alpha=None, baumgarte_beta=None) -> Settings:
     """The :class:`physics.model.Settings` of a mechanism's run, every option checked: LinkageError
     ``"field = value: allowed ..."`` (one line) for the first bad one, or the registry's sentence for a
     combination that cannot run (``integrator = variational: needs method = lagrange (got dae)``). With

@@ -42,12 +42,15 @@ from .run_settings import ALLOWED, run_options
 from .tree_coordinates import check_rotations
 from .tree_dae import check_coordinates
 
-__all__ = ["ALLOWED", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
+__all__ = ["ALLOWED", "CONDITIONS", "RUN_METHODS", "project_velocity", "run_mechanism", "run_options",
            "simulate_mechanism"]
 
 # The methods of a mechanism's run: the registry's (the formulations, and the reduced model in one joint
 # coordinate for mobility 1: physics/mechanism/reduced.py)
 RUN_METHODS = MECHANISM_METHODS
+# What a run's ``condition`` measures (simulate_mechanism's ``condition``): the maximal Phi_q's condition, or the
+# condition estimate of the formulation's own solve (a chain's run's meaning)
+CONDITIONS = ("jacobian", "solve")
 
 
 def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray, velocity_rhs: np.ndarray | None = None,
@@ -86,6 +89,7 @@ def simulate_mechanism(
     settings: Settings | None = None,
     coordinates: str = "maximal",
     rotations: str = "relative",
+    condition: str = "jacobian",
 ) -> Trajectory:
     """Run for ``t_end`` seconds from ``t_start`` (a motor's angle follows absolute time), from the pose
     assembled nearest ``q0`` (default: the sketch) with velocities ``qdot0`` (default: rest) projected onto the
@@ -103,22 +107,33 @@ def simulate_mechanism(
     coordinate is the child's rotation relative to its parent (``"relative"``, the default) or the child's own
     rotation from the sketch (``"absolute"``: a chain sketched hanging straight down then integrates exactly the
     chain engine's angles). A choice of the run, not of the mechanism's file: it changes the state integrated and
-    the code compiled (:data:`physics.mechanism.parameters.ROTATIONS`), never the machine."""
+    the code compiled (:data:`physics.mechanism.parameters.ROTATIONS`), never the machine. ``condition``
+    (:data:`CONDITIONS`): what the run's ``condition`` measures at each sample: ``"jacobian"`` (the default) the
+    condition of the maximal coordinates' ``Phi_q``, how near the pose is to a singular one (a batched SVD when
+    first read); ``"solve"`` the condition estimate of the formulation's own solve at the sample, with its held
+    constraints' ratio where it has any, as a chain's run reports it (:func:`physics.simulate`): the run has it
+    already, so reading it costs nothing (an open tree of pins, a chain among them, has no singular pose:
+    its ``Phi_q`` has full row rank by structure)."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
                           max_steps=max_steps, backend=backend, settings=settings)
     return run_mechanism(mechanism, options, q0=q0, qdot0=qdot0, t_start=float(t_start), integrate=integrate,
-                         coordinates=coordinates, rotations=rotations)
+                         coordinates=coordinates, rotations=rotations, condition=condition)
 
 
 def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | None = None,
                   qdot0: np.ndarray | None = None, t_start: float = 0.0,
                   integrate: bool | None = None, coordinates: str = "maximal",
-                  rotations: str = "relative") -> Trajectory:
+                  rotations: str = "relative", condition: str = "jacobian") -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
     check_coordinates(coordinates, settings.method)
     check_rotations(rotations)
+    if condition not in CONDITIONS:
+        raise LinkageError(f"condition = {condition!r}: allowed values {', '.join(CONDITIONS)}")
+    if condition != "jacobian" and settings.method == "reduced":
+        raise LinkageError(f"condition = {condition!r}: does not apply to method 'reduced' (its samples come from "
+                           "position analysis, not a solve of the formulation); leave it out")
     if rotations != "relative" and (settings.method == "reduced" or (settings.method == "dae"
                                                                       and coordinates == "maximal")):
         raise LinkageError(f"rotations = {rotations!r}: applies to a run in tree coordinates only (method "
@@ -126,7 +141,7 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
                            f"{settings.method!r}); leave it out")
     q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
-    times = t_start + np.linspace(0.0, settings.t_end, settings.samples)
+    times = _sample_times(t_start, settings.t_end, settings.samples)
     if settings.method == "reduced":
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
     pieces = prepared(mechanism)
@@ -137,7 +152,24 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
                             pieces.velocity_rhs, jacobian)
     return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates,
-                      rotations=rotations)
+                      rotations=rotations, condition=condition)
+
+
+_times: dict[tuple[float, float, int], np.ndarray] = {}
+MAX_SAMPLE_TIMES = 64  # (t_start, t_end, samples) remembered at once: the app's chunks, a study's runs
+
+
+def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
+    """``t_start + np.linspace(0.0, t_end, samples)`` (the same bits), a copy of the one computed for these
+    arguments before: a copy costs a tenth of ``linspace`` and the addition, and the run's reader may write to
+    its times (as :func:`physics.simulate.run._sample_times` for a chain's run)."""
+    key = (t_start, t_end, samples)  # -0.0 and 0.0 share a key: both give the same sums
+    times = _times.get(key)
+    if times is None:
+        if len(_times) >= MAX_SAMPLE_TIMES:
+            _times.clear()
+        times = _times[key] = t_start + np.linspace(0.0, t_end, samples)
+    return times.copy()
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,

@@ -1,0 +1,112 @@
+"""A mechanism run's samples' native calls in one buffer: the formulation's solve at every sample, its held
+constraints and (tree coordinates) its kinematics, each the function :class:`~physics.codegen.cache.
+CompiledSystem` calls one at a time (:meth:`~physics.codegen.cache.CompiledSystem.solve_samples`,
+:meth:`~physics.codegen.cache.CompiledSystem.constraint_states`, :meth:`~physics.codegen.cache.CompiledSystem.
+kinematics_states`), called with the same arguments, so the same bits.
+
+Why: each of those calls checks and looks up the address of every array it hands over (about 2.5 us an
+address, seven a call), so the three cost about 0.1 ms for seed case C's 200 samples before any sample is
+computed, a fifth of the chain engine's whole run (issue 24: the chain run as a mechanism must not be slower).
+Here the inputs are copied into one array (a copy of a few kB costs far less than an address), every output is a
+view of it, and one address is looked up per call. The solve is the system's specialised one where
+:meth:`~physics.codegen.cache.CompiledSystem.samples_solve` gives it (its bits are the generic one's:
+``tests/physics/test_specialised_ir.py``). A system without held constraints (an open tree in tree
+coordinates) has no constraint call at all: its rows are empty, as the call would leave them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
+from .ir_shapes import samples_scratch_length
+from .native_integrators import layout_address
+
+
+class MechanismSamples:
+    """The arrays of one call of :func:`mechanism_samples`, views of one buffer: ``full (T, k)`` and
+    ``condition (T,)`` of the solve, ``jacobian (T, r, n)``, ``phi (T, r)`` and ``phi_dot (T, r)`` of the held
+    constraints, and for tree coordinates ``pose_jacobian (T, 3 B, n)``, ``pose (T, 3 B)`` and ``bias (T, 3 B)``
+    of the kinematics (``(T, 0, n)`` and ``(T, 0)`` without)."""
+
+    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias")
+    full: np.ndarray
+    condition: np.ndarray
+    jacobian: np.ndarray
+    phi: np.ndarray
+    phi_dot: np.ndarray
+    pose_jacobian: np.ndarray
+    pose: np.ndarray
+    bias: np.ndarray
+
+
+def _functions():
+    """The generic ctypes functions ``solve_states`` and ``native_states`` (compiled or loaded once)."""
+    from .native_samples import _function as samples_function  # noqa: PLC0415
+    from .native_states import _function as states_function  # noqa: PLC0415
+
+    return samples_function("solve_states"), states_function("native_states")
+
+
+def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray, params: np.ndarray,
+                      solve=None) -> MechanismSamples:
+    """Every sample's solve, held constraints and kinematics of ``compiled`` (a mechanism's
+    :class:`~physics.codegen.cache.CompiledSystem`) at the states ``x``, ``v`` (T, n), times ``times`` (T,) and
+    parameters ``params``, as its ``solve_samples``, ``constraint_states`` and ``kinematics_states`` give them
+    (no Baumgarte terms). ``solve``: a ctypes function of ``solve_states``' signature (the system's specialised
+    one), default the generic one."""
+    solve_generic, states = _functions()
+    solve = solve_generic if solve is None else solve
+    layout = compiled.layout
+    n, k, r = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS]), int(layout[LAYOUT_CONSTRAINTS])
+    rows = int(x.shape[0])
+    if x.shape != (rows, n) or v.shape != (rows, n) or np.shape(times) != (rows,):
+        raise ValueError(f"expected states ({rows}, {n}) and times ({rows},)")
+    size = compiled.pose_size
+    p = params.shape[0]
+    # [x, v, times, zeros (the kinematics' times), params (the solve's), params (the constraints' copy: the
+    # time slot is written), params (the kinematics' copy), scratch, full, condition, J, phi|phi_dot, dpose,
+    # pose|bias]
+    at_x = 0
+    at_v = at_x + rows * n
+    at_t = at_v + rows * n
+    at_zero = at_t + rows
+    at_params = at_zero + rows
+    at_params_c = at_params + p
+    at_params_k = at_params_c + p
+    at_scratch = at_params_k + p
+    at_full = at_scratch + samples_scratch_length(n, k, r)
+    at_cond = at_full + rows * k
+    at_jac = at_cond + rows
+    at_vec = at_jac + rows * r * n
+    at_pjac = at_vec + rows * 2 * r
+    at_pvec = at_pjac + rows * size * n
+    length = at_pvec + rows * 2 * size
+    values = np.empty(length)
+    values[at_x:at_v] = x.reshape(-1)
+    values[at_v:at_t] = v.reshape(-1)
+    values[at_t:at_zero] = times
+    values[at_zero:at_params] = 0.0
+    values[at_params:at_params_c] = params
+    values[at_params_c:at_params_k] = params
+    values[at_params_k:at_scratch] = params
+    base = values.ctypes.data
+    address = layout_address(layout)
+    solve(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v, base + 8 * at_params,
+          0.0, 0.0, base + 8 * at_full, base + 8 * at_cond, base + 8 * at_scratch)
+    out = MechanismSamples()
+    out.full = values[at_full:at_cond].reshape(rows, k)
+    out.condition = values[at_cond:at_jac]
+    jacobian = values[at_jac:at_vec].reshape(rows, r, n)
+    vector = values[at_vec:at_pjac].reshape(rows, 2 * r)
+    if r:
+        states(int(compiled._native("constraints")), address, rows, base + 8 * at_t, base + 8 * at_x,
+               base + 8 * at_v, base + 8 * at_params_c, r * n, 2 * r, base + 8 * at_jac, base + 8 * at_vec)
+    out.jacobian, out.phi, out.phi_dot = jacobian, vector[:, :r], vector[:, r:]
+    pose_jacobian = values[at_pjac:at_pvec].reshape(rows, size, n)
+    pose_vector = values[at_pvec:length].reshape(rows, 2 * size)
+    if size:
+        states(int(compiled._native("kinematics")), address, rows, base + 8 * at_zero, base + 8 * at_x,
+               base + 8 * at_v, base + 8 * at_params_k, size * n, 2 * size, base + 8 * at_pjac, base + 8 * at_pvec)
+    out.pose_jacobian, out.pose, out.bias = pose_jacobian, pose_vector[:, :size], pose_vector[:, size:]
+    return out
