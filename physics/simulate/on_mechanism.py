@@ -43,6 +43,7 @@ from ..codegen.cache import CompiledSystem
 from ..kinematics import energies, joint_positions, point_on_bar, tip_velocity
 from ..mechanism import engine
 from ..mechanism.chains import chain_mechanism
+from ..mechanism.dae import MechanismDAE
 from ..mechanism.model import Mechanism
 from ..mechanism.prepared import Prepared, prepared
 from ..mechanism.topology import analyse
@@ -69,6 +70,7 @@ class ChainAsMechanism:
 
     mechanism: Mechanism
     pieces: Prepared
+    dynamics: MechanismDAE  # its bodies' masses and applied forces (the chain's bars may be massless)
     compiled: CompiledSystem
     order: np.ndarray  # tree coordinate k is the angle of bar order[k] (0-based)
     inverse: np.ndarray  # chain bar j is tree coordinate inverse[j]
@@ -95,7 +97,10 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
         return entry[2]
     mechanism = chain_mechanism(chain, np.zeros(chain.n), damping=damping)
     pieces = prepared(mechanism)
-    pieces.dae  # noqa: B018 - refuses a bar without mass (a body needs one) before anything is compiled
+    # a chain's bar may have no mass or inertia (its tree formulation stays regular when the chain's does): the
+    # bodies' numbers are read for Newton's law on them only, never inverted
+    dynamics = (pieces.dae_or_none if pieces.dae_or_none is not None
+                else MechanismDAE(mechanism, pieces.constraints, massless_allowed=True))
     if method == "dae":
         from ..mechanism.tree_dae import compiled_tree_dae  # noqa: PLC0415
 
@@ -109,7 +114,7 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
     joint_rows = np.array([names.index(row) for joint in joint_names for row in names
                            if row.split(":")[0] == joint], dtype=np.int64)
     tip_rows = np.array([names.index(row) for row in names if row.split(":")[0] == "H"], dtype=np.int64)
-    route = ChainAsMechanism(mechanism, pieces, compiled, order, np.argsort(order), joint_rows, tip_rows,
+    route = ChainAsMechanism(mechanism, pieces, dynamics, compiled, order, np.argsort(order), joint_rows, tip_rows,
                              own_reactions=method == "dae")
     with _lock:
         if len(_routes) >= MAX_ROUTES:
@@ -246,5 +251,5 @@ def _reaction_rows(route: ChainAsMechanism, params: np.ndarray, s: np.ndarray, s
     qddot = np.einsum("kij,kj->ki", jacobian, acceleration) + bias
     empty = np.zeros(0)
     solved = engine.Samples(pose, qdot, qddot, empty, empty, empty, empty)
-    return engine.body_reactions(route.pieces.dae, solved, closed_form=route.pieces.tree_reactions)
+    return engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
 

@@ -7,7 +7,7 @@ the same number of right-hand sides; their values differ only by rounding: the t
 terms in another order (the four-bar's tree even hangs bar 3 from the tip's pin, another but equivalent
 Lagrangian). The tolerances say how far rounding goes over these short runs:
 
-* :data:`ROUNDING` 1e-11 relative (to 1 + the largest value): measured at most 1e-13 on every field of every
+* :data:`ROUNDING` 1e-11 relative (to 1 + the largest value): measured at most 9e-14 on every field of every
   case below (2 s, rtol 1e-10), a hundred times under it; a change of the equations, the reactions' rows or
   their signs would be off by order one.
 * :data:`BAUMGARTE` 1e-9: Baumgarte's terms feed the loop's residual back with gains ``alpha = beta = 10``
@@ -25,7 +25,8 @@ there only its shape and finiteness are compared (docs/architecture.md, "The cha
 
 from __future__ import annotations
 
-import importlib.util
+import ast
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,6 +38,7 @@ from physics.status import Status
 ROUNDING = 1e-11
 BAUMGARTE = 1e-9
 NEWTON = 1e-8
+STEP_SIZES = 1e-5
 
 VALUE_FIELDS = ("theta", "omega", "joints", "tip_xy", "trace_xy", "kinetic", "potential", "energy", "reactions",
                 "joint_reactions", "tip_reaction", "constraint_xy", "constraint_velocity")
@@ -58,6 +60,8 @@ CASES = [
     ("triple-a-dae-damped", "triple-a", None, {"method": "dae", "damping": 0.3, **SHORT}, ROUNDING),
     ("four-bar-lagrange-damped", "four-bar", None, {"method": "lagrange", "damping": 0.3, **SHORT}, ROUNDING),
     ("triple-c-rk45", "triple-c", None, {"method": "newton_euler", "integrator": "RK45", **SHORT}, ROUNDING),
+    ("triple-c-ode45", "triple-c", None, {"method": "lagrange", "integrator": "ode45", **SHORT}, ROUNDING),
+    ("change-point-reduced", "change-point", None, {"method": "reduced", **SHORT}, ROUNDING),
     ("triple-c-midpoint", "triple-c", None,
      {"method": "lagrange", "integrator": "midpoint", "t_end": 1.0, "samples": 11}, ROUNDING),
     ("four-bar-midpoint", "four-bar", None,
@@ -98,9 +102,12 @@ def assert_same_trajectory(chain_run, mechanism_run, tolerance: float, pinned: b
     assert mechanism_run.trace_is_explicit == chain_run.trace_is_explicit
     np.testing.assert_array_equal(mechanism_run.t, chain_run.t)
     assert set(mechanism_run.stats) == set(chain_run.stats)
+    # where the last accepted step ended: the step sizes come from the error estimate, itself of size rtol
+    # (1e-10) over rounding (1e-16) in the right-hand sides, so they agree to about 1e-6 relative (measured 4e-7
+    # after 10 steps of case C), not to rounding; the samples, read off the dense output, do
     for name in ("n_switches", "switch_times", "t_reached"):
         if name in chain_run.stats:
-            assert mechanism_run.stats[name] == pytest.approx(chain_run.stats[name], rel=1e-9), name
+            assert mechanism_run.stats[name] == pytest.approx(chain_run.stats[name], rel=STEP_SIZES), name
     if "independent_index" in chain_run.stats:
         np.testing.assert_array_equal(mechanism_run.stats["independent_index"], chain_run.stats["independent_index"])
     for name in VALUE_FIELDS:
@@ -148,8 +155,8 @@ def test_a_continued_run_starts_where_its_t_start_says(monkeypatch):
 
 def test_the_switch_is_off_by_default():
     """The lead flips it when a call costs the same on both routes; until then every chain runs on its kernels
-    (the module as written, loaded afresh: the test session may have turned the loaded one on)."""
-    spec = importlib.util.spec_from_file_location("physics.simulate._fresh_on_mechanism", on_mechanism.__file__)
-    fresh = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fresh)
-    assert fresh.ENABLED is False
+    (the module as written: the test session may have turned the loaded one on)."""
+    tree = ast.parse(Path(on_mechanism.__file__).read_text(encoding="utf-8"))
+    values = [node.value for node in tree.body if isinstance(node, ast.Assign)
+              and any(isinstance(target, ast.Name) and target.id == "ENABLED" for target in node.targets)]
+    assert len(values) == 1 and isinstance(values[0], ast.Constant) and values[0].value is False
