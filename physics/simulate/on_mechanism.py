@@ -209,7 +209,7 @@ def chain_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, 
         full, kernel_condition = np.zeros((0, compiled.n_unknowns)), np.zeros(0)
     rows = _reaction_rows(route, params, s, sd, full)
     joint_reactions = rows[:, route.joint_rows].reshape(count, n, 2)
-    chain_params = chain.params(damping=settings.damping)
+    chain_params = bars.params_with(settings.damping)
     kinetic, potential, energy = energies(chain_params, theta, omega)
     joints = joint_positions(bars.L, theta)
     trace_xy = point_on_bar(bars.L, theta, trace.bar, float(trace.along), float(trace.across))
