@@ -1,5 +1,6 @@
-"""A chain's run on the general mechanism engine (physics/simulate/on_mechanism.py) against its run on the chain's
-own kernels: the same Trajectory, field by field, for a representative set of chains and settings.
+"""A chain's run on the general mechanism engine (physics/simulate/on_mechanism.py, the switch, and
+mechanism_route.py) against its run on the chain's own kernels: the same Trajectory, field by field, for a
+representative set of chains and settings.
 
 With absolute rotations the state integrated on the mechanism engine is the chain's ``(theta, omega)`` (the
 four-bar's in its tree's order), by the same integrator code, so the two runs take the same steps and evaluate
