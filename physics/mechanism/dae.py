@@ -40,14 +40,18 @@ class Solution:
 class MechanismDAE:
     """Mass matrix, applied forces and the augmented system of one mechanism."""
 
-    def __init__(self, mechanism: Mechanism, constraints: Constraints | None = None) -> None:
+    def __init__(self, mechanism: Mechanism, constraints: Constraints | None = None, *,
+                 massless_allowed: bool = False) -> None:
         """``constraints``: the mechanism's own equations when a caller already holds them
-        (:mod:`physics.mechanism.prepared`); built here otherwise."""
+        (:mod:`physics.mechanism.prepared`); built here otherwise. ``massless_allowed``: keep a body without mass
+        or inertia instead of refusing it, for a caller that never inverts the mass matrix (a chain run in tree
+        coordinates, :mod:`physics.simulate.on_mechanism`: a chain's bar may have no mass, its tree formulation's
+        matrix stays regular; only this object's Newton's-law reactions are read, which multiply by it)."""
         self.mechanism = mechanism
         self.constraints = Constraints(mechanism) if constraints is None else constraints
         bodies = mechanism.bodies
         self.mass_diagonal = np.array([v for body in bodies for v in (body.mass, body.mass, body.inertia)])
-        if np.any(self.mass_diagonal <= 0.0):
+        if np.any(self.mass_diagonal <= 0.0) and not massless_allowed:
             body = bodies[int(np.argmax(self.mass_diagonal <= 0.0)) // 3]
             raise LinkageError(f"body {body.name!r}: mass and inertia must be positive for the equations of motion")
         self.gravity = np.zeros(self.constraints.size)

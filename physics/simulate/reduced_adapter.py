@@ -42,7 +42,11 @@ FIXED_JOINT = "O"
 CHAIN_SWITCH_SHARE = 0.4
 
 
-def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float):
+def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float, build=None):
+    """The reduced model's run of a four-bar as a chain's Trajectory. ``build(chain, settings, t, y)``: what
+    reads its samples ``y = [theta, omega]`` (default the chain's pinned Lagrange system,
+    :func:`physics.simulate.build.build_trajectory`; the chain-on-mechanism route passes the mechanism's)."""
+    build = _trajectory if build is None else build
     if not chain.pinned or chain.n != 3:
         raise LinkageError(
             f"method = {settings.method}: the reduced model is for one-degree-of-freedom loops (a four-bar: 3 bars "
@@ -59,11 +63,11 @@ def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float)
                               stop_as_status=True, switch_share=CHAIN_SWITCH_SHARE)
     except (LinkageError, np.linalg.LinAlgError) as stop:  # the start itself cannot be integrated (a singular
         # pose: the chain and its settings were checked before); the start is reported, as a chain's run does
-        return _stopped_at_start(chain, settings, theta0, omega0, t_start, stop, mechanism.name)
+        return _stopped_at_start(chain, settings, theta0, omega0, t_start, stop, mechanism.name, build)
     run = reduced.run
     theta = run.q[:, 2::3] + theta0  # body angles are measured from the sketch, drawn at theta0
     y = np.concatenate([theta, run.qdot[:, 2::3]], axis=1)
-    trajectory = _trajectory(chain, settings, run.t, y)
+    trajectory = build(chain, settings, run.t, y)
     trajectory.status = Status(run.status)
     if run.status == Status.OK:
         trajectory.message = "ok"
@@ -97,10 +101,10 @@ def _trajectory(chain, settings, t, y):
     return build_trajectory(chain, settings, pinned, chain.params(damping=settings.damping), t, y)
 
 
-def _stopped_at_start(chain, settings, theta0, omega0, t_start, stop: Exception, mechanism_name: str):
+def _stopped_at_start(chain, settings, theta0, omega0, t_start, stop: Exception, mechanism_name: str, build):
     """The start alone, with the reason: a stop of the model (its status), or a start that does not assemble as a
     mechanism of mobility 1 (every bar in line: the constraints are dependent, a singular pose)."""
-    trajectory = _trajectory(chain, settings, np.array([t_start]), np.concatenate([theta0, omega0])[None, :])
+    trajectory = build(chain, settings, np.array([t_start]), np.concatenate([theta0, omega0])[None, :])
     if isinstance(stop, ReducedStop):
         trajectory.status = Status(stop.status)
         trajectory.message = (fixed_coordinate_message(stop.dead_centre) if stop.dead_centre

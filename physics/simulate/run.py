@@ -20,6 +20,7 @@ from ..kinematics import joint_positions
 from ..model import MAX_ANGLE, MAX_ANGULAR_SPEED, Chain, Settings, check_state
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
+from . import on_mechanism
 from .build import build_trajectory, trace_point, trajectory_from_samples
 from .prepared import chain_arrays
 from .trajectory import Trajectory
@@ -121,6 +122,8 @@ def simulate(
         raise LinkageError(f"t_start = {t_start}: must be a finite number")
     if not continuing:
         check_assembled(chain, theta0)
+    if on_mechanism.ENABLED:  # the chain written as a mechanism, on the general engine (issue 24)
+        return on_mechanism.simulate_on_mechanism(chain, theta0, omega0, settings, t_start)
     if METHODS[settings.method].reduced:
         # scipy boundary: the reduced model integrates with scipy, imported only when asked for.
         from .reduced_adapter import simulate_reduced_trajectory  # noqa: PLC0415

@@ -1,0 +1,223 @@
+"""The implementation of :mod:`physics.simulate.on_mechanism` (its text says what maps to what): imported by a run
+on that route only, so a process that never takes it (the app's server, whose tests check that it never loads the
+mechanism engine) does not load :mod:`physics.mechanism.engine`."""
+
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..codegen.cache import CompiledSystem
+from ..kinematics import energies, joint_positions, point_on_bar, tip_velocity
+from ..mechanism import engine
+from ..mechanism.chains import chain_mechanism
+from ..mechanism.dae import MechanismDAE
+from ..mechanism.model import Mechanism
+from ..mechanism.prepared import Prepared, prepared
+from ..mechanism.topology import analyse
+from ..model import Chain, Settings
+from ..registry import INTEGRATORS, METHODS, SCIPY
+from ..status import Status
+from .build import trace_point
+from .prepared import chain_arrays
+from .trajectory import Trajectory
+
+__all__ = ["chain_route", "chain_trajectory", "simulate_on_mechanism"]
+
+ABSOLUTE = "absolute"
+
+
+@dataclass(frozen=True)
+class ChainAsMechanism:
+    """A chain written as a mechanism for one method: the description, its prepared pieces, its compiled system
+    (absolute rotations) and the permutation between the chain's bar order and the tree coordinates'."""
+
+    mechanism: Mechanism
+    pieces: Prepared
+    dynamics: MechanismDAE  # its bodies' masses and applied forces (the chain's bars may be massless)
+    compiled: CompiledSystem
+    order: np.ndarray  # tree coordinate k is the angle of bar order[k] (0-based)
+    inverse: np.ndarray  # chain bar j is tree coordinate inverse[j]
+    joint_rows: np.ndarray  # the reaction rows of pins O, J1 .. J(n-1), x then y each: (2 n,)
+    tip_rows: np.ndarray  # pin H's two rows; empty for an open chain
+    own_reactions: bool  # the system's multipliers are every joint's reactions (the DAE)
+
+
+_lock = threading.Lock()
+# (id(chain), method, damping) -> (the chain, its bars, the route); holding the chain keeps its id from reuse.
+_routes: dict[tuple[int, str, float], tuple[Chain, tuple, ChainAsMechanism]] = {}
+MAX_ROUTES = 32  # routes remembered at once (the oldest forgotten first): a few presets and the app's chains
+
+
+def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
+    """The chain as a mechanism for ``method`` (a derived formulation; the reduced methods read the Lagrange
+    system), remembered for this chain object, its bars and ``damping``."""
+    key = (id(chain), method, float(damping))
+    entry = _routes.get(key)
+    bars = chain.bars
+    if entry is not None and entry[0] is chain and len(entry[1]) == len(bars) and all(
+        kept is bar for kept, bar in zip(entry[1], bars)
+    ):
+        return entry[2]
+    mechanism = chain_mechanism(chain, np.zeros(chain.n), damping=damping)
+    pieces = prepared(mechanism)
+    # a chain's bar may have no mass or inertia (its tree formulation stays regular when the chain's does): the
+    # bodies' numbers are read for Newton's law on them only, never inverted
+    dynamics = (pieces.dae_or_none if pieces.dae_or_none is not None
+                else MechanismDAE(mechanism, pieces.constraints, massless_allowed=True))
+    if method == "dae":
+        from ..mechanism.tree_dae import compiled_tree_dae  # noqa: PLC0415
+
+        compiled = compiled_tree_dae(mechanism, pieces.structure_key, ABSOLUTE)
+    else:
+        compiled = engine.compiled_system(mechanism, method, pieces.structure_key, ABSOLUTE)
+    topology = pieces.topology if pieces.topology is not None else analyse(mechanism)
+    order = np.array([int(body.removeprefix("bar")) - 1 for body in topology.parent], dtype=np.int64)
+    names = pieces.row_names
+    joint_names = ["O", *(f"J{k}" for k in range(1, chain.n))]
+    joint_rows = np.array([names.index(row) for joint in joint_names for row in names
+                           if row.split(":")[0] == joint], dtype=np.int64)
+    tip_rows = np.array([names.index(row) for row in names if row.split(":")[0] == "H"], dtype=np.int64)
+    route = ChainAsMechanism(mechanism, pieces, dynamics, compiled, order, np.argsort(order), joint_rows, tip_rows,
+                             own_reactions=method == "dae")
+    with _lock:
+        if len(_routes) >= MAX_ROUTES:
+            _routes.pop(next(iter(_routes)))
+        _routes[key] = (chain, tuple(bars), route)
+    return route
+
+
+def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
+    """The chain's rule (physics/simulate/run.py): an open chain holds nothing; a pinned one by its setting."""
+    if not chain.pinned or settings.stabilization == "none":
+        return 0.0, 0.0, False
+    if settings.stabilization == "baumgarte":
+        return settings.baumgarte_alpha, settings.baumgarte_beta, False
+    return 0.0, 0.0, True
+
+
+def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, settings: Settings,
+                          t_start: float) -> Trajectory:
+    """:func:`physics.simulate` of a checked request (valid start, assembled, output size allowed) on the
+    mechanism engine: the same Trajectory, fields and shapes, status and sentences."""
+    if METHODS[settings.method].reduced:
+        from .reduced_adapter import simulate_reduced_trajectory  # noqa: PLC0415  (scipy: a reduced run only)
+
+        return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start,
+                                           build=reduced_samples_trajectory)
+    route = chain_route(chain, settings.method, settings.damping)
+    params, layout = engine.run_parameters(route.mechanism, route.compiled, t_start, None,
+                                           base=route.pieces.parameters_at(t_start))
+    alpha, beta, project = _stabilization_gains(chain, settings)
+    t_eval = np.linspace(t_start, t_start + settings.t_end, settings.samples)  # the chain route's times, bit for bit
+    result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
+                              settings, alpha=alpha, beta=beta, project=project)
+    y_out = result.states
+    filled = _finite_rows(y_out)
+    status = result.status
+    if status == Status.OK and filled < len(t_eval):
+        status = int(Status.NOT_FINITE)
+    detail = result.detail if settings.backend == SCIPY else _compiled_detail(settings, status)
+    n = chain.n
+    states = y_out[:filled]
+    trajectory = chain_trajectory(chain, settings, route, params, t_eval[:filled], states[:, :n][:, route.inverse],
+                                  states[:, n:][:, route.inverse], alpha, beta)
+    trajectory.status = status
+    trajectory.message = ("ok" if status == Status.OK and not detail
+                          else Status.describe(status, result.t_reached, detail))
+    trajectory.n_steps = int(result.n_steps)
+    trajectory.n_rhs = int(result.n_rhs)
+    trajectory.stats["t_reached"] = float(result.t_reached)
+    return trajectory
+
+
+def _finite_rows(y_out: np.ndarray) -> int:
+    """How many rows of ``y_out`` are finite throughout (the chain route's count: the kernels fill NaN first)."""
+    if math.isfinite(float(y_out.sum())):
+        return len(y_out)
+    return int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
+
+
+def _compiled_detail(settings: Settings, status: int) -> str:
+    """The chain route's words for a fixed step whose Newton iteration failed (it names the command's option)."""
+    if status == Status.INTEGRATOR_FAILED and INTEGRATORS[settings.integrator].fixed_step:
+        return f"the {settings.integrator} integrator's Newton iteration did not converge; reduce the step (--step)"
+    return ""
+
+
+def reduced_samples_trajectory(chain: Chain, settings: Settings, t: np.ndarray, y: np.ndarray) -> Trajectory:
+    """The Trajectory of a reduced run's samples ``y = [theta, omega]`` (T, 2 n), read by the mechanism's
+    Lagrange system in absolute rotations, as the chain route reads them by the chain's pinned Lagrange system."""
+    route = chain_route(chain, "lagrange", settings.damping)
+    params = route.pieces.parameters_at(float(t[0]) if len(t) else 0.0)
+    n = chain.n
+    return chain_trajectory(chain, settings, route, params, t, y[:, :n], y[:, n:], 0.0, 0.0)
+
+
+def chain_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray, t: np.ndarray,
+                     theta: np.ndarray, omega: np.ndarray, alpha: float, beta: float) -> Trajectory:
+    """Everything a chain's Trajectory reports at the sampled angles and rates ``(T, n)``: the mechanism's
+    system solved at every sample (its accelerations, multipliers and condition), its reactions in the chain's
+    order, and the chain's kinematics of the angles."""
+    bars = chain_arrays(chain)
+    trace = trace_point(chain, settings, bars)
+    count, n = theta.shape[0], chain.n
+    theta = np.ascontiguousarray(theta)
+    omega = np.ascontiguousarray(omega)
+    compiled = route.compiled
+    s = np.ascontiguousarray(theta[:, route.order])
+    sd = np.ascontiguousarray(omega[:, route.order])
+    if count:
+        full, kernel_condition = compiled.solve_samples(s, sd, params, alpha, beta)
+    else:
+        full, kernel_condition = np.zeros((0, compiled.n_unknowns)), np.zeros(0)
+    rows = _reaction_rows(route, params, s, sd, full)
+    joint_reactions = rows[:, route.joint_rows].reshape(count, n, 2)
+    chain_params = bars.params_with(settings.damping)
+    kinetic, potential, energy = energies(chain_params, theta, omega)
+    joints = joint_positions(bars.L, theta)
+    trace_xy = point_on_bar(bars.L, theta, trace.bar, float(trace.along), float(trace.across))
+    reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
+    if chain.pinned:
+        tip_reaction = rows[:, route.tip_rows]
+        constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
+        constraint_velocity = tip_velocity(bars.L, theta, omega)
+        if count:
+            A, _ = compiled.sample_matrices(s, sd, params)
+            with np.errstate(all="ignore"):
+                condition = np.linalg.cond(A)
+        else:
+            condition = np.zeros(0)
+    else:
+        tip_reaction = np.zeros((count, 0))
+        constraint_xy = np.zeros((count, 0))
+        constraint_velocity = np.zeros((count, 0))
+        condition = kernel_condition
+    return Trajectory.of_chain(
+        settings.method, settings.integrator, t, trace_xy, kinetic, potential, energy, condition, theta, omega,
+        joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity, joint_reactions,
+        settings.trace is not None,
+    )
+
+
+def _reaction_rows(route: ChainAsMechanism, params: np.ndarray, s: np.ndarray, sd: np.ndarray,
+                   full: np.ndarray) -> np.ndarray:
+    """Every joint row's reaction at the samples (T, rows), in the mechanism's row order: the DAE's own
+    multipliers, or a tree formulation's by Newton's second law on every body from its accelerations."""
+    count = s.shape[0]
+    if route.own_reactions:
+        return full[:, route.compiled.multiplier_index] if count else np.zeros((0, len(route.pieces.row_names)))
+    if not count:
+        return np.zeros((0, len(route.pieces.row_names)))
+    acceleration = full[:, route.compiled.theta_ddot_index]
+    jacobian, pose, bias = route.compiled.kinematics_states(s, sd, params)
+    qdot = np.einsum("kij,kj->ki", jacobian, sd)
+    qddot = np.einsum("kij,kj->ki", jacobian, acceleration) + bias
+    empty = np.zeros(0)
+    solved = engine.Samples(pose, qdot, qddot, empty, empty, empty, empty)
+    return engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
+
