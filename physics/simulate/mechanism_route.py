@@ -23,7 +23,7 @@ from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from .build import trace_point
-from .prepared import chain_arrays
+from .prepared import chain_arrays, stabilization_gains
 from .trajectory import Trajectory
 
 __all__ = ["chain_route", "chain_trajectory", "simulate_on_mechanism"]
@@ -91,15 +91,6 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
     return route
 
 
-def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
-    """The chain's rule (physics/simulate/run.py): an open chain holds nothing; a pinned one by its setting."""
-    if not chain.pinned or settings.stabilization == "none":
-        return 0.0, 0.0, False
-    if settings.stabilization == "baumgarte":
-        return settings.baumgarte_alpha, settings.baumgarte_beta, False
-    return 0.0, 0.0, True
-
-
 def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, settings: Settings,
                           t_start: float) -> Trajectory:
     """:func:`physics.simulate` of a checked request (valid start, assembled, output size allowed) on the
@@ -112,7 +103,7 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     route = chain_route(chain, settings.method, settings.damping)
     params, layout = engine.run_parameters(route.mechanism, route.compiled, t_start, None,
                                            base=route.pieces.parameters_at(t_start))
-    alpha, beta, project = _stabilization_gains(chain, settings)
+    alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = np.linspace(t_start, t_start + settings.t_end, settings.samples)  # the chain route's times, bit for bit
     result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
                               settings, alpha=alpha, beta=beta, project=project)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Chain, TracePoint
+from ..model import Chain, Settings, TracePoint
 
 # Chains remembered at once (the oldest forgotten first): a few presets and the app's current chains.
 MAX_CHAINS = 32
@@ -62,3 +62,13 @@ def chain_arrays(chain: Chain) -> ChainArrays:
             _remembered.pop(next(iter(_remembered)))
         _remembered[id(chain)] = (chain, tuple(bars), arrays)
     return arrays
+
+
+def stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
+    """``(alpha, beta, project)`` of a chain's run, on either route (its own kernels or the mechanism engine): an
+    open chain holds no constraint, so nothing; a pinned one Baumgarte's gains or projection by its setting."""
+    if not chain.pinned or settings.stabilization == "none":
+        return 0.0, 0.0, False
+    if settings.stabilization == "baumgarte":
+        return settings.baumgarte_alpha, settings.baumgarte_beta, False
+    return 0.0, 0.0, True

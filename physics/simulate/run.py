@@ -22,7 +22,7 @@ from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from . import on_mechanism
 from .build import build_trajectory, trace_point, trajectory_from_samples
-from .prepared import chain_arrays
+from .prepared import chain_arrays, stabilization_gains
 from .trajectory import Trajectory
 
 __all__ = ["SINGULAR_PIVOT_RATIO", "check_assembled", "simulate", "status_message"]
@@ -65,14 +65,6 @@ def _state_limits(n: int) -> np.ndarray:
     if n not in _limits:
         _limits[n] = np.array([MAX_ANGLE] * n + [MAX_ANGULAR_SPEED] * n)
     return _limits[n]
-
-
-def _stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
-    if not chain.pinned or settings.stabilization == "none":
-        return 0.0, 0.0, False
-    if settings.stabilization == "baumgarte":
-        return settings.baumgarte_alpha, settings.baumgarte_beta, False
-    return 0.0, 0.0, True
 
 
 def check_assembled(chain: Chain, theta: np.ndarray) -> None:
@@ -132,7 +124,7 @@ def simulate(
     compiled = load_compiled(settings.method, n, chain.pinned)
     bars = chain_arrays(chain)
     params = bars.params_with(settings.damping)
-    alpha, beta, project = _stabilization_gains(chain, settings)
+    alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = _sample_times(t_start, settings.t_end, settings.samples)
     if settings.backend != SCIPY and settings.integrator in ONE_BUFFER_METHODS and ONE_BUFFER:
         trajectory = _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project)
