@@ -381,7 +381,6 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
     pins) or :class:`~physics.mechanism.tree_reactions.LoopReactions` (pins closing loops, given the run's
     multipliers): its reactions need no Jacobian."""
     from ..simulate.trajectory import OnRequest  # noqa: PLC0415
-    from .tree_reactions import LoopReactions  # noqa: PLC0415
 
     constraints = dae.constraints
     empty = np.zeros(0)
@@ -394,8 +393,7 @@ def _on_request(dae, compiled, params, times, solved: Samples, tree: bool, own_r
                 memo.append(_maximal_jacobians(constraints, kept.q))
             return memo[0]
 
-        # a loop's closed form takes the run's own multipliers of its cut joints and motors (a small array)
-        held = solved.multipliers if isinstance(closed_form, LoopReactions) else None
+        held = _loop_multipliers(closed_form, solved)  # a loop's cut joints' and motors' (a small array)
         reactions = solved.multipliers if own_reactions else OnRequest(lambda: body_reactions(
             dae, kept, None if closed_form is not None else jacobians(), closed_form=closed_form,
             multipliers=held))

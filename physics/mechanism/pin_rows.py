@@ -72,14 +72,6 @@ class PinRows:
         entries += 0.0  # a zero of either sign summed onto +0.0, as the generic rows' sum gives it
         return residual, entries.reshape(2 * pins, self.width)[:, : self.size]
 
-    def residual(self, q: np.ndarray) -> np.ndarray:
-        """``Phi(q)`` at one pose: :meth:`rows_at`'s first."""
-        return self.rows_at(q)[0]
-
-    def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """``Phi_q(q)`` at one pose: :meth:`rows_at`'s second."""
-        return self.rows_at(q)[1]
-
 
 def pin_rows(mechanism: Mechanism, constraints: Constraints) -> PinRows | None:
     """The mechanism's :class:`PinRows` when every constraint row is a pin's (no slider, gear or speed motor;

@@ -31,6 +31,7 @@ from ..registry import (
     MECHANISM_METHODS,
     REDUCED_INTEGRATOR,
 )
+from ..simulate.prepared import sample_times
 from ..simulate.trajectory import Trajectory
 from . import engine
 from .assembly import assembled_with_jacobian
@@ -141,7 +142,7 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
                            f"{settings.method!r}); leave it out")
     q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
-    times = _sample_times(t_start, settings.t_end, settings.samples)
+    times = sample_times(t_start, settings.t_end, settings.samples, from_zero=True)
     if settings.method == "reduced":
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
     pieces = prepared(mechanism)
@@ -153,23 +154,6 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
                             pieces.velocity_rhs, jacobian)
     return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates,
                       rotations=rotations, condition=condition)
-
-
-_times: dict[tuple[float, float, int], np.ndarray] = {}
-MAX_SAMPLE_TIMES = 64  # (t_start, t_end, samples) remembered at once: the app's chunks, a study's runs
-
-
-def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
-    """``t_start + np.linspace(0.0, t_end, samples)`` (the same bits), a copy of the one computed for these
-    arguments before: a copy costs a tenth of ``linspace`` and the addition, and the run's reader may write to
-    its times (as :func:`physics.simulate.run._sample_times` for a chain's run)."""
-    key = (t_start, t_end, samples)  # -0.0 and 0.0 share a key: both give the same sums
-    times = _times.get(key)
-    if times is None:
-        if len(_times) >= MAX_SAMPLE_TIMES:
-            _times.clear()
-        times = _times[key] = t_start + np.linspace(0.0, t_end, samples)
-    return times.copy()
 
 
 def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0,

@@ -23,7 +23,7 @@ from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from .build import trace_point
-from .prepared import chain_arrays, stabilization_gains
+from .prepared import chain_arrays, sample_times, stabilization_gains
 from .trajectory import Trajectory
 
 __all__ = ["chain_route", "chain_trajectory", "simulate_on_mechanism"]
@@ -104,7 +104,7 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     params, layout = engine.run_parameters(route.mechanism, route.compiled, t_start, None,
                                            base=route.pieces.parameters_at(t_start))
     alpha, beta, project = stabilization_gains(chain, settings)
-    t_eval = np.linspace(t_start, t_start + settings.t_end, settings.samples)  # the chain route's times, bit for bit
+    t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain route's times, bit for bit
     result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
                               settings, alpha=alpha, beta=beta, project=project)
     y_out = result.states

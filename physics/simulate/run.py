@@ -22,7 +22,7 @@ from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from . import on_mechanism
 from .build import build_trajectory, trace_point, trajectory_from_samples
-from .prepared import chain_arrays, stabilization_gains
+from .prepared import chain_arrays, sample_times, stabilization_gains
 from .trajectory import Trajectory
 
 __all__ = ["SINGULAR_PIVOT_RATIO", "check_assembled", "simulate", "status_message"]
@@ -125,7 +125,7 @@ def simulate(
     bars = chain_arrays(chain)
     params = bars.params_with(settings.damping)
     alpha, beta, project = stabilization_gains(chain, settings)
-    t_eval = _sample_times(t_start, settings.t_end, settings.samples)
+    t_eval = sample_times(t_start, settings.t_end, settings.samples)
     if settings.backend != SCIPY and settings.integrator in ONE_BUFFER_METHODS and ONE_BUFFER:
         trajectory = _run_in_one_buffer(chain, bars, settings, compiled, y0, t_eval, params, alpha, beta, project)
         return trajectory
@@ -154,23 +154,6 @@ def simulate(
     trajectory.n_rhs = int(n_rhs)
     trajectory.stats["t_reached"] = t_reached  # where the integrator stopped (the CLI's estimate of a long run)
     return trajectory
-
-
-_times: dict[tuple[float, float, int, float], np.ndarray] = {}
-MAX_SAMPLE_TIMES = 64  # (t_start, t_end, samples) remembered at once: the app's chunks, a study's runs
-
-
-def _sample_times(t_start: float, t_end: float, samples: int) -> np.ndarray:
-    """``np.linspace(t_start, t_start + t_end, samples)`` (the same bits), a copy of the one computed for these
-    arguments before: a copy costs a twentieth of ``linspace`` (about 10 us a run), and the trajectory may be
-    written to by its reader."""
-    key = (t_start, t_end, samples, math.copysign(1.0, t_start))  # -0.0 == 0.0 as a key, not as t[0]
-    times = _times.get(key)
-    if times is None:
-        if len(_times) >= MAX_SAMPLE_TIMES:
-            _times.clear()
-        times = _times[key] = np.linspace(t_start, t_start + t_end, samples)
-    return times.copy()
 
 
 # The compiled RK45 and DOP853 runs take the one-buffer path (physics.codegen.native_run): the driver and the

@@ -11,7 +11,7 @@ from physics.errors import LinkageError
 from physics.kernels.observables import chain_joint_reactions
 from physics.model import Bar
 from physics.reactions import reactions_from_motion
-from physics.simulate.prepared import chain_arrays
+from physics.simulate.prepared import chain_arrays, sample_times
 
 SETTINGS = physics.Settings(method="lagrange", integrator="RK45", rtol=1e-6, atol=1e-6, t_end=2.0, samples=21)
 
@@ -92,3 +92,15 @@ def test_a_start_given_as_lists_or_integers_runs_as_floats():
     as_lists = physics.simulate(preset.chain, [1, 0, 0], [0, 0, 0], SETTINGS)
     np.testing.assert_array_equal(as_lists.theta, as_arrays.theta)
     assert as_arrays.message == "ok" and as_arrays.success
+
+
+def test_remembered_sample_times_keep_each_formula_and_hand_out_copies():
+    """A chain's ``linspace(t0, t0 + T)`` and a mechanism's ``t0 + linspace(0, T)`` differ in the last bits; the
+    one memo keeps them apart and every caller gets its own array."""
+    chain_times = sample_times(0.7, 0.3, 7)
+    mechanism_times = sample_times(0.7, 0.3, 7, from_zero=True)
+    np.testing.assert_array_equal(chain_times, np.linspace(0.7, 0.7 + 0.3, 7))
+    np.testing.assert_array_equal(mechanism_times, 0.7 + np.linspace(0.0, 0.3, 7))
+    assert not np.array_equal(chain_times, mechanism_times)  # the two formulas' last bits
+    chain_times[:] = -1.0
+    np.testing.assert_array_equal(sample_times(0.7, 0.3, 7), np.linspace(0.7, 0.7 + 0.3, 7))
