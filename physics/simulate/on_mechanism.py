@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from ..model import Chain, Settings
     from .trajectory import Trajectory
 
-__all__ = ["ENABLED", "simulate_on_mechanism"]
+__all__ = ["ENABLED", "load_route", "simulate_on_mechanism"]
 
 # The switch physics.simulate reads: False runs a chain on its own kernels (today's route), True on the general
 # mechanism engine. Not a user option: the lead flips it once a call costs the same on both routes.
@@ -56,3 +56,14 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     from .mechanism_route import simulate_on_mechanism as run  # noqa: PLC0415
 
     return run(chain, theta0, omega0, settings, t_start)
+
+
+def load_route(chain: Chain, method: str, damping: float) -> None:
+    """Load (or, on a cache miss, derive and generate) the system a run of ``method`` on this route integrates:
+    the chain written as a mechanism (:func:`~physics.simulate.mechanism_route.chain_route`), what the command
+    line loads before a run's clock starts. The chain's own generated system is not needed on this route: a new
+    10-link chain's first Lagrange run derived and compiled it too, about 1 s of the 3 s it is allowed."""
+    # the mechanism engine: loaded by a run on this route only (the app's server never loads it)
+    from .mechanism_route import chain_route  # noqa: PLC0415
+
+    chain_route(chain, method, damping)
