@@ -48,8 +48,11 @@ class ChainSystem:
       is in ``x`` when the system solves for it; empty otherwise (an open chain, or a tree formulation on the
       mechanism engine, whose loop is closed at another joint: :meth:`trajectory` gives it from the bodies).
     * ``route``: the chain as a mechanism when on the mechanism engine, else None.
+    * ``method``, ``damping``: what it was made for.
     """
 
+    method: str
+    damping: float
     compiled: CompiledSystem
     params: np.ndarray
     order: np.ndarray
@@ -100,6 +103,19 @@ class ChainSystem:
         return chain_trajectory(chain, settings, self.route, self.params, t, self.bars(y[:, :n]),
                                 self.bars(y[:, n:]), alpha, beta)
 
+    def tip_reactions(self, chain: Chain, theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        """A pinned chain's tip reaction (ON the last bar BY the ground) at states ``(K, n)`` of the chain: shape
+        ``(K, 2)``. Read off the unknowns where the system solves for it; else (a tree formulation on the mechanism
+        engine) by Newton's law on every body, as the run's samples give it (:meth:`trajectory`)."""
+        theta, omega = np.atleast_2d(theta), np.atleast_2d(omega)
+        if not chain.pinned:
+            raise LinkageError("tip reaction: the chain is open (no pin at its tip)")
+        if self.tip_reaction_index.size:
+            x, _ = self.compiled.solve_full_batch(self.coordinates(theta), self.coordinates(omega), self.params)
+            return x[:, self.tip_reaction_index]
+        settings = Settings(method=self.method, damping=self.damping)
+        return self.trajectory(chain, settings, np.zeros(len(theta)), self.state(theta, omega)).tip_reaction
+
 
 def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float = 0.0) -> ChainSystem:
     """``chain``'s compiled system for ``method`` (a derived formulation: newton_euler, lagrange, dae) with joint
@@ -112,8 +128,8 @@ def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float
     if not on_mechanism.ENABLED:
         compiled = load_compiled(method, n, chain.pinned)
         identity = np.arange(n, dtype=np.int64)
-        return ChainSystem(compiled, chain.params(damping=damping), identity, identity.copy(),
-                           compiled.theta_ddot_index, compiled.reaction_index,
+        return ChainSystem(method, float(damping), compiled, chain.params(damping=damping), identity,
+                           identity.copy(), compiled.theta_ddot_index, compiled.reaction_index,
                            compiled.tip_reaction_index if chain.pinned else np.zeros(0, dtype=np.int64), None)
     from .mechanism_route import chain_route  # noqa: PLC0415  (the mechanism engine: this route only)
 
@@ -127,5 +143,5 @@ def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float
     else:
         reaction_index = np.zeros((0, 2), dtype=np.int64)
         tip_reaction_index = np.zeros(0, dtype=np.int64)
-    return ChainSystem(compiled, route.pieces.parameters_at(t_start), route.order, route.inverse, theta_ddot_index,
-                       reaction_index, tip_reaction_index, route)
+    return ChainSystem(method, float(damping), compiled, route.pieces.parameters_at(t_start), route.order,
+                       route.inverse, theta_ddot_index, reaction_index, tip_reaction_index, route)

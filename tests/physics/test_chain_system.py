@@ -1,5 +1,6 @@
 """A chain's compiled system on the route the switch chooses (physics/simulate/chain_system.py), and the callers
-that run it themselves (the seed report's ode45 replay, the ensemble), on both routes: the same answers to
+that run it themselves (the seed report's ode45 replay, the ensemble, ``accelerations``, the free-body diagrams),
+on both routes: the same answers to
 rounding, and on the mechanism engine when the switch is on (so the chain's own kernels can go).
 
 :data:`ROUNDING` is tests/physics/test_chain_on_mechanism.py's (its docstring says what it measures): 1e-11
@@ -14,8 +15,9 @@ import sys
 import numpy as np
 import pytest
 
-from physics import Settings, get_preset, load_compiled, simulate
+from physics import LinkageError, Settings, accelerations, get_preset, load_compiled, simulate
 from physics.ensemble import Ensemble
+from physics.fbd import free_bodies
 from physics.model import FORMULATION_NAMES
 from physics.seed_report import _ode45_as_called
 from physics.simulate import on_mechanism
@@ -161,3 +163,68 @@ def test_an_ensemble_copy_follows_simulate_on_the_mechanism_engine(monkeypatch):
                          Settings(method="lagrange", rtol=1e-11, atol=1e-11, t_end=1.0, samples=2))
     assert np.max(np.abs(ensemble.theta[0] - reference.theta[-1])) < 1e-6
 
+
+
+def moving_state(preset: str) -> tuple:
+    """A state in motion of the preset's chain: a pinned chain's taken from a short run (its rates on the loop)."""
+    chosen = get_preset(preset)
+    if not chosen.chain.pinned:
+        return chosen.chain, chosen.theta0, chosen.omega0 + np.linspace(0.3, -0.2, chosen.chain.n)
+    run = simulate(chosen.chain, chosen.theta0, chosen.omega0, Settings(method="dae", t_end=0.3, samples=2))
+    return chosen.chain, run.theta[-1], run.omega[-1]
+
+
+@pytest.mark.parametrize("preset", ("single", "triple-c", "four-bar", "change-point"))
+@pytest.mark.parametrize("method", FORMULATION_NAMES)
+def test_the_accelerations_command_answers_the_same_on_both_routes(preset, method, monkeypatch):
+    """``accelerations`` (the CLI's JSON): the same keys and values (a pinned chain's tip reaction for every
+    method: read off a tree formulation's bodies on the mechanism engine); the condition estimate equal for an
+    open chain of two bars or more (the same matrix), the solved system's own elsewhere."""
+    chain, theta, omega = moving_state(preset)
+    chain_side, mechanism_side = on_both_routes(
+        monkeypatch, lambda: accelerations(chain, theta, omega, method, damping=0.2))
+    assert mechanism_side.keys() == chain_side.keys()
+    assert ("tip_reaction" in chain_side) == chain.pinned
+    assert ("joint_reactions" in chain_side) == (method == "dae")
+    for key in ("theta_ddot", "joint_reactions", "tip_reaction"):
+        if key in chain_side:
+            assert relative(mechanism_side[key], chain_side[key]) <= ROUNDING, key
+    assert np.isfinite(mechanism_side["condition"])
+    if not chain.pinned and chain.n > 1:
+        assert relative(mechanism_side["condition"], chain_side["condition"]) <= ROUNDING
+
+
+def test_a_singular_state_is_refused_on_both_routes(monkeypatch):
+    """The collinear change-point four-bar: refused as an impossible request on either route."""
+    chain = get_preset("change-point").chain
+    collinear = np.array([np.pi / 2, np.pi / 2, -np.pi / 2])
+    for enabled in (False, True):
+        monkeypatch.setattr(on_mechanism, "ENABLED", enabled)
+        with pytest.raises(LinkageError, match="singular configuration"):
+            accelerations(chain, collinear, np.zeros(3), "lagrange")
+
+
+@pytest.mark.parametrize("preset", ("triple-a", "four-bar"))
+def test_free_body_diagrams_are_the_same_on_both_routes(preset, monkeypatch):
+    """Every force on every bar, from the DAE's reactions on either route; on the mechanism engine they balance
+    (sum of forces = m a_G, moments about G = I alpha) as on the chain's kernels."""
+    chain, theta, omega = moving_state(preset)
+    chain_side, mechanism_side = on_both_routes(monkeypatch, lambda: free_bodies(chain, theta, omega))
+    for mine, theirs in zip(mechanism_side, chain_side, strict=True):
+        assert [f.name for f in mine.forces] == [f.name for f in theirs.forces]
+        assert relative([f.force for f in mine.forces], [f.force for f in theirs.forces]) <= ROUNDING
+        assert relative(mine.alpha, theirs.alpha) <= ROUNDING
+        np.testing.assert_allclose(mine.net_force(), mine.mass * mine.com_acceleration, atol=1e-10)
+        assert mine.net_moment_about_com() == pytest.approx(mine.inertia * mine.alpha, abs=1e-10)
+
+
+def test_accelerations_and_free_bodies_never_load_the_chains_kernel_with_the_switch_on(monkeypatch):
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+
+    def refused(*_arguments, **_keywords):
+        raise AssertionError("the chain's own kernel was loaded on the mechanism route")
+
+    monkeypatch.setattr(sys.modules[chain_system.__module__], "load_compiled", refused)
+    chain, theta, omega = moving_state("four-bar")
+    assert "tip_reaction" in accelerations(chain, theta, omega, "lagrange")
+    assert len(free_bodies(chain, theta, omega)) == 3
