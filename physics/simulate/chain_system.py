@@ -117,15 +117,17 @@ class ChainSystem:
         return self.trajectory(chain, settings, np.zeros(len(theta)), self.state(theta, omega)).tip_reaction
 
 
-def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float = 0.0) -> ChainSystem:
+def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float = 0.0, *,
+                 on_mechanism_engine: bool | None = None) -> ChainSystem:
     """``chain``'s compiled system for ``method`` (a derived formulation: newton_euler, lagrange, dae) with joint
     damping ``damping``, on the route :func:`physics.simulate` takes (:data:`on_mechanism.ENABLED`): the chain's
     own kernel, or the chain written as a mechanism on the general engine (``t_start``: its parameter vector's
-    time slot; a chain has no motor, so nothing depends on it)."""
+    time slot; a chain has no motor, so nothing depends on it). ``on_mechanism_engine``: the route chosen by the
+    caller instead of the switch (a worker process of a study, which does not share the caller's switch)."""
     if method not in FORMULATION_NAMES:
         raise LinkageError(f"method = {method!r}: a chain's compiled system is one of {', '.join(FORMULATION_NAMES)}")
     n = chain.n
-    if not on_mechanism.ENABLED:
+    if not (on_mechanism.ENABLED if on_mechanism_engine is None else on_mechanism_engine):
         compiled = load_compiled(method, n, chain.pinned)
         identity = np.arange(n, dtype=np.int64)
         return ChainSystem(method, float(damping), compiled, chain.params(damping=damping), identity,
