@@ -46,7 +46,7 @@ class ChainSystem:
       ``x``, for a method that solves for them (the DAE); ``(0, 2)`` otherwise.
     * ``tip_reaction_index`` (2,): where a pinned chain's tip reaction (ON the last bar BY the ground at the pin)
       is in ``x`` when the system solves for it; empty otherwise (an open chain, or a tree formulation on the
-      mechanism engine, whose loop is closed at another joint: :meth:`trajectory` gives it from the bodies).
+      mechanism engine, whose loop is closed at another joint: :meth:`tip_reactions` gives it from the bodies).
     * ``route``: the chain as a mechanism when on the mechanism engine, else None.
     * ``method``, ``damping``: what it was made for.
     """
