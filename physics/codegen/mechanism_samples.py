@@ -29,7 +29,7 @@ class MechanismSamples:
     constraints, and for tree coordinates ``pose_jacobian (T, 3 B, n)``, ``pose (T, 3 B)`` and ``bias (T, 3 B)``
     of the kinematics (``(T, 0, n)`` and ``(T, 0)`` without)."""
 
-    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias")
+    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias", "matrices")
     full: np.ndarray
     condition: np.ndarray
     jacobian: np.ndarray
@@ -38,6 +38,7 @@ class MechanismSamples:
     pose_jacobian: np.ndarray
     pose: np.ndarray
     bias: np.ndarray
+    matrices: np.ndarray  # (T, k, k): the solved matrices without Baumgarte terms when asked for, else (0, k, k)
 
 
 def _functions():
@@ -49,12 +50,18 @@ def _functions():
 
 
 def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray, params: np.ndarray,
-                      solve=None) -> MechanismSamples:
+                      solve=None, *, alpha: float = 0.0, beta: float = 0.0, constraints: bool = True,
+                      kinematics: bool = True, matrices: bool = False) -> MechanismSamples:
     """Every sample's solve, held constraints and kinematics of ``compiled`` (a mechanism's
     :class:`~physics.codegen.cache.CompiledSystem`) at the states ``x``, ``v`` (T, n), times ``times`` (T,) and
     parameters ``params``, as its ``solve_samples``, ``constraint_states`` and ``kinematics_states`` give them
-    (no Baumgarte terms). ``solve``: a ctypes function of ``solve_states``' signature (the system's specialised
-    one), default the generic one."""
+    (the solve with the Baumgarte gains ``alpha``, ``beta``, none by default). ``solve``: a ctypes function of
+    ``solve_states``' signature (the system's specialised one), default the generic one. ``constraints=False``:
+    the held constraints are not evaluated (their arrays are left unset: a caller that reads only the solve
+    and the poses, the chain's run on the mechanism engine); ``kinematics=False`` likewise the kinematics (a
+    reader of the solve alone: the poses are zeros). ``matrices``: also every sample's matrix ``A``
+    as :meth:`~physics.codegen.cache.CompiledSystem.sample_matrices` gives it (a pinned chain's condition
+    number is that matrix's)."""
     solve_generic, states = _functions()
     solve = solve_generic if solve is None else solve
     layout = compiled.layout
@@ -62,7 +69,7 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     rows = int(x.shape[0])
     if x.shape != (rows, n) or v.shape != (rows, n) or np.shape(times) != (rows,):
         raise ValueError(f"expected states ({rows}, {n}) and times ({rows},)")
-    size = compiled.pose_size
+    size = compiled.pose_size if kinematics else 0
     p = params.shape[0]
     # [x, v, times, zeros (the kinematics' times), params (the solve's), params (the constraints' copy: the
     # time slot is written), params (the kinematics' copy), scratch, full, condition, J, phi|phi_dot, dpose,
@@ -81,7 +88,9 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     at_vec = at_jac + rows * r * n
     at_pjac = at_vec + rows * 2 * r
     at_pvec = at_pjac + rows * size * n
-    length = at_pvec + rows * 2 * size
+    at_matrices = at_pvec + rows * 2 * size
+    at_rhs = at_matrices + rows * k * k * matrices
+    length = at_rhs + rows * k * matrices
     values = np.empty(length)
     values[at_x:at_v] = x.reshape(-1)
     values[at_v:at_t] = v.reshape(-1)
@@ -93,20 +102,31 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     base = values.ctypes.data
     address = layout_address(layout)
     solve(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v, base + 8 * at_params,
-          0.0, 0.0, base + 8 * at_full, base + 8 * at_cond, base + 8 * at_scratch)
+          float(alpha), float(beta), base + 8 * at_full, base + 8 * at_cond, base + 8 * at_scratch)
     out = MechanismSamples()
     out.full = values[at_full:at_cond].reshape(rows, k)
     out.condition = values[at_cond:at_jac]
     jacobian = values[at_jac:at_vec].reshape(rows, r, n)
     vector = values[at_vec:at_pjac].reshape(rows, 2 * r)
-    if r:
+    if r and constraints:
         states(int(compiled._native("constraints")), address, rows, base + 8 * at_t, base + 8 * at_x,
                base + 8 * at_v, base + 8 * at_params_c, r * n, 2 * r, base + 8 * at_jac, base + 8 * at_vec)
     out.jacobian, out.phi, out.phi_dot = jacobian, vector[:, :r], vector[:, r:]
     pose_jacobian = values[at_pjac:at_pvec].reshape(rows, size, n)
-    pose_vector = values[at_pvec:length].reshape(rows, 2 * size)
-    if size:
+    pose_vector = values[at_pvec:at_matrices].reshape(rows, 2 * size)
+    if size and kinematics:
         states(int(compiled._native("kinematics")), address, rows, base + 8 * at_zero, base + 8 * at_x,
                base + 8 * at_v, base + 8 * at_params_k, size * n, 2 * size, base + 8 * at_pjac, base + 8 * at_pvec)
     out.pose_jacobian, out.pose, out.bias = pose_jacobian, pose_vector[:, :size], pose_vector[:, size:]
+    out.matrices = values[at_matrices:at_rhs].reshape(rows * matrices, k, k)
+    if matrices and rows:
+        _assemble_function()(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v,
+                             base + 8 * at_params, base + 8 * at_matrices, base + 8 * at_rhs)
     return out
+
+
+def _assemble_function():
+    """The generic ctypes function ``assemble_states`` (compiled or loaded once)."""
+    from .native_samples import _function as samples_function  # noqa: PLC0415
+
+    return samples_function("assemble_states")

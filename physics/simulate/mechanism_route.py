@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..codegen.cache import CompiledSystem
-from ..kinematics import energies, joint_positions, point_on_bar, tip_velocity
+from ..codegen.mechanism_observables import PathPoints, body_energies, turns_and_rates
+from ..codegen.mechanism_samples import mechanism_samples
 from ..mechanism import engine
 from ..mechanism.chains import chain_mechanism
 from ..mechanism.dae import MechanismDAE
@@ -153,62 +154,110 @@ def chain_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, 
                      theta: np.ndarray, omega: np.ndarray, alpha: float, beta: float) -> Trajectory:
     """Everything a chain's Trajectory reports at the sampled angles and rates ``(T, n)``: the mechanism's
     system solved at every sample (its accelerations, multipliers and condition), its reactions in the chain's
-    order, and the chain's kinematics of the angles."""
-    bars = chain_arrays(chain)
-    trace = trace_point(chain, settings, bars)
+    order, and the positions, velocities and energies read off the bodies' poses (the chain's joints and traced
+    point named here, :func:`_chain_points`)."""
     count, n = theta.shape[0], chain.n
     theta = np.ascontiguousarray(theta)
     omega = np.ascontiguousarray(omega)
+    return _trajectory_of(chain, settings, route, params, t, theta, omega, theta[:, route.order],
+                          omega[:, route.order], alpha, beta) if count else _empty_trajectory(chain, settings, route, n)
+
+
+def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray, t: np.ndarray,
+                   theta: np.ndarray, omega: np.ndarray, s: np.ndarray, sd: np.ndarray, alpha: float,
+                   beta: float) -> Trajectory:
+    """:func:`chain_trajectory` of at least one sample, ``s``, ``sd`` the states in the tree's order: the
+    system's solve, its poses (and a pinned chain's matrices) in one buffer
+    (:func:`~physics.codegen.mechanism_samples.mechanism_samples`), the rest batched products of them."""
+    count, n = theta.shape[0], chain.n
     compiled = route.compiled
-    s = np.ascontiguousarray(theta[:, route.order])
-    sd = np.ascontiguousarray(omega[:, route.order])
-    if count:
-        full, kernel_condition = compiled.solve_samples(s, sd, params, alpha, beta)
+    specialised = compiled.samples_solve()
+    arrays = mechanism_samples(compiled, t, s, sd, params, None if specialised is None else specialised.solve,
+                               alpha=alpha, beta=beta, constraints=False, kinematics=not route.own_reactions,
+                               matrices=chain.pinned)
+    if route.own_reactions:
+        rows = arrays.full[:, compiled.multiplier_index]
     else:
-        full, kernel_condition = np.zeros((0, compiled.n_unknowns)), np.zeros(0)
-    rows = _reaction_rows(route, params, s, sd, full)
+        qdot = np.einsum("kij,kj->ki", arrays.pose_jacobian, sd)
+        qddot = np.einsum("kij,kj->ki", arrays.pose_jacobian, arrays.full[:, compiled.theta_ddot_index]) + arrays.bias
+        empty = np.zeros(0)
+        solved = engine.Samples(arrays.pose, qdot, qddot, empty, empty, empty, empty)
+        rows = engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
     joint_reactions = rows[:, route.joint_rows].reshape(count, n, 2)
-    chain_params = bars.params_with(settings.damping)
-    kinetic, potential, energy = energies(chain_params, theta, omega)
-    joints = joint_positions(bars.L, theta)
-    trace_xy = point_on_bar(bars.L, theta, trace.bar, float(trace.along), float(trace.across))
+    # the bodies' rotations are the absolute tree coordinates: bar k's is the chain's theta_k (drawn at zero)
+    points = _chain_points(chain, settings, route)
+    turns, turn_rates = turns_and_rates(theta, omega)
+    x, y = points.positions(turns)
+    vx, vy = points.velocities(turn_rates)
+    mass, inertia = route.dynamics.mass_diagonal[0::3], route.dynamics.mass_diagonal[2::3]
+    kinetic, potential = body_energies(mass, inertia, chain.g, y[:, :n], vx[:, :n], vy[:, :n], omega)
+    joints = np.empty((count, n + 1, 2))
+    joints[:, 0, :] = 0.0  # pin O, at the ground's origin
+    joints[:, 1:, 0] = x[:, n:2 * n]
+    joints[:, 1:, 1] = y[:, n:2 * n]
+    trace_xy = np.empty((count, 2))
+    trace_xy[:, 0] = x[:, 2 * n]
+    trace_xy[:, 1] = y[:, 2 * n]
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:
         tip_reaction = rows[:, route.tip_rows]
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = tip_velocity(bars.L, theta, omega)
-        if count:
-            A, _ = compiled.sample_matrices(s, sd, params)
-            with np.errstate(all="ignore"):
-                condition = np.linalg.cond(A)
-        else:
-            condition = np.zeros(0)
+        constraint_velocity = np.empty((count, 2))
+        constraint_velocity[:, 0] = vx[:, 2 * n - 1]
+        constraint_velocity[:, 1] = vy[:, 2 * n - 1]
+        with np.errstate(all="ignore"):
+            condition = np.linalg.cond(arrays.matrices)
     else:
         tip_reaction = np.zeros((count, 0))
         constraint_xy = np.zeros((count, 0))
         constraint_velocity = np.zeros((count, 0))
-        condition = kernel_condition
+        condition = arrays.condition
     return Trajectory.of_chain(
-        settings.method, settings.integrator, t, trace_xy, kinetic, potential, energy, condition, theta, omega,
-        joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity, joint_reactions,
+        settings.method, settings.integrator, t, trace_xy, kinetic, potential, kinetic + potential, condition,
+        theta, omega, joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity,
+        joint_reactions, settings.trace is not None,
+    )
+
+
+def _empty_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, n: int) -> Trajectory:
+    """The Trajectory of no sample (a run that failed before its first), every field of its shape."""
+    zero = np.zeros(0)
+    pinned = 2 * int(chain.pinned)
+    return Trajectory.of_chain(
+        settings.method, settings.integrator, zero, np.zeros((0, 2)), zero, zero, zero, zero, np.zeros((0, n)),
+        np.zeros((0, n)), np.zeros((0, n + 1, 2)), np.zeros((0, 2)), np.zeros((0, n * route.own_reactions, 2)),
+        np.zeros((0, pinned)), np.zeros((0, pinned)), np.zeros((0, pinned)), np.zeros((0, n, 2)),
         settings.trace is not None,
     )
 
 
-def _reaction_rows(route: ChainAsMechanism, params: np.ndarray, s: np.ndarray, sd: np.ndarray,
-                   full: np.ndarray) -> np.ndarray:
-    """Every joint row's reaction at the samples (T, rows), in the mechanism's row order: the DAE's own
-    multipliers, or a tree formulation's by Newton's second law on every body from its accelerations."""
-    count = s.shape[0]
-    if route.own_reactions:
-        return full[:, route.compiled.multiplier_index] if count else np.zeros((0, len(route.pieces.row_names)))
-    if not count:
-        return np.zeros((0, len(route.pieces.row_names)))
-    acceleration = full[:, route.compiled.theta_ddot_index]
-    jacobian, pose, bias = route.compiled.kinematics_states(s, sd, params)
-    qdot = np.einsum("kij,kj->ki", jacobian, sd)
-    qddot = np.einsum("kij,kj->ki", jacobian, acceleration) + bias
-    empty = np.zeros(0)
-    solved = engine.Samples(pose, qdot, qddot, empty, empty, empty, empty)
-    return engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
+_points_lock = threading.Lock()
+# (id(route), trace bar, along, across) -> (the route, its points); holding the route keeps its id from reuse
+_points: dict[tuple[int, int, float, float], tuple[ChainAsMechanism, PathPoints]] = {}
 
+
+def _chain_points(chain: Chain, settings: Settings, route: ChainAsMechanism) -> PathPoints:
+    """The points a chain's Trajectory reports, on the mechanism's bodies, each reached from pin ``O`` along the
+    bars (the chain's own way round a pinned chain's loop, whatever the mechanism's tree): the bars' centres of
+    mass, their distal points ``D`` (joints ``1 .. n``, the last the tip), then the traced point (``along`` bar
+    ``bar`` from its proximal point ``P`` and ``across`` to its counter-clockwise side; the sketch draws every bar
+    hanging down, so along is ``-y`` and across ``+x`` there)."""
+    trace = trace_point(chain, settings, chain_arrays(chain))
+    key = (id(route), int(trace.bar), float(trace.along), float(trace.across))
+    entry = _points.get(key)
+    if entry is not None and entry[0] is route:
+        return entry[1]
+    bodies = route.mechanism.bodies
+    proximal = [np.asarray(body.points["P"], dtype=float) for body in bodies]
+    through = [(k, np.asarray(body.points["D"], dtype=float) - proximal[k]) for k, body in enumerate(bodies)]
+    traced = proximal[trace.bar - 1] + np.array([float(trace.across), -float(trace.along)])
+    paths = [through[:k] + [(k, np.asarray(body.com, dtype=float) - proximal[k])] for k, body in enumerate(bodies)]
+    paths += [through[:k + 1] for k in range(chain.n)]
+    paths.append(through[:trace.bar - 1] + [(trace.bar - 1, traced - proximal[trace.bar - 1])])
+    origin = route.mechanism.ground["O"]
+    points = PathPoints.along(chain.n, np.tile(np.asarray(origin, dtype=float), (len(paths), 1)), paths)
+    with _points_lock:
+        if len(_points) >= MAX_ROUTES:
+            _points.pop(next(iter(_points)))
+        _points[key] = (route, points)
+    return points

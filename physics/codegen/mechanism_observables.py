@@ -1,0 +1,85 @@
+"""What a run reports of its bodies besides the solve, read off every sample's body rotations: named points
+fixed on bodies (where they are and how fast they move) and the kinetic and potential energy, generic in the
+bodies and points (nothing here knows a chain; the chain's run on the mechanism engine names its joints, its
+traced point and their path at its boundary, :mod:`physics.simulate.mechanism_route`).
+
+A point is placed by walking a path of bodies from a ground point: through each body on the way from the point
+where the path enters it to the one where it leaves, then from the last body's entry to the point itself,
+every step an arm of the sketch turned with its body. So every point's ``x`` and ``y`` are linear in the bodies'
+``cos phi, sin phi``: one product with a constant matrix gives every point of every sample, and the time
+derivative (``d cos phi = -omega sin phi``) its velocity. Why a path and not the poses the formulation's
+kinematics gives: a closed loop run without stabilisation drifts off its closure, and then a point's place
+depends on which way round the loop it is reached; the path says which (a chain's: from ``O`` along its bars,
+as its own kinematics read it), and for an open tree it is the tree's own, the same places to rounding.
+
+Why batched products here and not each model's kinematics: for the few bodies of a chain, two products of the
+samples' sines and cosines cost a tenth of what the chain's kinematics of the angles cost per call
+(cumulative sums, stacks, one pass per quantity); they agree to rounding (another order of the same sums).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PathPoints:
+    """Points, each reached along a path of bodies from a ground point: ``x = origin_x + [cos phi, sin phi]
+    @ to_x`` (and ``y``) at every sample, ``cos phi, sin phi`` of the ``B`` bodies side by side ``(T, 2 B)``;
+    ``to_x, to_y (2 B, P)``. Built by :meth:`along`."""
+
+    origin_x: np.ndarray  # (P,)
+    origin_y: np.ndarray
+    to_x: np.ndarray
+    to_y: np.ndarray
+
+    @classmethod
+    def along(cls, bodies: int, origins: np.ndarray, paths: list[list[tuple[int, np.ndarray]]]) -> PathPoints:
+        """``origins (P, 2)``: each point's ground point; ``paths[p]``: the steps from it, ``(body, step)``
+        with ``step`` the vector on that body in the sketch, from where the path enters it to where it leaves
+        (or to the point, for the last); bodies 0-based, at most ``bodies``."""
+        count = len(paths)
+        to_x, to_y = np.zeros((2 * bodies, count)), np.zeros((2 * bodies, count))
+        for point, path in enumerate(paths):
+            for body, step in path:
+                if not 0 <= body < bodies:
+                    raise ValueError(f"point {point}: body {body} is not one of the {bodies}")
+                step_x, step_y = (float(value) for value in step)
+                # R(phi) step = (cos step_x - sin step_y, sin step_x + cos step_y)
+                to_x[body, point] += step_x
+                to_x[bodies + body, point] -= step_y
+                to_y[body, point] += step_y
+                to_y[bodies + body, point] += step_x
+        origins = np.asarray(origins, dtype=float).reshape(count, 2)
+        built = cls(np.ascontiguousarray(origins[:, 0]), np.ascontiguousarray(origins[:, 1]), to_x, to_y)
+        for name in cls.__dataclass_fields__:
+            getattr(built, name).setflags(write=False)
+        return built
+
+    def positions(self, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, y)`` each ``(T, P)`` from ``turns = [cos phi, sin phi] (T, 2 B)``."""
+        return self.origin_x + turns @ self.to_x, self.origin_y + turns @ self.to_y
+
+    def velocities(self, turn_rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(vx, vy)`` each ``(T, P)`` from ``turn_rates = [-omega sin phi, omega cos phi] (T, 2 B)``, the time
+        derivative of :meth:`positions`' argument."""
+        return turn_rates @ self.to_x, turn_rates @ self.to_y
+
+
+def turns_and_rates(angle: np.ndarray, spin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``[cos phi, sin phi]`` and its time derivative ``[-omega sin phi, omega cos phi]``, each ``(T, 2 B)``,
+    of the bodies' rotations ``angle`` and spins ``spin (T, B)``."""
+    cos, sin = np.cos(angle), np.sin(angle)
+    return np.concatenate((cos, sin), axis=1), np.concatenate((-spin * sin, spin * cos), axis=1)
+
+
+def body_energies(mass: np.ndarray, inertia: np.ndarray, g: float, centre_y: np.ndarray, centre_vx: np.ndarray,
+                  centre_vy: np.ndarray, spin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(kinetic, potential)`` each ``(T,)`` of bodies of masses and centroidal inertias ``(B,)`` under
+    gravity ``g`` (along ``-y``), from their centres' heights and velocities and their spins ``(T, B)``: ``1/2
+    sum (m v^2 + I omega^2)`` and ``sum m g y`` (zero at ``y = 0``)."""
+    kinetic = 0.5 * np.sum(mass * (centre_vx * centre_vx + centre_vy * centre_vy) + inertia * (spin * spin), axis=1)
+    potential = np.sum((mass * g) * centre_y, axis=1)
+    return kinetic, potential
