@@ -83,3 +83,63 @@ def body_energies(mass: np.ndarray, inertia: np.ndarray, g: float, centre_y: np.
     kinetic = 0.5 * np.sum(mass * (centre_vx * centre_vx + centre_vy * centre_vy) + inertia * (spin * spin), axis=1)
     potential = np.sum((mass * g) * centre_y, axis=1)
     return kinetic, potential
+
+
+class ObservablesPlan:
+    """The constants of :func:`observe` for one mechanism, its points and its reaction rows, in the layout of
+    :mod:`physics.codegen.mechanism_observables_ir` (the arrays held here, their addresses taken once).
+
+    ``rotation_index (B,)``: the coordinate that is each body's rotation (absolute rotations);
+    ``acceleration_index (n,)``: where each coordinate's acceleration is among the solve's unknowns;
+    ``mass_diagonal``, ``constant_force (3 B,)`` and ``damping (3 B, 3 B)``: ``M`` and ``Q = constant_force +
+    damping @ qdot`` (gravity, torque motors; pin dampers); ``linear (3 B, R)`` and ``unknowns_map (k, R)``: the
+    reaction rows reported, ``(M qddot - Q) @ linear + unknowns @ unknowns_map`` (``tree`` False: the second
+    term alone); ``points``: a :class:`PathPoints` whose first ``B`` points are the bodies' centres."""
+
+    def __init__(self, rotation_index, acceleration_index, mass_diagonal, constant_force, damping, linear,
+                 unknowns_map, points: PathPoints, tree: bool) -> None:
+        rotation_index = np.asarray(rotation_index, dtype=np.int64)
+        acceleration_index = np.asarray(acceleration_index, dtype=np.int64)
+        bodies, n = rotation_index.size, acceleration_index.size
+        size = 3 * bodies
+        linear = np.asarray(linear, dtype=float)
+        unknowns_map = np.asarray(unknowns_map, dtype=float)
+        count, reactions, unknowns = points.to_x.shape[1], linear.shape[1], unknowns_map.shape[0]
+        if (np.shape(mass_diagonal) != (size,) or np.shape(constant_force) != (size,)
+                or np.shape(damping) != (size, size) or linear.shape != (size, reactions)
+                or unknowns_map.shape != (unknowns, reactions) or points.to_x.shape != (2 * bodies, count)
+                or count < bodies or np.any(rotation_index >= n) or np.any(acceleration_index >= unknowns)):
+            raise ValueError("inconsistent shapes for the mechanism's observables")
+        self.shape = np.array([n, bodies, unknowns, count, reactions], dtype=np.int64)
+        self.indices = np.ascontiguousarray(np.concatenate([acceleration_index, rotation_index]))
+        origin = np.column_stack([points.origin_x, points.origin_y])
+        self.constants = np.ascontiguousarray(np.concatenate([np.ravel(part) for part in (
+            mass_diagonal, constant_force, damping, linear, unknowns_map, origin, points.to_x, points.to_y)]),
+            dtype=float)
+        self.tree = bool(tree)
+        self.bodies, self.count, self.reactions, self.unknowns, self.n = bodies, count, reactions, unknowns, n
+        self.addresses = (self.shape.ctypes.data, self.indices.ctypes.data, self.constants.ctypes.data)
+
+
+def scratch_length(bodies: int) -> int:
+    """Doubles of ``mechanism_observables``' scratch: ``[cos, sin]`` and their rates (4 B), ``qdot``, ``qddot``
+    and ``M qddot - Q`` (3 x 3 B)."""
+    return 13 * bodies
+
+
+_function: list = []
+
+
+def observables_function():
+    """The ctypes function of ``mechanism_observables`` (compiled or loaded once per process)."""
+    if not _function:
+        import ctypes  # noqa: PLC0415
+
+        from .native_integrators import ctypes_functions, ir_builder  # noqa: PLC0415
+
+        p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+        signature = ctypes.CFUNCTYPE(None, p, p, p, i, i, d, p, p, i, p, p, p, p, p, p, p, p)
+        _function.append(ctypes_functions(
+            "mechanism_observables", ir_builder("mechanism_observables_ir", "observables_ir"),
+            {"mechanism_observables": signature})["mechanism_observables"])
+    return _function[0]

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .ir_shapes import samples_scratch_length
+from .mechanism_observables import observables_function, scratch_length
 from .native_integrators import layout_address
 
 
@@ -29,7 +30,8 @@ class MechanismSamples:
     constraints, and for tree coordinates ``pose_jacobian (T, 3 B, n)``, ``pose (T, 3 B)`` and ``bias (T, 3 B)``
     of the kinematics (``(T, 0, n)`` and ``(T, 0)`` without)."""
 
-    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias", "matrices")
+    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias", "matrices",
+                 "points", "velocities", "energies", "reactions")
     full: np.ndarray
     condition: np.ndarray
     jacobian: np.ndarray
@@ -39,6 +41,12 @@ class MechanismSamples:
     pose: np.ndarray
     bias: np.ndarray
     matrices: np.ndarray  # (T, k, k): the solved matrices without Baumgarte terms when asked for, else (0, k, k)
+    # with an ObservablesPlan (physics.codegen.mechanism_observables): its points and their velocities (T, P, 2),
+    # energies (3, T) (kinetic, potential, total) and reaction rows (T, R)
+    points: np.ndarray
+    velocities: np.ndarray
+    energies: np.ndarray
+    reactions: np.ndarray
 
 
 def _functions():
@@ -51,7 +59,8 @@ def _functions():
 
 def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray, params: np.ndarray,
                       solve=None, *, alpha: float = 0.0, beta: float = 0.0, constraints: bool = True,
-                      kinematics: bool = True, matrices: bool = False) -> MechanismSamples:
+                      kinematics: bool = True, matrices: bool = False, observables=None,
+                      g: float = 0.0) -> MechanismSamples:
     """Every sample's solve, held constraints and kinematics of ``compiled`` (a mechanism's
     :class:`~physics.codegen.cache.CompiledSystem`) at the states ``x``, ``v`` (T, n), times ``times`` (T,) and
     parameters ``params``, as its ``solve_samples``, ``constraint_states`` and ``kinematics_states`` give them
@@ -61,7 +70,10 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     and the poses, the chain's run on the mechanism engine); ``kinematics=False`` likewise the kinematics (a
     reader of the solve alone: the poses are zeros). ``matrices``: also every sample's matrix ``A``
     as :meth:`~physics.codegen.cache.CompiledSystem.sample_matrices` gives it (a pinned chain's condition
-    number is that matrix's)."""
+    number is that matrix's). ``observables``: an :class:`~physics.codegen.mechanism_observables.ObservablesPlan`
+    whose points, energies (under gravity ``g``) and reaction rows are computed from the solve and the poses in
+    the same buffer (:mod:`physics.codegen.mechanism_observables_ir`); it needs ``kinematics`` for a tree
+    formulation's reactions."""
     solve_generic, states = _functions()
     solve = solve_generic if solve is None else solve
     layout = compiled.layout
@@ -90,7 +102,16 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     at_pvec = at_pjac + rows * size * n
     at_matrices = at_pvec + rows * 2 * size
     at_rhs = at_matrices + rows * k * k * matrices
-    length = at_rhs + rows * k * matrices
+    at_points = at_rhs + rows * k * matrices
+    plan = observables
+    if plan is not None and (plan.n != n or plan.unknowns != k or (plan.tree and not size)):
+        raise ValueError("the observables' plan does not fit this system (or needs its kinematics)")
+    count, reactions = (plan.count, plan.reactions) if plan is not None else (0, 0)
+    at_velocities = at_points + rows * 2 * count
+    at_energies = at_velocities + rows * 2 * count
+    at_reactions = at_energies + rows * 3 * (plan is not None)
+    at_observe = at_reactions + rows * reactions
+    length = at_observe + (scratch_length(plan.bodies) if plan is not None else 0)
     values = np.empty(length)
     values[at_x:at_v] = x.reshape(-1)
     values[at_v:at_t] = v.reshape(-1)
@@ -122,6 +143,16 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     if matrices and rows:
         _assemble_function()(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v,
                              base + 8 * at_params, base + 8 * at_matrices, base + 8 * at_rhs)
+    if plan is not None:
+        shape, indices, constants = plan.addresses
+        observables_function()(shape, indices, constants, rows, int(plan.tree), float(g), base + 8 * at_x,
+                               base + 8 * at_v, n, base + 8 * at_full, base + 8 * at_pjac, base + 8 * at_pvec,
+                               base + 8 * at_observe, base + 8 * at_points, base + 8 * at_velocities,
+                               base + 8 * at_energies, base + 8 * at_reactions)
+        out.points = values[at_points:at_velocities].reshape(rows, count, 2)
+        out.velocities = values[at_velocities:at_energies].reshape(rows, count, 2)
+        out.energies = values[at_energies:at_reactions].reshape(3, rows)
+        out.reactions = values[at_reactions:at_observe].reshape(rows, reactions)
     return out
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..codegen.cache import CompiledSystem
-from ..codegen.mechanism_observables import PathPoints, body_energies, turns_and_rates
+from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
 from ..codegen.mechanism_samples import mechanism_samples
 from ..mechanism import engine
 from ..mechanism.chains import chain_mechanism
@@ -20,6 +20,7 @@ from ..mechanism.dae import MechanismDAE
 from ..mechanism.model import Mechanism
 from ..mechanism.prepared import Prepared, prepared
 from ..mechanism.topology import analyse
+from ..mechanism.tree_reactions import LoopReactions, TreeReactions
 from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
@@ -172,39 +173,20 @@ def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, pa
     count, n = theta.shape[0], chain.n
     compiled = route.compiled
     specialised = compiled.samples_solve()
+    plan = _chain_plan(chain, settings, route)
     arrays = mechanism_samples(compiled, t, s, sd, params, None if specialised is None else specialised.solve,
-                               alpha=alpha, beta=beta, constraints=False, kinematics=not route.own_reactions,
-                               matrices=chain.pinned)
-    if route.own_reactions:
-        rows = arrays.full[:, compiled.multiplier_index]
-    else:
-        qdot = np.einsum("kij,kj->ki", arrays.pose_jacobian, sd)
-        qddot = np.einsum("kij,kj->ki", arrays.pose_jacobian, arrays.full[:, compiled.theta_ddot_index]) + arrays.bias
-        empty = np.zeros(0)
-        solved = engine.Samples(arrays.pose, qdot, qddot, empty, empty, empty, empty)
-        rows = engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
-    joint_reactions = rows[:, route.joint_rows].reshape(count, n, 2)
-    # the bodies' rotations are the absolute tree coordinates: bar k's is the chain's theta_k (drawn at zero)
-    points = _chain_points(chain, settings, route)
-    turns, turn_rates = turns_and_rates(theta, omega)
-    x, y = points.positions(turns)
-    vx, vy = points.velocities(turn_rates)
-    mass, inertia = route.dynamics.mass_diagonal[0::3], route.dynamics.mass_diagonal[2::3]
-    kinetic, potential = body_energies(mass, inertia, chain.g, y[:, :n], vx[:, :n], vy[:, :n], omega)
-    joints = np.empty((count, n + 1, 2))
-    joints[:, 0, :] = 0.0  # pin O, at the ground's origin
-    joints[:, 1:, 0] = x[:, n:2 * n]
-    joints[:, 1:, 1] = y[:, n:2 * n]
-    trace_xy = np.empty((count, 2))
-    trace_xy[:, 0] = x[:, 2 * n]
-    trace_xy[:, 1] = y[:, 2 * n]
+                               alpha=alpha, beta=beta, constraints=False, kinematics=plan.tree,
+                               matrices=chain.pinned, observables=plan, g=chain.g)
+    rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
+    joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
+    joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
+    trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
+    kinetic, potential, energy = arrays.energies
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:
-        tip_reaction = rows[:, route.tip_rows]
+        tip_reaction = rows[:, 2 * n:]
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = np.empty((count, 2))
-        constraint_velocity[:, 0] = vx[:, 2 * n - 1]
-        constraint_velocity[:, 1] = vy[:, 2 * n - 1]
+        constraint_velocity = np.ascontiguousarray(arrays.velocities[:, 2 * n, :])
         with np.errstate(all="ignore"):
             condition = np.linalg.cond(arrays.matrices)
     else:
@@ -213,9 +195,9 @@ def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, pa
         constraint_velocity = np.zeros((count, 0))
         condition = arrays.condition
     return Trajectory.of_chain(
-        settings.method, settings.integrator, t, trace_xy, kinetic, potential, kinetic + potential, condition,
-        theta, omega, joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity,
-        joint_reactions, settings.trace is not None,
+        settings.method, settings.integrator, t, trace_xy, kinetic, potential, energy, condition, theta, omega,
+        joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity, joint_reactions,
+        settings.trace is not None,
     )
 
 
@@ -231,33 +213,69 @@ def _empty_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism,
     )
 
 
-_points_lock = threading.Lock()
-# (id(route), trace bar, along, across) -> (the route, its points); holding the route keeps its id from reuse
-_points: dict[tuple[int, int, float, float], tuple[ChainAsMechanism, PathPoints]] = {}
+_plans_lock = threading.Lock()
+# (id(route), trace bar, along, across) -> (the route, its plan); holding the route keeps its id from reuse
+_plans: dict[tuple[int, int, float, float], tuple[ChainAsMechanism, ObservablesPlan]] = {}
 
 
-def _chain_points(chain: Chain, settings: Settings, route: ChainAsMechanism) -> PathPoints:
-    """The points a chain's Trajectory reports, on the mechanism's bodies, each reached from pin ``O`` along the
-    bars (the chain's own way round a pinned chain's loop, whatever the mechanism's tree): the bars' centres of
-    mass, their distal points ``D`` (joints ``1 .. n``, the last the tip), then the traced point (``along`` bar
-    ``bar`` from its proximal point ``P`` and ``across`` to its counter-clockwise side; the sketch draws every bar
-    hanging down, so along is ``-y`` and across ``+x`` there)."""
+def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:
+    """What a chain's Trajectory reads of the mechanism's samples, as the generic observables' plan: the points
+    of :func:`_chain_points`, the reaction rows of pins ``O``, ``J1 .. J(n-1)`` then ``H`` (a pinned chain), by
+    the DAE's multipliers or Newton's law on the bodies in closed form (:mod:`physics.mechanism.tree_reactions`:
+    an open chain's tree, a pinned chain's loop with the tree formulation's own multipliers of its cut pin)."""
     trace = trace_point(chain, settings, chain_arrays(chain))
     key = (id(route), int(trace.bar), float(trace.along), float(trace.across))
-    entry = _points.get(key)
+    entry = _plans.get(key)
     if entry is not None and entry[0] is route:
         return entry[1]
+    compiled, dynamics = route.compiled, route.dynamics
+    constraints = dynamics.constraints
+    chosen = np.concatenate([route.joint_rows, route.tip_rows])
+    multiplier_index = compiled.multiplier_index
+    unknowns_map = np.zeros((compiled.n_unknowns, chosen.size))
+    size = dynamics.mass_diagonal.size
+    linear = np.zeros((size, chosen.size))
+    if route.own_reactions:
+        unknowns_map[multiplier_index[chosen], np.arange(chosen.size)] = 1.0
+    else:
+        closed_form = route.pieces.tree_reactions
+        if isinstance(closed_form, LoopReactions):
+            linear = closed_form.sums[:, :closed_form.unknowns_to_rows.shape[1]][:, chosen]
+            unknowns_map[multiplier_index] = closed_form.unknowns_to_rows[:, chosen]
+        elif isinstance(closed_form, TreeReactions) and not closed_form.motor_rows.size:
+            linear = closed_form.linear[:, chosen]
+        else:  # a chain is pins only, no motors: its tree always has a closed form
+            raise AssertionError("a chain's mechanism without a closed form of its reactions")
+    pose = constraints.sketch_pose()
+    constant_force = dynamics.gravity.copy()
+    if constraints.torque.size:
+        constant_force += constraints.driven_jacobian(pose).T @ constraints.torque
+    damping = np.zeros((size, size))
+    if np.any(constraints.damping):  # a pin's damper: its relative spin's gradient is constant
+        along = constraints.damper_jacobian(pose)
+        damping = -(along.T * constraints.damping) @ along
+    acceleration_index = compiled.theta_ddot_index if not route.own_reactions else np.zeros(chain.n, dtype=np.int64)
+    plan = ObservablesPlan(route.inverse, acceleration_index, dynamics.mass_diagonal, constant_force, damping,
+                           linear, unknowns_map, _chain_points(chain, trace, route), tree=not route.own_reactions)
+    with _plans_lock:
+        if len(_plans) >= MAX_ROUTES:
+            _plans.pop(next(iter(_plans)))
+        _plans[key] = (route, plan)
+    return plan
+
+
+def _chain_points(chain: Chain, trace, route: ChainAsMechanism) -> PathPoints:
+    """The points a chain's Trajectory reports, on the mechanism's bodies, each reached from pin ``O`` along the
+    bars (the chain's own way round a pinned chain's loop, whatever the mechanism's tree): the bars' centres of
+    mass, pin ``O``, the bars' distal points ``D`` (joints ``1 .. n``, the last the tip), then the traced point
+    (``along`` bar ``bar`` from its proximal point ``P`` and ``across`` to its counter-clockwise side; the
+    sketch draws every bar hanging down, so along is ``-y`` and across ``+x`` there)."""
     bodies = route.mechanism.bodies
     proximal = [np.asarray(body.points["P"], dtype=float) for body in bodies]
     through = [(k, np.asarray(body.points["D"], dtype=float) - proximal[k]) for k, body in enumerate(bodies)]
     traced = proximal[trace.bar - 1] + np.array([float(trace.across), -float(trace.along)])
     paths = [through[:k] + [(k, np.asarray(body.com, dtype=float) - proximal[k])] for k, body in enumerate(bodies)]
-    paths += [through[:k + 1] for k in range(chain.n)]
+    paths += [through[:k] for k in range(chain.n + 1)]
     paths.append(through[:trace.bar - 1] + [(trace.bar - 1, traced - proximal[trace.bar - 1])])
     origin = route.mechanism.ground["O"]
-    points = PathPoints.along(chain.n, np.tile(np.asarray(origin, dtype=float), (len(paths), 1)), paths)
-    with _points_lock:
-        if len(_points) >= MAX_ROUTES:
-            _points.pop(next(iter(_points)))
-        _points[key] = (route, points)
-    return points
+    return PathPoints.along(chain.n, np.tile(np.asarray(origin, dtype=float), (len(paths), 1)), paths)
