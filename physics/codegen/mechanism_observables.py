@@ -110,15 +110,30 @@ class ObservablesPlan:
                 or unknowns_map.shape != (unknowns, reactions) or points.to_x.shape != (2 * bodies, count)
                 or count < bodies or np.any(rotation_index >= n) or np.any(acceleration_index >= unknowns)):
             raise ValueError("inconsistent shapes for the mechanism's observables")
-        self.shape = np.array([n, bodies, unknowns, count, reactions], dtype=np.int64)
-        self.indices = np.ascontiguousarray(np.concatenate([acceleration_index, rotation_index]))
+        places = np.zeros((2 * bodies, 2 * count))  # output 2 p + axis, as the points' (P, 2) rows lie
+        places[:, 0::2], places[:, 1::2] = points.to_x, points.to_y
+        matrices = [_terms(places), _terms(np.asarray(damping, dtype=float)), _terms(linear), _terms(unknowns_map)]
+        self.shape = np.array([n, bodies, unknowns, count, reactions, *(len(weights) for _, _, weights in matrices)],
+                              dtype=np.int64)
+        self.indices = np.ascontiguousarray(np.concatenate(
+            [acceleration_index, rotation_index, *(part for outputs, inputs, _ in matrices
+                                                   for part in (outputs, inputs))]), dtype=np.int64)
         origin = np.column_stack([points.origin_x, points.origin_y])
-        self.constants = np.ascontiguousarray(np.concatenate([np.ravel(part) for part in (
-            mass_diagonal, constant_force, damping, linear, unknowns_map, origin, points.to_x, points.to_y)]),
-            dtype=float)
+        self.constants = np.ascontiguousarray(np.concatenate(
+            [np.ravel(part) for part in (mass_diagonal, constant_force, origin)]
+            + [weights for _, _, weights in matrices]), dtype=float)
         self.tree = bool(tree)
         self.bodies, self.count, self.reactions, self.unknowns, self.n = bodies, count, reactions, unknowns, n
         self.addresses = (self.shape.ctypes.data, self.indices.ctypes.data, self.constants.ctypes.data)
+
+
+def _terms(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(outputs, inputs, weights)`` of the non-zeros of ``matrix (inputs, outputs)`` (``y = x @ matrix``),
+    ordered by output, then input: the dense product's sums in their order, less terms that add zero."""
+    inputs, outputs = np.nonzero(matrix.T)[::-1]
+    order = np.lexsort((inputs, outputs))
+    inputs, outputs = inputs[order], outputs[order]
+    return outputs.astype(np.int64), inputs.astype(np.int64), matrix[inputs, outputs].astype(float)
 
 
 def scratch_length(bodies: int) -> int:
@@ -127,19 +142,28 @@ def scratch_length(bodies: int) -> int:
     return 13 * bodies
 
 
-_function: list = []
+_function: list = []  # [the ctypes function, the engine that owns its machine code]
 
 
 def observables_function():
-    """The ctypes function of ``mechanism_observables`` (compiled or loaded once per process)."""
+    """The ctypes function of ``mechanism_observables`` (:mod:`physics.codegen.mechanism_observables_ir`),
+    compiled once per process at O2 as the specialised drivers are (no pass may reassociate or contract without
+    fast-math flags, so the same operations; at the drivers' O0 its small loops over matrices cost about 2 us a
+    sample, more than the solve) or loaded from the machine-code cache."""
     if not _function:
         import ctypes  # noqa: PLC0415
 
-        from .native_integrators import ctypes_functions, ir_builder  # noqa: PLC0415
+        from . import native  # noqa: PLC0415  (the O2 pipeline and target machine of the specialised code)
+        from .machine_code import compile_module, llvm_binding, sources_digest  # noqa: PLC0415
+        from .native_integrators import _lock, ir_builder  # noqa: PLC0415
 
         p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
         signature = ctypes.CFUNCTYPE(None, p, p, p, i, i, d, p, p, i, p, p, p, p, p, p, p, p)
-        _function.append(ctypes_functions(
-            "mechanism_observables", ir_builder("mechanism_observables_ir", "observables_ir"),
-            {"mechanism_observables": signature})["mechanism_observables"])
+        with _lock, native._lock:
+            if not _function:
+                llvm_binding()
+                engine = compile_module(ir_builder("mechanism_observables_ir", "observables_ir"), "driver-O2",
+                                        native._optimize, native._target_machine,
+                                        key=f"mechanism_observables\n{sources_digest()}")
+                _function.extend([signature(engine.get_function_address("mechanism_observables")), engine])
     return _function[0]

@@ -8,11 +8,14 @@ Entry point (C calling convention)::
                                double* pose_vector, double* scratch, double* points, double* velocities,
                                double* energies, double* reactions)
 
-``shape = [n, B, k, P, R]``: coordinates, bodies, unknowns of the solve, points, reaction rows.
-``indices = [acceleration (n), rotation (B)]``: where each coordinate's acceleration is among the unknowns, and
-which coordinate is each body's rotation (absolute rotations). ``constants = [mass_diagonal (3 B),
-constant_force (3 B), damping (3 B x 3 B), linear (3 B x R), unknowns_map (k x R), origin (P x 2), to_x (2 B x P),
-to_y (2 B x P)]`` row-major. Per sample ``t``: row ``t`` of ``x``, ``v`` starts at ``t * state_stride`` (a run's
+``shape = [n, B, k, P, R, E1, E2, E3, E4]``: coordinates, bodies, unknowns of the solve, points, reaction
+rows, and the non-zero terms of four constant matrices, each kept as ``E`` triples ``(output, input, weight)``
+in the order of the dense product's sums: the points' places (``to_x``, ``to_y``: output ``2 p + axis``, input
+the ``[cos phi, sin phi]`` entry), the dampers' force (``damping``, ``3 B x 3 B``), Newton's law (``linear``,
+``3 B x R``) and the held unknowns (``unknowns_map``, ``k x R``). ``indices = [acceleration (n), rotation (B),
+then each matrix's outputs (E) and inputs (E)]``: where each coordinate's acceleration is among the unknowns,
+which coordinate is each body's rotation (absolute rotations), the triples' indices. ``constants =
+[mass_diagonal (3 B), constant_force (3 B), origin (P x 2), then each matrix's weights (E)]``. Per sample ``t``: row ``t`` of ``x``, ``v`` starts at ``t * state_stride`` (a run's
 states ``[x, v]`` read in place); ``full (rows, k)`` the solve's unknowns; for ``tree`` (a tree formulation)
 ``pose_jacobian (rows, 3 B, n)`` and ``pose_vector (rows, 6 B)`` (pose, then bias) of the generated kinematics.
 Outputs: ``points`` and ``velocities (rows, P, 2)``, ``energies (3, rows)`` (kinetic, potential, total) and
@@ -46,6 +49,15 @@ def _dot(code: _Code, count, first, second, start, name: str):
     return code.get(total)
 
 
+def _sparse(code: _Code, terms, outputs, inputs, weights, source, target, name: str) -> None:
+    """``target[outputs[e]] += source[inputs[e]] * weights[e]`` for ``e < terms``, in order: a constant matrix's
+    product summed over its non-zeros only (in the order of the dense sum, whose zero terms add nothing)."""
+    b = code.b
+    with code.loop(terms, name) as e:
+        slot = code.at(target, code.load(outputs, e))
+        b.store(b.fadd(b.load(slot), b.fmul(code.load(source, code.load(inputs, e)), code.load(weights, e))), slot)
+
+
 def _observables(module: ir.Module) -> None:
     code = _Code(ir.Function(module, ir.FunctionType(ir.VoidType(), [
         _I64_POINTER, _I64_POINTER, _DOUBLE_POINTER, _I64, _I64, _DOUBLE, _DOUBLE_POINTER, _DOUBLE_POINTER, _I64,
@@ -55,18 +67,22 @@ def _observables(module: ir.Module) -> None:
      points, velocities, energies, reactions) = code.function.args
     b = code.b
     n, bodies, k, count, R = (code.load(shape, _int(i)) for i in range(5))
+    terms = [code.load(shape, _int(5 + i)) for i in range(4)]  # places, dampers, Newton's law, held unknowns
     size = b.mul(bodies, _int(3))
     turning = b.mul(bodies, _int(2))
     acceleration_index = indices
     rotation_index = code.at(indices, n)
+    term_index, term_weight = [], []
+    at_index, at_weight = code.at(rotation_index, bodies), code.at(constants, b.add(b.mul(size, _int(2)),
+                                                                                    b.mul(count, _int(2))))
+    for number in range(4):
+        term_index.append((at_index, code.at(at_index, terms[number])))
+        term_weight.append(at_weight)
+        at_index = code.at(at_index, b.mul(terms[number], _int(2)))
+        at_weight = code.at(at_weight, terms[number])
     mass = constants
     constant_force = code.at(mass, size)
-    damping = code.at(constant_force, size)
-    linear = code.at(damping, b.mul(size, size))
-    unknowns_map = code.at(linear, b.mul(size, R))
-    origin = code.at(unknowns_map, b.mul(k, R))
-    to_x = code.at(origin, b.mul(count, _int(2)))
-    to_y = code.at(to_x, b.mul(turning, count))
+    origin = code.at(constant_force, size)
     turns = scratch
     rates = code.at(turns, turning)
     qdot = code.at(rates, turning)
@@ -75,6 +91,7 @@ def _observables(module: ir.Module) -> None:
     sin = code.intrinsic("llvm.sin", [_DOUBLE])
     cos = code.intrinsic("llvm.cos", [_DOUBLE])
     zero = _double(0.0)
+    place_count = b.mul(count, _int(2))
     with code.loop(rows, "sample") as t:
         x_row = code.at(x, b.mul(t, state_stride))
         v_row = code.at(v, b.mul(t, state_stride))
@@ -87,17 +104,13 @@ def _observables(module: ir.Module) -> None:
             code.store(s, turns, b.add(bodies, body))
             code.store(b.fmul(b.fneg(spin), s), rates, body)
             code.store(b.fmul(spin, c), rates, b.add(bodies, body))
-        points_row = code.at(points, b.mul(t, b.mul(count, _int(2))))
-        velocities_row = code.at(velocities, b.mul(t, b.mul(count, _int(2))))
-        with code.loop(count, "point") as p:
-            for axis, table in ((0, to_x), (1, to_y)):
-                def column(j, table=table):
-                    return code.load(table, b.add(b.mul(j, count), p))
-                place = _dot(code, turning, lambda j: code.load(turns, j), column,
-                             code.load(origin, b.add(b.mul(p, _int(2)), _int(axis))), "place")
-                code.store(place, points_row, b.add(b.mul(p, _int(2)), _int(axis)))
-                speed = _dot(code, turning, lambda j: code.load(rates, j), column, zero, "speed")
-                code.store(speed, velocities_row, b.add(b.mul(p, _int(2)), _int(axis)))
+        points_row = code.at(points, b.mul(t, place_count))
+        velocities_row = code.at(velocities, b.mul(t, place_count))
+        with code.loop(place_count, "start") as j:
+            code.store(code.load(origin, j), points_row, j)
+            code.store(zero, velocities_row, j)
+        _sparse(code, terms[0], *term_index[0], term_weight[0], turns, points_row, "place")
+        _sparse(code, terms[0], *term_index[0], term_weight[0], rates, velocities_row, "speed")
         kinetic, potential = code.var(zero), code.var(zero)
         with code.loop(bodies, "energy") as body:
             m = code.load(mass, b.mul(body, _int(3)))
@@ -114,35 +127,26 @@ def _observables(module: ir.Module) -> None:
         code.store(code.get(potential), energies, b.add(rows, t))
         code.store(b.fadd(half_kinetic, code.get(potential)), energies, b.add(b.add(rows, rows), t))
         reactions_row = code.at(reactions, b.mul(t, R))
-        with b.if_else(b.icmp_signed("!=", tree, _int(0))) as (is_tree, is_not):
-            with is_tree:
-                jacobian = code.at(pose_jacobian, b.mul(t, b.mul(size, n)))
-                bias = code.at(pose_vector, b.add(b.mul(t, b.mul(size, _int(2))), size))
-                with code.loop(size, "qdot") as i:
-                    def entry(j, i=i):
-                        return code.load(jacobian, b.add(b.mul(i, n), j))
-                    code.store(_dot(code, n, entry, lambda j: code.load(v_row, j), zero, "velocity"), qdot, i)
-                    code.store(b.fadd(_dot(code, n, entry,
-                                           lambda j: code.load(full_row, code.load(acceleration_index, j)), zero,
-                                           "acceleration"),
-                                      code.load(bias, i)), qddot, i)
-                with code.loop(size, "imbalance") as i:
-                    applied = _dot(code, size, lambda j: code.load(qdot, j),
-                                   lambda j, i=i: code.load(damping, b.add(b.mul(j, size), i)),
-                                   code.load(constant_force, i), "applied")
-                    code.store(b.fsub(b.fmul(code.load(mass, i), code.load(qddot, i)), applied), imbalance, i)
-                with code.loop(R, "tree_row") as r:
-                    code.store(_dot(code, size, lambda j: code.load(imbalance, j),
-                                    lambda j, r=r: code.load(linear, b.add(b.mul(j, R), r)), zero, "newton"),
-                               reactions_row, r)
-            with is_not:
-                with code.loop(R, "clear") as r:
-                    code.store(zero, reactions_row, r)
-        with code.loop(R, "row") as r:
-            held = _dot(code, k, lambda j: code.load(full_row, j),
-                        lambda j, r=r: code.load(unknowns_map, b.add(b.mul(j, R), r)), code.load(reactions_row, r),
-                        "held")
-            code.store(held, reactions_row, r)
+        with code.loop(R, "clear") as r:
+            code.store(zero, reactions_row, r)
+        with b.if_then(b.icmp_signed("!=", tree, _int(0))):
+            jacobian = code.at(pose_jacobian, b.mul(t, b.mul(size, n)))
+            bias = code.at(pose_vector, b.add(b.mul(t, b.mul(size, _int(2))), size))
+            with code.loop(size, "qdot") as i:
+                def entry(j, i=i):
+                    return code.load(jacobian, b.add(b.mul(i, n), j))
+                code.store(_dot(code, n, entry, lambda j: code.load(v_row, j), zero, "velocity"), qdot, i)
+                code.store(b.fadd(_dot(code, n, entry,
+                                       lambda j: code.load(full_row, code.load(acceleration_index, j)), zero,
+                                       "acceleration"),
+                                  code.load(bias, i)), qddot, i)
+                code.store(code.load(constant_force, i), imbalance, i)  # Q, summed below
+            _sparse(code, terms[1], *term_index[1], term_weight[1], qdot, imbalance, "applied")
+            with code.loop(size, "imbalance") as i:
+                code.store(b.fsub(b.fmul(code.load(mass, i), code.load(qddot, i)), code.load(imbalance, i)),
+                           imbalance, i)
+            _sparse(code, terms[2], *term_index[2], term_weight[2], imbalance, reactions_row, "newton")
+        _sparse(code, terms[3], *term_index[3], term_weight[3], full_row, reactions_row, "held")
     b.ret_void()
     code.seal()
 

@@ -57,6 +57,11 @@ def _functions():
     return samples_function("solve_states"), states_function("native_states")
 
 
+def generic_solve():
+    """The generic ctypes function ``solve_states`` (compiled or loaded once)."""
+    return _functions()[0]
+
+
 def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray, params: np.ndarray,
                       solve=None, *, alpha: float = 0.0, beta: float = 0.0, constraints: bool = True,
                       kinematics: bool = True, matrices: bool = False, observables=None,

@@ -11,9 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem
 from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
-from ..codegen.mechanism_samples import mechanism_samples
+from ..codegen.mechanism_samples import generic_solve, mechanism_samples
 from ..mechanism import engine
 from ..mechanism.chains import chain_mechanism
 from ..mechanism.dae import MechanismDAE
@@ -107,6 +108,11 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
                                            base=route.pieces.parameters_at(t_start))
     alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain route's times, bit for bit
+    if ONE_BUFFER_RUN and layout is route.compiled.integration_layout:
+        trajectory = _run_in_one_buffer(chain, settings, route, params, theta0, omega0, t_eval, alpha, beta,
+                                        project)
+        if trajectory is not None:
+            return trajectory
     result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
                               settings, alpha=alpha, beta=beta, project=project)
     y_out = result.states
@@ -125,6 +131,54 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     trajectory.n_steps = int(result.n_steps)
     trajectory.n_rhs = int(result.n_rhs)
     trajectory.stats["t_reached"] = float(result.t_reached)
+    return trajectory
+
+
+# A compiled RK45/DOP853 run and its samples in one buffer (physics.codegen.mechanism_run); False: the
+# integration by engine.integrate and the samples by mechanism_samples, the same functions and bits (the
+# tests compare the two).
+ONE_BUFFER_RUN = True
+_ONE_BUFFER_KERNELS = ("integrate_rk45", "integrate_dop853")
+_NO_CONDITION = np.empty(0)
+
+
+def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray,
+                       theta0: np.ndarray, omega0: np.ndarray, t_eval: np.ndarray, alpha: float, beta: float,
+                       project: bool) -> Trajectory | None:
+    """The run of :func:`simulate_on_mechanism` by :func:`~physics.codegen.mechanism_run.integrate_and_observe`
+    (the IR driver engine.integrate would call, the system's specialised one where it has it, then the samples
+    as :func:`chain_trajectory` reads them), or None for a run the IR drivers do not answer (other integrators,
+    scipy's back end)."""
+    spec = INTEGRATORS[settings.integrator]
+    if (settings.backend == SCIPY or not spec.adaptive or spec.kernel not in _ONE_BUFFER_KERNELS
+            or not native_integrators.answers(route.compiled.integration_layout, alpha, beta, project,
+                                              _NO_CONDITION)):
+        return None
+    from ..codegen.mechanism_run import integrate_and_observe  # noqa: PLC0415
+
+    compiled = route.compiled
+    driver = compiled.specialised_driver(spec.name)
+    if driver is None:
+        driver = native_integrators.generic_driver(spec.name)
+    specialised = compiled.samples_solve()
+    solve = specialised.solve if specialised is not None else generic_solve()
+    plan = _chain_plan(chain, settings, route)
+    y0 = np.concatenate([theta0[route.order], omega0[route.order]])
+    status, n_steps, n_rhs, t_reached, t, states, arrays = integrate_and_observe(
+        driver, solve, compiled, compiled.integration_layout, y0, t_eval, params, settings.rtol, settings.atol,
+        alpha, beta, project, settings.max_steps, spec.name, plan, chain.g, chain.pinned)
+    if status == Status.OK and len(t) < len(t_eval):
+        status = int(Status.NOT_FINITE)
+    detail = _compiled_detail(settings, status)
+    n = chain.n
+    trajectory = (_trajectory_from(chain, settings, route, t, states[:, :n][:, route.inverse],
+                                   states[:, n:][:, route.inverse], arrays) if len(t)
+                  else _empty_trajectory(chain, settings, route, n))
+    trajectory.status = status
+    trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
+    trajectory.n_steps = n_steps
+    trajectory.n_rhs = n_rhs
+    trajectory.stats["t_reached"] = t_reached
     return trajectory
 
 
@@ -170,13 +224,21 @@ def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, pa
     """:func:`chain_trajectory` of at least one sample, ``s``, ``sd`` the states in the tree's order: the
     system's solve, its poses (and a pinned chain's matrices) in one buffer
     (:func:`~physics.codegen.mechanism_samples.mechanism_samples`), the rest batched products of them."""
-    count, n = theta.shape[0], chain.n
     compiled = route.compiled
     specialised = compiled.samples_solve()
     plan = _chain_plan(chain, settings, route)
     arrays = mechanism_samples(compiled, t, s, sd, params, None if specialised is None else specialised.solve,
                                alpha=alpha, beta=beta, constraints=False, kinematics=plan.tree,
                                matrices=chain.pinned, observables=plan, g=chain.g)
+    return _trajectory_from(chain, settings, route, t, theta, omega, arrays)
+
+
+def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, t: np.ndarray, theta: np.ndarray,
+                     omega: np.ndarray, arrays) -> Trajectory:
+    """The Trajectory of at least one sample from the samples' arrays (``full``, ``condition``, ``matrices``
+    and the chain plan's ``points``, ``velocities``, ``energies`` and ``reactions``), the chain's names given
+    to the plan's rows and points."""
+    count, n = theta.shape[0], chain.n
     rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
     joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
     joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
