@@ -49,12 +49,18 @@ class MechanismSamples:
     reactions: np.ndarray
 
 
+_generic: list = []  # [solve_states, native_states, assemble_states], once per process
+
+
 def _functions():
     """The generic ctypes functions ``solve_states`` and ``native_states`` (compiled or loaded once)."""
-    from .native_samples import _function as samples_function  # noqa: PLC0415
-    from .native_states import _function as states_function  # noqa: PLC0415
+    if not _generic:
+        from .native_samples import _function as samples_function  # noqa: PLC0415
+        from .native_states import _function as states_function  # noqa: PLC0415
 
-    return samples_function("solve_states"), states_function("native_states")
+        _generic[:] = [samples_function("solve_states"), states_function("native_states"),
+                       samples_function("assemble_states")]
+    return _generic[0], _generic[1]
 
 
 def generic_solve():
@@ -163,6 +169,5 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
 
 def _assemble_function():
     """The generic ctypes function ``assemble_states`` (compiled or loaded once)."""
-    from .native_samples import _function as samples_function  # noqa: PLC0415
-
-    return samples_function("assemble_states")
+    _functions()
+    return _generic[2]

@@ -276,8 +276,9 @@ def _empty_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism,
 
 
 _plans_lock = threading.Lock()
-# (id(route), trace bar, along, across) -> (the route, its plan); holding the route keeps its id from reuse
-_plans: dict[tuple[int, int, float, float], tuple[ChainAsMechanism, ObservablesPlan]] = {}
+# (id(route), trace bar, along, across), or (id(route), None) for the tip -> (the route, its plan); holding the
+# route keeps its id from reuse (a route is one chain object with its bars: the tip is fixed with it)
+_plans: dict[tuple, tuple[ChainAsMechanism, ObservablesPlan]] = {}
 
 
 def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:
@@ -285,11 +286,12 @@ def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> Ob
     of :func:`_chain_points`, the reaction rows of pins ``O``, ``J1 .. J(n-1)`` then ``H`` (a pinned chain), by
     the DAE's multipliers or Newton's law on the bodies in closed form (:mod:`physics.mechanism.tree_reactions`:
     an open chain's tree, a pinned chain's loop with the tree formulation's own multipliers of its cut pin)."""
-    trace = trace_point(chain, settings, chain_arrays(chain))
-    key = (id(route), int(trace.bar), float(trace.along), float(trace.across))
+    asked = settings.trace
+    key = (id(route), None) if asked is None else (id(route), asked.bar, asked.along, asked.across)
     entry = _plans.get(key)
     if entry is not None and entry[0] is route:
         return entry[1]
+    trace = trace_point(chain, settings, chain_arrays(chain))  # the settings' point, else the tip; checked
     compiled, dynamics = route.compiled, route.dynamics
     constraints = dynamics.constraints
     chosen = np.concatenate([route.joint_rows, route.tip_rows])
