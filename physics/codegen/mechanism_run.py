@@ -71,6 +71,13 @@ class RunObservables:
     ``reactions (T, R)`` of the plan."""
 
     __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions")
+    full: np.ndarray
+    condition: np.ndarray
+    matrices: np.ndarray
+    points: np.ndarray
+    velocities: np.ndarray
+    energies: np.ndarray
+    reactions: np.ndarray
 
 
 def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarray, y0: np.ndarray,
