@@ -14,6 +14,7 @@ counterpart of the chain's own :mod:`physics.codegen.native_run` (issue 24).
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -60,7 +61,37 @@ class _Offsets:
         self.length = self.scratch + scratch_length(bodies)
 
 
-_offsets: dict[tuple, _Offsets] = {}
+class _Run:
+    """What a run of one system, plan and shape reads besides its inputs, worked out on its first call: the
+    sizes, the buffer's offsets, the functions' and arrays' addresses (each look-up costs a microsecond or two a
+    call). Holds the system, its layout and the plan, so their ids are not reused while it is remembered."""
+
+    def __init__(self, compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
+                 n_params: int, matrices: bool) -> None:
+        from .mechanism_samples import _assemble_function, _functions  # noqa: PLC0415
+
+        layout = compiled.layout
+        self.compiled, self.integration_layout, self.plan = compiled, integration_layout, plan
+        self.n, self.k = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS])
+        self.constraints = int(integration_layout[LAYOUT_CONSTRAINTS])
+        self.size = compiled.pose_size if plan.tree else 0
+        if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.tree and not self.size):
+            raise ValueError("expected at least one sample time and a plan that fits the system")
+        self.samples = samples
+        self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
+                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies)
+        self.assemble = int(compiled.assemble_function)
+        self.address = layout_address(layout)
+        self.integration_address = layout_address(integration_layout)
+        self.kinematics = int(compiled._native("kinematics")) if self.size else 0
+        self.kinematics_call = _functions()[1]
+        self.assemble_call = _assemble_function()
+        self.observables_call = observables_function()
+        self.tree = int(plan.tree)
+
+
+_lock = threading.Lock()
+_runs: dict[tuple, _Run] = {}
 MAX_SHAPES = 64
 
 
@@ -95,23 +126,18 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     observables are (its ``tree``: the kinematics is evaluated for Newton's law on the bodies); ``matrices``:
     also each sample's plain matrix (a condition number's). ``y0``, ``t_eval`` and ``params`` C-contiguous
     float64 (only read)."""
-    from .mechanism_samples import _assemble_function, _functions  # noqa: PLC0415
-
-    layout = compiled.layout
-    n_state, samples, n_params = y0.shape[0], t_eval.shape[0], params.shape[0]
-    n, k = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS])
-    r, r_solve = int(integration_layout[LAYOUT_CONSTRAINTS]), int(layout[LAYOUT_CONSTRAINTS])
-    size = compiled.pose_size if plan.tree else 0
-    if n_state != 2 * n or samples == 0 or plan.n != n or plan.unknowns != k or (plan.tree and not size):
-        raise ValueError("expected a start of 2 n, at least one sample time and a plan that fits the system")
-    key = (method, n, k, r, r_solve, samples, n_params, size, matrices, plan.count, plan.reactions, plan.bodies)
-    at = _offsets.get(key)
-    if at is None:
-        if len(_offsets) >= MAX_SHAPES:
-            _offsets.clear()
-        at = _offsets[key] = _Offsets(method, *key[1:])
+    key = (id(compiled), id(integration_layout), id(plan), method, t_eval.shape[0], params.shape[0], bool(matrices))
+    entry = _runs.get(key)
+    if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
+            or entry.plan is not plan:
+        entry = _Run(compiled, integration_layout, plan, method, t_eval.shape[0], params.shape[0], bool(matrices))
+        with _lock:
+            if len(_runs) >= MAX_SHAPES:
+                _runs.clear()
+            _runs[key] = entry
+    n, k, samples, at = entry.n, entry.k, entry.samples, entry.at
     values = np.empty(at.length)
-    y_out = values[at.y_out:at.x].reshape(samples, n_state)
+    y_out = values[at.y_out:at.x].reshape(samples, 2 * n)
     check_arguments(integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
                     _NO_CONDITION)
     values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
@@ -122,12 +148,11 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     values[at.kinematics_params:at.solve_scratch] = params
     y_out.fill(np.nan)
     base = values.ctypes.data
-    projecting = bool(project) and r != 0  # the kernel's _projecting
-    assemble = int(compiled.assemble_function)
-    status = driver(assemble, layout_address(integration_layout), base + 8 * at.y0, float(t_eval[0]),
-                    float(t_eval[-1]), base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol),
-                    float(alpha), float(beta), int(projecting), int(max_steps), base + 8 * at.y_out,
-                    base + 8 * at.driver_scratch, base, base + 24)
+    assemble = entry.assemble
+    status = driver(assemble, entry.integration_address, base + 8 * at.y0, float(t_eval[0]), float(t_eval[-1]),
+                    base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
+                    float(beta), int(bool(project) and entry.constraints != 0),  # the kernel's _projecting
+                    int(max_steps), base + 8 * at.y_out, base + 8 * at.driver_scratch, base, base + 24)
     if math.isfinite(float(y_out.sum())):  # physics.simulate.run's rule: the rows finite throughout
         rows = samples
     else:
@@ -136,28 +161,30 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     values[at.x:at.x + rows * n].reshape(rows, n)[:] = states[:, :n]
     values[at.v:at.v + rows * n].reshape(rows, n)[:] = states[:, n:]
     values[at.zeros:at.zeros + rows] = 0.0
-    address = layout_address(layout)
+    address = entry.address
     solve(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params, float(alpha),
           float(beta), base + 8 * at.full, base + 8 * at.condition, base + 8 * at.solve_scratch)
+    size = entry.size
     if size and rows:
-        _functions()[1](int(compiled._native("kinematics")), address, rows, base + 8 * at.zeros, base + 8 * at.x,
-                        base + 8 * at.v, base + 8 * at.kinematics_params, size * n, 2 * size,
-                        base + 8 * at.pose_jacobian, base + 8 * at.pose_vector)
+        entry.kinematics_call(entry.kinematics, address, rows, base + 8 * at.zeros, base + 8 * at.x, base + 8 * at.v,
+                              base + 8 * at.kinematics_params, size * n, 2 * size, base + 8 * at.pose_jacobian,
+                              base + 8 * at.pose_vector)
     if matrices and rows:
-        _assemble_function()(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
-                             base + 8 * at.matrices, base + 8 * at.rhs)
+        entry.assemble_call(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
+                            base + 8 * at.matrices, base + 8 * at.rhs)
     shape, indices, constants = plan.addresses
-    observables_function()(shape, indices, constants, rows, int(plan.tree), float(g), base + 8 * at.x,
-                           base + 8 * at.v, n, base + 8 * at.full, base + 8 * at.pose_jacobian,
-                           base + 8 * at.pose_vector, base + 8 * at.scratch, base + 8 * at.points,
-                           base + 8 * at.velocities, base + 8 * at.energies, base + 8 * at.reactions)
+    entry.observables_call(shape, indices, constants, rows, entry.tree, float(g), base + 8 * at.x, base + 8 * at.v,
+                           n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
+                           base + 8 * at.scratch, base + 8 * at.points, base + 8 * at.velocities,
+                           base + 8 * at.energies, base + 8 * at.reactions)
+    count, reactions = plan.count, plan.reactions
     out = RunObservables()
     out.full = values[at.full:at.full + rows * k].reshape(rows, k)
     out.condition = values[at.condition:at.condition + rows]
     out.matrices = values[at.matrices:at.matrices + rows * k * k * matrices].reshape(rows * matrices, k, k)
-    out.points = values[at.points:at.points + rows * 2 * plan.count].reshape(rows, plan.count, 2)
-    out.velocities = values[at.velocities:at.velocities + rows * 2 * plan.count].reshape(rows, plan.count, 2)
+    out.points = values[at.points:at.points + rows * 2 * count].reshape(rows, count, 2)
+    out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
     out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
-    out.reactions = values[at.reactions:at.reactions + rows * plan.reactions].reshape(rows, plan.reactions)
+    out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
     n_steps, n_rhs, _ = values[:3].view(np.int64).tolist()
     return int(status), n_steps, n_rhs, float(values[3]), values[at.t_eval:at.t_eval + rows], states, out
