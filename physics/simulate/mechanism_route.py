@@ -163,16 +163,17 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     specialised = compiled.samples_solve()
     solve = specialised.solve if specialised is not None else generic_solve()
     plan = _chain_plan(chain, settings, route)
-    y0 = np.concatenate([theta0[route.order], omega0[route.order]])
+    n = chain.n
+    columns = _state_columns(route, n)
+    y0 = np.concatenate((theta0, omega0))[columns[0]]
     status, n_steps, n_rhs, t_reached, t, states, arrays = integrate_and_observe(
         driver, solve, compiled, compiled.integration_layout, y0, t_eval, params, settings.rtol, settings.atol,
         alpha, beta, project, settings.max_steps, spec.name, plan, chain.g, chain.pinned)
     if status == Status.OK and len(t) < len(t_eval):
         status = int(Status.NOT_FINITE)
     detail = _compiled_detail(settings, status)
-    n = chain.n
-    trajectory = (_trajectory_from(chain, settings, route, t, states[:, :n][:, route.inverse],
-                                   states[:, n:][:, route.inverse], arrays) if len(t)
+    trajectory = (_trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
+                  if len(t)
                   else _empty_trajectory(chain, settings, route, n))
     trajectory.status = status
     trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
@@ -180,6 +181,23 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     trajectory.n_rhs = n_rhs
     trajectory.stats["t_reached"] = t_reached
     return trajectory
+
+
+_columns: dict[int, tuple[ChainAsMechanism, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+
+
+def _state_columns(route: ChainAsMechanism, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(tree state, theta, omega)`` columns: the tree's state ``[x, v]`` from the chain's ``[theta, omega]``,
+    and the chain's angles and rates from the tree's state (each one fancy index, kept per route)."""
+    entry = _columns.get(id(route))
+    if entry is not None and entry[0] is route:
+        return entry[1]
+    columns = (np.concatenate([route.order, route.order + n]), route.inverse.copy(), route.inverse + n)
+    with _plans_lock:
+        if len(_columns) >= MAX_ROUTES:
+            _columns.pop(next(iter(_columns)))
+        _columns[id(route)] = (route, columns)
+    return columns
 
 
 def _finite_rows(y_out: np.ndarray) -> int:
