@@ -109,8 +109,12 @@ def _observables(module: ir.Module) -> None:
         with code.loop(place_count, "start") as j:
             code.store(code.load(origin, j), points_row, j)
             code.store(zero, velocities_row, j)
-        _sparse(code, terms[0], *term_index[0], term_weight[0], turns, points_row, "place")
-        _sparse(code, terms[0], *term_index[0], term_weight[0], rates, velocities_row, "speed")
+        with code.loop(terms[0], "place") as e:  # the places and their velocities share the terms
+            output, term = code.load(term_index[0][0], e), code.load(term_index[0][1], e)
+            weight = code.load(term_weight[0], e)
+            for source, target in ((turns, points_row), (rates, velocities_row)):
+                slot = code.at(target, output)
+                b.store(b.fadd(b.load(slot), b.fmul(code.load(source, term), weight)), slot)
         kinetic, potential = code.var(zero), code.var(zero)
         with code.loop(bodies, "energy") as body:
             m = code.load(mass, b.mul(body, _int(3)))
