@@ -12,9 +12,10 @@ kinematics gives: a closed loop run without stabilisation drifts off its closure
 depends on which way round the loop it is reached; the path says which (a chain's: from ``O`` along its bars,
 as its own kinematics read it), and for an open tree it is the tree's own, the same places to rounding.
 
-Why batched products here and not each model's kinematics: for the few bodies of a chain, two products of the
-samples' sines and cosines cost a tenth of what the chain's kinematics of the angles cost per call
-(cumulative sums, stacks, one pass per quantity); they agree to rounding (another order of the same sums).
+The products are computed natively over every sample in one call (:mod:`physics.codegen.mechanism_observables_ir`,
+with the energies and the reaction rows); they agree with the chain's own kinematics of the angles to rounding
+(another order of the same sums). This module holds the constants of that call (:class:`ObservablesPlan`) and
+loads its machine code.
 """
 
 from __future__ import annotations
@@ -57,32 +58,6 @@ class PathPoints:
         for name in cls.__dataclass_fields__:
             getattr(built, name).setflags(write=False)
         return built
-
-    def positions(self, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, y)`` each ``(T, P)`` from ``turns = [cos phi, sin phi] (T, 2 B)``."""
-        return self.origin_x + turns @ self.to_x, self.origin_y + turns @ self.to_y
-
-    def velocities(self, turn_rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(vx, vy)`` each ``(T, P)`` from ``turn_rates = [-omega sin phi, omega cos phi] (T, 2 B)``, the time
-        derivative of :meth:`positions`' argument."""
-        return turn_rates @ self.to_x, turn_rates @ self.to_y
-
-
-def turns_and_rates(angle: np.ndarray, spin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``[cos phi, sin phi]`` and its time derivative ``[-omega sin phi, omega cos phi]``, each ``(T, 2 B)``,
-    of the bodies' rotations ``angle`` and spins ``spin (T, B)``."""
-    cos, sin = np.cos(angle), np.sin(angle)
-    return np.concatenate((cos, sin), axis=1), np.concatenate((-spin * sin, spin * cos), axis=1)
-
-
-def body_energies(mass: np.ndarray, inertia: np.ndarray, g: float, centre_y: np.ndarray, centre_vx: np.ndarray,
-                  centre_vy: np.ndarray, spin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(kinetic, potential)`` each ``(T,)`` of bodies of masses and centroidal inertias ``(B,)`` under
-    gravity ``g`` (along ``-y``), from their centres' heights and velocities and their spins ``(T, B)``: ``1/2
-    sum (m v^2 + I omega^2)`` and ``sum m g y`` (zero at ``y = 0``)."""
-    kinetic = 0.5 * np.sum(mass * (centre_vx * centre_vx + centre_vy * centre_vy) + inertia * (spin * spin), axis=1)
-    potential = np.sum((mass * g) * centre_y, axis=1)
-    return kinetic, potential
 
 
 class ObservablesPlan:
