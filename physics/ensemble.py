@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .assembly import assemble, project_velocity
-from .codegen import load_compiled
 from .errors import LinkageError
 from .kernels.constants import RK4_WORK_ROWS, SINGULAR_PIVOT_RATIO
 from .kinematics import energies, joint_positions
@@ -29,6 +28,7 @@ if TYPE_CHECKING:  # the general engine is loaded only for a mechanism's ensembl
     from .mechanism.model import Mechanism
     from .simulate.trajectory import Trajectory
 from .model import BAUMGARTE_ALPHA, BAUMGARTE_BETA, FORMULATION_NAMES, Chain, check_state
+from .simulate.chain_system import chain_system
 
 # A copy whose system's pivot ratio exceeds SINGULAR_PIVOT_RATIO (or is non-finite) is marked failed, as
 # simulate() does: one threshold for every path.
@@ -71,7 +71,11 @@ class Ensemble:
         self.n = chain.n
         self.params = chain.params(damping=damping)
         self.lengths = chain.array("L")
-        self._compiled = load_compiled(method, chain.n, chain.pinned)
+        # the chain's system on the route physics.simulate takes: its own kernel, or the chain as a mechanism
+        # (whose coordinates may be the angles in another order: run_steps permutes in and out)
+        self._system = chain_system(chain, method, damping)
+        self._compiled = self._system.compiled
+        self._identity = bool(np.array_equal(self._system.order, np.arange(self.n)))
         self._alpha, self._beta = (BAUMGARTE_ALPHA, BAUMGARTE_BETA) if chain.pinned else (0.0, 0.0)
         self.theta, self.omega = initial_states(chain, theta0, omega0, self.count, self.spread)
         self._work = np.empty((RK4_WORK_ROWS, self.n))
@@ -101,19 +105,33 @@ class Ensemble:
         call compiles (seconds; two minutes on a loaded 2-core machine from an empty cache), and whoever builds
         copies in a worker (the app) must not leave that to the first :meth:`advance`, which runs on the
         display's frame thread and would stall every frame meanwhile."""
-        theta, omega = self.theta[:1].copy(), self.omega[:1].copy()
-        self._compiled.rk4_batch_step(theta, omega, self.params, self.step, self._alpha, self._beta,
+        theta, omega = self._system.coordinates(self.theta[:1]), self._system.coordinates(self.omega[:1])
+        self._compiled.rk4_batch_step(theta, omega, self._system.params, self.step, self._alpha, self._beta,
                                       np.empty_like(self._work), np.zeros(1))
 
     def run_steps(self, steps: int) -> None:
-        """Take ``steps`` RK4 steps (the hot loop: one compiled call per step for the whole batch)."""
+        """Take ``steps`` RK4 steps (the hot loop: one compiled call per step for the whole batch). The states
+        are stepped in the system's coordinate order and put back in the chain's once per call (nothing to do
+        on the chain's own kernels, whose order is the chain's)."""
+        if steps <= 0:
+            return
         step_batch = self._compiled.rk4_batch_step
-        for _ in range(steps):
-            worst = step_batch(self.theta, self.omega, self.params, self.step, self._alpha, self._beta,
-                               self._work, self.condition)
-            self.steps_taken += 1
-            if not worst <= SINGULAR_PIVOT_RATIO:
-                self._mark_failures()
+        params = self._system.params
+        if self._identity:
+            theta, omega = self.theta, self.omega
+        else:
+            theta, omega = self._system.coordinates(self.theta), self._system.coordinates(self.omega)
+        try:
+            for _ in range(steps):
+                worst = step_batch(theta, omega, params, self.step, self._alpha, self._beta, self._work,
+                                   self.condition)
+                self.steps_taken += 1
+                if not worst <= SINGULAR_PIVOT_RATIO:
+                    self._mark_failures()
+        finally:
+            if not self._identity:
+                self.theta[...] = self._system.bars(theta)
+                self.omega[...] = self._system.bars(omega)
 
     def _mark_failures(self) -> None:
         bad = ~(self.condition <= SINGULAR_PIVOT_RATIO) & self.alive

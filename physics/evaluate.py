@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .codegen import load_compiled
 from .errors import LinkageError
 from .kernels.constants import SINGULAR_PIVOT_RATIO
 from .model import Chain, check_state
+from .simulate.chain_system import chain_system
 
 
 def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0) -> dict:
@@ -18,8 +18,9 @@ def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0)
     Raises LinkageError at a singular configuration instead of returning meaningless numbers.
     """
     theta, omega = check_state(chain.n, theta, omega)
-    compiled = load_compiled(method, chain.n, chain.pinned)
-    x, cond = compiled.solve_full(theta, omega, chain.params(damping=damping))
+    # the system on the route physics.simulate takes (the chain's own kernel, or the chain as a mechanism)
+    system = chain_system(chain, method, damping)
+    x, cond = system.solve(theta, omega)
     if not cond <= SINGULAR_PIVOT_RATIO or not np.all(np.isfinite(x)):
         raise LinkageError(
             f"singular configuration at theta = {np.round(theta, 6).tolist()}: the {method} system has pivot ratio "
@@ -29,11 +30,13 @@ def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0)
     result = {
         "method": method,
         "links": chain.n,
-        "theta_ddot": [float(v) for v in x[compiled.theta_ddot_index]],
+        "theta_ddot": [float(v) for v in x[system.theta_ddot_index]],
     }
-    if compiled.reaction_index.size:
-        result["joint_reactions"] = [[float(x[i]), float(x[j])] for i, j in compiled.reaction_index]
-    if compiled.tip_reaction_index.size:
-        result["tip_reaction"] = [float(v) for v in x[compiled.tip_reaction_index]]
+    if system.reaction_index.size:
+        result["joint_reactions"] = [[float(x[i]), float(x[j])] for i, j in system.reaction_index]
+    if system.tip_reaction_index.size:
+        result["tip_reaction"] = [float(v) for v in x[system.tip_reaction_index]]
+    elif chain.pinned:  # a tree formulation on the mechanism engine closes the loop at another joint
+        result["tip_reaction"] = [float(v) for v in system.tip_reactions(chain, theta, omega)[0]]
     result["condition"] = float(cond)
     return result

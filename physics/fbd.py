@@ -23,12 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .codegen import load_compiled
 from .errors import LinkageError
 from .kinematics import com_accelerations, joint_positions
 from .model import Chain, Settings, validated
 from .registry import METHODS
 from .simulate import simulate
+from .simulate.chain_system import chain_system
 from .simulate.trajectory import chain_joint_names
 
 # The state at the requested time comes from a run tight enough that its error is far below the values drawn.
@@ -109,11 +109,13 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     n = chain.n
     theta = np.asarray(theta, dtype=float).reshape(n)
     omega = np.asarray(omega, dtype=float).reshape(n)
-    compiled = load_compiled(REACTION_FORMULATION, n, chain.pinned)
-    x, _ = compiled.solve_full(theta, omega, chain.params())
-    alpha = x[compiled.theta_ddot_index]
-    reactions = x[compiled.reaction_index]  # (n, 2)
-    tip_reaction = x[compiled.tip_reaction_index] if compiled.tip_reaction_index.size else None
+    # the DAE's system on the route physics.simulate takes (its own kernel, or the chain as a mechanism): its
+    # unknowns hold every joint's reaction on both
+    system = chain_system(chain, REACTION_FORMULATION)
+    x, _ = system.solve(theta, omega)
+    alpha = x[system.theta_ddot_index]
+    reactions = x[system.reaction_index]  # (n, 2)
+    tip_reaction = x[system.tip_reaction_index] if system.tip_reaction_index.size else None
     L, d, m, inertia = (chain.array(f) for f in "LdmI")
     joints = joint_positions(L, theta)
     accelerations = com_accelerations(L, d, theta, omega, alpha)

@@ -21,12 +21,12 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from .codegen import load_compiled
 from .errors import LinkageError
 from .model import DEFAULT_MAX_STEPS, MAX_STEPS_LIMIT, Chain, Settings
 from .notices import notify
 from .registry import INTEGRATORS, METHODS
-from .simulate import on_mechanism, simulate
+from .simulate import simulate
+from .simulate.chain_system import chain_system
 from .simulate.trajectory import Trajectory
 from .status import Status
 
@@ -109,11 +109,8 @@ def simulate_in_segments(chain: Chain, theta0, omega0, settings: Settings, strea
     spec = INTEGRATORS[settings.integrator]
     times = np.linspace(0.0, settings.t_end, settings.samples)
     if not METHODS[settings.method].reduced:
-        # loaded before the clock starts: the pace is the run's (on the mechanism engine, only its own system)
-        if on_mechanism.ENABLED:
-            on_mechanism.load_route(chain, settings.method, settings.damping)
-        else:
-            load_compiled(settings.method, chain.n, chain.pinned)
+        # loaded before the clock starts (the pace is the run's), on the route physics.simulate takes
+        chain_system(chain, settings.method, settings.damping)
     started = time.perf_counter()
     if spec.fixed_step:
         # the cost is known (t_end / step steps, held to max_steps by Settings): a first segment of PROBE_STEPS

@@ -32,14 +32,14 @@ from typing import TextIO
 
 import numpy as np
 
-from .codegen import load_compiled
 from .fbd import fbd_svg, free_body_at
 from .file_io import write_atomically
 from .kernels import ode45
 from .model import FORMULATION_NAMES, Settings, validated
 from .presets import get_preset
 from .simulate import Trajectory, simulate
-from .simulate.build import build_trajectory
+from .simulate.chain_system import chain_system
+from .simulate.prepared import stabilization_gains
 from .status import Status
 from .studies.charts import DASHES, PALETTE, Series, line_chart
 
@@ -81,22 +81,19 @@ def _ode45_as_called(preset_name: str, settings: Settings) -> Trajectory:
     which is handed to the kernel; the samples are interpolated (ntrp45) as MATLAB does at tspan points."""
     preset = get_preset(preset_name)
     chain = preset.chain
-    compiled = load_compiled(settings.method, chain.n, chain.pinned)
-    params = chain.params(damping=settings.damping)
-    stabilized = chain.pinned and settings.stabilization != "none"
-    baumgarte = stabilized and settings.stabilization == "baumgarte"
-    alpha, beta = (settings.baumgarte_alpha, settings.baumgarte_beta) if baumgarte else (0.0, 0.0)
-    project = stabilized and settings.stabilization == "projection"
+    # the chain's system on the route physics.simulate takes (its own kernel, or the chain as a mechanism)
+    system = chain_system(chain, settings.method, settings.damping)
+    alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = np.linspace(0.0, settings.t_end, settings.samples)
     y_out = np.full((len(t_eval), 2 * chain.n), np.nan)
-    y0 = np.concatenate([preset.theta0, preset.omega0])
+    y0 = system.state(preset.theta0, preset.omega0)
     status, n_steps, n_rhs, t_reached, _ = ode45.integrate_ode45_htspan(
-        compiled.assemble_function, compiled.integration_layout, y0, 0.0, settings.t_end, t_eval,
-        settings.t_end / (REPORT_POINTS - 1), params, settings.rtol, settings.atol, alpha, beta, project,
+        system.compiled.assemble_function, system.layout, y0, 0.0, settings.t_end, t_eval,
+        settings.t_end / (REPORT_POINTS - 1), system.params, settings.rtol, settings.atol, alpha, beta, project,
         settings.max_steps, y_out, np.empty(0))
     if status != Status.OK:
         raise RuntimeError(f"{preset_name} {settings.method} ode45: {Status.describe(int(status), t_reached, '')}")
-    run = build_trajectory(chain, settings, compiled, params, t_eval, y_out, None, alpha, beta)
+    run = system.trajectory(chain, settings, t_eval, y_out, alpha, beta)
     run.status = Status.OK
     run.n_steps, run.n_rhs = int(n_steps), int(n_rhs)
     return run

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .ir_shapes import samples_scratch_length
+from .mechanism_observables import observables_function, scratch_length
 from .native_integrators import layout_address
 
 
@@ -29,7 +30,8 @@ class MechanismSamples:
     constraints, and for tree coordinates ``pose_jacobian (T, 3 B, n)``, ``pose (T, 3 B)`` and ``bias (T, 3 B)``
     of the kinematics (``(T, 0, n)`` and ``(T, 0)`` without)."""
 
-    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias")
+    __slots__ = ("full", "condition", "jacobian", "phi", "phi_dot", "pose_jacobian", "pose", "bias", "matrices",
+                 "points", "velocities", "energies", "reactions")
     full: np.ndarray
     condition: np.ndarray
     jacobian: np.ndarray
@@ -38,23 +40,51 @@ class MechanismSamples:
     pose_jacobian: np.ndarray
     pose: np.ndarray
     bias: np.ndarray
+    matrices: np.ndarray  # (T, k, k): the solved matrices without Baumgarte terms when asked for, else (0, k, k)
+    # with an ObservablesPlan (physics.codegen.mechanism_observables): its points and their velocities (T, P, 2),
+    # energies (3, T) (kinetic, potential, total) and reaction rows (T, R)
+    points: np.ndarray
+    velocities: np.ndarray
+    energies: np.ndarray
+    reactions: np.ndarray
+
+
+_generic: list = []  # [solve_states, native_states, assemble_states], once per process
 
 
 def _functions():
     """The generic ctypes functions ``solve_states`` and ``native_states`` (compiled or loaded once)."""
-    from .native_samples import _function as samples_function  # noqa: PLC0415
-    from .native_states import _function as states_function  # noqa: PLC0415
+    if not _generic:
+        from .native_samples import _function as samples_function  # noqa: PLC0415
+        from .native_states import _function as states_function  # noqa: PLC0415
 
-    return samples_function("solve_states"), states_function("native_states")
+        _generic[:] = [samples_function("solve_states"), states_function("native_states"),
+                       samples_function("assemble_states")]
+    return _generic[0], _generic[1]
+
+
+def generic_solve():
+    """The generic ctypes function ``solve_states`` (compiled or loaded once)."""
+    return _functions()[0]
 
 
 def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray, params: np.ndarray,
-                      solve=None) -> MechanismSamples:
+                      solve=None, *, alpha: float = 0.0, beta: float = 0.0, constraints: bool = True,
+                      kinematics: bool = True, matrices: bool = False, observables=None,
+                      g: float = 0.0) -> MechanismSamples:
     """Every sample's solve, held constraints and kinematics of ``compiled`` (a mechanism's
     :class:`~physics.codegen.cache.CompiledSystem`) at the states ``x``, ``v`` (T, n), times ``times`` (T,) and
     parameters ``params``, as its ``solve_samples``, ``constraint_states`` and ``kinematics_states`` give them
-    (no Baumgarte terms). ``solve``: a ctypes function of ``solve_states``' signature (the system's specialised
-    one), default the generic one."""
+    (the solve with the Baumgarte gains ``alpha``, ``beta``, none by default). ``solve``: a ctypes function of
+    ``solve_states``' signature (the system's specialised one), default the generic one. ``constraints=False``:
+    the held constraints are not evaluated (their arrays are left unset: a caller that reads only the solve
+    and the poses, the chain's run on the mechanism engine); ``kinematics=False`` likewise the kinematics (a
+    reader of the solve alone: the poses are zeros). ``matrices``: also every sample's matrix ``A``
+    as :meth:`~physics.codegen.cache.CompiledSystem.sample_matrices` gives it (a pinned chain's condition
+    number is that matrix's). ``observables``: an :class:`~physics.codegen.mechanism_observables.ObservablesPlan`
+    whose points, energies (under gravity ``g``) and reaction rows are computed from the solve and the poses in
+    the same buffer (:mod:`physics.codegen.mechanism_observables_ir`); it needs ``kinematics`` for a tree
+    formulation's reactions."""
     solve_generic, states = _functions()
     solve = solve_generic if solve is None else solve
     layout = compiled.layout
@@ -62,7 +92,7 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     rows = int(x.shape[0])
     if x.shape != (rows, n) or v.shape != (rows, n) or np.shape(times) != (rows,):
         raise ValueError(f"expected states ({rows}, {n}) and times ({rows},)")
-    size = compiled.pose_size
+    size = compiled.pose_size if kinematics else 0
     p = params.shape[0]
     # [x, v, times, zeros (the kinematics' times), params (the solve's), params (the constraints' copy: the
     # time slot is written), params (the kinematics' copy), scratch, full, condition, J, phi|phi_dot, dpose,
@@ -81,7 +111,18 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     at_vec = at_jac + rows * r * n
     at_pjac = at_vec + rows * 2 * r
     at_pvec = at_pjac + rows * size * n
-    length = at_pvec + rows * 2 * size
+    at_matrices = at_pvec + rows * 2 * size
+    at_rhs = at_matrices + rows * k * k * matrices
+    at_points = at_rhs + rows * k * matrices
+    plan = observables
+    if plan is not None and (plan.n != n or plan.unknowns != k or (plan.tree and not size)):
+        raise ValueError("the observables' plan does not fit this system (or needs its kinematics)")
+    count, reactions = (plan.count, plan.reactions) if plan is not None else (0, 0)
+    at_velocities = at_points + rows * 2 * count
+    at_energies = at_velocities + rows * 2 * count
+    at_reactions = at_energies + rows * 3 * (plan is not None)
+    at_observe = at_reactions + rows * reactions
+    length = at_observe + (scratch_length(plan.bodies) if plan is not None else 0)
     values = np.empty(length)
     values[at_x:at_v] = x.reshape(-1)
     values[at_v:at_t] = v.reshape(-1)
@@ -93,20 +134,40 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     base = values.ctypes.data
     address = layout_address(layout)
     solve(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v, base + 8 * at_params,
-          0.0, 0.0, base + 8 * at_full, base + 8 * at_cond, base + 8 * at_scratch)
+          float(alpha), float(beta), base + 8 * at_full, base + 8 * at_cond, base + 8 * at_scratch)
     out = MechanismSamples()
     out.full = values[at_full:at_cond].reshape(rows, k)
     out.condition = values[at_cond:at_jac]
     jacobian = values[at_jac:at_vec].reshape(rows, r, n)
     vector = values[at_vec:at_pjac].reshape(rows, 2 * r)
-    if r:
+    if r and constraints:
         states(int(compiled._native("constraints")), address, rows, base + 8 * at_t, base + 8 * at_x,
                base + 8 * at_v, base + 8 * at_params_c, r * n, 2 * r, base + 8 * at_jac, base + 8 * at_vec)
     out.jacobian, out.phi, out.phi_dot = jacobian, vector[:, :r], vector[:, r:]
     pose_jacobian = values[at_pjac:at_pvec].reshape(rows, size, n)
-    pose_vector = values[at_pvec:length].reshape(rows, 2 * size)
-    if size:
+    pose_vector = values[at_pvec:at_matrices].reshape(rows, 2 * size)
+    if size and kinematics:
         states(int(compiled._native("kinematics")), address, rows, base + 8 * at_zero, base + 8 * at_x,
                base + 8 * at_v, base + 8 * at_params_k, size * n, 2 * size, base + 8 * at_pjac, base + 8 * at_pvec)
     out.pose_jacobian, out.pose, out.bias = pose_jacobian, pose_vector[:, :size], pose_vector[:, size:]
+    out.matrices = values[at_matrices:at_rhs].reshape(rows * matrices, k, k)
+    if matrices and rows:
+        _assemble_function()(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v,
+                             base + 8 * at_params, base + 8 * at_matrices, base + 8 * at_rhs)
+    if plan is not None:
+        shape, indices, constants = plan.addresses
+        observables_function()(shape, indices, constants, rows, int(plan.tree), float(g), base + 8 * at_x,
+                               base + 8 * at_v, n, base + 8 * at_full, base + 8 * at_pjac, base + 8 * at_pvec,
+                               base + 8 * at_observe, base + 8 * at_points, base + 8 * at_velocities,
+                               base + 8 * at_energies, base + 8 * at_reactions)
+        out.points = values[at_points:at_velocities].reshape(rows, count, 2)
+        out.velocities = values[at_velocities:at_energies].reshape(rows, count, 2)
+        out.energies = values[at_energies:at_reactions].reshape(3, rows)
+        out.reactions = values[at_reactions:at_observe].reshape(rows, reactions)
     return out
+
+
+def _assemble_function():
+    """The generic ctypes function ``assemble_states`` (compiled or loaded once)."""
+    _functions()
+    return _generic[2]

@@ -11,14 +11,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem
-from ..kinematics import energies, joint_positions, point_on_bar, tip_velocity
+from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
+from ..codegen.mechanism_samples import generic_solve, mechanism_samples
 from ..mechanism import engine
 from ..mechanism.chains import chain_mechanism
 from ..mechanism.dae import MechanismDAE
 from ..mechanism.model import Mechanism
 from ..mechanism.prepared import Prepared, prepared
 from ..mechanism.topology import analyse
+from ..mechanism.tree_reactions import LoopReactions, TreeReactions
 from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
@@ -105,6 +108,11 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
                                            base=route.pieces.parameters_at(t_start))
     alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain route's times, bit for bit
+    if ONE_BUFFER_RUN and layout is route.compiled.integration_layout:
+        trajectory = _run_in_one_buffer(chain, settings, route, params, theta0, omega0, t_eval, alpha, beta,
+                                        project)
+        if trajectory is not None:
+            return trajectory
     result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
                               settings, alpha=alpha, beta=beta, project=project)
     y_out = result.states
@@ -124,6 +132,72 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     trajectory.n_rhs = int(result.n_rhs)
     trajectory.stats["t_reached"] = float(result.t_reached)
     return trajectory
+
+
+# A compiled RK45/DOP853 run and its samples in one buffer (physics.codegen.mechanism_run); False: the
+# integration by engine.integrate and the samples by mechanism_samples, the same functions and bits (the
+# tests compare the two).
+ONE_BUFFER_RUN = True
+_ONE_BUFFER_KERNELS = ("integrate_rk45", "integrate_dop853")
+_NO_CONDITION = np.empty(0)
+
+
+def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray,
+                       theta0: np.ndarray, omega0: np.ndarray, t_eval: np.ndarray, alpha: float, beta: float,
+                       project: bool) -> Trajectory | None:
+    """The run of :func:`simulate_on_mechanism` by :func:`~physics.codegen.mechanism_run.integrate_and_observe`
+    (the IR driver engine.integrate would call, the system's specialised one where it has it, then the samples
+    as :func:`chain_trajectory` reads them), or None for a run the IR drivers do not answer (other integrators,
+    scipy's back end)."""
+    spec = INTEGRATORS[settings.integrator]
+    if (settings.backend == SCIPY or not spec.adaptive or spec.kernel not in _ONE_BUFFER_KERNELS
+            or not native_integrators.answers(route.compiled.integration_layout, alpha, beta, project,
+                                              _NO_CONDITION)):
+        return None
+    from ..codegen.mechanism_run import integrate_and_observe  # noqa: PLC0415
+
+    compiled = route.compiled
+    driver = compiled.specialised_driver(spec.name)
+    if driver is None:
+        driver = native_integrators.generic_driver(spec.name)
+    specialised = compiled.samples_solve()
+    solve = specialised.solve if specialised is not None else generic_solve()
+    plan = _chain_plan(chain, settings, route)
+    n = chain.n
+    columns = _state_columns(route, n)
+    y0 = np.concatenate((theta0, omega0))[columns[0]]
+    status, n_steps, n_rhs, t_reached, t, states, arrays = integrate_and_observe(
+        driver, solve, compiled, compiled.integration_layout, y0, t_eval, params, settings.rtol, settings.atol,
+        alpha, beta, project, settings.max_steps, spec.name, plan, chain.g, chain.pinned)
+    if status == Status.OK and len(t) < len(t_eval):
+        status = int(Status.NOT_FINITE)
+    detail = _compiled_detail(settings, status)
+    trajectory = (_trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
+                  if len(t)
+                  else _empty_trajectory(chain, settings, route, n))
+    trajectory.status = status
+    trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
+    trajectory.n_steps = n_steps
+    trajectory.n_rhs = n_rhs
+    trajectory.stats["t_reached"] = t_reached
+    return trajectory
+
+
+_columns: dict[int, tuple[ChainAsMechanism, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+
+
+def _state_columns(route: ChainAsMechanism, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(tree state, theta, omega)`` columns: the tree's state ``[x, v]`` from the chain's ``[theta, omega]``,
+    and the chain's angles and rates from the tree's state (each one fancy index, kept per route)."""
+    entry = _columns.get(id(route))
+    if entry is not None and entry[0] is route:
+        return entry[1]
+    columns = (np.concatenate([route.order, route.order + n]), route.inverse.copy(), route.inverse + n)
+    with _plans_lock:
+        if len(_columns) >= MAX_ROUTES:
+            _columns.pop(next(iter(_columns)))
+        _columns[id(route)] = (route, columns)
+    return columns
 
 
 def _finite_rows(y_out: np.ndarray) -> int:
@@ -153,41 +227,53 @@ def chain_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, 
                      theta: np.ndarray, omega: np.ndarray, alpha: float, beta: float) -> Trajectory:
     """Everything a chain's Trajectory reports at the sampled angles and rates ``(T, n)``: the mechanism's
     system solved at every sample (its accelerations, multipliers and condition), its reactions in the chain's
-    order, and the chain's kinematics of the angles."""
-    bars = chain_arrays(chain)
-    trace = trace_point(chain, settings, bars)
+    order, and the positions, velocities and energies read off the bodies' poses (the chain's joints and traced
+    point named here, :func:`_chain_points`)."""
     count, n = theta.shape[0], chain.n
     theta = np.ascontiguousarray(theta)
     omega = np.ascontiguousarray(omega)
+    return _trajectory_of(chain, settings, route, params, t, theta, omega, theta[:, route.order],
+                          omega[:, route.order], alpha, beta) if count else _empty_trajectory(chain, settings, route, n)
+
+
+def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray, t: np.ndarray,
+                   theta: np.ndarray, omega: np.ndarray, s: np.ndarray, sd: np.ndarray, alpha: float,
+                   beta: float) -> Trajectory:
+    """:func:`chain_trajectory` of at least one sample, ``s``, ``sd`` the states in the tree's order: the
+    system's solve, its poses (and a pinned chain's matrices) in one buffer
+    (:func:`~physics.codegen.mechanism_samples.mechanism_samples`), the rest batched products of them."""
     compiled = route.compiled
-    s = np.ascontiguousarray(theta[:, route.order])
-    sd = np.ascontiguousarray(omega[:, route.order])
-    if count:
-        full, kernel_condition = compiled.solve_samples(s, sd, params, alpha, beta)
-    else:
-        full, kernel_condition = np.zeros((0, compiled.n_unknowns)), np.zeros(0)
-    rows = _reaction_rows(route, params, s, sd, full)
-    joint_reactions = rows[:, route.joint_rows].reshape(count, n, 2)
-    chain_params = bars.params_with(settings.damping)
-    kinetic, potential, energy = energies(chain_params, theta, omega)
-    joints = joint_positions(bars.L, theta)
-    trace_xy = point_on_bar(bars.L, theta, trace.bar, float(trace.along), float(trace.across))
+    specialised = compiled.samples_solve()
+    plan = _chain_plan(chain, settings, route)
+    arrays = mechanism_samples(compiled, t, s, sd, params, None if specialised is None else specialised.solve,
+                               alpha=alpha, beta=beta, constraints=False, kinematics=plan.tree,
+                               matrices=chain.pinned, observables=plan, g=chain.g)
+    return _trajectory_from(chain, settings, route, t, theta, omega, arrays)
+
+
+def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, t: np.ndarray, theta: np.ndarray,
+                     omega: np.ndarray, arrays) -> Trajectory:
+    """The Trajectory of at least one sample from the samples' arrays (``full``, ``condition``, ``matrices``
+    and the chain plan's ``points``, ``velocities``, ``energies`` and ``reactions``), the chain's names given
+    to the plan's rows and points."""
+    count, n = theta.shape[0], chain.n
+    rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
+    joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
+    joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
+    trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
+    kinetic, potential, energy = arrays.energies
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:
-        tip_reaction = rows[:, route.tip_rows]
+        tip_reaction = rows[:, 2 * n:]
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
-        constraint_velocity = tip_velocity(bars.L, theta, omega)
-        if count:
-            A, _ = compiled.sample_matrices(s, sd, params)
-            with np.errstate(all="ignore"):
-                condition = np.linalg.cond(A)
-        else:
-            condition = np.zeros(0)
+        constraint_velocity = np.ascontiguousarray(arrays.velocities[:, 2 * n, :])
+        with np.errstate(all="ignore"):
+            condition = np.linalg.cond(arrays.matrices)
     else:
         tip_reaction = np.zeros((count, 0))
         constraint_xy = np.zeros((count, 0))
         constraint_velocity = np.zeros((count, 0))
-        condition = kernel_condition
+        condition = arrays.condition
     return Trajectory.of_chain(
         settings.method, settings.integrator, t, trace_xy, kinetic, potential, energy, condition, theta, omega,
         joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity, joint_reactions,
@@ -195,20 +281,83 @@ def chain_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, 
     )
 
 
-def _reaction_rows(route: ChainAsMechanism, params: np.ndarray, s: np.ndarray, sd: np.ndarray,
-                   full: np.ndarray) -> np.ndarray:
-    """Every joint row's reaction at the samples (T, rows), in the mechanism's row order: the DAE's own
-    multipliers, or a tree formulation's by Newton's second law on every body from its accelerations."""
-    count = s.shape[0]
-    if route.own_reactions:
-        return full[:, route.compiled.multiplier_index] if count else np.zeros((0, len(route.pieces.row_names)))
-    if not count:
-        return np.zeros((0, len(route.pieces.row_names)))
-    acceleration = full[:, route.compiled.theta_ddot_index]
-    jacobian, pose, bias = route.compiled.kinematics_states(s, sd, params)
-    qdot = np.einsum("kij,kj->ki", jacobian, sd)
-    qddot = np.einsum("kij,kj->ki", jacobian, acceleration) + bias
-    empty = np.zeros(0)
-    solved = engine.Samples(pose, qdot, qddot, empty, empty, empty, empty)
-    return engine.body_reactions(route.dynamics, solved, closed_form=route.pieces.tree_reactions)
+def _empty_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, n: int) -> Trajectory:
+    """The Trajectory of no sample (a run that failed before its first), every field of its shape."""
+    zero = np.zeros(0)
+    pinned = 2 * int(chain.pinned)
+    return Trajectory.of_chain(
+        settings.method, settings.integrator, zero, np.zeros((0, 2)), zero, zero, zero, zero, np.zeros((0, n)),
+        np.zeros((0, n)), np.zeros((0, n + 1, 2)), np.zeros((0, 2)), np.zeros((0, n * route.own_reactions, 2)),
+        np.zeros((0, pinned)), np.zeros((0, pinned)), np.zeros((0, pinned)), np.zeros((0, n, 2)),
+        settings.trace is not None,
+    )
 
+
+_plans_lock = threading.Lock()
+# (id(route), trace bar, along, across), or (id(route), None) for the tip -> (the route, its plan); holding the
+# route keeps its id from reuse (a route is one chain object with its bars: the tip is fixed with it)
+_plans: dict[tuple, tuple[ChainAsMechanism, ObservablesPlan]] = {}
+
+
+def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:
+    """What a chain's Trajectory reads of the mechanism's samples, as the generic observables' plan: the points
+    of :func:`_chain_points`, the reaction rows of pins ``O``, ``J1 .. J(n-1)`` then ``H`` (a pinned chain), by
+    the DAE's multipliers or Newton's law on the bodies in closed form (:mod:`physics.mechanism.tree_reactions`:
+    an open chain's tree, a pinned chain's loop with the tree formulation's own multipliers of its cut pin)."""
+    asked = settings.trace
+    key = (id(route), None) if asked is None else (id(route), asked.bar, asked.along, asked.across)
+    entry = _plans.get(key)
+    if entry is not None and entry[0] is route:
+        return entry[1]
+    trace = trace_point(chain, settings, chain_arrays(chain))  # the settings' point, else the tip; checked
+    compiled, dynamics = route.compiled, route.dynamics
+    constraints = dynamics.constraints
+    chosen = np.concatenate([route.joint_rows, route.tip_rows])
+    multiplier_index = compiled.multiplier_index
+    unknowns_map = np.zeros((compiled.n_unknowns, chosen.size))
+    size = dynamics.mass_diagonal.size
+    linear = np.zeros((size, chosen.size))
+    if route.own_reactions:
+        unknowns_map[multiplier_index[chosen], np.arange(chosen.size)] = 1.0
+    else:
+        closed_form = route.pieces.tree_reactions
+        if isinstance(closed_form, LoopReactions):
+            linear = closed_form.sums[:, :closed_form.unknowns_to_rows.shape[1]][:, chosen]
+            unknowns_map[multiplier_index] = closed_form.unknowns_to_rows[:, chosen]
+        elif isinstance(closed_form, TreeReactions) and not closed_form.motor_rows.size:
+            linear = closed_form.linear[:, chosen]
+        else:  # a chain is pins only, no motors: its tree always has a closed form
+            raise AssertionError("a chain's mechanism without a closed form of its reactions")
+    pose = constraints.sketch_pose()
+    constant_force = dynamics.gravity.copy()
+    if constraints.torque.size:
+        constant_force += constraints.driven_jacobian(pose).T @ constraints.torque
+    damping = np.zeros((size, size))
+    if np.any(constraints.damping):  # a pin's damper: its relative spin's gradient is constant
+        along = constraints.damper_jacobian(pose)
+        damping = -(along.T * constraints.damping) @ along
+    acceleration_index = compiled.theta_ddot_index if not route.own_reactions else np.zeros(chain.n, dtype=np.int64)
+    plan = ObservablesPlan(route.inverse, acceleration_index, dynamics.mass_diagonal, constant_force, damping,
+                           linear, unknowns_map, _chain_points(chain, trace, route), tree=not route.own_reactions)
+    with _plans_lock:
+        if len(_plans) >= MAX_ROUTES:
+            _plans.pop(next(iter(_plans)))
+        _plans[key] = (route, plan)
+    return plan
+
+
+def _chain_points(chain: Chain, trace, route: ChainAsMechanism) -> PathPoints:
+    """The points a chain's Trajectory reports, on the mechanism's bodies, each reached from pin ``O`` along the
+    bars (the chain's own way round a pinned chain's loop, whatever the mechanism's tree): the bars' centres of
+    mass, pin ``O``, the bars' distal points ``D`` (joints ``1 .. n``, the last the tip), then the traced point
+    (``along`` bar ``bar`` from its proximal point ``P`` and ``across`` to its counter-clockwise side; the
+    sketch draws every bar hanging down, so along is ``-y`` and across ``+x`` there)."""
+    bodies = route.mechanism.bodies
+    proximal = [np.asarray(body.points["P"], dtype=float) for body in bodies]
+    through = [(k, np.asarray(body.points["D"], dtype=float) - proximal[k]) for k, body in enumerate(bodies)]
+    traced = proximal[trace.bar - 1] + np.array([float(trace.across), -float(trace.along)])
+    paths = [through[:k] + [(k, np.asarray(body.com, dtype=float) - proximal[k])] for k, body in enumerate(bodies)]
+    paths += [through[:k] for k in range(chain.n + 1)]
+    paths.append(through[:trace.bar - 1] + [(trace.bar - 1, traced - proximal[trace.bar - 1])])
+    origin = route.mechanism.ground["O"]
+    return PathPoints.along(chain.n, np.tile(np.asarray(origin, dtype=float), (len(paths), 1)), paths)

@@ -14,16 +14,18 @@ tree's order (the four-bar's ``(theta1, theta3, theta2)``, its closure ``J2``). 
   mechanism's DAE in tree coordinates (:mod:`physics.mechanism.tree_dae`), the chain's DAE integrating angles
   with every joint's multipliers; the reduced methods: the mechanism's reduced model as before
   (:mod:`physics.simulate.reduced_adapter`), its samples read by the mechanism's Lagrange system.
-* The integration is the engine's (:func:`physics.mechanism.engine.integrate`: the same compiled kernels with
-  dense output, scipy's solvers on the scipy back end), with the chain's stabilisation rule (an open chain has no
-  constraint to hold) and the chain's sample times.
+* The integration is the engine's (the same compiled kernels with dense output, scipy's solvers on the scipy
+  back end), with the chain's stabilisation rule (an open chain has no constraint to hold) and the chain's sample
+  times; a compiled RK45/DOP853 run and its samples are one buffer (:mod:`physics.codegen.mechanism_run`), any
+  other run :func:`physics.mechanism.engine.integrate` then the same samples' functions.
 * Every sample is solved by the mechanism's system (with the run's Baumgarte terms, as the chain's samples are):
-  its reactions are the DAE's multipliers, or a tree formulation's by Newton's second law on every body
-  (:func:`physics.mechanism.engine.body_reactions`); pin ``O`` and ``J1 .. J(n-1)`` are the chain's joint
+  its reactions are the DAE's multipliers, or a tree formulation's by Newton's second law on every body in
+  closed form (:mod:`physics.mechanism.tree_reactions`); pin ``O`` and ``J1 .. J(n-1)`` are the chain's joint
   reactions ``R_k`` (the force ON bar k+1 BY bar k), pin ``H`` the tip's. The condition is the solved system's:
   the kernel's estimate for an open chain, the 2-norm condition number of the matrix solved for a pinned one, as
-  the chain's run reports it. Positions, energies, the traced point and the tip's velocity come from the chain's
-  own kinematics (:mod:`physics.kinematics`) of the angles.
+  the chain's run reports it. Positions, energies, the traced point and the tip's velocity are the generic
+  observables of :mod:`physics.codegen.mechanism_observables` (points reached from ``O`` along the bars, as the
+  chain's own kinematics places them; the same to rounding).
 * Failures are the chain's: a status and the chain's sentence (no mechanism name), never an exception midway.
 
 Off by default (:data:`ENABLED`): :func:`physics.simulate.run.simulate` takes this route when it is True. The
@@ -41,7 +43,7 @@ if TYPE_CHECKING:
     from ..model import Chain, Settings
     from .trajectory import Trajectory
 
-__all__ = ["ENABLED", "load_route", "simulate_on_mechanism"]
+__all__ = ["ENABLED", "simulate_on_mechanism"]
 
 # The switch physics.simulate reads: False runs a chain on its own kernels (today's route), True on the general
 # mechanism engine. Not a user option: the lead flips it once a call costs the same on both routes.
@@ -56,14 +58,3 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     from .mechanism_route import simulate_on_mechanism as run  # noqa: PLC0415
 
     return run(chain, theta0, omega0, settings, t_start)
-
-
-def load_route(chain: Chain, method: str, damping: float) -> None:
-    """Load (or, on a cache miss, derive and generate) the system a run of ``method`` on this route integrates:
-    the chain written as a mechanism (:func:`~physics.simulate.mechanism_route.chain_route`), what the command
-    line loads before a run's clock starts. The chain's own generated system is not needed on this route: a new
-    10-link chain's first Lagrange run derived and compiled it too, about 1 s of the 3 s it is allowed."""
-    # the mechanism engine: loaded by a run on this route only (the app's server never loads it)
-    from .mechanism_route import chain_route  # noqa: PLC0415
-
-    chain_route(chain, method, damping)

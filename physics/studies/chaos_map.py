@@ -35,13 +35,14 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from ..arguments import Parser
-from ..codegen import load_compiled
 from ..errors import LinkageError
 from ..kinematics import energies
 from ..mechanism.presets import MECHANISM_PRESETS
-from ..model import FORMULATION_NAMES
+from ..model import FORMULATION_NAMES, Chain
 from ..outputs import check_output_path, write_output
 from ..presets import get_preset, preset_names
+from ..simulate import on_mechanism
+from ..simulate.chain_system import chain_system
 from .charts import colormap, png_bytes, write_png
 from .report import Progress, machine_note
 
@@ -63,6 +64,8 @@ class TileTask:
     method: str
     n: int
     params: tuple
+    chain: Chain  # for the system on the chosen route (the chain as a mechanism is built from it)
+    on_mechanism: bool  # the caller's route (physics.simulate.on_mechanism.ENABLED): a worker has its own switch
     theta1: tuple  # column angles (x axis)
     theta2: tuple  # this band's row angles (y axis)
     row_start: int
@@ -90,8 +93,11 @@ def flip_energy(params: np.ndarray, n: int) -> float:
 def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     """Flip times of one band: shape ``(len(theta2), len(theta1))``; NaN = not within t_max, FORBIDDEN = no
     flip possible. Runs in whichever process the executor picks."""
-    compiled = load_compiled(task.method, task.n, False)
-    params = np.asarray(task.params, dtype=float)
+    # the system on the caller's route: the chain's own kernel, or the chain as a mechanism (its coordinates may be
+    # the angles in another order: a flip is any angle leaving [-pi, pi], whichever the order)
+    system = chain_system(task.chain, task.method, on_mechanism_engine=task.on_mechanism)
+    compiled = system.compiled
+    params = np.asarray(task.params, dtype=float)  # the chain's numbers: its energies
     n = task.n
     columns, rows = len(task.theta1), len(task.theta2)
     theta = np.zeros((rows * columns, n))
@@ -103,8 +109,8 @@ def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     allowed = energy >= flip_energy(params, n)
     times[~allowed] = FORBIDDEN
     active = np.flatnonzero(allowed)
-    theta = np.ascontiguousarray(theta[active])
-    omega = np.ascontiguousarray(omega[active])
+    theta = system.coordinates(theta[active])
+    omega = system.coordinates(omega[active])
     work = np.empty((7, n))
     condition = np.empty(len(active))
     steps = int(math.ceil(task.t_max / task.step - 1e-9))
@@ -112,7 +118,7 @@ def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     for k in range(1, steps + 1):
         if len(active) == 0:
             break
-        compiled.rk4_batch_step(theta, omega, params, task.step, 0.0, 0.0, work, condition)
+        compiled.rk4_batch_step(theta, omega, system.params, task.step, 0.0, 0.0, work, condition)
         over = np.abs(theta) > math.pi
         flipped = over.any(axis=1) | ~np.isfinite(theta).all(axis=1)
         if flipped.any():
@@ -133,7 +139,8 @@ def tiles(chain, method: str, resolution: int, t_max: float, step: float) -> lis
     band = max(1, PIXELS_PER_TILE // resolution)
     params = tuple(float(v) for v in chain.params())
     return [
-        TileTask(method, chain.n, params, tuple(angles), tuple(angles[start : start + band]), start, t_max, step)
+        TileTask(method, chain.n, params, chain, on_mechanism.ENABLED, tuple(angles), tuple(angles[start : start + band]),
+                 start, t_max, step)
         for start in range(0, resolution, band)
     ]
 

@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen import load_compiled
 from ..ensemble import DEFAULT_STEP
 from ..model import FORMULATION_NAMES, Settings
 from ..presets import get_preset
 from ..registry import METHODS
 from ..simulate import simulate
+from ..simulate.chain_system import chain_system
 from .ensemble_bench import BENCH_COUNTS, realtime_frame, throughput
 from .report import Progress, machine_note, median_time, write_report
 
@@ -35,7 +35,8 @@ def four_bar_models(t_end: float = 100.0, tolerance: float = 1e-9, repeats: int 
         settings = Settings(method=method, integrator="DOP853", rtol=tolerance, atol=tolerance, t_end=t_end, samples=1001)
         trajectory = simulate(preset.chain, preset.theta0, preset.omega0, settings)
         seconds = median_time(lambda: simulate(preset.chain, preset.theta0, preset.omega0, settings), repeats)
-        size = 1 if METHODS[method].reduced else load_compiled(method, 3, True).n_unknowns
+        # the unknowns of the system the run solved (the chain's kernel, or the chain as a mechanism)
+        size = 1 if METHODS[method].reduced else chain_system(preset.chain, method).compiled.n_unknowns
         rows.append({"method": method, "unknowns": size, "seconds": seconds, "status": trajectory.status,
                      "tip_gap": float(_dist(trajectory.constraint_xy).max()), "energy_drift": trajectory.energy_drift(),
                      "n_rhs": trajectory.n_rhs})
@@ -47,31 +48,34 @@ def rhs_costs(batch: int = 1000) -> list[dict]:
     LU (one state, and per state in a batch), against the same generated A, b solved by numpy.linalg.solve,
     against the seed's lambdify + numpy.linalg.solve."""
     preset = get_preset("triple-c")
-    params = preset.chain.params()
+    params = preset.chain.params()  # the chain's numbers (the seed baseline's)
     theta, omega = preset.theta0 + 0.1, np.array([0.3, -0.2, 0.1])
     rows = []
     for method in FORMULATION_NAMES:
-        compiled = load_compiled(method, 3, False)
+        # the generated system on the route physics.simulate takes, its state and parameters in its own terms
+        generated = chain_system(preset.chain, method)
+        compiled = generated.compiled
+        state_theta, state_omega = generated.coordinates(theta), generated.coordinates(omega)
         k = compiled.n_unknowns
         index = compiled.theta_ddot_index
         loops = 2000
 
         def single():
             for _ in range(loops):
-                compiled.accel(theta, omega, params)
+                compiled.accel(state_theta, state_omega, generated.params)
 
         def numpy_solve():
             for _ in range(loops // 10):
-                A, b = compiled.matrix(theta, omega, params)
+                A, b = compiled.matrix(state_theta, state_omega, generated.params)
                 np.linalg.solve(A, b)[index]
 
-        thetas = np.tile(theta, (batch, 1))
-        omegas = np.tile(omega, (batch, 1))
+        thetas = np.tile(state_theta, (batch, 1))
+        omegas = np.tile(state_omega, (batch, 1))
         rows.append({
             "method": method, "unknowns": k,
             "generated_accel_us": median_time(single) / loops * 1e6,
             "generated_accel_batch_us_per_state": median_time(
-                lambda: compiled.accel_batch(thetas, omegas, params)) / batch * 1e6,
+                lambda: compiled.accel_batch(thetas, omegas, generated.params)) / batch * 1e6,
             "generated_assemble_numpy_solve_us": median_time(numpy_solve) / (loops // 10) * 1e6,
         })
     # sympy boundary: the baseline derives with sympy, imported only when its cost is measured.

@@ -144,3 +144,27 @@ def test_the_framed_map_has_its_axes_a_colour_bar_and_a_key():
     for colour in (chaos.NOT_FLIPPED_RGB, chaos.FORBIDDEN_RGB):
         assert np.all(key == colour, axis=-1).sum() >= 64, colour
     assert chaos._log_ticks(0.01, 10.0) == [0.01, 0.05, 0.2, 1.0, 5.0]
+
+
+@pytest.mark.parametrize("name", ["double", "triple-a"])
+def test_the_map_is_the_same_with_the_chain_on_the_mechanism_engine(name, monkeypatch):
+    """With physics.simulate.on_mechanism.ENABLED every tile runs the chain written as a mechanism (its task says
+    so: a worker process does not share the caller's switch) and never loads the chain's own kernel; the flip
+    times, whole steps, come out bit for bit the same (measured: every pixel of both maps)."""
+    from physics.simulate import on_mechanism  # noqa: PLC0415
+
+    chain = get_preset(name).chain
+    monkeypatch.setattr(on_mechanism, "ENABLED", False)
+    assert not any(task.on_mechanism for task in tiles(chain, "lagrange", 20, 4.0, 0.01))
+    on_kernels = compute_map(chain, resolution=20, t_max=4.0)
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+    assert all(task.on_mechanism for task in tiles(chain, "lagrange", 20, 4.0, 0.01))
+
+    def refused(*_arguments, **_keywords):
+        raise AssertionError("the chain's own kernel was loaded on the mechanism route")
+
+    # by the module object: the name physics.simulate is the function simulate (physics/__init__.py)
+    monkeypatch.setattr(sys.modules["physics.simulate.chain_system"], "load_compiled", refused)
+    on_engine = compute_map(chain, resolution=20, t_max=4.0)
+    assert _same(on_kernels, on_engine)
+    assert np.count_nonzero(on_engine > 0) > 0

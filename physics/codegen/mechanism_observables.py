@@ -1,0 +1,144 @@
+"""What a run reports of its bodies besides the solve, read off every sample's body rotations: named points
+fixed on bodies (where they are and how fast they move) and the kinetic and potential energy, generic in the
+bodies and points (nothing here knows a chain; the chain's run on the mechanism engine names its joints, its
+traced point and their path at its boundary, :mod:`physics.simulate.mechanism_route`).
+
+A point is placed by walking a path of bodies from a ground point: through each body on the way from the point
+where the path enters it to the one where it leaves, then from the last body's entry to the point itself,
+every step an arm of the sketch turned with its body. So every point's ``x`` and ``y`` are linear in the bodies'
+``cos phi, sin phi``: one product with a constant matrix gives every point of every sample, and the time
+derivative (``d cos phi = -omega sin phi``) its velocity. Why a path and not the poses the formulation's
+kinematics gives: a closed loop run without stabilisation drifts off its closure, and then a point's place
+depends on which way round the loop it is reached; the path says which (a chain's: from ``O`` along its bars,
+as its own kinematics read it), and for an open tree it is the tree's own, the same places to rounding.
+
+The products are computed natively over every sample in one call (:mod:`physics.codegen.mechanism_observables_ir`,
+with the energies and the reaction rows); they agree with the chain's own kinematics of the angles to rounding
+(another order of the same sums). This module holds the constants of that call (:class:`ObservablesPlan`) and
+loads its machine code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PathPoints:
+    """Points, each reached along a path of bodies from a ground point: ``x = origin_x + [cos phi, sin phi]
+    @ to_x`` (and ``y``) at every sample, ``cos phi, sin phi`` of the ``B`` bodies side by side ``(T, 2 B)``;
+    ``to_x, to_y (2 B, P)``. Built by :meth:`along`."""
+
+    origin_x: np.ndarray  # (P,)
+    origin_y: np.ndarray
+    to_x: np.ndarray
+    to_y: np.ndarray
+
+    @classmethod
+    def along(cls, bodies: int, origins: np.ndarray, paths: list[list[tuple[int, np.ndarray]]]) -> PathPoints:
+        """``origins (P, 2)``: each point's ground point; ``paths[p]``: the steps from it, ``(body, step)``
+        with ``step`` the vector on that body in the sketch, from where the path enters it to where it leaves
+        (or to the point, for the last); bodies 0-based, at most ``bodies``."""
+        count = len(paths)
+        to_x, to_y = np.zeros((2 * bodies, count)), np.zeros((2 * bodies, count))
+        for point, path in enumerate(paths):
+            for body, step in path:
+                if not 0 <= body < bodies:
+                    raise ValueError(f"point {point}: body {body} is not one of the {bodies}")
+                step_x, step_y = (float(value) for value in step)
+                # R(phi) step = (cos step_x - sin step_y, sin step_x + cos step_y)
+                to_x[body, point] += step_x
+                to_x[bodies + body, point] -= step_y
+                to_y[body, point] += step_y
+                to_y[bodies + body, point] += step_x
+        origins = np.asarray(origins, dtype=float).reshape(count, 2)
+        built = cls(np.ascontiguousarray(origins[:, 0]), np.ascontiguousarray(origins[:, 1]), to_x, to_y)
+        for name in cls.__dataclass_fields__:
+            getattr(built, name).setflags(write=False)
+        return built
+
+
+class ObservablesPlan:
+    """The constants of :func:`observe` for one mechanism, its points and its reaction rows, in the layout of
+    :mod:`physics.codegen.mechanism_observables_ir` (the arrays held here, their addresses taken once).
+
+    ``rotation_index (B,)``: the coordinate that is each body's rotation (absolute rotations);
+    ``acceleration_index (n,)``: where each coordinate's acceleration is among the solve's unknowns;
+    ``mass_diagonal``, ``constant_force (3 B,)`` and ``damping (3 B, 3 B)``: ``M`` and ``Q = constant_force +
+    damping @ qdot`` (gravity, torque motors; pin dampers); ``linear (3 B, R)`` and ``unknowns_map (k, R)``: the
+    reaction rows reported, ``(M qddot - Q) @ linear + unknowns @ unknowns_map`` (``tree`` False: the second
+    term alone); ``points``: a :class:`PathPoints` whose first ``B`` points are the bodies' centres."""
+
+    def __init__(self, rotation_index, acceleration_index, mass_diagonal, constant_force, damping, linear,
+                 unknowns_map, points: PathPoints, tree: bool) -> None:
+        rotation_index = np.asarray(rotation_index, dtype=np.int64)
+        acceleration_index = np.asarray(acceleration_index, dtype=np.int64)
+        bodies, n = rotation_index.size, acceleration_index.size
+        size = 3 * bodies
+        linear = np.asarray(linear, dtype=float)
+        unknowns_map = np.asarray(unknowns_map, dtype=float)
+        count, reactions, unknowns = points.to_x.shape[1], linear.shape[1], unknowns_map.shape[0]
+        if (np.shape(mass_diagonal) != (size,) or np.shape(constant_force) != (size,)
+                or np.shape(damping) != (size, size) or linear.shape != (size, reactions)
+                or unknowns_map.shape != (unknowns, reactions) or points.to_x.shape != (2 * bodies, count)
+                or count < bodies or np.any(rotation_index >= n) or np.any(acceleration_index >= unknowns)):
+            raise ValueError("inconsistent shapes for the mechanism's observables")
+        places = np.zeros((2 * bodies, 2 * count))  # output 2 p + axis, as the points' (P, 2) rows lie
+        places[:, 0::2], places[:, 1::2] = points.to_x, points.to_y
+        matrices = [_terms(places), _terms(np.asarray(damping, dtype=float)), _terms(linear), _terms(unknowns_map)]
+        self.shape = np.array([n, bodies, unknowns, count, reactions, *(len(weights) for _, _, weights in matrices)],
+                              dtype=np.int64)
+        self.indices = np.ascontiguousarray(np.concatenate(
+            [acceleration_index, rotation_index, *(part for outputs, inputs, _ in matrices
+                                                   for part in (outputs, inputs))]), dtype=np.int64)
+        origin = np.column_stack([points.origin_x, points.origin_y])
+        self.constants = np.ascontiguousarray(np.concatenate(
+            [np.ravel(part) for part in (mass_diagonal, constant_force, origin)]
+            + [weights for _, _, weights in matrices]), dtype=float)
+        self.tree = bool(tree)
+        self.bodies, self.count, self.reactions, self.unknowns, self.n = bodies, count, reactions, unknowns, n
+        self.addresses = (self.shape.ctypes.data, self.indices.ctypes.data, self.constants.ctypes.data)
+
+
+def _terms(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(outputs, inputs, weights)`` of the non-zeros of ``matrix (inputs, outputs)`` (``y = x @ matrix``),
+    ordered by output, then input: the dense product's sums in their order, less terms that add zero."""
+    inputs, outputs = np.nonzero(matrix.T)[::-1]
+    order = np.lexsort((inputs, outputs))
+    inputs, outputs = inputs[order], outputs[order]
+    return outputs.astype(np.int64), inputs.astype(np.int64), matrix[inputs, outputs].astype(float)
+
+
+def scratch_length(bodies: int) -> int:
+    """Doubles of ``mechanism_observables``' scratch: ``[cos, sin]`` and their rates (4 B), ``qdot``, ``qddot``
+    and ``M qddot - Q`` (3 x 3 B)."""
+    return 13 * bodies
+
+
+_function: list = []  # [the ctypes function, the engine that owns its machine code]
+
+
+def observables_function():
+    """The ctypes function of ``mechanism_observables`` (:mod:`physics.codegen.mechanism_observables_ir`),
+    compiled once per process at O2 as the specialised drivers are (no pass may reassociate or contract without
+    fast-math flags, so the same operations; at the drivers' O0 its small loops over matrices cost about 2 us a
+    sample, more than the solve) or loaded from the machine-code cache."""
+    if not _function:
+        import ctypes  # noqa: PLC0415
+
+        from . import native  # noqa: PLC0415  (the O2 pipeline and target machine of the specialised code)
+        from .machine_code import compile_module, llvm_binding, sources_digest  # noqa: PLC0415
+        from .native_integrators import _lock, ir_builder  # noqa: PLC0415
+
+        p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+        signature = ctypes.CFUNCTYPE(None, p, p, p, i, i, d, p, p, i, p, p, p, p, p, p, p, p)
+        with _lock, native._lock:
+            if not _function:
+                llvm_binding()
+                engine = compile_module(ir_builder("mechanism_observables_ir", "observables_ir"), "driver-O2",
+                                        native._optimize, native._target_machine,
+                                        key=f"mechanism_observables\n{sources_digest()}")
+                _function.extend([signature(engine.get_function_address("mechanism_observables")), engine])
+    return _function[0]
