@@ -23,6 +23,13 @@ Point = tuple[float, float]
 __all__ = ["GROUND", "Body", "Driver", "Gear", "Mechanism", "Prismatic", "Revolute"]
 
 
+def _no_drivers() -> list[Driver]:
+    """A fresh empty list: pydantic reads a default factory's signature, and ``inspect.signature(list)`` parses
+    the builtin's text signature with :mod:`tokenize`, whose first use compiles its large regular expression
+    (about 4.5 ms of every process that loads this module, a chain's run on the mechanism engine included)."""
+    return []
+
+
 def _point_table(value: object, table: str, item: str) -> dict[str, Point]:
     """``{name: [x, y]}`` checked point by point; messages name the ``table`` or the ``item`` and its name."""
     if not isinstance(value, dict):
@@ -77,7 +84,7 @@ class Mechanism(BaseModel):
     ground: dict[str, Point] = Field(default_factory=dict, description="fixed points, name = [x, y]")
     bodies: list[Body] = Field(min_length=1, max_length=MAX_BODIES)
     joints: list[Joint] = Field(min_length=1, max_length=4 * MAX_BODIES)
-    drivers: list[Driver] = Field(default_factory=list)
+    drivers: list[Driver] = Field(default_factory=_no_drivers)
     trace: str | None = Field(None, description="body.point whose path is traced")
 
     @field_validator("ground", mode="before")
