@@ -20,7 +20,6 @@ import numpy as np
 
 from .arguments import Parser, parse_floats, parse_integers, parse_set
 from .assembly import assemble, grashof, project_velocity
-from .codegen import load_compiled
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kernels import numba_start
@@ -41,6 +40,7 @@ from .registry import (
     integrators_for,
 )
 from .simulate import simulate
+from .simulate.chain_system import chain_system
 from .simulate.run import check_assembled
 
 EXIT_BAD_INPUT = 2
@@ -279,14 +279,17 @@ def cmd_warm(args) -> int:
             continue
         for method in FORMULATION_NAMES:
             start = time.perf_counter()
-            compiled = load_compiled(method, n, pinned)
+            # the system a run of this chain takes (its own kernel, or the chain as a mechanism when
+            # physics.simulate runs chains on the mechanism engine): the one the ensemble's batch steps too
+            system = chain_system(preset.chain, method)
+            compiled = system.compiled
             # Every kernel this formulation can run (the variational one needs a Lagrangian).
             for integrator in integrators_for(method, COMPILED_INTEGRATORS):
                 # step: the fixed-step kernels' step; the adaptive ones do not read it
                 simulate(preset.chain, preset.theta0, preset.omega0,
                          Settings(method=method, integrator=integrator, t_end=0.05, samples=3, step=warm_step))
-            compiled.rk4_batch_step(np.array([preset.theta0]), np.array([preset.omega0]), preset.chain.params(),
-                                    1e-3, 0.0, 0.0, np.empty((RK4_WORK_ROWS, n)), np.empty(1))
+            compiled.rk4_batch_step(system.coordinates([preset.theta0]), system.coordinates([preset.omega0]),
+                                    system.params, 1e-3, 0.0, 0.0, np.empty((RK4_WORK_ROWS, n)), np.empty(1))
             print(f"{method} n={n} {'pinned' if pinned else 'open'}: {time.perf_counter() - start:.2f} s "
                   f"({'cached' if compiled.from_cache else 'derived'})", flush=True)
     return 0

@@ -51,3 +51,20 @@ def test_with_the_switch_off_the_command_line_loads_the_chains_system(monkeypatc
     monkeypatch.setattr(on_mechanism, "ENABLED", False)
     long_run.simulate_in_segments(preset.chain, preset.theta0, preset.omega0, settings)
     assert loaded[:1] == [("lagrange", 3, False)]
+
+
+def test_warm_on_the_mechanism_engine_warms_the_routes_systems_never_the_chains_own(monkeypatch, capsys):
+    """``python -m physics warm`` loads, runs and batch-steps the system a chain's run takes: on the mechanism
+    engine the chain written as a mechanism (its coordinates in the tree's order, its parameter vector)."""
+    from physics.cli import main  # noqa: PLC0415  (the command line: only this test needs it)
+
+    def refused(*_arguments, **_keywords):
+        raise AssertionError("the chain's own generated system was loaded by warm on the mechanism engine")
+
+    monkeypatch.setattr(chain_system_module, "load_compiled", refused)
+    # the command's own module must not hold the chain's loader either (it did before warm took chain_system)
+    monkeypatch.setattr(sys.modules[main.__module__], "load_compiled", refused, raising=False)
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+    assert main(["warm", "--links", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split(":")[0] for line in lines] == ["newton_euler n=2 open", "lagrange n=2 open", "dae n=2 open"]
