@@ -288,7 +288,7 @@ def cmd_warm(args) -> int:
                 # step: the fixed-step kernels' step; the adaptive ones do not read it
                 simulate(preset.chain, preset.theta0, preset.omega0,
                          Settings(method=method, integrator=integrator, t_end=0.05, samples=3, step=warm_step))
-            compiled.rk4_batch_step(system.coordinates([preset.theta0]), system.coordinates([preset.omega0]),
+            compiled.rk4_batch_step(system.coordinates(preset.theta0[None]), system.coordinates(preset.omega0[None]),
                                     system.params, 1e-3, 0.0, 0.0, np.empty((RK4_WORK_ROWS, n)), np.empty(1))
             print(f"{method} n={n} {'pinned' if pinned else 'open'}: {time.perf_counter() - start:.2f} s "
                   f"({'cached' if compiled.from_cache else 'derived'})", flush=True)
