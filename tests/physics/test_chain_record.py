@@ -161,6 +161,7 @@ def test_a_record_of_other_sources_is_replaced(monkeypatch):
     assert route._mechanism is not None  # not read from the stale record
     new = chain_record.record_path("newton_euler", chain.n, chain.pinned)
     assert new != old and new.is_file() and not old.exists()
+    new.unlink()  # the shared test cache keeps no record of sources that do not exist
 
 
 def test_the_lazy_geometry_is_the_chains_mechanism(monkeypatch):
@@ -200,3 +201,18 @@ def test_a_warm_route_process_loads_no_mechanism_module(preset, method):
     loaded = sorted(name for name in report["modules"] if name.startswith("physics.mechanism"))
     assert not loaded, loaded
     assert "physics.simulate.chain_record" in report["modules"]  # the run took the route, from its record
+
+
+def test_a_record_whose_generated_system_is_gone_derives_the_route_again():
+    """A record naming a generated system the cache folder does not hold (its code's digest changed, or a file
+    removed): the route is derived (the system with it) and the record rewritten, never a crash."""
+    chain = get_preset("triple-a").chain
+    record = _write_then_forget(chain, "lagrange")
+    path = chain_record.record_path("lagrange", chain.n, chain.pinned)
+    content = json.loads(record.to_json())
+    content["compiled_key"] = "lagrange-mechanism-absolute-0000000000000000"
+    path.write_bytes(tagged(path.name, json.dumps(content).encode()))
+    route = mechanism_route.chain_route(chain, "lagrange", 0.0)
+    assert route._mechanism is not None and route.record.compiled_key == record.compiled_key
+    _forget()
+    assert chain_record.load_record("lagrange", chain.n, chain.pinned).compiled_key == record.compiled_key
