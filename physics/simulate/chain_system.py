@@ -145,5 +145,5 @@ def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float
     else:
         reaction_index = np.zeros((0, 2), dtype=np.int64)
         tip_reaction_index = np.zeros(0, dtype=np.int64)
-    return ChainSystem(method, float(damping), compiled, route.pieces.parameters_at(t_start), route.order,
+    return ChainSystem(method, float(damping), compiled, route.parameters_at(t_start), route.order,
                        route.inverse, theta_ddot_index, reaction_index, tip_reaction_index, route)

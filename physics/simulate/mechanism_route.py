@@ -1,64 +1,131 @@
 """The implementation of :mod:`physics.simulate.on_mechanism` (its text says what maps to what): imported by a run
 on that route only, so a process that never takes it (the app's server, whose tests check that it never loads the
-mechanism engine) does not load :mod:`physics.mechanism.engine`."""
+mechanism engine) does not load :mod:`physics.mechanism.engine`.
+
+A warm route loads no :mod:`physics.mechanism` module either: :func:`chain_route` reads the structure's record
+(:mod:`physics.simulate.chain_record`: the number-free pieces, kept beside the generated code) and maps the
+chain's numbers itself; only a structure's first route (or a record not trusted) writes the chain as a mechanism
+and derives the pieces, and the mechanism's description, prepared pieces and dynamics are built when a caller
+asks for them (:attr:`ChainAsMechanism.mechanism`, ``pieces``, ``dynamics``)."""
 
 
 from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..codegen import native_integrators
-from ..codegen.cache import CompiledSystem
+from ..codegen.cache import CompiledSystem, load_generated
 from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
 from ..codegen.mechanism_samples import generic_solve, mechanism_samples
-from ..mechanism import engine
-from ..mechanism.chains import chain_mechanism
-from ..mechanism.dae import MechanismDAE
-from ..mechanism.model import Mechanism
-from ..mechanism.prepared import Prepared, prepared
-from ..mechanism.topology import analyse
-from ..mechanism.tree_reactions import LoopReactions, TreeReactions
 from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
+from . import chain_record
 from .build import trace_point
+from .chain_record import ChainRecord
 from .prepared import chain_arrays, sample_times, stabilization_gains
 from .trajectory import Trajectory
+
+if TYPE_CHECKING:  # the mechanism package: loaded when a route is first derived, or its geometry asked for
+    from ..mechanism.dae import MechanismDAE
+    from ..mechanism.model import Mechanism
+    from ..mechanism.prepared import Prepared
 
 __all__ = ["chain_route", "chain_trajectory", "simulate_on_mechanism"]
 
 ABSOLUTE = "absolute"
 
 
-@dataclass(frozen=True)
-class ChainAsMechanism:
-    """A chain written as a mechanism for one method: the description, its prepared pieces, its compiled system
-    (absolute rotations) and the permutation between the chain's bar order and the tree coordinates'."""
+class _RecordMiss(Exception):
+    """The record names a generated system the cache folder no longer holds: the route is derived again."""
 
-    mechanism: Mechanism
-    pieces: Prepared
-    dynamics: MechanismDAE  # its bodies' masses and applied forces (the chain's bars may be massless)
-    compiled: CompiledSystem
-    order: np.ndarray  # tree coordinate k is the angle of bar order[k] (0-based)
-    inverse: np.ndarray  # chain bar j is tree coordinate inverse[j]
-    joint_rows: np.ndarray  # the reaction rows of pins O, J1 .. J(n-1), x then y each: (2 n,)
-    tip_rows: np.ndarray  # pin H's two rows; empty for an open chain
-    own_reactions: bool  # the system's multipliers are every joint's reactions (the DAE)
+
+class ChainAsMechanism:
+    """A chain written as a mechanism for one method: its compiled system (absolute rotations), the permutation
+    between the chain's bar order and the tree coordinates', the reaction rows, the parameter vector and the
+    observables' constants; the mechanism's description, prepared pieces and dynamics on demand (a plain class:
+    a warm route is built from a record without the mechanism package, which these properties load)."""
+
+    def __init__(self, chain: Chain, damping: float, compiled: CompiledSystem, record: ChainRecord,
+                 parameters: np.ndarray, mass_diagonal: np.ndarray, constant_force: np.ndarray,
+                 damping_matrix: np.ndarray, sketch: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 mechanism: Mechanism | None = None, pieces: Prepared | None = None,
+                 dynamics: MechanismDAE | None = None) -> None:
+        self.chain, self.bars, self.damping = chain, tuple(chain.bars), float(damping)
+        self.compiled = compiled
+        self.record = record
+        self.order = record.order  # tree coordinate k is the angle of bar order[k] (0-based)
+        self.inverse = np.argsort(record.order)  # chain bar j is tree coordinate inverse[j]
+        self.joint_rows = record.joint_rows  # the reaction rows of pins O, J1 .. J(n-1), x then y each: (2 n,)
+        self.tip_rows = record.tip_rows  # pin H's two rows; empty for an open chain
+        self.own_reactions = record.own_reactions  # the system's multipliers are every joint's reactions (the DAE)
+        self.parameters = parameters  # the mechanism's parameter vector at t = 0 (never handed out: see below)
+        self.mass_diagonal, self.constant_force, self.damping_matrix = mass_diagonal, constant_force, damping_matrix
+        self.sketch = sketch  # each bar's P, D and centre (n, 2) in the sketch
+        self._mechanism, self._pieces, self._dynamics = mechanism, pieces, dynamics
+
+    def parameters_at(self, t: float) -> np.ndarray:
+        """A fresh parameter vector with its time slot set to ``t`` (an integrator writes into it)."""
+        params = self.parameters.copy()
+        params[-1] = t
+        return params
+
+    @property
+    def mechanism(self) -> Mechanism:
+        """The chain drawn hanging down (:func:`~physics.mechanism.chains.chain_mechanism`), its pins damped."""
+        if self._mechanism is None:
+            from ..mechanism.chains import chain_mechanism  # noqa: PLC0415
+
+            chain = self.chain
+            if len(chain.bars) != len(self.bars) or not all(a is b for a, b in zip(chain.bars, self.bars)):
+                chain = chain.model_copy(update={"bars": list(self.bars)})  # the bars this route was made of
+            self._mechanism = chain_mechanism(chain, np.zeros(chain.n), damping=self.damping)
+        return self._mechanism
+
+    @property
+    def pieces(self) -> Prepared:
+        """The mechanism's prepared pieces (:func:`physics.mechanism.prepared.prepared`)."""
+        if self._pieces is None:
+            from ..mechanism.prepared import prepared  # noqa: PLC0415
+
+            self._pieces = prepared(self.mechanism)
+        return self._pieces
+
+    @property
+    def dynamics(self) -> MechanismDAE:
+        """Its bodies' masses and applied forces (the chain's bars may be massless: read, never inverted)."""
+        if self._dynamics is None:
+            self._dynamics = _dynamics_of(self.mechanism, self.pieces)
+        return self._dynamics
+
+
+def _dynamics_of(mechanism: Mechanism, pieces: Prepared) -> MechanismDAE:
+    """A chain's bar may have no mass or inertia (its tree formulation stays regular when the chain's does): the
+    bodies' numbers are read for Newton's law on them only, never inverted."""
+    if pieces.dae_or_none is not None:
+        return pieces.dae_or_none
+    from ..mechanism.dae import MechanismDAE  # noqa: PLC0415
+
+    return MechanismDAE(mechanism, pieces.constraints, massless_allowed=True)
 
 
 _lock = threading.Lock()
 # (id(chain), method, damping) -> (the chain, its bars, the route); holding the chain keeps its id from reuse.
 _routes: dict[tuple[int, str, float], tuple[Chain, tuple, ChainAsMechanism]] = {}
 MAX_ROUTES = 32  # routes remembered at once (the oldest forgotten first): a few presets and the app's chains
+# False: every route derived from the chain written as a mechanism (the tests compare the two ways)
+USE_RECORDS = True
 
 
 def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
     """The chain as a mechanism for ``method`` (a derived formulation; the reduced methods read the Lagrange
-    system), remembered for this chain object, its bars and ``damping``."""
+    system), remembered for this chain object, its bars and ``damping``: from the structure's record when the
+    cache folder holds it (no mechanism module loaded), else derived from the chain written as a mechanism and
+    the record written for the next process."""
     key = (id(chain), method, float(damping))
     entry = _routes.get(key)
     bars = chain.bars
@@ -66,12 +133,63 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
         kept is bar for kept, bar in zip(entry[1], bars)
     ):
         return entry[2]
+    route = None
+    if USE_RECORDS:
+        record = chain_record.load_record(method, chain.n, chain.pinned)
+        if record is not None:
+            try:
+                route = recorded_route(chain, damping, record)
+            except _RecordMiss:
+                route = None
+    if route is None:
+        route = derived_route(chain, method, damping)
+        if USE_RECORDS:
+            chain_record.save_record(route.record)
+    with _lock:
+        if len(_routes) >= MAX_ROUTES:
+            _routes.pop(next(iter(_routes)))
+        _routes[key] = (chain, tuple(bars), route)
+    return route
+
+
+def recorded_route(chain: Chain, damping: float, record: ChainRecord) -> ChainAsMechanism:
+    """The route of ``record``'s structure for this chain's numbers; :class:`_RecordMiss` when its generated
+    system is not in the cache folder (deriving it needs the mechanism)."""
+    def missing():
+        raise _RecordMiss(record.compiled_key)
+
+    compiled = load_generated(record.compiled_key, record.formulation, missing)
+    if compiled.n != chain.n or record.unknowns_map.shape[0] != compiled.n_unknowns:
+        raise _RecordMiss(record.compiled_key)  # (a record of another system: a MAC forged is out of reach)
+    constant_force = chain_record.gravity_force(chain)
+    return ChainAsMechanism(chain, damping, compiled, record, chain_record.parameter_vector(chain, damping),
+                            chain_record.mass_diagonal(chain), constant_force,
+                            _damping_matrix(record.damper_jacobian, chain.n, chain.pinned, damping),
+                            chain_record.sketch_points(chain))
+
+
+def _damping_matrix(along: np.ndarray, n: int, pinned: bool, damping: float) -> np.ndarray:
+    """``-J_d^T diag(c) J_d``: the pins' dampers' generalised force per rate (pins O, J1 .. J(n-1) damped by the
+    chain's damping, pin H by none)."""
+    size = 3 * n
+    coefficients = np.array([float(damping)] * n + [0.0] * pinned)
+    if not np.any(coefficients):
+        return np.zeros((size, size))
+    return -(along.T * coefficients) @ along
+
+
+def derived_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
+    """The route derived from the chain written as a mechanism (:func:`chain_mechanism`, :func:`prepared`) and
+    its record."""
+    from ..mechanism import engine  # noqa: PLC0415
+    from ..mechanism.chains import chain_mechanism  # noqa: PLC0415
+    from ..mechanism.prepared import prepared  # noqa: PLC0415
+    from ..mechanism.topology import analyse  # noqa: PLC0415
+    from ..mechanism.tree_reactions import LoopReactions, TreeReactions  # noqa: PLC0415
+
     mechanism = chain_mechanism(chain, np.zeros(chain.n), damping=damping)
     pieces = prepared(mechanism)
-    # a chain's bar may have no mass or inertia (its tree formulation stays regular when the chain's does): the
-    # bodies' numbers are read for Newton's law on them only, never inverted
-    dynamics = (pieces.dae_or_none if pieces.dae_or_none is not None
-                else MechanismDAE(mechanism, pieces.constraints, massless_allowed=True))
+    dynamics = _dynamics_of(mechanism, pieces)
     if method == "dae":
         from ..mechanism.tree_dae import compiled_tree_dae  # noqa: PLC0415
 
@@ -85,13 +203,47 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
     joint_rows = np.array([names.index(row) for joint in joint_names for row in names
                            if row.split(":")[0] == joint], dtype=np.int64)
     tip_rows = np.array([names.index(row) for row in names if row.split(":")[0] == "H"], dtype=np.int64)
-    route = ChainAsMechanism(mechanism, pieces, dynamics, compiled, order, np.argsort(order), joint_rows, tip_rows,
-                             own_reactions=method == "dae")
-    with _lock:
-        if len(_routes) >= MAX_ROUTES:
-            _routes.pop(next(iter(_routes)))
-        _routes[key] = (chain, tuple(bars), route)
-    return route
+    own_reactions = method == "dae"
+    # what the observables plan reads of the reactions (an open chain's tree, a pinned chain's loop with the tree
+    # formulation's own multipliers of its cut pin; the DAE: its multipliers)
+    chosen = np.concatenate([joint_rows, tip_rows])
+    multiplier_index = compiled.multiplier_index
+    unknowns_map = np.zeros((compiled.n_unknowns, chosen.size))
+    size = dynamics.mass_diagonal.size
+    linear = np.zeros((size, chosen.size))
+    if own_reactions:
+        unknowns_map[multiplier_index[chosen], np.arange(chosen.size)] = 1.0
+    else:
+        closed_form = pieces.tree_reactions
+        if isinstance(closed_form, LoopReactions):
+            linear = closed_form.sums[:, :closed_form.unknowns_to_rows.shape[1]][:, chosen]
+            unknowns_map[multiplier_index] = closed_form.unknowns_to_rows[:, chosen]
+        elif isinstance(closed_form, TreeReactions) and not closed_form.motor_rows.size:
+            linear = closed_form.linear[:, chosen]
+        else:  # a chain is pins only, no motors: its tree always has a closed form
+            raise AssertionError("a chain's mechanism without a closed form of its reactions")
+    constraints = dynamics.constraints
+    if constraints.torque.size:  # a chain is pins only, no motors
+        raise AssertionError("a chain's mechanism with a motor's torque")
+    pose = constraints.sketch_pose()
+    along = constraints.damper_jacobian(pose)
+    expected = [float(damping)] * chain.n + [0.0] * chain.pinned
+    if constraints.damping.tolist() != expected or along.shape != (len(expected), size):
+        raise AssertionError("a chain's mechanism whose dampers are not its pins O, J1 .. J(n-1)")
+    damping_matrix = np.zeros((size, size))
+    if np.any(constraints.damping):  # a pin's damper: its relative spin's gradient is constant
+        damping_matrix = -(along.T * constraints.damping) @ along
+    record = ChainRecord(method, chain.n, chain.pinned, compiled.path.stem.rsplit("-", 1)[0], compiled.formulation,
+                         order, joint_rows, tip_rows, own_reactions, linear, unknowns_map,
+                         np.ascontiguousarray(along))
+    bodies = mechanism.bodies
+    sketch = (np.array([body.points["P"] for body in bodies], dtype=float),
+              np.array([body.points["D"] for body in bodies], dtype=float),
+              np.array([body.com for body in bodies], dtype=float))
+    if tuple(mechanism.ground["O"]) != (0.0, 0.0):
+        raise AssertionError("a chain's mechanism whose pin O is not at the origin")
+    return ChainAsMechanism(chain, damping, compiled, record, pieces.parameters_at(0.0), dynamics.mass_diagonal,
+                            dynamics.gravity.copy(), damping_matrix, sketch, mechanism, pieces, dynamics)
 
 
 def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, settings: Settings,
@@ -104,8 +256,8 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
         return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start,
                                            build=reduced_samples_trajectory)
     route = chain_route(chain, settings.method, settings.damping)
-    params, layout = engine.run_parameters(route.mechanism, route.compiled, t_start, None,
-                                           base=route.pieces.parameters_at(t_start))
+    params = route.parameters_at(t_start)  # engine.run_parameters without weights: the integration's layout
+    layout = route.compiled.integration_layout
     alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain route's times, bit for bit
     if ONE_BUFFER_RUN and layout is route.compiled.integration_layout:
@@ -113,6 +265,8 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
                                         project)
         if trajectory is not None:
             return trajectory
+    from ..mechanism import engine  # noqa: PLC0415  (scipy's back end, another integrator: the engine's own)
+
     result = engine.integrate(route.compiled, layout, params, theta0[route.order], omega0[route.order], t_eval,
                               settings, alpha=alpha, beta=beta, project=project)
     y_out = result.states
@@ -218,7 +372,7 @@ def reduced_samples_trajectory(chain: Chain, settings: Settings, t: np.ndarray, 
     """The Trajectory of a reduced run's samples ``y = [theta, omega]`` (T, 2 n), read by the mechanism's
     Lagrange system in absolute rotations, as the chain route reads them by the chain's pinned Lagrange system."""
     route = chain_route(chain, "lagrange", settings.damping)
-    params = route.pieces.parameters_at(float(t[0]) if len(t) else 0.0)
+    params = route.parameters_at(float(t[0]) if len(t) else 0.0)
     n = chain.n
     return chain_trajectory(chain, settings, route, params, t, y[:, :n], y[:, n:], 0.0, 0.0)
 
@@ -310,35 +464,11 @@ def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> Ob
     if entry is not None and entry[0] is route:
         return entry[1]
     trace = trace_point(chain, settings, chain_arrays(chain))  # the settings' point, else the tip; checked
-    compiled, dynamics = route.compiled, route.dynamics
-    constraints = dynamics.constraints
-    chosen = np.concatenate([route.joint_rows, route.tip_rows])
-    multiplier_index = compiled.multiplier_index
-    unknowns_map = np.zeros((compiled.n_unknowns, chosen.size))
-    size = dynamics.mass_diagonal.size
-    linear = np.zeros((size, chosen.size))
-    if route.own_reactions:
-        unknowns_map[multiplier_index[chosen], np.arange(chosen.size)] = 1.0
-    else:
-        closed_form = route.pieces.tree_reactions
-        if isinstance(closed_form, LoopReactions):
-            linear = closed_form.sums[:, :closed_form.unknowns_to_rows.shape[1]][:, chosen]
-            unknowns_map[multiplier_index] = closed_form.unknowns_to_rows[:, chosen]
-        elif isinstance(closed_form, TreeReactions) and not closed_form.motor_rows.size:
-            linear = closed_form.linear[:, chosen]
-        else:  # a chain is pins only, no motors: its tree always has a closed form
-            raise AssertionError("a chain's mechanism without a closed form of its reactions")
-    pose = constraints.sketch_pose()
-    constant_force = dynamics.gravity.copy()
-    if constraints.torque.size:
-        constant_force += constraints.driven_jacobian(pose).T @ constraints.torque
-    damping = np.zeros((size, size))
-    if np.any(constraints.damping):  # a pin's damper: its relative spin's gradient is constant
-        along = constraints.damper_jacobian(pose)
-        damping = -(along.T * constraints.damping) @ along
+    compiled, record = route.compiled, route.record
     acceleration_index = compiled.theta_ddot_index if not route.own_reactions else np.zeros(chain.n, dtype=np.int64)
-    plan = ObservablesPlan(route.inverse, acceleration_index, dynamics.mass_diagonal, constant_force, damping,
-                           linear, unknowns_map, _chain_points(chain, trace, route), tree=not route.own_reactions)
+    plan = ObservablesPlan(route.inverse, acceleration_index, route.mass_diagonal, route.constant_force,
+                           route.damping_matrix, record.linear, record.unknowns_map, _chain_points(chain, trace, route),
+                           tree=not route.own_reactions)
     with _plans_lock:
         if len(_plans) >= MAX_ROUTES:
             _plans.pop(next(iter(_plans)))
@@ -352,12 +482,11 @@ def _chain_points(chain: Chain, trace, route: ChainAsMechanism) -> PathPoints:
     mass, pin ``O``, the bars' distal points ``D`` (joints ``1 .. n``, the last the tip), then the traced point
     (``along`` bar ``bar`` from its proximal point ``P`` and ``across`` to its counter-clockwise side; the
     sketch draws every bar hanging down, so along is ``-y`` and across ``+x`` there)."""
-    bodies = route.mechanism.bodies
-    proximal = [np.asarray(body.points["P"], dtype=float) for body in bodies]
-    through = [(k, np.asarray(body.points["D"], dtype=float) - proximal[k]) for k, body in enumerate(bodies)]
+    proximal, distal, centres = route.sketch
+    through = [(k, distal[k] - proximal[k]) for k in range(chain.n)]
     traced = proximal[trace.bar - 1] + np.array([float(trace.across), -float(trace.along)])
-    paths = [through[:k] + [(k, np.asarray(body.com, dtype=float) - proximal[k])] for k, body in enumerate(bodies)]
+    paths = [through[:k] + [(k, centres[k] - proximal[k])] for k in range(chain.n)]
     paths += [through[:k] for k in range(chain.n + 1)]
     paths.append(through[:trace.bar - 1] + [(trace.bar - 1, traced - proximal[trace.bar - 1])])
-    origin = route.mechanism.ground["O"]
-    return PathPoints.along(chain.n, np.tile(np.asarray(origin, dtype=float), (len(paths), 1)), paths)
+    origin = np.zeros(2)  # pin O is the origin (checked where the route is derived)
+    return PathPoints.along(chain.n, np.tile(origin, (len(paths), 1)), paths)
