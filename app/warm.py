@@ -1,6 +1,7 @@
 """Loading compiled equations once per process, and warming up before the first browser arrives.
 
-``physics.load_compiled`` returns ready code from the disk cache (or derives and compiles it on a miss); the
+``physics.load_run_systems`` returns ready code from the disk cache (or derives and compiles it on a miss), on
+the route a chain's run takes (its own generated kernels, or the chain written as a mechanism); the
 first simulation in a process also loads numba's cached machine code. Both take a noticeable fraction of a
 second warm and a few seconds cold (half a minute on an installation's very first run, which compiles the
 integrators), so the server starts them in a background thread at launch, before
@@ -33,14 +34,15 @@ CANCEL_POLL_SECONDS = 0.05
 class Cancelled(Exception):
     """A build or warm-up nobody wants any more (the session has a newer request): its worker was killed."""
 
-_loaded: set[tuple[str, int, bool]] = set()
-_locks: dict[tuple[str, int, bool], threading.Lock] = {}
+# (method, links, pinned, route): a route is physics.chain_engine(), "chain" or "mechanism"
+_loaded: set[tuple[str, int, bool, str]] = set()
+_locks: dict[tuple, threading.Lock] = {}
 _guard = threading.Lock()
 
 
 def is_loaded(method: str, n: int, pinned: bool) -> bool:
     with _guard:
-        return (method, n, pinned) in _loaded
+        return (method, n, pinned, physics.chain_engine()) in _loaded
 
 
 def _once(done: set, key: tuple, action: Callable[[], object]) -> None:
@@ -62,24 +64,19 @@ def _not_cancelled() -> bool:
     return False
 
 
-def ensure_loaded(method: str, n: int, pinned: bool) -> None:
-    """Load (or derive) one compiled system once; concurrent callers for the same system wait for it."""
-    _once(_loaded, (method, n, pinned), lambda: physics.load_compiled(method, n, pinned))
-
-
-def _systems(method: str, n: int, pinned: bool) -> list[tuple[str, int, bool]]:
-    """The chain's compiled systems a method loads (the reduced methods: the pinned Lagrange code, which reports
-    their samples; their general reduced model's code is loaded by the warm-up run)."""
-    if method in physics.FORMULATION_NAMES:
-        return [(method, n, pinned)]
-    return [("lagrange", n, True)]
+def ensure_loaded(chain, method: str, damping: float = 0.0) -> None:
+    """Load (or derive) the compiled systems a run of ``method`` on such a chain reads, once per structure and
+    route (physics.load_run_systems: the chain's own code, or on the mechanism engine the chain written as a
+    mechanism, never the chain's own kernel); concurrent callers for the same systems wait for it."""
+    _once(_loaded, (method, chain.n, chain.pinned, physics.chain_engine()),
+          lambda: physics.load_run_systems(chain, method, damping))
 
 
 _ready: set[tuple] = set()
 
 
 def _ready_key(chain, settings) -> tuple:
-    return (settings.method, chain.n, chain.pinned, settings.integrator, settings.backend)
+    return (settings.method, chain.n, chain.pinned, settings.integrator, settings.backend, physics.chain_engine())
 
 
 def is_ready(chain, settings) -> bool:
@@ -98,8 +95,7 @@ def ensure_ready(chain, settings, theta0, omega0, cancelled: Callable[[], bool] 
         build_outside(settings.method, chain.n, chain.pinned, settings.integrator, cancelled)
         if cancelled():
             raise Cancelled(f"{settings.method}, {chain.n} bars: no longer wanted")
-        for system in _systems(settings.method, chain.n, chain.pinned):
-            ensure_loaded(*system)
+        ensure_loaded(chain, settings.method, settings.damping)
         try:
             physics.simulate(chain, theta0, omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
         except ValueError as error:  # an invalid start: the session's own run reports it with a notice
@@ -117,8 +113,9 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
     is killed at once (the cache's atomic writes leave no half file) and :class:`Cancelled` is raised."""
     if not physics.code_missing(method, n, pinned):
         return False
-    command = [sys.executable, "-m", "physics.codegen.prebuild", method, str(int(n)),
-               "pinned" if pinned else "open", integrator]
+    # the worker builds on this process's route (it does not share the switch: physics.prebuild_arguments says it)
+    command = [sys.executable, "-m", "physics.codegen.prebuild", *physics.prebuild_arguments(method, n, pinned,
+                                                                                             integrator)]
     errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a chatty worker never blocks on it
     try:
         worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=errors, text=True,

@@ -9,7 +9,8 @@ joint coordinate on the compiled engine. ``method = "reduced"`` switches the coo
 stops with a clear message at its first dead centre, so the failure can be shown. The samples come back in the
 chain's terms: absolute angles and rates from the body angles, and the Trajectory (energies, tip reaction, joint
 reactions, condition) that :func:`physics.simulate.build.build_trajectory` makes from them with the pinned
-Lagrange system, as for every other method.
+Lagrange system (through :func:`physics.simulate.chain_system.chain_system`: on the route the switch chooses), as
+for every other method.
 
 ``stats``: ``n_switches`` and ``switch_times`` (the coordinate switches) and ``independent_index`` (T,): the
 joint integrated at each sample, numbered in the chain's joint order (:data:`CHAIN_JOINTS`: 0 is ``O``, the
@@ -21,13 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codegen import load_compiled
 from ..errors import LinkageError
 from ..mechanism.chains import chain_mechanism, chain_state
 from ..mechanism.reduced import DEAD_CENTRE_SHARE, DeadCentre, ReducedStop, reduced_run
 from ..registry import METHODS
 from ..status import Status
-from .build import build_trajectory
+from .chain_system import chain_system
 
 # The joints of a four-bar written as a mechanism, in the order ``independent_index`` numbers them.
 CHAIN_JOINTS = ("O", "J1", "J2", "H")
@@ -44,8 +44,8 @@ CHAIN_SWITCH_SHARE = 0.4
 
 def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float, build=None):
     """The reduced model's run of a four-bar as a chain's Trajectory. ``build(chain, settings, t, y)``: what
-    reads its samples ``y = [theta, omega]`` (default the chain's pinned Lagrange system,
-    :func:`physics.simulate.build.build_trajectory`; the chain-on-mechanism route passes the mechanism's)."""
+    reads its samples ``y = [theta, omega]`` (default the pinned Lagrange system on the route the switch chooses,
+    :func:`physics.simulate.chain_system.chain_system`)."""
     build = _trajectory if build is None else build
     if not chain.pinned or chain.n != 3:
         raise LinkageError(
@@ -97,8 +97,11 @@ def fixed_coordinate_message(dead_centre: DeadCentre) -> str:
 
 
 def _trajectory(chain, settings, t, y):
-    pinned = load_compiled("lagrange", chain.n, True)
-    return build_trajectory(chain, settings, pinned, chain.params(damping=settings.damping), t, y)
+    """The samples read by the pinned Lagrange system on the route the switch chooses (:func:`chain_system`): the
+    chain's own, or the chain written as a mechanism (its state in the spanning tree's order)."""
+    system = chain_system(chain, "lagrange", settings.damping, float(t[0]) if len(t) else 0.0)
+    n = chain.n
+    return system.trajectory(chain, settings, t, system.state(y[:, :n], y[:, n:]))
 
 
 def _stopped_at_start(chain, settings, theta0, omega0, t_start, stop: Exception, mechanism_name: str, build):

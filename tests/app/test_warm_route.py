@@ -1,0 +1,170 @@
+"""The app's warm-up and its worker builds follow the route a chain's run takes (issue 24, "one pipeline").
+
+With :data:`physics.simulate.on_mechanism.ENABLED` on, a chain runs as a mechanism on the general engine: warming
+the chain's own generated kernel would cost a session a derivation it never uses, and a worker that built the
+chain's kernel would leave the server to derive the route itself (sympy in the server's interpreter, every other
+session's animation frozen). With the switch off, the same calls and the same worker command as always.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import physics
+from app import warm
+from physics import Settings, get_preset, simulate
+from physics.codegen import prebuild as prebuild_module
+from physics.kernels.disk_cache import kernels_folder
+from physics.simulate import on_mechanism, reduced_adapter
+from physics.simulate.chain_system import chain_system
+
+ROOT = Path(__file__).resolve().parents[2]
+chain_system_module = sys.modules[chain_system.__module__]
+
+
+@pytest.fixture
+def fresh_warm(monkeypatch):
+    """The app's once-per-process memory of what it loaded and warmed, empty for this test only."""
+    monkeypatch.setattr(warm, "_loaded", set())
+    monkeypatch.setattr(warm, "_ready", set())
+
+
+def _refused(*_arguments, **_keywords):
+    raise AssertionError("the chain's own generated system was loaded on the mechanism engine")
+
+
+@pytest.mark.parametrize(("preset_name", "method"), [("triple-a", "lagrange"), ("four-bar", "dae"),
+                                                     ("double", "newton_euler"), ("four-bar", "reduced")])
+def test_on_the_mechanism_engine_the_warm_up_never_loads_the_chains_own_kernel(preset_name, method, monkeypatch,
+                                                                               fresh_warm):
+    preset = get_preset(preset_name)
+    settings = Settings(method=method)
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+    # the route's code and record in this test's cache (derived here on a miss, so the warm-up below builds nothing)
+    simulate(preset.chain, preset.theta0, preset.omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
+    assert not physics.code_missing(method, preset.chain.n, preset.chain.pinned)
+    for module in (prebuild_module, chain_system_module, physics):
+        monkeypatch.setattr(module, "load_compiled", _refused)
+    monkeypatch.setattr(warm.subprocess, "Popen", _refused)  # nothing missing: no worker either
+    warm.ensure_ready(preset.chain, settings, preset.theta0, preset.omega0)
+    assert warm.is_ready(preset.chain, settings)
+    assert warm.is_loaded(method, preset.chain.n, preset.chain.pinned)
+
+
+def test_with_the_switch_off_the_warm_up_loads_the_chains_own_systems(monkeypatch, fresh_warm):
+    preset = get_preset("four-bar")
+    loaded: list[tuple] = []
+    load_compiled = prebuild_module.load_compiled
+
+    def recorded(*arguments):
+        loaded.append(arguments)
+        return load_compiled(*arguments)
+
+    monkeypatch.setattr(on_mechanism, "ENABLED", False)
+    monkeypatch.setattr(prebuild_module, "load_compiled", recorded)
+    warm.ensure_loaded(preset.chain, "reduced")
+    warm.ensure_loaded(preset.chain, "dae")
+    assert loaded == [("lagrange", 3, True), ("dae", 3, True)]
+    assert warm.is_loaded("dae", 3, True)
+
+
+def test_the_worker_is_told_the_route_and_its_old_command_keeps_working(monkeypatch):
+    monkeypatch.setattr(on_mechanism, "ENABLED", False)
+    assert physics.prebuild_arguments("dae", 4, False, "RK45") == ["dae", "4", "open", "RK45"]
+    assert physics.chain_engine() == "chain"
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+    assert physics.prebuild_arguments("lagrange", 3, True, "DOP853") == ["lagrange", "3", "pinned", "DOP853",
+                                                                         "mechanism"]
+    assert physics.chain_engine() == "mechanism"
+    assert prebuild_module.main(["dae", "4", "open", "RK45", "sideways"]) == 2  # an unknown route is refused
+
+
+def test_a_pinned_structure_chain_closes_its_loop():
+    chain, theta0, _ = prebuild_module.structure_chain(5, True)
+    tip = physics.joint_positions(chain.array("L"), theta0)[-1]
+    assert chain.pinned and chain.n == 5
+    np.testing.assert_allclose(tip, chain.pin, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["reduced", "reduced_fixed"])
+def test_a_reduced_runs_samples_are_read_through_chain_system_unchanged(method, monkeypatch):
+    """The reduced adapter reads its samples with the pinned Lagrange system through chain_system: with the switch
+    off exactly the chain's own pinned system's Trajectory, with it on exactly the mechanism route's."""
+    from physics.simulate.build import build_trajectory  # noqa: PLC0415
+    from physics.simulate.mechanism_route import reduced_samples_trajectory  # noqa: PLC0415
+
+    preset = get_preset("four-bar")
+    settings = Settings(method=method, t_end=2.0, samples=40)
+
+    def chains_own(chain, settings, t, y):  # what the adapter read before chain_system
+        compiled = physics.load_compiled("lagrange", chain.n, True)
+        return build_trajectory(chain, settings, compiled, chain.params(damping=settings.damping), t, y)
+
+    for switch, reference in ((False, chains_own), (True, reduced_samples_trajectory)):
+        monkeypatch.setattr(on_mechanism, "ENABLED", switch)
+        got = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings, 0.0)
+        expected = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings,
+                                                               0.0, build=reference)
+        assert got.status == expected.status
+        for field in ("t", "theta", "omega", "energy", "trace_xy", "reactions", "tip_reaction", "condition"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(expected, field), err_msg=f"{switch} {field}")
+
+
+WORKER_SCRIPT = """
+import json, sys
+from physics.simulate import on_mechanism, mechanism_route
+on_mechanism.ENABLED = True
+import physics
+from app import warm
+from physics import Settings, get_preset
+derived = []
+derive = mechanism_route.derived_route
+def counted(*arguments, **keywords):
+    derived.append(arguments[1])
+    return derive(*arguments, **keywords)
+mechanism_route.derived_route = counted
+def refused(*arguments, **keywords):
+    raise AssertionError("the chain's own generated system was loaded on the mechanism engine")
+for module in (physics, sys.modules["physics.codegen.prebuild"], sys.modules["physics.simulate.chain_system"]):
+    module.load_compiled = refused
+preset = get_preset("{preset}")
+settings = Settings(method="{method}", integrator="RK45")
+n, pinned = preset.chain.n, preset.chain.pinned
+before = physics.code_missing("{method}", n, pinned)
+built = warm.build_outside("{method}", n, pinned, "RK45")
+after = physics.code_missing("{method}", n, pinned)
+warm.ensure_ready(preset.chain, settings, preset.theta0, preset.omega0)
+run = physics.simulate(preset.chain, preset.theta0, preset.omega0, settings.model_copy(update={{"t_end": 0.1}}))
+print(json.dumps({{"before": before, "built": built, "after": after, "derived": derived, "status": int(run.status),
+                  "engine": "physics.mechanism.engine" in sys.modules,
+                  "sympy": "sympy" in sys.modules}}))
+"""
+
+
+@pytest.mark.slow  # a worker process derives the route's system with sympy
+@pytest.mark.parametrize(("preset_name", "method"), [("double", "lagrange"), ("four-bar", "dae")])
+def test_on_the_mechanism_engine_a_worker_builds_the_route_so_the_server_derives_nothing(preset_name, method,
+                                                                                          tmp_path, monkeypatch):
+    preset = get_preset(preset_name)
+    monkeypatch.setattr(on_mechanism, "ENABLED", True)  # the route's run kernels compile once: bring them along
+    simulate(preset.chain, preset.theta0, preset.omega0, Settings(method=method, integrator="RK45", t_end=0.01))
+    cache = tmp_path / "cache"
+    shutil.copytree(kernels_folder(), cache / "numba" / kernels_folder().name)
+    os.chmod(cache, 0o700)
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(cache))
+    script = WORKER_SCRIPT.format(preset=preset_name, method=method)
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result == {"before": True, "built": True, "after": False, "derived": [], "status": 0,
+                      "engine": False, "sympy": False}, (result, done.stderr[-2000:])
+    assert list(cache.glob(f"chainroute-{method.replace('_', '')}-n{preset.chain.n}-*.json"))  # the worker's record
