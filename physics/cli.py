@@ -28,7 +28,7 @@ from .kinematics import joint_positions
 from .long_run import simulate_in_segments
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .notices import install_stderr_lines
-from .outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, write_ensemble, write_output
+from .outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, partial_note, write_ensemble, write_output
 from .presets import get_preset, mechanism_summaries, preset_names
 from .program import program_name, version_text
 from .registry import (
@@ -140,9 +140,7 @@ def cmd_simulate(args) -> int:
     # What was computed is kept, under a name that cannot be mistaken for a complete run.
     partial = f"{args.out}.partial" if args.out else None
     _write_table(trajectory.columns(), fmt, partial)
-    reached = float(trajectory.t[-1]) if len(trajectory.t) else float("nan")
-    where = f"; the {len(trajectory.t)} samples up to t = {reached:.6g} s are in {partial}" if partial else ""
-    print(f"error: {trajectory.message}{where}", file=sys.stderr)
+    print(f"error: {trajectory.message}{partial_note(trajectory.t, partial)}", file=sys.stderr)
     return EXIT_RUN_STOPPED
 
 

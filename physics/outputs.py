@@ -90,6 +90,19 @@ def check_partial_path(out: str) -> None:
         check_output_path(f"{out}.partial", "--out (its .partial file)")
 
 
+def partial_note(t, partial: str | None) -> str:
+    """The end of a stopped run's one line: where the samples computed before the stop were kept (``t``, their
+    times), or nothing without ``--out``. A run stopped at its start kept none (its file holds the header only):
+    the line says so rather than quoting the time of a sample that does not exist."""
+    if not partial:
+        return ""
+    if len(t) == 0:
+        return f"; no sample was computed (the table's header alone is in {partial})"
+    if len(t) == 1:
+        return f"; the 1 sample, at t = {float(t[-1]):.6g} s, is in {partial}"
+    return f"; the {len(t)} samples up to t = {float(t[-1]):.6g} s are in {partial}"
+
+
 def check_output_folder(out: str, option: str = "--out") -> None:
     """Refuse, before any work, an output folder that cannot take files: not a folder, a missing parent, or a
     folder where a file cannot be created (tried with a temporary file, removed at once)."""

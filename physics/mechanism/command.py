@@ -24,7 +24,7 @@ import numpy as np
 from ..arguments import Parser
 from ..errors import LinkageError
 from ..long_run import simulate_mechanism_in_segments
-from ..outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, write_output
+from ..outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, partial_note, write_output
 from ..registry import BACKENDS, INTEGRATOR_NAMES, STABILIZATIONS
 from ..simulate.trajectory import Trajectory
 from .assembly import assemble
@@ -163,8 +163,7 @@ def run_and_report(mechanism: Mechanism, request: RunRequest, *, simulate: bool,
             partial = f"{request.out}.partial" if request.out else None
             if partial:
                 write_output(partial, run_table(run, request.fmt))
-            where = f"; the {len(run.t)} samples up to t = {run.t[-1]:.6g} s are in {partial}" if partial else ""
-            print(f"error: {interrupted}{where}", file=sys.stderr)
+            print(f"error: {interrupted}{partial_note(run.t, partial)}", file=sys.stderr)
             return EXIT_RUN_STOPPED
         report["run"] = {
             "t_end": float(run.t[-1]), "samples": len(run.t), "method": run.method,

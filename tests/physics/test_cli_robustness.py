@@ -31,6 +31,7 @@ from physics.mechanism import MECHANISM_PRESETS, Mechanism, validation
 from physics.mechanism import simulate as mechanism_simulate
 from physics.mechanism.validation import MAX_MOTOR_SPEED, check_runnable
 from physics.model import Settings, make_chain, validated
+from physics.outputs import partial_note
 from physics.presets import get_preset
 from physics.simulate import simulate
 from physics.studies import chaos_map
@@ -362,6 +363,31 @@ def test_ctrl_c_keeps_what_was_computed_in_out_partial(tmp_path, capsys, short_s
     assert 0.0 < reached < 3.0 and len(rows) - 1 == round(reached / 0.01) + 1
     assert err.splitlines()[-1] == (f"error: interrupted (Ctrl+C) at t = {err.split('at t = ')[1].split(' s')[0]} s; "
                                     f"the {len(rows) - 1} samples up to t = {reached:.6g} s are in {out}.partial")
+
+
+def test_a_run_stopped_at_its_start_says_no_sample_was_kept_not_a_time_that_does_not_exist(tmp_path, capsys):
+    """Started exactly at the change-point preset's collinear position, the run stops at t = 0 with no sample: its
+    one line says the .partial file holds the header alone (it used to quote "the 0 samples up to t = nan s")."""
+    out = tmp_path / "run.csv"
+    code, _, err = run(capsys, "simulate", "--preset", "change-point", "--t-end", "1",
+                       "--set", "theta1=1.5707963267948966", "--set", "theta2=1.5707963267948966",
+                       "--set", "theta3=-1.5707963267948966", "--out", str(out))
+    assert code == 3 and not out.exists()
+    rows = list(csv.reader((tmp_path / "run.csv.partial").read_text().splitlines()))
+    assert len(rows) == 1 and rows[0][0] == "t"  # the header alone
+    line = err.splitlines()[-1]
+    assert line.startswith("error: the system became singular") and "nan" not in line
+    assert line.endswith(f"; no sample was computed (the table's header alone is in {out}.partial)")
+
+
+@pytest.mark.parametrize(("times", "expected"), [
+    ([], "; no sample was computed (the table's header alone is in run.csv.partial)"),
+    ([0.25], "; the 1 sample, at t = 0.25 s, is in run.csv.partial"),
+    ([0.0, 0.5, 1.25], "; the 3 samples up to t = 1.25 s are in run.csv.partial"),
+])
+def test_a_stopped_runs_note_names_what_was_kept(times, expected):
+    assert partial_note(np.array(times), "run.csv.partial") == expected
+    assert partial_note(np.array(times), None) == ""
 
 
 def test_a_long_mechanism_run_is_estimated_reported_and_stopped(tmp_path, capsys, short_segments, monkeypatch):
