@@ -303,6 +303,20 @@ def read_trusted(path: Path) -> bytes:
         os.close(fd)
 
 
+def read_tagged(path: Path) -> tuple[bytes | None, str | None]:
+    """``(payload, None)``: a cache file's bytes without their MAC trailer, read by :func:`read_trusted` and its
+    MAC checked; or ``(None, why)`` when it must not be used (the caller discards it and says so in one line).
+    Raises FileNotFoundError when there is no file."""
+    try:
+        data = read_trusted(path)
+    except UntrustedFile as error:
+        return None, str(error)
+    problem = tag_problem(path.name, data)
+    if problem is not None:
+        return None, problem
+    return data[:-TRAILER_BYTES], None
+
+
 def discard(path: Path) -> None:
     """Remove an entry of the cache that is not trusted, whatever it is (the folder is ours, so we may)."""
     try:

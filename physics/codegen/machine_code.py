@@ -31,13 +31,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..cache_folder import (
-    TRAILER_BYTES,
     UntrustedFile,
     cache_dir,
     check_folder,
     discard,
-    read_trusted,
-    tag_problem,
+    read_tagged,
     tagged,
     warn,
 )
@@ -147,15 +145,11 @@ def _trusted_object(path: Path) -> bytes | None:
     """The object file's bytes when it is there and trusted; None when there is none. A file that fails a
     check is removed, with one line on stderr."""
     try:
-        data = read_trusted(path)
+        payload, problem = read_tagged(path)
     except FileNotFoundError:
         return None
-    except UntrustedFile as error:
-        problem: str | None = str(error)
-    else:
-        problem = tag_problem(path.name, data)
-        if problem is None:
-            return data[:-TRAILER_BYTES]
+    if payload is not None:
+        return payload
     warn(f"machine-code cache file {path} is damaged or not trusted ({problem}); discarded and rebuilt")
     discard(path)
     return None

@@ -40,13 +40,11 @@ import numba
 from numba.core import caching
 
 from ..cache_folder import (
-    TRAILER_BYTES,
     UntrustedFile,
     cache_dir,
     check_folder,
     discard,
-    read_trusted,
-    tag_problem,
+    read_tagged,
     tagged,
     warn,
 )
@@ -190,13 +188,9 @@ class AuthenticatedCacheFile(caching.IndexDataCacheFile):
     def _read(self, path: str) -> bytes:
         """The file's bytes without the trailer, once checked; FileNotFoundError, or _Discarded after removal."""
         file = Path(path)
-        try:
-            data = read_trusted(file)
-            problem = tag_problem(file.name, data)
-        except UntrustedFile as error:
-            problem = str(error)
-        if problem is None:
-            return data[:-TRAILER_BYTES]
+        payload, problem = read_tagged(file)
+        if payload is not None:
+            return payload
         self._discard(f"{file.name}: {problem}")
         raise _Discarded(problem)
 

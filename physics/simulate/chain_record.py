@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cache_folder import TRAILER_BYTES, UntrustedFile, cache_dir, discard, read_trusted, tag_problem, tagged, warn
+from ..cache_folder import cache_dir, discard, read_tagged, tagged, warn
 from ..file_io import write_atomically
 from ..kinematics import com_positions, joint_positions
 from ..model import Chain
@@ -158,16 +158,12 @@ def load_record(method: str, n: int, pinned: bool) -> ChainRecord | None:
         return found
     path = record_path(method, n, pinned)
     try:
-        data = read_trusted(path)
+        payload, problem = read_tagged(path)
     except FileNotFoundError:
         return None
-    except UntrustedFile as error:
-        problem: str | None = str(error)
-    else:
-        problem = tag_problem(path.name, data)
-    if problem is None:
+    if payload is not None:
         try:
-            record = ChainRecord.from_json(data[:-TRAILER_BYTES], method, n, pinned)
+            record = ChainRecord.from_json(payload, method, n, pinned)
         except ValueError as error:  # json's JSONDecodeError and UnicodeDecodeError are ValueErrors
             problem = f"unreadable: {error}"
         else:
