@@ -28,9 +28,9 @@ tree's order (the four-bar's ``(theta1, theta3, theta2)``, its closure ``J2``). 
   chain's own kinematics places them; the same to rounding).
 * Failures are the chain's: a status and the chain's sentence (no mechanism name), never an exception midway.
 
-Off by default (:data:`ENABLED`): :func:`physics.simulate.run.simulate` takes this route when it is True. The
-tests run their chain suites on it with ``LINKAGE_LAB_TEST_CHAIN_ON_MECHANISM=1`` (tests/conftest.py; the library
-never reads that variable).
+On by default (:data:`ENABLED`): :func:`physics.simulate.run.simulate` takes this route when it is True. The
+tests can run their chain suites on the chain's own kernels with ``LINKAGE_LAB_TEST_CHAIN_ON_MECHANISM=0``
+(tests/conftest.py; the library never reads that variable).
 """
 
 from __future__ import annotations
@@ -45,9 +45,10 @@ if TYPE_CHECKING:
 
 __all__ = ["ENABLED", "simulate_on_mechanism"]
 
-# The switch physics.simulate reads: False runs a chain on its own kernels (today's route), True on the general
-# mechanism engine. Not a user option: the lead flips it once a call costs the same on both routes.
-ENABLED = False
+# The switch physics.simulate reads: True (the default since the route reached parity, BENCHMARKS.md "The chain
+# route's record") runs a chain on the general mechanism engine, False on the chain's own kernels, which remain
+# only until they are deleted. Not a user option.
+ENABLED = True
 
 
 def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, settings: Settings,

@@ -154,10 +154,10 @@ def test_a_continued_run_starts_where_its_t_start_says(monkeypatch):
     assert_same_trajectory(runs[0], runs[1], ROUNDING, pinned=True)
 
 
-def test_the_switch_is_off_by_default():
-    """The lead flips it when a call costs the same on both routes; until then every chain runs on its kernels
-    (the module as written: the test session may have turned the loaded one on)."""
+def test_the_switch_is_on_by_default():
+    """Every chain runs on the mechanism engine unless a test turns the switch off (the module as written: the
+    test session may have turned the loaded one off)."""
     tree = ast.parse(Path(on_mechanism.__file__).read_text(encoding="utf-8"))
     values = [node.value for node in tree.body if isinstance(node, ast.Assign)
               and any(isinstance(target, ast.Name) and target.id == "ENABLED" for target in node.targets)]
-    assert len(values) == 1 and isinstance(values[0], ast.Constant) and values[0].value is False
+    assert len(values) == 1 and isinstance(values[0], ast.Constant) and values[0].value is True

@@ -12,6 +12,7 @@ import pytest
 import physics
 from physics.codegen import cache, load_compiled, native_samples, specialised_ir
 from physics.kernels import observables
+from physics.simulate import on_mechanism
 from physics.simulate.prepared import chain_arrays
 from physics.simulate.trajectory import Trajectory
 
@@ -20,8 +21,11 @@ run_module = __import__("physics.simulate.run", fromlist=["ONE_BUFFER"])
 
 @pytest.fixture(autouse=True)
 def _specialise_in_the_call(monkeypatch):
-    """Specialised functions made in the call that asks (not in a background thread), so a test knows when."""
+    """Specialised functions made in the call that asks (not in a background thread), so a test knows when; and
+    the chain's own kernels, whose one buffer these tests inspect (physics.simulate takes the mechanism engine by
+    default)."""
     monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)
+    monkeypatch.setattr(on_mechanism, "ENABLED", False)
 
 
 def _fields(run: Trajectory) -> dict:
