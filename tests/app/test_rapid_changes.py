@@ -155,7 +155,7 @@ def test_superseded_preparations_are_cancelled_not_queued():
 CANCEL_SCRIPT = """
 import json, os, sys, threading, time
 from app import warm
-from physics.codegen.cache import is_generated
+from physics import code_missing
 stop = threading.Event()
 outcome = {}
 def build():
@@ -186,9 +186,9 @@ asked = time.monotonic()
 thread.join(10)
 result = {"worker_seen": worker_seen, "cancelled": "cancelled_at" in outcome,
           "seconds": outcome.get("cancelled_at", 1e9) - asked, "children_after": len(children()),
-          "generated_after_cancel": is_generated("dae", 4, False)}
+          "generated_after_cancel": not code_missing("dae", 4, False)}
 result["built_again"] = warm.build_outside("dae", 4, False, "RK45")
-result["generated"] = is_generated("dae", 4, False)
+result["generated"] = not code_missing("dae", 4, False)
 print(json.dumps(result))
 """
 

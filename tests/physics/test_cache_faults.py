@@ -66,7 +66,9 @@ def cache(template, tmp_path):
 
 
 def _generated_source(folder: Path) -> Path:
-    (path,) = folder.glob("lagrange-n3-open-*.py")
+    """The command's generated system: the triple pendulum's tree Lagrange system on the mechanism engine (its
+    pins' coordinates the bars' absolute angles), which the chain's record names."""
+    (path,) = folder.glob("lagrange-mechanism-absolute-*.py")
     return path
 
 
@@ -156,7 +158,7 @@ def test_processes_building_the_same_entry_at_once_all_get_the_right_answer(cach
 def test_a_folder_writable_by_others_is_refused_and_the_run_goes_on(cache):
     folder, answer = cache
     planted = _generated_source(folder)
-    planted.write_text(planted.read_text().replace("import math", "import math\nraise SystemExit('planted')"))
+    planted.write_text("raise SystemExit('planted')\n" + planted.read_text())  # run, it would end the process
     folder.chmod(0o777)
     result = _run(folder)
     assert _answer(result) == answer
