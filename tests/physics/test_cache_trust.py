@@ -85,7 +85,9 @@ def copy(template, tmp_path):
 
 
 def _generated(cache: Path, method: str = "dae") -> Path:
-    (path,) = cache.glob(f"{method}-n3-open-*.py")
+    """The command's generated system on the mechanism engine (the chain's record names it): the DAE in tree
+    coordinates or the tree Lagrange system, its pins' coordinates the bars' absolute angles."""
+    (path,) = cache.glob(f"{'treedae' if method == 'dae' else method}-mechanism-absolute-*.py")
     return path
 
 
