@@ -113,7 +113,8 @@ from physics.cli import main
 with contextlib.redirect_stdout(io.StringIO()):
     code = main(sys.argv[1:])
 print(json.dumps({"code": code,
-                  "numba": sorted(name for name in sys.modules if name == "numba" or name.startswith("numba."))}))
+                  "numba": sorted(name for name in sys.modules if name == "numba" or name.startswith("numba.")),
+                  "mechanism": sorted(name for name in sys.modules if name.startswith("physics.mechanism."))}))
 """
 
 
@@ -133,6 +134,31 @@ def test_a_warm_stabilised_run_never_imports_numba(command, tmp_path):
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["code"] == 0
     assert report["numba"] == []
+
+
+@pytest.mark.parametrize(("command", "closed_form_reactions"), [
+    (["mechanism", "--preset", "slider-crank", "--method", "dae", "--t-end", "1"], False),
+    (["mechanism", "--preset", "crank-rocker", "--method", "dae", "--t-end", "1"], False),
+    (["mechanism", "--preset", "jansen-leg", "--t-end", "1"], False),
+    (["mechanism", "--preset", "crank-rocker", "--method", "lagrange", "--t-end", "1"], True),
+], ids=["slider-crank-dae", "crank-rocker-dae", "jansen-leg", "crank-rocker-lagrange"])
+def test_a_warm_mechanism_run_never_imports_what_only_a_derivation_or_a_tree_formulation_uses(
+        command, closed_form_reactions, tmp_path):
+    """The derivation's parameter symbols (physics/mechanism/symbolic_parameters.py) are for sympy's derivations
+    alone, and the closed form of the reactions (physics/mechanism/tree_reactions.py) for the tree formulations
+    alone: a warm run from cached code never imports the first, and a DAE run (its reactions are its
+    multipliers) or a driven one not the second, even for pins closing a loop (the crank-rocker), whose
+    assembly asks whether its rows are independent by structure. A tree formulation's run does use it."""
+    env = dict(os.environ, LINKAGE_LAB_CACHE=str(tmp_path / "cache"))
+    for _ in range(2):  # the first fills the cache
+        result = subprocess.run([sys.executable, "-c", MECHANISM_COMMAND, *command], capture_output=True, text=True,
+                                timeout=600, check=True, env=env)
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0
+    loaded = set(report["mechanism"])
+    assert "physics.mechanism.engine" in loaded  # the run went through the mechanism engine
+    assert "physics.mechanism.symbolic_parameters" not in loaded
+    assert ("physics.mechanism.tree_reactions" in loaded) == closed_form_reactions
 
 
 LIBRARY_PROCESS = r"""

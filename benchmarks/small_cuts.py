@@ -1,0 +1,122 @@
+"""Figures for BENCHMARKS.md, issue 24, "Small cuts of every process": what a warm process pays for the run
+path's dataclasses (``eq``/``repr`` generated for classes that hold arrays), the derivation's symbol classes, the
+tree formulations' closed-form reactions in a DAE run and the generated code's digest (the versions it reads),
+for this tree and another (a worktree of main, ``../before``), alternated.
+
+    python -m benchmarks.small_cuts [--rounds 9] [--other ../before] [--parts-only]
+
+Module bytecode is cached (``PYTHONDONTWRITEBYTECODE`` removed, as an installation runs); the user's cache folder,
+warm (one unmeasured process per tree and case first). Two kinds of figures, medians over ``--rounds`` rounds in
+which the trees alternate which goes first:
+
+* *parts*, measured inside a process with ``time.process_time``: importing the mechanism run's modules
+  (:mod:`physics` and its command line imported first, untimed: the shared base), and the first
+  :func:`physics.codegen.cache.generator_digest` (the sources it reads are the same files in both trees);
+* *whole processes*: the CPU time (user + system) of ``python -m physics`` warm commands, from ``getrusage`` of
+  the children: a mechanism preset's DAE run (the closed form of the tree reactions no longer imported), its
+  Lagrange run, the driven Jansen leg and a chain preset's default run.
+
+Prints Markdown tables (milliseconds) and the load average at the start and end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+PARTS = r"""
+import sys, time
+import physics, physics.cli  # noqa: F401  (the shared base, untimed)
+if sys.argv[1] == "imports":
+    start = time.process_time()
+    from physics.mechanism import assembly, engine, prepared, reduced_engine, reduced_partition  # noqa: F401
+    from physics.codegen import mechanism_observables  # noqa: F401
+    print((time.process_time() - start) * 1e3)
+else:
+    from physics.codegen import cache
+    start = time.process_time()
+    cache.generator_digest()
+    print((time.process_time() - start) * 1e3)
+"""
+
+COMMANDS = {
+    "mechanism slider-crank, dae": ["mechanism", "--preset", "slider-crank", "--method", "dae", "--t-end", "1"],
+    "mechanism slider-crank, lagrange": ["mechanism", "--preset", "slider-crank", "--method", "lagrange",
+                                         "--t-end", "1"],
+    "mechanism jansen-leg (driven)": ["mechanism", "--preset", "jansen-leg", "--t-end", "1"],
+    "simulate triple-a, dae": ["simulate", "--preset", "triple-a", "--method", "dae"],
+}
+
+
+def _environment(tree: Path) -> dict[str, str]:
+    environment = dict(os.environ, PYTHONPATH=str(tree))
+    environment.pop("PYTHONDONTWRITEBYTECODE", None)
+    return environment
+
+
+def _part(tree: Path, which: str) -> float:
+    done = subprocess.run([sys.executable, "-c", PARTS, which], cwd=tree, env=_environment(tree), check=True,
+                          capture_output=True, text=True)
+    return float(done.stdout.split()[-1])
+
+
+def _process_cpu(tree: Path, command: list[str]) -> float:
+    """CPU milliseconds (user + system) of one ``python -m physics COMMAND`` process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([sys.executable, "-m", "physics", *command], cwd=tree, env=_environment(tree), check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime) * 1e3
+
+
+def _alternated(trees: list[tuple[str, Path]], rounds: int, measure) -> dict[str, float]:
+    for _, tree in trees:
+        measure(tree)  # warm: the cache folder and the bytecode
+    figures: dict[str, list[float]] = {name: [] for name, _ in trees}
+    for round_ in range(rounds):
+        for name, tree in trees[:: 1 if round_ % 2 == 0 else -1]:
+            figures[name].append(measure(tree))
+    return {name: statistics.median(values) for name, values in figures.items()}
+
+
+def _row(case: str, medians: dict[str, float]) -> str:
+    cells = " | ".join(f"{value:.1f}" for value in medians.values())
+    if len(medians) == 2:
+        this, other = medians.values()
+        cells += f" | {this - other:+.1f}"
+    return f"| {case} | {cells} |"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.small_cuts", description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=9)
+    parser.add_argument("--other", type=Path, default=None, help="another tree (a worktree of main) to alternate with")
+    parser.add_argument("--parts-only", action="store_true", help="skip the whole processes")
+    options = parser.parse_args(argv)
+    trees = [("this tree", ROOT)] + ([("other", options.other.resolve())] if options.other else [])
+    header = " | ".join(f"{name}: CPU ms" for name, _ in trees) + (" | difference" if len(trees) == 2 else "")
+    print(f"load average at start: {' '.join(f'{v:.1f}' for v in os.getloadavg())}", flush=True)
+    print(f"| part or process (medians of {options.rounds}) | {header} |")
+    print("|---|" + "---|" * (len(trees) + (len(trees) == 2)))
+    for which, label in (("imports", "import the mechanism run's modules"),
+                         ("digest", "first generator_digest()")):
+        print(_row(label, _alternated(trees, options.rounds, lambda tree, which=which: _part(tree, which))),
+              flush=True)
+    if not options.parts_only:
+        for case, command in COMMANDS.items():
+            print(_row(f"whole process: {case}",
+                       _alternated(trees, options.rounds, lambda tree, command=command: _process_cpu(tree, command))),
+                  flush=True)
+    print(f"load average at end: {' '.join(f'{v:.1f}' for v in os.getloadavg())}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
