@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from .joints import KINDS
+from .joints import KINDS, MOTOR
 
 if TYPE_CHECKING:  # sympy is imported where symbols are made
     import sympy as sp
@@ -87,7 +87,7 @@ def parameter_symbols(shape: Structure) -> ParameterSymbols:
     for k, joint in enumerate(shape.joints):
         kind = KINDS[joint.kind]
         joints.append(JointSymbols(tuple(_real(f"{stem}{k}") for stem in kind.symbols), kind.fields))
-    drivers = tuple(_real(f"{'w' if d.kind == 'speed' else 'tau'}{d.joint}") for d in shape.drivers)
+    drivers = tuple(_real(f"{MOTOR.symbols[d.kind]}{d.joint}") for d in shape.drivers)
     g, t = _real("g"), _real("t")
     vector: list[sp.Symbol] = []
     for body in bodies:
