@@ -1,7 +1,8 @@
 """Figures for BENCHMARKS.md, issue 24, "Small cuts of every process": what a warm process pays for the run
 path's dataclasses (``eq``/``repr`` generated for classes that hold arrays), the derivation's symbol classes, the
 tree formulations' closed-form reactions in a DAE run and the generated code's digest (the versions it reads),
-for this tree and another (a worktree of main, ``../before``), alternated.
+and what a pin's rows at one pose cost (a run's assembly), for this tree and another (a worktree of main,
+``../before``), alternated.
 
     python -m benchmarks.small_cuts [--rounds 9] [--other ../before] [--parts-only]
 
@@ -9,9 +10,12 @@ Module bytecode is cached (``PYTHONDONTWRITEBYTECODE`` removed, as an installati
 warm (one unmeasured process per tree and case first). Two kinds of figures, medians over ``--rounds`` rounds in
 which the trees alternate which goes first:
 
-* *parts*, measured inside a process with ``time.process_time``: importing the mechanism run's modules
-  (:mod:`physics` and its command line imported first, untimed: the shared base), and the first
-  :func:`physics.codegen.cache.generator_digest` (the sources it reads are the same files in both trees);
+* *parts*, measured inside a process with ``time.process_time``: the time spent in ``dataclasses`` making the
+  package's classes while :mod:`physics`, its command line and the mechanism run's modules are imported; importing
+  the mechanism run's modules (:mod:`physics` and its command line imported first, untimed: the shared base); the
+  first :func:`physics.codegen.cache.generator_digest` (the sources it reads are the same files in both trees);
+  :meth:`physics.mechanism.pin_rows.PinRows.rows_at` at one pose (microseconds a call, the best of 7 repeats of
+  2000 calls), for triple-c and the four-bar written as mechanisms;
 * *whole processes*: the CPU time (user + system) of ``python -m physics`` warm commands, from ``getrusage`` of
   the children: a mechanism preset's DAE run (the closed form of the tree reactions no longer imported), its
   Lagrange run, the driven Jansen leg and a chain preset's default run.
@@ -33,12 +37,38 @@ ROOT = Path(__file__).resolve().parent.parent
 
 PARTS = r"""
 import sys, time
+if sys.argv[1] == "dataclasses":  # the time spent making the package's dataclasses, while importing the run's modules
+    import dataclasses
+    made, spent = dataclasses._process_class, []
+    def timed(cls, *arguments, **keywords):
+        start = time.process_time()
+        try:
+            return made(cls, *arguments, **keywords)
+        finally:
+            spent.append((cls.__module__, time.process_time() - start))
+    dataclasses._process_class = timed
+    import physics, physics.cli  # noqa: F401
+    from physics.mechanism import assembly, engine, prepared, reduced_engine, reduced_partition, tree_reactions  # noqa
+    from physics.codegen import mechanism_observables  # noqa: F401
+    print(sum(seconds for module, seconds in spent if module.startswith("physics")) * 1e3)
+    sys.exit()
 import physics, physics.cli  # noqa: F401  (the shared base, untimed)
 if sys.argv[1] == "imports":
     start = time.process_time()
     from physics.mechanism import assembly, engine, prepared, reduced_engine, reduced_partition  # noqa: F401
     from physics.codegen import mechanism_observables  # noqa: F401
     print((time.process_time() - start) * 1e3)
+elif sys.argv[1] == "pin-rows":
+    import timeit
+    from physics.mechanism.chains import chain_mechanism
+    from physics.mechanism.prepared import prepared
+    from physics.presets import get_preset
+    loaded = get_preset(sys.argv[2])
+    pieces = prepared(chain_mechanism(loaded.chain, loaded.theta0))
+    q = pieces.constraints.sketch_pose() + 0.1
+    rows = pieces.pin_rows
+    rows.rows_at(q)
+    print(min(timeit.repeat(lambda: rows.rows_at(q), number=2000, repeat=7, timer=time.process_time)) / 2000 * 1e6)
 else:
     from physics.codegen import cache
     start = time.process_time()
@@ -61,8 +91,8 @@ def _environment(tree: Path) -> dict[str, str]:
     return environment
 
 
-def _part(tree: Path, which: str) -> float:
-    done = subprocess.run([sys.executable, "-c", PARTS, which], cwd=tree, env=_environment(tree), check=True,
+def _part(tree: Path, *which: str) -> float:
+    done = subprocess.run([sys.executable, "-c", PARTS, *which], cwd=tree, env=_environment(tree), check=True,
                           capture_output=True, text=True)
     return float(done.stdout.split()[-1])
 
@@ -105,9 +135,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"load average at start: {' '.join(f'{v:.1f}' for v in os.getloadavg())}", flush=True)
     print(f"| part or process (medians of {options.rounds}) | {header} |")
     print("|---|" + "---|" * (len(trees) + (len(trees) == 2)))
-    for which, label in (("imports", "import the mechanism run's modules"),
-                         ("digest", "first generator_digest()")):
-        print(_row(label, _alternated(trees, options.rounds, lambda tree, which=which: _part(tree, which))),
+    for which, label in (("dataclasses", "making the package's dataclasses (import of the run's modules)"),
+                         ("imports", "import the mechanism run's modules"),
+                         ("digest", "first generator_digest()"),
+                         ("pin-rows triple-c", "PinRows.rows_at, triple-c as a mechanism (us a call, best of 7)"),
+                         ("pin-rows four-bar", "PinRows.rows_at, four-bar as a mechanism (us a call, best of 7)")):
+        print(_row(label, _alternated(trees, options.rounds, lambda tree, which=which: _part(tree, *which.split()))),
               flush=True)
     if not options.parts_only:
         for case, command in COMMANDS.items():
