@@ -15,7 +15,8 @@ which the trees alternate which goes first:
   the mechanism run's modules (:mod:`physics` and its command line imported first, untimed: the shared base); the
   first :func:`physics.codegen.cache.generator_digest` (the sources it reads are the same files in both trees);
   :meth:`physics.mechanism.pin_rows.PinRows.rows_at` at one pose (microseconds a call, the best of 7 repeats of
-  2000 calls), for triple-c and the four-bar written as mechanisms;
+  2000 calls), for triple-c and the four-bar written as mechanisms; and ``python -X importtime``'s own time of
+  :mod:`physics.mechanism.parameters` (without the derivation's symbol classes after this work);
 * *whole processes*: the CPU time (user + system) of ``python -m physics`` warm commands, from ``getrusage`` of
   the children: a mechanism preset's DAE run (the closed form of the tree reactions no longer imported), its
   Lagrange run, the driven Jansen leg and a chain preset's default run.
@@ -97,6 +98,21 @@ def _part(tree: Path, *which: str) -> float:
     return float(done.stdout.split()[-1])
 
 
+IMPORTED = "import physics.cli; from physics.mechanism import engine, prepared, assembly"
+
+
+def _import_self_time(tree: Path, module: str) -> float:
+    """``python -X importtime``'s own time (ms, not its imports') of ``module`` while the mechanism run's modules
+    are imported."""
+    done = subprocess.run([sys.executable, "-X", "importtime", "-c", IMPORTED], cwd=tree, env=_environment(tree),
+                          check=True, capture_output=True, text=True)
+    for line in done.stderr.splitlines():
+        fields = line.split("|")
+        if len(fields) == 3 and fields[2].strip() == module:
+            return int(fields[0].split(":")[1]) / 1e3
+    raise RuntimeError(f"{module} was not imported")
+
+
 def _process_cpu(tree: Path, command: list[str]) -> float:
     """CPU milliseconds (user + system) of one ``python -m physics COMMAND`` process."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -141,6 +157,10 @@ def main(argv: list[str] | None = None) -> int:
                          ("pin-rows triple-c", "PinRows.rows_at, triple-c as a mechanism (us a call, best of 7)"),
                          ("pin-rows four-bar", "PinRows.rows_at, four-bar as a mechanism (us a call, best of 7)")):
         print(_row(label, _alternated(trees, options.rounds, lambda tree, which=which: _part(tree, *which.split()))),
+              flush=True)
+    for module in ("physics.mechanism.parameters",):
+        print(_row(f"-X importtime, own time of {module}",
+                   _alternated(trees, options.rounds, lambda tree, module=module: _import_self_time(tree, module))),
               flush=True)
     if not options.parts_only:
         for case, command in COMMANDS.items():
