@@ -25,6 +25,8 @@ from .joints import kind_of
 from .joints.revolute import KIND as PIN
 from .model import GROUND, Mechanism
 
+_rows_at_pose = PIN.rows_at_pose  # looked up once: rows_at is a run's assembly's inner step
+
 
 class PinRows:
     """Every row of a mechanism of pins as arrays over its pins' ends (in the description's order, as
@@ -64,9 +66,9 @@ class PinRows:
         (:meth:`~physics.mechanism.joints.revolute.RevoluteKind.rows_at_pose`: its gaps and gradient, as the
         generic rows compute them), laid out here by row and column."""
         frame = _Frame(q)
-        ends, pins = self.ends, self.pins
-        (gap_x, gap_y), gradient = PIN.rows_at_pose(frame.cos[ends], frame.sin[ends], frame.x[ends], frame.y[ends],
-                                                    *self.arm, self.sign)
+        ends, pins, (arm_x, arm_y) = self.ends, self.pins, self.arm
+        (gap_x, gap_y), gradient = _rows_at_pose(frame.cos[ends], frame.sin[ends], frame.x[ends], frame.y[ends],
+                                                 arm_x, arm_y, self.sign)
         residual = np.empty(2 * pins)
         residual[0::2] = gap_x
         residual[1::2] = gap_y
