@@ -30,7 +30,8 @@ import sys, time
 import sympy  # noqa: F401  (imported first: the figure is the derivation's own time)
 from physics.model import make_chain
 from physics.mechanism.chains import chain_mechanism
-from physics.mechanism.parameters import parameter_symbols, structure
+from physics.mechanism.parameters import structure
+from physics.mechanism.symbolic_parameters import parameter_symbols
 from physics.mechanism.symbolic import derive_structure
 from physics.mechanism.symbolic_tree_dae import derive_tree_dae
 method, rotations, n = sys.argv[1], sys.argv[2], int(sys.argv[3])

@@ -18,12 +18,12 @@ sympy is imported only on a miss.
 from __future__ import annotations
 
 import hashlib
+import os
 import sys
 import threading
 import time
 import types
 from dataclasses import dataclass, field
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -57,11 +57,44 @@ def _generator_sources() -> list[Path]:
     return files + [_PACKAGE_ROOT / rel for rel in _GENERATOR_FILES]
 
 
-def _version(dist: str) -> str:
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return "none"
+def _installed_versions(dists: tuple[str, ...]) -> dict[str, str]:
+    """``importlib.metadata.version(dist)`` of each of ``dists`` ("none" where it raises
+    ``PackageNotFoundError``) without importing :mod:`importlib.metadata`, whose email parser, zipfile and csv cost
+    every process 3-4 ms: the ``Version:`` header of the first ``DIST-*.dist-info`` (or ``.egg-info``) found on
+    ``sys.path``, in its order, as that function finds it. For packages the process has not imported (sympy and
+    numba: a warm run never does); one pass over ``sys.path`` for all of them."""
+    versions: dict[str, str] = {}
+    for entry in sys.path:
+        folder = entry or "."
+        try:
+            names = [name for name in os.listdir(folder) if name.endswith(("dist-info", "egg-info"))]
+        except OSError:  # a zip file, a path hook, a folder that is gone
+            continue
+        for name in sorted(names):
+            stem, _, suffix = name.rpartition(".")
+            dist = stem.partition("-")[0].lower().replace(".", "_")
+            if dist not in dists or dist in versions:
+                continue
+            found = Path(folder, name)
+            headers = found if found.is_file() else found / ("METADATA" if suffix == "dist-info" else "PKG-INFO")
+            try:
+                with headers.open(encoding="utf-8") as text:
+                    for line in text:
+                        if not line.strip():  # the headers end at the first empty line
+                            break
+                        if line.startswith("Version:"):
+                            versions[dist] = line.partition(":")[2].strip()
+                            break
+            except OSError:
+                continue
+    return {dist: versions.get(dist, "none") for dist in dists}
+
+
+def _versions() -> str:
+    """The versions the generated code depends on: numpy's from the module itself (imported above, so free),
+    sympy's and numba's from their installed metadata (:func:`_installed_versions`)."""
+    installed = _installed_versions(("sympy", "numba"))
+    return f"sympy={installed['sympy']};numba={installed['numba']};numpy={np.__version__}"
 
 
 _digest_memo: list[str] = []
@@ -75,8 +108,7 @@ def generator_digest() -> str:
     for path in _generator_sources():
         h.update(str(path.relative_to(_PACKAGE_ROOT)).encode())
         h.update(path.read_bytes() if path.exists() else b"<missing>")
-    for dist in ("sympy", "numba", "numpy"):
-        h.update(f"{dist}={_version(dist)}".encode())
+    h.update(_versions().encode())
     h.update(sys.version.encode())
     _digest_memo.append(h.hexdigest()[:16])
     return _digest_memo[0]

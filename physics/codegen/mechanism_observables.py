@@ -25,7 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class PathPoints:
     """Points, each reached along a path of bodies from a ground point: ``x = origin_x + [cos phi, sin phi]
     @ to_x`` (and ``y``) at every sample, ``cos phi, sin phi`` of the ``B`` bodies side by side ``(T, 2 B)``;

@@ -138,18 +138,12 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     out = MechanismSamples()
     out.full = values[at_full:at_cond].reshape(rows, k)
     out.condition = values[at_cond:at_jac]
-    jacobian = values[at_jac:at_vec].reshape(rows, r, n)
-    vector = values[at_vec:at_pjac].reshape(rows, 2 * r)
-    if r and constraints:
-        states(int(compiled._native("constraints")), address, rows, base + 8 * at_t, base + 8 * at_x,
-               base + 8 * at_v, base + 8 * at_params_c, r * n, 2 * r, base + 8 * at_jac, base + 8 * at_vec)
-    out.jacobian, out.phi, out.phi_dot = jacobian, vector[:, :r], vector[:, r:]
-    pose_jacobian = values[at_pjac:at_pvec].reshape(rows, size, n)
-    pose_vector = values[at_pvec:at_matrices].reshape(rows, 2 * size)
-    if size and kinematics:
-        states(int(compiled._native("kinematics")), address, rows, base + 8 * at_zero, base + 8 * at_x,
-               base + 8 * at_v, base + 8 * at_params_k, size * n, 2 * size, base + 8 * at_pjac, base + 8 * at_pvec)
-    out.pose_jacobian, out.pose, out.bias = pose_jacobian, pose_vector[:, :size], pose_vector[:, size:]
+    out.jacobian, out.phi, out.phi_dot = _states_into(
+        values, states, int(compiled._native("constraints")) if r and constraints else None, address,
+        (rows, r, n), (at_t, at_x, at_v, at_params_c), at_jac)
+    out.pose_jacobian, out.pose, out.bias = _states_into(
+        values, states, int(compiled._native("kinematics")) if size and kinematics else None, address,
+        (rows, size, n), (at_zero, at_x, at_v, at_params_k), at_pjac)
     out.matrices = values[at_matrices:at_rhs].reshape(rows * matrices, k, k)
     if matrices and rows:
         _assemble_function()(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v,
@@ -165,6 +159,24 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
         out.energies = values[at_energies:at_reactions].reshape(3, rows)
         out.reactions = values[at_reactions:at_observe].reshape(rows, reactions)
     return out
+
+
+def _states_into(values: np.ndarray, states, native: int | None, address: int, shape: tuple[int, int, int],
+                 inputs: tuple[int, int, int, int], at_jacobian: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One ``native_states`` call (the held constraints' or the kinematics') into ``values``: its Jacobian
+    ``(T, w, n)`` at ``at_jacobian``, then its value and rate ``(T, 2 w)`` (``shape``: ``(T, w, n)``), from the
+    times, ``x``, ``v`` and parameters at the offsets ``inputs``; the views ``(jacobian, value, rate)``, left
+    unset when ``native`` is None (not asked for, or no rows)."""
+    rows, width, n = shape
+    at_vector = at_jacobian + rows * width * n
+    jacobian = values[at_jacobian:at_vector].reshape(rows, width, n)
+    vector = values[at_vector:at_vector + rows * 2 * width].reshape(rows, 2 * width)
+    if native is not None:
+        base = values.ctypes.data
+        at_t, at_x, at_v, at_params = inputs
+        states(native, address, rows, base + 8 * at_t, base + 8 * at_x, base + 8 * at_v, base + 8 * at_params,
+               width * n, 2 * width, base + 8 * at_jacobian, base + 8 * at_vector)
+    return jacobian, vector[:, :width], vector[:, width:]
 
 
 def _assemble_function():

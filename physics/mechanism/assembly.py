@@ -33,7 +33,9 @@ RANK_TOLERANCE = 1e-9  # singular values below this (relative to the largest) ar
 PIN_ROWS = True
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class Assembled:
     """An assembled pose ``q`` (3 per body) with its residual, and the mechanism's degrees of freedom."""
 

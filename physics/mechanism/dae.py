@@ -29,7 +29,9 @@ from .model import Mechanism
 SINGULAR_RCOND = 1e-13  # reciprocal condition of the augmented matrix below which a pose counts as singular
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class Solution:
     """Accelerations ``qddot`` (3 B) and multipliers ``reactions`` (one per constraint row)."""
 

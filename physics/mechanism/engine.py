@@ -75,7 +75,9 @@ def _key(digest: str, method: str, rotations: str = "relative") -> str:
     return f"{method.replace('_', '')}-mechanism-{kind}{digest}"
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class Integration:
     """What the integrator returns: states ``(T, 2 n)`` at the sample times (NaN past a failure), the status,
     the counts, where it stopped, how many samples it filled and, for a failure, the solver's own words."""
@@ -169,7 +171,9 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), detail)
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class Samples:
     """Every sample in maximal coordinates, from one formulation's own solution: ``q, qdot, qddot (T, 3 B)``,
     and its multipliers ``(T, r)`` in the order of its constraint rows."""

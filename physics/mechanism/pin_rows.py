@@ -6,7 +6,9 @@ kinds' generic rows (:class:`~physics.mechanism.constraints.Constraints`, the ro
 symbolic derivations), about 0.25 ms for seed case C's three pins, more than half of what the chain engine
 spends on its whole run (issue 24: a chain handed to the mechanism engine with a new start each call). A pin's
 rows are two lines: its two points' gap, ``r_a + R(phi_a) s_a - r_b - R(phi_b) s_b``, and their gradient,
-``+-1`` in the translation columns and ``-+`` the turned arm's other component in the rotation column.
+``+-1`` in the translation columns and ``-+`` the turned arm's other component in the rotation column; the pin's
+kind gives them batched over pins (:meth:`~physics.mechanism.joints.revolute.RevoluteKind.rows_at_pose`), and
+this module lays them into ``Phi`` and ``Phi_q``.
 
 The numbers are the generic rows' bit for bit (``tests/physics/test_pin_rows.py`` holds them to it): the same
 cosines and sines of the same pose array (:class:`~physics.mechanism.constraints._Frame`), the same products and
@@ -20,7 +22,10 @@ import numpy as np
 
 from .constraints import Constraints, _Frame
 from .joints import kind_of
+from .joints.revolute import KIND as PIN
 from .model import GROUND, Mechanism
+
+_rows_at_pose = PIN.rows_at_pose  # looked up once: rows_at is a run's assembly's inner step
 
 
 class PinRows:
@@ -57,18 +62,18 @@ class PinRows:
 
     def rows_at(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(Phi(q) (2 P,), Phi_q(q) (2 P, 3 B))`` at one pose ``q`` (3 B): :meth:`Constraints.residual`'s and
-        :meth:`Constraints.jacobian`'s numbers. Each end's point as the generic rows compute it
-        (``Kinematics.point``: the arm turned, then the centre added), the gap ``p_a + -p_b`` as their ``sub``."""
+        :meth:`Constraints.jacobian`'s numbers. The pin's own batched rows
+        (:meth:`~physics.mechanism.joints.revolute.RevoluteKind.rows_at_pose`: its gaps and gradient, as the
+        generic rows compute them), laid out here by row and column."""
         frame = _Frame(q)
-        ends, arm, sign, pins = self.ends, self.arm, self.sign, self.pins
-        c, s = frame.cos[ends], frame.sin[ends]
-        rho = (c * arm[0] - s * arm[1], s * arm[0] + c * arm[1])
-        x, y = frame.x[ends] + rho[0], frame.y[ends] + rho[1]
+        ends, pins, (arm_x, arm_y) = self.ends, self.pins, self.arm
+        (gap_x, gap_y), gradient = _rows_at_pose(frame.cos[ends], frame.sin[ends], frame.x[ends], frame.y[ends],
+                                                 arm_x, arm_y, self.sign)
         residual = np.empty(2 * pins)
-        residual[0::2] = x[:pins] + -x[pins:]
-        residual[1::2] = y[:pins] + -y[pins:]
+        residual[0::2] = gap_x
+        residual[1::2] = gap_y
         entries = np.zeros(2 * pins * self.width)
-        entries[self.flat] = np.concatenate([sign, sign, -(sign * rho[1]), sign * rho[0]])
+        entries[self.flat] = np.concatenate(gradient)
         entries += 0.0  # a zero of either sign summed onto +0.0, as the generic rows' sum gives it
         return residual, entries.reshape(2 * pins, self.width)[:, : self.size]
 
@@ -76,7 +81,7 @@ class PinRows:
 def pin_rows(mechanism: Mechanism, constraints: Constraints) -> PinRows | None:
     """The mechanism's :class:`PinRows` when every constraint row is a pin's (no slider, gear or speed motor;
     torque motors add no row); None otherwise."""
-    if not mechanism.joints or any(kind_of(joint).name != "revolute" for joint in mechanism.joints):
+    if not mechanism.joints or any(kind_of(joint).name != PIN.name for joint in mechanism.joints):
         return None
     if len(constraints.rows) != 2 * len(mechanism.joints):  # a speed motor's row
         return None

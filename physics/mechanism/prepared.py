@@ -33,7 +33,7 @@ from .dae import MechanismDAE
 from .model import Mechanism
 from .parameters import parameter_vector, structure_key
 from .run import BodyPoints, body_points, coordinate_names
-from .topology import Topology
+from .topology import Topology, open_tree_of_pins
 
 if TYPE_CHECKING:
     from .joint_coordinates import JointCoordinates
@@ -46,7 +46,9 @@ PREPARED_ENTRIES = 64
 ASSEMBLIES_KEPT = 8  # starts remembered per mechanism: the sketch, and a few others a study returns to
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class Prepared:
     """One mechanism's run-independent pieces (every array read-only).
 
@@ -115,10 +117,10 @@ class Prepared:
         centres). Ordered by bodies from the ground, a body's rows (its pin to its
         parent, and the pin's speed motor) hold ``+-I`` in its translation columns and ``+-1`` in its rotation
         column, nothing in its descendants' columns: block triangular, every diagonal block of full row rank.
-        Assembly then needs no rank (an SVD) to know the mobility."""
-        from .tree_reactions import TreeReactions  # noqa: PLC0415
-
-        return isinstance(self.tree_reactions, TreeReactions)
+        Assembly then needs no rank (an SVD) to know the mobility. Asked of the structure
+        (:func:`~physics.mechanism.topology.open_tree_of_pins`), not of the closed form: a DAE run never builds
+        or imports it."""
+        return open_tree_of_pins(self.constraints.mechanism, self.topology)
 
     def remembered(self, key: Hashable):
         """What :meth:`remember` kept under ``key``, or None."""

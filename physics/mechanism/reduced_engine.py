@@ -30,7 +30,9 @@ from .model import GROUND, Mechanism
 from .parameters import parameter_vector
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class JointCoordinateArrays:
     """The joint coordinates as :mod:`physics.kernels.reduced` reads them: ``names`` (joint order), ``kinds``
     (ANGLE or TRAVEL), ``ends`` (J, 2) the bodies by index (-1 the ground), ``geometry`` (J, 7) a travel's arms,
@@ -79,7 +81,9 @@ def joint_coordinate_arrays(mechanism: Mechanism) -> JointCoordinateArrays:
         geometry=np.array(geometry, dtype=float).reshape(-1, 7), speed_scale=np.array(scale, dtype=float))
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class ReducedEngine:
     """One mechanism's compiled reduced model: its generated DAE system (``compiled``, ``assemble`` its address,
     ``layout``), the parameter vector ``params`` (its time slot written at every evaluation), the mass diagonal,

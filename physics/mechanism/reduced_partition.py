@@ -52,7 +52,9 @@ NEWTON_FAILURE = 1e-9
 REMEMBERED = 8
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class ReducedState:
     """Everything at one ``(t, s, sdot)``: the pose ``q``, velocities ``qdot``, accelerations ``qddot``, the
     velocity transformation ``B`` (``dq/ds``), the generalised mass ``B^T M B``, ``sddot`` and every joint's

@@ -14,7 +14,8 @@ import functools
 
 from ..derive.formulation import LinearSystem
 from .model import Mechanism
-from .parameters import ROTATIONS, Structure, parameter_symbols, structure
+from .parameters import ROTATIONS, Structure, structure
+from .symbolic_parameters import parameter_symbols
 
 METHODS = ("dae", "lagrange", "newton_euler")
 

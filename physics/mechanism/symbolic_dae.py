@@ -27,7 +27,8 @@ import sympy as sp
 from ..derive.formulation import LinearSystem
 from .joints import KINDS, MOTOR, Kinematics
 from .joints.loads import BodyLoads, applied_loads
-from .parameters import ParameterSymbols, Structure
+from .parameters import Structure
+from .symbolic_parameters import ParameterSymbols
 from .symbolic_tree import (
     ORIGIN,
     ZERO,

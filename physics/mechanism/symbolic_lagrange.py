@@ -32,7 +32,8 @@ import sympy as sp
 
 from ..derive.formulation import LinearSystem
 from .joints.loads import applied_loads
-from .parameters import ParameterSymbols, Structure
+from .parameters import Structure
+from .symbolic_parameters import ParameterSymbols
 from .symbolic_tree import (
     ZERO,
     LinearReader,

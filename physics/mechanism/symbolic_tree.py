@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .joints import KINDS, MOTOR, Kinematics, Rotation, Row, Translation
-from .parameters import ROTATIONS, ParameterSymbols, Structure
+from .parameters import ROTATIONS, Structure
+from .symbolic_parameters import ParameterSymbols
 from .topology import breadth_first
 
 ZERO = sp.Integer(0)

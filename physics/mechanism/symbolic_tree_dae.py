@@ -30,7 +30,8 @@ import sympy as sp
 
 from ..derive.formulation import LinearSystem
 from .joints import KINDS, MOTOR, Rotation, Translation
-from .parameters import ParameterSymbols, Structure
+from .parameters import Structure
+from .symbolic_parameters import ParameterSymbols
 from .symbolic_tree import (
     ZERO,
     LinearReader,

@@ -16,6 +16,8 @@ from typing import Any
 from .joints import MOTOR, kind_of
 from .model import GROUND, Mechanism
 
+PIN = "revolute"  # the pin's kind name (physics.mechanism.joints.revolute)
+
 
 def joint_bodies(joint: Any) -> tuple[str, str] | None:
     """The two bodies (or ``"ground"``) a joint connects; None for a coupler of joints (a gear)."""
@@ -44,6 +46,19 @@ class Topology:
     loops: tuple[Loop, ...]
     mobility: int
     parent: dict[str, tuple[str, str]]  # body -> (joint to its parent, parent body)
+
+
+def open_tree_of_pins(mechanism: Mechanism, topology: Topology | None) -> bool:
+    """True when every joint of ``mechanism`` is a pin of its spanning tree (no loop, gear or slider; motors on
+    any pin allowed) and the ground reaches every body: the structure whose tree reactions have a closed form
+    (:func:`physics.mechanism.tree_reactions.plan`) and whose constraint rows are independent at every pose
+    (:attr:`physics.mechanism.prepared.Prepared.full_rank_by_structure`). Here, apart from that closed form, so
+    a DAE run's assembly asks it without importing the closed form only the tree formulations use."""
+    if topology is None or topology.loops or not mechanism.joints:
+        return False
+    if any(kind_of(joint).name != PIN for joint in mechanism.joints):
+        return False
+    return {joint for joint, _ in topology.parent.values()} == {joint.name for joint in mechanism.joints}
 
 
 def breadth_first(root: Hashable, edges: Iterable[tuple[Any, Hashable, Hashable]]) -> dict:

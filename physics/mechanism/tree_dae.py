@@ -50,8 +50,8 @@ def compiled_tree_dae(mechanism: Mechanism, key_of_structure: str | None = None,
     digest = structure_key(mechanism) if key_of_structure is None else key_of_structure
 
     def derive():
-        from .parameters import parameter_symbols  # noqa: PLC0415  (sympy only on a cache miss)
         from .symbolic import derive_structure  # noqa: PLC0415
+        from .symbolic_parameters import parameter_symbols  # noqa: PLC0415  (sympy only on a cache miss)
         from .symbolic_tree_dae import derive_tree_dae  # noqa: PLC0415
 
         shape = structure(mechanism)

@@ -55,12 +55,12 @@ import numpy as np
 from .constraints import Constraints
 from .joints import MOTOR, kind_of
 from .model import GROUND
-from .topology import Topology
-
-PIN = "revolute"
+from .topology import PIN, Topology, open_tree_of_pins
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class TreeReactions:
     """The constant pieces of the closed form for one mechanism (every array read-only).
 
@@ -103,17 +103,14 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
     torque motors on any of them allowed); None for anything else (a loop, a gear, a slider, a body the ground
     does not reach), whose reactions keep the QR."""
     mechanism = constraints.mechanism
-    if topology is None or topology.loops or not mechanism.joints:
+    if not open_tree_of_pins(mechanism, topology):
         return None
-    if any(kind_of(joint).name != PIN for joint in mechanism.joints):
-        return None
+    assert topology is not None  # open_tree_of_pins is False without one
     bodies = {name: k for k, name in enumerate(topology.bodies)}
     row_of = {(row.joint, row.meaning): number for number, row in enumerate(constraints.rows)}
     meanings = kind_of(mechanism.joints[0]).meanings
     pin_of = {joint.name: number for number, joint in enumerate(mechanism.joints)}
     child_of: dict[str, str] = {joint: child for child, (joint, _) in topology.parent.items()}
-    if set(child_of) != set(pin_of):
-        return None
     count = len(bodies)
     below: dict[str, list[str]] = {}
     for child, (_, parent_body) in topology.parent.items():
@@ -174,7 +171,9 @@ def plan(constraints: Constraints, topology: Topology | None) -> TreeReactions |
 _LOOP_RANK_RATIO = 1e-8
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class LoopReactions:
     """The constant pieces of the closed form of a mechanism of pins with loops (every array read-only): every
     quantity the small system needs is linear in ``q`` and each body's ``cos phi, sin phi`` (the pins' points,

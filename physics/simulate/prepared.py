@@ -20,7 +20,9 @@ from ..model import Chain, Settings, TracePoint
 MAX_CHAINS = 32
 
 
-@dataclass(frozen=True)
+# eq=False, repr=False: its arrays compare elementwise and print whole; generating __eq__ and __repr__ cost
+# every process about 0.5 ms a class (benchmarks/small_cuts.py)
+@dataclass(frozen=True, eq=False, repr=False)
 class ChainArrays:
     """A chain's bars as arrays (never written by the simulation), its parameters without damping and the
     point traced when a run names none (the tip)."""

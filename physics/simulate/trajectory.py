@@ -93,7 +93,9 @@ def chain_joint_names(n: int) -> tuple[str, ...]:
     return ("O", *(f"J{k}" for k in range(1, n)), "H")
 
 
-@dataclass
+# eq=False: its arrays compare elementwise; repr=False: its own __repr__ below (generating the dataclass's
+# __eq__ and __repr__ cost every process about 0.5 ms a class, benchmarks/small_cuts.py)
+@dataclass(eq=False, repr=False)
 class Trajectory:
     """Samples along axis 0 (``T`` of them, up to where the run stopped if it did: ``status``, ``message``).
 

@@ -18,7 +18,8 @@ from .base import Force, Kinematics, Row
 from .motor import MOTOR
 
 if TYPE_CHECKING:
-    from ..parameters import ParameterSymbols, Structure
+    from ..parameters import Structure
+    from ..symbolic_parameters import ParameterSymbols
 
 
 class BodyLoads:

@@ -32,6 +32,7 @@ class Motor:
 
     label = "motor"
     meanings = ("driven angle",)  # a speed motor's torque on body b (minus on a)
+    symbols = {"speed": "w", "torque": "tau"}  # its parameter's symbol stem by kind, the joint's number appended
 
     @staticmethod
     def kind(driver: Driver) -> str:

@@ -67,6 +67,22 @@ class RevoluteKind(JointKind):
         return [Row(gap[axis], gap_rate[axis], gap_acceleration[axis],
                     (Force(a, units[axis], p_a), Force(b, k.scale(-1, units[axis]), p_b))) for axis in (0, 1)]
 
+    @staticmethod
+    def rows_at_pose(cos, sin, x, y, arm_x, arm_y, sign) -> tuple[tuple[Any, Any], tuple[Any, Any, Any, Any]]:
+        """Every pin's two rows at one pose, batched over pins, in numbers: arrays over the pins' ends (every
+        pin's ``a``, then every pin's ``b``) of their bodies' ``cos``, ``sin`` and centre ``x``, ``y``, the arms
+        ``arm_x``, ``arm_y`` and ``sign`` (+1 on ``a``, -1 on ``b``). Returns the gaps ``(x, y)`` by pin, and each
+        end's entries of the rows' gradient: the x row's in the end's x column (``sign``), the y row's in its y
+        column (``sign``), then the x and y rows' in its angle column (``-sign rho_y``, ``sign rho_x``, ``rho``
+        the turned arm). The numbers :meth:`rows` gives through numeric kinematics, bit for bit (the arm turned,
+        the centre added, the gap ``p_a + -p_b``; the gradient its velocity forms at unit rates):
+        :class:`physics.mechanism.pin_rows.PinRows` lays them into ``Phi`` and ``Phi_q`` for a run's assembly."""
+        pins = len(sign) // 2
+        rho_x, rho_y = cos * arm_x - sin * arm_y, sin * arm_x + cos * arm_y
+        point_x, point_y = x + rho_x, y + rho_y
+        gaps = (point_x[:pins] + -point_x[pins:], point_y[:pins] + -point_y[pins:])
+        return gaps, (sign, sign, -(sign * rho_y), sign * rho_x)
+
     def damper(self, bodies, values, k: Kinematics) -> Row:
         """Its relative rotation: a damping torque on ``b`` against ``b``'s spin relative to ``a`` (the opposite
         on ``a``)."""
