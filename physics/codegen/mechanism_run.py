@@ -13,8 +13,10 @@ counterpart of the chain's own :mod:`physics.codegen.native_run` (issue 24).
 
 from __future__ import annotations
 
+import ctypes
 import math
 import threading
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +79,7 @@ class _Run:
         self.size = compiled.pose_size if plan.tree else 0
         if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.tree and not self.size):
             raise ValueError("expected at least one sample time and a plan that fits the system")
-        self.samples = samples
+        self.samples, self.n_params, self.matrices = samples, n_params, int(bool(matrices))
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
                            n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies)
         self.assemble = int(compiled.assemble_function)
@@ -111,6 +113,22 @@ class RunObservables:
     reactions: np.ndarray
 
 
+def run_shape(compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
+              n_params: int, matrices: bool) -> _Run:
+    """The worked-out shape of a run of ``compiled`` (:class:`_Run`) for :func:`observe`: remembered per system,
+    layout, plan and shape, so a caller that runs the same request again may keep it instead of asking again."""
+    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices))
+    entry = _runs.get(key)
+    if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
+            or entry.plan is not plan:
+        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices))
+        with _lock:
+            if len(_runs) >= MAX_SHAPES:
+                _runs.clear()
+            _runs[key] = entry
+    return entry
+
+
 def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarray, y0: np.ndarray,
                           t_eval: np.ndarray, params: np.ndarray, rtol, atol, alpha, beta, project, max_steps,
                           method: str, plan: ObservablesPlan, g: float, matrices: bool):
@@ -126,20 +144,28 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     observables are (its ``tree``: the kinematics is evaluated for Newton's law on the bodies); ``matrices``:
     also each sample's plain matrix (a condition number's). ``y0``, ``t_eval`` and ``params`` C-contiguous
     float64 (only read)."""
-    key = (id(compiled), id(integration_layout), id(plan), method, t_eval.shape[0], params.shape[0], bool(matrices))
-    entry = _runs.get(key)
-    if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
-            or entry.plan is not plan:
-        entry = _Run(compiled, integration_layout, plan, method, t_eval.shape[0], params.shape[0], bool(matrices))
-        with _lock:
-            if len(_runs) >= MAX_SHAPES:
-                _runs.clear()
-            _runs[key] = entry
-    n, k, samples, at = entry.n, entry.k, entry.samples, entry.at
+    entry = run_shape(compiled, integration_layout, plan, method, t_eval.shape[0], params.shape[0], matrices)
+    return observe(entry, driver, solve, y0, t_eval, params, rtol, atol, alpha, beta, project, max_steps, g)
+
+
+_address_of = ctypes.addressof
+# a fresh (writable) array's address in a fifth of the time ``.ctypes.data`` takes (typed Any: numpy's stubs do
+# not declare the buffer protocol ctypes reads)
+_bytes_of: Any = ctypes.c_char.from_buffer
+_counts = ctypes.c_int64 * 2
+
+
+def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, params: np.ndarray, rtol, atol, alpha,
+            beta, project, max_steps, g: float):
+    """:func:`integrate_and_observe` of a shape :func:`run_shape` gave for these arguments' system, layout, plan,
+    method, sizes (``t_eval``'s, ``params``') and ``matrices`` (the arguments' shapes are checked again)."""
+    n, k, samples, at, matrices = entry.n, entry.k, entry.samples, entry.at, entry.matrices
     values = np.empty(at.length)
     y_out = values[at.y_out:at.x].reshape(samples, 2 * n)
-    check_arguments(integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
+    check_arguments(entry.integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
                     _NO_CONDITION)
+    if t_eval.shape[0] != samples or params.shape[0] != entry.n_params:
+        raise ValueError("t_eval's or params' length is not the one of this run's shape")
     values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
     values[at.y0:at.t_eval] = y0
     values[at.t_eval:at.params] = t_eval
@@ -147,7 +173,7 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     values[at.solve_params:at.kinematics_params] = params
     values[at.kinematics_params:at.solve_scratch] = params
     y_out.fill(np.nan)
-    base = values.ctypes.data
+    base = _address_of(_bytes_of(values))
     assemble = entry.assemble
     status = driver(assemble, entry.integration_address, base + 8 * at.y0, float(t_eval[0]), float(t_eval[-1]),
                     base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
@@ -158,8 +184,8 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     else:
         rows = int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
     states = y_out[:rows]
-    values[at.x:at.x + rows * n].reshape(rows, n)[:] = states[:, :n]
-    values[at.v:at.v + rows * n].reshape(rows, n)[:] = states[:, n:]
+    # x then v (T, n) each, one after the other in the buffer: both from the states [x, v] in one copy
+    values[at.x:at.zeros].reshape(2, samples, n)[:, :rows] = states.reshape(rows, 2, n).transpose(1, 0, 2)
     values[at.zeros:at.zeros + rows] = 0.0
     address = entry.address
     solve(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params, float(alpha),
@@ -172,6 +198,7 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     if matrices and rows:
         entry.assemble_call(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
                             base + 8 * at.matrices, base + 8 * at.rhs)
+    plan = entry.plan
     shape, indices, constants = plan.addresses
     entry.observables_call(shape, indices, constants, rows, entry.tree, float(g), base + 8 * at.x, base + 8 * at.v,
                            n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
@@ -186,5 +213,5 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
     out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
     out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
-    n_steps, n_rhs, _ = values[:3].view(np.int64).tolist()
-    return int(status), n_steps, n_rhs, float(values[3]), values[at.t_eval:at.t_eval + rows], states, out
+    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
+    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
