@@ -80,6 +80,9 @@ class _Run:
         if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.tree and not self.size):
             raise ValueError("expected at least one sample time and a plan that fits the system")
         self.samples, self.n_params, self.matrices = samples, n_params, int(bool(matrices))
+        # check_arguments of this shape, once (observe checks what a call may change: the arrays' sizes)
+        check_arguments(integration_layout, np.zeros(2 * self.n), 0.0, 0.0, np.zeros(samples), np.zeros(n_params),
+                        np.zeros((samples, 2 * self.n)), _NO_CONDITION)
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
                            n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies)
         self.assemble = int(compiled.assemble_function)
@@ -162,9 +165,10 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     n, k, samples, at, matrices = entry.n, entry.k, entry.samples, entry.at, entry.matrices
     values = np.empty(at.length)
     y_out = values[at.y_out:at.x].reshape(samples, 2 * n)
-    check_arguments(entry.integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
-                    _NO_CONDITION)
-    if t_eval.shape[0] != samples or params.shape[0] != entry.n_params:
+    # check_arguments' tests (:class:`_Run` made them for the shape): the sizes this shape was made for, forward
+    t0, t_end = float(t_eval[0]), float(t_eval[-1])
+    if t_eval.shape[0] != samples or params.shape[0] != entry.n_params or y0.shape[0] != 2 * n or not t_end >= t0:
+        check_arguments(entry.integration_layout, y0, t0, t_end, t_eval, params, y_out, _NO_CONDITION)
         raise ValueError("t_eval's or params' length is not the one of this run's shape")
     values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
     values[at.y0:at.t_eval] = y0
@@ -175,7 +179,7 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     y_out.fill(np.nan)
     base = _address_of(_bytes_of(values))
     assemble = entry.assemble
-    status = driver(assemble, entry.integration_address, base + 8 * at.y0, float(t_eval[0]), float(t_eval[-1]),
+    status = driver(assemble, entry.integration_address, base + 8 * at.y0, t0, t_end,
                     base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
                     float(beta), int(bool(project) and entry.constraints != 0),  # the kernel's _projecting
                     int(max_steps), base + 8 * at.y_out, base + 8 * at.driver_scratch, base, base + 24)
