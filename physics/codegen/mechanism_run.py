@@ -60,7 +60,8 @@ class _Offsets:
         self.energies = self.velocities + samples * 2 * count
         self.reactions = self.energies + 3 * samples
         self.scratch = self.reactions + samples * reactions
-        self.length = self.scratch + scratch_length(bodies)
+        self.rows = self.scratch + scratch_length(bodies)  # the rows finite throughout, written by the one call
+        self.length = self.rows + 1
 
 
 class _Run:
@@ -93,6 +94,61 @@ class _Run:
         self.assemble_call = _assemble_function()
         self.observables_call = observables_function()
         self.tree = int(plan.tree)
+        self._plans: dict[tuple[int, int], tuple] = {}
+
+    def plan_address(self, driver, solve) -> int:
+        """The address of :mod:`physics.codegen.mechanism_run_ir`'s plan for this shape with ``driver`` and
+        ``solve`` (made once per pair of functions: the system's generic ones until its specialised ones are in
+        place; the entry holds the functions and the array)."""
+        key = (id(driver), id(solve))
+        kept = self._plans.get(key)
+        if kept is not None and kept[0] is driver and kept[1] is solve:
+            return kept[3]
+        from .mechanism_run_ir import PLAN_SLOTS  # noqa: PLC0415
+
+        at = self.at
+        addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
+                     "states": _function_address(self.kinematics_call),
+                     "assemble_states": _function_address(self.assemble_call),
+                     "observables": _function_address(self.observables_call), "assemble": self.assemble,
+                     "integration_layout": self.integration_address, "layout": self.address,
+                     "kinematics": self.kinematics, "samples": self.samples, "n": self.n, "size": self.size,
+                     "tree": self.tree, "matrices": self.matrices, "matrices_at": at.matrices}
+        shape, indices, constants = self.plan.addresses
+        addresses.update(shape=shape, indices=indices, constants=constants)
+        plan = np.array([addresses[name] if name in addresses else getattr(at, name) for name in PLAN_SLOTS],
+                        dtype=np.int64)
+        entry = (driver, solve, plan, plan.ctypes.data)
+        with _lock:
+            if len(self._plans) >= 4:
+                self._plans.clear()
+            self._plans[key] = entry
+        return entry[3]
+
+
+def _function_address(function) -> int:
+    """The machine-code address of a ctypes function."""
+    return int(ctypes.cast(function, ctypes.c_void_p).value or 0)
+
+
+_one_call: list = []
+
+
+def _run_function():
+    """The ctypes function of :mod:`physics.codegen.mechanism_run_ir` (compiled or loaded once)."""
+    if not _one_call:
+        from .native_integrators import ctypes_functions, ir_builder  # noqa: PLC0415
+
+        p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+        signature = ctypes.CFUNCTYPE(i, p, p, d, d, d, d, d, d, i, i, d)
+        _one_call.append(ctypes_functions("mechanism_run", ir_builder("mechanism_run_ir", "run_ir"),
+                                          {"mechanism_run": signature})["mechanism_run"])
+    return _one_call[0]
+
+
+# True: the driver and the samples' calls in one native call (mechanism_run_ir); False: each from Python, the
+# same functions and bits (the tests compare the two)
+ONE_CALL = True
 
 
 _lock = threading.Lock()
@@ -178,6 +234,33 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     values[at.kinematics_params:at.solve_scratch] = params
     y_out.fill(np.nan)
     base = _address_of(_bytes_of(values))
+    if ONE_CALL:
+        status = _run_function()(entry.plan_address(driver, solve), base, t0, t_end, float(rtol), float(atol),
+                                 float(alpha), float(beta), int(bool(project) and entry.constraints != 0),
+                                 int(max_steps), float(g))
+        rows = int(values[at.rows])
+        states = y_out[:rows]
+    else:
+        status, rows, states = _observe_from_python(entry, driver, solve, values, base, y_out, t0, t_end, rtol, atol,
+                                                    alpha, beta, project, max_steps, g)
+    plan = entry.plan
+    count, reactions = plan.count, plan.reactions
+    out = RunObservables()
+    out.full = values[at.full:at.full + rows * k].reshape(rows, k)
+    out.condition = values[at.condition:at.condition + rows]
+    out.matrices = values[at.matrices:at.matrices + rows * k * k * matrices].reshape(rows * matrices, k, k)
+    out.points = values[at.points:at.points + rows * 2 * count].reshape(rows, count, 2)
+    out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
+    out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
+    out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
+    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
+    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
+
+
+def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: int, y_out: np.ndarray, t0: float,
+                         t_end: float, rtol, atol, alpha, beta, project, max_steps, g: float):
+    """What the one call does, a native call at a time from Python: ``(status, rows, states)``."""
+    n, samples, at, matrices = entry.n, entry.samples, entry.at, entry.matrices
     assemble = entry.assemble
     status = driver(assemble, entry.integration_address, base + 8 * at.y0, t0, t_end,
                     base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
@@ -208,14 +291,4 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
                            n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
                            base + 8 * at.scratch, base + 8 * at.points, base + 8 * at.velocities,
                            base + 8 * at.energies, base + 8 * at.reactions)
-    count, reactions = plan.count, plan.reactions
-    out = RunObservables()
-    out.full = values[at.full:at.full + rows * k].reshape(rows, k)
-    out.condition = values[at.condition:at.condition + rows]
-    out.matrices = values[at.matrices:at.matrices + rows * k * k * matrices].reshape(rows * matrices, k, k)
-    out.points = values[at.points:at.points + rows * 2 * count].reshape(rows, count, 2)
-    out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
-    out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
-    out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
-    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
-    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
+    return int(status), rows, states

@@ -100,3 +100,26 @@ def test_a_call_is_remembered_only_with_the_specialised_functions(monkeypatch):
     assert remembered[0].solve is compiled.samples_solve().solve
     for run in generic[1:] + runs:
         _assert_same(_fields(run), _fields(generic[0]))
+
+
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+@pytest.mark.parametrize("method", ["newton_euler", "lagrange", "dae"])
+@pytest.mark.parametrize("extra", [{}, {"max_steps": 2}, {"integrator": "DOP853", "samples": 7},
+                                   {"stabilization": "baumgarte"}, {"trace": {"bar": 2, "along": 0.3, "across": 0.2}}])
+def test_the_one_native_call_is_the_calls_one_at_a_time(monkeypatch, preset, method, extra):
+    """physics/codegen/mechanism_run_ir.py: the driver, the rows finite throughout, the states split, the solve, the
+    kinematics, a pinned chain's matrices and the observables in one call give what the calls from Python give."""
+    from physics.codegen import mechanism_run  # noqa: PLC0415
+
+    chosen = get_preset(preset)
+    settings = Settings(**{"method": method, "integrator": "RK45", "rtol": 1e-6, "atol": 1e-6, "t_end": 1.0,
+                           "samples": 21, **extra})
+    theta0, omega0 = np.asarray(chosen.theta0, float), np.asarray(chosen.omega0, float)
+    runs = {}
+    for one_call in (False, True, False, True):  # generic, then specialised functions
+        monkeypatch.setattr(mechanism_run, "ONE_CALL", one_call)
+        runs.setdefault(one_call, []).append(_fields(simulate(chosen.chain, theta0, omega0, settings)))
+    for mine, theirs in zip(runs[True], runs[False]):
+        _assert_same(mine, theirs)
+    if "max_steps" in extra:  # the run stopped early: fewer rows than samples, the same count both ways
+        assert runs[True][0]["t"].shape[0] < settings.samples
