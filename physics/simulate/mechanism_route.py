@@ -315,16 +315,22 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     if call is None or call.route is not route:
         call = _one_buffer_call(key, chain, settings, route, spec.name, t_eval.shape[0], params.shape[0])
     columns = call.columns
-    y0 = np.concatenate((theta0, omega0))[columns[0]]
+    y0 = np.concatenate((theta0, omega0))
+    if not call.in_order:
+        y0 = y0[columns[0]]
     status, n_steps, n_rhs, t_reached, t, states, arrays = call.observe(
         call.shape, call.driver, call.solve, y0, t_eval, params, settings.rtol, settings.atol, alpha, beta, project,
         settings.max_steps, chain.g)
     if status == Status.OK and len(t) < len(t_eval):
         status = int(Status.NOT_FINITE)
     detail = _compiled_detail(settings, status)
-    trajectory = (_trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
-                  if len(t)
-                  else _empty_trajectory(chain, settings, route, call.n))
+    if not len(t):
+        trajectory = _empty_trajectory(chain, settings, route, call.n)
+    elif call.in_order:  # the tree's order is the chain's (an open chain): copies of the columns, no fancy index
+        n = call.n
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, :n].copy(), states[:, n:].copy(), arrays)
+    else:
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
     trajectory.status = status
     trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
     trajectory.n_steps = n_steps
@@ -336,16 +342,19 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
 class _OneBufferCall:
     """What :func:`_run_in_one_buffer` hands :func:`~physics.codegen.mechanism_run.observe` besides the request's
     numbers, for one route, integrator, number of samples and traced point: the driver and the samples' solve,
-    the run's shape (offsets and addresses), the observables' plan and the state's columns. Kept
+    the run's shape (offsets and addresses), the observables' plan and the state's columns (and whether they
+    are the chain's own order). Kept
     (:data:`_calls`) once the system's specialised driver and solve are both in place: until then each call asks
     the system again, so a run takes them as soon as they are (and the system counts its calls as before). Holds
     the route, so its id is not reused while remembered."""
 
-    __slots__ = ("route", "n", "driver", "solve", "shape", "columns", "observe")
+    __slots__ = ("route", "n", "driver", "solve", "shape", "columns", "in_order", "observe")
 
     def __init__(self, route: ChainAsMechanism, n: int, driver, solve, shape, columns, observe) -> None:
         self.route, self.n, self.driver, self.solve, self.shape = route, n, driver, solve, shape
         self.columns, self.observe = columns, observe
+        # tree coordinate k is bar k: the state's columns are the chain's own (the same values without an index)
+        self.in_order = bool(np.array_equal(route.order, np.arange(n)))
 
 
 # (id(route), integrator, samples, parameters, pinned, traced point or None) -> its call
