@@ -37,7 +37,7 @@ class _Offsets:
     reactions, the observables' scratch]``; the per-sample parts sized for every sample."""
 
     def __init__(self, method: str, n: int, k: int, r: int, r_solve: int, samples: int, n_params: int, size: int,
-                 matrices: bool, count: int, reactions: int, bodies: int) -> None:
+                 matrices: bool, count: int, reactions: int, bodies: int, runs: tuple = ()) -> None:
         self.y0 = 4
         self.t_eval = self.y0 + 2 * n
         self.params = self.t_eval + samples
@@ -61,7 +61,12 @@ class _Offsets:
         self.reactions = self.energies + 3 * samples
         self.scratch = self.reactions + samples * reactions
         self.rows = self.scratch + scratch_length(bodies)  # the rows finite throughout, written by the one call
-        self.length = self.rows + 1
+        self.runs = []  # each run of points copied on its own (rows, count, 2), one after the other
+        end = self.rows + 1
+        for _, run_count in runs:
+            self.runs.append(end)
+            end += samples * 2 * run_count
+        self.length = end
 
 
 class _Run:
@@ -70,7 +75,7 @@ class _Run:
     call). Holds the system, its layout and the plan, so their ids are not reused while it is remembered."""
 
     def __init__(self, compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
-                 n_params: int, matrices: bool) -> None:
+                 n_params: int, matrices: bool, runs: tuple = ()) -> None:
         from .mechanism_samples import _assemble_function, _functions  # noqa: PLC0415
 
         layout = compiled.layout
@@ -84,8 +89,12 @@ class _Run:
         # check_arguments of this shape, once (observe checks what a call may change: the arrays' sizes)
         check_arguments(integration_layout, np.zeros(2 * self.n), 0.0, 0.0, np.zeros(samples), np.zeros(n_params),
                         np.zeros((samples, 2 * self.n)), _NO_CONDITION)
+        if len(runs) > MAX_RUNS or not all(0 <= first and 1 <= count and first + count <= plan.count
+                                           for first, count in runs):
+            raise ValueError(f"expected at most {MAX_RUNS} runs of the plan's points")
+        self.runs = tuple((int(first), int(count)) for first, count in runs)
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
-                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies)
+                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies, self.runs)
         self.assemble = int(compiled.assemble_function)
         self.address = layout_address(layout)
         self.integration_address = layout_address(integration_layout)
@@ -115,7 +124,11 @@ class _Run:
                      "kinematics": self.kinematics, "samples": self.samples, "n": self.n, "size": self.size,
                      "tree": self.tree, "matrices": self.matrices, "matrices_at": at.matrices}
         shape, indices, constants = self.plan.addresses
-        addresses.update(shape=shape, indices=indices, constants=constants)
+        addresses.update(shape=shape, indices=indices, constants=constants, count=self.plan.count)
+        for number in range(MAX_RUNS):  # a run not asked for copies nothing (count 0)
+            first, count = self.runs[number] if number < len(self.runs) else (0, 0)
+            addresses.update({f"run_first_{number}": first, f"run_count_{number}": count,
+                              f"run_at_{number}": at.runs[number] if number < len(self.runs) else 0})
         plan = np.array([addresses[name] if name in addresses else getattr(at, name) for name in PLAN_SLOTS],
                         dtype=np.int64)
         entry = (driver, solve, plan, plan.ctypes.data)
@@ -151,6 +164,7 @@ def _run_function():
 ONE_CALL = True
 
 
+MAX_RUNS = 2  # runs of points a run copies out on their own (the chain's joints and its traced point)
 _lock = threading.Lock()
 _runs: dict[tuple, _Run] = {}
 MAX_SHAPES = 64
@@ -160,9 +174,10 @@ class RunObservables:
     """The samples' arrays of :func:`integrate_and_observe`, views of its buffer for the ``T`` rows filled:
     ``full (T, k)`` and ``condition (T,)`` of the solve, ``matrices (T, k, k)`` (``(0, k, k)`` unless asked
     for), ``points`` and ``velocities (T, P, 2)``, ``energies (3, T)`` (kinetic, potential, total) and
-    ``reactions (T, R)`` of the plan."""
+    ``reactions (T, R)`` of the plan, and ``runs``: each run of points asked for, ``(T, count, 2)`` on its own
+    (C-contiguous, no copy needed)."""
 
-    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions")
+    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions", "runs")
     full: np.ndarray
     condition: np.ndarray
     matrices: np.ndarray
@@ -170,17 +185,20 @@ class RunObservables:
     velocities: np.ndarray
     energies: np.ndarray
     reactions: np.ndarray
+    runs: tuple
 
 
 def run_shape(compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
-              n_params: int, matrices: bool) -> _Run:
+              n_params: int, matrices: bool, runs: tuple = ()) -> _Run:
     """The worked-out shape of a run of ``compiled`` (:class:`_Run`) for :func:`observe`: remembered per system,
-    layout, plan and shape, so a caller that runs the same request again may keep it instead of asking again."""
-    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices))
+    layout, plan and shape, so a caller that runs the same request again may keep it instead of asking again.
+    ``runs``: ``(first, count)`` of up to :data:`MAX_RUNS` runs of the plan's points to copy out on their own."""
+    runs = tuple((int(first), int(count)) for first, count in runs)
+    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices), runs)
     entry = _runs.get(key)
     if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
             or entry.plan is not plan:
-        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices))
+        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices), runs)
         with _lock:
             if len(_runs) >= MAX_SHAPES:
                 _runs.clear()
@@ -253,6 +271,8 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
     out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
     out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
+    out.runs = tuple(values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)
+                     for start, (_, run_count) in zip(at.runs, entry.runs))
     n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
     return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
 
@@ -291,4 +311,7 @@ def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: i
                            n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
                            base + 8 * at.scratch, base + 8 * at.points, base + 8 * at.velocities,
                            base + 8 * at.energies, base + 8 * at.reactions)
+    points = values[at.points:at.points + rows * 2 * plan.count].reshape(rows, plan.count, 2)
+    for start, (first, run_count) in zip(at.runs, entry.runs):
+        values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)[:] = points[:, first:first + run_count]
     return int(status), rows, states

@@ -15,7 +15,8 @@ Entry point (C calling convention)::
 observables plan's addresses, the sizes, then the offsets (in doubles) of the buffer's parts. ``values``: the
 run's buffer, its inputs copied in and ``y_out`` filled with NaN. Returns the driver's status and writes the
 number of rows finite throughout (``physics.simulate.run``'s rule: NaN or an infinity anywhere in a row) as a
-double at the ``rows`` offset.
+double at the ``rows`` offset; then copies up to two runs of the observables' points out on their own (a run of
+count 0 copies nothing), so that a caller's per-point arrays are C-contiguous without a copy in numpy.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ PLAN_SLOTS = (
     "kinematics", "shape", "indices", "constants", "samples", "n", "size", "tree", "matrices",
     "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
     "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",
-    "velocities", "energies", "reactions", "scratch", "rows",
+    "velocities", "energies", "reactions", "scratch", "rows", "count",
+    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1",
 )
 _VOID_P = ir.IntType(8).as_pointer()
 _DRIVER = ir.FunctionType(_I64, [_I64, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID_P, _I64, _VOID_P, _DOUBLE, _DOUBLE,
@@ -110,6 +112,15 @@ def _run(module: ir.Module) -> None:
         address("shape"), address("indices"), address("constants"), filled, slot("tree"), g, part("x"), part("v"),
         n, part("full"), part("pose_jacobian"), part("pose_vector"), part("scratch"), part("points"),
         part("velocities"), part("energies"), part("reactions")])
+    # each run of points asked for, copied out on its own: (rows, count, 2) of the points (rows, P, 2)
+    points, row_width = code.at(values, slot("points")), b.mul(slot("count"), _int(2))
+    for number in range(2):
+        first, count = slot(f"run_first_{number}"), slot(f"run_count_{number}")
+        target, width = code.at(values, slot(f"run_at_{number}")), b.mul(count, _int(2))
+        with code.loop(filled, f"run{number}") as row:
+            source = b.add(b.mul(row, row_width), b.mul(first, _int(2)))
+            with code.loop(width, f"run{number}.entries") as entry:
+                code.store(code.load(points, b.add(source, entry)), target, b.add(b.mul(row, width), entry))
     b.ret(status)
     code.seal()
 

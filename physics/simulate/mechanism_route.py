@@ -375,7 +375,9 @@ def _one_buffer_call(key: tuple, chain: Chain, settings: Settings, route: ChainA
         specialised.solve if specialised is not None else generic_solve(), None, _state_columns(route, chain.n),
         observe)
     plan = _chain_plan(chain, settings, route)
-    call.shape = run_shape(compiled, compiled.integration_layout, plan, integrator, samples, n_params, chain.pinned)
+    n = chain.n  # the joints O, D_1 .. D_n and the traced point copied out on their own (_chain_points' order)
+    call.shape = run_shape(compiled, compiled.integration_layout, plan, integrator, samples, n_params, chain.pinned,
+                           runs=((n, n + 1), (2 * n + 1, 1)))
     if driver is not None and specialised is not None:
         with _plans_lock:
             if len(_calls) >= MAX_ROUTES:
@@ -460,8 +462,12 @@ def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, 
     count, n = theta.shape[0], chain.n
     rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
     joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
-    joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
-    trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
+    runs = getattr(arrays, "runs", ())
+    if runs:  # the one-buffer run copied them out on their own (_one_buffer_call asks for these two runs)
+        joints, trace_xy = runs[0], runs[1].reshape(count, 2)
+    else:
+        joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
+        trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
     kinetic, potential, energy = arrays.energies
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:
