@@ -113,8 +113,6 @@ class _Run:
         kept = self._plans.get(key)
         if kept is not None and kept[0] is driver and kept[1] is solve:
             return kept[3]
-        from .mechanism_run_ir import PLAN_SLOTS  # noqa: PLC0415
-
         at = self.at
         addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
                      "states": _function_address(self.kinematics_call),
@@ -174,6 +172,15 @@ def _run_function():
 ONE_CALL = True
 
 
+# the slots of mechanism_run_ir's plan, in order (here, not there: a warm process never imports the IR builders)
+PLAN_SLOTS = (
+    "driver", "solve", "states", "assemble_states", "observables", "assemble", "integration_layout", "layout",
+    "kinematics", "shape", "indices", "constants", "samples", "n", "size", "tree", "matrices",
+    "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
+    "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",
+    "velocities", "energies", "reactions", "scratch", "rows", "count",
+    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1",
+)
 MAX_RUNS = 2  # runs of points a run copies out on their own (the chain's joints and its traced point)
 _lock = threading.Lock()
 _runs: dict[tuple, _Run] = {}

@@ -9,7 +9,7 @@ Entry point (C calling convention)::
     i64 mechanism_run(i64* plan, double* values, double t0, double t_end, double rtol, double atol, double alpha,
                       double beta, i64 project, i64 max_steps, double g)
 
-``plan`` (:data:`PLAN_SLOTS` int64, made once per run shape and functions by
+``plan`` (:data:`~physics.codegen.mechanism_run.PLAN_SLOTS` int64, made once per run shape and functions by
 :mod:`physics.codegen.mechanism_run`): the functions (driver, solve, ``native_states``, ``assemble_states``,
 ``mechanism_observables``), the system's ``assemble`` and kinematics functions, the layouts' and the
 observables plan's addresses, the sizes, then the offsets (in doubles) of the buffer's parts. ``values``: the
@@ -24,17 +24,9 @@ from __future__ import annotations
 from llvmlite import ir
 
 from .ir_code import _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
+from .mechanism_run import PLAN_SLOTS
 
 NAME = "mechanism_run"
-# the plan's slots, in order (mechanism_run.py writes them by these names)
-PLAN_SLOTS = (
-    "driver", "solve", "states", "assemble_states", "observables", "assemble", "integration_layout", "layout",
-    "kinematics", "shape", "indices", "constants", "samples", "n", "size", "tree", "matrices",
-    "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
-    "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",
-    "velocities", "energies", "reactions", "scratch", "rows", "count",
-    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1",
-)
 _VOID_P = ir.IntType(8).as_pointer()
 _DRIVER = ir.FunctionType(_I64, [_I64, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID_P, _I64, _VOID_P, _DOUBLE, _DOUBLE,
                                  _DOUBLE, _DOUBLE, _I64, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P])
