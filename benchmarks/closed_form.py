@@ -408,13 +408,17 @@ def _summary(samples: list[float], cpu_samples: list[float]) -> dict:
 
 def _integration_only(physics, method: str, chain, theta0, omega0):
     """A call of the compiled RK45 integration loop alone that ``physics.simulate`` runs for seed case C, with
-    every argument made beforehand: what ``simulate`` adds around it is the difference of the two."""
-    from physics.codegen import load_compiled  # noqa: PLC0415
+    every argument made beforehand: what ``simulate`` adds around it is the difference of the two. The system is
+    the one of the route ``simulate`` takes (:func:`physics.simulate.chain_system.chain_system`: the chain
+    written as a mechanism on the general engine since that route is the default, else the chain's own
+    kernel), its state in that system's coordinate order."""
+    from physics.simulate.chain_system import chain_system  # noqa: PLC0415
 
-    compiled = load_compiled(method, chain.n, chain.pinned)
-    y0 = np.concatenate([theta0, omega0])
+    system = chain_system(chain, method)
+    compiled = system.compiled
+    y0 = system.state(theta0, omega0)
     t_eval = np.linspace(0.0, CASE_C_T_END, CASE_C_SAMPLES)
-    params = chain.params()
+    params = system.params
     y_out = np.empty((CASE_C_SAMPLES, y0.size))
     no_condition = np.empty(0)
     max_steps = physics.Settings().max_steps

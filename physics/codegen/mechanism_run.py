@@ -13,8 +13,10 @@ counterpart of the chain's own :mod:`physics.codegen.native_run` (issue 24).
 
 from __future__ import annotations
 
+import ctypes
 import math
 import threading
+from typing import Any
 
 import numpy as np
 
@@ -35,7 +37,7 @@ class _Offsets:
     reactions, the observables' scratch]``; the per-sample parts sized for every sample."""
 
     def __init__(self, method: str, n: int, k: int, r: int, r_solve: int, samples: int, n_params: int, size: int,
-                 matrices: bool, count: int, reactions: int, bodies: int) -> None:
+                 matrices: bool, count: int, reactions: int, bodies: int, runs: tuple = ()) -> None:
         self.y0 = 4
         self.t_eval = self.y0 + 2 * n
         self.params = self.t_eval + samples
@@ -58,7 +60,13 @@ class _Offsets:
         self.energies = self.velocities + samples * 2 * count
         self.reactions = self.energies + 3 * samples
         self.scratch = self.reactions + samples * reactions
-        self.length = self.scratch + scratch_length(bodies)
+        self.rows = self.scratch + scratch_length(bodies)  # the rows finite throughout, written by the one call
+        self.runs = []  # each run of points copied on its own (rows, count, 2), one after the other
+        end = self.rows + 1
+        for _, run_count in runs:
+            self.runs.append(end)
+            end += samples * 2 * run_count
+        self.length = end
 
 
 class _Run:
@@ -67,7 +75,7 @@ class _Run:
     call). Holds the system, its layout and the plan, so their ids are not reused while it is remembered."""
 
     def __init__(self, compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
-                 n_params: int, matrices: bool) -> None:
+                 n_params: int, matrices: bool, runs: tuple = ()) -> None:
         from .mechanism_samples import _assemble_function, _functions  # noqa: PLC0415
 
         layout = compiled.layout
@@ -77,9 +85,16 @@ class _Run:
         self.size = compiled.pose_size if plan.tree else 0
         if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.tree and not self.size):
             raise ValueError("expected at least one sample time and a plan that fits the system")
-        self.samples = samples
+        self.samples, self.n_params, self.matrices = samples, n_params, int(bool(matrices))
+        # check_arguments of this shape, once (observe checks what a call may change: the arrays' sizes)
+        check_arguments(integration_layout, np.zeros(2 * self.n), 0.0, 0.0, np.zeros(samples), np.zeros(n_params),
+                        np.zeros((samples, 2 * self.n)), _NO_CONDITION)
+        if len(runs) > MAX_RUNS or not all(0 <= first and 1 <= count and first + count <= plan.count
+                                           for first, count in runs):
+            raise ValueError(f"expected at most {MAX_RUNS} runs of the plan's points")
+        self.runs = tuple((int(first), int(count)) for first, count in runs)
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
-                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies)
+                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies, self.runs)
         self.assemble = int(compiled.assemble_function)
         self.address = layout_address(layout)
         self.integration_address = layout_address(integration_layout)
@@ -88,8 +103,85 @@ class _Run:
         self.assemble_call = _assemble_function()
         self.observables_call = observables_function()
         self.tree = int(plan.tree)
+        self._plans: dict[tuple[int, int], tuple] = {}
+
+    def plan_address(self, driver, solve) -> int:
+        """The address of :mod:`physics.codegen.mechanism_run_ir`'s plan for this shape with ``driver`` and
+        ``solve`` (made once per pair of functions: the system's generic ones until its specialised ones are in
+        place; the entry holds the functions and the array)."""
+        key = (id(driver), id(solve))
+        kept = self._plans.get(key)
+        if kept is not None and kept[0] is driver and kept[1] is solve:
+            return kept[3]
+        at = self.at
+        addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
+                     "states": _function_address(self.kinematics_call),
+                     "assemble_states": _function_address(self.assemble_call),
+                     "observables": _function_address(self.observables_call), "assemble": self.assemble,
+                     "integration_layout": self.integration_address, "layout": self.address,
+                     "kinematics": self.kinematics, "samples": self.samples, "n": self.n, "size": self.size,
+                     "tree": self.tree, "matrices": self.matrices, "matrices_at": at.matrices}
+        shape, indices, constants = self.plan.addresses
+        addresses.update(shape=shape, indices=indices, constants=constants, count=self.plan.count)
+        for number in range(MAX_RUNS):  # a run not asked for copies nothing (count 0)
+            first, count = self.runs[number] if number < len(self.runs) else (0, 0)
+            addresses.update({f"run_first_{number}": first, f"run_count_{number}": count,
+                              f"run_at_{number}": at.runs[number] if number < len(self.runs) else 0})
+        plan = np.array([addresses[name] if name in addresses else getattr(at, name) for name in PLAN_SLOTS],
+                        dtype=np.int64)
+        entry = (driver, solve, plan, plan.ctypes.data)
+        with _lock:
+            if len(self._plans) >= 4:
+                self._plans.clear()
+            self._plans[key] = entry
+        return entry[3]
 
 
+def _function_address(function) -> int:
+    """The machine-code address of a ctypes function."""
+    return int(ctypes.cast(function, ctypes.c_void_p).value or 0)
+
+
+_one_call: list = []
+
+
+def _run_function():
+    """The ctypes function of :mod:`physics.codegen.mechanism_run_ir`, compiled once per installation at O2 as
+    the observables' function is (its loops over the rows and points: about 18 us a run of seed case C faster
+    than at the drivers' level; no floating-point arithmetic of its own, so the same bits) or loaded from the
+    machine-code cache."""
+    if not _one_call:
+        from . import native  # noqa: PLC0415  (the O2 pipeline and target machine of the specialised code)
+        from .machine_code import compile_module, llvm_binding, sources_digest  # noqa: PLC0415
+        from .native_integrators import _lock as compile_lock  # noqa: PLC0415
+        from .native_integrators import ir_builder  # noqa: PLC0415
+
+        p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+        signature = ctypes.CFUNCTYPE(i, p, p, d, d, d, d, d, d, i, i, d)
+        with compile_lock, native._lock:
+            if not _one_call:
+                llvm_binding()
+                engine = compile_module(ir_builder("mechanism_run_ir", "run_ir"), "driver-O2", native._optimize,
+                                        native._target_machine, key=f"mechanism_run\n{sources_digest()}")
+                _one_call.extend([signature(engine.get_function_address("mechanism_run")), engine])
+    return _one_call[0]
+
+
+# True: the driver and the samples' calls in one native call (mechanism_run_ir); False: each from Python, the
+# same functions and bits (the tests compare the two)
+ONE_CALL = True
+
+
+# the slots of mechanism_run_ir's plan, in order (here, not there: a warm process never imports the IR builders)
+PLAN_SLOTS = (
+    "driver", "solve", "states", "assemble_states", "observables", "assemble", "integration_layout", "layout",
+    "kinematics", "shape", "indices", "constants", "samples", "n", "size", "tree", "matrices",
+    "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
+    "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",
+    "velocities", "energies", "reactions", "scratch", "rows", "count",
+    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1",
+)
+MAX_RUNS = 2  # runs of points a run copies out on their own (the chain's joints and its traced point)
 _lock = threading.Lock()
 _runs: dict[tuple, _Run] = {}
 MAX_SHAPES = 64
@@ -99,9 +191,10 @@ class RunObservables:
     """The samples' arrays of :func:`integrate_and_observe`, views of its buffer for the ``T`` rows filled:
     ``full (T, k)`` and ``condition (T,)`` of the solve, ``matrices (T, k, k)`` (``(0, k, k)`` unless asked
     for), ``points`` and ``velocities (T, P, 2)``, ``energies (3, T)`` (kinetic, potential, total) and
-    ``reactions (T, R)`` of the plan."""
+    ``reactions (T, R)`` of the plan, and ``runs``: each run of points asked for, ``(T, count, 2)`` on its own
+    (C-contiguous, no copy needed)."""
 
-    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions")
+    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions", "runs")
     full: np.ndarray
     condition: np.ndarray
     matrices: np.ndarray
@@ -109,6 +202,25 @@ class RunObservables:
     velocities: np.ndarray
     energies: np.ndarray
     reactions: np.ndarray
+    runs: tuple
+
+
+def run_shape(compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
+              n_params: int, matrices: bool, runs: tuple = ()) -> _Run:
+    """The worked-out shape of a run of ``compiled`` (:class:`_Run`) for :func:`observe`: remembered per system,
+    layout, plan and shape, so a caller that runs the same request again may keep it instead of asking again.
+    ``runs``: ``(first, count)`` of up to :data:`MAX_RUNS` runs of the plan's points to copy out on their own."""
+    runs = tuple((int(first), int(count)) for first, count in runs)
+    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices), runs)
+    entry = _runs.get(key)
+    if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
+            or entry.plan is not plan:
+        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices), runs)
+        with _lock:
+            if len(_runs) >= MAX_SHAPES:
+                _runs.clear()
+            _runs[key] = entry
+    return entry
 
 
 def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarray, y0: np.ndarray,
@@ -126,20 +238,29 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     observables are (its ``tree``: the kinematics is evaluated for Newton's law on the bodies); ``matrices``:
     also each sample's plain matrix (a condition number's). ``y0``, ``t_eval`` and ``params`` C-contiguous
     float64 (only read)."""
-    key = (id(compiled), id(integration_layout), id(plan), method, t_eval.shape[0], params.shape[0], bool(matrices))
-    entry = _runs.get(key)
-    if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
-            or entry.plan is not plan:
-        entry = _Run(compiled, integration_layout, plan, method, t_eval.shape[0], params.shape[0], bool(matrices))
-        with _lock:
-            if len(_runs) >= MAX_SHAPES:
-                _runs.clear()
-            _runs[key] = entry
-    n, k, samples, at = entry.n, entry.k, entry.samples, entry.at
+    entry = run_shape(compiled, integration_layout, plan, method, t_eval.shape[0], params.shape[0], matrices)
+    return observe(entry, driver, solve, y0, t_eval, params, rtol, atol, alpha, beta, project, max_steps, g)
+
+
+_address_of = ctypes.addressof
+# a fresh (writable) array's address in a fifth of the time ``.ctypes.data`` takes (typed Any: numpy's stubs do
+# not declare the buffer protocol ctypes reads)
+_bytes_of: Any = ctypes.c_char.from_buffer
+_counts = ctypes.c_int64 * 2
+
+
+def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, params: np.ndarray, rtol, atol, alpha,
+            beta, project, max_steps, g: float):
+    """:func:`integrate_and_observe` of a shape :func:`run_shape` gave for these arguments' system, layout, plan,
+    method, sizes (``t_eval``'s, ``params``') and ``matrices`` (the arguments' shapes are checked again)."""
+    n, k, samples, at, matrices = entry.n, entry.k, entry.samples, entry.at, entry.matrices
     values = np.empty(at.length)
     y_out = values[at.y_out:at.x].reshape(samples, 2 * n)
-    check_arguments(integration_layout, y0, float(t_eval[0]), float(t_eval[-1]), t_eval, params, y_out,
-                    _NO_CONDITION)
+    # check_arguments' tests (:class:`_Run` made them for the shape): the sizes this shape was made for, forward
+    t0, t_end = float(t_eval[0]), float(t_eval[-1])
+    if t_eval.shape[0] != samples or params.shape[0] != entry.n_params or y0.shape[0] != 2 * n or not t_end >= t0:
+        check_arguments(entry.integration_layout, y0, t0, t_end, t_eval, params, y_out, _NO_CONDITION)
+        raise ValueError("t_eval's or params' length is not the one of this run's shape")
     values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
     values[at.y0:at.t_eval] = y0
     values[at.t_eval:at.params] = t_eval
@@ -147,9 +268,38 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     values[at.solve_params:at.kinematics_params] = params
     values[at.kinematics_params:at.solve_scratch] = params
     y_out.fill(np.nan)
-    base = values.ctypes.data
+    base = _address_of(_bytes_of(values))
+    if ONE_CALL:
+        status = _run_function()(entry.plan_address(driver, solve), base, t0, t_end, float(rtol), float(atol),
+                                 float(alpha), float(beta), int(bool(project) and entry.constraints != 0),
+                                 int(max_steps), float(g))
+        rows = int(values[at.rows])
+        states = y_out[:rows]
+    else:
+        status, rows, states = _observe_from_python(entry, driver, solve, values, base, y_out, t0, t_end, rtol, atol,
+                                                    alpha, beta, project, max_steps, g)
+    plan = entry.plan
+    count, reactions = plan.count, plan.reactions
+    out = RunObservables()
+    out.full = values[at.full:at.full + rows * k].reshape(rows, k)
+    out.condition = values[at.condition:at.condition + rows]
+    out.matrices = values[at.matrices:at.matrices + rows * k * k * matrices].reshape(rows * matrices, k, k)
+    out.points = values[at.points:at.points + rows * 2 * count].reshape(rows, count, 2)
+    out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
+    out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
+    out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
+    out.runs = tuple(values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)
+                     for start, (_, run_count) in zip(at.runs, entry.runs))
+    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
+    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
+
+
+def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: int, y_out: np.ndarray, t0: float,
+                         t_end: float, rtol, atol, alpha, beta, project, max_steps, g: float):
+    """What the one call does, a native call at a time from Python: ``(status, rows, states)``."""
+    n, samples, at, matrices = entry.n, entry.samples, entry.at, entry.matrices
     assemble = entry.assemble
-    status = driver(assemble, entry.integration_address, base + 8 * at.y0, float(t_eval[0]), float(t_eval[-1]),
+    status = driver(assemble, entry.integration_address, base + 8 * at.y0, t0, t_end,
                     base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
                     float(beta), int(bool(project) and entry.constraints != 0),  # the kernel's _projecting
                     int(max_steps), base + 8 * at.y_out, base + 8 * at.driver_scratch, base, base + 24)
@@ -158,8 +308,8 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     else:
         rows = int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
     states = y_out[:rows]
-    values[at.x:at.x + rows * n].reshape(rows, n)[:] = states[:, :n]
-    values[at.v:at.v + rows * n].reshape(rows, n)[:] = states[:, n:]
+    # x then v (T, n) each, one after the other in the buffer: both from the states [x, v] in one copy
+    values[at.x:at.zeros].reshape(2, samples, n)[:, :rows] = states.reshape(rows, 2, n).transpose(1, 0, 2)
     values[at.zeros:at.zeros + rows] = 0.0
     address = entry.address
     solve(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params, float(alpha),
@@ -172,19 +322,13 @@ def integrate_and_observe(driver, solve, compiled, integration_layout: np.ndarra
     if matrices and rows:
         entry.assemble_call(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
                             base + 8 * at.matrices, base + 8 * at.rhs)
+    plan = entry.plan
     shape, indices, constants = plan.addresses
     entry.observables_call(shape, indices, constants, rows, entry.tree, float(g), base + 8 * at.x, base + 8 * at.v,
                            n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
                            base + 8 * at.scratch, base + 8 * at.points, base + 8 * at.velocities,
                            base + 8 * at.energies, base + 8 * at.reactions)
-    count, reactions = plan.count, plan.reactions
-    out = RunObservables()
-    out.full = values[at.full:at.full + rows * k].reshape(rows, k)
-    out.condition = values[at.condition:at.condition + rows]
-    out.matrices = values[at.matrices:at.matrices + rows * k * k * matrices].reshape(rows * matrices, k, k)
-    out.points = values[at.points:at.points + rows * 2 * count].reshape(rows, count, 2)
-    out.velocities = values[at.velocities:at.velocities + rows * 2 * count].reshape(rows, count, 2)
-    out.energies = values[at.energies:at.energies + 3 * rows].reshape(3, rows)
-    out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
-    n_steps, n_rhs, _ = values[:3].view(np.int64).tolist()
-    return int(status), n_steps, n_rhs, float(values[3]), values[at.t_eval:at.t_eval + rows], states, out
+    points = values[at.points:at.points + rows * 2 * plan.count].reshape(rows, plan.count, 2)
+    for start, (first, run_count) in zip(at.runs, entry.runs):
+        values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)[:] = points[:, first:first + run_count]
+    return int(status), rows, states

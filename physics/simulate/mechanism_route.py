@@ -302,39 +302,88 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     """The run of :func:`simulate_on_mechanism` by :func:`~physics.codegen.mechanism_run.integrate_and_observe`
     (the IR driver engine.integrate would call, the system's specialised one where it has it, then the samples
     as :func:`chain_trajectory` reads them), or None for a run the IR drivers do not answer (other integrators,
-    scipy's back end)."""
+    scipy's back end). What the call needs besides the request's numbers comes from :func:`_one_buffer_call`."""
     spec = INTEGRATORS[settings.integrator]
     if (settings.backend == SCIPY or not spec.adaptive or spec.kernel not in _ONE_BUFFER_KERNELS
             or not native_integrators.answers(route.compiled.integration_layout, alpha, beta, project,
                                               _NO_CONDITION)):
         return None
-    from ..codegen.mechanism_run import integrate_and_observe  # noqa: PLC0415
-
-    compiled = route.compiled
-    driver = compiled.specialised_driver(spec.name)
-    if driver is None:
-        driver = native_integrators.generic_driver(spec.name)
-    specialised = compiled.samples_solve()
-    solve = specialised.solve if specialised is not None else generic_solve()
-    plan = _chain_plan(chain, settings, route)
-    n = chain.n
-    columns = _state_columns(route, n)
-    y0 = np.concatenate((theta0, omega0))[columns[0]]
-    status, n_steps, n_rhs, t_reached, t, states, arrays = integrate_and_observe(
-        driver, solve, compiled, compiled.integration_layout, y0, t_eval, params, settings.rtol, settings.atol,
-        alpha, beta, project, settings.max_steps, spec.name, plan, chain.g, chain.pinned)
+    asked = settings.trace
+    key = (id(route), spec.name, t_eval.shape[0], params.shape[0], chain.pinned,
+           None if asked is None else (asked.bar, asked.along, asked.across))
+    call = _calls.get(key)
+    if call is None or call.route is not route:
+        call = _one_buffer_call(key, chain, settings, route, spec.name, t_eval.shape[0], params.shape[0])
+    columns = call.columns
+    y0 = np.concatenate((theta0, omega0))
+    if not call.in_order:
+        y0 = y0[columns[0]]
+    status, n_steps, n_rhs, t_reached, t, states, arrays = call.observe(
+        call.shape, call.driver, call.solve, y0, t_eval, params, settings.rtol, settings.atol, alpha, beta, project,
+        settings.max_steps, chain.g)
     if status == Status.OK and len(t) < len(t_eval):
         status = int(Status.NOT_FINITE)
     detail = _compiled_detail(settings, status)
-    trajectory = (_trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
-                  if len(t)
-                  else _empty_trajectory(chain, settings, route, n))
+    if not len(t):
+        trajectory = _empty_trajectory(chain, settings, route, call.n)
+    elif call.in_order:  # the tree's order is the chain's (an open chain): copies of the columns, no fancy index
+        n = call.n
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, :n].copy(), states[:, n:].copy(), arrays)
+    else:
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
     trajectory.status = status
     trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
     trajectory.n_steps = n_steps
     trajectory.n_rhs = n_rhs
     trajectory.stats["t_reached"] = t_reached
     return trajectory
+
+
+class _OneBufferCall:
+    """What :func:`_run_in_one_buffer` hands :func:`~physics.codegen.mechanism_run.observe` besides the request's
+    numbers, for one route, integrator, number of samples and traced point: the driver and the samples' solve,
+    the run's shape (offsets and addresses), the observables' plan and the state's columns (and whether they
+    are the chain's own order). Kept
+    (:data:`_calls`) once the system's specialised driver and solve are both in place: until then each call asks
+    the system again, so a run takes them as soon as they are (and the system counts its calls as before). Holds
+    the route, so its id is not reused while remembered."""
+
+    __slots__ = ("route", "n", "driver", "solve", "shape", "columns", "in_order", "observe")
+
+    def __init__(self, route: ChainAsMechanism, n: int, driver, solve, shape, columns, observe) -> None:
+        self.route, self.n, self.driver, self.solve, self.shape = route, n, driver, solve, shape
+        self.columns, self.observe = columns, observe
+        # tree coordinate k is bar k: the state's columns are the chain's own (the same values without an index)
+        self.in_order = bool(np.array_equal(route.order, np.arange(n)))
+
+
+# (id(route), integrator, samples, parameters, pinned, traced point or None) -> its call
+_calls: dict[tuple, _OneBufferCall] = {}
+
+
+def _one_buffer_call(key: tuple, chain: Chain, settings: Settings, route: ChainAsMechanism, integrator: str,
+                     samples: int, n_params: int) -> _OneBufferCall:
+    """The :class:`_OneBufferCall` of ``key`` (:func:`_run_in_one_buffer`'s), worked out now and remembered when
+    the system's specialised functions are both there."""
+    from ..codegen.mechanism_run import observe, run_shape  # noqa: PLC0415
+
+    compiled = route.compiled
+    driver = compiled.specialised_driver(integrator)
+    specialised = compiled.samples_solve()
+    call = _OneBufferCall(
+        route, chain.n, driver if driver is not None else native_integrators.generic_driver(integrator),
+        specialised.solve if specialised is not None else generic_solve(), None, _state_columns(route, chain.n),
+        observe)
+    plan = _chain_plan(chain, settings, route)
+    n = chain.n  # the joints O, D_1 .. D_n and the traced point copied out on their own (_chain_points' order)
+    call.shape = run_shape(compiled, compiled.integration_layout, plan, integrator, samples, n_params, chain.pinned,
+                           runs=((n, n + 1), (2 * n + 1, 1)))
+    if driver is not None and specialised is not None:
+        with _plans_lock:
+            if len(_calls) >= MAX_ROUTES:
+                _calls.pop(next(iter(_calls)))
+            _calls[key] = call
+    return call
 
 
 _columns: dict[int, tuple[ChainAsMechanism, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
@@ -413,8 +462,12 @@ def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, 
     count, n = theta.shape[0], chain.n
     rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
     joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
-    joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
-    trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
+    runs = getattr(arrays, "runs", ())
+    if runs:  # the one-buffer run copied them out on their own (_one_buffer_call asks for these two runs)
+        joints, trace_xy = runs[0], runs[1].reshape(count, 2)
+    else:
+        joints = np.ascontiguousarray(arrays.points[:, n:2 * n + 1, :])  # O, then each bar's distal point
+        trace_xy = np.ascontiguousarray(arrays.points[:, 2 * n + 1, :])
     kinetic, potential, energy = arrays.energies
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:

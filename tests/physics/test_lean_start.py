@@ -28,7 +28,7 @@ print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 # and needs only their entry points' names and scratch sizes (physics.codegen.ir_shapes). llvmlite.ir itself is
 # not in the list: llvmlite.binding, which loads the machine code, imports it.
 IR_BUILDERS = {"physics.codegen.integrator_ir", "physics.codegen.samples_ir", "physics.codegen.linear_ir",
-               "physics.codegen.ir_code"}
+               "physics.codegen.ir_code", "physics.codegen.mechanism_run_ir"}
 
 
 # What only other commands use: the case file's pydantic model (accelerations --input), the ensemble and the cache

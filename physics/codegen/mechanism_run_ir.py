@@ -1,0 +1,124 @@
+"""A mechanism's compiled run and its samples' calls as one native call, written as LLVM IR: what
+:func:`physics.codegen.mechanism_run.observe` did between its native calls in Python (the rows finite
+throughout, the states split into ``x`` and ``v``, the kinematics' zero times) and the calls themselves, through
+the functions' addresses (a ctypes call costs 3 to 6 us, its arguments converted one by one; a run of seed case C
+made five of them). The same functions are called with the same arguments in the same order, so the same bits.
+
+Entry point (C calling convention)::
+
+    i64 mechanism_run(i64* plan, double* values, double t0, double t_end, double rtol, double atol, double alpha,
+                      double beta, i64 project, i64 max_steps, double g)
+
+``plan`` (:data:`~physics.codegen.mechanism_run.PLAN_SLOTS` int64, made once per run shape and functions by
+:mod:`physics.codegen.mechanism_run`): the functions (driver, solve, ``native_states``, ``assemble_states``,
+``mechanism_observables``), the system's ``assemble`` and kinematics functions, the layouts' and the
+observables plan's addresses, the sizes, then the offsets (in doubles) of the buffer's parts. ``values``: the
+run's buffer, its inputs copied in and ``y_out`` filled with NaN. Returns the driver's status and writes the
+number of rows finite throughout (``physics.simulate.run``'s rule: NaN or an infinity anywhere in a row) as a
+double at the ``rows`` offset; then copies up to two runs of the observables' points out on their own (a run of
+count 0 copies nothing), so that a caller's per-point arrays are C-contiguous without a copy in numpy.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+
+from .ir_code import _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
+from .mechanism_run import PLAN_SLOTS
+
+NAME = "mechanism_run"
+_VOID_P = ir.IntType(8).as_pointer()
+_DRIVER = ir.FunctionType(_I64, [_I64, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID_P, _I64, _VOID_P, _DOUBLE, _DOUBLE,
+                                 _DOUBLE, _DOUBLE, _I64, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P])
+_SOLVE = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID_P,
+                                         _VOID_P, _VOID_P])
+_STATES = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _I64, _I64,
+                                          _VOID_P, _VOID_P])
+_ASSEMBLE = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P])
+_OBSERVABLES = ir.FunctionType(ir.VoidType(), [_VOID_P, _VOID_P, _VOID_P, _I64, _I64, _DOUBLE, _VOID_P, _VOID_P,
+                                               _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P,
+                                               _VOID_P])
+
+
+def _run(module: ir.Module) -> None:
+    code = _Code(ir.Function(module, ir.FunctionType(_I64, [
+        _I64_POINTER, _DOUBLE_POINTER, _DOUBLE, _DOUBLE, _DOUBLE, _DOUBLE, _DOUBLE, _DOUBLE, _I64, _I64, _DOUBLE]),
+        NAME))
+    plan, values, t0, t_end, rtol, atol, alpha, beta, project, max_steps, g = code.function.args
+    b = code.b
+
+    def slot(name: str):
+        return code.load(plan, _int(PLAN_SLOTS.index(name)))
+
+    def function(name: str, kind: ir.FunctionType):
+        return b.inttoptr(slot(name), kind.as_pointer())
+
+    def part(name: str):
+        """The address of the buffer's part ``name`` (an offset in doubles), as ``i8*``."""
+        return b.bitcast(code.at(values, slot(name)), _VOID_P)
+
+    def address(name: str):
+        return b.inttoptr(slot(name), _VOID_P)
+
+    samples, n, size = slot("samples"), slot("n"), slot("size")
+    counts = b.bitcast(values, _VOID_P)
+    t_reached = b.bitcast(code.at(values, _int(3)), _VOID_P)
+    status = b.call(function("driver", _DRIVER), [
+        slot("assemble"), address("integration_layout"), part("y0"), t0, t_end, part("t_eval"), samples,
+        part("params"), rtol, atol, alpha, beta, project, max_steps, part("y_out"), part("driver_scratch"), counts,
+        t_reached])
+    # the rows finite throughout: every entry of the row finite (a sum finite means every entry is)
+    width = b.mul(n, _int(2))
+    y_out = code.at(values, slot("y_out"))
+    rows = code.var(_int(0))
+    with code.loop(samples, "rows") as row:
+        finite = code.var(ir.Constant(ir.IntType(1), 1))
+        start = b.mul(row, width)
+        with code.loop(width, "entries") as entry:
+            value = code.load(y_out, b.add(start, entry))
+            code.set(finite, b.and_(code.get(finite), code.finite(value)))
+        code.set(rows, b.add(code.get(rows), b.zext(code.get(finite), _I64)))
+    filled = code.get(rows)
+    code.store(code.to_double(filled), values, slot("rows"))
+    x, v, zeros = code.at(values, slot("x")), code.at(values, slot("v")), code.at(values, slot("zeros"))
+    with code.loop(filled, "split") as row:
+        start = b.mul(row, width)
+        with code.loop(n, "coordinates") as i:
+            at = b.add(b.mul(row, n), i)
+            code.store(code.load(y_out, b.add(start, i)), x, at)
+            code.store(code.load(y_out, b.add(b.add(start, n), i)), v, at)
+        code.store(_double(0.0), zeros, row)
+    layout = address("layout")
+    b.call(function("solve", _SOLVE), [slot("assemble"), layout, filled, part("x"), part("v"), part("solve_params"),
+                                       alpha, beta, part("full"), part("condition"), part("solve_scratch")])
+    has_rows = b.icmp_signed(">", filled, _int(0))
+    with b.if_then(b.and_(b.icmp_signed("!=", size, _int(0)), has_rows)):
+        b.call(function("states", _STATES), [
+            slot("kinematics"), layout, filled, part("zeros"), part("x"), part("v"), part("kinematics_params"),
+            b.mul(size, n), b.mul(size, _int(2)), part("pose_jacobian"), part("pose_vector")])
+    with b.if_then(b.and_(b.icmp_signed("!=", slot("matrices"), _int(0)), has_rows)):
+        b.call(function("assemble_states", _ASSEMBLE), [
+            slot("assemble"), layout, filled, part("x"), part("v"), part("solve_params"), part("matrices_at"),
+            part("rhs")])
+    b.call(function("observables", _OBSERVABLES), [
+        address("shape"), address("indices"), address("constants"), filled, slot("tree"), g, part("x"), part("v"),
+        n, part("full"), part("pose_jacobian"), part("pose_vector"), part("scratch"), part("points"),
+        part("velocities"), part("energies"), part("reactions")])
+    # each run of points asked for, copied out on its own: (rows, count, 2) of the points (rows, P, 2)
+    points, row_width = code.at(values, slot("points")), b.mul(slot("count"), _int(2))
+    for number in range(2):
+        first, count = slot(f"run_first_{number}"), slot(f"run_count_{number}")
+        target, width = code.at(values, slot(f"run_at_{number}")), b.mul(count, _int(2))
+        with code.loop(filled, f"run{number}") as row:
+            source = b.add(b.mul(row, row_width), b.mul(first, _int(2)))
+            with code.loop(width, f"run{number}.entries") as entry:
+                code.store(code.load(points, b.add(source, entry)), target, b.add(b.mul(row, width), entry))
+    b.ret(status)
+    code.seal()
+
+
+def run_ir() -> str:
+    """The module's IR text: :data:`NAME`."""
+    module = ir.Module(name="linkage_lab_mechanism_run")
+    _run(module)
+    return str(module)
