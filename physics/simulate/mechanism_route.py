@@ -25,9 +25,8 @@ from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from . import chain_record
-from .build import trace_point
 from .chain_record import ChainRecord
-from .prepared import chain_arrays, sample_times, stabilization_gains
+from .prepared import chain_arrays, sample_times, stabilization_gains, trace_point
 from .trajectory import Trajectory
 
 if TYPE_CHECKING:  # the mechanism package: loaded when a route is first derived, or its geometry asked for

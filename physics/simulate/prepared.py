@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import LinkageError
 from ..model import Chain, Settings, TracePoint
 
 # Chains remembered at once (the oldest forgotten first): a few presets and the app's current chains.
@@ -93,3 +94,11 @@ def sample_times(t_start: float, t_end: float, samples: int, *, from_zero: bool 
                  else np.linspace(t_start, t_start + t_end, samples))
         _times[key] = times
     return times.copy()
+
+
+def trace_point(chain: Chain, settings: Settings, bars: ChainArrays) -> TracePoint:
+    """The point a run traces (the settings', else the tip), its bar checked against the chain."""
+    trace = settings.trace or bars.tip
+    if trace.bar > chain.n:
+        raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {chain.n}")
+    return trace
