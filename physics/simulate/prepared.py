@@ -67,7 +67,7 @@ def chain_arrays(chain: Chain) -> ChainArrays:
 
 
 def stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
-    """``(alpha, beta, project)`` of a chain's run, on either route (its own kernels or the mechanism engine): an
+    """``(alpha, beta, project)`` of a chain's run: an
     open chain holds no constraint, so nothing; a pinned one Baumgarte's gains or projection by its setting."""
     if not chain.pinned or settings.stabilization == "none":
         return 0.0, 0.0, False
