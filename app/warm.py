@@ -1,8 +1,7 @@
 """Loading compiled equations once per process, and warming up before the first browser arrives.
 
-``physics.load_run_systems`` returns ready code from the disk cache (or derives and compiles it on a miss), on
-the route a chain's run takes (its own generated kernels, or the chain written as a mechanism); the
-first simulation in a process also loads numba's cached machine code. Both take a noticeable fraction of a
+``physics.load_run_systems`` returns ready code from the disk cache (or derives and compiles it on a miss): the
+chain written as a mechanism on the general engine, as every run takes it; the first simulation in a process also loads numba's cached machine code. Both take a noticeable fraction of a
 second warm and a few seconds cold (half a minute on an installation's very first run, which compiles the
 integrators), so the server starts them in a background thread at launch, before
 it even imports viser, and sessions that need the same system wait for that load instead of repeating it.
@@ -34,15 +33,15 @@ CANCEL_POLL_SECONDS = 0.05
 class Cancelled(Exception):
     """A build or warm-up nobody wants any more (the session has a newer request): its worker was killed."""
 
-# (method, links, pinned, route): a route is physics.chain_engine(), "chain" or "mechanism"
-_loaded: set[tuple[str, int, bool, str]] = set()
+# (method, links, pinned) of the structures whose systems are loaded
+_loaded: set[tuple[str, int, bool]] = set()
 _locks: dict[tuple, threading.Lock] = {}
 _guard = threading.Lock()
 
 
 def is_loaded(method: str, n: int, pinned: bool) -> bool:
     with _guard:
-        return (method, n, pinned, physics.chain_engine()) in _loaded
+        return (method, n, pinned) in _loaded
 
 
 def _once(done: set, key: tuple, action: Callable[[], object]) -> None:
@@ -65,10 +64,10 @@ def _not_cancelled() -> bool:
 
 
 def ensure_loaded(chain, method: str, damping: float = 0.0) -> None:
-    """Load (or derive) the compiled systems a run of ``method`` on such a chain reads, once per structure and
-    route (physics.load_run_systems: the chain's own code, or on the mechanism engine the chain written as a
-    mechanism, never the chain's own kernel); concurrent callers for the same systems wait for it."""
-    _once(_loaded, (method, chain.n, chain.pinned, physics.chain_engine()),
+    """Load (or derive) the compiled systems a run of ``method`` on such a chain reads, once per structure
+    (physics.load_run_systems: the chain written as a mechanism); concurrent callers for the same systems wait
+    for it."""
+    _once(_loaded, (method, chain.n, chain.pinned),
           lambda: physics.load_run_systems(chain, method, damping))
 
 
@@ -76,7 +75,7 @@ _ready: set[tuple] = set()
 
 
 def _ready_key(chain, settings) -> tuple:
-    return (settings.method, chain.n, chain.pinned, settings.integrator, settings.backend, physics.chain_engine())
+    return (settings.method, chain.n, chain.pinned, settings.integrator, settings.backend)
 
 
 def is_ready(chain, settings) -> bool:
@@ -106,16 +105,15 @@ def ensure_ready(chain, settings, theta0, omega0, cancelled: Callable[[], bool] 
 
 def build_outside(method: str, n: int, pinned: bool, integrator: str,
                   cancelled: Callable[[], bool] = _not_cancelled) -> bool:
-    """Derive and compile a mechanism the cache lacks in a worker process (physics/codegen/prebuild.py), so
+    """Derive and compile a mechanism the cache lacks in a worker process (physics/codegen/prebuild_worker.py), so
     the server's interpreter (and every other session's animation) never waits on sympy or numba's compiler.
     True if a worker built it; False if nothing was missing or the worker failed (the caller then builds
     in-process, as before: slower for the others, still correct). When ``cancelled()`` turns true the worker
     is killed at once (the cache's atomic writes leave no half file) and :class:`Cancelled` is raised."""
     if not physics.code_missing(method, n, pinned):
         return False
-    # the worker builds on this process's route (it does not share the switch: physics.prebuild_arguments says it)
-    command = [sys.executable, "-m", "physics.codegen.prebuild", *physics.prebuild_arguments(method, n, pinned,
-                                                                                             integrator)]
+    command = [sys.executable, "-m", "physics.codegen.prebuild_worker", method, str(int(n)),
+               "pinned" if pinned else "open", integrator]
     errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a chatty worker never blocks on it
     try:
         worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=errors, text=True,

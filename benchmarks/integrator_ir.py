@@ -11,9 +11,9 @@ BENCHMARKS.md).
 * ``triple_a_dop853``: triple-a, DOP853, rtol 1e-10, atol 1e-12, 10 s, 200 samples, DAE;
 * ``case_c_lagrange``, ``case_c_newton_euler``, ``triple_a_dop853_lagrange``: the same runs for the formulations
   without a fused ``rhs``, whose every evaluation takes the general solve (``physics/codegen/linear_ir.py``);
-* ``samples_*``: the samples' pass of seed case C's 200 samples (``build_trajectory``'s per-sample solve,
-  positions and energies, joint reactions), the IR functions (``physics/codegen/native_samples.py``) against
-  the numba kernels, called as ``build_trajectory`` calls them;
+* ``samples_*``: the per-sample solve of seed case C's 200 samples, the IR function
+  (``physics/codegen/native_samples.py``) against the numba kernel (the positions, energies and joint reactions
+  these rows also timed went with the chain's own run route);
 * ``simulate_case_c``: ``physics.simulate`` of seed case C end to end (default method, Lagrange), the whole
   per-call figure (this tree only: run the same ``--simulate-only`` in another tree to compare).
 
@@ -89,35 +89,24 @@ def _case(preset: str, integrator: str, rtol: float, atol: float, t_end: float, 
 
 
 def _samples(method: str, repeats: int) -> dict:
-    """Seed case C's samples' pass: the per-sample solve, observables and joint reactions, IR against numba."""
+    """Seed case C's per-sample solve, IR against numba."""
     import physics  # noqa: PLC0415
     from physics.codegen import load_compiled, native_samples  # noqa: PLC0415
-    from physics.kernels import observables, system  # noqa: PLC0415
-    from physics.simulate.prepared import chain_arrays  # noqa: PLC0415
+    from physics.kernels import system  # noqa: PLC0415
 
     chosen = physics.get_preset("triple-c")
     settings = physics.Settings(method=method, integrator="RK45", rtol=1e-6, atol=1e-6, t_end=20.0, samples=200)
     run = physics.simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
     compiled = load_compiled(method, chosen.chain.n, chosen.chain.pinned)
     theta, omega = np.ascontiguousarray(run.theta), np.ascontiguousarray(run.omega)
-    bars, params, n, rows = chain_arrays(chosen.chain), chosen.chain.params(), chosen.chain.n, theta.shape[0]
-    kernels = {"ir": (native_samples.solve_states, native_samples.chain_observables,
-                      native_samples.chain_joint_reactions),
-               "numba": (system.solve_states, observables.chain_observables, observables.chain_joint_reactions)}
+    params, rows = chosen.chain.params(), theta.shape[0]
+    kernels = {"ir": native_samples.solve_states, "numba": system.solve_states}
     outputs: dict = {}
 
     def run_pass(which: str):
-        solve, observe, react = kernels[which]
         x, cond = np.empty((rows, compiled.n_unknowns)), np.empty(rows)
-        solve(compiled.assemble_function, compiled.layout, theta, omega, params, 0.0, 0.0, x, cond)
-        arrays = (np.empty((rows, n + 1, 2)), np.empty((rows, 2)), np.empty(rows), np.empty(rows),
-                  np.empty((rows, 2)))
-        observe(theta, omega, bars.L, bars.d, bars.m, bars.I, bars.g, n - 1, float(bars.tip.along),
-                float(bars.tip.across), *arrays)
-        reactions = np.empty((rows, n, 2))
-        react(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), bars.L, bars.d, bars.m, bars.g,
-              np.zeros((0, 2)), reactions)
-        outputs[which] = (x, cond, *arrays, reactions)
+        kernels[which](compiled.assemble_function, compiled.layout, theta, omega, params, 0.0, 0.0, x, cond)
+        outputs[which] = (x, cond)
 
     for which in kernels:
         run_pass(which)

@@ -7,7 +7,7 @@ re-exported here; see docs/architecture.md for conventions and shapes.
 from . import blas_start  # noqa: F401  (first: numpy, with one BLAS thread in a command-line process)
 from .codegen import CompiledSystem, equations_latex, load_compiled
 from .codegen.cache import is_generated
-from .codegen.prebuild import chain_engine, code_missing, load_run_systems, prebuild_arguments
+from .codegen.prebuild import code_missing, load_run_systems
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kinematics import energies, joint_positions
@@ -65,10 +65,8 @@ __all__ = [
     "energies",
     "equations_latex",
     "get_preset",
-    "chain_engine",
     "code_missing",
     "load_run_systems",
-    "prebuild_arguments",
     "is_generated",
     "joint_positions",
     "load_compiled",

@@ -277,8 +277,8 @@ def cmd_warm(args) -> int:
             continue
         for method in FORMULATION_NAMES:
             start = time.perf_counter()
-            # the system a run of this chain takes (its own kernel, or the chain as a mechanism when
-            # physics.simulate runs chains on the mechanism engine): the one the ensemble's batch steps too
+            # the system a run of this chain takes (the chain written as a mechanism): the one the ensemble's
+            # batch steps too
             system = chain_system(preset.chain, method)
             compiled = system.compiled
             # Every kernel this formulation can run (the variational one needs a Lagrangian).

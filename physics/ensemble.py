@@ -71,8 +71,8 @@ class Ensemble:
         self.n = chain.n
         self.params = chain.params(damping=damping)
         self.lengths = chain.array("L")
-        # the chain's system on the route physics.simulate takes: its own kernel, or the chain as a mechanism
-        # (whose coordinates may be the angles in another order: run_steps permutes in and out)
+        # the system physics.simulate integrates, the chain as a mechanism (whose coordinates may be the angles
+        # in another order: run_steps permutes in and out)
         self._system = chain_system(chain, method, damping)
         self._compiled = self._system.compiled
         self._identity = bool(np.array_equal(self._system.order, np.arange(self.n)))
@@ -112,7 +112,7 @@ class Ensemble:
     def run_steps(self, steps: int) -> None:
         """Take ``steps`` RK4 steps (the hot loop: one compiled call per step for the whole batch). The states
         are stepped in the system's coordinate order and put back in the chain's once per call (nothing to do
-        on the chain's own kernels, whose order is the chain's)."""
+        where the system's order is the chain's)."""
         if steps <= 0:
             return
         step_batch = self._compiled.rk4_batch_step

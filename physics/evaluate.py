@@ -18,7 +18,7 @@ def accelerations(chain: Chain, theta, omega, method: str, damping: float = 0.0)
     Raises LinkageError at a singular configuration instead of returning meaningless numbers.
     """
     theta, omega = check_state(chain.n, theta, omega)
-    # the system on the route physics.simulate takes (the chain's own kernel, or the chain as a mechanism)
+    # the system physics.simulate integrates: the chain written as a mechanism
     system = chain_system(chain, method, damping)
     x, cond = system.solve(theta, omega)
     if not cond <= SINGULAR_PIVOT_RATIO or not np.all(np.isfinite(x)):

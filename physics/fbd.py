@@ -109,8 +109,8 @@ def free_bodies(chain: Chain, theta, omega) -> list[FreeBody]:
     n = chain.n
     theta = np.asarray(theta, dtype=float).reshape(n)
     omega = np.asarray(omega, dtype=float).reshape(n)
-    # the DAE's system on the route physics.simulate takes (its own kernel, or the chain as a mechanism): its
-    # unknowns hold every joint's reaction on both
+    # the DAE's system physics.simulate integrates (the chain written as a mechanism): its unknowns hold every
+    # joint's reaction
     system = chain_system(chain, REACTION_FORMULATION)
     x, _ = system.solve(theta, omega)
     alpha = x[system.theta_ddot_index]

@@ -109,7 +109,7 @@ def simulate_in_segments(chain: Chain, theta0, omega0, settings: Settings, strea
     spec = INTEGRATORS[settings.integrator]
     times = np.linspace(0.0, settings.t_end, settings.samples)
     if not METHODS[settings.method].reduced:
-        # loaded before the clock starts (the pace is the run's), on the route physics.simulate takes
+        # loaded before the clock starts (the pace is the run's): the system physics.simulate integrates
         chain_system(chain, settings.method, settings.damping)
     started = time.perf_counter()
     if spec.fixed_step:

@@ -81,7 +81,7 @@ def _ode45_as_called(preset_name: str, settings: Settings) -> Trajectory:
     which is handed to the kernel; the samples are interpolated (ntrp45) as MATLAB does at tspan points."""
     preset = get_preset(preset_name)
     chain = preset.chain
-    # the chain's system on the route physics.simulate takes (its own kernel, or the chain as a mechanism)
+    # the system physics.simulate integrates: the chain written as a mechanism
     system = chain_system(chain, settings.method, settings.damping)
     alpha, beta, project = stabilization_gains(chain, settings)
     t_eval = np.linspace(0.0, settings.t_end, settings.samples)

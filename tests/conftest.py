@@ -16,16 +16,6 @@ os.environ.setdefault("LINKAGE_LAB_CACHE", str(Path(tempfile.gettempdir()) / f"l
 
 ALL_FORMULATIONS = ("newton_euler", "lagrange", "dae")
 
-# A chain runs on the general mechanism engine by default (physics.simulate.on_mechanism.ENABLED).
-# LINKAGE_LAB_TEST_CHAIN_ON_MECHANISM=0 runs every in-process physics.simulate of a chain on the chain's own kernels
-# instead, while they exist (CONTRIBUTING.md, "The chain on the mechanism engine"). Only the tests read the variable:
-# the switch is not a user option. Commands run in a subprocess keep the default route.
-CHAIN_ON_MECHANISM = os.environ.get("LINKAGE_LAB_TEST_CHAIN_ON_MECHANISM", "1") != "0"
-if not CHAIN_ON_MECHANISM:
-    from physics.simulate import on_mechanism
-
-    on_mechanism.ENABLED = False
-
 
 @pytest.fixture(params=ALL_FORMULATIONS)
 def formulation(request):

@@ -343,22 +343,6 @@ class CompiledSystem:
         return self._specialised(method, layout, lambda digest: native_integrators.specialised_driver(
             method, layout, self.assemble_function, digest))
 
-    def run_functions(self, method: str):
-        """``(driver, samples_pass)`` for a run of ``method`` ("RK45" or "DOP853") in one buffer
-        (:func:`physics.codegen.native_run.integrate_and_sample`): this system's specialised ones where
-        :meth:`specialised_driver` and :meth:`samples_solve` give them, else the generic ones."""
-        key = f"run functions {method}"
-        functions = self._functions.get(key)
-        if functions is not None:
-            return functions
-        driver = self.specialised_driver(method)
-        specialised = self.samples_solve()
-        if driver is not None and specialised is not None:  # final: kept (the rules are not asked again)
-            functions = self._functions[key] = (driver, specialised.samples_pass)
-            return functions
-        return (driver or native_integrators.generic_driver(method),
-                specialised.samples_pass if specialised is not None else native_samples.generic_samples_pass())
-
     def samples_solve(self):
         """The samples' ``solve_states`` and whole pass specialised for this system
         (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms

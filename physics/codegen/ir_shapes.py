@@ -18,7 +18,6 @@ WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
 ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)
 SPECIALISED_NAMES = {method: f"{name}_specialised" for method, name in INTEGRATOR_FUNCTION_NAMES.items()}
 SAMPLES_SOLVE_NAME = "solve_states_specialised"
-SAMPLES_PASS_NAME = "samples_pass_specialised"
 
 
 def symbol_names(system_digest: str) -> dict[str, str]:
@@ -53,11 +52,6 @@ def samples_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
     (r x n), ``v`` (2 r) and ``G`` (r x r), one constraint row at least."""
     k, r = n_unknowns, max(n_constraints, 1)
     return k * k + 3 * k + r * n + 2 * r + r * r
-
-
-def samples_pass_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
-    """Doubles of ``samples_pass``' scratch: ``solve_states``' and each bar's sine and cosine (2 n)."""
-    return samples_scratch_length(n, n_unknowns, n_constraints) + 2 * n
 
 
 def states_scratch_length(n: int, r: int) -> int:

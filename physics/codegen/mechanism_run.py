@@ -7,8 +7,7 @@ It is :func:`physics.codegen.native_integrators.integrate` followed by
 called with the same arguments (the same bits), minus what the two did to hand arrays between them: every
 input is copied into one array made here, whose parts' offsets are worked out once per shape of run, and each
 output is a view of it. The chain's run on the mechanism engine (:mod:`physics.simulate.mechanism_route`)
-spends most of a short run's time in the Python around its native calls; this is the mechanism side's
-counterpart of the chain's own :mod:`physics.codegen.native_run` (issue 24).
+spends most of a short run's time in the Python around its native calls (issue 24).
 """
 
 from __future__ import annotations

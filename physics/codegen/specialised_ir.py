@@ -24,9 +24,9 @@ from llvmlite import ir
 
 from .integrator_ir import FUNCTION_NAMES, integrators_module
 from .ir_code import _I64
-from .ir_shapes import ADDRESS_SLOTS, SAMPLES_PASS_NAME, SAMPLES_SOLVE_NAME, SPECIALISED_NAMES, symbol_names
+from .ir_shapes import ADDRESS_SLOTS, SAMPLES_SOLVE_NAME, SPECIALISED_NAMES, symbol_names
 from .linear_ir import LinearFunctions
-from .samples_ir import add_samples_pass, add_solve_states
+from .samples_ir import add_solve_states
 
 _OPAQUE = ir.FunctionType(ir.VoidType(), [])  # declared type of the external symbols: only their address is used
 
@@ -85,13 +85,10 @@ def specialised_ir(method: str, layout_values: list[int], system_digest: str) ->
 def specialised_samples_ir(layout_values: list[int], system_digest: str) -> str:
     """The IR text of the samples' solve (:func:`physics.codegen.samples_ir`'s ``solve_states``) specialised
     as :func:`specialised_ir` specialises a driver (``layout_values``: the system's layout for one evaluation
-    at a time, without the fused ``rhs``). Entry points ``SAMPLES_SOLVE_NAME``, of ``solve_states``' signature,
-    and ``SAMPLES_PASS_NAME``, of ``samples_pass``' (the whole samples' pass in one call, its bars' loops
-    unrolled); their ``assemble`` and ``layout`` arguments are ignored."""
+    at a time, without the fused ``rhs``). Entry point ``SAMPLES_SOLVE_NAME``, of ``solve_states``' signature;
+    its ``assemble`` and ``layout`` arguments are ignored."""
     module = ir.Module(name="linkage_lab_samples_specialised")
     linear = LinearFunctions(module)
     add_solve_states(module, linear)
-    add_samples_pass(module, linear)
     _specialise(module, module.get_global("solve_states"), SAMPLES_SOLVE_NAME, layout_values, system_digest)
-    _specialise(module, module.get_global("samples_pass"), SAMPLES_PASS_NAME, layout_values, system_digest)
     return str(module)

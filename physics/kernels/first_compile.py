@@ -10,7 +10,7 @@ entry for exactly these argument types in the cache's index (read through the sa
 then uses). At most one line per process: the rest of a first run's compilations are part of the same wait.
 
 What is generated as LLVM IR and compiled with llvmlite in every process (the RK45 and DOP853 drivers of a run
-without projection or Baumgarte terms, the samples' pass: :mod:`physics.codegen.native_integrators`,
+without projection or Baumgarte terms, the samples' solve: :mod:`physics.codegen.native_integrators`,
 :mod:`physics.codegen.native_samples`) takes well under a second and says nothing: the line is said only where a
 numba kernel is about to compile.
 """

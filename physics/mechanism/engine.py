@@ -21,6 +21,7 @@ import numpy as np
 
 from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
+from ..kernels.first_compile import call_announced
 from ..kernels.layout import LAYOUT_WEIGHTS
 from .model import Mechanism
 from .parameters import parameter_vector, structure, structure_key
@@ -152,17 +153,19 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
-    # the numba kernel (numba is imported here, not for a run the IR drivers answered)
+    # the numba kernel (numba is imported here, not for a run the IR drivers answered); its first compilation in
+    # an installation takes seconds, said first in one line (physics.kernels.first_compile)
     kernel = getattr(importlib.import_module(f"..kernels.{KERNEL_MODULES[spec.kernel]}", __package__), spec.kernel)
     if spec.needs_lagrangian:  # it holds the loops itself (RATTLE): no stabilisation gains
-        result = kernel(compiled.assemble_function, compiled.mass_and_force_function, layout, y0, t0, t1,
-                        settings.step, t_eval, params, y_out, cond_out)
+        arguments: tuple = (compiled.assemble_function, compiled.mass_and_force_function, layout, y0, t0, t1,
+                            settings.step, t_eval, params, y_out, cond_out)
     elif spec.fixed_step:
-        result = kernel(compiled.assemble_function, layout, y0, t0, t1, settings.step, t_eval, params, alpha, beta,
-                        project, y_out, cond_out)
+        arguments = (compiled.assemble_function, layout, y0, t0, t1, settings.step, t_eval, params, alpha, beta,
+                     project, y_out, cond_out)
     else:
-        result = kernel(compiled.assemble_function, layout, y0, t0, t1, t_eval, params, settings.rtol, settings.atol,
-                        alpha, beta, project, settings.max_steps, y_out, cond_out)
+        arguments = (compiled.assemble_function, layout, y0, t0, t1, t_eval, params, settings.rtol, settings.atol,
+                     alpha, beta, project, settings.max_steps, y_out, cond_out)
+    result = call_announced(kernel, arguments, spec.name)
     status, steps, evaluations, t_reached, filled = result
     detail = ""
     if int(status) != 0 and spec.fixed_step:

@@ -1,14 +1,12 @@
-"""A chain's compiled system for one method on the route the switch chooses: the boundary for callers that run
-the generated code themselves (the seed report's ode45 replay, the ensemble's batched RK4, the free-body
-diagrams, ``accelerations``) rather than through :func:`physics.simulate`.
+"""A chain's compiled system for one method, the chain written as a mechanism on the general engine (the one
+route :func:`physics.simulate` takes): the boundary for callers that run the generated code themselves (the seed
+report's ode45 replay, the ensemble's batched RK4, the free-body diagrams, ``accelerations``) rather than through
+:func:`physics.simulate`.
 
-Why one function: with :data:`physics.simulate.on_mechanism.ENABLED` off, a chain's system is its own generated
-kernel (:func:`physics.codegen.load_compiled`) in the chain's bar order; with it on, the chain written as a
-mechanism (:func:`physics.simulate.mechanism_route.chain_route`), whose coordinates are the same absolute angles
-in the spanning tree's order (the four-bar's ``(theta1, theta3, theta2)``) and whose parameter vector is the
-mechanism's. A caller that loaded the chain's kernel itself would keep running on the old code when the switch is
-on; a caller of :func:`chain_system` runs on whichever route :func:`physics.simulate` takes, with the state, the
-parameters and the reading of the solution that go with it.
+Why one function: the chain written as a mechanism (:func:`physics.simulate.mechanism_route.chain_route`) has
+the chain's absolute angles as coordinates, in the spanning tree's order (the four-bar's ``(theta1, theta3,
+theta2)``), and the mechanism's parameter vector; a caller of :func:`chain_system` gets the state, the parameters
+and the reading of the solution that go with them.
 """
 
 from __future__ import annotations
@@ -18,15 +16,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..codegen import load_compiled
 from ..codegen.cache import CompiledSystem
 from ..errors import LinkageError
 from ..model import FORMULATION_NAMES, Chain, Settings
-from . import on_mechanism
-from .build import build_trajectory
 from .trajectory import Trajectory
 
-if TYPE_CHECKING:  # the mechanism engine is loaded by a system on that route only (the app's server never loads it)
+if TYPE_CHECKING:  # the route's module: loaded at the first system, not by ``import physics``
     from .mechanism_route import ChainAsMechanism
 
 __all__ = ["ChainSystem", "chain_system"]
@@ -40,14 +35,14 @@ class ChainSystem:
     * ``params``: the parameter vector to pass with it (this object's own array: an integrator writes a
       mechanism's time slot into it, so never share it between runs that overlap).
     * ``order`` / ``inverse``: system coordinate ``k`` is the angle of bar ``order[k]`` (0-based); the chain's bar
-      ``j`` is system coordinate ``inverse[j]``. The identity on the chain's own kernels.
+      ``j`` is system coordinate ``inverse[j]``.
     * ``theta_ddot_index`` (n,): where bar ``j``'s angular acceleration is among the solved unknowns ``x``.
     * ``reaction_index`` (n, 2): where the joint reactions ``R_k`` (ON bar k+1 BY bar k or the ground) are in
       ``x``, for a method that solves for them (the DAE); ``(0, 2)`` otherwise.
     * ``tip_reaction_index`` (2,): where a pinned chain's tip reaction (ON the last bar BY the ground at the pin)
-      is in ``x`` when the system solves for it; empty otherwise (an open chain, or a tree formulation on the
-      mechanism engine, whose loop is closed at another joint: :meth:`tip_reactions` gives it from the bodies).
-    * ``route``: the chain as a mechanism when on the mechanism engine, else None.
+      is in ``x`` when the system solves for it; empty otherwise (an open chain, or a tree formulation, whose
+      loop is closed at another joint: :meth:`tip_reactions` gives it from the bodies).
+    * ``route``: the chain written as a mechanism.
     * ``method``, ``damping``: what it was made for.
     """
 
@@ -60,11 +55,7 @@ class ChainSystem:
     theta_ddot_index: np.ndarray
     reaction_index: np.ndarray
     tip_reaction_index: np.ndarray
-    route: ChainAsMechanism | None
-
-    @property
-    def on_mechanism(self) -> bool:
-        return self.route is not None
+    route: ChainAsMechanism
 
     @property
     def layout(self) -> np.ndarray:
@@ -94,9 +85,7 @@ class ChainSystem:
         """The chain's Trajectory (status OK, no counts) of samples ``y (T, 2 n)`` in the system's order at times
         ``t``, as :func:`physics.simulate` builds it on this route: every reaction, the condition, positions,
         energies and the traced point."""
-        if self.route is None:
-            return build_trajectory(chain, settings, self.compiled, self.params, t, y, None, alpha, beta)
-        from .mechanism_route import chain_trajectory  # noqa: PLC0415  (the mechanism engine: this route only)
+        from .mechanism_route import chain_trajectory  # noqa: PLC0415  (loaded at the first system)
 
         n = chain.n
         y = np.asarray(y, dtype=float)
@@ -105,8 +94,7 @@ class ChainSystem:
 
     def tip_reactions(self, chain: Chain, theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
         """A pinned chain's tip reaction (ON the last bar BY the ground) at states ``(K, n)`` of the chain: shape
-        ``(K, 2)``. Read off the unknowns where the system solves for it; else (a tree formulation on the mechanism
-        engine) by Newton's law on every body, as the run's samples give it (:meth:`trajectory`)."""
+        ``(K, 2)``. Read off the unknowns where the system solves for it; else (a tree formulation) by Newton's law on every body, as the run's samples give it (:meth:`trajectory`)."""
         theta, omega = np.atleast_2d(theta), np.atleast_2d(omega)
         if not chain.pinned:
             raise LinkageError("tip reaction: the chain is open (no pin at its tip)")
@@ -117,24 +105,14 @@ class ChainSystem:
         return self.trajectory(chain, settings, np.zeros(len(theta)), self.state(theta, omega)).tip_reaction
 
 
-def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float = 0.0, *,
-                 on_mechanism_engine: bool | None = None) -> ChainSystem:
+def chain_system(chain: Chain, method: str, damping: float = 0.0, t_start: float = 0.0) -> ChainSystem:
     """``chain``'s compiled system for ``method`` (a derived formulation: newton_euler, lagrange, dae) with joint
-    damping ``damping``, on the route :func:`physics.simulate` takes (:data:`on_mechanism.ENABLED`): the chain's
-    own kernel, or the chain written as a mechanism on the general engine (``t_start``: its parameter vector's
-    time slot; a chain has no motor, so nothing depends on it). ``on_mechanism_engine``: the route chosen by the
-    caller instead of the switch (a worker process of a study, which does not share the caller's switch)."""
+    damping ``damping``: the chain written as a mechanism on the general engine, as :func:`physics.simulate` runs
+    it (``t_start``: its parameter vector's time slot; a chain has no motor, so nothing depends on it)."""
     if method not in FORMULATION_NAMES:
         raise LinkageError(f"method = {method!r}: a chain's compiled system is one of {', '.join(FORMULATION_NAMES)}")
     n = chain.n
-    if not (on_mechanism.ENABLED if on_mechanism_engine is None else on_mechanism_engine):
-        compiled = load_compiled(method, n, chain.pinned)
-        identity = np.arange(n, dtype=np.int64)
-        return ChainSystem(method, float(damping), compiled, chain.params(damping=damping), identity,
-                           identity.copy(), compiled.theta_ddot_index, compiled.reaction_index,
-                           compiled.tip_reaction_index if chain.pinned else np.zeros(0, dtype=np.int64), None)
-    from .mechanism_route import chain_route  # noqa: PLC0415  (the mechanism engine: this route only)
-
+    from .mechanism_route import chain_route  # noqa: PLC0415  (the route's module: loaded at the first system)
     route = chain_route(chain, method, damping)
     compiled = route.compiled
     theta_ddot_index = compiled.theta_ddot_index[route.inverse]

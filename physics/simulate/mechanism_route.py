@@ -1,12 +1,11 @@
-"""The implementation of :mod:`physics.simulate.on_mechanism` (its text says what maps to what): imported by a run
-on that route only, so a process that never takes it (the app's server, whose tests check that it never loads the
-mechanism engine) does not load :mod:`physics.mechanism.engine`.
+"""The implementation of :mod:`physics.simulate.on_mechanism` (its text says what maps to what), the one route a
+chain's run takes: imported at a process's first run, not by ``import physics``.
 
-A warm route loads no :mod:`physics.mechanism` module either: :func:`chain_route` reads the structure's record
-(:mod:`physics.simulate.chain_record`: the number-free pieces, kept beside the generated code) and maps the
-chain's numbers itself; only a structure's first route (or a record not trusted) writes the chain as a mechanism
-and derives the pieces, and the mechanism's description, prepared pieces and dynamics are built when a caller
-asks for them (:attr:`ChainAsMechanism.mechanism`, ``pieces``, ``dynamics``)."""
+A warm route loads no :mod:`physics.mechanism` module (not :mod:`physics.mechanism.engine` either):
+:func:`chain_route` reads the structure's record (:mod:`physics.simulate.chain_record`: the number-free pieces, kept
+beside the generated code) and maps the chain's numbers itself; only a structure's first route (or a record not
+trusted) writes the chain as a mechanism and derives the pieces, and the mechanism's description, prepared pieces
+and dynamics are built when a caller asks for them (:attr:`ChainAsMechanism.mechanism`, ``pieces``, ``dynamics``)."""
 
 
 from __future__ import annotations
@@ -25,9 +24,8 @@ from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from . import chain_record
-from .build import trace_point
 from .chain_record import ChainRecord
-from .prepared import chain_arrays, sample_times, stabilization_gains
+from .prepared import chain_arrays, sample_times, stabilization_gains, trace_point
 from .trajectory import Trajectory
 
 if TYPE_CHECKING:  # the mechanism package: loaded when a route is first derived, or its geometry asked for
@@ -259,7 +257,7 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     params = route.parameters_at(t_start)  # engine.run_parameters without weights: the integration's layout
     layout = route.compiled.integration_layout
     alpha, beta, project = stabilization_gains(chain, settings)
-    t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain route's times, bit for bit
+    t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain's sample times
     if ONE_BUFFER_RUN and layout is route.compiled.integration_layout:
         trajectory = _run_in_one_buffer(chain, settings, route, params, theta0, omega0, t_eval, alpha, beta,
                                         project)
@@ -404,14 +402,14 @@ def _state_columns(route: ChainAsMechanism, n: int) -> tuple[np.ndarray, np.ndar
 
 
 def _finite_rows(y_out: np.ndarray) -> int:
-    """How many rows of ``y_out`` are finite throughout (the chain route's count: the kernels fill NaN first)."""
+    """How many rows of ``y_out`` are finite throughout (the kernels fill NaN first)."""
     if math.isfinite(float(y_out.sum())):
         return len(y_out)
     return int(np.count_nonzero(np.all(np.isfinite(y_out), axis=1)))
 
 
 def _compiled_detail(settings: Settings, status: int) -> str:
-    """The chain route's words for a fixed step whose Newton iteration failed (it names the command's option)."""
+    """The chain's words for a fixed step whose Newton iteration failed (it names the command's option)."""
     if status == Status.INTEGRATOR_FAILED and INTEGRATORS[settings.integrator].fixed_step:
         return f"the {settings.integrator} integrator's Newton iteration did not converge; reduce the step (--step)"
     return ""
@@ -419,7 +417,7 @@ def _compiled_detail(settings: Settings, status: int) -> str:
 
 def reduced_samples_trajectory(chain: Chain, settings: Settings, t: np.ndarray, y: np.ndarray) -> Trajectory:
     """The Trajectory of a reduced run's samples ``y = [theta, omega]`` (T, 2 n), read by the mechanism's
-    Lagrange system in absolute rotations, as the chain route reads them by the chain's pinned Lagrange system."""
+    Lagrange system in absolute rotations, as every other method's samples are read by its own system."""
     route = chain_route(chain, "lagrange", settings.damping)
     params = route.parameters_at(float(t[0]) if len(t) else 0.0)
     n = chain.n

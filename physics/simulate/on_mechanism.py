@@ -1,9 +1,10 @@
 """A chain's run on the general mechanism engine: the chain written as a mechanism, its Trajectory in the chain's
 terms (issue 24, "one pipeline").
 
-:func:`physics.simulate` runs a chain on its own generated kernels (:func:`physics.codegen.load_compiled`). This
-module runs the same request on the engine that runs every mechanism (:mod:`physics.mechanism.engine`), so the
-chain's kernels can go once it is as fast: the chain is drawn hanging straight down
+:func:`physics.simulate` runs every chain here, on the engine that runs every mechanism
+(:mod:`physics.mechanism.engine`); there is no other route. The chain's own symbolic derivations
+(:mod:`physics.derive`, loaded by :func:`physics.codegen.load_compiled`) remain as the independent formulas the
+Equations tab shows and the tests check this route against. The chain is drawn hanging straight down
 (:func:`physics.mechanism.chains.chain_mechanism` at ``theta = 0``; bars ``bar1..barn``, pins ``O``, ``J1 ..
 J(n-1)`` and, for a pinned chain, ``H``; the chain's damping on every pin but ``H``), and its tree formulations
 use absolute rotations (docs/mechanisms.md, "Absolute rotations"): a pin's tree coordinate is then the child's
@@ -27,10 +28,6 @@ tree's order (the four-bar's ``(theta1, theta3, theta2)``, its closure ``J2``). 
   observables of :mod:`physics.codegen.mechanism_observables` (points reached from ``O`` along the bars, as the
   chain's own kinematics places them; the same to rounding).
 * Failures are the chain's: a status and the chain's sentence (no mechanism name), never an exception midway.
-
-On by default (:data:`ENABLED`): :func:`physics.simulate.run.simulate` takes this route when it is True. The
-tests can run their chain suites on the chain's own kernels with ``LINKAGE_LAB_TEST_CHAIN_ON_MECHANISM=0``
-(tests/conftest.py; the library never reads that variable).
 """
 
 from __future__ import annotations
@@ -43,19 +40,14 @@ if TYPE_CHECKING:
     from ..model import Chain, Settings
     from .trajectory import Trajectory
 
-__all__ = ["ENABLED", "simulate_on_mechanism"]
-
-# The switch physics.simulate reads: True (the default since the route reached parity, BENCHMARKS.md "The chain
-# route's record") runs a chain on the general mechanism engine, False on the chain's own kernels, which remain
-# only until they are deleted. Not a user option.
-ENABLED = True
+__all__ = ["simulate_on_mechanism"]
 
 
 def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, settings: Settings,
                           t_start: float) -> Trajectory:
     """:func:`physics.simulate` of a checked request (valid start, assembled, output size allowed) on the
     mechanism engine: the same Trajectory, fields and shapes, status and sentences."""
-    # the mechanism engine: loaded by a run on this route only (the app's server never loads it)
+    # the route's module: loaded at a process's first run, not by ``import physics``
     from .mechanism_route import simulate_on_mechanism as run  # noqa: PLC0415
 
     return run(chain, theta0, omega0, settings, t_start)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import LinkageError
 from ..model import Chain, Settings, TracePoint
 
 # Chains remembered at once (the oldest forgotten first): a few presets and the app's current chains.
@@ -68,7 +69,7 @@ def chain_arrays(chain: Chain) -> ChainArrays:
 
 
 def stabilization_gains(chain: Chain, settings: Settings) -> tuple[float, float, bool]:
-    """``(alpha, beta, project)`` of a chain's run, on either route (its own kernels or the mechanism engine): an
+    """``(alpha, beta, project)`` of a chain's run: an
     open chain holds no constraint, so nothing; a pinned one Baumgarte's gains or projection by its setting."""
     if not chain.pinned or settings.stabilization == "none":
         return 0.0, 0.0, False
@@ -95,3 +96,11 @@ def sample_times(t_start: float, t_end: float, samples: int, *, from_zero: bool 
                  else np.linspace(t_start, t_start + t_end, samples))
         _times[key] = times
     return times.copy()
+
+
+def trace_point(chain: Chain, settings: Settings, bars: ChainArrays) -> TracePoint:
+    """The point a run traces (the settings', else the tip), its bar checked against the chain."""
+    trace = settings.trace or bars.tip
+    if trace.bar > chain.n:
+        raise LinkageError(f"trace bar = {trace.bar}: allowed range 1 <= bar <= {chain.n}")
+    return trace

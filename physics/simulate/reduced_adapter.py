@@ -8,9 +8,8 @@ joint coordinate on the compiled engine. ``method = "reduced"`` switches the coo
 (generalized coordinate partitioning); ``"reduced_fixed"`` keeps joint ``O``, whose coordinate is theta1, and
 stops with a clear message at its first dead centre, so the failure can be shown. The samples come back in the
 chain's terms: absolute angles and rates from the body angles, and the Trajectory (energies, tip reaction, joint
-reactions, condition) that :func:`physics.simulate.build.build_trajectory` makes from them with the pinned
-Lagrange system (through :func:`physics.simulate.chain_system.chain_system`: on the route the switch chooses), as
-for every other method.
+reactions, condition) that the mechanism route makes from them with the pinned Lagrange system (through
+:func:`physics.simulate.chain_system.chain_system`), as for every other method.
 
 ``stats``: ``n_switches`` and ``switch_times`` (the coordinate switches) and ``independent_index`` (T,): the
 joint integrated at each sample, numbered in the chain's joint order (:data:`CHAIN_JOINTS`: 0 is ``O``, the
@@ -44,7 +43,7 @@ CHAIN_SWITCH_SHARE = 0.4
 
 def simulate_reduced_trajectory(chain, theta0, omega0, settings, t_start: float, build=None):
     """The reduced model's run of a four-bar as a chain's Trajectory. ``build(chain, settings, t, y)``: what
-    reads its samples ``y = [theta, omega]`` (default the pinned Lagrange system on the route the switch chooses,
+    reads its samples ``y = [theta, omega]`` (default the pinned Lagrange system,
     :func:`physics.simulate.chain_system.chain_system`)."""
     build = _trajectory if build is None else build
     if not chain.pinned or chain.n != 3:
@@ -97,8 +96,8 @@ def fixed_coordinate_message(dead_centre: DeadCentre) -> str:
 
 
 def _trajectory(chain, settings, t, y):
-    """The samples read by the pinned Lagrange system on the route the switch chooses (:func:`chain_system`): the
-    chain's own, or the chain written as a mechanism (its state in the spanning tree's order)."""
+    """The samples read by the pinned Lagrange system (:func:`chain_system`): the chain written as a mechanism
+    (its state in the spanning tree's order)."""
     system = chain_system(chain, "lagrange", settings.damping, float(t[0]) if len(t) else 0.0)
     n = chain.n
     return system.trajectory(chain, settings, t, system.state(y[:, :n], y[:, n:]))

@@ -41,7 +41,6 @@ from ..mechanism.presets import MECHANISM_PRESETS
 from ..model import FORMULATION_NAMES, Chain
 from ..outputs import check_output_path, write_output
 from ..presets import get_preset, preset_names
-from ..simulate import on_mechanism
 from ..simulate.chain_system import chain_system
 from .charts import colormap, png_bytes, write_png
 from .report import Progress, machine_note
@@ -64,8 +63,7 @@ class TileTask:
     method: str
     n: int
     params: tuple
-    chain: Chain  # for the system on the chosen route (the chain as a mechanism is built from it)
-    on_mechanism: bool  # the caller's route (physics.simulate.on_mechanism.ENABLED): a worker has its own switch
+    chain: Chain  # the chain written as a mechanism is built from it (physics.simulate.chain_system)
     theta1: tuple  # column angles (x axis)
     theta2: tuple  # this band's row angles (y axis)
     row_start: int
@@ -93,9 +91,9 @@ def flip_energy(params: np.ndarray, n: int) -> float:
 def compute_tile(task: TileTask) -> tuple[int, np.ndarray]:
     """Flip times of one band: shape ``(len(theta2), len(theta1))``; NaN = not within t_max, FORBIDDEN = no
     flip possible. Runs in whichever process the executor picks."""
-    # the system on the caller's route: the chain's own kernel, or the chain as a mechanism (its coordinates may be
-    # the angles in another order: a flip is any angle leaving [-pi, pi], whichever the order)
-    system = chain_system(task.chain, task.method, on_mechanism_engine=task.on_mechanism)
+    # the chain written as a mechanism (its coordinates may be the angles in another order: a flip is any angle
+    # leaving [-pi, pi], whichever the order)
+    system = chain_system(task.chain, task.method)
     compiled = system.compiled
     params = np.asarray(task.params, dtype=float)  # the chain's numbers: its energies
     n = task.n
@@ -139,8 +137,8 @@ def tiles(chain, method: str, resolution: int, t_max: float, step: float) -> lis
     band = max(1, PIXELS_PER_TILE // resolution)
     params = tuple(float(v) for v in chain.params())
     return [
-        TileTask(method, chain.n, params, chain, on_mechanism.ENABLED, tuple(angles), tuple(angles[start : start + band]),
-                 start, t_max, step)
+        TileTask(method, chain.n, params, chain, tuple(angles), tuple(angles[start : start + band]), start, t_max,
+                 step)
         for start in range(0, resolution, band)
     ]
 

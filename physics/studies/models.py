@@ -35,7 +35,7 @@ def four_bar_models(t_end: float = 100.0, tolerance: float = 1e-9, repeats: int 
         settings = Settings(method=method, integrator="DOP853", rtol=tolerance, atol=tolerance, t_end=t_end, samples=1001)
         trajectory = simulate(preset.chain, preset.theta0, preset.omega0, settings)
         seconds = median_time(lambda: simulate(preset.chain, preset.theta0, preset.omega0, settings), repeats)
-        # the unknowns of the system the run solved (the chain's kernel, or the chain as a mechanism)
+        # the unknowns of the system the run solved (the chain written as a mechanism)
         size = 1 if METHODS[method].reduced else chain_system(preset.chain, method).compiled.n_unknowns
         rows.append({"method": method, "unknowns": size, "seconds": seconds, "status": trajectory.status,
                      "tip_gap": float(_dist(trajectory.constraint_xy).max()), "energy_drift": trajectory.energy_drift(),
@@ -52,7 +52,7 @@ def rhs_costs(batch: int = 1000) -> list[dict]:
     theta, omega = preset.theta0 + 0.1, np.array([0.3, -0.2, 0.1])
     rows = []
     for method in FORMULATION_NAMES:
-        # the generated system on the route physics.simulate takes, its state and parameters in its own terms
+        # the generated system physics.simulate integrates, its state and parameters in its own terms
         generated = chain_system(preset.chain, method)
         compiled = generated.compiled
         state_theta, state_omega = generated.coordinates(theta), generated.coordinates(omega)

@@ -1,9 +1,8 @@
-"""The app's warm-up and its worker builds follow the route a chain's run takes (issue 24, "one pipeline").
+"""The app's warm-up and its worker builds follow the one route a chain's run takes (issue 24, "one pipeline").
 
-With :data:`physics.simulate.on_mechanism.ENABLED` on, a chain runs as a mechanism on the general engine: warming
-the chain's own generated kernel would cost a session a derivation it never uses, and a worker that built the
-chain's kernel would leave the server to derive the route itself (sympy in the server's interpreter, every other
-session's animation frozen). With the switch off, the same calls and the same worker command as always.
+A chain runs as a mechanism on the general engine: warming the chain's own generated kernel would cost a session
+a derivation it never uses, and a worker that built the chain's kernel would leave the server to derive the
+route itself (sympy in the server's interpreter, every other session's animation frozen).
 """
 
 from __future__ import annotations
@@ -21,13 +20,14 @@ import pytest
 import physics
 from app import warm
 from physics import Settings, get_preset, simulate
+from physics import codegen as codegen_module
+from physics.codegen import cache as cache_module
 from physics.codegen import prebuild as prebuild_module
+from physics.codegen import prebuild_worker
 from physics.kernels.disk_cache import kernels_folder
-from physics.simulate import on_mechanism, reduced_adapter
-from physics.simulate.chain_system import chain_system
+from physics.simulate import reduced_adapter
 
 ROOT = Path(__file__).resolve().parents[2]
-chain_system_module = sys.modules[chain_system.__module__]
 
 
 @pytest.fixture
@@ -38,20 +38,18 @@ def fresh_warm(monkeypatch):
 
 
 def _refused(*_arguments, **_keywords):
-    raise AssertionError("the chain's own generated system was loaded on the mechanism engine")
+    raise AssertionError("the chain's own generated system was loaded by the warm-up")
 
 
 @pytest.mark.parametrize(("preset_name", "method"), [("triple-a", "lagrange"), ("four-bar", "dae"),
                                                      ("double", "newton_euler"), ("four-bar", "reduced")])
-def test_on_the_mechanism_engine_the_warm_up_never_loads_the_chains_own_kernel(preset_name, method, monkeypatch,
-                                                                               fresh_warm):
+def test_the_warm_up_never_loads_the_chains_own_kernel(preset_name, method, monkeypatch, fresh_warm):
     preset = get_preset(preset_name)
     settings = Settings(method=method)
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
     # the route's code and record in this test's cache (derived here on a miss, so the warm-up below builds nothing)
     simulate(preset.chain, preset.theta0, preset.omega0, settings.model_copy(update={"t_end": 0.02, "samples": 2}))
     assert not physics.code_missing(method, preset.chain.n, preset.chain.pinned)
-    for module in (prebuild_module, chain_system_module, physics):
+    for module in (cache_module, codegen_module, physics):
         monkeypatch.setattr(module, "load_compiled", _refused)
     monkeypatch.setattr(warm.subprocess, "Popen", _refused)  # nothing missing: no worker either
     warm.ensure_ready(preset.chain, settings, preset.theta0, preset.omega0)
@@ -59,32 +57,51 @@ def test_on_the_mechanism_engine_the_warm_up_never_loads_the_chains_own_kernel(p
     assert warm.is_loaded(method, preset.chain.n, preset.chain.pinned)
 
 
-def test_with_the_switch_off_the_warm_up_loads_the_chains_own_systems(monkeypatch, fresh_warm):
+def test_the_warm_up_loads_the_routes_systems(monkeypatch, fresh_warm):
+    """A reduced method's samples are read by the pinned Lagrange system, the DAE's by its own: the chain written
+    as a mechanism for each, once per structure."""
     preset = get_preset("four-bar")
     loaded: list[tuple] = []
-    load_compiled = prebuild_module.load_compiled
+    chain_system = prebuild_module.chain_system
 
-    def recorded(*arguments):
-        loaded.append(arguments)
-        return load_compiled(*arguments)
+    def recorded(chain, formulation, damping=0.0):
+        loaded.append((chain.n, chain.pinned, formulation))
+        return chain_system(chain, formulation, damping)
 
-    monkeypatch.setattr(on_mechanism, "ENABLED", False)
-    monkeypatch.setattr(prebuild_module, "load_compiled", recorded)
+    monkeypatch.setattr(prebuild_module, "chain_system", recorded)
     warm.ensure_loaded(preset.chain, "reduced")
     warm.ensure_loaded(preset.chain, "dae")
-    assert loaded == [("lagrange", 3, True), ("dae", 3, True)]
+    warm.ensure_loaded(preset.chain, "dae")
+    assert loaded == [(3, True, "lagrange"), (3, True, "dae")]
     assert warm.is_loaded("dae", 3, True)
 
 
-def test_the_worker_is_told_the_route_and_its_old_command_keeps_working(monkeypatch):
-    monkeypatch.setattr(on_mechanism, "ENABLED", False)
-    assert physics.prebuild_arguments("dae", 4, False, "RK45") == ["dae", "4", "open", "RK45"]
-    assert physics.chain_engine() == "chain"
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
-    assert physics.prebuild_arguments("lagrange", 3, True, "DOP853") == ["lagrange", "3", "pinned", "DOP853",
-                                                                         "mechanism"]
-    assert physics.chain_engine() == "mechanism"
-    assert prebuild_module.main(["dae", "4", "open", "RK45", "sideways"]) == 2  # an unknown route is refused
+def test_the_worker_command_is_the_four_argument_one(monkeypatch):
+    """The server starts ``python -m physics.codegen.prebuild_worker METHOD N open|pinned INTEGRATOR``; the worker
+    refuses anything else with its usage line."""
+    started: list[list[str]] = []
+
+    def popen(command, **_keywords):
+        started.append(command)
+        raise OSError("not started in this test")
+
+    monkeypatch.setattr(physics, "code_missing", lambda *_arguments: True)
+    monkeypatch.setattr(warm.subprocess, "Popen", popen)
+    assert warm.build_outside("lagrange", 3, True, "DOP853") is False  # the worker did not start: build in-process
+    assert started == [[sys.executable, "-m", "physics.codegen.prebuild_worker", "lagrange", "3", "pinned",
+                        "DOP853"]]
+    assert prebuild_worker.main(["dae", "4", "open", "RK45", "mechanism"]) == 2  # the old route argument: gone
+    assert prebuild_worker.main(["dae", "4", "sideways", "RK45"]) == 2
+    assert prebuild_worker.main(["dae", "four", "open", "RK45"]) == 2
+
+
+def test_the_worker_module_starts_without_a_runpy_warning():
+    """``import physics`` imports physics.codegen.prebuild; the worker is a module of its own, so ``-m`` does not
+    import it a second time (runpy's RuntimeWarning on every start, before)."""
+    done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-m", "physics.codegen.prebuild_worker"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip() == prebuild_worker.USAGE
 
 
 def test_a_pinned_structure_chain_closes_its_loop():
@@ -95,33 +112,25 @@ def test_a_pinned_structure_chain_closes_its_loop():
 
 
 @pytest.mark.parametrize("method", ["reduced", "reduced_fixed"])
-def test_a_reduced_runs_samples_are_read_through_chain_system_unchanged(method, monkeypatch):
-    """The reduced adapter reads its samples with the pinned Lagrange system through chain_system: with the switch
-    off exactly the chain's own pinned system's Trajectory, with it on exactly the mechanism route's."""
-    from physics.simulate.build import build_trajectory  # noqa: PLC0415
+def test_a_reduced_runs_samples_are_read_through_chain_system_unchanged(method):
+    """The reduced adapter reads its samples with the pinned Lagrange system through chain_system: exactly the
+    mechanism route's Trajectory (tests/physics/test_chain_on_mechanism.py checks it against the chain's own
+    formulas)."""
     from physics.simulate.mechanism_route import reduced_samples_trajectory  # noqa: PLC0415
 
     preset = get_preset("four-bar")
     settings = Settings(method=method, t_end=2.0, samples=40)
-
-    def chains_own(chain, settings, t, y):  # what the adapter read before chain_system
-        compiled = physics.load_compiled("lagrange", chain.n, True)
-        return build_trajectory(chain, settings, compiled, chain.params(damping=settings.damping), t, y)
-
-    for switch, reference in ((False, chains_own), (True, reduced_samples_trajectory)):
-        monkeypatch.setattr(on_mechanism, "ENABLED", switch)
-        got = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings, 0.0)
-        expected = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings,
-                                                               0.0, build=reference)
-        assert got.status == expected.status
-        for field in ("t", "theta", "omega", "energy", "trace_xy", "reactions", "tip_reaction", "condition"):
-            np.testing.assert_array_equal(getattr(got, field), getattr(expected, field), err_msg=f"{switch} {field}")
+    got = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings, 0.0)
+    expected = reduced_adapter.simulate_reduced_trajectory(preset.chain, preset.theta0, preset.omega0, settings,
+                                                           0.0, build=reduced_samples_trajectory)
+    assert got.status == expected.status
+    for field in ("t", "theta", "omega", "energy", "trace_xy", "reactions", "tip_reaction", "condition"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(expected, field), err_msg=field)
 
 
 WORKER_SCRIPT = """
 import json, sys
-from physics.simulate import on_mechanism, mechanism_route
-on_mechanism.ENABLED = True
+from physics.simulate import mechanism_route
 import physics
 from app import warm
 from physics import Settings, get_preset
@@ -132,8 +141,8 @@ def counted(*arguments, **keywords):
     return derive(*arguments, **keywords)
 mechanism_route.derived_route = counted
 def refused(*arguments, **keywords):
-    raise AssertionError("the chain's own generated system was loaded on the mechanism engine")
-for module in (physics, sys.modules["physics.codegen.prebuild"], sys.modules["physics.simulate.chain_system"]):
+    raise AssertionError("the chain's own generated system was loaded by the server")
+for module in (physics, sys.modules["physics.codegen"], sys.modules["physics.codegen.cache"]):
     module.load_compiled = refused
 preset = get_preset("{preset}")
 settings = Settings(method="{method}", integrator="RK45")
@@ -151,10 +160,9 @@ print(json.dumps({{"before": before, "built": built, "after": after, "derived": 
 
 @pytest.mark.slow  # a worker process derives the route's system with sympy
 @pytest.mark.parametrize(("preset_name", "method"), [("double", "lagrange"), ("four-bar", "dae")])
-def test_on_the_mechanism_engine_a_worker_builds_the_route_so_the_server_derives_nothing(preset_name, method,
-                                                                                          tmp_path, monkeypatch):
+def test_a_worker_builds_the_route_so_the_server_derives_nothing(preset_name, method, tmp_path):
     preset = get_preset(preset_name)
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)  # the route's run kernels compile once: bring them along
+    # the route's run kernels compile once: bring them along
     simulate(preset.chain, preset.theta0, preset.omega0, Settings(method=method, integrator="RK45", t_end=0.01))
     cache = tmp_path / "cache"
     shutil.copytree(kernels_folder(), cache / "numba" / kernels_folder().name)

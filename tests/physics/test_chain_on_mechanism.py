@@ -1,48 +1,34 @@
-"""A chain's run on the general mechanism engine (physics/simulate/on_mechanism.py, the switch, and
-mechanism_route.py) against its run on the chain's own kernels: the same Trajectory, field by field, for a
-representative set of chains and settings.
+"""A chain's run, on the one route it takes (the chain written as a mechanism on the general engine:
+physics/simulate/on_mechanism.py, mechanism_route.py), against the chain's own formulas: at every sample the
+route's accelerations, reactions, positions, energies and condition equal what the chain's independent
+derivations give at the sample's state (tests/physics/chain_formulas.py), for a representative set of chains
+and settings; the run's times, status, sentence and counts are the chain's.
 
-With absolute rotations the state integrated on the mechanism engine is the chain's ``(theta, omega)`` (the
-four-bar's in its tree's order), by the same integrator code, so the two runs take the same steps and evaluate
-the same number of right-hand sides; their values differ only by rounding: the two generated codes sum the same
-terms in another order (the four-bar's tree even hangs bar 3 from the tip's pin, another but equivalent
-Lagrangian). The tolerances say how far rounding goes over these short runs:
+The tolerances are the chain's formulas' against the route's at the same state:
 
-* :data:`ROUNDING` 1e-11 relative (to 1 + the largest value): measured at most 9e-14 on every field of every
-  case below (2 s, rtol 1e-10), a hundred times under it; a change of the equations, the reactions' rows or
-  their signs would be off by order one.
+* :data:`ROUNDING` 1e-11 relative (to 1 + the largest value): the same equations summed in another order (the
+  four-bar's tree even hangs bar 3 from the tip's pin, another but equivalent Lagrangian); a change of the
+  equations, the reactions' rows or their signs would be off by order one.
 * :data:`BAUMGARTE` 1e-9: Baumgarte's terms feed the loop's residual back with gains ``alpha = beta = 10``
-  (beta^2 = 100 on a position residual of rounding size), so rounding shows more: measured 1e-10 on the tip's
-  reaction, 1e-12 on the rates.
-* :data:`NEWTON` 1e-8: the variational integrator stops each step's Newton iteration at its tolerance
-  (physics.kernels.constants.NEWTON_TOLERANCE, and up to a thousand times it where the corrections stop
-  shrinking), so each step's answer is fixed to about 1e-13 only; over 1000 steps measured 4e-10.
-
-The condition column: the chain route reports the condition of the chain formulation's matrix, this route the
-mechanism system's; for an open chain of two bars or more their kernel estimates are equal (the same matrix up
-to rounding), for a pinned chain the matrices differ (the four-bar's mechanism tree hangs bar 3 from ``H``), so
-there only its shape and finiteness are compared (docs/architecture.md, "The chain on the mechanism engine").
+  (beta^2 = 100 on a position residual of rounding size), so rounding shows more in the solved unknowns.
+* :data:`NEWTON` 1e-8: the variational integrator's table entry, kept from the comparison of whole runs this
+  test made while the chain had a route of its own.
 """
 
 from __future__ import annotations
-
-import ast
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from physics import Settings, get_preset, simulate
-from physics.simulate import on_mechanism
+from physics.simulate.prepared import sample_times
 from physics.status import Status
 
-ROUNDING = 1e-11
+from .chain_formulas import ROUNDING, assert_run_follows_chain_formulas, relative
+
 BAUMGARTE = 1e-9
 NEWTON = 1e-8
-STEP_SIZES = 1e-5
 
-VALUE_FIELDS = ("theta", "omega", "joints", "tip_xy", "trace_xy", "kinetic", "potential", "energy", "reactions",
-                "joint_reactions", "tip_reaction", "constraint_xy", "constraint_velocity")
 SHORT = {"t_end": 2.0, "samples": 21}
 
 CASES = [
@@ -78,86 +64,58 @@ CASES = [
 ]
 
 
-def both_routes(chain, theta0, omega0, settings, monkeypatch):
-    """The chain's run on its own kernels, then on the mechanism engine."""
-    monkeypatch.setattr(on_mechanism, "ENABLED", False)
-    chain_run = simulate(chain, theta0, omega0, settings)
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
-    mechanism_run = simulate(chain, theta0, omega0, settings)
-    return chain_run, mechanism_run
 
-
-def relative(mine: np.ndarray, theirs: np.ndarray) -> float:
-    if theirs.size == 0:
-        return 0.0
-    return float(np.max(np.abs(mine - theirs)) / (1.0 + np.max(np.abs(theirs))))
-
-
-def assert_same_trajectory(chain_run, mechanism_run, tolerance: float, pinned: bool) -> None:
-    """Every field of the two runs: the same shapes, status, sentence, counts and stats' keys; values within
-    ``tolerance``; the times bit for bit."""
-    assert mechanism_run.status == chain_run.status
-    assert mechanism_run.message == chain_run.message
-    assert (mechanism_run.n_steps, mechanism_run.n_rhs) == (chain_run.n_steps, chain_run.n_rhs)
-    assert (mechanism_run.method, mechanism_run.integrator) == (chain_run.method, chain_run.integrator)
-    assert mechanism_run.trace_is_explicit == chain_run.trace_is_explicit
-    np.testing.assert_array_equal(mechanism_run.t, chain_run.t)
-    assert set(mechanism_run.stats) == set(chain_run.stats)
-    # where the last accepted step ended: the step sizes come from the error estimate, itself of size rtol
-    # (1e-10) over rounding (1e-16) in the right-hand sides, so they agree to about 1e-6 relative (measured 4e-7
-    # after 10 steps of case C), not to rounding; the samples, read off the dense output, do
-    for name in ("n_switches", "switch_times", "t_reached"):
-        if name in chain_run.stats:
-            assert mechanism_run.stats[name] == pytest.approx(chain_run.stats[name], rel=STEP_SIZES), name
-    if "independent_index" in chain_run.stats:
-        np.testing.assert_array_equal(mechanism_run.stats["independent_index"], chain_run.stats["independent_index"])
-    for name in VALUE_FIELDS:
-        mine, theirs = getattr(mechanism_run, name), getattr(chain_run, name)
-        assert mine.shape == theirs.shape, name
-        assert relative(mine, theirs) <= tolerance, (name, relative(mine, theirs))
-    assert mechanism_run.condition.shape == chain_run.condition.shape
-    assert np.all(np.isfinite(mechanism_run.condition) == np.isfinite(chain_run.condition))
-    assert mechanism_run.columns().keys() == chain_run.columns().keys()
-    if not pinned and chain_run.n > 1:
-        assert relative(mechanism_run.condition, chain_run.condition) <= tolerance
+def assert_chain_run(chain, settings, run, tolerance: float, t_start: float = 0.0) -> None:
+    """A successful run: the chain's sample times bit for bit, status and sentence ok, steps counted, the
+    method and integrator named, and every sample as the chain's formulas give it."""
+    assert run.status == Status.OK and run.message == "ok", run.message
+    np.testing.assert_array_equal(run.t, sample_times(t_start, settings.t_end, settings.samples))
+    assert (run.method, run.integrator) == (settings.method, settings.integrator)
+    assert run.n_rhs >= run.n_steps > 0
+    assert run.trace_is_explicit == (settings.trace is not None)
+    assert_run_follows_chain_formulas(chain, settings, run, tolerance)
 
 
 @pytest.mark.parametrize(("preset", "links", "fields", "tolerance"), [case[1:] for case in CASES],
                          ids=[case[0] for case in CASES])
-def test_a_chain_on_the_mechanism_engine_gives_the_chains_trajectory(preset, links, fields, tolerance, monkeypatch):
+def test_a_chains_run_follows_the_chains_own_formulas(preset, links, fields, tolerance):
     chosen = get_preset(preset, links)
     settings = Settings(trace=chosen.trace, **fields)
-    chain_run, mechanism_run = both_routes(chosen.chain, chosen.theta0, chosen.omega0, settings, monkeypatch)
-    assert_same_trajectory(chain_run, mechanism_run, tolerance, chosen.chain.pinned)
+    run = simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+    if settings.max_steps == 10:  # the step budget's case: a status, the samples up to where it stopped
+        assert run.status == Status.MAX_STEPS
+        assert 0 < run.t.size < settings.samples
+        assert_run_follows_chain_formulas(chosen.chain, settings, run, tolerance)
+        return
+    assert_chain_run(chosen.chain, settings, run, tolerance)
+    if settings.method.startswith("reduced"):
+        assert {"n_switches", "switch_times", "independent_index"} <= set(run.stats)
+        assert run.stats["independent_index"].shape == run.t.shape
+    else:
+        assert run.stats["t_reached"] == pytest.approx(settings.t_end)
 
 
-def test_a_run_stopped_by_its_step_budget_is_a_status_on_both_routes(monkeypatch):
-    """A failure midway is the chain's status and sentence on the mechanism engine too, never an exception."""
+def test_a_run_stopped_by_its_step_budget_is_a_status_and_the_chains_sentence():
+    """A failure midway is the chain's status and sentence, never an exception."""
     chosen = get_preset("triple-c")
     settings = Settings(method="lagrange", max_steps=10, **SHORT)
-    chain_run, mechanism_run = both_routes(chosen.chain, chosen.theta0, chosen.omega0, settings, monkeypatch)
-    assert chain_run.status == Status.MAX_STEPS
-    assert mechanism_run.status == chain_run.status and mechanism_run.message == chain_run.message
-    assert 0 < mechanism_run.t.size == chain_run.t.size < settings.samples
+    run = simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+    assert run.status == Status.MAX_STEPS
+    assert run.message == Status.describe(Status.MAX_STEPS, run.stats["t_reached"])
+    assert 0 < run.t.size < settings.samples
+    assert run.n_steps == settings.max_steps
+    assert_run_follows_chain_formulas(chosen.chain, settings, run)
 
 
-def test_a_continued_run_starts_where_its_t_start_says(monkeypatch):
-    """A chunk of the app's chunked integration (``t_start``, ``continuing``) on both routes."""
+def test_a_continued_run_starts_where_its_t_start_says():
+    """A chunk of the app's chunked integration (``t_start``, ``continuing``): its times from ``t_start``, its
+    first sample the last of the chunk before (to rounding), every sample the chain's formulas'."""
     chosen = get_preset("four-bar")
     settings = Settings(method="dae", **SHORT)
-    runs = []
-    for enabled in (False, True):
-        monkeypatch.setattr(on_mechanism, "ENABLED", enabled)
-        first = simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
-        runs.append(simulate(chosen.chain, first.theta[-1], first.omega[-1], settings, t_start=float(first.t[-1]),
-                             continuing=True))
-    assert_same_trajectory(runs[0], runs[1], ROUNDING, pinned=True)
-
-
-def test_the_switch_is_on_by_default():
-    """Every chain runs on the mechanism engine unless a test turns the switch off (the module as written: the
-    test session may have turned the loaded one off)."""
-    tree = ast.parse(Path(on_mechanism.__file__).read_text(encoding="utf-8"))
-    values = [node.value for node in tree.body if isinstance(node, ast.Assign)
-              and any(isinstance(target, ast.Name) and target.id == "ENABLED" for target in node.targets)]
-    assert len(values) == 1 and isinstance(values[0], ast.Constant) and values[0].value is True
+    first = simulate(chosen.chain, chosen.theta0, chosen.omega0, settings)
+    t_start = float(first.t[-1])
+    second = simulate(chosen.chain, first.theta[-1], first.omega[-1], settings, t_start=t_start, continuing=True)
+    assert_chain_run(chosen.chain, settings, second, ROUNDING, t_start=t_start)
+    # the start as given (its rates read back through the tree's order: rounding)
+    assert relative(second.theta[0], first.theta[-1]) <= ROUNDING
+    assert relative(second.omega[0], first.omega[-1]) <= ROUNDING

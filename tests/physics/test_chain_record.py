@@ -17,7 +17,7 @@ import pytest
 from physics import Settings, get_preset, make_chain, simulate
 from physics.cache_folder import tagged
 from physics.model import TracePoint
-from physics.simulate import chain_record, mechanism_route, on_mechanism
+from physics.simulate import chain_record, mechanism_route
 
 METHODS = ("newton_euler", "lagrange", "dae")
 PRESETS = ("single", "double", "triple-a", "triple-b", "triple-c", "four-bar", "change-point")
@@ -27,9 +27,8 @@ TRAJECTORY_FIELDS = ("t", "theta", "omega", "joints", "tip_xy", "trace_xy", "kin
 
 
 @pytest.fixture(autouse=True)
-def _fresh_memory(monkeypatch):
-    """Every test starts with no route, plan or record in memory, on the mechanism engine."""
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+def _fresh_memory():
+    """Every test starts with no route, plan or record in memory."""
     _forget()
     yield
     _forget()
@@ -181,8 +180,7 @@ def test_the_lazy_geometry_is_the_chains_mechanism(monkeypatch):
 
 
 WARM_ROUTE = r"""
-import contextlib, importlib, io, json, sys
-importlib.import_module("physics.simulate.on_mechanism").ENABLED = True
+import contextlib, io, json, sys
 from physics.cli import main
 with contextlib.redirect_stdout(io.StringIO()):
     code = main(["simulate", "--preset", sys.argv[1], "--method", sys.argv[2], "--t-end", "0.5", "--samples", "3"])

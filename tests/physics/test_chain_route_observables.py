@@ -16,7 +16,7 @@ from physics.codegen import cache
 from physics.codegen.mechanism_samples import mechanism_samples
 from physics.kinematics import energies, joint_positions, point_on_bar, tip_velocity
 from physics.mechanism import engine
-from physics.simulate import mechanism_route, on_mechanism
+from physics.simulate import mechanism_route
 from physics.simulate.prepared import chain_arrays
 
 ROUNDING = 1e-13  # relative to 1 + the largest value; measured at most 9e-16
@@ -27,8 +27,7 @@ CASES = [("triple-a", "lagrange", 0.0), ("triple-a", "newton_euler", 0.3), ("tri
 
 
 @pytest.fixture(autouse=True)
-def _on_the_route(monkeypatch):
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+def _specialised_in_the_foreground(monkeypatch):
     monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)
 
 

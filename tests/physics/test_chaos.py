@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from physics import Settings, get_preset, simulate
+from physics import Settings, get_preset, load_compiled, simulate
 from physics.kinematics import energies
+from physics.simulate.chain_system import ChainSystem
 from physics.studies import chaos_map as chaos
 from physics.studies.chaos_map import FORBIDDEN, compute_map, compute_tile, flip_energy, grid, tiles
 from physics.studies.charts import colormap
@@ -147,24 +148,23 @@ def test_the_framed_map_has_its_axes_a_colour_bar_and_a_key():
 
 
 @pytest.mark.parametrize("name", ["double", "triple-a"])
-def test_the_map_is_the_same_with_the_chain_on_the_mechanism_engine(name, monkeypatch):
-    """With physics.simulate.on_mechanism.ENABLED every tile runs the chain written as a mechanism (its task says
-    so: a worker process does not share the caller's switch) and never loads the chain's own kernel; the flip
-    times, whole steps, come out bit for bit the same (measured: every pixel of both maps)."""
-    from physics.simulate import on_mechanism  # noqa: PLC0415
-
+def test_the_map_is_the_chains_own_formulas_map(name, monkeypatch):
+    """Every tile runs the chain written as a mechanism (physics.simulate.chain_system); its flip times, whole
+    steps, are bit for bit those of the same batched RK4 on the chain's own system (its independent
+    derivation, :func:`physics.load_compiled`, in the chain's bar order: measured, every pixel of both maps)."""
     chain = get_preset(name).chain
-    monkeypatch.setattr(on_mechanism, "ENABLED", False)
-    assert not any(task.on_mechanism for task in tiles(chain, "lagrange", 20, 4.0, 0.01))
-    on_kernels = compute_map(chain, resolution=20, t_max=4.0)
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
-    assert all(task.on_mechanism for task in tiles(chain, "lagrange", 20, 4.0, 0.01))
-
-    def refused(*_arguments, **_keywords):
-        raise AssertionError("the chain's own kernel was loaded on the mechanism route")
-
-    # by the module object: the name physics.simulate is the function simulate (physics/__init__.py)
-    monkeypatch.setattr(sys.modules["physics.simulate.chain_system"], "load_compiled", refused)
     on_engine = compute_map(chain, resolution=20, t_max=4.0)
-    assert _same(on_kernels, on_engine)
+    compiled = load_compiled("lagrange", chain.n, chain.pinned)
+    identity = np.arange(chain.n, dtype=np.int64)
+    chains_own = ChainSystem("lagrange", 0.0, compiled, chain.params(), identity, identity.copy(),
+                             compiled.theta_ddot_index, compiled.reaction_index, np.zeros(0, dtype=np.int64),
+                             None)  # type: ignore[arg-type]  # no route: the chain's own system
+
+    def chain_kernel(task_chain, method):
+        assert (task_chain, method) == (chain, "lagrange")
+        return chains_own
+
+    monkeypatch.setattr(chaos, "chain_system", chain_kernel)
+    on_formulas = compute_map(chain, resolution=20, t_max=4.0)
+    assert _same(on_formulas, on_engine)
     assert np.count_nonzero(on_engine > 0) > 0

@@ -1,7 +1,6 @@
-"""The samples' pass written as LLVM IR (physics.codegen.samples_ir) gives the numba kernels' very bits: every
-unknown and condition estimate of solve_states, every matrix of assemble_states, every position, energy and
-joint reaction, for each formulation, open and pinned chains, Baumgarte terms, the equilibrated fallback and a
-singular state."""
+"""The samples' solve written as LLVM IR (physics.codegen.samples_ir) gives the numba kernels' very bits: every
+unknown and condition estimate of solve_states, every matrix of assemble_states, for each formulation, open and
+pinned chains, Baumgarte terms, the equilibrated fallback and a singular state."""
 
 from __future__ import annotations
 
@@ -15,8 +14,7 @@ import pytest
 
 import physics
 from physics.codegen import load_compiled, native_samples
-from physics.kernels import observables, system
-from physics.simulate.prepared import chain_arrays
+from physics.kernels import system
 
 
 def _states(preset: str, method: str, links: int | None = None, samples: int = 60):
@@ -83,32 +81,6 @@ def test_baumgarte_terms_a_light_tip_and_a_singular_state_solve_as_the_kernel_so
     assert np.isnan(x[0]).all() and np.isinf(cond[0])
 
 
-@pytest.mark.parametrize("preset, links", CASES)
-def test_positions_energies_and_joint_reactions_are_the_kernels(preset, links):
-    chain, compiled, theta, omega = _states(preset, "dae", links, samples=101)
-    bars = chain_arrays(chain)
-    n, rows = chain.n, theta.shape[0]
-    x, _ = compiled.solve_full_batch(theta, omega, chain.params())
-    theta_ddot = np.ascontiguousarray(x[:, compiled.theta_ddot_index])
-    tip = np.ascontiguousarray(x[:, compiled.tip_reaction_index]) if chain.pinned else np.zeros((0, 2))
-    for trace_bar, along, across in ((n - 1, float(bars.tip.along), float(bars.tip.across)), (0, 0.3, -0.2)):
-        outputs = []
-        for observe in (native_samples.chain_observables, observables.chain_observables):
-            arrays = (np.full((rows, n + 1, 2), 7.0), np.full((rows, 2), 7.0), np.full(rows, 7.0),
-                      np.full(rows, 7.0), np.full((rows, 2), 7.0))
-            observe(theta, omega, bars.L, bars.d, bars.m, bars.I, bars.g, trace_bar, along, across, *arrays)
-            outputs.append(arrays)
-        for ours, theirs in zip(*outputs, strict=True):
-            _equal(ours, theirs)
-    reactions = []
-    for react in (native_samples.chain_joint_reactions, observables.chain_joint_reactions):
-        joint_reactions = np.full((rows, n, 2), 7.0)
-        react(theta, omega, theta_ddot, bars.L, bars.d, bars.m, bars.g, tip, joint_reactions)
-        reactions.append(joint_reactions)
-    _equal(*reactions)
-    assert np.all(np.isfinite(reactions[0]))
-
-
 def test_a_wrong_array_is_refused_before_any_pointer_is_handed_over():
     chain, compiled, theta, omega = _states("triple-a", "lagrange", samples=5)
     x = np.empty((5, compiled.n_unknowns))
@@ -118,55 +90,6 @@ def test_a_wrong_array_is_refused_before_any_pointer_is_handed_over():
     with pytest.raises(ValueError, match="C-contiguous"):
         native_samples.solve_states(compiled.assemble_function, compiled.layout, np.asfortranarray(theta[:, :2]),
                                     omega, chain.params(), 0.0, 0.0, x, np.empty(5))
-
-
-@pytest.mark.parametrize("preset, links", CASES)
-@pytest.mark.parametrize("method", ["lagrange", "dae"])
-def test_the_one_buffer_pass_is_the_kernels(method, preset, links):
-    """trajectory_samples (every array in one buffer, three calls) gives the numba kernels' bits: the unknowns,
-    the condition estimates, positions, energies, the tip's velocity and the joint reactions (a pinned chain's
-    from the pin's force among the unknowns)."""
-    chain, compiled, theta, omega = _states(preset, method, links, samples=101)
-    bars, params, n, rows = chain_arrays(chain), chain.params(), chain.n, theta.shape[0]
-    tip_index = compiled.tip_reaction_index if chain.pinned else np.zeros(0, dtype=np.int64)
-    ours = native_samples.trajectory_samples(
-        compiled.assemble_function, compiled.layout, np.concatenate([theta, omega], axis=1), params, 0.0, 0.0,
-        bars.bars, bars.g, 0, 0.3, -0.2, compiled.theta_ddot_index, tip_index)
-    x, cond = np.empty((rows, compiled.n_unknowns)), np.empty(rows)
-    system.solve_states(compiled.assemble_function, compiled.layout, theta, omega, params, 0.0, 0.0, x, cond)
-    observed = (np.empty((rows, n + 1, 2)), np.empty((rows, 2)), np.empty(rows), np.empty(rows), np.empty((rows, 2)))
-    observables.chain_observables(theta, omega, bars.L, bars.d, bars.m, bars.I, bars.g, 0, 0.3, -0.2, *observed)
-    joint_reactions = np.empty((rows, n, 2))
-    tip = np.ascontiguousarray(x[:, tip_index]) if chain.pinned else np.zeros((0, 2))
-    observables.chain_joint_reactions(theta, omega, np.ascontiguousarray(x[:, compiled.theta_ddot_index]), bars.L,
-                                      bars.d, bars.m, bars.g, tip, joint_reactions)
-    for mine, theirs in ((ours.theta, theta), (ours.omega, omega), (ours.x, x), (ours.cond, cond),
-                         (ours.joints, observed[0]), (ours.trace_xy, observed[1]), (ours.kinetic, observed[2]),
-                         (ours.potential, observed[3]), (ours.tip_velocity, observed[4]),
-                         (ours.joint_reactions, joint_reactions)):
-        _equal(mine, theirs)
-    assert np.all(np.isfinite(ours.joint_reactions))
-
-
-def test_the_one_buffer_pass_refuses_wrong_shapes():
-    chain, compiled, theta, omega = _states("triple-a", "lagrange", samples=5)
-    bars, y = chain_arrays(chain), np.concatenate([theta, omega], axis=1)
-
-    def run(states=y, packed=bars.bars, trace_bar=0, theta_ddot_index=compiled.theta_ddot_index):
-        return native_samples.trajectory_samples(compiled.assemble_function, compiled.layout, states, chain.params(),
-                                                 0.0, 0.0, packed, bars.g, trace_bar, 0.0, 0.0, theta_ddot_index, ())
-
-    assert run().kinetic.shape == (5,)
-    with pytest.raises(ValueError, match="states"):
-        run(states=y[:, :5])
-    with pytest.raises(ValueError, match="bars"):
-        run(packed=bars.L)
-    with pytest.raises(ValueError, match="trace_bar"):
-        run(trace_bar=3)
-    with pytest.raises(ValueError, match="acceleration indices"):
-        run(theta_ddot_index=compiled.theta_ddot_index[:2])
-    with pytest.raises(IndexError):
-        run(theta_ddot_index=compiled.theta_ddot_index + compiled.n_unknowns)
 
 
 @pytest.mark.parametrize("command", [

@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 
 import physics
-from physics.codegen import cache, load_compiled, native_integrators, native_samples, specialised_ir
+from physics.codegen import cache, load_compiled, native_integrators, specialised_ir
+from physics.codegen.ir_shapes import samples_scratch_length
 from physics.kernels import explicit_rk
 from physics.kernels.constants import STATUS_NOT_FINITE, STATUS_OK, STATUS_SINGULAR
+from physics.kernels.layout import LAYOUT_CONSTRAINTS
 
 
 @pytest.fixture(autouse=True)
@@ -153,16 +155,17 @@ def test_the_specialised_samples_solve_gives_the_kernels_bits(method, preset):
     solve = compiled.samples_solve() or compiled.samples_solve()
     assert solve is not None
     theta, omega, params = np.ascontiguousarray(run.theta), np.ascontiguousarray(run.omega), chosen.chain.params()
-    y = np.concatenate([theta, omega], axis=1)
-    tip_index = compiled.tip_reaction_index if chosen.chain.pinned else ()
+    rows, n, k = theta.shape[0], chosen.chain.n, compiled.n_unknowns
+    scratch = np.empty(samples_scratch_length(n, k, int(compiled.layout[LAYOUT_CONSTRAINTS])))
     for alpha, beta in ((0.0, 0.0), (5.0, 20.0)):
-        ours = native_samples.trajectory_samples(compiled.assemble_function, compiled.layout, y, params, alpha, beta,
-                                                 np.zeros(4 * chosen.chain.n) + 1.0, 9.81, 0, 0.0, 0.0,
-                                                 compiled.theta_ddot_index, tip_index, solve)
-        x, cond = np.empty_like(ours.x), np.empty_like(ours.cond)
+        ours_x, ours_cond = np.full((rows, k), 7.0), np.full(rows, 7.0)
+        solve.solve(int(compiled.assemble_function), compiled.layout.ctypes.data, rows, theta.ctypes.data,
+                    omega.ctypes.data, params.ctypes.data, alpha, beta, ours_x.ctypes.data, ours_cond.ctypes.data,
+                    scratch.ctypes.data)
+        x, cond = np.empty_like(ours_x), np.empty_like(ours_cond)
         system.solve_states(compiled.assemble_function, compiled.layout, theta, omega, params, alpha, beta, x, cond)
-        _assert_identical(None, ours.x, None, x)
-        _assert_identical(None, ours.cond, None, cond)
+        _assert_identical(None, ours_x, None, x)
+        _assert_identical(None, ours_cond, None, cond)
 
 
 def test_the_specialised_driver_is_compiled_in_the_background(monkeypatch):

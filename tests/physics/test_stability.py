@@ -11,6 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from physics import apply_overrides, get_preset, load_compiled
+from physics.simulate import SINGULAR_PIVOT_RATIO
+from physics.simulate.chain_system import chain_system
 from physics.studies import stability, stability_figures
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -157,62 +160,65 @@ def test_cli_prints_every_file_it_writes(tmp_path, monkeypatch, capsys):
     assert sorted(path.name for path in tmp_path.iterdir()) == ["case1-drift.svg", "stability.json"]
 
 
-def _on_both_routes(monkeypatch, make):
-    """``make()`` on the chain's kernels, then with the chain on the mechanism engine (on_mechanism.ENABLED)."""
-    from physics.simulate import on_mechanism  # noqa: PLC0415
+def _chain_condition(chain, method: str, trajectory) -> np.ndarray:
+    """The 2-norm condition number of the chain's own system (its formulas: the reduced model's samples are read
+    by the pinned Lagrange system) at every sample of ``trajectory``."""
+    formulation = "lagrange" if method == "reduced" else method
+    compiled = load_compiled(formulation, chain.n, chain.pinned)
+    matrices, _ = compiled.sample_matrices(np.ascontiguousarray(trajectory.theta),
+                                           np.ascontiguousarray(trajectory.omega), chain.params())
+    return np.linalg.cond(matrices)
 
-    results = []
-    for enabled in (False, True):
-        monkeypatch.setattr(on_mechanism, "ENABLED", enabled)
-        results.append(make())
-    return results
 
-
-def test_case3_verdicts_hold_on_the_mechanism_engine(monkeypatch):
-    """The chain as a mechanism (issue 24) near the change point: the same statuses and reach at every distance, and
-    the reported condition (the 2-norm number of the system actually solved) still grows as 1/delta^2 and peaks
-    within the case's bounds. The route's tree formulations solve another matrix (bar 3 hangs from the pin H), whose
-    number is a constant factor of the chain's: measured 0.51 (Newton-Euler), 0.46 (Lagrange, and the reduced
-    model, read by it) and 1.00 (the DAE) at every distance from 0.05 to 1e-5 rad (docs/physics.md, "Singular
-    positions")."""
+def test_case3_verdicts_against_the_chains_own_condition():
+    """The chain as a mechanism (issue 24) near the change point: every method runs to the end from 0.05 and 1e-3
+    rad and is stopped at the start at 1e-6 rad, singular; the reported condition (the 2-norm number of the system
+    actually solved) grows as 1/delta^2 and peaks within the case's bounds. The route's tree formulations solve
+    another matrix than the chain's own (bar 3 hangs from the pin H), whose number is a constant factor of the
+    chain's at the same states: measured 0.51 (Newton-Euler), 0.46 (Lagrange, and the reduced model, read by it)
+    and 1.00 (the DAE) at every distance from 0.05 to 1e-5 rad (docs/physics.md, "Singular positions")."""
     distances = (0.05, 1e-3, 1e-6)
-    chain_side, mechanism_side = _on_both_routes(
-        monkeypatch, lambda: stability.singular_approach(distances=distances, t_end=1.0, samples=101))
-    chain_runs = {(r["distance"], r["method"]): r for r in chain_side["runs"]}
+    result = stability.singular_approach(distances=distances, t_end=1.0, samples=101)
     factors = {"newton_euler": (0.45, 0.55), "lagrange": (0.4, 0.5), "reduced": (0.4, 0.5), "dae": (0.99, 1.01)}
-    for run in mechanism_side["runs"]:
-        theirs = chain_runs[(run["distance"], run["method"])]
-        assert (run["status"], run["t_reached"]) == (theirs["status"], theirs["t_reached"])
+    peaks: dict[tuple[float, str], tuple[float, float]] = {}
+    for run in result["runs"]:
         if run["distance"] == 1e-6:
             assert run["status"] < 0 and "singular" in run["message"] and run["t_reached"] == 0.0
             continue
+        assert (run["status"], run["t_reached"]) == (0, 1.0), run
+        chain, theta0, omega0 = stability._change_point_start(run["distance"])
+        trajectory, _ = stability._run(chain, theta0, omega0, method=run["method"], integrator="DOP853", t_end=1.0,
+                                       samples=101)
+        assert float(np.nanmax(trajectory.condition)) == run["peak_condition"]
+        chain_peak = float(np.nanmax(_chain_condition(chain, run["method"], trajectory)))
         low, high = factors[run["method"]]
-        assert low < run["peak_condition"] / theirs["peak_condition"] < high, run["method"]
+        assert low < run["peak_condition"] / chain_peak < high, run["method"]
+        peaks[(run["distance"], run["method"])] = (run["peak_condition"], chain_peak)
         if run["distance"] == 0.05:
             assert 1e2 < run["peak_condition"] < 1e5
     for method in factors:  # 1/delta^2: a factor 2500 from 0.05 to 1e-3 rad (the peak is the release, a turning point)
-        growth = [next(r["peak_condition"] for r in side["runs"] if r["distance"] == 1e-3 and r["method"] == method)
-                  / next(r["peak_condition"] for r in side["runs"] if r["distance"] == 0.05 and r["method"] == method)
-                  for side in (chain_side, mechanism_side)]
+        growth = [peaks[(1e-3, method)][side] / peaks[(0.05, method)][side] for side in (0, 1)]
         assert all(2000 < g < 3000 for g in growth), (method, growth)
 
 
-def test_case4_verdicts_on_the_mechanism_engine(monkeypatch):
-    """Degenerate parameters, the chain as a mechanism: every cell ends as on the chain's kernels, but one. The very
-    light tip's DAE is stopped at the start on the mechanism engine: its tree DAE (18 unknowns, a row per body's
-    rotation) starts at a pivot ratio of 1.09e6, above SINGULAR_PIVOT_RATIO, where the chain's 15 x 15 DAE starts
-    at 7.4e5 and is stopped at 0.67 s (docs/stability.md, case 4)."""
+def test_case4_verdicts_on_the_mechanism_engine():
+    """Degenerate parameters, the chain as a mechanism: every cell runs to the end, but one. The very light tip's
+    DAE is stopped at the start: its tree DAE (18 unknowns, a row per body's rotation) starts at a pivot ratio of
+    1.09e6, above SINGULAR_PIVOT_RATIO, where the chain's own 15 x 15 DAE starts at 7.4e5 (docs/stability.md,
+    case 4: it was stopped at 0.67 s on the chain's deleted kernels)."""
     scenarios = [s for s in stability.SCENARIOS if s[0].startswith(("seed", "bar 2 massless", "very light", "heavy"))]
-    chain_side, mechanism_side = _on_both_routes(monkeypatch, lambda: stability.degenerate(
-        scenarios=scenarios, integrators=("DOP853",), t_end=2.0))
-    chain_cells = {(row["scenario"], c["method"]): c for row in chain_side["rows"] for c in row["cells"]}
-    cells = {(row["scenario"], c["method"]): c for row in mechanism_side["rows"] for c in row["cells"]}
-    assert cells.keys() == chain_cells.keys()
+    result = stability.degenerate(scenarios=scenarios, integrators=("DOP853",), t_end=2.0)
+    cells = {(row["scenario"], c["method"]): c for row in result["rows"] for c in row["cells"]}
+    assert len(cells) == 4 * 3
     for key, cell in cells.items():
-        theirs = chain_cells[key]
         if key[0].startswith("very light") and key[1] == "dae":
-            assert theirs["status"] < 0 and 0.5 < theirs["t_reached"] < 0.8
-            assert cell["status"] == theirs["status"] and cell["t_reached"] == 0.0
+            assert cell["status"] < 0 and cell["t_reached"] == 0.0
             assert cell["message"].startswith("the system became singular")
             continue
-        assert (cell["status"], cell["t_reached"]) == (theirs["status"], theirs["t_reached"]), key
+        assert (cell["status"], cell["t_reached"]) == (0, 2.0), key
+    label, overrides = next(s for s in scenarios if s[0].startswith("very light"))
+    preset = get_preset("triple-b")
+    chain, theta0, omega0 = apply_overrides(preset.chain, preset.theta0, preset.omega0, overrides)
+    _, chain_ratio = load_compiled("dae", 3, chain.pinned).solve_full(theta0, omega0, chain.params())
+    _, route_ratio = chain_system(chain, "dae").solve(theta0, omega0)
+    assert 7e5 < chain_ratio < SINGULAR_PIVOT_RATIO < route_ratio < 1.2e6, (label, chain_ratio, route_ratio)
