@@ -12,12 +12,11 @@ import pytest
 
 from physics import Settings, get_preset, simulate
 from physics.codegen import cache
-from physics.simulate import mechanism_route, on_mechanism
+from physics.simulate import mechanism_route
 
 
 @pytest.fixture(autouse=True)
-def _on_the_route(monkeypatch):
-    monkeypatch.setattr(on_mechanism, "ENABLED", True)
+def _specialise_in_the_call(monkeypatch):
     monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)
 
 
