@@ -83,6 +83,15 @@ def _cache_folder(tree: Path) -> Path:
     return Path(out.stdout.strip().splitlines()[-1])
 
 
+def _structure(tree: Path, preset: str) -> str:
+    """The structure digest that names a mechanism preset's generated systems in ``tree``'s cache folder."""
+    out = subprocess.run([sys.executable, "-c", "from physics.mechanism import MECHANISM_PRESETS; "
+                          "from physics.mechanism.parameters import structure_key; "
+                          f"print(structure_key(MECHANISM_PRESETS[{preset!r}]()))"],
+                         cwd=tree, check=True, capture_output=True, text=True)
+    return out.stdout.strip().splitlines()[-1]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.one_pipeline")
     parser.add_argument("--before", type=Path, required=True, help="a worktree of the commit before the work")
@@ -118,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
                                   text=True)
             figures.setdefault(("edit of the slider-crank, one chunk", label), []).append(
                 float(edit.stdout.strip().splitlines()[-1]))
-            for generated in _cache_folder(tree).glob("*mechanism*.py"):
+            # the leg's own generated systems only: a chain's run on the mechanism engine keeps its tree systems
+            # under the same word (``treedae-mechanism-...``), and deleting them would time a cold chain next
+            for generated in _cache_folder(tree).glob(f"*mechanism*{_structure(tree, 'jansen-leg')}*.py"):
                 generated.unlink()
             figures.setdefault(("cold Jansen leg, 10 s", label), []).append(_whole(tree, jansen))
     print("| figure (CPU seconds, median) | before | after | before / after |")
