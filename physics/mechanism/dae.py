@@ -47,7 +47,7 @@ class MechanismDAE:
         """``constraints``: the mechanism's own equations when a caller already holds them
         (:mod:`physics.mechanism.prepared`); built here otherwise. ``massless_allowed``: keep a body without mass
         or inertia instead of refusing it, for a caller that never inverts the mass matrix (a chain run in tree
-        coordinates, :mod:`physics.simulate.on_mechanism`: a chain's bar may have no mass, its tree formulation's
+        coordinates, :mod:`physics.simulate.mechanism_route`: a chain's bar may have no mass, its tree formulation's
         matrix stays regular; only this object's Newton's-law reactions are read, which multiply by it)."""
         self.mechanism = mechanism
         self.constraints = Constraints(mechanism) if constraints is None else constraints

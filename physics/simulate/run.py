@@ -2,8 +2,7 @@
 
 A chain runs on the engine that runs every mechanism (issue 24, "one pipeline"): the request is checked here
 (a valid start that closes the loop, an output that fits), then the chain written as a mechanism is integrated
-and sampled by :mod:`physics.simulate.mechanism_route` (:mod:`physics.simulate.on_mechanism` says what maps to
-what). Failures midway come back as ``status``/``message`` with the samples computed so far; only bad input
+and sampled by :mod:`physics.simulate.mechanism_route` (its text says what maps to what). Failures midway come back as ``status``/``message`` with the samples computed so far; only bad input
 raises.
 """
 
@@ -18,13 +17,25 @@ from ..kernels.constants import SINGULAR_PIVOT_RATIO
 from ..kinematics import joint_positions
 from ..model import MAX_ANGLE, MAX_ANGULAR_SPEED, Chain, Settings, check_state
 from ..status import Status
-from .on_mechanism import simulate_on_mechanism
 from .trajectory import Trajectory
 
 __all__ = ["SINGULAR_PIVOT_RATIO", "check_assembled", "simulate", "status_message"]
 # The start of a closed chain must close the loop to this distance (a user typing angles by hand will not;
 # presets and the app assemble them with physics.assembly).
 ASSEMBLY_TOLERANCE = 1e-8
+
+_routes: list = []  # the route's run function, once imported
+
+
+def _route():
+    """:func:`physics.simulate.mechanism_route.simulate_on_mechanism`, imported at the first run (the route's
+    modules are not loaded by ``import physics``) and kept, so a run pays no import statement."""
+    if not _routes:
+        from .mechanism_route import simulate_on_mechanism  # noqa: PLC0415
+
+        _routes.append(simulate_on_mechanism)
+    return _routes[0]
+
 
 def status_message(status: int, t: float, detail: str = "") -> str:
     """The sentence for a run's status at time ``t`` (physics.status.Status)."""
@@ -109,4 +120,4 @@ def simulate(
         raise LinkageError(f"t_start = {t_start}: must be a finite number")
     if not continuing:
         check_assembled(chain, theta0)
-    return simulate_on_mechanism(chain, theta0, omega0, settings, t_start)
+    return _route()(chain, theta0, omega0, settings, t_start)

@@ -1,5 +1,5 @@
 """A chain's run, on the one route it takes (the chain written as a mechanism on the general engine:
-physics/simulate/on_mechanism.py, mechanism_route.py), against the chain's own formulas: at every sample the
+physics/simulate/mechanism_route.py), against the chain's own formulas: at every sample the
 route's accelerations, reactions, positions, energies and condition equal what the chain's independent
 derivations give at the sample's state (tests/physics/chain_formulas.py), for a representative set of chains
 and settings; the run's times, status, sentence and counts are the chain's.
