@@ -1,10 +1,11 @@
 """Loading compiled equations once per process, and warming up before the first browser arrives.
 
 ``physics.load_run_systems`` returns ready code from the disk cache (or derives and compiles it on a miss): the
-chain written as a mechanism on the general engine, as every run takes it; the first simulation in a process also loads numba's cached machine code. Both take a noticeable fraction of a
-second warm and a few seconds cold (half a minute on an installation's very first run, which compiles the
-integrators), so the server starts them in a background thread at launch, before
-it even imports viser, and sessions that need the same system wait for that load instead of repeating it.
+chain written as a mechanism on the general engine, as every run takes it; the first simulation in a process
+also loads numba's cached machine code. Both take a noticeable fraction of a second warm and a few seconds cold
+(half a minute on an installation's very first run, which compiles the integrators), so the server starts them
+in a background thread at launch, before it even imports viser, and sessions that need the same system wait for
+that load instead of repeating it.
 Imports only physics (no viser), so ``python -m app`` can start warming first.
 """
 

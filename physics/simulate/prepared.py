@@ -35,7 +35,6 @@ class ChainArrays:
     g: float
     params: np.ndarray
     tip: TracePoint
-    bars: np.ndarray  # [L, d, m, I] in one (4 n,) array, as the samples' pass reads them
 
     def params_with(self, damping: float) -> np.ndarray:
         """A fresh copy of ``chain.params(damping=damping)`` (the kernels and the scipy back end may write to it)."""
@@ -59,8 +58,7 @@ def chain_arrays(chain: Chain) -> ChainArrays:
         return entry[2]
     L = chain.array("L")
     arrays = ChainArrays(L=L, d=chain.array("d"), m=chain.array("m"), I=chain.array("I"), g=float(chain.g),
-                         params=chain.params(), tip=TracePoint(bar=chain.n, along=float(L[-1])),
-                         bars=np.concatenate([L, chain.array("d"), chain.array("m"), chain.array("I")]))
+                         params=chain.params(), tip=TracePoint(bar=chain.n, along=float(L[-1])))
     with _lock:
         if len(_remembered) >= MAX_CHAINS:
             _remembered.pop(next(iter(_remembered)))
