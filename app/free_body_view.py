@@ -29,6 +29,7 @@ box meets one already placed, at the nearest free slot above or below (:func:`la
 
 from __future__ import annotations
 
+import shlex
 import threading
 from dataclasses import dataclass
 
@@ -311,5 +312,5 @@ def fbd_command(preset: str | None, *, links: int | None = None, bar: int | None
     source = f"--preset {preset}" if preset else "--mechanism FILE"
     if preset == "chain" and links is not None:
         source += f" --links {links}"
-    which = f"--body {body}" if body is not None else f"--bar {bar if bar is not None else 1}"
+    which = f"--body {shlex.quote(body)}" if body is not None else f"--bar {bar if bar is not None else 1}"
     return f"python -m physics fbd {source} {which} --time 2.5 --out fbd.svg"

@@ -613,8 +613,12 @@ class MechanismSession(SessionBase):
         self.sync_all()
 
     def _show_free_body_help(self) -> None:
+        """The command that writes this body's SVG, naming the preset shown (a file's body names are its
+        author's text: shown literally, never as markup)."""
         preset = self.mechanism.name if self.mechanism.name in mechanism_names() else None
-        self.free_body_help.content = f"The SVG of this body's diagram: `{fbd_command(preset, body=self._body_shown())}`"
+        command = fbd_command(preset, body=self._body_shown())
+        shown = f"`{command}`" if preset is not None else markdown_literal(command)
+        self.free_body_help.content = f"The SVG of this body's diagram: {shown}"
 
     def set_free_body(self, on: bool) -> None:
         """The free-body diagram of the chosen body on or off (app/free_body_view.py)."""
@@ -1046,8 +1050,7 @@ class MechanismSession(SessionBase):
         self.body_menu.options = names
         self.body_menu.value = names[self.free_body.bar - 1]
         self._show_free_body_help()
-        if self.rests.source.current() != getattr(self.rests, "_model", None):
-            self.rests.forget()  # another mechanism, or other numbers: the list no longer applies
+        self.rests.forget_if_stale()  # another mechanism, or other numbers: the list no longer applies
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""

@@ -134,6 +134,7 @@ class RestPositionsPanel:
         self.source = source
         self.rests: list = []  # RestPosition (a chain) or RestPose (a mechanism), lowest potential first
         self._model = None  # the chain or mechanism the list was found for
+        self._shown_for = None  # the one the panel's content is about (a search running, its list or refusal)
         self._generation = 0  # bumped when the mechanism changes: a late result for the old one is dropped
         self._lock = threading.Lock()
         self._job: threading.Thread | None = None
@@ -155,6 +156,7 @@ class RestPositionsPanel:
             if self._job is not None and self._job.is_alive():
                 return
             generation = self._generation
+            self._shown_for = model
             self._job = threading.Thread(target=self._work, args=(model, generation), daemon=True,
                                          name="rest-positions")
             self.status.content = "**Finding** the rest positions..."
@@ -164,10 +166,15 @@ class RestPositionsPanel:
         try:
             found = self.source.find(model)
         except LinkageError as error:
-            self.status.content = f"No list: {markdown_literal(error)}"
+            with self._lock:  # a refusal for a mechanism no longer shown is dropped, as a late list is
+                if generation == self._generation:
+                    self.status.content = f"No list: {markdown_literal(error)}"
             return
         except Exception as error:  # noqa: BLE001 (a worker's failure becomes a line in the panel, never a dead thread)
-            self.status.content = f"Finding the rest positions failed: {markdown_literal(type(error).__name__)}"
+            with self._lock:
+                if generation == self._generation:
+                    self.status.content = ("Finding the rest positions failed: "
+                                           f"{markdown_literal(type(error).__name__)}")
             self.source.show_notice("Rest positions failed", f"{type(error).__name__}: {error}", color="red")
             return
         with self._lock:
@@ -192,10 +199,17 @@ class RestPositionsPanel:
         """The mechanism changed: the list no longer applies."""
         with self._lock:
             self._generation += 1
+            self._shown_for = None
             self.rests = []
             self.choice.options = (NO_LIST,)
             self.choice.value = NO_LIST
             self.status.content = "Where the mechanism can stay at rest (potential energy V stationary), stable or not."
+
+    def forget_if_stale(self) -> None:
+        """Forget the list (or the search running, or its refusal) if it is about another mechanism (or other
+        numbers) than the one in force; a Reset of the same one keeps it."""
+        if self._shown_for is not None and self.source.current() != self._shown_for:
+            self.forget()
 
     # ------------------------------------------------------------------ jumping
     def index_of(self, label: str) -> int:

@@ -73,3 +73,15 @@ def test_a_mechanism_with_a_turning_motor_says_why_it_has_no_rest(jansen_lab, co
     assert panel.status.content.startswith("No list:") and "speed motor" in panel.status.content
     with pytest.raises(LinkageError, match="press 'Find rest positions' first"):
         panel.index_of("1: stable")
+
+
+def test_another_mechanism_clears_the_list_and_a_reset_keeps_it(slider_lab, connect):
+    _, session = connect(slider_lab)
+    panel = find(session)
+    assert panel.rests
+    session.guard(session.reset)
+    assert panel.rests and panel.choice.options[0].startswith("1: stable")  # the same mechanism: still applies
+    session.guard(lambda: session.choose("watt-six-bar"))
+    assert wait_until(lambda: session.mechanism.name == "watt-six-bar", timeout=60)
+    assert panel.rests == [] and tuple(panel.choice.options) == ("(press Find)",)
+    assert "--preset watt-six-bar --body" in session.free_body_help.content
