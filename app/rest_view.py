@@ -134,7 +134,7 @@ class RestPositionsPanel:
         self.source = source
         self.rests: list = []  # RestPosition (a chain) or RestPose (a mechanism), lowest potential first
         self._model = None  # the chain or mechanism the list was found for
-        self._shown_for = None  # the one the panel's content is about (a search running, its list or refusal)
+        self._shown_for: object | None = None  # the one the panel's content is about (a search running, its list or refusal)
         self._generation = 0  # bumped when the mechanism changes: a late result for the old one is dropped
         self._lock = threading.Lock()
         self._job: threading.Thread | None = None
