@@ -37,6 +37,7 @@ from .camera import CameraDirector
 from .commands import TIMELINE, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
 from .frame_view import COMPARE_METHODS
+from .free_body_view import FreeBodyView, fbd_command
 from .lab_session import Kind, SessionBase
 from .logs import quietly
 from .mechanism_analysis import MechanismAnalysis
@@ -52,7 +53,6 @@ from .mechanism_edits import (
     start_knobs,
     start_value,
 )
-from .mechanism_free_body import MechanismFreeBody
 from .mechanism_runs import (
     MechanismSettings,
     MechanismSpec,
@@ -74,6 +74,7 @@ from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_d
 from .page import READY_HTML
 from .parameters import method_from_label, method_label
 from .player import SAMPLE_DT, Frame, Player
+from .rest_view import MechanismRests, RestPositionsPanel
 from .scene import pose_disc
 from .text import markdown_literal
 from .viser_compat import check_gui_updates
@@ -181,7 +182,7 @@ class MechanismSession(SessionBase):
             self.trace = TraceLine(target.scene, "/linkage/trace")
             self.arrows = ReactionArrows(target.scene, "/linkage/reactions")
             self.compare_view = MechanismCompare(target)
-            self.free_body = MechanismFreeBody(target.scene, lambda: 1.0, redraw=self.player.touch)
+            self.free_body = FreeBodyView(target.scene, lambda: 1.0, redraw=self.player.touch)
             self._build_panel()
             self.analysis = MechanismAnalysis(self)  # the Analysis folder (app/mechanism_analysis.py)
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
@@ -273,6 +274,8 @@ class MechanismSession(SessionBase):
             self.body_menu.on_update(
                 lambda event: self.guard(lambda: self.set_free_body_body(str(self.body_menu.value))))
             self.couples = gui.add_markdown("")
+            self.free_body_help = gui.add_markdown("")  # the command for its SVG, naming this preset and body
+            self.rests = RestPositionsPanel(None, gui, self._bind, source=MechanismRests(self))
         with self.tabs.add_tab("Equations"):
             self.equations_button = gui.add_button("Show the equations of the method")
             self.equations_button.on_click(lambda event: self.guard(self.show_equations))
@@ -587,8 +590,38 @@ class MechanismSession(SessionBase):
             self.arrows.hide()
         self.player.touch()
 
+    def _bind(self, handle, action: Callable) -> None:
+        """``action(value, event)`` on a control of a shared view (app/rest_view.py), inside :meth:`guard`."""
+        def callback(event) -> None:
+            value = handle.value
+            self.guard(lambda: action(value, event))
+
+        if hasattr(handle, "on_click") and not hasattr(handle, "on_update"):
+            handle.on_click(callback)
+        else:
+            handle.on_update(callback)
+
+    def set_start_pose(self, q0: np.ndarray, qdot0: np.ndarray, play: bool = False) -> None:
+        """Start again at t = 0 from the pose ``q0`` with speeds ``qdot0`` (a rest pose, app/rest_view.py),
+        paused or playing; the start controls show it."""
+        with self._lock:
+            self.q0, self.qdot0 = np.array(q0, dtype=float), np.array(qdot0, dtype=float)
+            self._build_scene(self.q0)
+            self.energy_ref = None
+            self.energy_plot.clear()
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False, play=play)
+        self.sync_all()
+
+    def _show_free_body_help(self) -> None:
+        """The command that writes this body's SVG, naming the preset shown (a file's body names are its
+        author's text: shown literally, never as markup)."""
+        preset = self.mechanism.name if self.mechanism.name in mechanism_names() else None
+        command = fbd_command(preset, body=self._body_shown())
+        shown = f"`{command}`" if preset is not None else markdown_literal(command)
+        self.free_body_help.content = f"The SVG of this body's diagram: {shown}"
+
     def set_free_body(self, on: bool) -> None:
-        """The free-body diagram of the chosen body on or off (app/mechanism_free_body.py)."""
+        """The free-body diagram of the chosen body on or off (app/free_body_view.py)."""
         self.free_body.set_on(on)
         if not on:
             self.couples.content = ""
@@ -598,6 +631,7 @@ class MechanismSession(SessionBase):
         names = [body.name for body in self.mechanism.bodies]
         _choice("body", name, names)
         self.free_body.set_bar(names.index(name) + 1)
+        self._show_free_body_help()
         self.player.touch()
 
     def _body_shown(self) -> str:
@@ -1015,6 +1049,8 @@ class MechanismSession(SessionBase):
             self.free_body.set_bar(1)  # another mechanism: its first body
         self.body_menu.options = names
         self.body_menu.value = names[self.free_body.bar - 1]
+        self._show_free_body_help()
+        self.rests.forget_if_stale()  # another mechanism, or other numbers: the list no longer applies
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""

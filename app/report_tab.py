@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from .free_body_view import FreeBodyView
+from .free_body_view import FreeBodyView, fbd_command
 from .parameters import SessionParameters
 from .report_view import SeedReportPanel
 from .rest_view import RestPositionsPanel
@@ -51,12 +51,21 @@ class ReportTab:
                          "the joint reactions (R_k on bar k+1 by bar k; -R_k at its far end), the pin's on a loop")
                 bind(self.fbd_box, lambda value, event: self.free_body.set_on(value))
                 self.fbd_bar = gui.add_dropdown("Bar", bar_options(port.setup.n), initial_value="1")
-                bind(self.fbd_bar, lambda value, event: self.free_body.set_bar(int(value)))
-                gui.add_markdown("Arrows to scale among themselves: the largest is one bar length long (times the "
-                                 "arrow scale of the Display tab). The SVG of any bar: "
-                                 "`python -m physics fbd --preset triple-a --time 2.5 --bar 2 --out fbd.svg`.")
+                bind(self.fbd_bar, lambda value, event: self._choose_bar(int(value)))
+                self.fbd_help = gui.add_markdown(self.help_text())
             self.rests = RestPositionsPanel(port, gui, bind)
             self.seed_report = SeedReportPanel(gui, bind)
+
+    def help_text(self) -> str:
+        """The diagram's help, naming the preset shown and the bar chosen (issue 26: it named ``triple-a``)."""
+        setup = self.port.setup
+        command = fbd_command(setup.preset, links=setup.n, bar=self.free_body.bar)
+        return ("Arrows to scale among themselves: the largest is one bar length long (times the arrow scale of "
+                f"the Display tab); labels name each force and its value. The SVG of this bar: `{command}`.")
+
+    def _choose_bar(self, bar: int) -> None:
+        self.free_body.set_bar(bar)
+        self.fbd_help.content = self.help_text()
 
     def rebuild(self) -> None:
         """The mechanism changed: new bar menu, and the rest list no longer applies."""
@@ -67,6 +76,7 @@ class ReportTab:
             self.fbd_bar.options = options
             self.fbd_bar.value = keep
             self.free_body.set_bar(int(keep))
+        self.fbd_help.content = self.help_text()
         self.rests.forget()
 
     def remove(self) -> None:

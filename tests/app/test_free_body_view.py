@@ -11,6 +11,8 @@ import pytest
 
 from conftest import wait_until
 from physics.codegen import load_compiled
+from physics.mechanism.chains import chain_mechanism, chain_state
+from physics.mechanism.statics import evaluate, free_body
 
 INDEPENDENT = {"lagrange": "dae", "newton_euler": "dae", "dae": "lagrange"}
 
@@ -64,3 +66,37 @@ def test_the_drawn_forces_balance_every_bar(connect, preset, method):
         assert np.allclose(forces[0].point_xy, com[k], atol=1e-12)  # gravity at G
     session.report.fbd_box.value = False
     assert not session.free_body.visible()
+
+
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+def test_a_chains_diagram_is_the_general_mechanisms_free_body(connect, preset):
+    """The chain's diagram (read off the ring) is physics' general free-body sum of the chain written as a
+    mechanism (physics/mechanism/chains.py) at the same state: the same forces at the same points, to 1e-9 of the
+    largest (the views differ in where the values come from, not in what they are)."""
+    _, session = connect()
+    session.set_mechanism(preset)
+    session.report.fbd_box.value = True
+    assert session.goto_time(1.3)
+    chain = session.params.chain
+    run = session.player.runs[0]
+    for bar in range(1, chain.n + 1):
+        session.report.fbd_bar.value = str(bar)
+        # the diagram of this bar at the time gone to (not one drawn before the jump, at another time)
+        assert wait_until(lambda bar=bar: session.free_body.shown_bar == bar and session.free_body.shown
+                          and abs(session.free_body.shown_t - 1.3) < 0.05, timeout=30)
+        with session.free_body._lock:  # the player thread draws: one drawing's forces and time
+            shown, shown_t = list(session.free_body.shown), session.free_body.shown_t
+        i = run.ring.index_at(shown_t)
+        theta, omega = run.ring.get("theta", i).copy(), run.ring.get("omega", i).copy()
+        mechanism = chain_mechanism(chain, theta)
+        q, qdot = chain_state(chain, theta, theta, omega)
+        loads = free_body(mechanism, evaluate(mechanism, q, qdot, "dae", shown_t), f"bar{bar}")
+        general = sorted(((tuple(np.round(load.at, 9)), np.array(load.force)) for load in loads.loads
+                          if load.at is not None), key=lambda pair: pair[0])
+        drawn = sorted(((tuple(np.round(f.point_xy, 9)), f.force) for f in shown),
+                       key=lambda pair: pair[0])
+        size = max(np.hypot(*f.force) for f in shown)
+        assert len(drawn) == len(general)
+        for (at_drawn, force_drawn), (at_general, force_general) in zip(drawn, general):
+            assert np.allclose(at_drawn, at_general, atol=1e-9)
+            assert np.allclose(force_drawn, force_general, rtol=0, atol=1e-9 * size)
