@@ -79,5 +79,5 @@ def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[
                     draw.line([tuple(p) for p in points[segment]], fill=BAR_COLORS[bar % len(BAR_COLORS)], width=2)
             name = legend[bar] if legend is not None else f"bar {bar + 1}"
             draw.text((x1 - 44 - 44 * (wrapped.shape[1] - 1 - bar), y0 + 4) if legend is None
-                      else (x0 + 6, y0 + 4 + 12 * bar), name, fill=BAR_COLORS[bar % len(BAR_COLORS)])
+                      else (x0 + 6, y1 - 16 - 12 * bar), name, fill=BAR_COLORS[bar % len(BAR_COLORS)])
     return np.asarray(image)
