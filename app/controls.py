@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import threading
 
-import numpy as np
 import viser
 
 import physics
@@ -27,8 +26,22 @@ from .commands import check_control, options_of, split_name
 from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
 from .overlays import METHOD_COLORS, Plot
+from .panel_rows import (
+    CHAIN_PLOT_CHOICES,
+    EXPORT_NOTE,
+    add_arrow_number,
+    add_drift_plot,
+    add_export_button,
+    add_motion_numbers,
+    add_phase_image,
+    add_plot_menu,
+    add_residual_plot,
+    add_view_row,
+    plot_kind,
+    show_plot,
+)
 from .parameters import driving_count, method_from_label, method_label, methods_for, wrap_degrees
-from .phase_view import BAR_COLORS, phase_picture
+from .phase_view import BAR_COLORS
 from .ports import SessionPort
 from .resources import STATIC
 from .text import html_literal, markdown_literal
@@ -44,15 +57,12 @@ DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
 ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
 ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
-PLOT_CHOICES = ("Energy", "Angles θ(t)", "Phase portrait (θ, ω)")
+PLOT_CHOICES = CHAIN_PLOT_CHOICES  # the rows every panel has: app/panel_rows.py
 TIMELINE_STEP = 0.05  # s: three samples; the slider's ends read as round numbers
 TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
 SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
 PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
 STEP_SLIDER = SliderSpec("step", 0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
-SPEED_SLIDER = SliderSpec("speed", 0.1, 4.0, 0.05)
-TRACE_SLIDER = SliderSpec("trace_seconds", 0.0, 20.0, 0.5)
-ARROW_SLIDER = SliderSpec("arrow_scale", 0.05, 3.0, 0.05)
 # tolerance and step are set on log / millisecond scales; their model bounds are checked in the tests
 TOLERANCE_LOG10 = (-12.0, -3.0, 0.5)  # rtol = atol = 10 ** slider
 STEP_MS = (STEP_SLIDER.ui_min, STEP_SLIDER.ui_max, STEP_SLIDER.step)
@@ -266,21 +276,15 @@ class Controls:
         self.bind(self.timeline, lambda value, event: s.scrub(value), accepts={"number": True})
         self._timeline_end = 0.0
         # beside Playback, not in a tab: a lecturer switches views often (and the F key presses it)
-        self.camera_view = gui.add_button_group("View", ("Front", "3D"),
-                                                hint="Front: the plane of the motion as a drawing. 3D: from above")
-        self.bind(self.camera_view, lambda value, event: s.set_camera_view("front" if value == "Front" else "3d"))
-        self.plot_choice = gui.add_dropdown("Plot", PLOT_CHOICES, initial_value=PLOT_CHOICES[0],
-                                            hint="Energy and its error, the angles over time, or the phase portrait")
-        self.bind(self.plot_choice, lambda value, event: self.choose_plot(value))
+        self.camera_view = add_view_row(gui, self.bind, s)
+        self.plot_choice = add_plot_menu(gui, self.bind, PLOT_CHOICES, self.choose_plot,
+                                         "Energy and its error, the angles over time, or the phase portrait")
         self.angle_plot: Plot | None = None  # made per mechanism (one series per bar), in rebuild()
-        self.phase_image = gui.add_image(phase_picture(np.zeros((0, 1)), np.zeros((0, 1))), format="png",
-                                         visible=False)
+        self.phase_image = add_phase_image(gui)
         self.energy_plot = Plot(gui, "Energy", ["total E", "kinetic T", "potential V"],
                                 [(20, 20, 20), (214, 39, 40), (31, 119, 180)], y_label="J")
-        self.drift_plot = Plot(gui, "Relative energy error since last change", ["|E - E0| / E0"],
-                               [(148, 103, 189)], log=True, height=130)
-        self.constraint_plot = Plot(gui, "Tip distance from pin |H - pin|", ["|H - pin|"],
-                                    [(140, 86, 75)], log=True, height=130, y_label="m")
+        self.drift_plot = add_drift_plot(gui)
+        self.constraint_plot = add_residual_plot(gui, "Tip distance from pin |H - pin|", "|H - pin|", "m")
         self.divergence_plot = Plot(
             gui, "Tip divergence from Newton-Euler", ["Lagrange", "DAE"],
             [METHOD_COLORS["lagrange"], METHOD_COLORS["dae"]], log=True, height=150, y_label="m",
@@ -321,15 +325,14 @@ class Controls:
             add("baumgarte_beta", BETA_SLIDER, p.baumgarte_beta)
             add("damping", DAMPING_SLIDER, p.damping)
         with self.tabs.add_tab("Display"):
-            add("speed", SPEED_SLIDER, s.display.speed)
-            add("trace_seconds", TRACE_SLIDER, s.display.trace_seconds, label="Trace length (s)")
+            add_motion_numbers(add, s.display)
             self.trace_point = gui.add_dropdown("Traced point", tuple(p.trace_choices()), initial_value=p.trace_label())
             self.bind(self.trace_point, lambda value, event: s.set("trace", value))
             self.reactions = gui.add_checkbox("Reaction arrows", initial_value=False,
                                               hint="Joint reactions (every method) and the pin's reaction (closed loops); "
                                                    "in compare mode those of the Newton-Euler run")
             self.bind(self.reactions, lambda value, event: s.set_reactions(value))
-            add("arrow_scale", ARROW_SLIDER, s.display.arrow_scale)
+            add_arrow_number(add, s.display)
         with self.tabs.add_tab("Equations"):
             self.equations_button = gui.add_button("Show the equations of motion")
             self.bind(self.equations_button, lambda value, event: self.show_equations())
@@ -339,12 +342,9 @@ class Controls:
                                           "current mechanism and method. Press the button (the first time per "
                                           "mechanism this derives them, a few seconds).</p>")
         with self.tabs.add_tab("Export"):
-            for kind, title in (("csv", "Download CSV"), ("json", "Download JSON"), ("html", "Save HTML replay")):
-                button = gui.add_button(title)
-                self.bind(button, lambda value, event, kind=kind: s.download(kind, getattr(event, "client", None)))
-                setattr(self, f"export_{kind}", button)
-            gui.add_markdown("Exports hold the run up to the displayed time (at most the last "
-                             "two minutes, 60 samples per second). The replay plays without the server.")
+            for kind in ("csv", "json", "html"):
+                setattr(self, f"export_{kind}", add_export_button(gui, self.bind, s, kind))
+            gui.add_markdown(EXPORT_NOTE)
             self.save_setup = gui.add_button("Save this setup (JSON)")
             self.bind(self.save_setup, lambda value, event: s.download("setup", getattr(event, "client", None)))
             self.load_setup = gui.add_upload_button("Load a setup (JSON)", mime_type="application/json")
@@ -538,14 +538,8 @@ class Controls:
         return getattr(self, "_plot_kind", "energy")
 
     def choose_plot(self, label) -> None:
-        if not isinstance(label, str) or label not in PLOT_CHOICES:
-            raise LinkageError(f"plot = {label!r}: allowed {', '.join(PLOT_CHOICES)}")
-        self._plot_kind = kind = ("energy", "angles", "phase")[PLOT_CHOICES.index(label)]
-        self.energy_plot.set_visible(kind == "energy")
-        self.drift_plot.set_visible(kind == "energy")
-        if self.angle_plot is not None:
-            self.angle_plot.set_visible(kind == "angles")
-        self.phase_image.visible = kind == "phase"
+        self._plot_kind = kind = plot_kind(PLOT_CHOICES, label)
+        show_plot(kind, [self.energy_plot, self.drift_plot], self.angle_plot, self.phase_image)
         self.port.refresh_plots()
 
     def _make_angle_plot(self, n: int) -> None:

@@ -26,15 +26,16 @@ from typing import Any, Callable, cast
 import numpy as np
 
 from physics import LinkageError, preset_names
-from physics.mechanism import MECHANISM_PRESETS, Mechanism
+from physics.mechanism import MECHANISM_PRESETS, Mechanism, analyse
 from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
+from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES
 
-from . import delivery, readout, share, viser_compat
+from . import delivery, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
-from .commands import TIMELINE, parse_number, read_number
+from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
 from .frame_view import COMPARE_METHODS
 from .free_body_view import FreeBodyView, fbd_command
@@ -69,10 +70,11 @@ from .mechanism_scene import MechanismScene
 from .mechanism_start import FreeCoordinate, free_coordinates, pose_with, velocities_with
 from .mechanism_workers import POOL
 from .notices import Notices, ViewerRefusals
-from .number_inputs import TYPING_PAUSE_S
+from .number_inputs import TYPING_PAUSE_S, NumberInputs
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
-from .parameters import method_from_label, method_label
+from .parameters import Display, method_from_label, method_label
+from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
 from .rest_view import MechanismRests, RestPositionsPanel
 from .scene import pose_disc
@@ -84,21 +86,25 @@ METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning t
 STABILIZATIONS = ("projection", "baumgarte", "none")
 START_KINDS = {name for names in START_NAMES.values() for name in (names[0], names[2])}
 SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
-TRACE_SECONDS = 4.0
 PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
-ARROW_FRACTION = 0.25  # the largest pin force is drawn this fraction of the mechanism's size long
+ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is drawn this fraction of the size long
+RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
 TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
 DOWNLOADS = ("CSV", "JSON")  # the run, as the mechanism command writes it
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
-guide. The magenta line is the traced point's last 4 s.
+guide. The magenta line is the traced point's last seconds (the trace length, 4 s at first).
 
 **Playback:** Play, Pause, Step (one sample, 1/60 s), Reset (the start in force, t = 0); the keys Space, S and
-R press them. **Timeline:** drag back through the run so far (it pauses there).
+R press them. **Timeline:** drag back through the run so far (it pauses there). **View:** Front (the plane of
+the motion as a drawing) or 3D; the F key presses Front. **Plot:** energy (and, without a motor, its relative
+error), the coordinates the start is set by over time (for a mechanism its motors fix, the angle of each body
+a motor turns), or the phase portrait of the first of them. A mechanism with a loop shows its constraint
+residual too.
 
 **Mechanism tab:** a chain preset brings the chain panel back; a mechanism preset or your file starts here. The
 line under it gives the bodies, joints, mobility and motors. **Bodies and motors:** size (m: the body is scaled
@@ -115,11 +121,13 @@ loops stay closed. They go on from the displayed state. **Compare formulations:*
 Lagrange (orange) and the DAE (green) from the same start; under the panel, how far their traced points part,
 and each one's error against a converged run.
 
-**Display tab:** the traced point, reaction arrows, and the free-body diagram of the chosen body at the time
+**Display tab:** playback speed, trace length, the traced point, reaction arrows and their scale, and the
+free-body diagram of the chosen body at the time
 shown (couples are listed).
 
 **Export:** a link to this setup; the setup saved as a file (a file's mechanism inside it) and loaded back (a
-chain's setup brings the chain panel back); the run up to the time shown as CSV or JSON. **Equations:** the system
+chain's setup brings the chain panel back); the run up to the time shown as CSV or JSON, or as an HTML replay
+that plays without the server. **Equations:** the system
 A x = b the chosen method integrates, for this mechanism.
 
 **Plots:** energy (kinetic, potential, total) and, for a motor holding a speed, the torque it must give
@@ -131,6 +139,33 @@ def _choice(field: str, value: object, allowed: list[str]) -> None:
     """A menu's value: one of ``allowed`` (a client may send anything: a list, None, markup)."""
     if not isinstance(value, str) or value not in allowed:
         raise LinkageError(f"{field} = {value!r}: allowed values {', '.join(allowed)}")
+
+
+def plotted_coordinates(mechanism: Mechanism, free: tuple[FreeCoordinate, ...]) -> tuple[FreeCoordinate, ...]:
+    """The coordinates the Plot menu draws over time and in the phase portrait: the start's free ones (what the
+    Start folder sets); for a mechanism its motors fix (mobility 0) the angle of each body a motor turns (what
+    one watches go round), so that the menu shows a motion for every mechanism."""
+    if free:
+        return free
+    names = [body.name for body in mechanism.bodies]
+    joints = {joint.name: joint for joint in mechanism.joints}
+    turned: list[FreeCoordinate] = []
+    for driver in mechanism.drivers:
+        ends = joint_bodies(joints[driver.joint]) if driver.joint in joints else None
+        body = next((end for end in ends or () if end in names), None)
+        if body is not None and all(c.body != body for c in turned):
+            turned.append(FreeCoordinate(body, "angle", 3 * names.index(body) + 2))
+    return tuple(turned)
+
+
+def coordinate_label(coordinate: FreeCoordinate) -> str:
+    """A plotted coordinate as the Start folder names it, without "start": ``crank: angle (°)``."""
+    return f"{coordinate.body}: {START_NAMES[coordinate.axis][1].removeprefix('start ')}"
+
+
+def coordinate_unit(coordinate: FreeCoordinate) -> str:
+    """The unit a coordinate is shown in, as in the Start folder: ° for an angle, m for a place."""
+    return "°" if coordinate.angular else "m"
 
 
 def mechanism_names() -> list[str]:
@@ -167,6 +202,10 @@ class MechanismSession(SessionBase):
         self.free: tuple[FreeCoordinate, ...] = ()  # the coordinates a start is set by (app/mechanism_start.py)
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
         self.energy_ref: float | None = None
+        self.display = Display()  # playback speed, trace length, arrow scale: the chain panel's (app/panel_rows.py)
+        self._segment_t0 = 0.0  # the time of the last change: the energy error is measured from there
+        self._plots_due = False  # a plot was chosen: redraw it with the next frame, paused or not
+        self._plot_kind = "energy"
         self.player = Player(
             simulate=lambda *args, **kwargs: None,  # every run carries its own (MechanismSpec.simulate)
             make_settings=lambda settings, horizon, samples: settings.model_copy(
@@ -221,6 +260,25 @@ class MechanismSession(SessionBase):
             lambda: self.scrub(self.timeline.value)))
         self._timeline_end = 0.0
         self._timeline_writer: int | None = None  # the thread moving the thumb to the time shown (not a scrub)
+        # the rows every panel has, made by the chain panel's code (app/panel_rows.py)
+        self._muting = panel_rows.Muting()
+        bind = panel_rows.guarded_bind(self.guard, self._muting.muted)
+        self.numbers = NumberInputs(gui, self, bind, self._muting.quiet, self._muting.muted,
+                                    value_of=lambda name: float(getattr(self.display, name)))
+        self.camera_view = keep(panel_rows.add_view_row(gui, bind, self))
+        self.plot_choice = keep(panel_rows.add_plot_menu(
+            gui, bind, panel_rows.MECHANISM_PLOT_CHOICES, self.choose_plot,
+            "Energy and its error, the start's coordinates over time, or the phase portrait of the first"))
+        self.coordinate_plot: Plot | None = None  # made per mechanism (one series per coordinate), in _build_knobs
+        self._plotted: tuple[FreeCoordinate, ...] = ()
+        self.phase_image = keep(panel_rows.add_phase_image(gui))
+        self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
+                                [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
+        self._gui.append(self.energy_plot.handle)
+        self.drift_plot = panel_rows.add_drift_plot(gui)
+        self._gui.append(self.drift_plot.handle)
+        self.residual_plot = panel_rows.add_residual_plot(gui, RESIDUAL_TITLE, "|Φ|", "")
+        self._gui.append(self.residual_plot.handle)
         # the chain panel's tabs (app/controls.py), with what applies to a general mechanism in each
         self.tabs = keep(gui.add_tab_group())
         with self.tabs.add_tab("Mechanism"):
@@ -260,11 +318,13 @@ class MechanismSession(SessionBase):
             self.stabilization.on_update(
                 lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
         with self.tabs.add_tab("Display"):
+            panel_rows.add_motion_numbers(self.numbers.add, self.display)
             self.trace_menu = gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
                                                hint="Any named point of any body")
             self.trace_menu.on_update(lambda event: self.guard(lambda: self.set_trace(str(self.trace_menu.value))))
             self.arrow_box = gui.add_checkbox("Reaction arrows", False, hint="Pin forces of the chosen method")
             self.arrow_box.on_update(lambda event: self.guard(lambda: self.set_reactions(bool(self.arrow_box.value))))
+            panel_rows.add_arrow_number(self.numbers.add, self.display)
             self.free_body_box = gui.add_checkbox("Free-body diagram", False,
                                                   hint="Every load on the chosen body at the displayed time")
             self.free_body_box.on_update(
@@ -291,6 +351,7 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
+            self.export_html = panel_rows.add_export_button(gui, bind, self, "html")
             # as the chain panel's Export tab (app/controls.py): the setup as a file, and one read back
             self.save_setup = gui.add_button("Save this setup (JSON)")
             self.save_setup.on_click(lambda event: self.guard(lambda: self.download(
@@ -300,9 +361,6 @@ class MechanismSession(SessionBase):
                 getattr(event, "client_id", None), self.setup_upload.value.name, self.setup_upload.value.content)))
         with self.tabs.add_tab("Help"):
             gui.add_markdown(MECHANISM_HELP)
-        self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
-                                [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
-        self._gui.append(self.energy_plot.handle)
         self.torque_plot: Plot | None = None
 
     def _menu_entries(self) -> list[str]:
@@ -355,6 +413,50 @@ class MechanismSession(SessionBase):
             self.torque_plot = Plot(self.target.gui, "Driving torque (inverse dynamics)",
                                     [f"motor {m}" for m in motors], colors[: len(motors)], y_label="N·m",
                                     height=220)  # taller: a torque of ±0.4 N·m gets ticks besides 0
+        self._build_coordinate_plot()
+
+    def _build_coordinate_plot(self) -> None:
+        """The Plot menu's coordinates over time, one series per coordinate of :func:`plotted_coordinates`,
+        named as the Start folder names them (in its units: ° or m), beside the energy plot."""
+        self._plotted = plotted_coordinates(self.mechanism, self.free)
+        labels = [coordinate_label(c) for c in self._plotted]
+        if self.coordinate_plot is not None and self.coordinate_plot.labels == labels:
+            return
+        if self.coordinate_plot is not None:
+            self.coordinate_plot.remove()
+        units = {coordinate_unit(c) for c in self._plotted}
+        self.coordinate_plot = Plot(self.target.gui, "Coordinates", labels,
+                                    [BAR_COLORS[k % len(BAR_COLORS)] for k in range(len(labels))],
+                                    y_label=units.pop() if len(units) == 1 else "",
+                                    order=self.energy_plot.handle.order - 0.5)
+        self._show_chosen_plot()
+
+    @property
+    def plot_kind(self) -> str:
+        """``energy``, ``angles`` (the coordinates over time) or ``phase``: the Plot menu's last accepted choice."""
+        return self._plot_kind
+
+    def choose_plot(self, label: object) -> None:
+        """The Plot menu (app/panel_rows.py): show the plot chosen, drawn now from the run."""
+        self._plot_kind = panel_rows.plot_kind(panel_rows.MECHANISM_PLOT_CHOICES, label)
+        self._show_chosen_plot()
+        self.refresh_plots()
+
+    def _show_chosen_plot(self) -> None:
+        """The chosen plot shown, the others hidden; the energy error only without a motor (a motor's work
+        changes the energy), the constraint residual only for a mechanism with a loop (an open one has none
+        to close)."""
+        driven = bool(self.mechanism.drivers)
+        panel_rows.show_plot(self._plot_kind, [self.energy_plot] if driven else [self.energy_plot, self.drift_plot],
+                             self.coordinate_plot, self.phase_image)
+        if driven:
+            self.drift_plot.set_visible(False)
+        self.residual_plot.set_visible(bool(analyse(self.mechanism).loops))
+
+    def refresh_plots(self) -> None:
+        """Redraw the chosen plot with the next frame (a paused player draws one when touched)."""
+        self._plots_due = True
+        self.player.touch()
 
     def _start_knobs(self) -> list[Knob]:
         return start_knobs(self.mechanism, self.free, self.sketch_q, self.q0, self.qdot0)
@@ -400,16 +502,20 @@ class MechanismSession(SessionBase):
     def typing(self) -> bool:
         """True while a typed value waits for its pause (tests wait for this to end)."""
         with self._typing_lock:
-            return any(timer.is_alive() for timer in self._typing.values())
+            return any(timer.is_alive() for timer in self._typing.values()) or self.numbers.typing()
 
     def typed_box(self, name: str):
-        """The typed box of a generated control (``mass:crank``, ``speed:O``, ``g``)."""
-        return self._typed_boxes[name]
+        """The typed box of a generated control (``mass:crank``, ``speed:O``, ``g``) or of a display setting
+        (``speed``, ``trace_seconds``, ``arrow_scale``)."""
+        return self._typed_boxes[name] if name in self._typed_boxes else self.numbers.controls[name].box
 
     def set_typed(self, name: str, text: object) -> None:
         """A value typed (or in a share link) for a generated control, in the panel's units (°/s for a motor's
         speed, ms for the fixed step): read as written by the chain panel's reader
         (:func:`app.commands.read_number`), then set as by its slider."""
+        if name in DISPLAY_NAMES:  # read by the chain panel's reader, in the panel's units
+            self._set_display(name, text, CONTROL)
+            return
         knob = next((k for k in self.panel_knobs() if k.name == name), None)
         if knob is None:
             self.set(name, text)  # names the controls there are
@@ -448,6 +554,7 @@ class MechanismSession(SessionBase):
                                   (self.free_body_box, self.free_body.on), (self.body_menu, self._body_shown())):
                 if handle.value != value:
                     handle.value = value
+            self.numbers.sync_all()
             fixed = self.settings.integrator in FIXED_STEP_INTEGRATORS
             baumgarte = self.settings.stabilization == "baumgarte" and self.settings.method != "reduced"
             for name, visible in (("rtol", not fixed), ("step", fixed), ("baumgarte_alpha", baumgarte),
@@ -486,6 +593,9 @@ class MechanismSession(SessionBase):
         geometry starts again from the re-assembled sketch, a start from the new start at t = 0; masses, inertias,
         motors, gravity and the run's settings go on from the displayed state (the constraints do not depend
         on them)."""
+        if name in DISPLAY_NAMES:  # playback speed, trace length, arrow scale (SI: seconds, a factor)
+            self._set_display(name, value, SI)
+            return
         with self._lock:
             if name in SETTING_KNOBS:
                 self._set_settings(apply_setting(self.settings, name, value))
@@ -500,6 +610,14 @@ class MechanismSession(SessionBase):
                     self.mechanism = edited
                     self._continue()
             self._sync_boxes()  # a slider moved: its box shows the value in force (a resize: the inertia's too)
+
+    def _set_display(self, name: str, value: object, units: str) -> None:
+        """A display setting (the chain's :func:`app.commands.apply_display`: its bounds and its notices): the
+        player's speed, the trace's length or the arrows' scale, shown at once; the controls show it."""
+        self.display = apply_display(self.display, name, value, units)
+        self.player.set_speed(self.display.speed)
+        self.player.touch()
+        self.numbers.sync(name)
 
     def set_start_value(self, name: str, value: object) -> None:
         """One start control (a free coordinate's value or speed, in the panel's units): the mechanism is
@@ -528,8 +646,14 @@ class MechanismSession(SessionBase):
             self.q0, self.qdot0 = q0, velocities_with(self.mechanism, q0, self.free, rates)
             self._build_scene(self.q0)
             self.energy_ref = None
-            self.energy_plot.clear()
+            self._clear_plots()
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+
+    def _clear_plots(self) -> None:
+        """Empty every plot of the run (a new start at t = 0)."""
+        for plot in (self.energy_plot, self.drift_plot, self.residual_plot, self.coordinate_plot):
+            if plot is not None:
+                plot.clear()
 
     def _set_settings(self, settings: MechanismSettings) -> None:
         """New run settings from the displayed state on (compare mode: every formulation must take them)."""
@@ -653,7 +777,7 @@ class MechanismSession(SessionBase):
             self.method.disabled = self.compare  # every formulation runs: the menu does not apply
             self._build_scene(self.q0)
             self.energy_ref = None
-            self.energy_plot.clear()
+            self._clear_plots()
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
             self.sync_all()
 
@@ -812,11 +936,20 @@ class MechanismSession(SessionBase):
         if kind == "setup":
             stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
             return f"linkage-{stem}-setup.json", self.setup_document()
-        if kind not in ("csv", "json"):
-            raise LinkageError(f"download = {kind!r}: allowed csv, json, setup")
+        if kind not in ("csv", "json", "html"):
+            raise LinkageError(f"download = {kind!r}: allowed csv, json, html, setup")
         spec = self.player.runs[0].spec if self.player.runs else self.spec
         samples = readout.history(self.player, spec.label)
         stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
+        if kind == "html":  # the chain's "Save HTML replay", drawn as this view draws the mechanism
+            from .mechanism_replay import mechanism_replay_html  # noqa: PLC0415 - the recorder: on export only
+
+            title = f"Linkage Lab replay: {self.label}, {METHODS.get(spec.settings.method, spec.settings.method)}"
+            try:
+                page = mechanism_replay_html(cast(MechanismSpec, spec).draw, samples, title=title)
+            except ValueError as error:  # fewer than two samples: a refusal, not a fault
+                raise LinkageError(str(error)) from None
+            return f"mechanism-{stem}-{spec.settings.method}-replay.html", page.encode("utf-8")
         return f"mechanism-{stem}-{spec.settings.method}.{kind}", run_file(cast(Any, spec), samples, kind)
 
     def set_value(self, name: str, text: str) -> None:
@@ -965,6 +1098,7 @@ class MechanismSession(SessionBase):
                  play: bool | None = None) -> None:
         # the player reaches a run's model only through RunSpec's members, which MechanismSpec implements
         self.notices.clear()  # a run goes on: a stopped run's notice is about the run it replaces
+        self._segment_t0 = t0  # the energy error plot measures from here ("since last change")
         specs = [self.spec] if not self.compare else compare_specs(self.mechanism, self.settings, self.spec.runner)
         self.player.restart(cast(Any, specs), t0, [(q0, qdot0)] * len(specs), keep_history=keep_history, play=play)
 
@@ -991,10 +1125,11 @@ class MechanismSession(SessionBase):
         self.arrows.hide()
         if not same_kind:
             self._build_knobs()
+        self._show_chosen_plot()
         self._show_facts()
         self._frame_camera(points_at(draw, q0), force=not same_kind)
         self.energy_ref = None
-        self.energy_plot.clear()
+        self._clear_plots()
         self._restart(0.0, q0, qdot0, keep_history=False, play=True if play is None else play)
         self.sync_all()
 
@@ -1079,14 +1214,14 @@ class MechanismSession(SessionBase):
             elif len(rf.joints) == len(spec.draw.labels):
                 self.scene.show(rf.joints, rf.com)
             if frame.restarted or frame.counter % 2 == 0:
-                first = ring.index_at(frame.t - TRACE_SECONDS)
-                self.trace.update(ring.window(first, rf.index, ["trace_xy"])["trace_xy"])
+                self.trace.update(self._trace_window(ring, frame.t, rf.index))
             if self.reactions_on:
                 self._update_arrows(run, rf, spec)
             self.free_body.update(frame, {r.spec.label: r for r in self.player.runs})
         quietly(self.target.flush, "flushing a frame")
         self.frames_sent += 1
-        if frame.restarted or frame.counter % PLOT_EVERY == 0:
+        if frame.restarted or frame.counter % PLOT_EVERY == 0 or self._plots_due:
+            self._plots_due = False
             self._update_plots(ring, rf.index)
             if self.compare:
                 self.compare_view.update_plots({r.spec.label: r for r in self.player.runs}, frame.t)
@@ -1107,14 +1242,48 @@ class MechanismSession(SessionBase):
         forces = signs[:, None] * np.stack([sample[rows], sample[rows + 1]], axis=1)
         points_xy = rf.joints[points]
         largest = float(np.max(np.hypot(*forces.T))) or 1.0
-        scale = ARROW_FRACTION * spec.draw.size / largest
+        # the Display tab's arrow scale: at its default the largest force is ARROW_FRACTION of the size long
+        scale = ARROW_FRACTION * self.display.arrow_scale / Display().arrow_scale * spec.draw.size / largest
         self.arrows.update(points_xy, forces, scale, 0.006 * spec.draw.size)
+
+    def _trace_window(self, ring, t: float, index: int) -> np.ndarray:
+        """The traced point's path over the trace length (Display tab) up to stored sample ``index``."""
+        if self.display.trace_seconds <= 0.0:
+            return np.zeros((0, 2))
+        first = ring.index_at(t - self.display.trace_seconds)
+        return ring.window(first, index, ["trace_xy"])["trace_xy"]
 
     def _update_plots(self, ring, index: int) -> None:
         first = ring.index_at(ring.get("t", index) - PLOT_SECONDS)
         stride = max(1, (index - first) // 300)
-        data = ring.window(first, index, ["t", "kinetic", "potential", "energy", "reactions"], stride=stride)
-        self.energy_plot.update(data["t"], data["kinetic"], data["potential"], data["energy"])
+        kind = self._plot_kind
+        extra = ["q", "qdot"] if kind in ("angles", "phase") and self._plotted else []
+        data = ring.window(first, index, ["t", "kinetic", "potential", "energy", "reactions", "residual", *extra],
+                           stride=stride)
+        t = data["t"]
+        self.energy_plot.update(t, data["kinetic"], data["potential"], data["energy"])
+        if not self.mechanism.drivers and len(t):
+            # since the last change (an edit goes on from the displayed state): measured from its first sample
+            reference = float(ring.get("energy", ring.index_at(self._segment_t0)))
+            in_segment = t >= self._segment_t0 - 1e-9
+            self.drift_plot.update(t[in_segment], relative_drift(data["energy"][in_segment], reference,
+                                                                 self._energy_scale()))
+        if self.residual_plot.handle.visible:
+            self.residual_plot.update(t, data["residual"])
+        if extra and data["q"].shape[1] == 3 * len(self.mechanism.bodies):
+            columns = [c.index for c in self._plotted]
+            to_shown = np.array([180.0 / math.pi if c.angular else 1.0 for c in self._plotted])
+            values, rates = data["q"][:, columns] * to_shown, data["qdot"][:, columns] * to_shown
+            if kind == "angles" and self.coordinate_plot is not None:
+                self.coordinate_plot.update(t, *values.T)
+            elif kind == "phase" and len(t) >= 2:
+                first_one = self._plotted[0]
+                unit = coordinate_unit(first_one)
+                speed_unit = "deg/s" if first_one.angular else "m/s"
+                self.phase_image.image = phase_picture(
+                    values[:, :1], rates[:, :1], legend=[coordinate_label(first_one)], wrap=first_one.angular,
+                    title=f"Phase portrait: speed ({speed_unit}) against {first_one.body}'s {first_one.axis}",
+                    x_label=f"{first_one.axis} ({'deg' if unit == '°' else unit})")
         rows = torque_rows(self._row_names)
         if self.torque_plot is not None and rows:
             self.torque_plot.update(data["t"], *(data["reactions"][:, k] for k in rows))
@@ -1125,7 +1294,7 @@ class MechanismSession(SessionBase):
         energy = float(ring.get("energy", index))
         if self.energy_ref is None and len(ring):
             self.energy_ref = float(ring.get("energy", 0))
-        scale = sum(b.mass for b in self.mechanism.bodies) * max(self.mechanism.g, 1e-9) * self.spec.draw.size
+        scale = self._energy_scale()
         driven = bool(self.mechanism.drivers)
         drift = None if driven or self.energy_ref is None else float(
             relative_drift(np.array([energy]), self.energy_ref, scale)[0])
@@ -1141,6 +1310,10 @@ class MechanismSession(SessionBase):
             text += f"\n\nnear a singular pose: Jacobian condition {condition:.2g}"
         if self.status.content != text:
             self.status.content = text
+
+    def _energy_scale(self) -> float:
+        """A characteristic energy (total weight times size): the energy error's floor denominator."""
+        return sum(b.mass for b in self.mechanism.bodies) * max(self.mechanism.g, 1e-9) * self.spec.draw.size
 
     def _refresh_status(self) -> None:
         if self.closed or not self.player.runs or not len(self.player.runs[0].ring):
@@ -1180,11 +1353,14 @@ class MechanismSession(SessionBase):
         POOL.release(self.worker)
         for timer in self._typing.values():
             timer.cancel()
+        self.numbers.close()
         if self.shared or clean:
             for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body, self.analysis):
                 quietly(part.remove, "removing a scene part")
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")
-            if self.torque_plot is not None:
-                self.torque_plot.remove()
+            self.numbers.remove(list(self.numbers.controls))
+            for plot in (self.torque_plot, self.coordinate_plot):
+                if plot is not None:
+                    plot.remove()
 

@@ -16,13 +16,27 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 
 from .commands import QUANTITIES, Quantity, split_name
 from .logs import quietly
 from .ports import SessionPort
 
 TYPING_PAUSE_S = 0.6  # seconds without a keystroke before a typed value is applied
+
+
+class NumbersPort(Protocol):
+    """What the numbers of a panel ask of their session (the chain's :class:`~app.ports.SessionPort` has it; so
+    does a general mechanism's session for the Display tab's numbers, app/panel_rows.py)."""
+
+    @property
+    def closed(self) -> bool: ...
+
+    def guard(self, action: Callable[[], object]) -> object: ...
+
+    def set(self, name: str, value: object) -> None: ...
+
+    def set_typed(self, name: str, text: str) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -94,11 +108,14 @@ def shown(name: str, value_si: float) -> str:
 class NumberInputs:
     """The numbers of one panel. ``mute(action)`` runs a write-back without running callbacks and ``muted()``
     tells whether one is under way; ``bind(handle, action)`` attaches a callback inside the session's error
-    boundary."""
+    boundary; ``value_of(name)`` is the SI value in force (default: :func:`value_in_force` of a chain's
+    session)."""
 
-    def __init__(self, gui, port: SessionPort, bind: Callable, mute: Callable, muted: Callable[[], bool]) -> None:
+    def __init__(self, gui, port: NumbersPort, bind: Callable, mute: Callable, muted: Callable[[], bool],
+                 value_of: Callable[[str], float] | None = None) -> None:
         self.gui = gui
         self.port = port
+        self._value_of = value_of or (lambda name: value_in_force(port, name))  # type: ignore[arg-type]
         self._bind = bind
         self._mute = mute
         self._muted = muted
@@ -163,7 +180,7 @@ class NumberInputs:
         if control is None:
             return
         if value_si is None:
-            value_si = value_in_force(self.port, name)
+            value_si = self._value_of(name)
         position = control.to_slider(value_si)
         slider = control.slider
 

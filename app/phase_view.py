@@ -29,25 +29,39 @@ def _ticks(low: float, high: float, count: int = 5) -> list[float]:
     return [first + i * step for i in range(int((high - first) / step + 1e-9) + 1)]
 
 
-def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray) -> np.ndarray:
+def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[str] | None = None,
+                  title: str = "Phase portrait: omega (deg/s) against theta", x_label: str = "theta (deg)",
+                  wrap: bool = True) -> np.ndarray:
     """An RGB picture (HEIGHT, WIDTH, 3): ``theta_deg`` (samples, bars) wrapped to [-180, 180] on x, ``omega_deg``
-    on y; a line breaks where an angle wraps round."""
+    on y; a line breaks where an angle wraps round. A mechanism's free coordinate may be a length: ``wrap``
+    False spans x over the values instead (no wrapping), and ``legend``, ``title`` and ``x_label`` name it
+    (default: a chain's bars)."""
     image = Image.new("RGB", (WIDTH, HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(image)
     x0, x1 = MARGIN_LEFT, WIDTH - MARGIN_RIGHT
     y0, y1 = MARGIN_TOP, HEIGHT - MARGIN_BOTTOM
-    draw.text((x0, 4), "Phase portrait: omega (deg/s) against theta", fill=(20, 20, 20))
-    wrapped = (np.asarray(theta_deg, dtype=float) + 180.0) % 360.0 - 180.0
+    draw.text((x0, 4), title, fill=(20, 20, 20))
+    values = np.asarray(theta_deg, dtype=float)
+    wrapped = (values + 180.0) % 360.0 - 180.0 if wrap else values
     omega = np.asarray(omega_deg, dtype=float)
     finite = np.isfinite(omega)
     top = float(np.max(np.abs(omega[finite]))) if finite.any() else 1.0
     top = max(top * 1.1, 1.0)
+    if wrap:
+        left, right, x_ticks = -180.0, 180.0, [-180.0, -90.0, 0.0, 90.0, 180.0]
+    else:
+        shown = values[np.isfinite(values)]
+        low, high = (float(shown.min()), float(shown.max())) if shown.size else (0.0, 1.0)
+        pad = max(0.05 * (high - low), 1e-9)
+        left, right = low - pad, high + pad
+        x_ticks = _ticks(left, right, 4)
 
     def px(theta: np.ndarray, w: np.ndarray) -> np.ndarray:
-        return np.column_stack([x0 + (theta + 180.0) / 360.0 * (x1 - x0), y1 - (w + top) / (2 * top) * (y1 - y0)])
+        return np.column_stack([x0 + (theta - left) / (right - left) * (x1 - x0),
+                                y1 - (w + top) / (2 * top) * (y1 - y0)])
 
-    for value in (-180.0, -90.0, 0.0, 90.0, 180.0):
-        x = x0 + (value + 180.0) / 360.0 * (x1 - x0)
+    for value in x_ticks:
+        x = x0 + (value - left) / (right - left) * (x1 - x0)
         draw.line([(x, y0), (x, y1)], fill=(235, 235, 235))
         draw.text((x - 10, y1 + 4), f"{value:g}", fill=(60, 60, 60))
     for value in _ticks(-top, top):
@@ -55,14 +69,15 @@ def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray) -> np.ndarray:
         draw.line([(x0, y), (x1, y)], fill=(235, 235, 235))
         draw.text((4, y - 6), f"{value:g}", fill=(60, 60, 60))
     draw.rectangle([x0, y0, x1, y1], outline=(120, 120, 120))
-    draw.text(((x0 + x1) / 2 - 30, HEIGHT - 14), "theta (deg)", fill=(40, 40, 40))
+    draw.text(((x0 + x1) / 2 - 30, HEIGHT - 14), x_label, fill=(40, 40, 40))
     if wrapped.ndim == 2 and len(wrapped) >= 2:
         for bar in range(wrapped.shape[1]):
             points = px(wrapped[:, bar], omega[:, bar])
-            breaks = np.flatnonzero(np.abs(np.diff(wrapped[:, bar])) > 180.0) + 1
+            breaks = np.flatnonzero(np.abs(np.diff(wrapped[:, bar])) > 180.0) + 1 if wrap else np.zeros(0, int)
             for segment in np.split(np.arange(len(points)), breaks):
                 if len(segment) >= 2:
                     draw.line([tuple(p) for p in points[segment]], fill=BAR_COLORS[bar % len(BAR_COLORS)], width=2)
-            draw.text((x1 - 44 - 44 * (wrapped.shape[1] - 1 - bar), y0 + 4), f"bar {bar + 1}",
-                      fill=BAR_COLORS[bar % len(BAR_COLORS)])
+            name = legend[bar] if legend is not None else f"bar {bar + 1}"
+            draw.text((x1 - 44 - 44 * (wrapped.shape[1] - 1 - bar), y0 + 4) if legend is None
+                      else (x0 + 6, y1 - 16 - 12 * bar), name, fill=BAR_COLORS[bar % len(BAR_COLORS)])
     return np.asarray(image)

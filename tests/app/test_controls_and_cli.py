@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import physics
-from app import controls, viser_compat
+from app import controls, panel_rows, viser_compat
 from app.scene import camera_pose
 from app.server import is_loopback
 from app.wsclient import BackgroundClient, moves_positions
@@ -31,7 +31,8 @@ def _inside(spec, low, high):
 @pytest.mark.parametrize(
     "spec",
     [*controls.BAR_SLIDERS.values(), controls.GRAVITY_SLIDER, controls.DAMPING_SLIDER, controls.ALPHA_SLIDER,
-     controls.BETA_SLIDER, controls.STEP_SLIDER, controls.SPEED_SLIDER, controls.TRACE_SLIDER, controls.ARROW_SLIDER],
+     controls.BETA_SLIDER, controls.STEP_SLIDER, panel_rows.SPEED_SLIDER, panel_rows.TRACE_SLIDER,
+     panel_rows.ARROW_SLIDER],
     ids=lambda s: f"{s.model.__name__}.{s.field}",
 )
 def test_slider_ranges_sit_inside_the_model_bounds(spec):

@@ -14,8 +14,8 @@ in the panel's Mechanism menu, as a person would, and after every switch checks 
 * no error notice (a stopped run, "Simulation stopped", a paused session, an internal error) appears, on the
   page or on the server;
 * the panel holds exactly one set of controls, those of the session shown: one tab group, each tab and each
-  folder once, one Mechanism menu, one Timeline, none of the other kind's rows (the chain's View and Plot; the
-  mechanism's Bodies and motors) and, on every later visit of a preset, exactly the controls of its first visit
+  folder once, one Mechanism menu, one Timeline, one View and one Plot (app/panel_rows.py makes them in both
+  panels), none of the other kind's rows (the chain's initial angles; the mechanism's Bodies and motors) and, on every later visit of a preset, exactly the controls of its first visit
   (nothing piles up).
 """
 
@@ -34,8 +34,8 @@ from physics.presets import mechanism_summaries
 from .conftest import wait_until
 
 ERROR_TITLES = ("Simulation stopped", "Session paused", "Could not start", "internal error", "Error")
-CHAIN_ONLY = ("View", "Plot")
-BOTH = ("Timeline (s)",)  # a row both panels have: exactly one, whichever is shown
+CHAIN_ONLY = ("Initial angles (degrees)",)
+BOTH = ("Timeline (s)", "View", "Plot")  # rows both panels have: exactly one of each, whichever is shown
 MECHANISM_ONLY = ("Bodies and motors", "Traced point", "Stabilisation")
 PLAYS_ON_S = 0.3  # simulated seconds a session must advance after its switch
 

@@ -230,17 +230,24 @@ def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_l
     session = page.session
     assert isinstance(session, MechanismSession)
 
+    display = session.numbers  # the Display tab's speed, trace length and arrow scale (app/panel_rows.py)
+
     def value(name: str) -> float:
+        if name in display.controls:
+            return float(getattr(session.display, name))
         return next(knob.value for knob in session.panel_knobs() if knob.name == name)
 
-    panel = Panel(boxes=lambda: {f"type {knob.label}": knob.name for knob in session.panel_knobs()},
-                  value=value, box=session.typed_box, commits=lambda: session.typed_commits)
+    panel = Panel(boxes=lambda: {**{f"type {knob.label}": knob.name for knob in session.panel_knobs()},
+                                 **{control.box.label: name for name, control in display.controls.items()}},
+                  value=value, box=session.typed_box, commits=lambda: session.typed_commits + display.commits)
     done: dict[str, list[str]] = {}
     _type_with_each_setting_shown(page, session, panel, done, "Stabilisation", lambda: session.settings)
     assert set(done) == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done)}"
     assert "disabled" not in [outcome for outcomes in done.values() for outcome in outcomes]
     names = {panel.boxes()[label]: outcomes for label, outcomes in done.items()}
-    kinds = {name.partition(":")[0] for name in names}
+    assert {"speed", "trace_seconds", "arrow_scale"} <= set(names), names
+    assert names["trace_seconds"][0] == "applied"  # 2.5e1 s: 25, as the chain panel's box reads it
+    kinds = {name.partition(":")[0] for name in names if name not in display.controls}
     assert {"size", "mass", "inertia", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta"} <= kinds, kinds
     if preset == "slider-crank":  # mobility 1, no motor: its start is set by hand
         assert session.free and {"angle0", "omega0"} & kinds and {"omega0", "vx0", "vy0"} & kinds, kinds
