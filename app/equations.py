@@ -26,9 +26,17 @@ PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel hol
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
 
 
-def _math(expr) -> str:
+def _presentation(expr) -> str:
+    """sympy's presentation MathML, a dotted symbol (``θ̈``: a combining dot, which fonts draw poorly over Greek)
+    as an accent over it."""
+    text = mathml(expr, printer="presentation")
+    return re.sub(r"<mi>([^<]*?)&#(775|776);</mi>",
+                  lambda found: f'<mover accent="true"><mi>{found.group(1)}</mi>'
+                                f'<mo>{"&#729;" if found.group(2) == "775" else "&#168;"}</mo></mover>', text)
 
-    return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
+
+def _math(expr) -> str:
+    return f'<math display="block">{_presentation(expr)}</math>'
 
 
 def _heading(row_name: str) -> str:
@@ -62,7 +70,7 @@ def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) ->
 
     def block(terms, lead: str) -> str:
         expr = sp.Add(*terms, evaluate=False) if len(terms) > 1 else terms[0]
-        body = mathml(expr, printer="presentation")
+        body = _presentation(expr)
         negative = terms[0].could_extract_minus_sign()
         sign = "" if not lead else (f"<mo>{lead}</mo>" if lead == "=" or not negative else "")
         indent = "0" if not lead else "1.5em"
@@ -122,9 +130,9 @@ def _system_html(equations, title: str, symbols: str) -> str:
     parts = [
         f"<p>{title}: {len(equations.unknowns)} equations, linear in the unknowns "
         f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side. State: "
-        f"{html.escape(equations.coordinates)}.</p>",
+        f"{_heading(equations.coordinates)}.</p>",
         "<p>Unknowns <i>x</i>:</p>",
-        _math(sp.Matrix(equations.unknowns).T),
+        f'<div style="overflow-x:auto">{_math(sp.Matrix(equations.unknowns).T)}</div>',
         '<div style="overflow-x:auto">',
     ]
     for i, (row_name, lhs_terms, rhs) in enumerate(equations.rows):
@@ -144,7 +152,7 @@ def _tex_text(text: str) -> str:
     return text
 
 
-_TEX_LETTERS = {"θ": r"\theta", "ω": r"\omega", "φ": r"\varphi", "λ": r"\lambda", "ṡ": r"\dot{s}"}
+_TEX_LETTERS = {"θ": r"\theta", "ω": r"\omega", "φ": r"\varphi", "λ": r"\lambda"}
 _TEX_MARKS = {"\u0307": r"\dot", "\u0308": r"\ddot"}
 
 

@@ -188,7 +188,7 @@ def _coordinate_names(body: int, label: str) -> dict:
 
 def _tree_names(m: int, joint: str) -> dict:
     real = functools.partial(sp.Symbol, real=True)
-    return {real(f"s{m}"): real(f"s_{joint}"), real(f"sd{m}"): real(f"ṡ_{joint}"),
+    return {real(f"s{m}"): real(f"s_{joint}"), real(f"sd{m}"): real(f"s\u0307_{joint}"),
             real(f"sdd{m}"): real(f"s\u0308_{joint}")}
 
 
