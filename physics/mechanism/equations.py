@@ -120,9 +120,8 @@ def _chain_names(shape: Structure, n: int, pinned: bool) -> tuple[dict, dict]:
 
     for k in range(n):  # bar k + 1's pose (x, y, φ), with rates and accelerations
         names.update(_coordinate_names(k, str(k + 1)))
-    real = functools.partial(sp.Symbol, real=True)
     # tree coordinate m is the absolute angle of bar order[m] + 1 (a pinned chain's tree is not in bar order)
-    for m, bar in enumerate(tree_geometry(shape, params, "absolute").tree.order, start=0):
+    for m, bar in enumerate(tree_geometry(shape, params, "absolute").tree.order):
         number = int(bar) + 1
         names.update({real(f"s{m}"): real(f"θ_{number}"), real(f"sd{m}"): real(f"ω_{number}"),
                       real(f"sdd{m}"): real(f"θ\u0308_{number}")})
