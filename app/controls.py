@@ -588,16 +588,17 @@ class Controls:
         from . import equations  # noqa: PLC0415 - imports sympy: only when asked for
 
         p = self.port.setup
-        method = p.method
-        key = (method, p.n, p.pinned)
+        method, chain = p.method, p.chain
+        key = (method, p.n, p.pinned)  # a chain's equations depend on its bar count and closure only
         self._equations_key = key
-        self.equations.content = f"<p><b>Deriving</b> the {method_label(method)} equations for {p.n} bars...</p>"
+        self.equations.content = (f"<p><b>Deriving</b> the {method_label(method)} equations for {p.n} bars (the "
+                                  f"first time for this chain and method: a few seconds)...</p>")
         if self._equations_job is not None and self._equations_job.is_alive():
             return  # the running job sees the new key when it finishes and derives again
 
         def work() -> None:
             try:
-                html = equations.equations_html(*key)
+                html = equations.equations_html(chain, method)
             except Exception as error:  # shown in the panel; the session goes on
                 html = f"<p>Could not render the equations: {html_literal(f'{type(error).__name__}: {error}')}</p>"
             if self._equations_key == key:

@@ -1,50 +1,49 @@
-"""The equations of motion as derived, rendered as MathML for the Equations panel.
+"""The equations of motion a run integrates, rendered as MathML for the Equations tab and as a LaTeX download.
 
-viser's markdown has no TeX renderer, but its HTML element shows raw HTML and browsers draw MathML natively,
-so each row of the derived linear system ``A x = b`` is printed with sympy's presentation-MathML printer,
-next to the name the derivation gave it (e.g. "AMB bar 2 about its centre of mass"). sympy is imported here
-only (this module is imported on demand, in a worker thread); results are cached per (formulation, n, pinned).
+One view for every linkage: a chain's tab and a mechanism's show :func:`physics.equations_of_motion` of what
+runs (a chain as the mechanism it is integrated as). viser's markdown has no TeX renderer, but its HTML element
+shows raw HTML and browsers draw MathML natively, so each row of ``A x = b`` is printed with sympy's
+presentation-MathML printer, next to the name the derivation gave it (e.g. "AMB of the bodies beyond J1 about
+it"). sympy is imported here only (this module is imported on demand, in a worker thread); physics keeps the
+derived, tidied rows per structure (per description for a mechanism: its names are in them).
 """
 
 from __future__ import annotations
 
-import functools
 import html
 import re
+import textwrap
 
 import sympy as sp
 from sympy.printing.mathml import mathml
 
 import physics
-import physics.mechanism
 
-from .math_lines import multline
+from .math_lines import TEX_LINE_CHARACTERS, multline
 from .parameters import METHOD_LABELS
 
 PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
-SIMPLIFY_MAX_LINKS = 4  # trig-simplify entries for display up to this many bars (seconds of sympy at n = 4)
 
 
-def _display_names(system):
-    """Symbols renamed for display: theta_ddot_i -> θ̈_i (sympy prints theta_i, omega_i, L_i as Greek/subscripts)."""
-
-    mapping = {}
-    for i, symbol in enumerate(system.symbols.theta_ddot, start=1):
-        mapping[symbol] = sp.Symbol(f"\u03b8\u0308_{i}", real=True)
-    mapping[system.symbols.damping] = sp.Symbol("c", real=True)
-    return mapping
+def _presentation(expr) -> str:
+    """sympy's presentation MathML, a dotted symbol (``θ̈``: a combining dot, which fonts draw poorly over Greek)
+    as an accent over it."""
+    text = mathml(expr, printer="presentation")
+    return re.sub(r"<mi>([^<]*?)&#(775|776);</mi>",
+                  lambda found: f'<mover accent="true"><mi>{found.group(1)}</mi>'
+                                f'<mo>{"&#729;" if found.group(2) == "775" else "&#168;"}</mo></mover>', text)
 
 
 def _math(expr) -> str:
-
-    return f'<math display="block">{mathml(expr, printer="presentation")}</math>'
+    return f'<math display="block">{_presentation(expr)}</math>'
 
 
 def _heading(row_name: str) -> str:
     """A row's name for a heading: ``theta_2`` reads as θ with subscript 2, ``G3`` as G with subscript 3."""
     text = html.escape(row_name)
     text = re.sub(r"\btheta_(\d+)", "\u03b8<sub>\\1</sub>", text)
+    text = re.sub(r"(?<!\w)([θωφλs])_(\w+)", "\\1<sub>\\2</sub>", text)  # θ_1, s_O (physics.equations_of_motion)
     return re.sub(r"\bG(\d+)\b", "G<sub>\\1</sub>", text)
 
 
@@ -71,7 +70,7 @@ def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) ->
 
     def block(terms, lead: str) -> str:
         expr = sp.Add(*terms, evaluate=False) if len(terms) > 1 else terms[0]
-        body = mathml(expr, printer="presentation")
+        body = _presentation(expr)
         negative = terms[0].could_extract_minus_sign()
         sign = "" if not lead else (f"<mo>{lead}</mo>" if lead == "=" or not negative else "")
         indent = "0" if not lead else "1.5em"
@@ -84,81 +83,60 @@ def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) ->
     return "".join(parts)
 
 
-@functools.lru_cache(maxsize=32)
-def equations_html(formulation: str, n: int, pinned: bool) -> str:
-    """HTML (with MathML) of the system ``A x = b`` that the simulation integrates."""
-
-    if formulation.startswith("reduced"):
-        return (
-            "<p>The <b>reduced</b> model integrates the closed loop in its one free coordinate and recovers "
-            "the other angles by position analysis (physics.assembly). It has no symbolic system of its own "
-            "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
-        )
-
-    system = physics.derived_system(formulation, n, pinned)
-    label = METHOD_LABELS.get(formulation, formulation)
-    closure = "closed loop (tip pinned)" if pinned else "open chain"
-    return _system_html(
-        system, _display_names(system), f"<b>{html.escape(label)}</b>, {n} bars, {closure}",
-        "Symbols: θ angle of a bar from the downward vertical (counter-clockwise), ω its angular velocity, "
-        "θ̈ its angular acceleration; L length, d centre-of-mass distance from the proximal joint, m mass, "
-        "I centroidal inertia, g gravity, c joint damping; R reactions, a centre-of-mass accelerations.",
-        simplify=n <= SIMPLIFY_MAX_LINKS)
+REDUCED = ("<p>The <b>reduced</b> model integrates the linkage in its one free coordinate and places every body "
+           "by position analysis; it has no symbolic system of its own to show here. Choose DAE, Lagrange or "
+           "Newton-Euler to see its equations.</p>")
+CHAIN_SYMBOLS = ("Symbols: θ<sub>k</sub> the angle of bar k from the downward vertical (counter-clockwise), ω its rate, "
+                 "θ̈ its angular acceleration; x, y the centre of mass of a bar and φ its angle (the DAE), with dots "
+                 "for rates; L length, d centre-of-mass distance from the bar's top joint, m mass, I centroidal "
+                 "inertia, g gravity, c joint damping, x<sub>H</sub>, y<sub>H</sub> the pin of a closed loop; "
+                 "λ the multipliers of the constraint rows (in the order of the headings). The chain is integrated "
+                 "as a mechanism: bars bar1..barn, pins O (bar 1 at the origin), J1..J(n-1) (bar k+1 on bar k) and "
+                 "H (the tip's pin).")
+MECHANISM_SYMBOLS = ("Symbols: x, y the centre of mass of a body and φ its angle, with their rates (a dot) and "
+                     "accelerations (two dots); s a spanning-tree joint's coordinate (Lagrange, Newton-Euler); λ the "
+                     "multipliers of the constraint rows (in the order of the headings); m, I, cx, cy a body's "
+                     "mass, inertia and centre of mass (by its number in the description), ax, ay, bx, by a joint's "
+                     "points in its two bodies, ux, uy a guide's direction, c a joint's damping, g gravity.")
 
 
-def mechanism_equations_html(mechanism, method: str) -> str:
-    """HTML (with MathML) of the system ``A x = b`` a general mechanism's run integrates (``physics.mechanism``'s
-    own derivation of ``method``), its coordinates named after its bodies."""
-    if method == "reduced":
-        return ("<p>The <b>reduced</b> model integrates the mechanism in its one free joint coordinate and places "
-                "every body by position analysis; it has no symbolic system of its own to show here. Choose DAE, "
-                "Lagrange or Newton-Euler to see the equations of the mechanism.</p>")
-    system = physics.mechanism.derived_system(mechanism, method)
-    by_name = {}  # q3b, q3b+1, q3b+2 are body b's x, y, phi (qd their rates, qdd their accelerations)
-    for b, body in enumerate(mechanism.bodies):
-        label = re.sub(r"\W", "", body.name) or f"b{b}"
-        for k, coordinate in enumerate(("x", "y", "\u03c6")):
-            for prefix, mark in (("q", ""), ("qd", "\u0307"), ("qdd", "\u0308")):
-                by_name[f"{prefix}{3 * b + k}"] = sp.Symbol(f"{coordinate}{mark}_{label}", real=True)
-    used = system.A.free_symbols | system.b.free_symbols | set(system.unknowns)
-    names = {symbol: by_name[symbol.name] for symbol in used if symbol.name in by_name}
-    label = METHOD_LABELS.get(method, method)
-    return _system_html(
-        system, names, f"<b>{html.escape(label)}</b>, {html.escape(mechanism.name)}, {len(mechanism.bodies)} bodies",
-        "Symbols: x, y the centre of mass of a body and φ its angle, with their rates (a dot) and accelerations "
-        "(two dots); λ (lam) the multipliers of the joints' rows in the order of the headings, whose reactions "
-        "the arrows draw; m, I, cx, cy a body's mass, inertia and centre of mass in its frame (by its number in "
-        "the description), ax, ay, bx, by a joint's points in its two bodies, c its damping, g gravity.",
-        simplify=len(mechanism.bodies) <= SIMPLIFY_MAX_LINKS)
+def _equations(linkage, method: str):
+    """physics' equations of ``linkage`` for ``method``; ``None`` for the reduced methods (no system of their own)."""
+    if method.startswith("reduced"):
+        return None
+    return physics.equations_of_motion(linkage, method)
 
 
-def _system_html(system, names: dict, title: str, symbols: str, simplify: bool) -> str:
-    """``A x = b`` of ``system`` as headed rows of MathML lines that fit the panel (chains and mechanisms)."""
-    unknowns = [names.get(u, u) for u in system.unknowns]
+def _title(linkage, equations) -> str:
+    label = html.escape(METHOD_LABELS.get(equations.method, equations.method))
+    if isinstance(linkage, physics.Chain):
+        closure = "closed loop (tip pinned)" if linkage.pinned else "open chain"
+        return f"<b>{label}</b>, {linkage.n} bars, {closure}"
+    return f"<b>{label}</b>, {html.escape(equations.name)}, {equations.bodies} bodies"
+
+
+def equations_html(linkage, method: str) -> str:
+    """HTML (with MathML) of the system ``A x = b`` the run of ``linkage`` (a chain or a mechanism) integrates
+    for ``method``: :func:`physics.equations_of_motion`, the one view of both panels."""
+    equations = _equations(linkage, method)
+    if equations is None:
+        return REDUCED
+    symbols = CHAIN_SYMBOLS if isinstance(linkage, physics.Chain) else MECHANISM_SYMBOLS
+    return _system_html(equations, _title(linkage, equations), symbols)
+
+
+def _system_html(equations, title: str, symbols: str) -> str:
+    """``A x = b`` as headed rows of MathML lines that fit the panel."""
     parts = [
-        f"<p>{title}: {len(unknowns)} equations, linear in the unknowns "
-        f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side.</p>",
+        f"<p>{title}: {len(equations.unknowns)} equations, linear in the unknowns "
+        f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side. State: "
+        f"{_heading(equations.coordinates)}.</p>",
         "<p>Unknowns <i>x</i>:</p>",
-        _math(sp.Matrix(unknowns).T),
+        f'<div style="overflow-x:auto">{_math(sp.Matrix(equations.unknowns).T)}</div>',
+        '<div style="overflow-x:auto">',
     ]
-
-    def expand_for_display(expr):
-        return sp.expand(expr) if simplify else expr
-
-    def tidy(expr):
-        # display only: products of sines and cosines become sin/cos of angle differences
-        return sp.trigsimp(sp.expand(expr)) if simplify else expr
-
-    parts.append('<div style="overflow-x:auto">')
-    for i, row_name in enumerate(system.equation_names):
-        lhs_terms = [
-            term.xreplace(names)
-            for j in range(len(unknowns))
-            if system.A[i, j] != 0
-            for term in sp.Add.make_args(expand_for_display(tidy(system.A[i, j]) * unknowns[j]))
-        ]
-        rhs = tidy(system.b[i]).xreplace(names)
-        text = _equation_lines(lhs_terms or [sp.Integer(0)], rhs)
+    for i, (row_name, lhs_terms, rhs) in enumerate(equations.rows):
+        text = _equation_lines(lhs_terms, rhs)
         if len(text) > MAX_ROW_CHARACTERS:
             text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
         parts.append(f"<p><b>{i + 1}. {_heading(row_name)}</b></p>{text}")
@@ -174,27 +152,67 @@ def _tex_text(text: str) -> str:
     return text
 
 
-def equations_tex(formulation: str, n: int, pinned: bool) -> str:
-    """A LaTeX document of the same system, from physics.codegen.equations_latex (cached beside the code)."""
-    if formulation.startswith("reduced"):
-        raise ValueError("the reduced model has no symbolic system of its own; choose a formulation")
+_TEX_LETTERS = {"θ": r"\theta", "ω": r"\omega", "φ": r"\varphi", "λ": r"\lambda"}
+_TEX_MARKS = {"\u0307": r"\dot", "\u0308": r"\ddot"}
 
-    data = physics.equations_latex(formulation, n, pinned)
-    label = METHOD_LABELS.get(formulation, formulation)
-    closure = "closed loop (tip pinned)" if pinned else "open chain"
+
+def tex_symbol(name: str) -> str:
+    """A readable symbol's name (``θ̈_1``, ``ẋ_crank``, ``s_O``, ``m_2``) as LaTeX (``\\ddot{\\theta}_{1}``,
+    ``\\dot{x}_{\\mathrm{crank}}``): pdflatex reads no Unicode letters."""
+    base, _, label = name.partition("_")
+    numbered = re.fullmatch(r"([A-Za-z]+)(\d+)", name)  # a mechanism's parameter: m0, ax3
+    if numbered:
+        base, label = numbered.groups()
+    mark = ""
+    while base and base[-1] in _TEX_MARKS:
+        mark, base = _TEX_MARKS[base[-1]], base[:-1]
+    base = "".join(_TEX_LETTERS.get(char, char) for char in base)
+    base = f"{mark}{{{base}}}" if mark else base
+    if not label:
+        return base
+    return f"{base}_{{{label}}}" if label.isdigit() or len(label) == 1 else f"{base}_{{\\mathrm{{{_tex_text(label)}}}}}"
+
+
+def _tex_prose(text: str) -> str:
+    """Text for LaTeX's text mode with the readable symbols in it (``θ_k``, ``λ``) as maths."""
+    parts = re.split(r"([θωφλ](?:_\w+)?)", text)
+    return "".join(f"${tex_symbol(part)}$" if k % 2 else _tex_text(part) for k, part in enumerate(parts))
+
+
+def _latex(expr) -> str:
+    return sp.latex(expr, symbol_names={symbol: tex_symbol(symbol.name) for symbol in expr.free_symbols})
+
+
+def latex_rows(equations) -> list[tuple[str, str]]:
+    """``(row name, "lhs = rhs" in LaTeX)`` per row of ``equations`` (:func:`physics.equations_of_motion`)."""
+    rows = []
+    for row_name, lhs_terms, rhs in equations.rows:
+        lhs = " + ".join(_latex(term) for term in lhs_terms).replace("+ -", "- ")
+        rows.append((row_name, f"{lhs} = {_latex(rhs)}"))
+    return rows
+
+
+def equations_tex(linkage, method: str) -> str:
+    """A LaTeX document of the same system the Equations tab shows (:func:`equations_html`), for any linkage."""
+    equations = _equations(linkage, method)
+    if equations is None:
+        raise ValueError("the reduced model has no symbolic system of its own; choose DAE, Lagrange or Newton-Euler")
+    title = re.sub(r"<[^>]+>", "", _title(linkage, equations))
     lines = [
         r"\documentclass{article}",
         r"\usepackage{amsmath}",
         r"\usepackage[margin=1.5cm,landscape]{geometry}",
         r"\begin{document}",
-        rf"\section*{{{label}, {n} bars, {closure}}}",
-        _tex_text(str(data.get("title", ""))),
+        rf"\section*{{{_tex_text(title)}}}",
+        textwrap.fill(_tex_prose(f"{len(equations.unknowns)} equations A x = b, solved at every evaluation of the "
+                                 f"right-hand side. State: {equations.coordinates}."), TEX_LINE_CHARACTERS,
+                      break_long_words=False, break_on_hyphens=False),
         "",
-        r"Unknowns: $x = \left(" + ", ".join(data["unknowns"]) + r"\right)$.",
+        r"Unknowns: $x = \left(" + ", ".join(_latex(u) for u in equations.unknowns) + r"\right)$.",
         r"\begin{enumerate}",
     ]
-    for row in data["rows"]:
-        lines.append(r"\item " + _tex_text(row["label"]))
-        lines.append(multline(row["latex"]))
+    for row_name, row in latex_rows(equations):
+        lines.append(r"\item " + _tex_prose(row_name))
+        lines.append(multline(row))
     lines += [r"\end{enumerate}", r"\end{document}", ""]
     return "\n".join(lines)

@@ -339,6 +339,8 @@ class MechanismSession(SessionBase):
         with self.tabs.add_tab("Equations"):
             self.equations_button = gui.add_button("Show the equations of the method")
             self.equations_button.on_click(lambda event: self.guard(self.show_equations))
+            self.equations_tex = gui.add_button("Download as LaTeX")
+            self.equations_tex.on_click(lambda event: self.download_equations(getattr(event, "client", None)))
             self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
                                           "for this mechanism (press the button).</p>")
         with self.tabs.add_tab("Export"):
@@ -908,19 +910,37 @@ class MechanismSession(SessionBase):
         """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
         mechanism in the Equations folder; ``wait``: return once shown (tests)."""
         mechanism, method, label = self.mechanism, self.settings.method, self.label
-        self.equations.content = f"<p><i>Deriving the {html.escape(METHODS[method])} equations...</i></p>"
+        self.equations.content = (f"<p><i>Deriving the {html.escape(METHODS[method])} equations (the first time "
+                                  f"for this mechanism and method: a few seconds)...</i></p>")
 
         def derive() -> None:
-            from .equations import mechanism_equations_html  # noqa: PLC0415 - sympy: only when asked for
+            from .equations import equations_html  # noqa: PLC0415 - sympy: only when asked for
 
             try:
-                content = mechanism_equations_html(mechanism, method)
+                content = equations_html(mechanism, method)
             except Exception as error:  # shown where the equations would be; the session goes on
                 content = f"<p>Could not derive the equations: {html.escape(f'{type(error).__name__}: {error}')}</p>"
             if not self.closed and self.label == label:  # not another mechanism's meanwhile
                 self.equations.content = content
 
         worker = threading.Thread(target=derive, daemon=True, name="mechanism-equations")
+        worker.start()
+        if wait:
+            worker.join()
+
+    def download_equations(self, client=None, wait: bool = False) -> None:
+        """Send the equations of the method in force as LaTeX (``download_file("tex")``), derived in a thread
+        (seconds the first time: never on the server's event loop); a refusal (the reduced model) is a notice."""
+        def send() -> None:
+            try:
+                name, content = self.download_file("tex")
+            except LinkageError as error:
+                self.show_notice("No equations to download", str(error))
+                return
+            if not self.closed:
+                (client or self.target).send_file_download(name, content)
+
+        worker = threading.Thread(target=send, daemon=True, name="mechanism-equations-tex")
         worker.start()
         if wait:
             worker.join()
@@ -936,8 +956,17 @@ class MechanismSession(SessionBase):
         if kind == "setup":
             stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
             return f"linkage-{stem}-setup.json", self.setup_document()
+        if kind == "tex":  # the equations of the method in force, as the Equations folder shows them
+            from .equations import equations_tex  # noqa: PLC0415 - sympy: only when asked for
+
+            stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
+            try:
+                text = equations_tex(self.mechanism, self.settings.method)
+            except ValueError as error:
+                raise LinkageError(str(error)) from None
+            return f"equations-{stem}-{self.settings.method}.tex", text.encode("utf-8")
         if kind not in ("csv", "json", "html"):
-            raise LinkageError(f"download = {kind!r}: allowed csv, json, html, setup")
+            raise LinkageError(f"download = {kind!r}: allowed csv, json, html, setup, tex")
         spec = self.player.runs[0].spec if self.player.runs else self.spec
         samples = readout.history(self.player, spec.label)
         stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)

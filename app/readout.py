@@ -49,7 +49,7 @@ def download_file(session, kind: str) -> tuple[str, bytes]:
         from . import equations  # noqa: PLC0415 - imports sympy: only when asked for
 
         try:
-            text = equations.equations_tex(p.method, p.n, p.pinned)
+            text = equations.equations_tex(p.chain, p.method)
         except ValueError as error:
             raise LinkageError(str(error)) from None
         return f"equations-{p.method}-{p.n}{'-pinned' if p.pinned else ''}.tex", text.encode("utf-8")

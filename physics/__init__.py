@@ -36,9 +36,22 @@ def reduced_available(chain: Chain) -> bool:
     return chain.pinned and chain.n == 3
 
 
+def equations_of_motion(linkage, method: str):
+    """The equations of motion ``method`` (``dae``, ``lagrange``, ``newton_euler``) integrates for ``linkage``, a
+    :class:`Chain` or a :class:`physics.mechanism.Mechanism`: the linear system ``A x = b`` solved at every
+    evaluation of the right-hand side, in readable symbols (a chain's ``theta``, ``L``, ``d``, a mechanism's body
+    names), as :class:`physics.mechanism.equations.EquationsOfMotion`. A chain's are those of the mechanism its
+    runs integrate (:func:`physics.mechanism.chains.chain_mechanism`). What the app's Equations tab shows and
+    downloads as LaTeX; sympy loads only when this is called (seconds the first time per structure)."""
+    from .mechanism.equations import equations_of_motion as derive  # noqa: PLC0415 - sympy: only when asked for
+
+    return derive(linkage, method)
+
+
 def derived_system(formulation: str, n: int, pinned: bool = False):
-    """One formulation's symbolic system of an ``n``-bar chain (``unknowns``, its equations), derived by sympy:
-    what the app's Equations tab shows. sympy loads only when this is called."""
+    """One formulation's symbolic system of an ``n``-bar chain from the chain's own derivation (:mod:`physics.derive`,
+    the chain formulas of docs/physics.md): an independent check of what runs, not what runs (that is
+    :func:`equations_of_motion`). sympy loads only when this is called."""
     from .derive import FORMULATIONS  # noqa: PLC0415 - sympy: only when asked for
 
     return FORMULATIONS[formulation]().derive(n, pinned)
@@ -64,6 +77,7 @@ __all__ = [
     "derived_system",
     "energies",
     "equations_latex",
+    "equations_of_motion",
     "get_preset",
     "code_missing",
     "load_run_systems",

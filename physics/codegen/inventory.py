@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..cache_folder import cache_dir, configured_path, read_tagged
 
-# A chain's own formulas (physics.codegen.load_compiled: the Equations tab, the studies that read them)
+# A chain's own formulas (physics.codegen.load_compiled: the tests' oracle, benchmarks, the seed report)
 _ENTRY = re.compile(r"^(newton_euler|lagrange|dae)-n(\d+)-(open|pinned)-([0-9a-f]{16})\.py$")
 # A mechanism's generated system on the engine every linkage runs on (physics.mechanism.engine, tree_dae): its
 # method, its pins' coordinates, its structure and the generator's digest; never its numbers

@@ -4,7 +4,8 @@ terms (issue 24, "one pipeline").
 :func:`physics.simulate` runs every chain here, on the engine that runs every mechanism
 (:mod:`physics.mechanism.engine`); there is no other route. The chain's own symbolic derivations
 (:mod:`physics.derive`, loaded by :func:`physics.codegen.load_compiled`) remain as the independent formulas the
-Equations tab shows and the tests check this route against. The chain is drawn hanging straight down
+tests check this route against; the Equations tab shows this route's own system
+(:func:`physics.equations_of_motion`). The chain is drawn hanging straight down
 (:func:`physics.mechanism.chains.chain_mechanism` at ``theta = 0``; bars ``bar1..barn``, pins ``O``, ``J1 ..
 J(n-1)`` and, for a pinned chain, ``H``; the chain's damping on every pin but ``H``), and its tree formulations
 use absolute rotations (docs/mechanisms.md, "Absolute rotations"): a pin's tree coordinate is then the child's

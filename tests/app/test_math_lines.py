@@ -6,9 +6,11 @@ import re
 
 import pytest
 
-from app.equations import PANEL_LINE_CHARACTERS, equations_html, equations_tex
+import physics
+from app.equations import PANEL_LINE_CHARACTERS, equations_html, equations_tex, latex_rows
 from app.math_lines import TEX_LINE_CHARACTERS, split_latex_terms, wrap_latex_equation
-from physics.codegen.latex import equations_latex
+
+CHAIN = physics.get_preset("triple-a").chain  # three bars, open
 
 
 def _unbroken(text: str) -> str:
@@ -25,13 +27,13 @@ def test_terms_split_only_at_top_level_binary_signs():
 
 @pytest.mark.parametrize("formulation", ["newton_euler", "lagrange", "dae"])
 def test_latex_rows_break_into_short_lines_that_rebuild_the_equation(formulation):
-    data = equations_latex(formulation, 3, False)
-    longest_before = max(len(row["latex"]) for row in data["rows"])
+    rows = [row for _, row in latex_rows(physics.equations_of_motion(CHAIN, formulation))]
+    longest_before = max(len(row) for row in rows)
     if formulation != "dae":  # minimal-coordinate rows are long: the test means something
         assert longest_before > 3 * TEX_LINE_CHARACTERS
-    for row in data["rows"]:
-        lines = wrap_latex_equation(row["latex"])
-        assert _unbroken("".join(lines)) == _unbroken(row["latex"])
+    for row in rows:
+        lines = wrap_latex_equation(row)
+        assert _unbroken("".join(lines)) == _unbroken(row)
         assert max(len(line) for line in lines) <= TEX_LINE_CHARACTERS + 10, lines
         for line in lines:  # every line is valid on its own: \left/\right and braces pair up within it
             assert line.count("\\left") == line.count("\\right"), line
@@ -40,14 +42,14 @@ def test_latex_rows_break_into_short_lines_that_rebuild_the_equation(formulation
 
 
 def test_latex_document_has_no_overlong_lines():
-    tex = equations_tex("lagrange", 3, False)
+    tex = equations_tex(CHAIN, "lagrange")
     assert "\\begin{multline*}" in tex and " \\\\\n" in tex
     assert max(len(line) for line in tex.splitlines()) <= TEX_LINE_CHARACTERS + 20
 
 
 @pytest.mark.slow  # renders every formulation's equations (sympy)
 def test_panel_rows_are_broken_into_lines_of_maths():
-    html = equations_html("lagrange", 3, False)
+    html = equations_html(CHAIN, "lagrange")
     rows = re.split(r"<p><b>\d+\. ", html)[1:]
     assert len(rows) == 3
     assert "theta_" not in html and "\u03b8<sub>1</sub>" in html  # headings read as maths

@@ -232,17 +232,21 @@ def test_exports(connect):
     assert html.lstrip().lower().startswith("<!doctype html") and "__VISER_EMBED_DATA__" in html
 
 
+DOUBLE = physics.get_preset("double").chain  # two bars, open
+
+
 def test_equations_panel_renders_mathml():
-    html = equations_html("newton_euler", 2, False)
+    html = equations_html(DOUBLE, "newton_euler")
     assert html.count("<math") >= 3
     assert "&#952;" in html  # theta, printed by sympy's MathML printer
     assert "AMB" in html or "angular momentum" in html.lower() or "Newton-Euler" in html
 
 
 def test_equations_as_latex_document():
-    tex = equations_tex("dae", 2, False)
+    tex = equations_tex(DOUBLE, "dae")
     assert tex.startswith("\\documentclass") and tex.rstrip().endswith("\\end{document}")
-    assert tex.count("\\item ") == 10  # DAE, 2 bars: 4 LMB + 2 AMB + 4 joint constraints
+    # the DAE a chain's run integrates, 2 bars: 4 LMB + 2 AMB + 4 pin rows + 2 rows of the bars' angles
+    assert tex.count("\\item ") == 12
     assert "\\ddot{\\theta}_{1}" in tex
 
 
