@@ -91,7 +91,7 @@ def equations_html(formulation: str, n: int, pinned: bool) -> str:
     if formulation.startswith("reduced"):
         return (
             "<p>The <b>reduced</b> model integrates the closed loop in its one free coordinate and recovers "
-            "the other angles by position analysis (physics.assembly). It has no symbolic system of its own "
+            "the other angles by position analysis (physics.loop_closure). It has no symbolic system of its own "
             "to show here; choose Newton-Euler, Lagrange or DAE to see the equations of the loop.</p>"
         )
 

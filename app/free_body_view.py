@@ -2,7 +2,7 @@
 
 Why here and not in physics/fbd.py: that module solves the DAE for one state (right for an SVG on demand); on
 the player thread nothing is solved. The ring already holds, per sample, the joint positions and every joint
-reaction (physics/reactions.py, every method) and the pin's reaction of a closed loop, so a frame only picks
+reaction (physics/chain_reactions.py, every method) and the pin's reaction of a closed loop, so a frame only picks
 values. The forces on bar k (1-based), with the sign convention of docs/architecture.md:
 
 * gravity ``(0, -m_k g)`` at its centre of mass G_k;

@@ -1,4 +1,4 @@
-"""The stability study (physics.studies.stability): each case runs, on shorter horizons than docs/stability.md, and
+"""The stability study (physics.studies.stability_study): each case runs, on shorter horizons than docs/stability.md, and
 shows what the docs say it shows."""
 
 from __future__ import annotations
