@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from physics.kernels import reduced as kernel
+from physics.kernels import reduced_evaluation as kernel
 from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints

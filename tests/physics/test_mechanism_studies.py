@@ -19,7 +19,8 @@ from physics.errors import LinkageError
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
-from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability, work_precision
+from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, work_precision
+from physics.studies import stability_study as stability
 from physics.studies.charts import fan_picture
 from physics.studies.mechanism_stability import (
     change_point_mechanism,

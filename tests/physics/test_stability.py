@@ -14,7 +14,8 @@ import numpy as np
 from physics import apply_overrides, get_preset, load_compiled
 from physics.simulate import SINGULAR_PIVOT_RATIO
 from physics.simulate.chain_system import chain_system
-from physics.studies import stability, stability_figures
+from physics.studies import stability_figures
+from physics.studies import stability_study as stability
 
 ROOT = Path(__file__).resolve().parents[2]
 
