@@ -17,8 +17,8 @@ import numpy as np
 
 import physics
 from physics import LinkageError
+from physics.chain_presets import get_preset
 from physics.ensemble import Ensemble
-from physics.presets import get_preset
 
 from .buffers import ThinnedSeries
 from .logs import quietly

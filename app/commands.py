@@ -23,7 +23,7 @@ import annotated_types
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from physics import Bar, Chain, LinkageError, Settings, TracePoint, assembly
+from physics import Bar, Chain, LinkageError, Settings, TracePoint, loop_closure
 from physics.model import MAX_LINKS, PARAMETER_FIELDS, check_mass_matrix
 
 from .parameters import Display, SessionParameters, driving_count, settings_data
@@ -241,7 +241,7 @@ def _degrees_in_turn(radians: float) -> float:
 
 
 def _in_degrees(text: str) -> str:
-    """physics.assembly speaks radians; the panel's angles are degrees: one unit in one message, angles within
+    """physics.loop_closure speaks radians; the panel's angles are degrees: one unit in one message, angles within
     one turn (a range that passes 360 reads "300.0° round to 6.0°"), and the loop's reason without repeating
     "the loop cannot close"."""
     text = re.sub(r"(theta\d+)=(-?[\d.]+(?:e-?\d+)?)",
@@ -376,13 +376,13 @@ def _apply_start(params: SessionParameters, name: str, q: Quantity, k: int, numb
                     f"kept {name} = {q.shown(params.theta0[k - 1])}"
                 ) from None
             try:
-                omega0 = assembly.project_velocity(params.L, theta0, omega0)
+                omega0 = loop_closure.project_velocity(params.L, theta0, omega0)
             except LinkageError:  # a dead centre: start from rest rather than refuse the angle
                 omega0 = np.zeros_like(omega0)
     else:
         omega0[k - 1] = number
         if params.pinned:
-            omega0 = assembly.project_velocity(params.L, theta0, omega0[:count])
+            omega0 = loop_closure.project_velocity(params.L, theta0, omega0[:count])
     return Edit(params.replaced(theta0=theta0, omega0=omega0), restart=True, geometry=False)
 
 

@@ -97,15 +97,15 @@ def _from_log10(exponent: float) -> float:
 
 
 def preset_description(p) -> str:
-    """The preset's own description (physics.presets), for the line under the mechanism menu."""
+    """The preset's own description (physics.chain_presets), for the line under the mechanism menu."""
     preset = physics.get_preset(p.preset, p.n if p.preset == "chain" else None)
     return preset.description or p.preset
 
 
 def reach_text(p) -> str:
-    """Where a four-bar's theta1 can be set: the closed-form intervals of physics.assembly.driving_range, in
+    """Where a four-bar's theta1 can be set: the closed-form intervals of physics.loop_closure.driving_range, in
     degrees within one turn, as the slider shows angles."""
-    intervals = physics.assembly.driving_range(p.L, p.pin)
+    intervals = physics.loop_closure.driving_range(p.L, p.pin)
     if not intervals:
         return "*theta1 reachable: nowhere: this loop cannot close (change a length or the pin)*"
     parts = []
@@ -294,7 +294,7 @@ class Controls:
             self.mechanism = gui.add_dropdown("Mechanism", [*physics.preset_names(), *MECHANISM_PRESETS],
                                               initial_value=p.preset)
             self.bind(self.mechanism, lambda value, event: s.set_mechanism(value))
-            self.description = gui.add_markdown("")  # what the chosen preset is and teaches (physics.presets)
+            self.description = gui.add_markdown("")  # what the chosen preset is and teaches (physics.chain_presets)
             self.preset_defaults = gui.add_button("Reset to the preset's values",
                                                   hint="Lengths, masses, inertias, gravity and angles as the preset has them")
             self.bind(self.preset_defaults, lambda value, event: self.reset_to_preset())

@@ -15,7 +15,7 @@ import numpy as np
 def columns(history: dict[str, np.ndarray], method: str, pinned: bool) -> dict[str, np.ndarray]:
     """Named 1-D columns: ``t, theta1..n, omega1..n, tip_x, tip_y, kinetic, potential, energy``, then joint
     reactions ``R0x, R0y, ...`` (every method: the DAE solves for them, the others recover them from the
-    accelerations, physics/reactions.py), then ``RHx, RHy, constraint_x, constraint_y`` (closed loops), then
+    accelerations, physics/chain_reactions.py), then ``RHx, RHy, constraint_x, constraint_y`` (closed loops), then
     ``trace_x, trace_y``."""
     n = history["theta"].shape[1]
     cols = {"t": history["t"]}

@@ -327,5 +327,5 @@ def compare_key(scene, reach: float, centre: tuple[float, float] = (0.0, 0.0)) -
 
 def reactions_available(params: SessionParameters) -> bool:
     """Joint reactions exist for every method: the DAE solves for them, the others recover them from the
-    accelerations (physics/reactions.py); closed loops add the pin's."""
+    accelerations (physics/chain_reactions.py); closed loops add the pin's."""
     return True

@@ -4,7 +4,7 @@ on it at the displayed sample, with names and values, the labels laid out so tha
 Where the loads come from (both are physics' own, the drawing is the same):
 
 * **A chain** (:class:`app.session.Session`): the ring already holds, per sample, the joint positions and every
-  joint reaction (physics/reactions.py, every method) and the pin's reaction of a closed loop, so a frame only
+  joint reaction (physics/chain_reactions.py, every method) and the pin's reaction of a closed loop, so a frame only
   picks values (:func:`forces_on_bar`), no solve on the player thread. The forces on bar k (1-based), with the
   sign convention of docs/architecture.md: gravity ``(0, -m_k g)`` at G_k; ``R_{k-1}`` at its proximal joint
   (the force ON bar k BY bar k-1, the ground for k = 1); ``-R_k`` at its distal joint (not on the last bar);

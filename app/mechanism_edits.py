@@ -20,7 +20,7 @@ from pydantic import ValidationError
 from physics import LinkageError
 from physics.mechanism import Body, Driver, Gear, Mechanism
 from physics.mechanism.assembly import sketch_size
-from physics.mechanism.model import MAX_INERTIA
+from physics.mechanism.description import MAX_INERTIA
 from physics.mechanism.validation import MAX_COORDINATE, MIN_INERTIA, MIN_MASS, check_runnable
 from physics.model import MAX_ANGULAR_SPEED, MECHANISM_MAX_TOLERANCE, MIN_RTOL
 

@@ -21,7 +21,7 @@ from physics.mechanism import Mechanism, Prismatic, Revolute
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints, points_at_poses
 from physics.mechanism.joints import kind_of
-from physics.mechanism.run import BodyPoints, body_points, coordinate_names, run_table
+from physics.mechanism.run_table import BodyPoints, body_points, coordinate_names, run_table
 from physics.mechanism.singularity import jacobian_condition
 from physics.mechanism.validation import check_runnable
 from physics.model import MECHANISM_MAX_TOLERANCE, MIN_RTOL, IntegratorName, StabilizationName
@@ -220,7 +220,7 @@ class MechanismSpec:
     # arguments; None: in this interpreter
     runner: Callable[..., object] | None = None
     draw: Drawing = field(init=False)
-    points: BodyPoints = field(init=False)  # its named points (physics.mechanism.run): the drawing's paths
+    points: BodyPoints = field(init=False)  # its named points (physics.mechanism.run_table): the drawing's paths
     # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
     structure: str = field(init=False)
     constraints: Constraints = field(init=False)  # its Phi(q, t): the condition at a shown sample (condition_at)
@@ -276,7 +276,7 @@ class MechanismSpec:
     def _samples(self, t, q, qdot, kinetic, potential, residual, reactions, condition=None, *,
                  paths: BodyPoints) -> dict[str, np.ndarray]:
         """A chunk's stored samples. Every drawn point's path is the run's own (``paths``: physics' named
-        points, :class:`~physics.mechanism.run.BodyPoints`, whose first names are the drawing's labels), never
+        points, :class:`~physics.mechanism.run_table.BodyPoints`, whose first names are the drawing's labels), never
         computed here again; the traced one is one of them, else the first body's centre."""
         points = np.stack([paths.path(q, k) for k in range(len(self.draw.labels))], axis=1)
         k = self.trace_index()

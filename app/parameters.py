@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import physics
-from physics import Chain, LinkageError, Settings, TracePoint, assembly, get_preset
+from physics import Chain, LinkageError, Settings, TracePoint, get_preset, loop_closure
 from physics.model import check_state, validated
 
 METHOD_LABELS = {
@@ -218,13 +218,13 @@ class SessionParameters:
             raise LinkageError(f"trace: the traced point must lie on one of the {self.n} bars")
         check_state(self.n, self.theta0, self.omega0)
         if chain.pinned:
-            gap = float(np.hypot(*assembly.loop_residual(self.L, self.theta0, self.pin)))
+            gap = float(np.hypot(*loop_closure.loop_residual(self.L, self.theta0, self.pin)))
             if not gap <= 1e-8:
                 raise LinkageError(f"the start does not close the loop (tip misses the pin by {gap:.3g})")
 
     def assembled(self, theta_driving, theta_prev=None, L=None, pin=None) -> np.ndarray:
-        """Start angles of a closed loop from its driving angles (physics.assembly); LinkageError if unreachable."""
-        return assembly.assemble(
+        """Start angles of a closed loop from its driving angles (physics.loop_closure); LinkageError if unreachable."""
+        return loop_closure.assemble(
             self.L if L is None else L, self.pin if pin is None else pin,
             np.asarray(theta_driving, float), theta_prev=theta_prev,
         )

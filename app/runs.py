@@ -112,7 +112,7 @@ def com_ratio(chain) -> np.ndarray:
 
 
 def chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
-    """The ring's fields from a physics Trajectory (joint reactions for every method: physics/reactions.py)."""
+    """The ring's fields from a physics Trajectory (joint reactions for every method: physics/chain_reactions.py)."""
     out = {
         "t": traj.t,
         "theta": traj.theta,
@@ -123,7 +123,7 @@ def chunk_dict(traj, n: int, pinned: bool) -> dict[str, np.ndarray]:
         "potential": traj.potential,
         "energy": traj.energy,
     }
-    if traj.joint_reactions.shape[1:] == (n, 2):  # every method's (physics/reactions.py)
+    if traj.joint_reactions.shape[1:] == (n, 2):  # every method's (physics/chain_reactions.py)
         out["reactions"] = traj.joint_reactions
     if pinned:
         if traj.constraint_xy.shape[1:] == (2,):

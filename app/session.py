@@ -431,7 +431,7 @@ class Session(SessionBase):
         except LinkageError as error:
             raise LinkageError(f"the moving linkage cannot close with these values: {error}") from None
         try:
-            omega = physics.assembly.project_velocity(p.L, theta, omega)
+            omega = physics.loop_closure.project_velocity(p.L, theta, omega)
         except LinkageError:  # a dead centre: the loop goes on from rest
             omega = np.zeros_like(omega)
         return theta, omega

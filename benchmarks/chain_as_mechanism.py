@@ -59,7 +59,7 @@ WORKER = r"""
 import inspect, itertools, json, statistics, sys, time
 import physics
 from physics.model import Settings
-from physics.presets import get_preset
+from physics.chain_presets import get_preset
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.simulate import simulate_mechanism
 

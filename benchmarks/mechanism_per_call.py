@@ -48,7 +48,7 @@ WORKER = r"""
 import inspect, json, statistics, sys, time
 import physics
 from physics.model import Settings
-from physics.presets import get_preset
+from physics.chain_presets import get_preset
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
@@ -82,7 +82,7 @@ for method in sys.argv[1].split(","):
         from physics.mechanism.parameters import parameter_vector
         from physics.mechanism.tree_coordinates import tree_state
         from physics.mechanism.tree_dae import compiled_tree_dae
-        from physics.simulate.prepared import chain_arrays
+        from physics.simulate.chain_prepared import chain_arrays
 
         t_eval = np.linspace(0.0, 20.0, 200)
         q0, _ = chain_state(preset.chain, preset.theta0, preset.theta0, preset.omega0)

@@ -38,7 +38,7 @@ TRIPLE_FILE = ROOT / "docs" / "examples" / "triple-pendulum.json"
 EDIT_SCRIPT = r"""
 import time
 from physics.mechanism import MECHANISM_PRESETS
-from physics.mechanism.model import Mechanism
+from physics.mechanism.description import Mechanism
 from physics.mechanism.simulate import simulate_mechanism
 base = MECHANISM_PRESETS["slider-crank"]()
 simulate_mechanism(base, 0.25, 16)

@@ -38,10 +38,10 @@ CASES = ("four-bar (chain)", "four-bar (mechanism)", "slider-crank", "watt-six-b
 def _runners(t_end: float, samples: int):
     """One callable per case, each running it for ``t_end`` s (and returning its run's evaluation count)."""
     import physics  # noqa: PLC0415  (the tree on the path: this one, or the one --before names)
+    from physics.chain_presets import get_preset  # noqa: PLC0415
     from physics.mechanism import MECHANISM_PRESETS  # noqa: PLC0415
     from physics.mechanism.chains import chain_mechanism  # noqa: PLC0415
     from physics.mechanism.reduced import simulate_reduced  # noqa: PLC0415
-    from physics.presets import get_preset  # noqa: PLC0415
 
     preset = get_preset("four-bar")
 

@@ -63,7 +63,7 @@ elif sys.argv[1] == "pin-rows":
     import timeit
     from physics.mechanism.chains import chain_mechanism
     from physics.mechanism.prepared import prepared
-    from physics.presets import get_preset
+    from physics.chain_presets import get_preset
     loaded = get_preset(sys.argv[2])
     pieces = prepared(chain_mechanism(loaded.chain, loaded.theta0))
     q = pieces.constraints.sketch_pose() + 0.1

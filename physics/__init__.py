@@ -5,6 +5,7 @@ re-exported here; see docs/architecture.md for conventions and shapes.
 """
 
 from . import blas_start  # noqa: F401  (first: numpy, with one BLAS thread in a command-line process)
+from .chain_presets import Preset, get_preset, preset_names
 from .codegen import CompiledSystem, equations_latex, load_compiled
 from .codegen.cache import is_generated
 from .codegen.prebuild import code_missing, load_run_systems
@@ -23,7 +24,6 @@ from .model import (
     make_chain,
     parameter_names,
 )
-from .presets import Preset, get_preset, preset_names
 from .registry import INTEGRATORS, METHODS
 from .simulate import Trajectory, simulate
 from .status import Status

@@ -19,17 +19,17 @@ import time
 import numpy as np
 
 from .arguments import Parser, parse_floats, parse_integers, parse_set
-from .assembly import assemble, grashof, project_velocity
+from .chain_presets import get_preset, mechanism_summaries, preset_names
 from .errors import LinkageError
 from .evaluate import accelerations
 from .kernels import numba_start
 from .kernels.constants import RK4_WORK_ROWS
 from .kinematics import joint_positions
 from .long_run import simulate_in_segments
+from .loop_closure import assemble, grashof, project_velocity
 from .model import Settings, TracePoint, apply_overrides, make_chain, validated
 from .notices import install_stderr_lines
 from .outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, partial_note, write_ensemble, write_output
-from .presets import get_preset, mechanism_summaries, preset_names
 from .program import program_name, version_text
 from .registry import (
     BACKENDS,

@@ -19,13 +19,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .assembly import assemble, project_velocity
 from .errors import LinkageError
 from .kernels.constants import RK4_WORK_ROWS, SINGULAR_PIVOT_RATIO
 from .kinematics import energies, joint_positions
+from .loop_closure import assemble, project_velocity
 
 if TYPE_CHECKING:  # the general engine is loaded only for a mechanism's ensemble (a chain's start stays lean)
-    from .mechanism.model import Mechanism
+    from .mechanism.description import Mechanism
     from .simulate.trajectory import Trajectory
 from .model import BAUMGARTE_ALPHA, BAUMGARTE_BETA, FORMULATION_NAMES, Chain, check_state
 from .simulate.chain_system import chain_system

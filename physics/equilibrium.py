@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
-from .assembly import loop_jacobian, loop_residual
 from .errors import LinkageError
 from .kinematics import lever_arms, potential_energy
+from .loop_closure import loop_jacobian, loop_residual
 
 # Newton on the Lagrange conditions stops when the residual is this small relative to the weights m g L.
 KKT_RTOL = 1e-14
@@ -94,7 +94,7 @@ def static_equilibrium(L, d, m, g, pin, theta_guess) -> Equilibrium:
     if not gap <= 1e-8 * size:
         raise LinkageError(
             f"no closed configuration found near theta_guess = {theta_guess.tolist()}: the tip stays {gap:.3g} "
-            f"from the pin; check that the loop can close (physics.assembly.driving_range)"
+            f"from the pin; check that the loop can close (physics.loop_closure.driving_range)"
         )
     result = minimize(
         lambda th: float(potential_energy(L, d, m, g, th)),

@@ -18,18 +18,18 @@ import json
 import sys
 
 from .arguments import Parser
+from .chain_presets import get_preset, preset_names
 from .errors import LinkageError
 from .file_io import read_limited
 from .mechanism.chains import chain_mechanism
+from .mechanism.description import Mechanism
 from .mechanism.files import MAX_FILE_BYTES, load_mechanism
 from .mechanism.mjcf import MAX_TIMESTEP, MJCF_TIMESTEP, to_mjcf
-from .mechanism.model import Mechanism
 from .mechanism.presets import MECHANISM_PRESETS
 from .mechanism.pylinkage_format import DENSITY_NOTE, mechanism_from_pylinkage, to_pylinkage
 from .mechanism.writer import to_json, to_toml
 from .model import MAX_LINKS
 from .outputs import check_output_path, write_output
-from .presets import get_preset, preset_names
 
 FORMATS = ("mjcf", "pylinkage", "toml", "json")
 PYLINKAGE_EXPORT_NOTE = ("note: pylinkage's JSON holds no masses, inertias, damping or gravity; only the geometry, "

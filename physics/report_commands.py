@@ -16,9 +16,9 @@ import sys
 from pathlib import Path
 
 from .arguments import Parser
+from .chain_presets import get_preset, preset_names
 from .fbd import MAX_FBD_TIME, fbd_svg, free_body_at
 from .outputs import check_output_folder, check_output_path, write_output
-from .presets import get_preset, preset_names
 from .rest_positions import rest_positions
 from .seed_report import print_summary, write_study
 

@@ -7,7 +7,7 @@ loop's manifold for a closed chain); it is stable where V has a strict minimum t
   depends on one angle each, so the rest positions are every bar straight down or straight up (2^n of them)
   and only all-down is stable (the Hessian is ``diag(w_i cos theta_i)``).
 * Closed chain (one degree of freedom for the four-bar): V is sampled along the whole loop (both assembly
-  branches, :func:`physics.assembly.driving_range`), and each local minimum and maximum of the samples is
+  branches, :func:`physics.loop_closure.driving_range`), and each local minimum and maximum of the samples is
   refined and classified by :func:`physics.equilibrium.stationary_point` (Newton on the Lagrange conditions).
 """
 
@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import assemble, driving_range
 from .equilibrium import stationary_point
 from .errors import LinkageError
+from .loop_closure import assemble, driving_range
 from .model import Chain
 
 # Samples of V along each assembly branch of a closed loop: enough that neighbouring stationary points (a

@@ -32,14 +32,14 @@ from typing import TextIO
 
 import numpy as np
 
+from .chain_presets import get_preset
 from .fbd import fbd_svg, free_body_at
 from .file_io import write_atomically
 from .kernels import ode45
 from .model import FORMULATION_NAMES, Settings, validated
-from .presets import get_preset
 from .simulate import Trajectory, simulate
+from .simulate.chain_prepared import stabilization_gains
 from .simulate.chain_system import chain_system
-from .simulate.prepared import stabilization_gains
 from .status import Status
 from .studies.charts import DASHES, PALETTE, Series, line_chart
 

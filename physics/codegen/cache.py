@@ -45,7 +45,7 @@ SPECIALISE_IN_BACKGROUND = True
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "kernels/layout.py", "model.py")
 _GENERATOR_PATTERNS = ("mechanism/parameters.py", "mechanism/symbolic*.py", "mechanism/joints/*.py",
-                       "mechanism/model.py", "mechanism/topology.py")  # a mechanism's derivations, the model
+                       "mechanism/description.py", "mechanism/topology.py")  # a mechanism's derivations, the model
 # they read and the spanning tree's search (the order of the tree formulations' coordinates)
 MAX_LINKS = 12
 _MAC_PREFIX = b"# hmac-sha256: "

@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
+from ..chain_presets import get_preset
 from ..errors import LinkageError
 from ..kinematics import joint_positions
 from ..model import Chain, Settings
-from ..presets import get_preset
 from ..simulate import simulate
 from ..simulate.chain_record import load_record
 from ..simulate.chain_system import chain_system

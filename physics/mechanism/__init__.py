@@ -9,7 +9,7 @@ joint interface").
 
 from .assembly import Assembled, assemble
 from .constraints import Constraints
-from .model import Body, Driver, Gear, Mechanism, Prismatic, Revolute
+from .description import Body, Driver, Gear, Mechanism, Prismatic, Revolute
 from .presets import MECHANISM_PRESETS
 from .topology import Loop, Topology, analyse
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from .constraints import Constraints
-from .model import Mechanism
+from .description import Mechanism
 from .topology import Loop, Topology, analyse
 
 if TYPE_CHECKING:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..kinematics import com_positions, com_velocities, joint_positions
 from ..model import Chain
-from .model import Body, Mechanism, Revolute
+from .description import Body, Mechanism, Revolute
 
 
 def chain_mechanism(chain: Chain, theta_sketch, damping: float = 0.0) -> Mechanism:

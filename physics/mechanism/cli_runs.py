@@ -28,8 +28,8 @@ from ..arguments import Parser, parse_floats, parse_set
 from ..errors import LinkageError
 from ..outputs import check_output_path, write_ensemble, write_output
 from .command import RunRequest, integrator_options, integrator_request, run_and_report
+from .description import Mechanism
 from .files import load_mechanism, mechanism_from_document
-from .model import Mechanism
 from .presets import MECHANISM_PRESETS
 from .simulate import RUN_METHODS
 from .statics import STATE_METHODS, check_state, evaluate, free_body, rest_poses, start_state

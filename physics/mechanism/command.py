@@ -28,10 +28,10 @@ from ..outputs import EXIT_RUN_STOPPED, check_output_path, check_partial_path, p
 from ..registry import BACKENDS, INTEGRATOR_NAMES, STABILIZATIONS
 from ..simulate.trajectory import Trajectory
 from .assembly import assemble
+from .description import Mechanism
 from .files import load_mechanism
-from .model import Mechanism
 from .presets import MECHANISM_PRESETS
-from .run import run_table  # noqa: F401 - the table's writer, where the app reads it too
+from .run_table import run_table  # noqa: F401 - the table's writer, where the app reads it too
 from .simulate import RUN_METHODS, run_options
 from .singularity import NEAR_SINGULAR_CONDITION
 from .validation import check_runnable

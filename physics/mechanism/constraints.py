@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .description import GROUND, Mechanism
 from .joints import KINDS, MOTOR, Kinematics, Translation, kind_of
-from .model import GROUND, Mechanism
 
 
 def rotation(phi: float) -> np.ndarray:

@@ -23,7 +23,7 @@ from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
 from ..kernels.first_compile import call_announced
 from ..kernels.layout import LAYOUT_WEIGHTS
-from .model import Mechanism
+from .description import Mechanism
 from .parameters import parameter_vector, structure, structure_key
 
 if TYPE_CHECKING:
@@ -259,7 +259,7 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
     from ..simulate.trajectory import Trajectory  # noqa: PLC0415
     from ..status import Status  # noqa: PLC0415
     from .prepared import prepared  # noqa: PLC0415
-    from .run import traced_path  # noqa: PLC0415
+    from .run_table import traced_path  # noqa: PLC0415
 
     method, stabilization = settings.method, settings.stabilization
     pieces = prepared(mechanism) if pieces is None else pieces

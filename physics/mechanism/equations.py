@@ -21,7 +21,7 @@ import sympy as sp
 
 from ..derive.formulation import LinearSystem
 from ..model import Chain
-from .model import Mechanism
+from .description import Mechanism
 from .parameters import Structure, structure
 from .symbolic import derive_structure
 from .symbolic_parameters import parameter_symbols

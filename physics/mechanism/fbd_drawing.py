@@ -15,7 +15,7 @@ from html import escape
 import numpy as np
 
 from .constraints import Constraints
-from .model import Mechanism
+from .description import Mechanism
 from .statics import FreeBody
 
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")

@@ -1,4 +1,4 @@
-"""Reading a mechanism file (TOML or JSON) into a validated :class:`~physics.mechanism.model.Mechanism`.
+"""Reading a mechanism file (TOML or JSON) into a validated :class:`~physics.mechanism.description.Mechanism`.
 
 The file is the user's; every refusal is one line that names the file, the element (the body or joint by its
 name, not by its position in a list) and the field, so the command line can print it and the app can show it
@@ -16,8 +16,8 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import LinkageError
 from ..file_io import read_limited
+from .description import Body, Driver, Mechanism
 from .joints import KINDS
-from .model import Body, Driver, Mechanism
 
 MAX_FILE_BYTES = 1_000_000
 

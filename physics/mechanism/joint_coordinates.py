@@ -20,8 +20,8 @@ import numpy as np
 
 from .assembly import sketch_size
 from .constraints import Constraints, rotation
+from .description import GROUND, Mechanism
 from .joints import Rotation, Translation, kind_of
-from .model import GROUND, Mechanism
 
 _PERP = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees
 

@@ -34,7 +34,7 @@ import math
 import xml.etree.ElementTree as ET
 
 from ..errors import LinkageError
-from .model import GROUND, Gear, Mechanism, Prismatic, Revolute
+from .description import GROUND, Gear, Mechanism, Prismatic, Revolute
 from .posed import at_assembled_pose
 
 MJCF_TIMESTEP = 2e-4  # s: the file's default time step (``timestep=`` or ``--timestep`` for another)

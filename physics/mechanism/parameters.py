@@ -28,8 +28,8 @@ from typing import Literal
 
 import numpy as np
 
+from .description import GROUND, Mechanism
 from .joints import MOTOR, kind_of
-from .model import GROUND, Mechanism
 
 TIME = "t"
 GRAVITY = "g"

@@ -21,9 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from .constraints import Constraints, _Frame
+from .description import GROUND, Mechanism
 from .joints import kind_of
 from .joints.revolute import KIND as PIN
-from .model import GROUND, Mechanism
 
 _rows_at_pose = PIN.rows_at_pose  # looked up once: rows_at is a run's assembly's inner step
 

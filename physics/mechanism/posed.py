@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from .assembly import assemble
 from .constraints import Constraints
+from .description import Body, Mechanism
 from .joints import kind_of
-from .model import Body, Mechanism
 
 
 def at_assembled_pose(mechanism: Mechanism) -> Mechanism:

@@ -2,7 +2,7 @@
 
 Every run of a mechanism needs the same pieces of the same description: the constraint equations grouped by joint
 kind (:class:`~physics.mechanism.constraints.Constraints`), the mass diagonal and gravity
-(:class:`~physics.mechanism.dae.MechanismDAE`), the spanning tree, the parameter vector, the projection's
+(:class:`~physics.mechanism.numeric_dae.MechanismDAE`), the spanning tree, the parameter vector, the projection's
 weights, the names of the coordinates and reaction rows, the named points. None of them depends on anything but
 the mechanism's numbers and names, so :func:`prepared` keeps them, keyed on the mechanism's full content (its
 JSON, every field: a mechanism edited in the app is another object with other numbers, and so another key; two
@@ -29,10 +29,10 @@ import numpy as np
 
 from ..errors import LinkageError
 from .constraints import Constraints
-from .dae import MechanismDAE
-from .model import Mechanism
+from .description import Mechanism
+from .numeric_dae import MechanismDAE
 from .parameters import parameter_vector, structure_key
-from .run import BodyPoints, body_points, coordinate_names
+from .run_table import BodyPoints, body_points, coordinate_names
 from .topology import Topology, open_tree_of_pins
 
 if TYPE_CHECKING:

@@ -1,4 +1,4 @@
-"""Mechanisms a lecturer shows, written in the file format of :mod:`physics.mechanism.model`.
+"""Mechanisms a lecturer shows, written in the file format of :mod:`physics.mechanism.description`.
 
 Each sketch is computed from the mechanism's link lengths by intersecting circles (one dyad at a time), so the
 drawing is exactly assembled and on the branch the textbooks show; the bodies are uniform bars (mass
@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .model import Body, Driver, Gear, Mechanism, Prismatic, Revolute
+from .description import Body, Driver, Gear, Mechanism, Prismatic, Revolute
 
 Point = tuple[float, float]
 LINEAR_DENSITY = 1.0  # kg per metre of bar

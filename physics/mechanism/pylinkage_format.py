@@ -35,7 +35,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import LinkageError
-from .model import GROUND, Body, Driver, Gear, Mechanism, Prismatic, Revolute
+from .description import GROUND, Body, Driver, Gear, Mechanism, Prismatic, Revolute
 from .posed import at_assembled_pose
 from .presets import LINEAR_DENSITY
 

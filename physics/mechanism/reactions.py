@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .description import Mechanism
 from .joints import MOTOR, kind_of
-from .model import Mechanism
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> float:

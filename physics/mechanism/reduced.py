@@ -1,7 +1,7 @@
 """The reduced model of a one-degree-of-freedom mechanism: one joint coordinate integrated as one ODE, with
 coordinate switching at its dead centres.
 
-The maximal-coordinate DAE (:mod:`physics.mechanism.dae`) integrates ``3 B`` positions and velocities and
+The maximal-coordinate DAE (:mod:`physics.mechanism.numeric_dae`) integrates ``3 B`` positions and velocities and
 projects them back onto the constraints. A mechanism of mobility 1 needs only one coordinate ``s``: a pin's
 relative angle or a slider's travel (:mod:`physics.mechanism.joint_coordinates`). Every other position comes
 from position analysis, so the constraints hold to rounding by construction, and the equation of motion is the
@@ -41,14 +41,14 @@ from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
 from ..status import Status
 from .assembly import assemble, mobility_text_for, sketch_size
-from .dae import MechanismDAE
+from .description import Mechanism
 from .joint_coordinates import JointCoordinates
-from .model import Mechanism
+from .numeric_dae import MechanismDAE
 from .reduced_engine import reduced_engine
 from .reduced_partition import Partition, ReducedState
 from .reduced_samples import Samples, collect_segment
-from .run import state_vector
 from .run_settings import run_options
+from .run_table import state_vector
 from .singularity import NEAR_SINGULAR_CONDITION, jacobian_condition, singular_message
 
 # Switch when the coordinate's speed share falls below this: the dependent joints then move up to 10 times

@@ -3,7 +3,7 @@ the joint coordinates as arrays.
 
 Every evaluation of the reduced model in one joint coordinate (:mod:`physics.mechanism.reduced_partition`:
 Newton on the positions, the velocity map, the accelerations, the joints' speed shares) is one call of
-:func:`physics.kernels.reduced.reduced_state` on the mechanism's generated DAE functions
+:func:`physics.kernels.reduced_evaluation.reduced_state` on the mechanism's generated DAE functions
 (:func:`physics.mechanism.engine.compiled_system`, method ``"dae"``: ``Phi``, ``Phi_q`` and the time rate of its
 speed motors from ``constraints``, the applied forces and ``gamma`` from ``assemble``), its numbers the
 parameter vector of :mod:`physics.mechanism.parameters`. The numpy constraints of
@@ -21,12 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LinkageError
-from ..kernels import reduced as kernel
+from ..kernels import reduced_evaluation as kernel
 from .assembly import sketch_size
-from .dae import MechanismDAE
+from .description import GROUND, Mechanism
 from .engine import compiled_system
 from .joints import Rotation, Translation, kind_of
-from .model import GROUND, Mechanism
+from .numeric_dae import MechanismDAE
 from .parameters import parameter_vector
 
 
@@ -34,7 +34,7 @@ from .parameters import parameter_vector
 # every process about 0.5 ms a class (benchmarks/small_cuts.py)
 @dataclass(frozen=True, eq=False, repr=False)
 class JointCoordinateArrays:
-    """The joint coordinates as :mod:`physics.kernels.reduced` reads them: ``names`` (joint order), ``kinds``
+    """The joint coordinates as :mod:`physics.kernels.reduced_evaluation` reads them: ``names`` (joint order), ``kinds``
     (ANGLE or TRAVEL), ``ends`` (J, 2) the bodies by index (-1 the ground), ``geometry`` (J, 7) a travel's arms,
     guide direction and drawn travel, ``speed_scale`` what turns each one's rate into a speed (the sketch size
     for an angle, 1 for a travel)."""

@@ -17,7 +17,7 @@ Bordering the constraint Jacobian with the coordinate's gradient gives a square 
 ``A`` is singular where ``c`` stands still while the mechanism moves (a dead centre of that coordinate): the
 reduced model switches coordinate long before (:mod:`physics.mechanism.reduced`).
 
-Each evaluation is one compiled call (:func:`physics.kernels.reduced.reduced_state`) on the mechanism's
+Each evaluation is one compiled call (:func:`physics.kernels.reduced_evaluation.reduced_state`) on the mechanism's
 generated DAE code (:mod:`physics.mechanism.reduced_engine`): ``Phi``, ``Phi_q``, ``gamma`` and ``Q`` are never
 evaluated in Python on this path, which is what makes the model about as fast as the four-bar's own
 (BENCHMARKS.md, "The reduced model on the compiled engine").
@@ -31,10 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LinkageError
-from ..kernels import reduced as kernel
+from ..kernels import reduced_evaluation as kernel
 from ..kernels.first_compile import call_announced
-from .dae import MechanismDAE
 from .joint_coordinates import JointCoordinates
+from .numeric_dae import MechanismDAE
 from .reduced_engine import ReducedEngine, reduced_engine
 
 NEWTON_STEPS = 30
@@ -75,7 +75,7 @@ class ReducedState:
 class Partition:
     """The reduced model in the joint coordinate number ``which`` of ``coordinates``, started at pose ``q``.
 
-    Every evaluation is one compiled call (:func:`physics.kernels.reduced.reduced_state`) on ``engine``, the
+    Every evaluation is one compiled call (:func:`physics.kernels.reduced_evaluation.reduced_state`) on ``engine``, the
     mechanism's generated DAE code (:mod:`physics.mechanism.reduced_engine`; made from ``dae`` when not given:
     a run passes its one engine to every partition)."""
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..simulate.trajectory import Trajectory
-from .dae import MechanismDAE
+from .numeric_dae import MechanismDAE
 from .reduced_engine import ReducedEngine, reduced_engine
 from .reduced_partition import Partition, ReducedState
-from .run import body_points, coordinate_names, traced_path
+from .run_table import body_points, coordinate_names, traced_path
 
 
 class Samples:

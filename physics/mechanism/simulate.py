@@ -31,15 +31,15 @@ from ..registry import (
     MECHANISM_METHODS,
     REDUCED_INTEGRATOR,
 )
-from ..simulate.prepared import sample_times
+from ..simulate.chain_prepared import sample_times
 from ..simulate.trajectory import Trajectory
 from . import engine
 from .assembly import assembled_with_jacobian
-from .dae import MechanismDAE
-from .model import Mechanism
+from .description import Mechanism
+from .numeric_dae import MechanismDAE
 from .prepared import prepared
-from .run import state_vector
 from .run_settings import ALLOWED, run_options
+from .run_table import state_vector
 from .tree_coordinates import check_rotations
 from .tree_dae import check_coordinates
 

@@ -3,7 +3,7 @@
 At a change point (a parallelogram four-bar with every link in line) or at a dead centre its motor cannot
 drive through, the rows of the constraint Jacobian ``Phi_q`` become dependent: its smallest singular value
 falls to zero, two branches of motion meet, and the maximal-coordinate equations of motion (and the tree
-formulations' closures) are singular. The four-bar's closed-form classification (``physics/assembly.py``) has
+formulations' closures) are singular. The four-bar's closed-form classification (``physics/loop_closure.py``) has
 no counterpart for a general mechanism; this measure does the same job for any of them, at every sample (a
 run's ``condition``, computed when first read: physics/mechanism/engine.py ``_on_request``).
 """

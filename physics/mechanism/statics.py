@@ -23,9 +23,9 @@ import numpy as np
 from ..errors import LinkageError
 from .assembly import assemble, sketch_size
 from .constraints import Constraints
-from .dae import MechanismDAE
+from .description import GROUND, Mechanism, Prismatic, Revolute
 from .joints import MOTOR, kind_of
-from .model import GROUND, Mechanism, Prismatic, Revolute
+from .numeric_dae import MechanismDAE
 from .reactions import reaction_row_names
 
 STATE_METHODS = ("dae", "lagrange", "newton_euler")  # the formulations that give accelerations at one state

@@ -13,7 +13,7 @@ import dataclasses
 import functools
 
 from ..derive.formulation import LinearSystem
-from .model import Mechanism
+from .description import Mechanism
 from .parameters import ROTATIONS, Structure, structure
 from .symbolic_parameters import parameter_symbols
 

@@ -13,8 +13,8 @@ from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
+from .description import GROUND, Mechanism
 from .joints import MOTOR, kind_of
-from .model import GROUND, Mechanism
 
 PIN = "revolute"  # the pin's kind name (physics.mechanism.joints.revolute)
 

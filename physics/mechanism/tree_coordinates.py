@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .model import Mechanism
+from .description import Mechanism
 from .parameters import ROTATIONS
 from .topology import analyse
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..codegen.cache import CompiledSystem, load_generated
 from ..errors import LinkageError
-from .model import Mechanism
+from .description import Mechanism
 from .parameters import structure, structure_key
 from .tree_coordinates import check_rotations
 

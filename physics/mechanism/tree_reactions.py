@@ -53,8 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .constraints import Constraints
+from .description import GROUND
 from .joints import MOTOR, kind_of
-from .model import GROUND
 from .topology import PIN, Topology, open_tree_of_pins
 
 

@@ -22,7 +22,7 @@ from ..errors import LinkageError
 from ..model import MIN_JOINT_INERTIA
 from .assembly import ASSEMBLY_TOLERANCE, NEWTON_STEPS, RANK_TOLERANCE, Assembled, assemble, sketch_size
 from .constraints import Constraints
-from .model import Mechanism
+from .description import Mechanism
 
 MIN_MASS = 1e-6  # kg: a milligram; every body needs mass for the equations of motion (the DAE divides by it)
 MIN_INERTIA = MIN_JOINT_INERTIA  # kg m^2: a milligram at a millimetre's radius of gyration (1e-12; with margin)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 
-from .model import Mechanism
+from .description import Mechanism
 
 
 def to_document(mechanism: Mechanism) -> dict:

@@ -55,13 +55,13 @@ from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
 from ..status import Status
 from . import chain_record
+from .chain_prepared import chain_arrays, sample_times, stabilization_gains, trace_point
 from .chain_record import ChainRecord
-from .prepared import chain_arrays, sample_times, stabilization_gains, trace_point
 from .trajectory import Trajectory
 
 if TYPE_CHECKING:  # the mechanism package: loaded when a route is first derived, or its geometry asked for
-    from ..mechanism.dae import MechanismDAE
-    from ..mechanism.model import Mechanism
+    from ..mechanism.description import Mechanism
+    from ..mechanism.numeric_dae import MechanismDAE
     from ..mechanism.prepared import Prepared
 
 __all__ = ["chain_route", "chain_trajectory", "simulate_on_mechanism"]
@@ -137,7 +137,7 @@ def _dynamics_of(mechanism: Mechanism, pieces: Prepared) -> MechanismDAE:
     bodies' numbers are read for Newton's law on them only, never inverted."""
     if pieces.dae_or_none is not None:
         return pieces.dae_or_none
-    from ..mechanism.dae import MechanismDAE  # noqa: PLC0415
+    from ..mechanism.numeric_dae import MechanismDAE  # noqa: PLC0415
 
     return MechanismDAE(mechanism, pieces.constraints, massless_allowed=True)
 

@@ -21,7 +21,7 @@ from .trajectory import Trajectory
 
 __all__ = ["SINGULAR_PIVOT_RATIO", "check_assembled", "simulate", "status_message"]
 # The start of a closed chain must close the loop to this distance (a user typing angles by hand will not;
-# presets and the app assemble them with physics.assembly).
+# presets and the app assemble them with physics.loop_closure).
 ASSEMBLY_TOLERANCE = 1e-8
 
 _routes: list = []  # the route's run function, once imported
@@ -82,7 +82,7 @@ def check_assembled(chain: Chain, theta: np.ndarray) -> None:
     if not gap <= ASSEMBLY_TOLERANCE:
         raise LinkageError(
             f"the start does not close the loop: the tip is {gap:.3g} from the pin {tuple(chain.pin)} "
-            f"(allowed {ASSEMBLY_TOLERANCE:g}); assemble it with physics.assembly.assemble or set the pin to the tip"
+            f"(allowed {ASSEMBLY_TOLERANCE:g}); assemble it with physics.loop_closure.assemble or set the pin to the tip"
         )
 
 

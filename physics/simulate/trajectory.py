@@ -75,7 +75,7 @@ class _ComputedWhenRead:
 
 
 class PointPaths(Protocol):
-    """A mechanism's named points and where they are at any poses (:class:`physics.mechanism.run.BodyPoints`):
+    """A mechanism's named points and where they are at any poses (:class:`physics.mechanism.run_table.BodyPoints`):
     the run keeps this small description, not the paths, so a long run's memory is its ``q`` alone and the
     integrator never computes a point nobody asked for."""
 
@@ -139,7 +139,7 @@ class Trajectory:
     constraint_xy: np.ndarray = field(default_factory=_absent)
     constraint_velocity: np.ndarray = field(default_factory=_absent)
     stats: dict = field(default_factory=dict)
-    # (T, n, 2) for every method: from the accelerations by Newton's law per bar (physics/reactions.py),
+    # (T, n, 2) for every method: from the accelerations by Newton's law per bar (physics/chain_reactions.py),
     # equal to the DAE's own ``reactions`` where it has them; not part of the CSV/JSON columns.
     joint_reactions: np.ndarray = field(default_factory=_absent)
     trace_is_explicit: bool = False  # open chains list trace_x/y only when a point other than the tip was asked

@@ -3,7 +3,7 @@
 * ``work_precision`` (+ ``work_precision_report``): error against wall time for every formulation x integrator
   x tolerance, with the seed-style baseline beside them; ``bench`` is the ``python -m physics bench`` command
   that dispatches to every suite.
-* ``stability`` (+ ``stability_figures``): the five cases of docs/stability.md (``python -m physics.stability``).
+* ``stability_study`` (+ ``stability_figures``): the five cases of docs/stability.md (``python -m physics.stability``).
 * ``chaos_map``: time-to-first-flip maps of initial angles (``python -m physics chaos-map``).
 * ``ensemble_bench``: throughput of batched ensembles (``bench --suite ensemble``).
 * ``models``: the cheapest model for each question (``bench --suite models``).

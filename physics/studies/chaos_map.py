@@ -35,12 +35,12 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from ..arguments import Parser
+from ..chain_presets import get_preset, preset_names
 from ..errors import LinkageError
 from ..kinematics import energies
 from ..mechanism.presets import MECHANISM_PRESETS
 from ..model import FORMULATION_NAMES, Chain
 from ..outputs import check_output_path, write_output
-from ..presets import get_preset, preset_names
 from ..simulate.chain_system import chain_system
 from .charts import colormap, png_bytes, write_png
 from .report import Progress, machine_note

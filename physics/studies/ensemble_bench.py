@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..chain_presets import get_preset
 from ..ensemble import DEFAULT_STEP, Ensemble
 from ..model import FORMULATION_NAMES, Settings
-from ..presets import get_preset
 from ..simulate import simulate
 from .report import Progress, machine_note, write_report
 

@@ -18,8 +18,8 @@ import numpy as np
 from ..ensemble import point_path, probe_reference
 from ..errors import LinkageError
 from ..mechanism.assembly import assemble
+from ..mechanism.description import Mechanism
 from ..mechanism.files import load_mechanism
-from ..mechanism.model import Mechanism
 from ..mechanism.presets import MECHANISM_PRESETS
 from ..mechanism.simulate import simulate_mechanism
 from ..mechanism.validation import check_runnable

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from ..mechanism.constraints import Constraints
-from ..mechanism.model import Mechanism
+from ..mechanism.description import Mechanism
 from .chaos_map import FORBIDDEN, grid, summary, to_rgb
 from .mechanism_cases import FORMULATIONS, mobility, run_case
 from .report import Progress

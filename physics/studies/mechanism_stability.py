@@ -23,9 +23,9 @@ import re
 
 import numpy as np
 
+from ..chain_presets import get_preset
 from ..mechanism.chains import chain_mechanism
-from ..mechanism.model import Mechanism
-from ..presets import get_preset
+from ..mechanism.description import Mechanism
 from .charts import DASHES, PALETTE, Series, line_chart
 from .mechanism_cases import FORMULATIONS, REDUCED, STABILIZATIONS, Outcome, mobility, run_case
 from .stability_figures import figure_condition, figure_peak_condition, floor_for_log

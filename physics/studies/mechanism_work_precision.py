@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from functools import partial
 
 from ..errors import LinkageError
-from ..mechanism.model import Mechanism
+from ..mechanism.description import Mechanism
 from ..status import Status
 from .mechanism_cases import (
     FORMULATIONS,

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..chain_presets import get_preset
 from ..ensemble import DEFAULT_STEP
 from ..model import FORMULATION_NAMES, Settings
-from ..presets import get_preset
 from ..registry import METHODS
 from ..simulate import simulate
 from ..simulate.chain_system import chain_system

@@ -1,5 +1,5 @@
 """The stability study's figures (SVG), one function per figure of docs/stability.md, drawn from the result
-dictionaries of :mod:`physics.studies.stability`.
+dictionaries of :mod:`physics.studies.stability_study`.
 """
 
 from __future__ import annotations

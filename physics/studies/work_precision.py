@@ -21,9 +21,9 @@ from functools import partial
 
 import numpy as np
 
+from ..chain_presets import get_preset
 from ..errors import LinkageError
 from ..model import Settings, check_state
-from ..presets import get_preset
 from ..registry import (
     ADAPTIVE_INTEGRATORS,
     COMPILED,

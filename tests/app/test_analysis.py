@@ -9,7 +9,7 @@ import numpy as np
 
 from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, follows_on
 from conftest import wait_until
-from physics.presets import get_preset
+from physics.chain_presets import get_preset
 from physics.studies import chaos_map as chaos
 
 # A wait that includes a first compilation (an empty cache, as CI's): 131 s measured for the RK4 ensemble

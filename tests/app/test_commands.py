@@ -131,7 +131,7 @@ def test_closed_loop_angles_pin_and_lengths_keep_it_closed(four_bar):
         commands.apply(four_bar, "theta2", 10, units=CONTROL)
     for name, value in (("theta1", math.radians(150)), ("pin_x", 1.2), ("L1", 0.2)):
         p = commands.apply(four_bar, name, value).params
-        gap = physics.assembly.loop_residual(p.L, p.theta0, p.pin)
+        gap = physics.loop_closure.loop_residual(p.L, p.theta0, p.pin)
         assert np.hypot(*gap) < 1e-9, name
 
 

@@ -124,7 +124,7 @@ def test_closed_loop_unreachable_angle_keeps_the_last_valid_start(connect):
     assert session.controls._angle_handles[1].disabled  # theta2 and theta3 are assembled, not set
     slider.value = 150.0
     assert math.degrees(session.params.theta0[0]) == pytest.approx(150.0)
-    residual = physics.assembly.loop_residual(session.params.L, session.params.theta0, session.params.pin)
+    residual = physics.loop_closure.loop_residual(session.params.L, session.params.theta0, session.params.pin)
     assert np.hypot(*residual) < 1e-9
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import wait_until
-from physics.assembly import driving_range, loop_jacobian
+from physics.loop_closure import driving_range, loop_jacobian
 
 
 def test_an_open_chain_starts_with_the_speeds_set_on_the_sliders(connect):

@@ -25,7 +25,7 @@ from app.mechanism_start import free_coordinates
 from app.parameters import SessionParameters
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Driver, assemble
-from physics.mechanism.model import MAX_INERTIA
+from physics.mechanism.description import MAX_INERTIA
 
 
 def refusal(action) -> str:

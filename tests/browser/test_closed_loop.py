@@ -8,7 +8,7 @@ import urllib.request
 
 import numpy as np
 
-from physics import assembly
+from physics import loop_closure
 
 from .conftest import wait_until
 
@@ -47,7 +47,7 @@ def test_unreachable_angle_shows_a_notice_and_the_server_keeps_serving(start_lab
     assert abs(kept - UNREACHABLE_DEG) > 5.0, kept
     assert closes(session, kept)
     p = session.params
-    residual = assembly.loop_residual(np.asarray(p.L), np.asarray(p.theta0), np.asarray(p.pin))
+    residual = loop_closure.loop_residual(np.asarray(p.L), np.asarray(p.theta0), np.asarray(p.pin))
     assert math.hypot(*residual) < 1e-9
 
     # the server keeps serving: its page answers, and the same browser can carry on

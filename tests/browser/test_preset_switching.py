@@ -28,8 +28,8 @@ import time
 
 from app import snapshot as snap
 from physics import get_preset, preset_names
+from physics.chain_presets import mechanism_summaries
 from physics.mechanism import MECHANISM_PRESETS
-from physics.presets import mechanism_summaries
 
 from .conftest import wait_until
 

@@ -7,7 +7,7 @@ chain's own terms: its bar order, its parameter vector, its own unknowns (the pi
 closes the loop at the tip, where the mechanism's tree closes it at ``J2``). Evaluated at a sample's state, with
 the run's Baumgarte gains, they give the angular accelerations, the DAE's joint reactions and the tip's reaction
 the route solved for; the joint reactions of the tree formulations follow from those accelerations by Newton's
-law per bar (:func:`physics.reactions.reactions_from_motion`), positions and energies from the chain's
+law per bar (:func:`physics.chain_reactions.reactions_from_motion`), positions and energies from the chain's
 kinematics. The two computations sum the same terms in another order, so they agree to rounding:
 :data:`ROUNDING` 1e-11 relative (to 1 + the largest value), where a wrong equation, reaction row or sign is off
 by order one.
@@ -23,11 +23,11 @@ from __future__ import annotations
 import numpy as np
 
 from physics import load_compiled
+from physics.chain_reactions import reactions_from_motion
 from physics.kinematics import energies, joint_positions, point_on_bar, tip_velocity
 from physics.model import FORMULATION_NAMES, TracePoint
-from physics.reactions import reactions_from_motion
+from physics.simulate.chain_prepared import stabilization_gains
 from physics.simulate.chain_system import chain_system
-from physics.simulate.prepared import stabilization_gains
 
 ROUNDING = 1e-11
 

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from physics.assembly import (
+from physics.errors import LinkageError
+from physics.loop_closure import (
     DEAD_CENTRE_EVENTS,
     assemble,
     count_dead_centres,
@@ -20,7 +21,6 @@ from physics.assembly import (
     project_velocity,
     tip_position,
 )
-from physics.errors import LinkageError
 
 SEED_L = np.array([1.0, 1.0, 2.0])
 SEED_THETA0 = np.array([math.pi - math.pi / 30, math.pi / 2, 0.0])

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from physics import Settings, get_preset, simulate
-from physics.simulate.prepared import sample_times
+from physics.simulate.chain_prepared import sample_times
 from physics.status import Status
 
 from .chain_formulas import ROUNDING, assert_run_follows_chain_formulas, relative

@@ -17,7 +17,7 @@ from physics.codegen.mechanism_samples import mechanism_samples
 from physics.kinematics import energies, joint_positions, point_on_bar, tip_velocity
 from physics.mechanism import engine
 from physics.simulate import mechanism_route
-from physics.simulate.prepared import chain_arrays
+from physics.simulate.chain_prepared import chain_arrays
 
 ROUNDING = 1e-13  # relative to 1 + the largest value; measured at most 9e-16
 

@@ -24,13 +24,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from physics.chain_presets import get_preset, preset_names
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.simulate import simulate_mechanism
-from physics.presets import get_preset, preset_names
 
 ROOT = Path(__file__).resolve().parents[2]
 CHAIN_KEYS = {"name", "description", "links", "params", "theta", "omega", "pin", "trace", "t_end"}

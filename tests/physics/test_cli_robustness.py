@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from physics import long_run
+from physics.chain_presets import get_preset
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.file_io import read_limited, write_atomically
@@ -32,7 +33,6 @@ from physics.mechanism import simulate as mechanism_simulate
 from physics.mechanism.validation import MAX_MOTOR_SPEED, check_runnable
 from physics.model import Settings, make_chain, validated
 from physics.outputs import partial_note
-from physics.presets import get_preset
 from physics.simulate import simulate
 from physics.studies import chaos_map
 

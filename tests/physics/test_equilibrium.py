@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from physics import Bar, Chain, Settings, load_compiled, simulate
-from physics.assembly import assemble, driving_range, loop_jacobian, tip_position
 from physics.equilibrium import static_equilibrium, stationary_point, tip_reaction_at_rest
 from physics.errors import LinkageError
 from physics.kinematics import potential_energy
+from physics.loop_closure import assemble, driving_range, loop_jacobian, tip_position
 
 L = np.array([1.0, 1.0, 2.0])
 D = np.array([0.5, 0.5, 0.5])

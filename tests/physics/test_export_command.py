@@ -12,13 +12,13 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from physics.chain_presets import preset_names
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Driver, Prismatic
 from physics.mechanism.files import load_mechanism
 from physics.mechanism.mjcf import to_mjcf
 from physics.mechanism.pylinkage_format import BLOCK_MASS, LINE_DENSITY, mechanism_from_pylinkage, to_pylinkage
-from physics.presets import preset_names
 
 
 @pytest.mark.parametrize("suffix", ["toml", "json"])

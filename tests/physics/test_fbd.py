@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from physics import Settings, get_preset, load_compiled, simulate
-from physics.assembly import project_velocity
 from physics.fbd import free_bodies, free_body_at
+from physics.loop_closure import project_velocity
 
 BALANCE_TOLERANCE = 1e-10
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from physics.chain_presets import get_preset
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Driver, Mechanism, Revolute
@@ -22,7 +23,6 @@ from physics.mechanism.chains import chain_mechanism
 from physics.mechanism.constraints import Constraints
 from physics.mechanism.mjcf import to_mjcf
 from physics.mechanism.simulate import simulate_mechanism
-from physics.presets import get_preset
 
 mujoco = pytest.importorskip("mujoco", reason="MuJoCo is not installed (pip install -e '.[mjcf]'; CI installs it)")
 

@@ -16,7 +16,7 @@ MECHANISM = Path(joints.__file__).resolve().parent.parent
 # the formulations: the numeric constraints and DAE, the three derivations and their shared tree, the joint and
 # tree coordinates and the graph
 FORMULATIONS = sorted(
-    [MECHANISM / name for name in ("dae.py", "constraints.py", "joint_coordinates.py", "tree_coordinates.py",
+    [MECHANISM / name for name in ("numeric_dae.py", "constraints.py", "joint_coordinates.py", "tree_coordinates.py",
                                    "topology.py")]
     + list(MECHANISM.glob("symbolic*.py"))
 )
@@ -71,7 +71,7 @@ def test_no_formulation_switches_on_a_joints_kind(path):
 
 def test_every_formulation_is_scanned():
     names = {path.name for path in FORMULATIONS}
-    assert {"dae.py", "constraints.py", "symbolic_dae.py", "symbolic_tree.py", "symbolic_lagrange.py",
+    assert {"numeric_dae.py", "constraints.py", "symbolic_dae.py", "symbolic_tree.py", "symbolic_lagrange.py",
             "symbolic_newton_euler.py", "joint_coordinates.py", "tree_coordinates.py", "topology.py"} <= names
 
 

@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from physics import Settings, get_preset, load_compiled, simulate
-from physics.assembly import tip_position
 from physics.errors import LinkageError
+from physics.loop_closure import tip_position
 from physics.mechanism import MECHANISM_PRESETS, engine, tree_dae
 from physics.mechanism.chains import chain_mechanism, chain_quantities, chain_state
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector, structure_key
 from physics.mechanism.prepared import prepared
 from physics.mechanism.simulate import simulate_mechanism

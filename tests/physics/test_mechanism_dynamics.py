@@ -17,14 +17,14 @@ import numpy as np
 import pytest
 
 from physics import load_compiled
+from physics.chain_presets import get_preset
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.mechanism.assembly import kinematics, track
 from physics.mechanism.chains import chain_mechanism, chain_state
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
-from physics.presets import get_preset
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,7 +1,7 @@
 """Any mechanism on the one compiled engine (physics/mechanism/engine.py): generated code per structure, the
 numbers a parameter vector, the chain kernels' integrators.
 
-Checked here against independent numbers: the numeric maximal-coordinate DAE of physics/mechanism/dae.py
+Checked here against independent numbers: the numeric maximal-coordinate DAE of physics/mechanism/numeric_dae.py
 (written from the constraint equations with numpy), the chain's own derived formulations (the chain written as
 a mechanism must give the chain formulas of docs/physics.md), and the motors' prescribed angles.
 """
@@ -15,8 +15,8 @@ from physics import Settings, get_preset, load_compiled, simulate
 from physics.codegen import cache
 from physics.mechanism import MECHANISM_PRESETS, assemble, engine
 from physics.mechanism.chains import chain_mechanism, chain_state
-from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.model import Mechanism
+from physics.mechanism.description import Mechanism
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.simulate import project_velocity, simulate_mechanism
 from physics.mechanism.singularity import jacobian_condition

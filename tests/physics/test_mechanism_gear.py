@@ -24,9 +24,9 @@ from physics.codegen import cache
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, assemble, engine
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.description import Gear, Mechanism
 from physics.mechanism.files import mechanism_from_text
-from physics.mechanism.model import Gear, Mechanism
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_names, parameter_vector, structure_key
 from physics.mechanism.reactions import reaction_row_names
 from physics.mechanism.simulate import project_velocity, simulate_mechanism

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from physics import Bar, Chain
-from physics.assembly import tip_position
+from physics.loop_closure import tip_position
 from physics.mechanism import MECHANISM_PRESETS, analyse, assemble, engine
 from physics.mechanism.chains import chain_mechanism
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.presets import crank_rocker, jansen_leg, slider_crank
 from physics.mechanism.simulate import project_velocity

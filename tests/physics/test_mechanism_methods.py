@@ -157,7 +157,7 @@ def test_the_compiled_right_hand_sides_equal_the_formulations(name, method):
     gains the kernels add exactly ``- 2 alpha Phi' - beta^2 Phi`` to the constraints' rows, checked through the
     accelerations of the DAE written out here."""
     from physics.mechanism import assemble, engine  # noqa: PLC0415
-    from physics.mechanism.dae import MechanismDAE  # noqa: PLC0415
+    from physics.mechanism.numeric_dae import MechanismDAE  # noqa: PLC0415
     from physics.mechanism.parameters import parameter_vector  # noqa: PLC0415
     from physics.mechanism.simulate import project_velocity  # noqa: PLC0415
     from physics.mechanism.tree_coordinates import tree_state  # noqa: PLC0415

@@ -12,7 +12,7 @@ import pytest
 
 from physics.mechanism import MECHANISM_PRESETS
 from physics.mechanism.assembly import assemble, mobility_text_for
-from physics.mechanism.model import Driver
+from physics.mechanism.description import Driver
 
 
 def cli(*args):

@@ -23,12 +23,12 @@ from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, assemble, engine
 from physics.mechanism.assembly import assembled_with_jacobian, sketch_size
 from physics.mechanism.constraints import Constraints, _Frame
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.description import Mechanism
 from physics.mechanism.joint_coordinates import JointCoordinates
-from physics.mechanism.model import Mechanism
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector, structure_key
 from physics.mechanism.prepared import clear_prepared, prepared
-from physics.mechanism.run import body_points, coordinate_names
+from physics.mechanism.run_table import body_points, coordinate_names
 from physics.mechanism.simulate import project_velocity, simulate_mechanism
 from physics.mechanism.topology import analyse
 from physics.mechanism.tree_coordinates import tree_state

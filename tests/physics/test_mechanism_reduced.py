@@ -12,18 +12,18 @@ import sys
 import numpy as np
 import pytest
 
+from physics.chain_presets import get_preset
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Body, Driver, Mechanism, Prismatic, Revolute, assemble
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.chains import chain_mechanism
-from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.presets import bar, circle_intersection, pin
 from physics.mechanism.reduced import SWITCH_SHARE, simulate_reduced
 from physics.mechanism.reduced_partition import Partition
 from physics.mechanism.simulate import simulate_mechanism
 from physics.model import Bar, Chain
-from physics.presets import get_preset
 
 MOBILITY_ONE = ["slider-crank", "watt-six-bar", "stephenson-six-bar"]
 EPS = np.finfo(float).eps
@@ -297,7 +297,7 @@ def test_the_seed_four_bar_as_a_mechanism_follows_the_chains_lagrange_run_throug
     reduced model, in the joint it finds best, agrees with the chain's own Lagrange formulation (generated from
     the chain's equations, not from the mechanism's) through them."""
     from physics import Settings, simulate  # noqa: PLC0415
-    from physics.assembly import count_dead_centres  # noqa: PLC0415
+    from physics.loop_closure import count_dead_centres  # noqa: PLC0415
 
     preset = get_preset("four-bar")
     chain, theta0 = preset.chain, preset.theta0

@@ -1,4 +1,4 @@
-"""The reduced model's compiled evaluation (physics/kernels/reduced.py, physics/mechanism/reduced_engine.py)
+"""The reduced model's compiled evaluation (physics/kernels/reduced_evaluation.py, physics/mechanism/reduced_engine.py)
 against the numpy it replaced on the hot path: the joint coordinates of
 physics/mechanism/joint_coordinates.py, the constraints' ``nu`` and ``gamma`` and the DAE's applied forces
 (physics/mechanism/constraints.py, dae.py); and a run that evaluates no numpy constraint per step."""
@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from physics.kernels import reduced as kernel
+from physics.kernels import reduced_evaluation as kernel
 from physics.mechanism import MECHANISM_PRESETS, assemble
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.reduced import simulate_reduced
 from physics.mechanism.reduced_engine import joint_coordinate_arrays, reduced_engine
 from physics.mechanism.reduced_partition import Partition

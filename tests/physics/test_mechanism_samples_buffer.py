@@ -11,11 +11,11 @@ import dataclasses
 import numpy as np
 import pytest
 
+from physics.chain_presets import get_preset
 from physics.codegen import cache
 from physics.mechanism import MECHANISM_PRESETS, engine
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.simulate import simulate_mechanism
-from physics.presets import get_preset
 
 
 @pytest.fixture(autouse=True)

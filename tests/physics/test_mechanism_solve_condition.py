@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import physics
+from physics.chain_presets import get_preset
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, engine
 from physics.mechanism.chains import chain_mechanism, chain_state
@@ -25,7 +26,6 @@ from physics.mechanism.simulate import simulate_mechanism
 from physics.mechanism.singularity import jacobian_condition
 from physics.mechanism.tree_dae import compiled_tree_dae
 from physics.model import Settings
-from physics.presets import get_preset
 
 OPTIONS = dict(t_end=20.0, samples=200, integrator="RK45", rtol=1e-6, atol=1e-6)
 

@@ -13,13 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from physics.chain_presets import get_preset
 from physics.ensemble import MechanismEnsemble
 from physics.errors import LinkageError
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
-from physics.presets import get_preset
-from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, stability, work_precision
+from physics.studies import bench, chaos_map, mechanism_cases, mechanism_chaos, work_precision
+from physics.studies import stability_study as stability
 from physics.studies.charts import fan_picture
 from physics.studies.mechanism_stability import (
     change_point_mechanism,

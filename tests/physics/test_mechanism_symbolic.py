@@ -23,7 +23,7 @@ import sympy as sp
 
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import TIME, parameter_names, parameter_vector, structure_key
 from physics.mechanism.symbolic import derive_structure, derive_system
 from physics.mechanism.tree_coordinates import tree_state
@@ -295,7 +295,7 @@ def test_the_dae_equals_todays_numeric_dae_and_constraints(label):
 @pytest.mark.parametrize("label", [label for label, _ in CASES])
 def test_the_tree_formulations_equal_the_dae(label, method):
     """At random tree states (s, sd): every body's acceleration (qddot = J sdd + bias) equals the numeric DAE's
-    (physics/mechanism/dae.py) and the symbolic DAE's at the same pose, the closures' multipliers the DAE's; the
+    (physics/mechanism/numeric_dae.py) and the symbolic DAE's at the same pose, the closures' multipliers the DAE's; the
     tree coordinates of that pose are (s, sd) again; phi, its Jacobian and rate are the DAE's rows of the cut
     joints and motors, through the pose."""
     mechanism = dict(CASES)[label]
@@ -384,7 +384,7 @@ def test_the_constraint_rows_are_the_second_time_derivatives_of_phi(label, metho
 def test_the_random_mechanisms_hold_every_case_the_brief_names():
     """Sliders on moving guides (riding on a body and carrying a guide), cut sliders and pins, motors of both
     kinds, damped pins and sliders: each appears among the random mechanisms checked above."""
-    from physics.mechanism.model import Prismatic, Revolute  # noqa: PLC0415
+    from physics.mechanism.description import Prismatic, Revolute  # noqa: PLC0415
     from physics.mechanism.topology import analyse  # noqa: PLC0415
 
     seen = set()

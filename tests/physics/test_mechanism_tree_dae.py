@@ -19,8 +19,8 @@ from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, engine, tree_dae
 from physics.mechanism.chains import chain_mechanism, chain_quantities, chain_state
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.model import Mechanism
+from physics.mechanism.description import Mechanism
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.simulate import simulate_mechanism
 

@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from numba import cfunc
 
+from physics.chain_presets import get_preset
 from physics.codegen import load_compiled
 from physics.kernels import ode45
 from physics.kernels.abi import ASSEMBLE_SIGNATURE, make_layout
 from physics.kernels.tables import ODE45_BI, RK45_B
 from physics.model import Settings, validated
-from physics.presets import get_preset
 from physics.simulate import simulate
 
 

@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from physics.chain_presets import get_preset
 from physics.mechanism import MECHANISM_PRESETS, assembly
 from physics.mechanism.chains import chain_mechanism
-from physics.mechanism.model import Body, Driver, Mechanism, Revolute
+from physics.mechanism.description import Body, Driver, Mechanism, Revolute
 from physics.mechanism.prepared import clear_prepared, prepared
-from physics.presets import get_preset
 
 
 def _tree() -> Mechanism:

@@ -1,4 +1,4 @@
-"""Joint reactions from the motion (physics/reactions.py) agree with the DAE's own, for every formulation."""
+"""Joint reactions from the motion (physics/chain_reactions.py) agree with the DAE's own, for every formulation."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from physics import Settings, load_compiled, simulate
+from physics.chain_presets import get_preset
+from physics.chain_reactions import reactions_from_motion
 from physics.kinematics import split_params
-from physics.presets import get_preset
-from physics.reactions import reactions_from_motion
 
 from ..conftest import random_params
 

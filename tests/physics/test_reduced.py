@@ -10,7 +10,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from physics import Bar, Chain, LinkageError, Settings, get_preset, load_compiled, simulate
-from physics.assembly import (
+from physics.kinematics import potential_energy
+from physics.loop_closure import (
     DEAD_CENTRE_EVENTS,
     assemble,
     count_dead_centres,
@@ -21,11 +22,10 @@ from physics.assembly import (
     loop_residual,
     tip_position,
 )
-from physics.kinematics import potential_energy
 from physics.mechanism.assembly import sketch_size
 from physics.mechanism.chains import chain_mechanism, chain_state
-from physics.mechanism.dae import MechanismDAE
 from physics.mechanism.joint_coordinates import JointCoordinates
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.reduced import DEAD_CENTRE_SHARE, simulate_reduced
 from physics.mechanism.reduced_partition import Partition
 from physics.simulate.reduced_adapter import CHAIN_JOINTS, CHAIN_SWITCH_SHARE

@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 import physics
+from physics.chain_reactions import reactions_from_motion
 from physics.errors import LinkageError
 from physics.model import Bar
-from physics.reactions import reactions_from_motion
-from physics.simulate.prepared import chain_arrays, sample_times
+from physics.simulate.chain_prepared import chain_arrays, sample_times
 
 SETTINGS = physics.Settings(method="lagrange", integrator="RK45", rtol=1e-6, atol=1e-6, t_end=2.0, samples=21)
 
 
 @pytest.mark.parametrize("method", ["lagrange", "dae"])
 def test_a_run_reports_the_joint_reactions_of_newtons_law(method):
-    """A run's joint reactions are physics.reactions' at each sample's accelerations (and the DAE's own)."""
+    """A run's joint reactions are physics.chain_reactions' at each sample's accelerations (and the DAE's own)."""
     preset = physics.get_preset("triple-c")
     chain = preset.chain
     settings = SETTINGS.model_copy(update={"method": method})

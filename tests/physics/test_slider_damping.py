@@ -12,8 +12,8 @@ from scipy.integrate import simpson
 
 from physics.mechanism import MECHANISM_PRESETS, engine
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
-from physics.mechanism.model import Prismatic
+from physics.mechanism.description import Prismatic
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.parameters import parameter_vector
 from physics.mechanism.simulate import simulate_mechanism
 

@@ -1,4 +1,4 @@
-"""The stability study (physics.studies.stability): each case runs, on shorter horizons than docs/stability.md, and
+"""The stability study (physics.studies.stability_study): each case runs, on shorter horizons than docs/stability.md, and
 shows what the docs say it shows."""
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ import numpy as np
 from physics import apply_overrides, get_preset, load_compiled
 from physics.simulate import SINGULAR_PIVOT_RATIO
 from physics.simulate.chain_system import chain_system
-from physics.studies import stability, stability_figures
+from physics.studies import stability_figures
+from physics.studies import stability_study as stability
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -16,9 +16,9 @@ import pytest
 from physics.mechanism import engine, tree_reactions
 from physics.mechanism.assembly import _rank, assemble
 from physics.mechanism.constraints import Constraints
-from physics.mechanism.dae import MechanismDAE
+from physics.mechanism.description import Body, Driver, Mechanism, Revolute
 from physics.mechanism.joints.prismatic import Prismatic
-from physics.mechanism.model import Body, Driver, Mechanism, Revolute
+from physics.mechanism.numeric_dae import MechanismDAE
 from physics.mechanism.prepared import prepared
 from physics.mechanism.presets import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism

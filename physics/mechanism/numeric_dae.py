@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import LinkageError
 from .constraints import Constraints
-from .model import Mechanism
+from .description import Mechanism
 
 SINGULAR_RCOND = 1e-13  # reciprocal condition of the augmented matrix below which a pose counts as singular
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .assembly import grashof
 from .errors import LinkageError
+from .loop_closure import grashof
 from .model import MAX_LINKS, Chain, TracePoint, make_chain
 
 SEED_L = (1.0, 1.0, 1.0)

@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from ..arguments import Parser
-from ..assembly import loop_condition
+from ..chain_presets import get_preset
 from ..errors import LinkageError
+from ..loop_closure import loop_condition
 from ..model import FORMULATION_NAMES, INTEGRATOR_NAMES, Settings, apply_overrides
-from ..presets import get_preset
 from ..registry import INTEGRATORS, backend_for, integrators_for
 from ..simulate import simulate
 from ..status import Status

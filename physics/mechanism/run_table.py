@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import LinkageError
 from ..simulate.trajectory import Trajectory
 from .constraints import points_at_poses
-from .model import GROUND
+from .description import GROUND
 
 
 def coordinate_names(mechanism) -> tuple[str, ...]:
