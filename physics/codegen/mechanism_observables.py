@@ -188,6 +188,8 @@ def specialised_observables(plan: ObservablesPlan) -> tuple | None:
             return made
         if structure in _building:
             return None
+        if len(_asked) >= 4 * MAX_SPECIALISED and structure not in _asked:  # structures asked for once, let go
+            _asked.clear()
         asked = _asked[structure] = _asked.get(structure, 0) + 1
     from . import native  # noqa: PLC0415
     from .cache import SPECIALISE_IN_BACKGROUND  # noqa: PLC0415
