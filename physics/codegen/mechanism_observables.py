@@ -20,6 +20,7 @@ loads its machine code.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,3 +145,96 @@ def observables_function():
                                         key=f"mechanism_observables\n{sources_digest()}")
                 _function.extend([signature(engine.get_function_address("mechanism_observables")), engine])
     return _function[0]
+
+
+# Per structure of plan (shape, indices, tree): the observables' function specialised for it
+# (:func:`specialised_observables`), or how often it was asked for while it is not there.
+SPECIALISE_OBSERVABLES = True
+MAX_SPECIALISED = 64  # structures kept per process (each a small engine); past it the oldest is let go
+_specialised: dict[tuple, tuple] = {}  # structure -> (ctypes function, engine)
+_asked: dict[tuple, int] = {}
+_building: set[tuple] = set()
+_specialised_lock = threading.Lock()
+
+
+def _structure(plan: ObservablesPlan) -> tuple:
+    return plan.shape.tobytes(), plan.indices.tobytes(), plan.tree
+
+
+def specialised_key(plan: ObservablesPlan) -> str:
+    """The machine-code cache's key of :func:`specialised_observables` for ``plan``'s structure: the sources the
+    IR is built from (:func:`~physics.codegen.machine_code.sources_digest`: this module and the IR's) and the
+    structure's integers, so a change of either names other machine code."""
+    from .machine_code import sources_digest  # noqa: PLC0415
+
+    return (f"mechanism_observables specialised\n{sources_digest()}\nshape {plan.shape.tolist()}\n"
+            f"indices {plan.indices.tolist()}\ntree {int(plan.tree)}")
+
+
+def specialised_observables(plan: ObservablesPlan) -> tuple | None:
+    """``(function, engine)``: ``mechanism_observables`` specialised for ``plan``'s structure
+    (:func:`~physics.codegen.mechanism_observables_ir.specialised_observables_ir`, the same bits; the function
+    of :func:`observables_function`'s signature, valid while ``engine`` lives), or None (the caller takes the
+    generic function) until it is there. By the specialised drivers' rule
+    (:meth:`physics.codegen.cache.CompiledSystem._specialised`): loaded at once when its machine code is
+    cached; else compiled from a structure's second request in this process on, in a background thread, so
+    that a one-off run (the CLI's) compiles nothing and no run waits for the compilation."""
+    if not SPECIALISE_OBSERVABLES:
+        return None
+    structure = _structure(plan)
+    with _specialised_lock:
+        made = _specialised.get(structure)
+        if made is not None:
+            return made
+        if structure in _building:
+            return None
+        if len(_asked) >= 4 * MAX_SPECIALISED and structure not in _asked:  # structures asked for once, let go
+            _asked.clear()
+        asked = _asked[structure] = _asked.get(structure, 0) + 1
+    from . import native  # noqa: PLC0415
+    from .cache import SPECIALISE_IN_BACKGROUND  # noqa: PLC0415
+    from .machine_code import is_cached  # noqa: PLC0415
+
+    key = specialised_key(plan)
+    cached = is_cached(key, SPECIALISED_VARIANT)
+    if asked < 2 and not cached:
+        return None
+    shape, indices, tree = plan.shape.tolist(), plan.indices.tolist(), plan.tree
+
+    def build() -> None:
+        import ctypes  # noqa: PLC0415
+
+        from .machine_code import compile_module, llvm_binding  # noqa: PLC0415
+        from .mechanism_observables_ir import SPECIALISED_NAME, specialised_observables_ir  # noqa: PLC0415
+        from .native_integrators import _lock  # noqa: PLC0415
+
+        try:
+            with _lock, native._lock:
+                llvm_binding()
+                engine = compile_module(lambda: specialised_observables_ir(shape, indices, tree),
+                                        SPECIALISED_VARIANT, native._optimize, native._target_machine, key=key)
+                p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+                signature = ctypes.CFUNCTYPE(None, p, p, p, i, i, d, p, p, i, p, p, p, p, p, p, p, p)
+                function = signature(engine.get_function_address(SPECIALISED_NAME))
+            with _specialised_lock:
+                if len(_specialised) >= MAX_SPECIALISED:  # a caller holding an entry holds its engine too
+                    _specialised.pop(next(iter(_specialised)))
+                _specialised[structure] = (function, engine)
+                _asked.pop(structure, None)
+        finally:
+            with _specialised_lock:
+                _building.discard(structure)
+
+    with _specialised_lock:
+        if structure in _building:
+            return None
+        _building.add(structure)
+    if cached or not SPECIALISE_IN_BACKGROUND:
+        build()
+        return _specialised.get(structure)
+    # not a daemon: a process that ends meanwhile waits for it rather than tearing LLVM down under it
+    threading.Thread(target=build, name="specialise observables", daemon=False).start()
+    return None
+
+
+SPECIALISED_VARIANT = "driver-O2"  # observables_function's passes and code generation level

@@ -22,7 +22,7 @@ import numpy as np
 from ..kernels.checks import check_arguments
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
 from .ir_shapes import integrator_scratch_length, samples_scratch_length
-from .mechanism_observables import ObservablesPlan, observables_function, scratch_length
+from .mechanism_observables import ObservablesPlan, observables_function, scratch_length, specialised_observables
 from .native_integrators import layout_address
 
 _NO_CONDITION = np.empty(0)
@@ -101,22 +101,31 @@ class _Run:
         self.kinematics_call = _functions()[1]
         self.assemble_call = _assemble_function()
         self.observables_call = observables_function()
+        # the observables specialised for the plan's structure, once there (the one call's; the calls from
+        # Python keep the generic function, so the tests comparing the two hold the one to the other)
+        self.observables_specialised: tuple | None = None
         self.tree = int(plan.tree)
-        self._plans: dict[tuple[int, int], tuple] = {}
+        self._plans: dict[tuple[int, int, int], tuple] = {}
 
     def plan_address(self, driver, solve) -> int:
         """The address of :mod:`physics.codegen.mechanism_run_ir`'s plan for this shape with ``driver`` and
         ``solve`` (made once per pair of functions: the system's generic ones until its specialised ones are in
-        place; the entry holds the functions and the array)."""
-        key = (id(driver), id(solve))
+        place; the entry holds the functions and the array) and the observables' function: the one specialised
+        for the plan's structure once :func:`~physics.codegen.mechanism_observables.specialised_observables`
+        has it, the generic one until then."""
+        observables = self.observables_specialised
+        if observables is None:
+            observables = self.observables_specialised = specialised_observables(self.plan)
+        observables_call = self.observables_call if observables is None else observables[0]
+        key = (id(driver), id(solve), id(observables_call))
         kept = self._plans.get(key)
-        if kept is not None and kept[0] is driver and kept[1] is solve:
-            return kept[3]
+        if kept is not None and kept[0] is driver and kept[1] is solve and kept[2] is observables_call:
+            return kept[4]
         at = self.at
         addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
                      "states": _function_address(self.kinematics_call),
                      "assemble_states": _function_address(self.assemble_call),
-                     "observables": _function_address(self.observables_call), "assemble": self.assemble,
+                     "observables": _function_address(observables_call), "assemble": self.assemble,
                      "integration_layout": self.integration_address, "layout": self.address,
                      "kinematics": self.kinematics, "samples": self.samples, "n": self.n, "size": self.size,
                      "tree": self.tree, "matrices": self.matrices, "matrices_at": at.matrices}
@@ -128,12 +137,12 @@ class _Run:
                               f"run_at_{number}": at.runs[number] if number < len(self.runs) else 0})
         plan = np.array([addresses[name] if name in addresses else getattr(at, name) for name in PLAN_SLOTS],
                         dtype=np.int64)
-        entry = (driver, solve, plan, plan.ctypes.data)
+        entry = (driver, solve, observables_call, plan, plan.ctypes.data)
         with _lock:
             if len(self._plans) >= 4:
                 self._plans.clear()
             self._plans[key] = entry
-        return entry[3]
+        return entry[4]
 
 
 def _function_address(function) -> int:
