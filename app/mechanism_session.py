@@ -1386,9 +1386,11 @@ class MechanismSession(SessionBase):
         if self.shared or clean:
             for part in (self.scene, self.trace, self.arrows, self.compare_view, self.free_body, self.analysis):
                 quietly(part.remove, "removing a scene part")
+            # the Display tab's numbers before the tabs (in self._gui): a tab removes its children with it, and
+            # removing a child again makes viser warn on stderr (a refused `snapshot` must say one line)
+            self.numbers.remove(list(self.numbers.controls))
             for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
                 quietly(handle.remove, "removing a control")
-            self.numbers.remove(list(self.numbers.controls))
             for plot in (self.torque_plot, self.coordinate_plot):
                 if plot is not None:
                     plot.remove()
