@@ -17,6 +17,9 @@ WORK_VECTORS = 8  # y, y_new, y_next, y_stage, f, f_next, scale, work
 # points, and the layout's entries that are addresses (external symbols named from the system's IR digest).
 ADDRESS_SLOTS = (LAYOUT_SOLVE, LAYOUT_CONSTRAINT_FUNCTION, LAYOUT_RHS)
 SPECIALISED_NAMES = {method: f"{name}_specialised" for method, name in INTEGRATOR_FUNCTION_NAMES.items()}
+# the observables function specialised per structure (physics/codegen/mechanism_observables.py loads it by this
+# name from the machine-code cache without importing its IR builder)
+OBSERVABLES_SPECIALISED_NAME = "mechanism_observables_specialised"
 SAMPLES_SOLVE_NAME = "solve_states_specialised"
 
 

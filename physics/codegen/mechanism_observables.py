@@ -204,18 +204,18 @@ def specialised_observables(plan: ObservablesPlan) -> tuple | None:
     def build() -> None:
         import ctypes  # noqa: PLC0415
 
+        from .ir_shapes import OBSERVABLES_SPECIALISED_NAME  # noqa: PLC0415  (the IR builder: on a cache miss only)
         from .machine_code import compile_module, llvm_binding  # noqa: PLC0415
-        from .mechanism_observables_ir import SPECIALISED_NAME, specialised_observables_ir  # noqa: PLC0415
         from .native_integrators import _lock  # noqa: PLC0415
 
         try:
             with _lock, native._lock:
                 llvm_binding()
-                engine = compile_module(lambda: specialised_observables_ir(shape, indices, tree),
+                engine = compile_module(lambda: _specialised_text(shape, indices, tree),
                                         SPECIALISED_VARIANT, native._optimize, native._target_machine, key=key)
                 p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
                 signature = ctypes.CFUNCTYPE(None, p, p, p, i, i, d, p, p, i, p, p, p, p, p, p, p, p)
-                function = signature(engine.get_function_address(SPECIALISED_NAME))
+                function = signature(engine.get_function_address(OBSERVABLES_SPECIALISED_NAME))
             with _specialised_lock:
                 if len(_specialised) >= MAX_SPECIALISED:  # a caller holding an entry holds its engine too
                     _specialised.pop(next(iter(_specialised)))
@@ -235,6 +235,14 @@ def specialised_observables(plan: ObservablesPlan) -> tuple | None:
     # not a daemon: a process that ends meanwhile waits for it rather than tearing LLVM down under it
     threading.Thread(target=build, name="specialise observables", daemon=False).start()
     return None
+
+
+def _specialised_text(shape: list, indices: list, tree: bool) -> str:
+    """The IR text of one structure's observables, built on a machine-code cache miss only (a warm process never
+    imports the IR builders: tests/physics/test_lean_start.py)."""
+    from .mechanism_observables_ir import specialised_observables_ir  # noqa: PLC0415
+
+    return specialised_observables_ir(shape, indices, tree)
 
 
 SPECIALISED_VARIANT = "driver-O2"  # observables_function's passes and code generation level

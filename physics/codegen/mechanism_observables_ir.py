@@ -36,9 +36,10 @@ from __future__ import annotations
 from llvmlite import ir
 
 from .ir_code import _DOUBLE, _DOUBLE_POINTER, _I64, _I64_POINTER, _Code, _double, _int
+from .ir_shapes import OBSERVABLES_SPECIALISED_NAME
 
 NAME = "mechanism_observables"
-SPECIALISED_NAME = "mechanism_observables_specialised"
+SPECIALISED_NAME = OBSERVABLES_SPECIALISED_NAME
 
 
 def _dot(code: _Code, count, first, second, start, name: str):
