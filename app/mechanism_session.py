@@ -1389,7 +1389,10 @@ class MechanismSession(SessionBase):
             # the Display tab's numbers before the tabs (in self._gui): a tab removes its children with it, and
             # removing a child again makes viser warn on stderr (a refused `snapshot` must say one line)
             self.numbers.remove(list(self.numbers.controls))
-            for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), *self._gui]:
+            # the Mechanism tab's folders by name too, children before their tab: a browser that lags behind the
+            # switch kept "Bodies and motors" beside the chain's panel once (tests/browser/test_preset_switching.py)
+            for handle in [*self._knob_handles.values(), *self._typed_boxes.values(), self.knob_folder,
+                           self.start_folder, *self._gui]:
                 quietly(handle.remove, "removing a control")
             for plot in (self.torque_plot, self.coordinate_plot):
                 if plot is not None:
