@@ -14,26 +14,14 @@ from physics import Settings, get_preset, simulate
 from physics.codegen import cache, machine_code, mechanism_observables
 from physics.simulate import mechanism_route
 
+from .test_route_call_cache import _assert_same, _fields  # every Trajectory field, compared byte for byte
+
 
 @pytest.fixture(autouse=True)
 def _specialise_in_the_call(monkeypatch):
     monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)
 
 
-def _fields(run) -> dict:
-    columns = {name: np.array(value) for name, value in run.columns().items()}
-    return {"status": run.status, "message": run.message, "n_steps": run.n_steps, "n_rhs": run.n_rhs,
-            "t_reached": run.stats["t_reached"], **columns}
-
-
-def _assert_same(mine: dict, theirs: dict) -> None:
-    assert mine.keys() == theirs.keys()
-    for name, value in theirs.items():
-        if isinstance(value, np.ndarray):
-            assert mine[name].shape == value.shape, name
-            assert mine[name].tobytes() == value.tobytes(), name
-        else:
-            assert mine[name] == value, name
 
 
 def _kept_run(chain):
