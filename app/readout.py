@@ -87,7 +87,7 @@ def snapshot_document(*, session_id, shared: bool, params, compare: bool, player
     """:func:`snapshot` of a chain's parameters ``params`` and ``player``: ``sample_of(run, i)`` is a run's stored
     sample ``i`` in the chain's fields (:func:`ring_sample`, or a chain hosted as a mechanism mapped by
     app/chain_contract.py), ``energy(runs by label)`` the view's current values, ``frames_sent()`` and
-    ``scene()`` (root and nodes) the view's; all read under the player's lock."""
+    ``scene()`` (root and nodes) the view's; the callables are called under the player's lock."""
     with player.lock:
         runs = {run.spec.label: run for run in player.runs}
         out_runs = []
