@@ -720,12 +720,27 @@ class MechanismSession(SessionBase):
         if geometry:
             self._build_scene(self.q0 if state is None else q)
             self._frame_camera(points_at(self.spec.draw, self.q0), force=False)
-        self._show_facts()
+            self.facts.content = chain_knobs.facts_line(params)  # a four-bar's reach moves with its lengths
+            self._follow_ranges()
         self.energy_ref = None
         if state is None:
             self._restart(0.0, self.q0, self.qdot0, keep_history=False)
         else:
             self._restart(t, q, qdot, keep_history=True)
+
+    def _follow_ranges(self) -> None:
+        """A centre of mass d's slider ends at its bar's length, as the chain panel's (the slider itself stays:
+        one may be under the mouse)."""
+        self._syncing = True
+        try:
+            for knob in self._mechanism_knobs():
+                handle = self._knob_handles.get(knob.name)
+                if handle is not None and commands.split_name(knob.name)[0] == "d":
+                    low, high = knob.slider_bounds()
+                    if (handle.min, handle.max) != (low, high):
+                        handle.min, handle.max = low, high
+        finally:
+            self._syncing = False
 
     def set_links(self, value: object) -> None:
         """The chain panel's Bars: load the ``chain`` preset of that many bars (its integration choices kept)."""
@@ -881,8 +896,12 @@ class MechanismSession(SessionBase):
 
     def set_start_pose(self, q0: np.ndarray, qdot0: np.ndarray, play: bool = False) -> None:
         """Start again at t = 0 from the pose ``q0`` with speeds ``qdot0`` (a rest pose, app/rest_view.py),
-        paused or playing; the start controls show it."""
+        paused or playing; the start controls show it. A hosted chain's start becomes the pose's angles and rates
+        (its share link carries them; LinkageError when they do not close its loop, nothing changed)."""
         with self._lock:
+            if self.chain is not None:
+                theta, omega = chain_knobs.chain_angles(self.chain, q0, qdot0)
+                self.chain = self.chain.replaced(theta0=theta, omega0=omega)
             self.q0, self.qdot0 = np.array(q0, dtype=float), np.array(qdot0, dtype=float)
             self._build_scene(self.q0)
             self.energy_ref = None
@@ -1030,7 +1049,8 @@ class MechanismSession(SessionBase):
     def setup_document(self) -> bytes:
         """The setup as a file (docs/app.md, "Setup files"): a preset's pairs, or a file's description and
         pairs; LinkageError when the description makes it too large to be read back."""
-        return share.setup_document(self.setup_pairs(), None if is_mechanism(self.label) else self.reference)
+        description = None if is_mechanism(self.label) or self.chain is not None else self.reference
+        return share.setup_document(self.setup_pairs(), description)
 
     def upload_setup(self, client_id: int | None, name: object, content: object) -> None:
         """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one): read

@@ -106,6 +106,32 @@ def test_every_chain_knob_is_there_by_the_chains_name_and_range(host):
         session.set_method("reduced")
 
 
+def _moved(handle, value) -> None:
+    """What viser does with a browser's update of ``handle``: the value stored, then every callback."""
+    handle._impl.value = value
+    for callback in list(handle._impl.update_cb):
+        callback(None)
+
+
+def test_the_panels_own_sliders_and_boxes_edit_the_chain(host):
+    session = host("triple-a")
+    _moved(session._knob_handles["m1"], 2.0)
+    assert session.chain.m[0] == 2.0 and session.mechanism.bodies[0].mass == 2.0
+    _moved(session._knob_handles["theta2"], 25.0)  # degrees, as the slider shows them
+    assert session.chain.theta0[1] == pytest.approx(math.radians(25.0))
+    for text, expected in (("2.5e1", 25.0), ("1,5", None)):
+        commits = session.typed_commits
+        _moved(session._typed_boxes["g"], text)
+        assert wait_until(lambda: session.typed_commits > commits, timeout=30)
+        if expected is not None:
+            assert session.chain.g == expected and session.mechanism.g == expected and session.notices.text is None
+        else:  # read as the chain panel reads it: refused in its words, the value in force kept
+            with pytest.raises(LinkageError) as error:
+                commands.apply(session.chain, "g", text, CONTROL)
+            assert session.notices.text == f"Not applied: {error.value}" and session.chain.g == 25.0
+            assert session._typed_boxes["g"].value == "25"
+
+
 def test_a_four_bar_has_its_pin_its_driving_angle_and_its_reach(host):
     session = host("four-bar")
     names = {knob.name for knob in session.panel_knobs()}
@@ -227,6 +253,25 @@ def test_a_hosted_chains_link_is_the_chain_sessions(host):
     expected = _edited("four-bar", [("pin_x", f"{SessionParameters.from_preset('four-bar').pin[0] + 0.05}"),
                                     ("L2", "1.05")])
     assert four.link_query() == share.link_query(expected)
+    # a setup naming another chain preset loads that preset here, then its values (the integration choices in
+    # force kept unless it names them, as the chain session's load_setup)
+    third = host("triple-a", autoplay=False)
+    third.load_setup(four.setup_pairs())
+    assert third.chain.preset == "four-bar" and third.link_query() == four.link_query()
+    assert {"pin_x", "theta1"} <= {knob.name for knob in third.panel_knobs()}
+    other.load_setup(four.setup_pairs())
+    assert other.chain.preset == "four-bar" and other.settings.method == "dae" and other.chain.damping == 0.05
+    # the saved file is the chain's pairs, no mechanism description (it reopens as the chain preset)
+    saved = share.setup_from_state(four.setup_document(), "the test's setup")
+    assert saved.mechanism is None and saved.preset == "four-bar" and saved.pairs == four.setup_pairs()
+
+
+def test_a_centre_of_mass_slider_ends_at_its_bars_length(host):
+    session = host("triple-a", autoplay=False)
+    session.set("L2", 0.6)
+    assert session.chain.d[1] <= 0.6  # pulled in by the chain's command layer
+    handle = session._knob_handles["d2"]
+    assert handle.max == pytest.approx(0.6) and session._typed_boxes["d2"].value == f"{session.chain.d[1]:.6g}"
 
 
 # ---------------------------------------------------------------------------------------------- the physics
