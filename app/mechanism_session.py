@@ -1409,15 +1409,22 @@ class MechanismSession(SessionBase):
             self.facts.content = markdown_literal(
                 f"{len(m.bodies)} bodies, {len(m.joints)} joints; {mobility_text_for(m, self.mobility)}"
                 + (f" (motors: {motors})" if motors else ""))
-        self.trace_menu.options = ["(none)", *self.spec.draw.labels]
-        self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
-        methods = self._methods()
-        self.method.options = [method_label(name) for name in methods]
-        names = [body.name for body in m.bodies]
-        if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
-            self.free_body.set_bar(1)  # another mechanism: its first body
-        self.body_menu.options = names
-        self.body_menu.value = names[self.free_body.bar - 1]
+        # viser puts a menu whose value left its new options on the first and calls its callback: muted, or the
+        # traced point chosen for this mechanism became "(none)" (crank-rocker, then slider-crank)
+        syncing, self._syncing = self._syncing, True
+        try:
+            self.trace_menu.options = ["(none)", *self.spec.draw.labels]
+            self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
+            methods = self._methods()
+            self.method.options = [method_label(name) for name in methods]
+            self.method.value = method_label(self.settings.method)
+            names = [body.name for body in m.bodies]
+            if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
+                self.free_body.set_bar(1)  # another mechanism: its first body
+            self.body_menu.options = names
+            self.body_menu.value = names[self.free_body.bar - 1]
+        finally:
+            self._syncing = syncing
         self._show_free_body_help()
         self.rests.forget_if_stale()  # another mechanism, or other numbers: the list no longer applies
 

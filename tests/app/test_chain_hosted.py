@@ -294,3 +294,21 @@ def test_the_hosted_run_is_the_chain_engines(host, preset):
     assert error < 1e-7, f"{preset}: largest theta difference {error:.2e} rad"
     q0, _ = hosted_start(params)
     assert np.allclose(window["q"][0], q0, atol=1e-12)
+
+
+def test_a_hosted_chain_gives_way_to_a_mechanism_preset_and_back(host):
+    """The menu: another chain preset is hosted here; a mechanism preset gets its own knobs and keeps its traced
+    point (the trace menu's new options no longer reset it to none); its link is the mechanism's."""
+    session = host("triple-a")
+    session.choose("four-bar")
+    assert session.chain is not None and session.chain.preset == "four-bar" and session.label == "four-bar"
+    assert "pin_x" in {knob.name for knob in session.panel_knobs()}
+    session.choose("triple-b")
+    assert session.settings.trace == "bar3.D" and session.trace_menu.value == "bar3.D"  # the chain's tip
+    session.choose("slider-crank")
+    assert session.chain is None and session.label == "slider-crank"
+    _played(session, 0.3)  # the menus' callbacks (viser's, when a value left its options) have run meanwhile
+    mechanism = session.mechanism
+    assert session.settings.trace == mechanism.trace and session.trace_menu.value == mechanism.trace
+    assert session.link_query() == "?preset=slider-crank"
+    assert {f"mass:{body.name}" for body in mechanism.bodies} <= {knob.name for knob in session.panel_knobs()}
