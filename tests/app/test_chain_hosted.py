@@ -185,6 +185,27 @@ def test_physical_edits_go_on_from_the_displayed_state_without_a_new_structure(h
     assert session.player.runs[0].failed is None
 
 
+def test_a_four_bars_new_lengths_or_pin_go_on_from_the_displayed_state_on_the_new_loop(host):
+    session = host("four-bar")
+    _played(session, 0.3)
+    key = structure_key(session.mechanism)
+    for name, value in (("L3", 2.05), ("pin_x", session.chain.pin[0] + 0.01)):
+        _, t, q, qdot = _paused_state(session)
+        theta, _ = chain_angles(session.chain, q, qdot)
+        session.set(name, value)
+        assert session.player.wait_idle(60)
+        spec, t_after, q_after, qdot_after = session.player.current_start()
+        params = session.chain
+        theta_after, omega_after = chain_angles(params, q_after, qdot_after)
+        assert t_after == pytest.approx(t, abs=1e-12) and t_after > 0.0, name
+        assert theta_after[0] == pytest.approx(theta[0], abs=1e-12), name  # the driving angle kept
+        gap = physics.loop_closure.loop_residual(params.L, theta_after, params.pin)
+        assert float(np.hypot(*gap)) < 1e-9, name  # the others close the new loop
+        assert structure_key(spec.chain) == key, name
+        _played(session, 0.1)
+    assert session.player.runs[0].failed is None
+
+
 def test_a_start_angle_starts_again_at_zero_from_the_typed_degrees(host):
     session = host("triple-a")
     _played(session, 0.3)
