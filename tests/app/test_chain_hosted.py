@@ -296,18 +296,21 @@ def test_a_centre_of_mass_slider_ends_at_its_bars_length(host):
 
 
 # ---------------------------------------------------------------------------------------------- the physics
+@pytest.mark.parametrize("damping", ["0", "0.3"])
 @pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
-def test_the_hosted_run_is_the_chain_engines(host, preset):
-    """theta from the hosted run's q against physics.simulate's Trajectory.theta, same settings, over 2 s."""
+def test_the_hosted_run_is_the_chain_engines(host, preset, damping):
+    """theta from the hosted run's q against physics.simulate's Trajectory.theta, same settings (the joints'
+    damping too), over 2 s."""
     session = host(preset, autoplay=False)
     session.set_link_value("rtol", "1e-10")
+    session.set_link_value("damping", damping)
     assert session.goto_time(2.0, timeout=300), session.notices.text
     ring = session.player.runs[0].ring
     count = int(round(2.0 / ring.dt)) + 1
     window = ring.window(0, count - 1, ["t", "q", "qdot"])
     theta, omega = chain_angles(session.chain, window["q"], window["qdot"])
     params = session.chain
-    settings = Settings(method=params.method, integrator="DOP853", rtol=1e-10, atol=1e-10,
+    settings = Settings(method=params.method, integrator="DOP853", rtol=1e-10, atol=1e-10, damping=float(damping),
                         t_end=float(window["t"][-1]), samples=len(window["t"]), trace=params.trace)
     reference = physics.simulate(params.chain, params.theta0, params.omega0, settings)
     assert np.allclose(window["t"], reference.t, atol=1e-12)
