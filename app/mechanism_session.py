@@ -8,8 +8,13 @@ torque, gravity; the formulation (DAE, Lagrange, Newton-Euler on a spanning tree
 mobility 1) and the stabilisation; the traced point (any named point of any body); reaction arrows at the
 pins; energy and, for a speed motor, the driving torque over time.
 
-Choosing a chain preset in its mechanism menu hands the browser back to a chain session (``on_switch``, given
-by the server). Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or
+It can also host a chain (issue 24, "One app session"): :meth:`MechanismSession.for_chain` runs a chain preset's
+:class:`app.parameters.SessionParameters` as ``physics.mechanism.chains.chain_mechanism`` hanging down, from the
+chain's own start, with the chain's knobs and names (app/chain_knobs.py: ``L1``, ``m2``, ``g``, ``theta1``,
+``pin_x``, ``damping``, the number of bars), every edit through the chain's command layer (app/commands.py), the
+chain session's share link and a four-bar's reach line; ``self.chain`` holds the chain's parameters in force
+(None for a mechanism). Choosing a chain preset in its mechanism menu hands the browser back to a chain session
+(``on_switch``, given by the server); a hosted chain hosts the chosen chain here instead. Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or
 joint, the field and the allowed range, and the session goes on.
 """
 
@@ -25,15 +30,16 @@ from typing import Any, Callable, cast
 
 import numpy as np
 
-from physics import LinkageError, preset_names
+from physics import LinkageError, Settings, preset_names
 from physics.mechanism import MECHANISM_PRESETS, Mechanism, analyse
 from physics.mechanism.assembly import mobility_text_for
+from physics.mechanism.chains import chain_state
 from physics.mechanism.files import mechanism_from_bytes
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
-from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES
+from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 
-from . import delivery, panel_rows, readout, share, viser_compat
+from . import chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
@@ -73,7 +79,7 @@ from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S, NumberInputs
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
-from .parameters import Display, method_from_label, method_label
+from .parameters import Display, SessionParameters, method_from_label, method_label, settings_data
 from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
 from .rest_view import MechanismRests, RestPositionsPanel
@@ -182,14 +188,17 @@ class MechanismSession(SessionBase):
     kind: Kind = "mechanism"
 
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
-                 autoplay: bool = True, on_switch: Callable[..., None] | None = None) -> None:
+                 autoplay: bool = True, on_switch: Callable[..., None] | None = None,
+                 chain: SessionParameters | None = None) -> None:
+        # a hosted chain (app/chain_knobs.py): its parameters in force (chain, settings, start); None: a mechanism
+        self.chain = chain
         self.target = target
         self.shared = shared
         self.closed = False
         self.label = label or mechanism.name  # the menu's entry: a preset's name or the file's
         self.reference = mechanism  # as loaded: the sliders' ranges and "Reset to the preset's values"
         self.mechanism = mechanism
-        self.settings = MechanismSettings(trace=mechanism.trace)
+        self.settings = MechanismSettings(trace=mechanism.trace) if chain is None else chain_knobs.hosted_settings(chain)
         self.on_switch = on_switch  # (chain preset, optional app.share.SavedSetup to load there)
         self.is_presenter: Callable[[int], bool] | None = None
         self.id = id(self)
@@ -197,7 +206,7 @@ class MechanismSession(SessionBase):
         self.reactions_on = False
         self.compare = False  # the three formulations side by side (app/mechanism_compare.py)
         self.frames_sent = 0
-        self.q0, self.qdot0, self.mobility = start_state(mechanism)  # LinkageError: the file cannot assemble
+        self.q0, self.qdot0, self.mobility, _ = self._start_of(mechanism)  # LinkageError: the file cannot assemble
         self.sketch_q = self.q0  # the assembled sketch: the start controls' ranges are around it
         self.free: tuple[FreeCoordinate, ...] = ()  # the coordinates a start is set by (app/mechanism_start.py)
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
@@ -232,6 +241,26 @@ class MechanismSession(SessionBase):
             self.player.stop()
             POOL.release(self.worker)
             raise
+
+    @classmethod
+    def for_chain(cls, target, params: SessionParameters, *, shared: bool = False, autoplay: bool = True,
+                  on_switch: Callable[..., None] | None = None) -> "MechanismSession":
+        """A chain preset hosted here (app/chain_knobs.py): ``params`` (``SessionParameters.from_preset``, edited
+        or not) run as ``chain_mechanism(params.chain, theta = 0, damping)`` from the chain's own start, with the
+        chain's knobs and names; LinkageError for a method the mechanism session does not run."""
+        chain_knobs.hosted_settings(params)  # a method it cannot run: refused before anything is built
+        return cls(target, chain_knobs.hosted_mechanism(params), label=params.preset, shared=shared,
+                   autoplay=autoplay, on_switch=on_switch, chain=params)
+
+    def _start_of(self, mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int, tuple[FreeCoordinate, ...]]:
+        """``(q0, qdot0, mobility, free)``: a mechanism's assembled sketch at rest and the coordinates its start is
+        set by (LinkageError naming the joint that stays open); a hosted chain's own start (its loop closure's,
+        never the sketch's) and its driving angles."""
+        if self.chain is not None:
+            q0, qdot0 = chain_knobs.hosted_start(self.chain)
+            return q0, qdot0, chain_knobs.mobility(self.chain), chain_knobs.free_coordinates(self.chain)
+        q0, qdot0, mobility = start_state(mechanism)
+        return q0, qdot0, mobility, free_coordinates(mechanism, q0, mobility)
 
     # ------------------------------------------------------------------ the panel
     def _build_panel(self) -> None:
@@ -397,7 +426,7 @@ class MechanismSession(SessionBase):
         for name in [name for name in self._typed_boxes if name not in keep]:
             quietly(self._typed_boxes.pop(name).remove, "removing a control")
         with self.knob_folder:
-            for knob in knobs(self.mechanism, self.reference):
+            for knob in self._mechanism_knobs():
                 self._add_knob(knob)
         with self.start_folder:
             for knob in self._start_knobs():
@@ -461,16 +490,25 @@ class MechanismSession(SessionBase):
         self.player.touch()
 
     def _start_knobs(self) -> list[Knob]:
+        if self.chain is not None:
+            return chain_knobs.start_knobs(self.chain)
         return start_knobs(self.mechanism, self.free, self.sketch_q, self.q0, self.qdot0)
+
+    def _mechanism_knobs(self) -> list[Knob]:
+        """The Bodies and motors folder's controls: a mechanism's (app/mechanism_edits.py), or a hosted chain's
+        by the chain's names (app/chain_knobs.py)."""
+        if self.chain is not None:
+            return chain_knobs.chain_knobs(self.chain)
+        return knobs(self.mechanism, self.reference)
 
     def mechanism_tab_knobs(self) -> list[Knob]:
         """The generated controls of the Mechanism tab: the mechanism's, then its start's."""
-        return [*knobs(self.mechanism, self.reference), *self._start_knobs()]
+        return [*self._mechanism_knobs(), *self._start_knobs()]
 
     def panel_knobs(self) -> list[Knob]:
         """Every generated control of the panel, in the order a share link sets them (a size before the start,
         which a size change puts back on the sketch)."""
-        return [*knobs(self.mechanism, self.reference), *settings_knobs(self.settings), *self._start_knobs()]
+        return [*self._mechanism_knobs(), *settings_knobs(self.settings), *self._start_knobs()]
 
     def _knob_moved(self, knob: Knob, handle) -> None:
         if self._syncing:
@@ -517,6 +555,9 @@ class MechanismSession(SessionBase):
         (:func:`app.commands.read_number`), then set as by its slider."""
         if name in DISPLAY_NAMES:  # read by the chain panel's reader, in the panel's units
             self._set_display(name, text, CONTROL)
+            return
+        if self.chain is not None:  # read by the chain's command layer, its refusals the chain panel's
+            self._set_chain(name, text, CONTROL)
             return
         knob = next((k for k in self.panel_knobs() if k.name == name), None)
         if knob is None:
@@ -598,6 +639,9 @@ class MechanismSession(SessionBase):
         if name in DISPLAY_NAMES:  # playback speed, trace length, arrow scale (SI: seconds, a factor)
             self._set_display(name, value, SI)
             return
+        if self.chain is not None:  # a hosted chain's knob, by the chain's name, in the panel's units
+            self._set_chain(name, value, CONTROL)
+            return
         with self._lock:
             if name in SETTING_KNOBS:
                 self._set_settings(apply_setting(self.settings, name, value))
@@ -612,6 +656,121 @@ class MechanismSession(SessionBase):
                     self.mechanism = edited
                     self._continue()
             self._sync_boxes()  # a slider moved: its box shows the value in force (a resize: the inertia's too)
+
+    # ------------------------------------------------------------------ a hosted chain (app/chain_knobs.py)
+    def _set_chain(self, name: str, value: object, units: str) -> None:
+        """One edit of the hosted chain by the chain's name (``L1``, ``m2``, ``g``, ``damping``, ``theta1``,
+        ``omega1``, ``pin_x``, ``links``, ``rtol``, ...), in ``units`` (CONTROL: the panel's degrees and
+        milliseconds; SI: ``python -m physics --set``'s), through the chain's command layer
+        (:func:`app.commands.apply`: its refusals, word for word). As the chain session: a physical number goes on
+        from the displayed state (mapped to the chain's angles and back through ``chain_state`` with the new
+        numbers), a start value starts again at t = 0 from it, the number of bars loads that chain preset."""
+        chain = self.chain
+        assert chain is not None, "a hosted chain's edit"
+        if name in DISPLAY_NAMES:
+            self._set_display(name, value, units)
+            return
+        if name in ("method", "integrator", "stabilization", "trace"):
+            self.set_link_value(name, str(value))
+            return
+        if name == "links":
+            self.set_links(value)
+            return
+        with self._lock:
+            edit = commands.apply(chain, name, value, units)
+            if name in SETTING_KNOBS:
+                shown = getattr(edit.params.settings, name) * (1e3 if name == "step" else 1.0)
+                self._set_settings(apply_setting(self.settings, name, shown))
+                self.chain = chain_knobs.with_settings(edit.params, self.settings)
+            elif edit.restart:
+                self._chain_start(edit.params)
+            else:
+                key = commands.split_name(name)[0]
+                self._chain_continue(edit.params, geometry=key in ("L", "d", "pin_x", "pin_y"))
+            self._sync_boxes()
+
+    def _chain_start(self, params: SessionParameters) -> None:
+        """A new start of the hosted chain (its angles or speeds): again at t = 0 from it."""
+        self.chain = params
+        self.q0, self.qdot0 = chain_knobs.hosted_start(params)
+        self._build_scene(self.q0)
+        self.energy_ref = None
+        self._clear_plots()
+        self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+
+    def _chain_continue(self, params: SessionParameters, geometry: bool) -> None:
+        """New numbers of the hosted chain (lengths, masses, inertias, g, damping, pin), going on from the
+        displayed state: its angles and rates are the chain's (a pinned chain's put back on the loop the new
+        numbers close: LinkageError before anything changed), re-mapped to the new mechanism's ``q, qdot``. The
+        mechanism's structure (what is compiled) is the same: only numbers change. Compare mode starts every
+        formulation again from the start, as a mechanism's edit does."""
+        mechanism = chain_knobs.hosted_mechanism(params)
+        state = None if self.compare else self.player.current_start()
+        if state is not None and chain_knobs.same_shape(cast(MechanismSpec, state[0]).chain, params):
+            _, t, q, qdot = state
+            theta, omega = chain_knobs.close_loop(params, *chain_knobs.chain_angles(params, q, qdot))
+            q, qdot = chain_state(params.chain, chain_knobs.sketch(params), theta, omega)
+        else:
+            state = None
+        self.chain, self.mechanism = params, mechanism
+        self.q0, self.qdot0 = chain_knobs.hosted_start(params)
+        self.sketch_q = self.q0
+        self.spec = self._spec()
+        self._row_names = self.spec.row_names
+        if geometry:
+            self._build_scene(self.q0 if state is None else q)
+            self._frame_camera(points_at(self.spec.draw, self.q0), force=False)
+            self.facts.content = chain_knobs.facts_line(params)  # a four-bar's reach moves with its lengths
+            self._follow_ranges()
+        self.energy_ref = None
+        if state is None:
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False)
+        else:
+            self._restart(t, q, qdot, keep_history=True)
+
+    def _follow_ranges(self) -> None:
+        """A centre of mass d's slider ends at its bar's length, as the chain panel's (the slider itself stays:
+        one may be under the mouse)."""
+        self._syncing = True
+        try:
+            for knob in self._mechanism_knobs():
+                handle = self._knob_handles.get(knob.name)
+                if handle is not None and commands.split_name(knob.name)[0] == "d":
+                    low, high = knob.slider_bounds()
+                    if (handle.min, handle.max) != (low, high):
+                        handle.min, handle.max = low, high
+        finally:
+            self._syncing = False
+
+    def set_links(self, value: object) -> None:
+        """The chain panel's Bars: load the ``chain`` preset of that many bars (its integration choices kept)."""
+        number = commands.parse_links(value)
+        if self.chain is None or self.chain.preset != "chain":
+            raise LinkageError("links: only the 'chain' mechanism has a variable number of bars")
+        self.open_chain(SessionParameters.from_preset("chain", links=number))
+
+    def open_chain(self, params: SessionParameters, play: bool = True) -> None:
+        """Host the chain ``params`` here (a chain preset chosen in the menu, another number of bars, the preset's
+        values again): the integration choices in force kept where the chain's methods take them, as the chain
+        session's ``set_mechanism``; the panel's controls built again for it."""
+        with self._lock:
+            old = self.chain
+            if old is not None:
+                offered = chain_knobs.methods(params, chain_knobs.mobility(params))
+                method = old.method if old.method in offered else params.method
+                kept = {**settings_data(old.settings), "method": method, "trace": params.trace}
+                params = params.replaced(settings=validated(Settings, **kept))
+            settings = chain_knobs.hosted_settings(params)
+            mechanism = chain_knobs.hosted_mechanism(params)
+            self.chain, self.settings = params, settings
+            self.label, self.reference = params.preset, mechanism
+            self._syncing = True  # the menu's own callback is not a choice
+            try:
+                self.menu.options = self._menu_entries()
+                self.menu.value = self.label
+            finally:
+                self._syncing = False
+            self._new_mechanism(mechanism, play=play)
 
     def _set_display(self, name: str, value: object, units: str) -> None:
         """A display setting (the chain's :func:`app.commands.apply_display`: its bounds and its notices): the
@@ -665,6 +824,8 @@ class MechanismSession(SessionBase):
                     check_integrator(method, settings.integrator)
                 except LinkageError as error:
                     raise LinkageError(f"compare mode: {error}") from None
+        if self.chain is not None:  # the chain's models take them too (a share link carries them)
+            self.chain = chain_knobs.with_settings(self.chain, settings)
         self.settings = settings
         self.sync_all()  # the tolerance or the fixed step shows, as the integrator needs
         self._continue()
@@ -680,7 +841,7 @@ class MechanismSession(SessionBase):
         """The method by its key (``dae``, as share links and snapshots give it; the menu sends its label,
         turned into the key by :func:`app.parameters.method_from_label`)."""
         with self._lock:
-            _choice("method", method, list(METHODS))
+            _choice("method", method, self._methods() if self.chain is not None else list(METHODS))
             check_method(method, self.mobility)
             update: dict[str, object] = {"method": method}
             if method == "reduced":  # it closes its loops by position analysis and integrates with its own DOP853
@@ -690,7 +851,10 @@ class MechanismSession(SessionBase):
                 if self.settings.integrator not in allowed_integrators(method):
                     raise LinkageError(f"method = {method}: the integrator {self.settings.integrator} does not "
                                        f"apply to it; choose one of {', '.join(allowed_integrators(method))} first")
-            self.settings = self.settings.model_copy(update=update)
+            settings = self.settings.model_copy(update=update)
+            if self.chain is not None:  # the chain's models take it too (LinkageError before anything changed)
+                self.chain = chain_knobs.with_settings(self.chain, settings)
+            self.settings = settings
             self.sync_all()  # the Stabilisation menu shows projection with the reduced model
             self._continue()
 
@@ -700,7 +864,10 @@ class MechanismSession(SessionBase):
             if self.settings.method == "reduced" and stabilization != "projection":
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
-            self.settings = self.settings.model_copy(update={"stabilization": stabilization})
+            settings = self.settings.model_copy(update={"stabilization": stabilization})
+            if self.chain is not None:
+                self.chain = chain_knobs.with_settings(self.chain, settings)
+            self.settings = settings
             self.sync_all()  # the Baumgarte gains show with baumgarte
             self._continue()
 
@@ -729,8 +896,12 @@ class MechanismSession(SessionBase):
 
     def set_start_pose(self, q0: np.ndarray, qdot0: np.ndarray, play: bool = False) -> None:
         """Start again at t = 0 from the pose ``q0`` with speeds ``qdot0`` (a rest pose, app/rest_view.py),
-        paused or playing; the start controls show it."""
+        paused or playing; the start controls show it. A hosted chain's start becomes the pose's angles and rates
+        (its share link carries them; LinkageError when they do not close its loop, nothing changed)."""
         with self._lock:
+            if self.chain is not None:
+                theta, omega = chain_knobs.chain_angles(self.chain, q0, qdot0)
+                self.chain = self.chain.replaced(theta0=theta, omega0=omega)
             self.q0, self.qdot0 = np.array(q0, dtype=float), np.array(qdot0, dtype=float)
             self._build_scene(self.q0)
             self.energy_ref = None
@@ -791,9 +962,13 @@ class MechanismSession(SessionBase):
         if is_mechanism(name):
             with self._lock:
                 mechanism = MECHANISM_PRESETS[name]()
+                self.chain = None  # a hosted chain's knobs give way to the mechanism's
                 self.label, self.reference = name, mechanism
                 self.settings = MechanismSettings(trace=mechanism.trace)
                 self._new_mechanism(mechanism, play=True)
+            return
+        if self.chain is not None:  # a chain hosted here: the other chain is hosted here too
+            self.open_chain(SessionParameters.from_preset(name))
             return
         if self.on_switch is None:
             raise LinkageError(f"mechanism = {name!r}: this page shows mechanisms only")
@@ -814,6 +989,7 @@ class MechanismSession(SessionBase):
         assembled sketch; LinkageError naming the joint that stays open, and nothing changed."""
         with self._lock:
             start_state(mechanism)  # LinkageError naming the joint that stays open; nothing changed yet
+            self.chain = None
             self.label, self.reference = label, mechanism
             self.settings = MechanismSettings(trace=mechanism.trace)
             # viser puts a menu whose value left its options on the first (a chain preset) and calls its
@@ -839,7 +1015,9 @@ class MechanismSession(SessionBase):
         units and in the panel's order (a body's size before its inertia, which the size scales; the run's
         tolerance and step; last the start, where not the assembled sketch at rest, as a chain's link carries its
         angles and speeds). LinkageError for a mechanism from a file: a link names a preset; the file itself is
-        what to share."""
+        what to share. A hosted chain's is the chain session's, name for name (app/share.py ``link_query``)."""
+        if self.chain is not None:
+            return share.link_query(self.chain)
         if not is_mechanism(self.label):
             raise LinkageError(f"link: {self.label!r} was loaded from a file; a link can name a preset only "
                                "(share the file, and load it with 'Load a mechanism file', or save this setup)")
@@ -848,6 +1026,8 @@ class MechanismSession(SessionBase):
     def setup_pairs(self) -> list[tuple[str, str]]:
         """The setup's ``(name, value)`` pairs, as a share link carries them (see :meth:`link_query`); for a
         mechanism from a file no preset, and the values that differ from the file's as loaded."""
+        if self.chain is not None:
+            return urllib.parse.parse_qsl(share.link_query(self.chain)[1:], keep_blank_values=True)
         base = MECHANISM_PRESETS[self.label]() if is_mechanism(self.label) else self.reference
         pairs: list[tuple[str, str]] = [("preset", self.label)] if is_mechanism(self.label) else []
         defaults = MechanismSettings(trace=base.trace)
@@ -869,7 +1049,8 @@ class MechanismSession(SessionBase):
     def setup_document(self) -> bytes:
         """The setup as a file (docs/app.md, "Setup files"): a preset's pairs, or a file's description and
         pairs; LinkageError when the description makes it too large to be read back."""
-        return share.setup_document(self.setup_pairs(), None if is_mechanism(self.label) else self.reference)
+        description = None if is_mechanism(self.label) or self.chain is not None else self.reference
+        return share.setup_document(self.setup_pairs(), description)
 
     def upload_setup(self, client_id: int | None, name: object, content: object) -> None:
         """A setup file chosen in the Export tab (a viewer of a presenter's session may not load one): read
@@ -894,6 +1075,9 @@ class MechanismSession(SessionBase):
             allowed = [*preset_names(), *mechanism_names()]
             if preset not in allowed:
                 raise LinkageError(f"{saved.where}: preset = {preset!r}: allowed {', '.join(allowed)}")
+            if self.chain is not None:  # a chain's setup, and a chain hosted here: loaded here
+                self.load_setup(saved.pairs, saved.where)
+                return
             if self.on_switch is None:
                 raise LinkageError(f"{saved.where}: preset = {preset!r}: this page shows mechanisms only")
             self.on_switch(preset, saved)
@@ -982,13 +1166,23 @@ class MechanismSession(SessionBase):
         return f"mechanism-{stem}-{spec.settings.method}.{kind}", run_file(cast(Any, spec), samples, kind)
 
     def set_value(self, name: str, text: str) -> None:
-        """One ``snapshot --set NAME=VALUE``: the names and units of the panel and its share links."""
+        """One ``snapshot --set NAME=VALUE``: the names and units of the panel and its share links; for a hosted
+        chain the SI units of ``python -m physics --set`` (radians, seconds), as the chain session's."""
+        if self.chain is not None and name not in ("method", "integrator", "stabilization", "trace"):
+            self._set_chain(name, text, SI)
+            return
         self.set_link_value(name, text)
 
     def load_setup(self, pairs: list[tuple[str, str]], where: str = "the setup") -> None:
         """A saved setup's values by the names of this panel (the mechanism itself is the session's start);
-        what is refused is listed in one notice, the rest applied."""
-        refused = share.apply_setup(pairs, self.set_link_value)
+        what is refused is listed in one notice, the rest applied. A hosted chain's setup that names its preset
+        (or another chain preset, or a number of bars) starts from that preset's values, as the chain session's."""
+        refused: list[str] = []
+        if self.chain is not None:
+            preset, links, refused = share.start_of(pairs, self.chain.preset, None)
+            if any(name == "preset" for name, _ in pairs) or preset != self.chain.preset or links is not None:
+                self.open_chain(SessionParameters.from_preset(preset, links=links if preset == "chain" else None))
+        refused += share.apply_setup(pairs, self.set_link_value)
         if refused:
             self.show_notice(f"Not applied from {where}", "; ".join(refused))
 
@@ -1041,7 +1235,8 @@ class MechanismSession(SessionBase):
                 "free_body": None if not self.free_body.on or self.free_body.loads is None
                 else self.free_body.loads.as_dict(),
                 "trace": self.settings.trace,
-                "values": {knob.name: knob.value for knob in knobs(self.mechanism, self.reference)},
+                "values": {knob.name: knob.value for knob in self._mechanism_knobs()},
+                "chain": None if self.chain is None else self.chain.as_dict(),  # a hosted chain's parameters
                 "integrator": self.settings.integrator,
                 "start": {knob.name: knob.value for knob in self._start_knobs()},
                 "playing": player.playing, "time": float(player.display_time),
@@ -1060,6 +1255,11 @@ class MechanismSession(SessionBase):
             }
 
     def reset_to_reference(self) -> None:
+        """The preset's (or file's) values again; a hosted chain's preset values, its integration choices kept."""
+        if self.chain is not None:
+            preset = self.chain.preset
+            self.open_chain(SessionParameters.from_preset(preset, links=self.chain.n if preset == "chain" else None))
+            return
         with self._lock:
             self._new_mechanism(self.reference, play=True)
 
@@ -1137,10 +1337,11 @@ class MechanismSession(SessionBase):
         generated controls, and start at t = 0 from ``start`` (Reset: the start in force) or else the assembled
         sketch at rest. ``same_kind``: a size dragged on a slider: the controls stay (the one under the mouse is
         not replaced), the bars are resized in place and the camera moves only when the size changed noticeably."""
-        q0, qdot0, mobility = start_state(mechanism)
+        q0, qdot0, mobility, free = self._start_of(mechanism)
         if self.settings.method == "reduced" and mobility != 1:  # a new mechanism without a free coordinate
             self.settings = self.settings.model_copy(update={"method": "dae"})
-        free = free_coordinates(mechanism, q0, mobility)
+            if self.chain is not None:
+                self.chain = chain_knobs.with_settings(self.chain, self.settings)
         same_kind = same_kind and free == self.free  # other start controls: built again
         self.sketch_q, self.free = q0, free
         if start is not None:
@@ -1199,22 +1400,40 @@ class MechanismSession(SessionBase):
 
     def _show_facts(self) -> None:
         m = self.mechanism
-        motors = ", ".join(f"{d.joint} ({'speed' if d.speed is not None else 'torque'})" for d in m.drivers)
-        self.description.content = "*" + markdown_literal(m.description or m.name) + "*"
-        self.facts.content = markdown_literal(
-            f"{len(m.bodies)} bodies, {len(m.joints)} joints; {mobility_text_for(m, self.mobility)}"
-            + (f" (motors: {motors})" if motors else ""))
-        self.trace_menu.options = ["(none)", *self.spec.draw.labels]
-        self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
-        methods = [name for name in METHODS if name != "reduced" or self.mobility == 1]
-        self.method.options = [method_label(name) for name in methods]
-        names = [body.name for body in m.bodies]
-        if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
-            self.free_body.set_bar(1)  # another mechanism: its first body
-        self.body_menu.options = names
-        self.body_menu.value = names[self.free_body.bar - 1]
+        if self.chain is not None:  # the chain panel's description, and a four-bar's reach (Grashof) line
+            self.description.content = "*" + markdown_literal(chain_knobs.description(self.chain)) + "*"
+            self.facts.content = chain_knobs.facts_line(self.chain)
+        else:
+            motors = ", ".join(f"{d.joint} ({'speed' if d.speed is not None else 'torque'})" for d in m.drivers)
+            self.description.content = "*" + markdown_literal(m.description or m.name) + "*"
+            self.facts.content = markdown_literal(
+                f"{len(m.bodies)} bodies, {len(m.joints)} joints; {mobility_text_for(m, self.mobility)}"
+                + (f" (motors: {motors})" if motors else ""))
+        # viser puts a menu whose value left its new options on the first and calls its callback: muted, or the
+        # traced point chosen for this mechanism became "(none)" (crank-rocker, then slider-crank)
+        syncing, self._syncing = self._syncing, True
+        try:
+            self.trace_menu.options = ["(none)", *self.spec.draw.labels]
+            self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
+            methods = self._methods()
+            self.method.options = [method_label(name) for name in methods]
+            self.method.value = method_label(self.settings.method)
+            names = [body.name for body in m.bodies]
+            if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
+                self.free_body.set_bar(1)  # another mechanism: its first body
+            self.body_menu.options = names
+            self.body_menu.value = names[self.free_body.bar - 1]
+        finally:
+            self._syncing = syncing
         self._show_free_body_help()
         self.rests.forget_if_stale()  # another mechanism, or other numbers: the list no longer applies
+
+    def _methods(self) -> list[str]:
+        """The Method menu's keys: every formulation (the reduced model for mobility 1); for a hosted chain those
+        of its own (app.parameters.methods_for) that this session runs."""
+        if self.chain is not None:
+            return list(chain_knobs.methods(self.chain, self.mobility))
+        return [name for name in METHODS if name != "reduced" or self.mobility == 1]
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""

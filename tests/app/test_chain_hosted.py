@@ -1,0 +1,338 @@
+"""A chain hosted by the mechanism session (issue 24, "One app session"): the chain's knobs and names, its edits
+through the chain's command layer, its share link, and its run against the chain engine's.
+
+Each session is built in this process on a viser server of its own (``shared``: it draws for whoever connects,
+no browser needed), its chunks computed in this interpreter (the worker pool set to none), so that a test can
+see whether an edit loaded a new compiled system.
+"""
+
+from __future__ import annotations
+
+import math
+import urllib.parse
+
+import numpy as np
+import pytest
+import viser
+
+import physics
+from app import commands, mechanism_workers, share
+from app.chain_knobs import chain_angles, hosted_start
+from app.commands import CONTROL, QUANTITIES
+from app.controls import BAR_SLIDERS, reach_text
+from app.mechanism_session import MechanismSession
+from app.parameters import SessionParameters
+from conftest import wait_until
+from physics import LinkageError, Settings
+from physics.codegen import cache as codegen_cache
+from physics.mechanism.parameters import structure_key
+from physics.model import MAX_LINKS
+
+
+@pytest.fixture(scope="module")
+def in_process():
+    saved = mechanism_workers.POOL.count
+    mechanism_workers.POOL.count = 0  # chunks in this interpreter: its loaded systems are what a test inspects
+    yield
+    mechanism_workers.POOL.count = saved
+
+
+@pytest.fixture
+def host(in_process):
+    """``host(preset)``: a chain preset hosted by a mechanism session on a viser server of its own."""
+    opened: list[tuple[MechanismSession, viser.ViserServer]] = []
+
+    def _host(preset: str, links: int | None = None, autoplay: bool = True) -> MechanismSession:
+        params = SessionParameters.from_preset(preset, links=links)
+        server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+        session = MechanismSession.for_chain(server, params, shared=True, autoplay=autoplay)
+        opened.append((session, server))
+        assert session.player.wait_idle(120), "the first start was not shown"
+        return session
+
+    yield _host
+    for session, server in opened:
+        session.close(clean=True)
+        server.stop()
+
+
+def _played(session: MechanismSession, seconds: float) -> None:
+    session.play()
+    start = session.player.display_time
+    assert wait_until(lambda: session.player.display_time > start + seconds, timeout=120), session.notices.text
+
+
+def _paused_state(session: MechanismSession):
+    session.pause()
+    assert session.player.wait_idle(60)
+    spec, t, q, qdot = session.player.current_start()
+    return spec, t, q, qdot
+
+
+def _edited(preset: str, edits: list[tuple[str, str]]) -> SessionParameters:
+    """The chain session's parameters after the same edits (app/commands.py, as its panel applies them)."""
+    params = SessionParameters.from_preset(preset)
+    for name, text in edits:
+        params = commands.apply(params, name, text, CONTROL).params
+    return params
+
+
+# ---------------------------------------------------------------------------------------------- the knobs
+def test_every_chain_knob_is_there_by_the_chains_name_and_range(host):
+    session = host("triple-a")
+    params = session.chain
+    names = [knob.name for knob in session.panel_knobs()]
+    expected = {"g", "damping", *(f"{f}{k}" for f in "LdmI" for k in (1, 2, 3)),
+                *(f"{f}{k}" for f in ("theta", "omega") for k in (1, 2, 3)), "rtol", "step"}
+    assert expected <= set(names) and len(names) == len(set(names))
+    assert not {"pin_x", "pin_y", "links"} & set(names)  # an open chain of a fixed size
+    for knob in session.panel_knobs():
+        assert knob.name in session._knob_handles and knob.name in session._typed_boxes, knob.name
+        key, k = commands.split_name(knob.name)
+        if key in BAR_SLIDERS:  # the chain panel's slider range, the model's typed range, the value in force
+            spec = BAR_SLIDERS[key]
+            lo, lo_open, hi, _ = QUANTITIES[key].bounds()
+            assert knob.low == spec.range()[0] and knob.step == spec.step
+            assert knob.allowed == (lo, params.L[k - 1] if key == "d" else hi) and knob.low_open == lo_open
+            assert knob.value == getattr(params.chain.bars[k - 1], key)
+            assert knob.label.endswith(f"{QUANTITIES[key].label} ({QUANTITIES[key].unit})")
+    by_name = {knob.name: knob for knob in session.panel_knobs()}
+    assert by_name["theta2"].value == pytest.approx(math.degrees(params.theta0[1]))
+    assert by_name["theta1"].label == "theta1 (°)" and by_name["omega1"].label == "omega1 (°/s)"
+    assert by_name["g"].value == params.g and by_name["g"].label == "gravity g (m/s²)"
+    # the Method menu offers the chain's methods this session runs; others are refused naming the allowed ones
+    assert list(session.method.options) == ["Newton-Euler", "Lagrange", "DAE"]
+    with pytest.raises(LinkageError, match=r"method = 'reduced': allowed values newton_euler, lagrange, dae"):
+        session.set_method("reduced")
+
+
+def _moved(handle, value) -> None:
+    """What viser does with a browser's update of ``handle``: the value stored, then every callback."""
+    handle._impl.value = value
+    for callback in list(handle._impl.update_cb):
+        callback(None)
+
+
+def test_the_panels_own_sliders_and_boxes_edit_the_chain(host):
+    session = host("triple-a")
+    _moved(session._knob_handles["m1"], 2.0)
+    assert session.chain.m[0] == 2.0 and session.mechanism.bodies[0].mass == 2.0
+    _moved(session._knob_handles["theta2"], 25.0)  # degrees, as the slider shows them
+    assert session.chain.theta0[1] == pytest.approx(math.radians(25.0))
+    for text, expected in (("2.5e1", 25.0), ("1,5", None)):
+        commits = session.typed_commits
+        _moved(session._typed_boxes["g"], text)
+        assert wait_until(lambda: session.typed_commits > commits, timeout=30)
+        if expected is not None:
+            assert session.chain.g == expected and session.mechanism.g == expected and session.notices.text is None
+        else:  # read as the chain panel reads it: refused in its words, the value in force kept
+            with pytest.raises(LinkageError) as error:
+                commands.apply(session.chain, "g", text, CONTROL)
+            assert session.notices.text == f"Not applied: {error.value}" and session.chain.g == 25.0
+            assert session._typed_boxes["g"].value == "25"
+
+
+def test_a_four_bar_has_its_pin_its_driving_angle_and_its_reach(host):
+    session = host("four-bar")
+    names = {knob.name for knob in session.panel_knobs()}
+    assert {"pin_x", "pin_y", "theta1", "omega1"} <= names
+    assert not {"theta2", "theta3", "omega2", "omega3"} & names  # assembled by the loop closure
+    assert reach_text(session.chain) in session.facts.content
+    assert "Reduced (1 dof)" in session.method.options
+    # the start shown is the chain's own, the loop closed: every angle of q is the chain's theta0
+    theta, _ = chain_angles(session.chain, session.q0, session.qdot0)
+    assert np.allclose(theta, session.chain.theta0, atol=1e-12)
+
+
+def test_the_number_of_bars_loads_that_chain_preset(host):
+    session = host("chain")
+    knob = next(k for k in session.panel_knobs() if k.name == "links")
+    assert knob.allowed == (1.0, float(MAX_LINKS))
+    session.set_method("dae")
+    session.set("links", 5)
+    assert session.chain.n == 5 and len(session.mechanism.bodies) == 5
+    assert {"L5", "theta5"} <= {k.name for k in session.panel_knobs()}
+    assert session.settings.method == "dae" and session.chain.method == "dae"  # the choice in force is kept
+    assert session.link_query() == share.link_query(session.chain) and "links=5" in session.link_query()
+    other = host("triple-a", autoplay=False)
+    with pytest.raises(LinkageError, match="links: only the 'chain' mechanism has a variable number of bars"):
+        other.set("links", 4)
+
+
+# ---------------------------------------------------------------------------------------------- edits
+def test_physical_edits_go_on_from_the_displayed_state_without_a_new_structure(host):
+    session = host("triple-a")
+    _played(session, 0.3)
+    key = structure_key(session.mechanism)
+    loaded = set(codegen_cache._loaded)
+    for name, value in (("L1", 1.3), ("m2", 2.5), ("g", 4.0), ("damping", 0.2), ("d3", 0.4), ("I1", 0.05)):
+        _, t, q, qdot = _paused_state(session)
+        theta, omega = chain_angles(session.chain, q, qdot)
+        session.set(name, value)
+        assert session.player.wait_idle(60)
+        spec, t_after, q_after, qdot_after = session.player.current_start()
+        assert t_after == pytest.approx(t, abs=1e-12) and t_after > 0.0  # went on, not back to t = 0
+        theta_after, omega_after = chain_angles(session.chain, q_after, qdot_after)
+        assert np.allclose(theta_after, theta, atol=1e-12) and np.allclose(omega_after, omega, atol=1e-12), name
+        assert structure_key(spec.chain) == key, name
+        _played(session, 0.1)
+    mechanism = session.mechanism
+    assert math.dist(*mechanism.bodies[0].points.values()) == pytest.approx(1.3)
+    assert mechanism.bodies[1].mass == 2.5 and mechanism.g == 4.0
+    assert all(joint.damping == 0.2 for joint in mechanism.joints)
+    assert session.player.runs[0].spec.chain == mechanism  # the run is of the new numbers
+    assert set(codegen_cache._loaded) == loaded  # no system derived or compiled for any edit
+    assert session.player.runs[0].failed is None
+
+
+def test_a_four_bars_new_lengths_or_pin_go_on_from_the_displayed_state_on_the_new_loop(host):
+    session = host("four-bar")
+    _played(session, 0.3)
+    key = structure_key(session.mechanism)
+    for name, value in (("L3", 2.05), ("pin_x", session.chain.pin[0] + 0.01)):
+        _, t, q, qdot = _paused_state(session)
+        theta, _ = chain_angles(session.chain, q, qdot)
+        session.set(name, value)
+        assert session.player.wait_idle(60)
+        spec, t_after, q_after, qdot_after = session.player.current_start()
+        params = session.chain
+        theta_after, omega_after = chain_angles(params, q_after, qdot_after)
+        assert t_after == pytest.approx(t, abs=1e-12) and t_after > 0.0, name
+        assert theta_after[0] == pytest.approx(theta[0], abs=1e-12), name  # the driving angle kept
+        gap = physics.loop_closure.loop_residual(params.L, theta_after, params.pin)
+        assert float(np.hypot(*gap)) < 1e-9, name  # the others close the new loop
+        assert structure_key(spec.chain) == key, name
+        _played(session, 0.1)
+    assert session.player.runs[0].failed is None
+
+
+def test_a_start_angle_starts_again_at_zero_from_the_typed_degrees(host):
+    session = host("triple-a")
+    _played(session, 0.3)
+    session.set_link_value("theta1", "40")
+    session.set_link_value("omega2", "-90")
+    assert session.player.wait_idle(60)
+    ring = session.player.runs[0].ring
+    assert ring.t_first == 0.0
+    q0, qdot0 = ring.get("q", 0), ring.get("qdot", 0)
+    assert q0[2] == pytest.approx(math.radians(40.0), abs=1e-12)
+    assert qdot0[5] == pytest.approx(math.radians(-90.0), abs=1e-12)
+    assert session.chain.theta0[0] == pytest.approx(math.radians(40.0))
+
+    four = host("four-bar")
+    theta1 = math.degrees(four.chain.theta0[0]) - 10.0
+    four.set_link_value("theta1", f"{theta1}")
+    assert four.player.wait_idle(60)
+    q0 = four.player.runs[0].ring.get("q", 0)
+    assert math.degrees(q0[2]) == pytest.approx(theta1, abs=1e-9)
+    assert np.allclose(q0[2::3], four.chain.theta0, atol=1e-12)  # the others assembled by the loop closure
+    gap = physics.loop_closure.loop_residual(four.chain.L, four.chain.theta0, four.chain.pin)
+    assert float(np.hypot(*gap)) < 1e-9
+
+
+@pytest.mark.parametrize("preset, name, text", [
+    ("triple-a", "L1", "-1"),
+    ("triple-a", "theta1", "nan"),
+    ("triple-a", "m2", "1,5"),
+    ("four-bar", "pin_x", "50"),
+    ("four-bar", "theta1", "30"),
+])
+def test_a_refused_value_is_one_notice_in_the_chain_panels_words(host, preset, name, text):
+    session = host(preset)
+    with pytest.raises(LinkageError) as expected:
+        commands.apply(session.chain, name, text, CONTROL)
+    before = session.link_query()
+    session.guard(lambda: session.set_typed(name, text))
+    assert session.notices.text == f"Not applied: {expected.value}"
+    assert name in str(expected.value)
+    assert session.link_query() == before  # nothing changed
+    _played(session, 0.2)  # and the session goes on
+
+
+def test_a_hosted_chains_link_is_the_chain_sessions(host):
+    edits = [("L1", "1.25"), ("m2", "2"), ("g", "5.5"), ("damping", "0.05"), ("theta1", "35"), ("omega3", "20"),
+             ("rtol", "1e-10")]
+    session = host("triple-a")
+    for name, text in edits:
+        session.set_link_value(name, text)
+    session.set_method("dae")
+    session.set_stabilization("baumgarte")
+    expected = _edited("triple-a", [*edits, ("method", "dae"), ("stabilization", "baumgarte")])
+    assert session.link_query() == share.link_query(expected)
+    assert session.setup_pairs() == urllib.parse.parse_qsl(session.link_query()[1:])
+    # the same setup loaded into another hosted session gives the same link
+    other = host("triple-a", autoplay=False)
+    other.load_setup(session.setup_pairs())
+    assert other.notices.text is None and other.link_query() == session.link_query()
+    # snapshot --set speaks SI, as python -m physics --set
+    other.set_value("theta1", f"{math.radians(10.0)!r}")
+    assert other.chain.theta0[0] == pytest.approx(math.radians(10.0))
+
+    four = host("four-bar")
+    four.set_link_value("pin_x", f"{four.chain.pin[0] + 0.05}")
+    four.set_link_value("L2", "1.05")
+    expected = _edited("four-bar", [("pin_x", f"{SessionParameters.from_preset('four-bar').pin[0] + 0.05}"),
+                                    ("L2", "1.05")])
+    assert four.link_query() == share.link_query(expected)
+    # a setup naming another chain preset loads that preset here, then its values (the integration choices in
+    # force kept unless it names them, as the chain session's load_setup)
+    third = host("triple-a", autoplay=False)
+    third.load_setup(four.setup_pairs())
+    assert third.chain.preset == "four-bar" and third.link_query() == four.link_query()
+    assert {"pin_x", "theta1"} <= {knob.name for knob in third.panel_knobs()}
+    other.load_setup(four.setup_pairs())
+    assert other.chain.preset == "four-bar" and other.settings.method == "dae" and other.chain.damping == 0.05
+    # the saved file is the chain's pairs, no mechanism description (it reopens as the chain preset)
+    saved = share.setup_from_state(four.setup_document(), "the test's setup")
+    assert saved.mechanism is None and saved.preset == "four-bar" and saved.pairs == four.setup_pairs()
+
+
+def test_a_centre_of_mass_slider_ends_at_its_bars_length(host):
+    session = host("triple-a", autoplay=False)
+    session.set("L2", 0.6)
+    assert session.chain.d[1] <= 0.6  # pulled in by the chain's command layer
+    handle = session._knob_handles["d2"]
+    assert handle.max == pytest.approx(0.6) and session._typed_boxes["d2"].value == f"{session.chain.d[1]:.6g}"
+
+
+# ---------------------------------------------------------------------------------------------- the physics
+@pytest.mark.parametrize("damping", ["0", "0.3"])
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+def test_the_hosted_run_is_the_chain_engines(host, preset, damping):
+    """theta from the hosted run's q against physics.simulate's Trajectory.theta, same settings (the joints'
+    damping too), over 2 s."""
+    session = host(preset, autoplay=False)
+    session.set_link_value("rtol", "1e-10")
+    session.set_link_value("damping", damping)
+    assert session.goto_time(2.0, timeout=300), session.notices.text
+    ring = session.player.runs[0].ring
+    count = int(round(2.0 / ring.dt)) + 1
+    window = ring.window(0, count - 1, ["t", "q", "qdot"])
+    theta, omega = chain_angles(session.chain, window["q"], window["qdot"])
+    params = session.chain
+    settings = Settings(method=params.method, integrator="DOP853", rtol=1e-10, atol=1e-10, damping=float(damping),
+                        t_end=float(window["t"][-1]), samples=len(window["t"]), trace=params.trace)
+    reference = physics.simulate(params.chain, params.theta0, params.omega0, settings)
+    assert np.allclose(window["t"], reference.t, atol=1e-12)
+    error = float(np.max(np.abs(theta - reference.theta)))
+    assert error < 1e-7, f"{preset}: largest theta difference {error:.2e} rad"
+    q0, _ = hosted_start(params)
+    assert np.allclose(window["q"][0], q0, atol=1e-12)
+
+
+def test_a_hosted_chain_gives_way_to_a_mechanism_preset_and_back(host):
+    """The menu: another chain preset is hosted here; a mechanism preset gets its own knobs and keeps its traced
+    point (the trace menu's new options no longer reset it to none); its link is the mechanism's."""
+    session = host("triple-a")
+    session.choose("four-bar")
+    assert session.chain is not None and session.chain.preset == "four-bar" and session.label == "four-bar"
+    assert "pin_x" in {knob.name for knob in session.panel_knobs()}
+    session.choose("triple-b")
+    assert session.settings.trace == "bar3.D" and session.trace_menu.value == "bar3.D"  # the chain's tip
+    session.choose("slider-crank")
+    assert session.chain is None and session.label == "slider-crank"
+    _played(session, 0.3)  # the menus' callbacks (viser's, when a value left its options) have run meanwhile
+    mechanism = session.mechanism
+    assert session.settings.trace == mechanism.trace and session.trace_menu.value == mechanism.trace
+    assert session.link_query() == "?preset=slider-crank"
+    assert {f"mass:{body.name}" for body in mechanism.bodies} <= {knob.name for knob in session.panel_knobs()}
