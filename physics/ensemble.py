@@ -28,6 +28,7 @@ if TYPE_CHECKING:  # the general engine is loaded only for a mechanism's ensembl
     from .mechanism.description import Mechanism
     from .simulate.trajectory import Trajectory
 from .model import BAUMGARTE_ALPHA, BAUMGARTE_BETA, FORMULATION_NAMES, Chain, check_state
+from .registry import METHODS
 from .simulate.chain_system import chain_system
 
 # A copy whose system's pivot ratio exceeds SINGULAR_PIVOT_RATIO (or is non-finite) is marked failed, as
@@ -266,7 +267,7 @@ class MechanismEnsemble:
         self.count, self.spread = int(count), float(spread)
         self.options: dict[str, Any] = dict(method=method, stabilization=stabilization, rtol=rtol, atol=atol,
                                             **integration)
-        if method == "reduced":  # its loops close by position analysis: no stabilisation to pass
+        if METHODS[method].reduced:  # its loops close by position analysis: no stabilisation to pass
             self.options.pop("stabilization")
         self.t_end, self.samples = float(t_end), int(samples)
         start = assemble_mechanism(mechanism, None if q0 is None else np.asarray(q0, dtype=float))

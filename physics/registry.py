@@ -107,9 +107,10 @@ COMPILED_INTEGRATORS = tuple(name for name, spec in INTEGRATORS.items() if spec.
 # The integrator a reduced method runs with (scipy's DOP853: its own switching right-hand side).
 REDUCED_INTEGRATOR = "DOP853"
 # The methods of a general mechanism's run (physics.mechanism.simulate): every derived formulation, and the
-# reduced model in one joint coordinate, which crosses dead centres by switching the coordinate (a mechanism
-# has no fixed-branch variant). In alphabetical order, the DAE (the mechanism's default) first.
-MECHANISM_METHODS = tuple(sorted(name for name, spec in METHODS.items() if spec.derived or spec.switches_branch))
+# reduced model in one joint coordinate, which crosses dead centres by switching the coordinate (``reduced``) or
+# keeps its first joint's and stops at that joint's dead centre (``reduced_fixed``: where a method fails, shown).
+# In alphabetical order, the DAE (the mechanism's default) first.
+MECHANISM_METHODS = tuple(sorted(METHODS))
 
 
 def backend_for(integrator: str, requested: str = DEFAULT_BACKEND) -> str:

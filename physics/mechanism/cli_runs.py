@@ -27,6 +27,7 @@ import numpy as np
 from ..arguments import Parser, parse_floats, parse_set
 from ..errors import LinkageError
 from ..outputs import check_output_path, write_ensemble, write_output
+from ..registry import METHODS
 from .command import RunRequest, integrator_options, integrator_request, run_and_report
 from .description import Mechanism
 from .files import load_mechanism, mechanism_from_document
@@ -217,7 +218,7 @@ def _state_at(mechanism: Mechanism, time_s: float, method: str) -> tuple[np.ndar
         return start_state(mechanism)
     from .simulate import simulate_mechanism  # noqa: PLC0415
 
-    run = simulate_mechanism(mechanism, time_s, 2, method="reduced" if method == "reduced" else "dae")
+    run = simulate_mechanism(mechanism, time_s, 2, method=method if METHODS[method].reduced else "dae")
     if not run.success:  # the run to --time stopped before it: nothing to draw there
         raise LinkageError(f"--time = {time_s:g}: {run.message}")
     return run.q[-1], run.qdot[-1]

@@ -247,6 +247,21 @@ def _integrate(mechanism, rtol, atol, dae, coordinates, partition, q, qdot, t, t
         switch_now = True
 
 
+def fixed_coordinate(mechanism: Mechanism) -> str:
+    """The joint whose coordinate ``method = "reduced_fixed"`` keeps throughout: the first joint of the
+    description that carries a freedom and no speed motor (a chain's ``O``: its coordinate is theta1, as the
+    chain's fixed-coordinate model has always kept). Why the first and not the fastest at the start: the choice
+    is then the user's, by the order of the file, and the same from every start, so a run's failure at this
+    joint's dead centre can be shown and repeated."""
+    speed_driven = {driver.joint for driver in mechanism.drivers if driver.speed is not None}
+    names = JointCoordinates(mechanism, MechanismDAE(mechanism).constraints).names
+    free = [name for name in names if name not in speed_driven]
+    if not free:
+        raise LinkageError(f"{mechanism.name}: no joint carries a freedom that a speed motor leaves free; "
+                           "the fixed-coordinate reduced model has no coordinate to keep")
+    return free[0]
+
+
 def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:
     """``mobility`` is what the motors leave free; the message states the mechanism's own mobility first."""
     stated = mobility_text_for(mechanism, mobility)
@@ -259,7 +274,8 @@ def _mobility_refusal(mechanism: Mechanism, mobility: int) -> str:
 
 def _dead_centre_refusal(partition: Partition, t: float, share: float) -> str:
     return (f"joint {partition.name!r} stopped being a valid coordinate at t = {t:.6g} s: a dead centre (its "
-            f"speed share fell to {share:.2g}, limit {DEAD_CENTRE_SHARE:g}); run with switching=True")
+            f"speed share fell to {share:.2g}, limit {DEAD_CENTRE_SHARE:g}); the fixed-coordinate reduced model "
+            "cannot continue past it: choose method 'reduced' (switching=True), which switches coordinates")
 
 
 def _fastest_joint(coordinates: JointCoordinates, dae: MechanismDAE, q: np.ndarray) -> int:

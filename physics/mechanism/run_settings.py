@@ -26,6 +26,7 @@ from ..registry import (
     DEFAULT_BACKEND,
     INTEGRATOR_NAMES,
     MECHANISM_METHODS,
+    METHODS,
     REDUCED_INTEGRATOR,
     STABILIZATIONS,
     integrators_for,
@@ -138,8 +139,8 @@ def checked_run_options(*, t_end, samples, t_start=0.0, method="dae", stabilizat
                          ("backend", backend)):
         if not isinstance(value, str) or value not in _NAMES[field]:
             raise _refuse(field, value)
-    if method == "reduced" and integrator not in integrators_for("reduced"):
-        raise LinkageError(f"integrator = {integrator}: method 'reduced' integrates with {REDUCED_INTEGRATOR} only "
+    if METHODS[method].reduced and integrator not in integrators_for(method):
+        raise LinkageError(f"integrator = {integrator}: method {method!r} integrates with {REDUCED_INTEGRATOR} only "
                            "(scipy's, on its own switching right-hand side); leave integrator out")
     fields = dict(method=method, integrator=integrator, backend=backend, rtol=values["rtol"], atol=values["atol"],
                   t_end=values["t_end"], samples=int(samples), stabilization=stabilization)

@@ -29,6 +29,7 @@ from ..model import Settings
 from ..registry import (
     DEFAULT_BACKEND,
     MECHANISM_METHODS,
+    METHODS,
     REDUCED_INTEGRATOR,
 )
 from ..simulate.chain_prepared import sample_times
@@ -132,18 +133,18 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     check_rotations(rotations)
     if condition not in CONDITIONS:
         raise LinkageError(f"condition = {condition!r}: allowed values {', '.join(CONDITIONS)}")
-    if condition != "jacobian" and settings.method == "reduced":
-        raise LinkageError(f"condition = {condition!r}: does not apply to method 'reduced' (its samples come from "
-                           "position analysis, not a solve of the formulation); leave it out")
-    if rotations != "relative" and (settings.method == "reduced" or (settings.method == "dae"
-                                                                      and coordinates == "maximal")):
+    reduced = METHODS[settings.method].reduced
+    if condition != "jacobian" and reduced:
+        raise LinkageError(f"condition = {condition!r}: does not apply to method {settings.method!r} (its samples "
+                           "come from position analysis, not a solve of the formulation); leave it out")
+    if rotations != "relative" and (reduced or (settings.method == "dae" and coordinates == "maximal")):
         raise LinkageError(f"rotations = {rotations!r}: applies to a run in tree coordinates only (method "
                            f"lagrange or newton_euler, or dae with coordinates 'tree'; got method "
                            f"{settings.method!r}); leave it out")
     q0, qdot0 = (state_vector(value, name, 3 * len(mechanism.bodies)) for value, name in ((q0, "q0"),
                                                                                           (qdot0, "qdot0")))
     times = sample_times(t_start, settings.t_end, settings.samples, from_zero=True)
-    if settings.method == "reduced":
+    if METHODS[settings.method].reduced:
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
     pieces = prepared(mechanism)
     dae = pieces.dae  # refuses a body without mass before anything else, as building the DAE did
@@ -165,11 +166,13 @@ def _reduced(mechanism: Mechanism, settings: Settings, t_start: float, q0, qdot0
                            f"positions come from position analysis, so the loops close exactly); leave it out")
     if integrate is False:
         raise LinkageError("integrate = False: does not apply to method 'reduced' (it always integrates)")
-    from .reduced import simulate_reduced  # noqa: PLC0415  (its numba kernel: imported by a reduced run only)
+    from .reduced import fixed_coordinate, simulate_reduced  # noqa: PLC0415  (its numba kernel: imported by a reduced run only)
 
+    switching = METHODS[settings.method].switches_branch
     reduced = simulate_reduced(mechanism, settings.t_end, settings.samples, q0=q0, qdot0=qdot0,
-                               t_start=t_start, rtol=settings.rtol, atol=settings.atol, stop_as_status=True)
-    return replace(reduced.run, method="reduced", coordinates="reduced", stabilization="position analysis",
+                               t_start=t_start, rtol=settings.rtol, atol=settings.atol, stop_as_status=True,
+                               coordinate=None if switching else fixed_coordinate(mechanism), switching=switching)
+    return replace(reduced.run, method=settings.method, coordinates="reduced", stabilization="position analysis",
                    integrated=True, integrator=REDUCED_INTEGRATOR)
 
 

@@ -135,7 +135,7 @@ def test_both_commands_take_method_and_stabilization(tmp_path):
     assert by_dae.returncode == 0 and (tmp_path / "c.csv").read_text() != (tmp_path / "a.csv").read_text()
     for args, line in [
         (("mechanism", "--file", str(path), "--method", "euler"),
-         "error: method = 'euler': allowed values dae, lagrange, newton_euler, reduced"),
+         "error: method = 'euler': allowed values dae, lagrange, newton_euler, reduced, reduced_fixed"),
         (("simulate", "--mechanism", str(path), "--stabilization", "tight"),
          "error: stabilization = 'tight': allowed values none, baumgarte, projection"),
         (("simulate", "--mechanism", str(path), "--integrator", "variational"),
