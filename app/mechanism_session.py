@@ -39,7 +39,7 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 
-from . import chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
+from . import chain_contract, chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
@@ -172,6 +172,25 @@ def coordinate_label(coordinate: FreeCoordinate) -> str:
 def coordinate_unit(coordinate: FreeCoordinate) -> str:
     """The unit a coordinate is shown in, as in the Start folder: ° for an angle, m for a place."""
     return "°" if coordinate.angular else "m"
+
+
+class CallableButton:
+    """A panel button that is also a call: ``session.export_html`` is the Export tab's "Save HTML replay" button
+    (its handle's members, for the panel and its tests) and ``session.export_html()`` the chain session's call of
+    that name (the replay's page), so that callers of either kind of session keep working."""
+
+    def __init__(self, handle, call: Callable[[], Any]) -> None:
+        object.__setattr__(self, "_handle", handle)
+        object.__setattr__(self, "_call", call)
+
+    def __call__(self) -> Any:
+        return self._call()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._handle, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        setattr(self._handle, name, value)
 
 
 def mechanism_names() -> list[str]:
@@ -382,7 +401,9 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
-            self.export_html = panel_rows.add_export_button(gui, bind, self, "html")
+            # the Save HTML replay button, and called, the chain session's export_html() (see CallableButton)
+            self.export_html = CallableButton(panel_rows.add_export_button(gui, bind, self, "html"),
+                                              self._export_html)
             # as the chain panel's Export tab (app/controls.py): the setup as a file, and one read back
             self.save_setup = gui.add_button("Save this setup (JSON)")
             self.save_setup.on_click(lambda event: self.guard(lambda: self.download(
@@ -1136,7 +1157,12 @@ class MechanismSession(SessionBase):
         (client or self.target).send_file_download(name, content)
 
     def download_file(self, kind: str) -> tuple[str, bytes]:
-        """``(file name, content)`` of a download (see :meth:`download`)."""
+        """``(file name, content)`` of a download (see :meth:`download`); a hosted chain's are the chain
+        session's files (``linkage-{preset}-{method}.csv``, its columns: app/chain_contract.py)."""
+        if self.chain is not None:
+            params = self.chain
+            return chain_contract.download_file(self.player, "main", params, chain_knobs.sketch(params),
+                                                self.spec.row_names, kind)
         if kind == "setup":
             stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
             return f"linkage-{stem}-setup.json", self.setup_document()
@@ -1215,7 +1241,11 @@ class MechanismSession(SessionBase):
         return self.player.seek(t, timeout)
 
     def snapshot(self) -> dict:
-        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys)."""
+        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys); a hosted
+        chain's is the chain session's, key for key (app/chain_contract.py), so that scripts read one document
+        whichever session shows the chain."""
+        if self.chain is not None:
+            return self._chain_snapshot(self.chain)
         player = self.player
         with player.lock:
             run = player.runs[0] if player.runs else None
@@ -1253,6 +1283,53 @@ class MechanismSession(SessionBase):
                 "notice": self.notices.text, "frames_sent": self.frames_sent,
                 "scene": {"root": self.scene.root, "nodes": nodes, "names": sorted(nodes)},
             }
+
+    # ------------------------------------------------------------------ the chain session's API (a hosted chain)
+    def _hosted(self, what: str) -> SessionParameters:
+        """The hosted chain's parameters, for a call of the chain session's API; LinkageError naming the call
+        for a mechanism (its own calls are named in the message)."""
+        if self.chain is None:
+            raise LinkageError(f"{what}: applies to a chain preset only; {self.label!r} is a mechanism (its runs: "
+                               "download_file('csv'), snapshot(); its values: set(name, value))")
+        return self.chain
+
+    def history(self, label: str = "main") -> dict:
+        """The stored samples of run ``label`` (or the first) up to the displayed time, in the chain's fields
+        (``t``, ``theta``, ``omega``, ``joints``, ``trace_xy``, energies, ``reactions``; pinned: ``tip_reaction``,
+        ``constraint_xy``), as the chain session's ``history`` (app/chain_contract.py maps the run's q)."""
+        params = self._hosted("history")
+        samples = readout.history(self.player, label)
+        return chain_contract.chain_history(samples, params, chain_knobs.sketch(params), self.spec.row_names)
+
+    def run_label(self) -> str:
+        """The JSON download's description of the run: ``preset (n bars), method, integrator``."""
+        return chain_contract.run_label(self._hosted("run_label"))
+
+    def export_csv(self) -> bytes:
+        """The run up to the displayed time as the chain session's CSV (app/export.py ``columns``)."""
+        self._hosted("export_csv")
+        return self.download_file("csv")[1]
+
+    def export_json(self) -> bytes:
+        """The run up to the displayed time as the chain session's JSON (its description :meth:`run_label`)."""
+        self._hosted("export_json")
+        return self.download_file("json")[1]
+
+    def _export_html(self) -> str:
+        """The chain session's HTML replay of the run up to the displayed time (``session.export_html()``)."""
+        self._hosted("export_html")
+        return self.download_file("html")[1].decode("utf-8")
+
+    def _chain_snapshot(self, params: SessionParameters) -> dict:
+        """The chain session's snapshot of the hosted chain ``params`` (app/chain_contract.py ``snapshot``)."""
+        def scene() -> dict:
+            nodes = self.compare_view.poses() if self.compare else self.scene.poses()
+            return {"root": self.scene.root, "nodes": nodes}
+
+        return chain_contract.snapshot(
+            session_id=self.id, shared=self.shared, params=params, theta_sketch=chain_knobs.sketch(params),
+            compare=self.compare, player=self.player, notice=self.notices.text, energy_reference=self.energy_ref,
+            frames_sent=lambda: self.frames_sent, scene=scene)
 
     def reset_to_reference(self) -> None:
         """The preset's (or file's) values again; a hosted chain's preset values, its integration choices kept."""

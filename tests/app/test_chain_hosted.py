@@ -8,6 +8,7 @@ see whether an edit loaded a new compiled system.
 
 from __future__ import annotations
 
+import json
 import math
 import urllib.parse
 
@@ -16,12 +17,13 @@ import pytest
 import viser
 
 import physics
-from app import commands, mechanism_workers, share
+from app import commands, export, mechanism_workers, share
 from app.chain_knobs import chain_angles, hosted_start
 from app.commands import CONTROL, QUANTITIES
 from app.controls import BAR_SLIDERS, reach_text
 from app.mechanism_session import MechanismSession
-from app.parameters import SessionParameters
+from app.parameters import METHOD_LABELS, SessionParameters
+from app.player import SAMPLE_DT
 from conftest import wait_until
 from physics import LinkageError, Settings
 from physics.codegen import cache as codegen_cache
@@ -336,3 +338,87 @@ def test_a_hosted_chain_gives_way_to_a_mechanism_preset_and_back(host):
     assert session.settings.trace == mechanism.trace and session.trace_menu.value == mechanism.trace
     assert session.link_query() == "?preset=slider-crank"
     assert {f"mass:{body.name}" for body in mechanism.bodies} <= {knob.name for knob in session.panel_knobs()}
+
+
+# ---------------------------------------------------------------------------------------------- what it hands out
+# the chain session's snapshot keys, in its order (docs/app.md, "snapshot()"; app/readout.py snapshot_document)
+CHAIN_SNAPSHOT_KEYS = ["session", "shared", "parameters", "method", "compare", "playing", "speed", "time", "theta",
+                       "omega", "joints", "energy", "runs", "reference", "notice", "frames_sent", "scene"]
+RUN_KEYS = ["label", "method", "t", "theta", "omega", "joints", "trace_xy", "samples_stored", "simulated_until",
+            "failed"]
+
+
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+def test_a_hosted_chains_snapshot_is_the_chain_sessions(host, preset):
+    session = host(preset, autoplay=False)
+    session.set_link_value("m2", "1.5")
+    assert session.goto_time(0.5, timeout=120), session.notices.text
+    shot = session.snapshot()
+    assert list(shot) == CHAIN_SNAPSHOT_KEYS
+    params = session.chain
+    assert shot["parameters"] == params.as_dict() and shot["method"] == params.method
+    assert shot["session"] == session.id and shot["compare"] is False and shot["reference"] is None
+    assert [list(run) for run in shot["runs"]] == [RUN_KEYS] and shot["runs"][0]["label"] == "main"
+    # the chain's angles at the time shown, from the run's own q
+    ring = session.player.runs[0].ring
+    i = ring.index_at(session.player.display_time)
+    theta, omega = chain_angles(params, ring.get("q", i), ring.get("qdot", i))
+    assert shot["time"] == pytest.approx(0.5, abs=1e-9)
+    assert np.allclose(shot["theta"], theta, atol=1e-12) and np.allclose(shot["omega"], omega, atol=1e-12)
+    joints = physics.kinematics.joint_positions(params.L, theta[None, :])[0]
+    assert np.allclose(shot["joints"], joints, atol=1e-12)
+    expected_energy = {"kinetic", "potential", "total", "reference", "relative_drift"} | (
+        {"constraint_error"} if params.pinned else set())
+    assert set(shot["energy"]) == expected_energy
+    assert shot["energy"]["total"] == pytest.approx(float(ring.get("energy", i)))
+    assert list(shot["scene"]) == ["root", "nodes", "names"] and shot["scene"]["names"] == sorted(shot["scene"]["nodes"])
+    assert shot["scene"]["root"] == "/linkage" and shot["scene"]["nodes"]
+
+
+@pytest.mark.parametrize("preset", ["double", "four-bar"])
+def test_a_hosted_chains_downloads_are_the_chain_sessions(host, preset):
+    session = host(preset, autoplay=False)
+    session.set_method("dae")
+    assert session.goto_time(0.5, timeout=120), session.notices.text
+    params = session.chain
+    stem = f"linkage-{preset}-dae"
+    name, csv = session.download_file("csv")
+    assert name == f"{stem}.csv"
+    history = session.history()
+    header = csv.decode().splitlines()[0].split(",")
+    assert header == list(export.columns(history, "dae", params.pinned))
+    assert header[:1 + 2 * params.n] == ["t", *(f"theta{k}" for k in range(1, params.n + 1)),
+                                         *(f"omega{k}" for k in range(1, params.n + 1))]
+    rows = csv.decode().splitlines()[1:]
+    assert len(rows) == len(history["t"]) and len(rows) == int(round(0.5 / SAMPLE_DT)) + 1
+    name, content = session.download_file("json")
+    assert name == f"{stem}.json" and json.loads(content)["description"] == session.run_label()
+    name, page = session.download_file("html")
+    assert name == f"{stem}-replay.html" and page.startswith(b"<!")
+    name, setup = session.download_file("setup")
+    assert name == f"linkage-{preset}-setup.json" and setup == share.state_document(params)
+    with pytest.raises(LinkageError, match="download = 'pdf': allowed csv, json, html, setup, tex"):
+        session.download_file("pdf")
+
+
+def test_the_chain_sessions_history_and_exports_on_a_hosted_chain(host):
+    session = host("four-bar", autoplay=False)
+    assert session.goto_time(0.4, timeout=120), session.notices.text
+    history = session.history()
+    ring = session.player.runs[0].ring
+    theta, omega = chain_angles(session.chain, ring.window(0, len(history["t"]) - 1)["q"],
+                                ring.window(0, len(history["t"]) - 1)["qdot"])
+    assert np.allclose(history["theta"], theta, atol=1e-12) and np.allclose(history["omega"], omega, atol=1e-12)
+    assert {"tip_reaction", "constraint_xy", "reactions", "joints"} <= set(history)
+    params = session.chain
+    assert session.run_label() == f"four-bar (3 bars), {METHOD_LABELS[params.method]}, {params.integrator}"
+    assert session.export_csv() == session.download_file("csv")[1]
+    assert session.export_json() == session.download_file("json")[1]
+    assert session.export_html() == session.download_file("html")[1].decode("utf-8")
+    assert session.export_html.label == "Save HTML replay"  # and it is still the panel's button
+    mechanism = host("triple-a", autoplay=False)
+    mechanism.choose("slider-crank")
+    for call in (mechanism.history, mechanism.run_label, mechanism.export_csv, mechanism.export_json,
+                 mechanism.export_html):
+        with pytest.raises(LinkageError, match="applies to a chain preset only; 'slider-crank' is a mechanism"):
+            call()
