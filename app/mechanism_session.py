@@ -81,7 +81,14 @@ from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S, NumberInputs
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
-from .parameters import Display, SessionParameters, method_from_label, method_label, settings_data
+from .parameters import (
+    METHOD_LABELS,
+    Display,
+    SessionParameters,
+    method_from_label,
+    method_label,
+    settings_data,
+)
 from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
 from .resources import STATIC
@@ -1777,6 +1784,9 @@ class MechanismSession(SessionBase):
                   else METHODS.get(self.settings.method, self.settings.method))
         integrator = self.settings.integrator if self.mobility > 0 else "position analysis"
         label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
+        if self.chain is not None:  # the chain view's words (app/frame_view.py status_text)
+            label = ("compare: " + ", ".join(METHOD_LABELS[m] for m in COMPARE_METHODS) if self.compare
+                     else f"{METHOD_LABELS.get(self.settings.method, self.settings.method)} · {integrator}")
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
         condition = spec.condition_at(ring, index)  # this pose's alone (MechanismSpec.chunk leaves it)

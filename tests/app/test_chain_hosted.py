@@ -511,6 +511,8 @@ def test_a_hosted_chains_plots_and_help_are_the_chain_panels(host):
     theta, _ = chain_angles(session.chain, ring.get("q", i), ring.get("qdot", i))
     assert float(ring.get("t", i)) == pytest.approx(float(t[-1]), abs=1e-9)
     assert np.allclose([a[-1] for a in angles], np.degrees(theta), atol=1e-9)  # degrees, every bar
+    words = f"{METHOD_LABELS[session.params.method]} · {session.params.integrator}"  # the chain view's status
+    assert wait_until(lambda: words in session.status.content, timeout=30), session.status.content
     starts = {knob.name: knob.label for knob in session._start_knobs()}
     assert starts == {**{f"theta{k}": f"theta{k} (°)" for k in (1, 2, 3)},
                       **{f"omega{k}": f"omega{k} (°/s)" for k in (1, 2, 3)}}
