@@ -121,14 +121,15 @@ def main(argv: list[str] | None = None) -> int:
     short = [*mechanism[:-6], "--t-end", "20", "--samples", "21", "--out", str(out / "one-pipeline-short.csv")]
     jansen = ["-m", "physics", "mechanism", "--preset", "jansen-leg", "--t-end", "10"]
     print(f"load average at start: {os.getloadavg()[0]:.1f}", flush=True)
-    # the tree before refuses the file's 2000 s run where its estimate is hours (older trees): then not timed
-    long_file = {label: _refuses(tree, mechanism) is None for label, tree in trees.items()}
+    long_file = {}
     for label, tree in trees.items():  # compile and cache what every figure but the cold one reuses
-        # whole runs (segmented: a system's second call in a process makes its specialised driver, cached for
-        # the timed processes as for an installation's later runs)
+        _whole(tree, [*chain[:-6], "--t-end", "1", "--samples", "2"])
+        _whole(tree, [*mechanism[:-6], "--t-end", "1", "--samples", "2"])
+        # then whole runs (segmented: a system's second call in a process makes its specialised driver, cached
+        # for the timed processes as for an installation's later runs); an older tree refuses the file's 2000 s
+        # run (its estimate is hours): then it is not timed there
         _whole(tree, chain)
-        if not long_file[label]:
-            _whole(tree, [*mechanism[:-6], "--t-end", "1", "--samples", "2"])
+        long_file[label] = _refuses(tree, mechanism) is None
     figures: dict[tuple[str, str], list[float]] = {}
     for _ in range(args.repeat):
         for label, tree in trees.items():
@@ -149,6 +150,9 @@ def main(argv: list[str] | None = None) -> int:
             for generated in _cache_folder(tree).glob(f"*mechanism*{_structure(tree, 'jansen-leg')}*.py"):
                 generated.unlink()
             figures.setdefault(("cold Jansen leg, 10 s", label), []).append(_whole(tree, jansen))
+    print(f"load average after the rounds: {os.getloadavg()[0]:.1f}; every figure (CPU s): "
+          + "; ".join(f"{name} {label}: {', '.join(f'{v:.3f}' for v in values)}"
+                      for (name, label), values in figures.items() if name != "mechanism"), flush=True)
     print("| figure (CPU seconds, median) | before | after | before / after |")
     print("|---|---|---|---|")
     for name in dict.fromkeys(key[0] for key in figures if key[0] != "mechanism"):
