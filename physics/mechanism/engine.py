@@ -142,7 +142,7 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
         # with the system's own layout (a tree formulation's, or a maximal one's with its projection weights,
         # CompiledSystem.weighted_layout), the driver specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
         # C's integration in about 0.2 ms instead of 0.5), as the system's own integrate_rk45 takes it for a chain
-        driver = (compiled.specialised_driver(spec.name, layout)  # CompiledSystem's rule, not copied here
+        driver = (compiled.specialised_driver(spec.name, layout, t1 - t0)  # CompiledSystem's rule, not copied
                   if compiled.is_own_integration_layout(layout)
                   and native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
@@ -150,6 +150,7 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
                                               settings.max_steps, y_out, cond_out, driver)
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
+            compiled.count_integration(spec.name, layout, evaluations, t_reached - t0)
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
     # the numba kernel (numba is imported here, not for a run the IR drivers answered); its first compilation in
     # an installation takes seconds, said first in one line (physics.kernels.first_compile)

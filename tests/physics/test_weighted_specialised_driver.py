@@ -64,8 +64,8 @@ def test_the_weighted_specialised_driver_gives_the_kernels_bits(name, integrator
     mechanism = _mechanism(name)
     compiled, pieces = _compiled(mechanism)
     params, layout = engine.run_parameters(mechanism, compiled, 0.0, pieces.projection_weights)
-    compiled._functions.setdefault("specialised calls", {})[f"{integrator} weights {int(layout[LAYOUT_WEIGHTS])}"] = 1
-    driver = compiled.specialised_driver(integrator, layout)
+    compiled.count_integration(integrator, layout, 1000, 1.0)  # a run of 1e9 s would evaluate 1e12: worth it
+    driver = compiled.specialised_driver(integrator, layout, 1e9)
     assert driver is not None
     assert driver is not compiled.specialised_driver(integrator)  # the unweighted system's is another
     run = simulate_mechanism(mechanism, 0.01, 2)  # the assembled start
@@ -90,26 +90,35 @@ def test_the_weighted_specialised_driver_gives_the_kernels_bits(name, integrator
 FIELDS = ("t", "q", "qdot", "kinetic", "potential", "energy", "residual", "trace_xy")
 
 
+def _forget(compiled) -> None:
+    """The system as a new process finds it: no weighted driver made, no work counted."""
+    compiled._functions.pop("specialised calls", None)
+    for key in [key for key in compiled._functions
+                if str(key).startswith(("specialised DOP853 weights", "work DOP853 weights"))]:
+        compiled._functions.pop(key)
+
+
 @pytest.mark.parametrize("name", ["triple-file", "slider-crank", "stephenson-six-bar"])
 def test_a_run_with_the_weighted_specialised_driver_is_the_generic_runs(name, monkeypatch):
     """Whole runs (DOP853 1e-10 with projection, the mechanism command's settings): first with the generic
-    driver (the specialised one refused), then the system's second and third runs, which make and take it."""
+    driver (the specialised one refused), then the system's runs with any run judged worth compiling for: the
+    first (no work counted yet) keeps the generic driver, the next make and take the specialised one."""
     mechanism = _mechanism(name)
     compiled, _ = _compiled(mechanism)
-    compiled._functions.pop("specialised calls", None)
-    for key in [key for key in compiled._functions if str(key).startswith("specialised DOP853 weights")]:
-        compiled._functions.pop(key)
+    _forget(compiled)
+    monkeypatch.setattr(cache, "SPECIALISE_WEIGHTED_RHS", 1)
     taken = []
     original = CompiledSystem.specialised_driver
 
-    def spy(self, method, layout=None):
-        driver = original(self, method, layout)
+    def spy(self, method, layout=None, span=None):
+        driver = original(self, method, layout, span)
         taken.append(driver is not None)
         return driver
 
     with monkeypatch.context() as patch:
-        patch.setattr(CompiledSystem, "specialised_driver", lambda self, method, layout=None: None)
+        patch.setattr(CompiledSystem, "specialised_driver", lambda self, method, layout=None, span=None: None)
         generic = simulate_mechanism(mechanism, 4.0, 41)
+    _forget(compiled)  # its work not counted either
     monkeypatch.setattr(CompiledSystem, "specialised_driver", spy)
     monkeypatch.setattr(native_integrators, "specialised_cached", lambda *arguments: False)
     runs = [simulate_mechanism(mechanism, 4.0, 41) for _ in range(3)]
@@ -119,3 +128,30 @@ def test_a_run_with_the_weighted_specialised_driver_is_the_generic_runs(name, mo
         for field in FIELDS:
             assert np.array_equal(getattr(run, field), getattr(generic, field)), field
         assert np.array_equal(np.asarray(run.reaction_rows), np.asarray(generic.reaction_rows))
+
+
+def test_the_weighted_driver_is_compiled_only_for_a_run_long_enough_to_pay(monkeypatch):
+    """Not cached: short runs (4 s of the triple pendulum file, about 1,000 right-hand sides each) keep the
+    generic driver however many there are; a run whose span at this process's rate so far comes to
+    SPECIALISE_WEIGHTED_RHS or more makes the specialised one (the same bits as a generic run of it)."""
+    monkeypatch.setattr(native_integrators, "specialised_cached", lambda *arguments: False)
+    mechanism = _mechanism("triple-file")
+    compiled, _ = _compiled(mechanism)
+    _forget(compiled)
+    key = None
+    for _ in range(3):
+        run = simulate_mechanism(mechanism, 4.0, 41)
+        key = next(key for key in compiled._functions if str(key).startswith("work DOP853 weights"))
+        assert not any(str(name).startswith("specialised DOP853 weights") for name in compiled._functions)
+    rhs, seconds = compiled._functions[key]
+    assert rhs == 3 * run.n_rhs and seconds == pytest.approx(12.0)  # the three runs' counts, added up
+    span = cache.SPECIALISE_WEIGHTED_RHS / (rhs / seconds) * 1.05  # just long enough by this rate
+    with monkeypatch.context() as patch:
+        patch.setattr(CompiledSystem, "specialised_driver", lambda self, method, layout=None, span=None: None)
+        generic = simulate_mechanism(mechanism, span, 11)
+    _forget(compiled)
+    compiled._functions[key] = (rhs, seconds)
+    long = simulate_mechanism(mechanism, span, 11)
+    assert any(str(name).startswith("specialised DOP853 weights") for name in compiled._functions)
+    assert (long.n_steps, long.n_rhs) == (generic.n_steps, generic.n_rhs)
+    assert np.array_equal(long.q, generic.q) and np.array_equal(long.qdot, generic.qdot)
