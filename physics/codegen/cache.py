@@ -32,7 +32,7 @@ from ..cache_folder import UntrustedFile, cache_dir, discard, mac, mac_matches, 
 from ..errors import LinkageError
 from ..file_io import write_atomically
 from ..kernels.first_compile import call_announced
-from ..kernels.layout import LAYOUT_RHS, make_layout
+from ..kernels.layout import LAYOUT_RHS, LAYOUT_WEIGHTS, make_layout
 from ..registry import FORMULATION_NAMES
 from . import native_integrators, native_samples, native_states
 from .native import NativeModule
@@ -41,6 +41,13 @@ _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 # A system's specialised drivers and samples' solve (physics.codegen.specialised_ir) compiled in a background
 # thread (False: in the call that asks, as the tests and benchmarks want to know when it is there).
 SPECIALISE_IN_BACKGROUND = True
+# A maximal mechanism's weighted driver (CompiledSystem.specialised_driver with a weighted_layout) is compiled,
+# when its machine code is not cached yet, only for a run expected to evaluate at least this many right-hand
+# sides (this process's rate per simulated second so far times the run's span): its O2 compilation costs about
+# 1 s once per installation and saves some 0.6 us per evaluation, so a one-off short run (a 60 s CLI run of the
+# triple pendulum file, about 14,000) does not pay for it, a long one (2000 s, about 480,000) or an app
+# session's chunks added up do.
+SPECIALISE_WEIGHTED_RHS = 100_000
 # Everything the generated text depends on: the derivations, the generator, and the contract it is compiled to.
 _GENERATOR_FOLDERS = ("derive", "codegen")
 _GENERATOR_FILES = ("kernels/abi.py", "kernels/layout.py", "model.py")
@@ -201,6 +208,27 @@ class CompiledSystem:
             self._functions["integration_layout"] = layout
         return self._functions["integration_layout"]
 
+    def weighted_layout(self, offset: int, integrating: bool = True) -> np.ndarray:
+        """:attr:`integration_layout` (``integrating``) or :attr:`layout` with the projection weights at
+        ``offset`` of the parameter vector (``LAYOUT_WEIGHTS``: a maximal mechanism's runs), one array per
+        offset kept with the system: a run's layout is then the system's own, so its specialised driver
+        (:meth:`specialised_driver`) can take it, as it takes the unweighted one (a copy per run could not)."""
+        key = f"weighted layout {int(integrating)} {int(offset)}"
+        layout = self._functions.get(key)
+        if layout is None:
+            layout = (self.integration_layout if integrating else self.layout).copy()
+            layout[LAYOUT_WEIGHTS] = int(offset)
+            with self._lock:
+                layout = self._functions.setdefault(key, layout)
+        return layout
+
+    def is_own_integration_layout(self, layout: np.ndarray) -> bool:
+        """Whether ``layout`` is :attr:`integration_layout` or one of its :meth:`weighted_layout` arrays: the
+        layouts a specialised driver is made for."""
+        if layout is self.integration_layout:
+            return True
+        return self._functions.get(f"weighted layout 1 {int(layout[LAYOUT_WEIGHTS])}") is layout
+
     # ---------------------------------------------------------------- compiled functions (lazy)
     def _native(self, name: str, source: str = "LLVM_IR"):
         """The address of generated function ``name``, compiling the module ``source`` (an IR text of the
@@ -333,15 +361,38 @@ class CompiledSystem:
         return getattr(explicit_rk, kernel_name)(self.assemble_function, layout, y0, t0, t_end, t_eval, params, rtol,
                                                  atol, alpha, beta, project, max_steps, y_out, cond_out)
 
-    def specialised_driver(self, method: str):
+    def specialised_driver(self, method: str, layout: np.ndarray | None = None, span: float | None = None):
         """``method``'s IR driver specialised for this system (:mod:`physics.codegen.specialised_ir`: the same
         bits, its sizes folded into the code; seed case C's RK45 integration in about 0.2 ms instead of 0.5), or
         None for the generic one. Its O2 compilation (0.3-1 s for three bars) is paid only where it pays: loaded
         when its machine code is in the cache already, else compiled from this system's second run of
-        ``method`` in this process on (:meth:`_specialised`: a one-off run, the CLI's, compiles nothing)."""
-        layout = self.integration_layout
-        return self._specialised(method, layout, lambda digest: native_integrators.specialised_driver(
-            method, layout, self.assemble_function, digest))
+        ``method`` in this process on (:meth:`_specialised`: a one-off run, the CLI's, compiles nothing).
+        ``layout``: :attr:`integration_layout` (default) or one of its :meth:`weighted_layout` arrays (a maximal
+        mechanism's projection weights: a driver of its own, the weights' offset folded in too), which is
+        loaded when cached and otherwise compiled only for a run of ``span`` simulated seconds expected to be
+        long enough to pay for it (:data:`SPECIALISE_WEIGHTED_RHS`, from :meth:`count_integration`'s figures)."""
+        worth = None  # the second-run rule
+        if layout is None or layout is self.integration_layout:
+            layout, what = self.integration_layout, method
+        else:
+            if not self.is_own_integration_layout(layout):
+                raise ValueError("layout: expected the system's integration_layout or one of its weighted_layout")
+            what = f"{method} weights {int(layout[LAYOUT_WEIGHTS])}"
+            rhs, seconds = self._functions.get(f"work {what}", (0, 0.0))
+            worth = span is not None and seconds > 0 and rhs / seconds * span >= SPECIALISE_WEIGHTED_RHS
+        return self._specialised(what, layout, lambda digest: native_integrators.specialised_driver(
+            method, layout, self.assemble_function, digest), method, worth)
+
+    def count_integration(self, method: str, layout: np.ndarray, n_rhs: int, span: float) -> None:
+        """Add a run's right-hand sides and simulated seconds with ``method`` on a :meth:`weighted_layout` to
+        this process's figures, from which :meth:`specialised_driver` judges whether a run will pay for its
+        compilation (nothing is kept for the unweighted layout: its rule is the second run)."""
+        if layout is self.integration_layout or not self.is_own_integration_layout(layout):
+            return
+        key = f"work {method} weights {int(layout[LAYOUT_WEIGHTS])}"
+        with self._lock:
+            rhs, seconds = self._functions.get(key, (0, 0.0))
+            self._functions[key] = (rhs + int(n_rhs), seconds + abs(float(span)))
 
     def samples_solve(self):
         """The samples' ``solve_states`` and whole pass specialised for this system
@@ -352,10 +403,11 @@ class CompiledSystem:
         return self._specialised("samples", layout, lambda digest: native_samples.specialised_solve(
             layout, self.assemble_function, digest))
 
-    def _specialised(self, what: str, layout, make):
+    def _specialised(self, what: str, layout, make, method: str | None = None, worth: bool | None = None):
         """``make(digest)``'s function, kept with its engine as long as this system, or None (the caller takes
         the generic function) until it is there: loaded at the first call for ``what`` when its machine code is
-        cached; else compiled from this system's second call in this process on, in a background thread
+        cached; else compiled (``worth`` None) from this system's second call in this process on, or (``worth``
+        given) when the caller judges the run worth it, in a background thread
         (:data:`SPECIALISE_IN_BACKGROUND`), so that no run waits for its O2 compilation (0.3-1 s): the app's
         next chunks and an ensemble's next runs take the generic function meanwhile."""
         key = f"specialised {what}"
@@ -371,8 +423,8 @@ class CompiledSystem:
             building = self._functions.setdefault("specialised building", set())
             if what in building:
                 return None
-        cached = native_integrators.specialised_cached(what, layout, digest)
-        if calls[what] < 2 and not cached:
+        cached = native_integrators.specialised_cached(what if method is None else method, layout, digest)
+        if not cached and not (calls[what] >= 2 if worth is None else worth):
             return None
 
         def build() -> None:

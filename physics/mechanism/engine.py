@@ -22,7 +22,6 @@ import numpy as np
 from ..codegen import native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
 from ..kernels.first_compile import call_announced
-from ..kernels.layout import LAYOUT_WEIGHTS
 from .description import Mechanism
 from .parameters import parameter_vector, structure, structure_key
 
@@ -101,9 +100,8 @@ def run_parameters(mechanism: Mechanism, compiled: CompiledSystem, t_start: floa
     ``t_start`` when the caller holds it (the integrators write the time slot: never a shared array)."""
     params = parameter_vector(mechanism, t=t_start) if base is None else base
     layout = compiled.integration_layout if integrating else compiled.layout
-    if weights is not None:
-        layout = layout.copy()
-        layout[LAYOUT_WEIGHTS] = params.size
+    if weights is not None:  # the system's own weighted layout: its specialised driver can take it
+        layout = compiled.weighted_layout(params.size, integrating)
         params = np.concatenate([params, weights])
     return np.ascontiguousarray(params), layout
 
@@ -141,17 +139,18 @@ def integrate(compiled: CompiledSystem, layout: np.ndarray, params: np.ndarray, 
     if spec.adaptive and spec.kernel in ("integrate_rk45", "integrate_dop853"):
         # the drivers generated as LLVM IR first (the kernel's bits without numba's compilation, stabilised or
         # not); the kernel for a run they hand back (physics/codegen/native_integrators.py)
-        # with the system's own layout (a tree formulation's: no projection weights appended), the driver
-        # specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
+        # with the system's own layout (a tree formulation's, or a maximal one's with its projection weights,
+        # CompiledSystem.weighted_layout), the driver specialised for the system once it is compiled (physics.codegen.specialised_ir: the same bits, seed case
         # C's integration in about 0.2 ms instead of 0.5), as the system's own integrate_rk45 takes it for a chain
-        driver = (compiled.specialised_driver(spec.name)  # CompiledSystem's rule, not copied here
-                  if layout is compiled.integration_layout
+        driver = (compiled.specialised_driver(spec.name, layout, t1 - t0)  # CompiledSystem's rule, not copied
+                  if compiled.is_own_integration_layout(layout)
                   and native_integrators.answers(layout, alpha, beta, project, cond_out) else None)
         answer = native_integrators.integrate(spec.name, compiled.assemble_function, layout, y0, t0, t1, t_eval,
                                               params, settings.rtol, settings.atol, alpha, beta, project,
                                               settings.max_steps, y_out, cond_out, driver)
         if answer is not None:
             status, steps, evaluations, t_reached, filled = answer
+            compiled.count_integration(spec.name, layout, evaluations, t_reached - t0)
             return Integration(y_out, int(status), int(steps), int(evaluations), float(t_reached), int(filled), "")
     # the numba kernel (numba is imported here, not for a run the IR drivers answered); its first compilation in
     # an installation takes seconds, said first in one line (physics.kernels.first_compile)
