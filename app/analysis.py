@@ -8,8 +8,6 @@ The ensemble is advanced by the session's frame callback (player thread) by the 
 
 from __future__ import annotations
 
-import colorsys
-import re
 import threading
 from collections.abc import Callable
 
@@ -22,6 +20,7 @@ from physics.ensemble import Ensemble
 
 from .buffers import ThinnedSeries
 from .logs import quietly
+from .mechanism_analysis import copy_colors, fit_width
 from .overlays import Plot
 from .ports import SessionPort
 from .scene import to_world
@@ -42,23 +41,10 @@ CHAOS_STEP = 0.01
 CHAOS_DISPLAY_SCALE = 4  # each map pixel drawn as 4 x 4 screen pixels: with its axes and colour bar, 384 px wide
 
 
-def copy_colors(count: int, n: int) -> np.ndarray:
-    """One hue per copy, repeated for its n segments and both ends: shape (count * n, 2, 3), uint8."""
-    hues = np.arange(count) / max(count, 1)
-    rgb = np.array([colorsys.hsv_to_rgb(h, 0.75, 0.85) for h in hues]) * 255.0
-    return np.repeat(rgb[:, None, :], n * 2, axis=1).reshape(count * n, 2, 3).astype(np.uint8)
-
-
 def segments(joints: np.ndarray) -> np.ndarray:
     """Joint positions (N, n + 1, 2) -> line segments (N * n, 2, 3) in the world (the mechanism's x-z plane)."""
     ends = np.stack([joints[:, :-1], joints[:, 1:]], axis=2)  # (N, n, 2, 2)
     return to_world(ends.reshape(-1, 2, 2)).astype(np.float32)
-
-
-def fit_width(svg: str) -> str:
-    """An SVG drawn at the panel's width (its viewBox keeps the proportions): never wider than the panel."""
-    return re.sub(r'^<svg ([^>]*?)width="[\d.]+" height="[\d.]+"', r'<svg \1width="100%" style="height:auto"', svg,
-                  count=1)
 
 
 def follows_on(dt: float) -> bool:

@@ -103,7 +103,7 @@ class _Run:
 
 
 def run_label(params: SessionParameters) -> str:
-    """The JSON download's ``description`` of a chain's run (app/session.py, ``Session.run_label``)."""
+    """The JSON download's ``description`` of a chain's run (the method and the integrator as the menu words them)."""
     return f"{params.preset} ({params.n} bars), {METHOD_LABELS.get(params.method, params.method)}, {params.integrator}"
 
 
@@ -127,7 +127,7 @@ def sample_reader(params: SessionParameters, theta_sketch) -> Callable[[Any, int
 
 
 def energy_values(sample: dict[str, np.ndarray], params: SessionParameters, reference: float) -> dict:
-    """The snapshot's ``energy`` of one chain-shaped sample (app/frame_view.py, ``FrameView.current_values``):
+    """The snapshot's ``energy`` of one chain-shaped sample (docs/app.md lists its keys):
     kinetic, potential, total, the reference energy, the relative drift from it and, pinned, the loop's gap."""
     energy = float(sample["energy"])
     scale = energy_scale(params.chain.array("m"), params.chain.array("L"), params.chain.g)
@@ -167,3 +167,21 @@ def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, 
     return readout.snapshot_document(
         session_id=session_id, shared=shared, params=params, compare=compare, player=player, notice=notice,
         sample_of=sample_of, energy=energy, frames_sent=frames_sent, scene=scene)
+
+
+def chain_scene(nodes: dict[str, dict], root: str, n: int, trace) -> dict[str, dict]:
+    """The scene's parts under the chain's names (docs/app.md): ``joint_0`` the ground pin O (bar 1's proximal
+    point), ``joint_k`` bar k's distal point (the tip is ``joint_n``), ``com_k``, ``bar_k``, ``ground`` (the pivot's
+    block) and ``trace`` (whether the traced point's line is shown, and how many points it holds). The hosted
+    chain's drawing names them by body point (:meth:`app.mechanism_scene.MechanismScene.poses`)."""
+    named = {name: pose for name, pose in nodes.items() if "/point/" not in name and "/ground_" not in name}
+    for k in range(n + 1):
+        point = nodes.get(f"{root}/point/bar1.P" if k == 0 else f"{root}/point/bar{k}.D")
+        if point is not None:
+            named[f"{root}/joint_{k}"] = point
+    if f"{root}/ground_0" in nodes:
+        named[f"{root}/ground"] = nodes[f"{root}/ground_0"]
+    named[f"{root}/trace"] = {"visible": bool(getattr(trace, "points_shown", 0)),
+                              "points": int(getattr(trace, "points_shown", 0))}
+    return named
+

@@ -7,7 +7,7 @@ bars (the ``chain`` preset), g, per bar L, d, m and I, the start (per driving ba
 speed in degrees per second; a pinned chain's last two angles come from its loop closure), the pin H of a
 pinned chain and the joint damping. Each knob's name is the chain's ``--set`` and share-link name (``L1``,
 ``d2``, ``m3``, ``I1``, ``g``, ``theta1``, ``omega1``, ``pin_x``, ``pin_y``, ``damping``), its label, unit and
-slider range those of the chain panel (app/controls.py), its typed range the pydantic models' bounds
+slider range those of the chain panel (kept here), its typed range the pydantic models' bounds
 (:meth:`app.commands.Quantity.bounds`). Every edit goes through the chain's one validation layer,
 :func:`app.commands.apply`, so a refusal reads as the chain panel's.
 
@@ -23,9 +23,11 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import replace
 
 import numpy as np
 
+import physics
 from physics import LinkageError, Settings, loop_closure
 from physics.kinematics import point_on_bar
 from physics.mechanism import Mechanism
@@ -33,22 +35,47 @@ from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.model import MAX_LINKS, validated
 
 from .commands import QUANTITIES, Quantity
-from .controls import (
-    ANGLE_SLIDER,
-    BAR_SLIDERS,
-    DAMPING_SLIDER,
-    GRAVITY_SLIDER,
-    PIN_SLIDER,
-    SPEED_START_SLIDER,
-    preset_description,
-    reach_text,
-)
 from .mechanism_edits import Knob
 from .mechanism_runs import MechanismSettings, is_reduced
 from .mechanism_start import FreeCoordinate
 from .number_inputs import SliderSpec
-from .parameters import SessionParameters, driving_count, methods_for, settings_data
+from .parameters import SessionParameters, driving_count, methods_for, settings_data, wrap_degrees
 from .text import markdown_literal
+
+# The chain's slider ranges (its sliders' useful span; a typed value may go to the models' bounds)
+BAR_SLIDERS = {
+    "L": SliderSpec("L", 0.05, 3.0, 0.01),
+    "d": SliderSpec("d", 0.0, 3.0, 0.01),  # max follows L
+    "m": SliderSpec("m", 0.0, 5.0, 0.05),
+    "I": SliderSpec("I", 0.0, 1.0, 0.005),
+}
+GRAVITY_SLIDER = SliderSpec("g", 0.0, 20.0, 0.05)
+DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
+ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
+SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
+PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
+
+
+def preset_description(p) -> str:
+    """The preset's own description (physics.chain_presets), for the line under the mechanism menu."""
+    preset = physics.get_preset(p.preset, p.n if p.preset == "chain" else None)
+    return preset.description or p.preset
+
+
+def reach_text(p) -> str:
+    """Where a four-bar's theta1 can be set: the closed-form intervals of physics.loop_closure.driving_range, in
+    degrees within one turn, as the slider shows angles."""
+    intervals = physics.loop_closure.driving_range(p.L, p.pin)
+    if not intervals:
+        return "*theta1 reachable: nowhere: this loop cannot close (change a length or the pin)*"
+    parts = []
+    for low, high in intervals:
+        if high - low >= 2 * math.pi - 1e-9:
+            return "*theta1 reachable: every angle (bar 1 is a crank)*"
+        start, end = wrap_degrees(low), wrap_degrees(high)
+        parts.append(f"{start:.1f}° to {end:.1f}°" + (" (through ±180°)" if start > end else ""))
+    return "*theta1 reachable: " + " and ".join(parts) + "*"
+
 
 # the methods the mechanism session runs (app/mechanism_session.py METHODS), in the chain panel's order
 HOSTED_METHODS = ("newton_euler", "lagrange", "dae", "reduced", "reduced_fixed")
@@ -92,7 +119,7 @@ def free_coordinates(params: SessionParameters) -> tuple[FreeCoordinate, ...]:
 
 def close_loop(params: SessionParameters, theta: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A pinned chain's state put exactly on its loop with ``params``' lengths and pin (a displayed state after
-    an edit), as the chain session does (app/session.py ``_close_loop``); LinkageError when it cannot close."""
+    an edit), as the chain's start always was; LinkageError when it cannot close."""
     if not params.pinned:
         return theta, omega
     k = driving_count(params.n, True)
@@ -148,7 +175,8 @@ def hosted_settings(params: SessionParameters) -> MechanismSettings:
         raise LinkageError(f"method = {s.method}: allowed values {', '.join(allowed)}")
     return MechanismSettings(method=s.method, stabilization=s.stabilization, trace=trace_label(params),
                              rtol=s.rtol, integrator=s.integrator, step=s.step,
-                             baumgarte_alpha=s.baumgarte_alpha, baumgarte_beta=s.baumgarte_beta)
+                             baumgarte_alpha=s.baumgarte_alpha, baumgarte_beta=s.baumgarte_beta,
+                             max_steps=s.max_steps, chain_coordinates=True)
 
 
 def with_settings(params: SessionParameters, settings: MechanismSettings) -> SessionParameters:
@@ -176,7 +204,7 @@ def methods(params: SessionParameters, mobility_now: int) -> tuple[str, ...]:
 
 def facts_line(params: SessionParameters) -> str:
     """The chain panel's words under the menu: bars, pinned or open, the degrees of freedom and, for a four-bar,
-    where theta1 can be set (app/controls.py ``reach_text``, with its Grashof reading)."""
+    where theta1 can be set (:func:`reach_text`, with its Grashof reading)."""
     kind = "closed loop, tip pinned at H" if params.pinned else "open chain"
     line = markdown_literal(f"{params.n} bars, {kind}; {mobility(params)} degrees of freedom")
     if params.pinned and params.n == 3:
@@ -245,6 +273,15 @@ def start_knobs(params: SessionParameters) -> list[Knob]:
     speeds = [_knob(f"omega{k}", SPEED_START_SLIDER, float(params.omega0[k - 1]), label=f"omega{k} (°/s)",
                     hint="Its angular velocity at t = 0")
               for k in range(1, count + 1)]
+    # a pinned chain's other angles and speeds, shown greyed as the loop sets them (the chain panel's)
+    angles += [replace(_knob(f"theta{k}", ANGLE_SLIDER, float(params.theta0[k - 1]),
+                             label=f"theta{k} (°), follows the loop",
+                             hint="Assembled so that the loop closes (set the driving angle)"), follows=True)
+               for k in range(count + 1, params.n + 1)]
+    speeds += [replace(_knob(f"omega{k}", SPEED_START_SLIDER, float(params.omega0[k - 1]),
+                             label=f"omega{k} (°/s), follows the loop",
+                             hint="The speed the loop gives it (set the driving speed)"), follows=True)
+               for k in range(count + 1, params.n + 1)]
     return angles + speeds
 
 
@@ -266,10 +303,14 @@ _FIXED_STOP = re.compile(r"joint 'O' stopped being a valid coordinate at t = (?P
                          r"share fell to (?P<share>\S+), limit (?P<limit>[^)]+)\)")
 
 
-def chain_failure(message: str) -> str:
+def chain_failure(message: str, at_start: bool = False) -> str:
     """A hosted chain's stop in the chain's words: the fixed-coordinate model's stop at pin ``O`` is theta1's,
     where bars 2 and 3 of a four-bar fold into line (the chain's own sentence, physics/simulate/reduced_adapter.py);
-    any other message as it came."""
+    a loop found dependent at a start (``at_start``: nothing ran) is a singular pose of the chain, whose loop
+    always closes with one freedom elsewhere; any other message as it came."""
+    if at_start and "over-constrained" in message:
+        return (f"the start is a singular pose: the loop's bars are in line there, so its constraints are dependent "
+                f"({message.split(': ', 1)[-1]}); choose another start")
     found = _FIXED_STOP.search(message)
     if found is None:
         return message

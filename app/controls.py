@@ -22,6 +22,16 @@ from physics.mechanism import MECHANISM_PRESETS
 from physics.model import FIXED_STEP_INTEGRATORS
 
 from . import share
+from .chain_knobs import (  # the chain's slider ranges and texts, kept with the one session's chain knobs
+    ANGLE_SLIDER,
+    BAR_SLIDERS,
+    DAMPING_SLIDER,
+    GRAVITY_SLIDER,
+    PIN_SLIDER,
+    SPEED_START_SLIDER,
+    preset_description,
+    reach_text,
+)
 from .commands import check_control, options_of, split_name
 from .logs import quietly
 from .number_inputs import NumberInputs, SliderSpec
@@ -29,6 +39,8 @@ from .overlays import METHOD_COLORS, Plot
 from .panel_rows import (
     CHAIN_PLOT_CHOICES,
     EXPORT_NOTE,
+    TIMELINE_MIN_SPAN,
+    TIMELINE_STEP,
     add_arrow_number,
     add_drift_plot,
     add_export_button,
@@ -39,6 +51,7 @@ from .panel_rows import (
     add_view_row,
     plot_kind,
     show_plot,
+    timeline_window,
 )
 from .parameters import driving_count, method_from_label, method_label, methods_for, wrap_degrees
 from .phase_view import BAR_COLORS
@@ -46,22 +59,9 @@ from .ports import SessionPort
 from .resources import STATIC
 from .text import html_literal, markdown_literal
 
-BAR_SLIDERS = {
-    "L": SliderSpec("L", 0.05, 3.0, 0.01),
-    "d": SliderSpec("d", 0.0, 3.0, 0.01),  # max follows L
-    "m": SliderSpec("m", 0.0, 5.0, 0.05),
-    "I": SliderSpec("I", 0.0, 1.0, 0.005),
-}
-GRAVITY_SLIDER = SliderSpec("g", 0.0, 20.0, 0.05)
-DAMPING_SLIDER = SliderSpec("damping", 0.0, 2.0, 0.01)
 ALPHA_SLIDER = SliderSpec("baumgarte_alpha", 0.0, 50.0, 0.5)
 BETA_SLIDER = SliderSpec("baumgarte_beta", 0.0, 50.0, 0.5)
-ANGLE_SLIDER = SliderSpec("theta", -180.0, 180.0, 0.5)
 PLOT_CHOICES = CHAIN_PLOT_CHOICES  # the rows every panel has: app/panel_rows.py
-TIMELINE_STEP = 0.05  # s: three samples; the slider's ends read as round numbers
-TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
-SPEED_START_SLIDER = SliderSpec("omega", -720.0, 720.0, 5.0)  # initial angular velocity in degrees per second
-PIN_SLIDER = SliderSpec("pin_x", -5.0, 5.0, 0.01)
 STEP_SLIDER = SliderSpec("step", 0.1, 20.0, 0.1)  # midpoint / variational step in milliseconds
 # tolerance and step are set on log / millisecond scales; their model bounds are checked in the tests
 TOLERANCE_LOG10 = (-12.0, -3.0, 0.5)  # rtol = atol = 10 ** slider
@@ -96,27 +96,6 @@ def _from_log10(exponent: float) -> float:
     return 10.0 ** min(max(exponent, -400.0), 300.0) if exponent == exponent else exponent
 
 
-def preset_description(p) -> str:
-    """The preset's own description (physics.chain_presets), for the line under the mechanism menu."""
-    preset = physics.get_preset(p.preset, p.n if p.preset == "chain" else None)
-    return preset.description or p.preset
-
-
-def reach_text(p) -> str:
-    """Where a four-bar's theta1 can be set: the closed-form intervals of physics.loop_closure.driving_range, in
-    degrees within one turn, as the slider shows angles."""
-    intervals = physics.loop_closure.driving_range(p.L, p.pin)
-    if not intervals:
-        return "*theta1 reachable: nowhere: this loop cannot close (change a length or the pin)*"
-    parts = []
-    for low, high in intervals:
-        if high - low >= 2 * math.pi - 1e-9:
-            return "*theta1 reachable: every angle (bar 1 is a crank)*"
-        start, end = wrap_degrees(low), wrap_degrees(high)
-        parts.append(f"{start:.1f}° to {end:.1f}°" + (" (through ±180°)" if start > end else ""))
-    return "*theta1 reachable: " + " and ".join(parts) + "*"
-
-
 def _degrees_per_second(omega: float) -> float:
     """An angular velocity for its slider: degrees per second on the slider's step (not wrapped: 720 °/s is two
     turns a second)."""
@@ -128,15 +107,6 @@ def _degrees(theta: float) -> float:
     return _round_to(wrap_degrees(theta), ANGLE_DEG[2])
 
 
-
-def timeline_window(t: float, t_first: float, t_end: float) -> tuple[float, float, float]:
-    """The timeline slider's ``(min, max, value)``: the run so far, from the oldest sample the rings still hold
-    (``t_first``) to the latest shown (``t_end``), in round steps, with its thumb at the time shown ``t`` (chains
-    and mechanisms alike)."""
-    low = round(max(0.0, math.ceil(t_first / TIMELINE_STEP - 1e-9) * TIMELINE_STEP), 2)
-    high = round(max(math.ceil(t_end / TIMELINE_STEP - 1e-9) * TIMELINE_STEP, low + TIMELINE_MIN_SPAN), 2)
-    value = min(max(round(round(t / TIMELINE_STEP) * TIMELINE_STEP, 2), low), high)
-    return low, high, value
 
 class Controls:
     """GUI of one session. ``rebuild()`` after the mechanism changed; ``sync_*`` after the session changed

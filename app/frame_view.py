@@ -18,6 +18,7 @@ import physics
 
 from .divergence import DivergencePlots
 from .logs import quietly
+from .mechanism_compare import COMPARE_DEPTH_STEP, COMPARE_METHODS, compare_key
 from .overlays import (
     METHOD_COLORS,
     PLOT_POINTS,
@@ -32,12 +33,10 @@ from .phase_view import phase_picture
 from .player import SAMPLE_RATE, Frame
 from .scene import LinkageScene, mechanism_reach
 
-COMPARE_DEPTH_STEP = 0.01  # depth between the compare runs' mechanisms, as a fraction of the reach
 TRACE_EVERY = 2  # frames between trace updates (30 Hz)
 PLOT_EVERY = 12  # frames between plot updates (5 Hz)
 STATUS_EVERY = 15  # frames between status-line updates (4 Hz)
 PLOT_SECONDS = 30.0  # simulated seconds shown by the plots
-COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)
 
 
 class FrameView:
@@ -308,21 +307,6 @@ class FrameView:
                 trace.remove()
             self.arrows.remove()
             quietly(self.floor.remove, "removing the floor")
-
-
-def compare_key(scene, reach: float, centre: tuple[float, float] = (0.0, 0.0)) -> list:
-    """The colour key of compare mode in the scene: a ball of each run's colour and its method's name, top left
-    of the disc of radius ``reach`` about ``centre`` (the plane's x, y) that the mechanism sweeps (where no motion
-    passes); returns the nodes (chains and mechanisms alike)."""
-    handles = []
-    x, y = centre
-    for k, method in enumerate(COMPARE_METHODS):
-        z = y + reach * (0.9 - 0.12 * k)
-        handles.append(scene.add_icosphere(f"/compare_key/{method}/ball", radius=0.025 * reach,
-                                           color=METHOD_COLORS[method], position=(x - 0.85 * reach, 0.0, z)))
-        handles.append(scene.add_label(f"/compare_key/{method}/name", METHOD_LABELS[method],
-                                       position=(x - 0.8 * reach, 0.0, z)))
-    return handles
 
 
 def reactions_available(params: SessionParameters) -> bool:

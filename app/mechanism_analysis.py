@@ -2,7 +2,7 @@
 mechanism, computed for the one shown: a work-precision chart, an ensemble of copies a hair apart drawn over
 it, a chaos map over two body angles, and the list of its rest poses.
 
-Built as the chain's Analysis tab (app/analysis.py, whose drawing helpers it reuses): a button only starts a
+For every linkage, chains included (a chain is hosted as a mechanism): a button only starts a
 worker thread and returns; one notice says the study is being computed, one that it is done, refused or
 discarded. Which studies apply depends on the mobility the motors leave free: every mechanism is integrated
 (work-precision), an ensemble needs a free coordinate, a chaos map two, and a rest pose a free motion that no
@@ -17,6 +17,8 @@ watcher thread, so that the session's own code only constructs and removes this 
 
 from __future__ import annotations
 
+import colorsys
+import re
 import threading
 import time
 from typing import Any, Callable
@@ -30,7 +32,6 @@ from physics.studies.chaos_map import framed_picture
 from physics.studies.report import Progress
 from physics.studies.work_precision_chart import chart
 
-from .analysis import copy_colors, fit_width
 from .logs import quietly
 from .mechanism_runs import points_at
 from .overlays import Plot
@@ -464,3 +465,16 @@ class MechanismAnalysis:
         self._drop_ensemble()
         self.spread_plot.remove()
         quietly(self.folder.remove, "removing the Analysis folder")
+
+
+def copy_colors(count: int, n: int) -> np.ndarray:
+    """One hue per copy, repeated for its n segments and both ends: shape (count * n, 2, 3), uint8."""
+    hues = np.arange(count) / max(count, 1)
+    rgb = np.array([colorsys.hsv_to_rgb(h, 0.75, 0.85) for h in hues]) * 255.0
+    return np.repeat(rgb[:, None, :], n * 2, axis=1).reshape(count * n, 2, 3).astype(np.uint8)
+
+
+def fit_width(svg: str) -> str:
+    """An SVG drawn at the panel's width (its viewBox keeps the proportions): never wider than the panel."""
+    return re.sub(r'^<svg ([^>]*?)width="[\d.]+" height="[\d.]+"', r'<svg \1width="100%" style="height:auto"', svg,
+                  count=1)

@@ -2,7 +2,7 @@
 
 Why: the three formulations of ``physics.mechanism`` are derived independently (docs/mechanisms.md); run with
 the same integrator and tolerance they take the same steps, and where they part the motion is no longer
-trustworthy. This is the chain's compare mode (app/frame_view.py, app/divergence.py) for any mechanism, built
+trustworthy. This is compare mode (with app/divergence.py's plots) for any mechanism, chains included, built
 from the chain's parts: the runs are :class:`~app.mechanism_runs.MechanismSpec` labelled by method, plus a
 converged reference (the DAE at :data:`~app.divergence.REFERENCE_TOLERANCE`, projected) that only the
 divergence plots read; each method is drawn as its own mechanism in its colour, a little apart in depth, with
@@ -15,10 +15,10 @@ from typing import Callable
 
 import numpy as np
 
+import physics
 from physics.mechanism import Mechanism
 
 from .divergence import REFERENCE_LABEL, REFERENCE_TOLERANCE, DivergencePlots
-from .frame_view import COMPARE_DEPTH_STEP, COMPARE_METHODS, compare_key
 from .logs import quietly
 from .mechanism_runs import Drawing, MechanismSettings, MechanismSpec, is_reduced
 from .mechanism_scene import MechanismScene
@@ -26,6 +26,9 @@ from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS
 from .runs import RunFrame
 from .scene import pose_disc
+
+COMPARE_DEPTH_STEP = 0.01  # depth between the compare runs' mechanisms, as a fraction of the reach
+COMPARE_METHODS = tuple(physics.FORMULATION_NAMES)  # side by side, in this order
 
 # The chain's visible gap (0.1 m) is for bars of about 1 m; a mechanism's is this fraction of its size
 GAP_FRACTION = 0.1
@@ -69,7 +72,8 @@ class MechanismCompare:
     def on(self) -> bool:
         return bool(self.scenes)
 
-    def build(self, draw: Drawing, points_xy: np.ndarray, com_xy: np.ndarray, trace_label: str) -> None:
+    def build(self, draw: Drawing, points_xy: np.ndarray, com_xy: np.ndarray, trace_label: str,
+              gap: float | None = None) -> None:
         """(Re)make the three mechanisms for ``draw`` and the plots for a mechanism of its size; the same
         drawing and traced point again (an edit of a mass or a motor) only moves them to the new start."""
         key = (draw.labels, draw.size, trace_label)
@@ -96,7 +100,7 @@ class MechanismCompare:
                             [METHOD_LABELS[m] for m in COMPARE_METHODS[1:]],
                             [METHOD_COLORS[m] for m in COMPARE_METHODS[1:]], log=True, height=150, y_label="m")
         self.divergence = DivergencePlots(gui, COMPARE_METHODS, self.between, point="trace_xy", noun=noun,
-                                          gap=visible_gap(draw.size))
+                                          gap=visible_gap(draw.size) if gap is None else gap)
         self.divergence.set_visible(True)
 
     def show(self, frames: list[RunFrame]) -> None:
@@ -130,3 +134,18 @@ class MechanismCompare:
         if self.between is not None:
             self.between.remove()
         self.divergence = self.between = None
+
+
+def compare_key(scene, reach: float, centre: tuple[float, float] = (0.0, 0.0)) -> list:
+    """The colour key of compare mode in the scene: a ball of each run's colour and its method's name, top left
+    of the disc of radius ``reach`` about ``centre`` (the plane's x, y) that the mechanism sweeps (where no motion
+    passes); returns the nodes (chains and mechanisms alike)."""
+    handles = []
+    x, y = centre
+    for k, method in enumerate(COMPARE_METHODS):
+        z = y + reach * (0.9 - 0.12 * k)
+        handles.append(scene.add_icosphere(f"/compare_key/{method}/ball", radius=0.025 * reach,
+                                           color=METHOD_COLORS[method], position=(x - 0.85 * reach, 0.0, z)))
+        handles.append(scene.add_label(f"/compare_key/{method}/name", METHOD_LABELS[method],
+                                       position=(x - 0.8 * reach, 0.0, z)))
+    return handles

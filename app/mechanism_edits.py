@@ -46,6 +46,7 @@ class Knob:
     # chain panel's boxes take them (a mass of 1000 kg, g = 1000 m/s²); the slider widens to show it
     typed: tuple[float, float] | None = None
     low_open: bool = False  # the lower bound itself is refused (a size, a step: above 0)
+    follows: bool = False  # a value the model sets (a closed chain's assembled angles): shown greyed, not set
 
     @property
     def allowed(self) -> tuple[float, float]:

@@ -59,6 +59,13 @@ class MechanismSettings(BaseModel):
     step: float = _settings_field("step")
     baumgarte_alpha: float = _settings_field("baumgarte_alpha")
     baumgarte_beta: float = _settings_field("baumgarte_beta")
+    # the integrator steps one call may take: the player lowers it per chunk (app/player.py, CHUNK_STEP_CAP), so a
+    # motion too stiff to play stops with the sentence naming Radau or LSODA rather than holding the player
+    max_steps: int = _settings_field("max_steps")
+    # a hosted chain's runs integrate the chain's own coordinates (the spanning tree's, absolute rotations; the DAE
+    # in them too), as physics.simulate runs a chain: the same numbers to the last bit, so its compare mode, its
+    # departure times and the seed report's figures are the chain's (app/chain_knobs.py sets it)
+    chain_coordinates: bool = False
     t_end: float = Field(1.0, gt=0.0)
     samples: int = Field(2, ge=2)
 
@@ -335,7 +342,8 @@ class MechanismSpec:
             run: Trajectory = self.runner(mechanism, settings.t_end, settings.samples, q0, qdot0,  # type: ignore[assignment]
                                           t_start, settings.method, settings.stabilization, settings.rtol,
                                           settings.integrator, settings.step,
-                                          (settings.baumgarte_alpha, settings.baumgarte_beta))
+                                          (settings.baumgarte_alpha, settings.baumgarte_beta), settings.max_steps,
+                                          continuing, *route_options(settings))
         else:  # in this interpreter: the formulations (sympy, scipy) load only here
             from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415
 
@@ -343,7 +351,9 @@ class MechanismSpec:
                                      t_start=t_start, settings=run_settings(
                                          settings.t_end, settings.samples, settings.method, settings.stabilization,
                                          settings.rtol, settings.integrator, settings.step,
-                                         (settings.baumgarte_alpha, settings.baumgarte_beta)))
+                                         (settings.baumgarte_alpha, settings.baumgarte_beta), settings.max_steps),
+                                     continuing=continuing, coordinates=route_options(settings)[0],
+                                     rotations=route_options(settings)[1])
         # The player sizes chunks by their work, never by the wall clock (app/player.py), so a chunk stays
         # under a frame of compute and the frames keep their pace
         work = EVALUATION_WORK * run.n_rhs + SAMPLE_WORK * self.n * settings.samples
@@ -424,8 +434,18 @@ def check_integrator(method: str, integrator: str) -> None:
                        f"{', '.join(allowed)}")
 
 
+def route_options(settings: MechanismSettings) -> tuple[str, str]:
+    """``(coordinates, rotations)`` of simulate_mechanism for these settings: maximal coordinates and relative
+    rotations, or a hosted chain's own (``chain_coordinates``): the tree's coordinates (the DAE's too) with
+    absolute rotations, as physics.simulate integrates a chain (the reduced models keep theirs)."""
+    if not settings.chain_coordinates or is_reduced(settings.method):
+        return "maximal", "relative"
+    return ("tree" if settings.method == "dae" else "maximal"), "absolute"
+
+
 def run_settings(t_end: float, samples: int, method: str, stabilization: str, rtol: float, integrator: str,
-                 step: float | None, baumgarte: tuple[float, float] | None) -> Settings:
+                 step: float | None, baumgarte: tuple[float, float] | None,
+                 max_steps: int | None = None) -> Settings:
     """physics' one :class:`~physics.Settings` of one chunk (rtol = atol, as the chain panel sets them), every
     option, the Baumgarte gains too, checked by physics' own ``run_options`` (its one-line refusals: ``method =
     'euler': allowed values ...``). Loads the simulation: call it where a chunk is computed (a worker, or this
@@ -434,4 +454,5 @@ def run_settings(t_end: float, samples: int, method: str, stabilization: str, rt
 
     alpha, beta = (None, None) if baumgarte is None else baumgarte
     return run_options(t_end=t_end, samples=samples, method=method, stabilization=stabilization, rtol=rtol,
-                       atol=rtol, integrator=integrator, step=step, baumgarte_alpha=alpha, baumgarte_beta=beta)
+                       atol=rtol, integrator=integrator, step=step, baumgarte_alpha=alpha, baumgarte_beta=beta,
+                       max_steps=None if max_steps is None else int(max_steps))

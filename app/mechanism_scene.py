@@ -191,13 +191,20 @@ class MechanismScene:
 
     @_locked
     def poses(self) -> dict[str, dict]:
-        """Every part's pose by part name (JSON-able), as :meth:`app.scene.LinkageScene.poses`."""
+        """Every part's pose by part name (JSON-able): ``bar_k`` (each drawn segment), ``point/BODY.POINT`` (each
+        named point's ball), ``com_k`` (body k's centre of mass) and ``ground_k`` (each ground block)."""
         out: dict[str, dict] = {}
         if self.draw is None:
             return out
         for k in range(len(self._bar_positions)):
             out[f"{self.root}/bar_{k + 1}"] = {"position": [float(v) for v in self._bar_positions[k]],
                                                "wxyz": [float(v) for v in self._bar_wxyzs[k]], "visible": True}
+        labels = self.draw.labels
+        for k, position in enumerate(self._sphere_positions):
+            name = f"point/{labels[k]}" if k < len(labels) else f"com_{k - len(labels) + 1}"
+            out[f"{self.root}/{name}"] = {"position": [float(v) for v in position], "visible": True}
+        for k, xy in enumerate(self.draw.ground):
+            out[f"{self.root}/ground_{k}"] = {"position": [float(v) for v in to_world(xy)], "visible": True}
         return out
 
     @_locked

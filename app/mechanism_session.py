@@ -1,8 +1,9 @@
-"""One browser's (or, with ``--shared``, one lecture's) general mechanism: a slider-crank, a six-bar, a Jansen leg.
+"""One browser's (or, with ``--shared``, one lecture's) linkage: a triple pendulum, a four-bar, a slider-crank, a
+six-bar, a Jansen leg: the app's one session class (issue 24), every linkage a mechanism.
 
-A :class:`MechanismSession` is what a :class:`app.session.Session` is for chains, for any mechanism of
-``physics.mechanism``: the same player (app/player.py, through :class:`app.mechanism_runs.MechanismSpec`), the
-same batched scene nodes, notices, presenter lock and delivery pacing, and a panel generated from the
+A :class:`MechanismSession` runs any mechanism of ``physics.mechanism``: the player (app/player.py, through
+:class:`app.mechanism_runs.MechanismSpec`), batched scene nodes, notices, presenter lock and delivery pacing,
+and a panel generated from the
 mechanism's description (app/mechanism_edits.py): per body its size, mass and inertia, per motor its speed or
 torque, gravity; the formulation (DAE, Lagrange, Newton-Euler on a spanning tree, or the reduced model for
 mobility 1) and the stabilisation; the traced point (any named point of any body); reaction arrows at the
@@ -14,7 +15,8 @@ chain's own start, with the chain's knobs and names (app/chain_knobs.py: ``L1``,
 ``pin_x``, ``damping``, the number of bars), every edit through the chain's command layer (app/commands.py), the
 chain session's share link and a four-bar's reach line; ``self.chain`` holds the chain's parameters in force
 (None for a mechanism). Choosing a chain preset in its mechanism menu hosts it here when a chain is shown or no
-``on_switch`` is given; a mechanism with the server's ``on_switch`` hands the browser to it. A hosted chain answers
+``on_switch`` is given; a mechanism with the server's ``on_switch`` hands the browser to the chain session (until
+the server opens every chain here, issue 24). A hosted chain answers
 as the chain session does (its snapshot, downloads, ``params``, ``set``, ``set_start``, ``history``, ...).
 Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or joint, the field
 and the allowed range, and the session goes on.
@@ -44,13 +46,12 @@ from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 from . import chain_contract, chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
-from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
-from .frame_view import COMPARE_METHODS
+from .divergence import VISIBLE_GAP
 from .free_body_view import FreeBodyView, fbd_command
 from .lab_session import Kind, SessionBase
 from .logs import quietly
 from .mechanism_analysis import MechanismAnalysis
-from .mechanism_compare import MechanismCompare, compare_specs
+from .mechanism_compare import COMPARE_METHODS, MechanismCompare, compare_specs
 from .mechanism_edits import (
     START_NAMES,
     Knob,
@@ -113,7 +114,7 @@ ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is dra
 RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
-TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the chain panel's Playback row (app/controls.py)
+TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the Playback row: the page's keys Space, S and R press them
 DOWNLOADS = ("CSV", "JSON")  # the run, as the mechanism command writes it
 MECHANISM_HELP = """**The scene:** each body in its colour (a bar, or a plate's outline); dark balls are pins, small grey
 ones other named points, white ones centres of mass; grey blocks are ground points and a grey line a slider's
@@ -208,7 +209,7 @@ class CallableButton:
 
 
 def chain_help() -> str:
-    """The chain panel's Help text (static/help.md; app/controls.py shows the same file)."""
+    """A chain's Help text (static/help.md)."""
     help_file = STATIC / "help.md"
     return help_file.read_text(encoding="utf-8") if help_file.exists() else "See docs/app.md."
 
@@ -250,6 +251,8 @@ class MechanismSession(SessionBase):
         self.free: tuple[FreeCoordinate, ...] = ()  # the coordinates a start is set by (app/mechanism_start.py)
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
         self.energy_ref: float | None = None
+        self._equations_shown = False  # the Equations tab was asked for: it follows the method
+        self._ran_from: SessionParameters | None = None  # a hosted chain's latest start that ran (Reset's way back)
         self.display = Display()  # playback speed, trace length, arrow scale: the chain panel's (app/panel_rows.py)
         self._segment_t0 = 0.0  # the time of the last change: the energy error is measured from there
         self._plots_due = False  # a plot was chosen: redraw it with the next frame, paused or not
@@ -322,7 +325,7 @@ class MechanismSession(SessionBase):
                                                    hint="Reset: start again from the start in force (t = 0)"))
         self.transport.on_click(lambda event: self.guard(lambda: self.press(self.transport.value)))
         # the run so far, as the chain panel's: drag back to look again (pauses there); Play goes on from it
-        self.timeline = keep(gui.add_slider("Timeline (s)", min=0.0, max=TIMELINE_MIN_SPAN, step=TIMELINE_STEP,
+        self.timeline = keep(gui.add_slider("Timeline (s)", min=0.0, max=panel_rows.TIMELINE_MIN_SPAN, step=panel_rows.TIMELINE_STEP,
                                             initial_value=0.0, hint="Drag to go back through the run so far (pauses)"))
         self.timeline.on_update(lambda event: None if self._timeline_writer == threading.get_ident() else self.guard(
             lambda: self.scrub(self.timeline.value)))
@@ -347,7 +350,7 @@ class MechanismSession(SessionBase):
         self._gui.append(self.drift_plot.handle)
         self.residual_plot = panel_rows.add_residual_plot(gui, RESIDUAL_TITLE, "|Φ|", "")
         self._gui.append(self.residual_plot.handle)
-        # the chain panel's tabs (app/controls.py), with what applies to a general mechanism in each
+        # the tabs: what applies to the linkage shown in each
         self.tabs = keep(gui.add_tab_group())
         with self.tabs.add_tab("Mechanism"):
             self.menu = gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
@@ -424,7 +427,7 @@ class MechanismSession(SessionBase):
             # the Save HTML replay button, and called, the chain session's export_html() (see CallableButton)
             self.export_html = CallableButton(panel_rows.add_export_button(gui, bind, self, "html"),
                                               self._export_html)
-            # as the chain panel's Export tab (app/controls.py): the setup as a file, and one read back
+            # the setup as a file, and one read back
             self.save_setup = gui.add_button("Save this setup (JSON)")
             self.save_setup.on_click(lambda event: self.guard(lambda: self.download(
                 "setup", getattr(event, "client", None))))
@@ -452,6 +455,9 @@ class MechanismSession(SessionBase):
                                 step=knob.step, initial_value=knob.slider_value(), hint=knob.hint)
         handle.on_update(lambda event, knob=knob, handle=handle: self._knob_moved(knob, handle))
         self._knob_handles[knob.name] = handle
+        if knob.follows:  # the model sets it (a closed chain's assembled angle): shown greyed, nothing to type
+            handle.disabled = True
+            return
         # the box a value is typed in, read by the server as written (the slider's own box is the browser's,
         # which reads 2.5e1 as 2.51): as the chain panel's (app/number_inputs.py)
         box = gui.add_text(f"type {knob.label}", initial_value=shown_value(knob.value),
@@ -563,7 +569,8 @@ class MechanismSession(SessionBase):
     def _knob_moved(self, knob: Knob, handle) -> None:
         if self._syncing:
             return
-        self.guard(lambda: self.set(knob.name, knob.from_slider(handle.value), CONTROL))
+        self.guard(lambda: self._set(knob.name, knob.from_slider(handle.value), CONTROL))
+        quietly(lambda: self.sync_all(moved=knob.name), "showing the values in force")  # a loop's followers
 
     def _typed(self, name: str) -> None:
         """A keystroke in a typed box: the value is applied once typing has paused (TYPING_PAUSE_S); then the
@@ -608,6 +615,7 @@ class MechanismSession(SessionBase):
             return
         if self.chain is not None:  # read by the chain's command layer, its refusals the chain panel's
             self._set_chain(name, text, CONTROL)
+            quietly(self.sync_all, "showing the value in force")
             return
         knob = next((k for k in self.panel_knobs() if k.name == name), None)
         if knob is None:
@@ -627,12 +635,13 @@ class MechanismSession(SessionBase):
         finally:
             self._syncing = False
 
-    def sync_all(self) -> None:
-        """Put every control on the value in force (after a refusal, or a viewer's attempt)."""
+    def sync_all(self, moved: str | None = None) -> None:
+        """Put every control on the value in force (after a refusal, or a viewer's attempt); ``moved``: the
+        slider the mouse just moved, left where it is (it may still be under the mouse)."""
         self._syncing = True
         try:
             for knob in self.panel_knobs():
-                handle = self._knob_handles.get(knob.name)
+                handle = self._knob_handles.get(knob.name) if knob.name != moved else None
                 if handle is not None and handle.value != knob.slider_value():
                     low, high = knob.slider_bounds()  # a typed value beyond the slider's range: widen it
                     handle.min, handle.max = min(handle.min, low), max(handle.max, high)
@@ -644,6 +653,7 @@ class MechanismSession(SessionBase):
                                   (self.stabilization, self.settings.stabilization),
                                   (self.integrator, self.settings.integrator),
                                   (self.menu, self.label), (self.compare_box, self.compare),
+                                  (self.plot_choice, self._plot_choices()[panel_rows.PLOT_KINDS.index(self._plot_kind)]),
                                   (self.free_body_box, self.free_body.on), (self.body_menu, self._body_shown())):
                 if handle.value != value:
                     handle.value = value
@@ -665,8 +675,9 @@ class MechanismSession(SessionBase):
             return None
         try:
             return action()
-        except LinkageError as error:
-            self.show_notice("Not applied", str(error), color="yellow")
+        except LinkageError as error:  # a hosted chain's in its menu's words (``method = Lagrange``)
+            self.show_notice("Not applied", in_menu_words(str(error)) if self.chain is not None else str(error),
+                             color="yellow")
             quietly(self.sync_all, "putting the controls back")
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
             traceback.print_exc()
@@ -688,7 +699,13 @@ class MechanismSession(SessionBase):
         the run's ``rtol`` and ``step`` in ms; a start's ``angle0:crank`` in °, ``omega0:crank`` in °/s):
         geometry starts again from the re-assembled sketch, a start from the new start at t = 0; masses, inertias,
         motors, gravity and the run's settings go on from the displayed state (the constraints do not depend
-        on them); its controls are in the panel's units whatever ``units``, which a display setting takes."""
+        on them); its controls are in the panel's units whatever ``units``, which a display setting takes. Every
+        control then shows the value in force (a slider moved by the mouse is not written back: :meth:`_set`)."""
+        self._set(name, value, units)
+        quietly(self.sync_all, "showing the value in force")
+
+    def _set(self, name: str, value: object, units: str = SI) -> None:
+        """:meth:`set` without writing the sliders back (a slider's own move: it may still be under the mouse)."""
         if name in DISPLAY_NAMES:  # playback speed, trace length, arrow scale
             self._set_display(name, value, units)
             return
@@ -743,7 +760,12 @@ class MechanismSession(SessionBase):
             self._sync_boxes()
 
     def _chain_start(self, params: SessionParameters) -> None:
-        """A new start of the hosted chain (its angles or speeds): again at t = 0 from it."""
+        """A new start of the hosted chain (its angles or speeds): again at t = 0 from it. The start it replaces
+        is remembered if it ran (Reset's way back from a start that cannot move, as the chain session's)."""
+        with self.player.lock:
+            ran = bool(self.player.runs) and len(self.player.runs[0].ring) > 1
+        if ran and self.chain is not None:
+            self._ran_from = self.chain
         self.chain = params
         self.q0, self.qdot0 = chain_knobs.hosted_start(params)
         self._build_scene(self.q0)
@@ -807,10 +829,11 @@ class MechanismSession(SessionBase):
             raise LinkageError("links: only the 'chain' mechanism has a variable number of bars")
         self.open_chain(SessionParameters.from_preset("chain", links=number))
 
-    def open_chain(self, params: SessionParameters, play: bool = True) -> None:
+    def open_chain(self, params: SessionParameters, play: bool | None = None) -> None:
         """Host the chain ``params`` here (a chain preset chosen in the menu, another number of bars, the preset's
         values again): the integration choices in force kept where the chain's methods take them, as the chain
-        session's ``set_mechanism``; the panel's controls built again for it."""
+        session's ``set_mechanism``; the panel's controls built again for it. ``play``: None keeps playing or
+        paused as it was (the chain session's), True plays."""
         with self._lock:
             old = self.chain
             if old is not None:
@@ -900,6 +923,8 @@ class MechanismSession(SessionBase):
         turned into the key by :func:`app.parameters.method_from_label`)."""
         with self._lock:
             _choice("method", method, self._methods() if self.chain is not None else list(METHODS))
+            if self.chain is not None:  # the chain's models first: their refusal names the fix as the chain's
+                commands.apply(self.chain, "method", method)
             check_method(method, self.mobility)
             update: dict[str, object] = {"method": method}
             if is_reduced(method):  # it closes its loops by position analysis and integrates with its own DOP853
@@ -915,6 +940,8 @@ class MechanismSession(SessionBase):
             self.settings = settings
             self.sync_all()  # the Stabilisation menu shows projection with the reduced model
             self._continue()
+        if self._equations_shown:  # the Equations tab shows the method in force
+            self.show_equations()
 
     def set_stabilization(self, stabilization: str) -> None:
         with self._lock:
@@ -985,6 +1012,12 @@ class MechanismSession(SessionBase):
     def _show_free_body_help(self) -> None:
         """The command that writes this body's SVG, naming the preset shown (a file's body names are its
         author's text: shown literally, never as markup)."""
+        if self.chain is not None:  # a chain preset's bar k is body barK: the chain's own fbd command
+            body = self._body_shown()
+            bar = int(body[3:]) if body.startswith("bar") and body[3:].isdigit() else 1
+            command = fbd_command(self.chain.preset, links=self.chain.n, bar=bar)
+            self.free_body_help.content = f"The SVG of this body's diagram: `{command}`"
+            return
         preset = self.mechanism.name if self.mechanism.name in mechanism_names() else None
         command = fbd_command(preset, body=self._body_shown())
         shown = f"`{command}`" if preset is not None else markdown_literal(command)
@@ -1078,6 +1111,13 @@ class MechanismSession(SessionBase):
         """Start again at t = 0 from the start in force (the chain's Reset: its initial angles and speeds). The
         mechanism is the same, so are its controls: they stay (a box being typed into is not replaced)."""
         with self._lock:
+            stuck = self.player.runs and all(len(run.ring) <= 1 and run.failed for run in self.player.runs)
+            good = self._ran_from
+            if self.chain is not None and stuck and good is not None and good is not self.chain:
+                # a start that cannot move (a singular pose): back to the last start that ran, as the chain's
+                self._chain_start(good)
+                self.sync_all()
+                return
             self._new_mechanism(self.mechanism, play=True, start=(self.q0, self.qdot0), same_kind=True)
 
     # ------------------------------------------------------------------ share links (app/share.py)
@@ -1135,9 +1175,9 @@ class MechanismSession(SessionBase):
         self.open_setup(share.setup_from_state(content, where))
 
     def open_setup(self, saved: share.SavedSetup) -> None:
-        """A saved setup: a chain's is hosted here (or, a mechanism shown and a server's ``on_switch`` given,
-        handed to it), a mechanism preset's or a description's starts it here as loaded, then every value is applied (refusals in one
-        notice); a setup naming no mechanism sets this one's values."""
+        """A saved setup: a chain preset's is hosted here, a mechanism preset's or a description's starts here as
+        loaded, then every value is applied (refusals in one notice); a setup naming no mechanism sets this
+        one's values."""
         preset = saved.preset
         if saved.mechanism is not None:
             self._start_anew(saved.mechanism, saved.label or saved.mechanism.name)
@@ -1164,8 +1204,11 @@ class MechanismSession(SessionBase):
 
     def show_equations(self, wait: bool = False) -> None:
         """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
-        mechanism in the Equations folder; ``wait``: return once shown (tests)."""
-        mechanism, method, label = self.mechanism, self.settings.method, self.label
+        mechanism in the Equations folder (a hosted chain's: the chain's, in its angles theta, as its LaTeX
+        download gives them); shown once, they follow a change of method; ``wait``: return once shown (tests)."""
+        self._equations_shown = True
+        mechanism = self.chain.chain if self.chain is not None else self.mechanism
+        method, label = self.settings.method, self.label
         self.equations.content = (f"<p><i>Deriving the {html.escape(METHODS[method])} equations (the first time "
                                   f"for this mechanism and method: a few seconds)...</i></p>")
 
@@ -1438,7 +1481,8 @@ class MechanismSession(SessionBase):
     def _chain_snapshot(self, params: SessionParameters) -> dict:
         """The chain session's snapshot of the hosted chain ``params`` (app/chain_contract.py ``snapshot``)."""
         def scene() -> dict:
-            nodes = self.compare_view.poses() if self.compare else self.scene.poses()
+            nodes = self.compare_view.poses() if self.compare else chain_contract.chain_scene(
+                self.scene.poses(), self.scene.root, params.n, self.trace)
             return {"root": self.scene.root, "nodes": nodes}
 
         return chain_contract.snapshot(
@@ -1480,7 +1524,9 @@ class MechanismSession(SessionBase):
 
     def pause(self) -> None:
         self.player.pause()
-        self.player.touch()  # the status line says "paused" at once (a paused player draws no new frame)
+        self.player.touch()  # redraw the pose shown (a paused player draws no new frame)
+        with self.player.lock:
+            self._refresh_status()  # the status line says "paused" at once, not at the next status frame
 
     def step(self) -> None:
         """Pause and advance the display by one sample (1/60 s), simulating it first if need be."""
@@ -1496,7 +1542,7 @@ class MechanismSession(SessionBase):
     def _show_timeline(self, t: float, t_first: float, restarted: bool) -> None:
         """The timeline's range is the run so far, its thumb the time shown (as the chain panel's)."""
         self._timeline_end = t if restarted else max(self._timeline_end, t)
-        low, high, value = timeline_window(t, t_first, self._timeline_end)
+        low, high, value = panel_rows.timeline_window(t, t_first, self._timeline_end)
         # viser calls on_update for a value set here too: this thread's own write is not a scrub
         self._timeline_writer = threading.get_ident()
         try:
@@ -1565,7 +1611,9 @@ class MechanismSession(SessionBase):
         if self.compare:
             self.scene.remove()
             self.trace.update(np.zeros((0, 2)))
-            self.compare_view.build(draw, points, centres, self._trace_name())
+            # a chain's visible gap is the chain's own (0.1 m for its bars of about a metre); a mechanism's scales
+            self.compare_view.build(draw, points, centres, self._trace_name(),
+                                    gap=VISIBLE_GAP if self.chain is not None else None)
         else:
             self.compare_view.remove()
             self.scene.build(draw, points, centres)
@@ -1641,7 +1689,7 @@ class MechanismSession(SessionBase):
         return panel_rows.CHAIN_PLOT_CHOICES if self.chain is not None else panel_rows.MECHANISM_PLOT_CHOICES
 
     def _help_text(self) -> str:
-        """The Help tab: the chain panel's help (static/help.md, as app/controls.py shows it) for a hosted
+        """The Help tab: the chain's help (static/help.md) for a hosted
         chain, :data:`MECHANISM_HELP` for a mechanism."""
         return chain_help() if self.chain is not None else MECHANISM_HELP
 
@@ -1792,7 +1840,7 @@ class MechanismSession(SessionBase):
                   else METHODS.get(self.settings.method, self.settings.method))
         integrator = self.settings.integrator if self.mobility > 0 else "position analysis"
         label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
-        if self.chain is not None:  # the chain view's words (app/frame_view.py status_text)
+        if self.chain is not None:  # in the chain's words (theta, the chain's energy and loop gap)
             label = ("compare: " + ", ".join(METHOD_LABELS[m] for m in COMPARE_METHODS) if self.compare
                      else f"{METHOD_LABELS.get(self.settings.method, self.settings.method)} · {integrator}")
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
@@ -1834,9 +1882,12 @@ class MechanismSession(SessionBase):
             self.notices.dismiss(shown)
 
     def _on_failure(self, message: str) -> None:
+        stuck = all(len(run.ring) <= 1 for run in self.player.runs)
         if self.chain is not None:  # in the chain's words: theta1, bars, methods as the menu names them
-            message = in_menu_words(chain_knobs.chain_failure(message))
-        hint = "" if "press Reset" in message else " Press Reset to start again."
+            message = in_menu_words(chain_knobs.chain_failure(message, at_start=stuck))
+        hint = ("" if "press Reset" in message else
+                " This start cannot move. Press Reset to go back to the last start that ran." if stuck
+                and self.chain is not None else " Press Reset to start again.")
         self.show_notice("Simulation stopped", f"{message}.{hint}", color="red", seconds=None)
 
     # ------------------------------------------------------------------ lifetime

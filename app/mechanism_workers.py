@@ -50,14 +50,15 @@ def _mechanism(description: str) -> Mechanism:
 
 def _chunk(description: str, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
            stabilization: str, rtol: float = 1e-10, integrator: str = "DOP853", step: float | None = None,
-           baumgarte: tuple[float, float] | None = None) -> Trajectory:
+           baumgarte: tuple[float, float] | None = None, max_steps: int | None = None,
+           continuing: bool = False, coordinates: str = "maximal", rotations: str = "relative") -> Trajectory:
     from physics.mechanism.simulate import simulate_mechanism  # noqa: PLC0415 - the worker's own import
 
     from .mechanism_runs import run_settings  # noqa: PLC0415 - as above
 
-    settings = run_settings(t_end, samples, method, stabilization, rtol, integrator, step, baumgarte)
+    settings = run_settings(t_end, samples, method, stabilization, rtol, integrator, step, baumgarte, max_steps)
     run = simulate_mechanism(_mechanism(description), t_end, samples, q0=q0, qdot0=qdot0, t_start=t_start,
-                             settings=settings)
+                             settings=settings, continuing=continuing, coordinates=coordinates, rotations=rotations)
     # Sent without its condition, which pickling would compute for every sample (Trajectory.__getstate__): the
     # server measures it at the one sample its status line shows (app.mechanism_runs.MechanismSpec.condition_at)
     return dataclasses.replace(run, condition=np.zeros(0))
@@ -107,12 +108,15 @@ class Worker:
 
     def run(self, mechanism: Mechanism, t_end: float, samples: int, q0, qdot0, t_start: float, method: str,
             stabilization: str, rtol: float = 1e-10, integrator: str = "DOP853",
-            step: float | None = None, baumgarte: tuple[float, float] | None = None) -> Trajectory:
+            step: float | None = None, baumgarte: tuple[float, float] | None = None,
+            max_steps: int | None = None, continuing: bool = False, coordinates: str = "maximal",
+            rotations: str = "relative") -> Trajectory:
         request = (mechanism.model_dump_json(), float(t_end), int(samples),
                    None if q0 is None else np.asarray(q0, dtype=float),
                    None if qdot0 is None else np.asarray(qdot0, dtype=float), float(t_start), method, stabilization,
                    float(rtol), integrator, None if step is None else float(step),
-                   None if baumgarte is None else (float(baumgarte[0]), float(baumgarte[1])))
+                   None if baumgarte is None else (float(baumgarte[0]), float(baumgarte[1])),
+                   None if max_steps is None else int(max_steps), bool(continuing), str(coordinates), str(rotations))
         with self._lock:
             try:
                 self._connection.send(request)

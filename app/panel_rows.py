@@ -1,9 +1,7 @@
-"""The rows every panel has, for a chain and for any mechanism: written once, called by both panels.
+"""The rows every linkage's panel has, a chain's and any mechanism's, in functions of their own.
 
-Issue 24 asks for one app session in which every feature of the chain panel works for any mechanism. Until the
-two sessions are one, the chain panel (:class:`app.controls.Controls`) and the mechanism panel
-(:class:`app.mechanism_session.MechanismSession`) build these rows with the functions here, so that they read
-and behave the same and the later merge deletes one caller instead of reconciling two copies:
+The one session (:class:`app.mechanism_session.MechanismSession`) builds these rows with the functions here, so
+the panel's module stays about what changes with the model, and each row is tested on its own:
 
 * the **View** button group beside Playback (Front / 3D; the page's F key presses it, static/page.html);
 * the **Plot** menu (energy and its error, coordinates over time, a phase portrait) and which plot it shows;
@@ -13,12 +11,13 @@ and behave the same and the later merge deletes one caller instead of reconcilin
 * the Export tab's buttons, among them "Save HTML replay".
 
 A panel hands over what it needs as a :class:`RowsPort` and a ``bind(handle, action)`` that runs
-``action(value, event)`` inside its error boundary (the chain's :meth:`app.controls.Controls.bind`, or
-:func:`guarded_bind`).
+``action(value, event)`` inside its error boundary (:func:`guarded_bind`). The timeline slider's window
+(:func:`timeline_window`) is here too.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Any, Callable, Protocol
 
@@ -30,6 +29,9 @@ from .number_inputs import SliderSpec
 from .overlays import Plot
 from .parameters import Display
 from .phase_view import phase_picture
+
+TIMELINE_STEP = 0.05  # s: three samples; the slider's ends read as round numbers
+TIMELINE_MIN_SPAN = 1.0  # s: the slider's range before the run has gone that far
 
 VIEWS = ("Front", "3D")
 VIEW_HINT = "Front: the plane of the motion as a drawing. 3D: from above"
@@ -167,3 +169,13 @@ def add_export_button(gui, bind: Bind, port: RowsPort, kind: str):
     button = gui.add_button(EXPORT_TITLES[kind])
     bind(button, lambda value, event: port.download(kind, getattr(event, "client", None)))
     return button
+
+
+def timeline_window(t: float, t_first: float, t_end: float) -> tuple[float, float, float]:
+    """The timeline slider's ``(min, max, value)``: the run so far, from the oldest sample the rings still hold
+    (``t_first``) to the latest shown (``t_end``), in round steps, with its thumb at the time shown ``t`` (chains
+    and mechanisms alike)."""
+    low = round(max(0.0, math.ceil(t_first / TIMELINE_STEP - 1e-9) * TIMELINE_STEP), 2)
+    high = round(max(math.ceil(t_end / TIMELINE_STEP - 1e-9) * TIMELINE_STEP, low + TIMELINE_MIN_SPAN), 2)
+    value = min(max(round(round(t / TIMELINE_STEP) * TIMELINE_STEP, 2), low), high)
+    return low, high, value

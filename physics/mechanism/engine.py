@@ -236,6 +236,17 @@ def _samples_in_one_buffer(compiled: CompiledSystem, params: np.ndarray, times: 
     return Samples(arrays.pose, qdot, qddot, multipliers, residual, arrays.condition, arrays.jacobian)
 
 
+def tree_dynamics(mechanism: Mechanism, pieces):
+    """The bodies' numbers for a run in tree coordinates: the prepared DAE's, or, for a body without mass or
+    inertia (a chain's point-mass bar: I = 0), the same numbers kept without the maximal DAE's refusal (they are
+    read for Newton's law on each body, never inverted: physics.simulate.mechanism_route does the same)."""
+    if pieces.dae_or_none is not None:
+        return pieces.dae_or_none
+    from .numeric_dae import MechanismDAE  # noqa: PLC0415
+
+    return MechanismDAE(mechanism, pieces.constraints, massless_allowed=True)
+
+
 def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray, settings, *, driven: bool,
         pieces: Prepared | None = None, coordinates: str = "maximal", rotations: str = "relative",
         condition: str = "jacobian"):
@@ -262,7 +273,9 @@ def run(mechanism: Mechanism, q: np.ndarray, qdot: np.ndarray, times: np.ndarray
 
     method, stabilization = settings.method, settings.stabilization
     pieces = prepared(mechanism) if pieces is None else pieces
-    dae = pieces.dae  # numbers only: masses, gravity, the constraint rows' names
+    # numbers only: masses, gravity, the constraint rows' names; a run in tree coordinates never inverts the
+    # bodies' masses (its tree matrix stays regular when a chain's bar has no mass or inertia, as the chain's)
+    dae = tree_dynamics(mechanism, pieces) if (method != "dae" or coordinates == "tree") else pieces.dae
     constraints = dae.constraints
     if coordinates == "tree":  # the DAE's system in the tree formulations' state (physics/mechanism/tree_dae.py)
         from .tree_dae import compiled_tree_dae  # noqa: PLC0415

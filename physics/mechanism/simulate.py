@@ -61,7 +61,8 @@ def project_velocity(dae: MechanismDAE, q: np.ndarray, qdot: np.ndarray, velocit
     ``nu``, ``jacobian``: ``Phi_q`` at ``q``, when the caller holds them; computed here otherwise). A velocity
     that already satisfies it exactly comes back as a copy, without the least-squares solve (about 0.1 ms)."""
     jacobian = dae.constraints.jacobian(q) if jacobian is None else jacobian
-    inverse_mass = 1.0 / dae.mass_diagonal
+    # a massless body's coordinates (a run in tree coordinates may have one) are weighted as of unit mass
+    inverse_mass = 1.0 / np.where(dae.mass_diagonal > 0.0, dae.mass_diagonal, 1.0)
     nu = dae.constraints.velocity_rhs() if velocity_rhs is None else velocity_rhs
     gap = jacobian @ qdot - nu
     if not gap.any():  # already on the constraints (a start at rest without speed motors): lstsq would give 0
@@ -92,6 +93,7 @@ def simulate_mechanism(
     coordinates: str = "maximal",
     rotations: str = "relative",
     condition: str = "jacobian",
+    continuing: bool = False,
 ) -> Trajectory:
     """Run for ``t_end`` seconds from ``t_start`` (a motor's angle follows absolute time), from the pose
     assembled nearest ``q0`` (default: the sketch) with velocities ``qdot0`` (default: rest) projected onto the
@@ -115,18 +117,22 @@ def simulate_mechanism(
     first read); ``"solve"`` the condition estimate of the formulation's own solve at the sample, with its held
     constraints' ratio where it has any, as a chain's run reports it (:func:`physics.simulate`): the run has it
     already, so reading it costs nothing (an open tree of pins, a chain among them, has no singular pose:
-    its ``Phi_q`` has full row rank by structure)."""
+    its ``Phi_q`` has full row rank by structure). ``continuing``: ``q0, qdot0`` are a run's own last sample
+    (a chunk of a longer run, as the app computes them): without projection as the stabilisation they are
+    integrated as they are, so a run's drift off its constraints goes on growing across chunks, as in one run
+    (``stabilization="none"`` shows the drift it teaches); with projection they are projected as always."""
     options = run_options(t_end=t_end, samples=samples, t_start=t_start, method=method,
                           stabilization=stabilization, rtol=rtol, atol=atol, integrator=integrator, step=step,
                           max_steps=max_steps, backend=backend, settings=settings)
     return run_mechanism(mechanism, options, q0=q0, qdot0=qdot0, t_start=float(t_start), integrate=integrate,
-                         coordinates=coordinates, rotations=rotations, condition=condition)
+                         coordinates=coordinates, rotations=rotations, condition=condition, continuing=continuing)
 
 
 def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | None = None,
                   qdot0: np.ndarray | None = None, t_start: float = 0.0,
                   integrate: bool | None = None, coordinates: str = "maximal",
-                  rotations: str = "relative", condition: str = "jacobian") -> Trajectory:
+                  rotations: str = "relative", condition: str = "jacobian",
+                  continuing: bool = False) -> Trajectory:
     """:func:`simulate_mechanism` for checked ``settings`` (from :func:`run_options`): ``settings.t_end`` seconds
     at ``settings.samples`` times from ``t_start``."""
     check_coordinates(coordinates, settings.method)
@@ -147,12 +153,18 @@ def run_mechanism(mechanism: Mechanism, settings: Settings, *, q0: np.ndarray | 
     if METHODS[settings.method].reduced:
         return _reduced(mechanism, settings, t_start, q0, qdot0, integrate)
     pieces = prepared(mechanism)
-    dae = pieces.dae  # refuses a body without mass before anything else, as building the DAE did
+    tree_run = settings.method != "dae" or coordinates == "tree"
+    # refuses a body without mass before anything else, as building the DAE did, unless the run is in tree
+    # coordinates, whose matrix stays regular for a chain's point-mass bar (engine.tree_dynamics)
+    dae = engine.tree_dynamics(mechanism, pieces) if tree_run else pieces.dae
     assembled, jacobian = assembled_with_jacobian(mechanism, pieces, q0, t_start)
     q = assembled.q
     driven = assembled.mobility == 0 and not integrate
     qdot = project_velocity(dae, q, np.zeros_like(q) if qdot0 is None else np.asarray(qdot0, dtype=float),
                             pieces.velocity_rhs, jacobian)
+    if continuing and settings.stabilization != "projection" and not driven and q0 is not None \
+            and qdot0 is not None:  # a run's own last sample, its drift kept (see simulate_mechanism)
+        q, qdot = np.array(q0, dtype=float), np.array(qdot0, dtype=float)
     return engine.run(mechanism, q, qdot, times, settings, driven=driven, pieces=pieces, coordinates=coordinates,
                       rotations=rotations, condition=condition)
 

@@ -141,7 +141,11 @@ def test_a_four_bar_has_its_pin_its_driving_angle_and_its_reach(host):
     session = host("four-bar")
     names = {knob.name for knob in session.panel_knobs()}
     assert {"pin_x", "pin_y", "theta1", "omega1"} <= names
-    assert not {"theta2", "theta3", "omega2", "omega3"} & names  # assembled by the loop closure
+    # assembled by the loop closure: shown greyed, never set
+    follows = {knob.name for knob in session.panel_knobs() if knob.follows}
+    assert follows == {"theta2", "theta3", "omega2", "omega3"}
+    assert all(session._knob_handles[name].disabled for name in follows)  # noqa: SLF001
+    assert not follows & set(session._typed_boxes)  # noqa: SLF001 - nothing to type
     assert reach_text(session.chain) in session.facts.content
     assert "Reduced (1 dof)" in session.method.options
     # the start shown is the chain's own, the loop closed: every angle of q is the chain's theta0
@@ -627,10 +631,10 @@ def test_compare_mode_of_a_hosted_chain_runs_three_formulations_and_measures_the
     assert session.compare_view.passing_times() == {"newton_euler": None, "lagrange": None, "dae": None}
 
 
-def test_without_a_server_to_hand_it_to_a_mechanism_hosts_a_chosen_chain_here(host):
+def test_any_preset_chosen_in_the_menu_is_shown_in_the_same_session(host):
     session = host("triple-a", autoplay=False)
     session.choose("slider-crank")
-    assert session.on_switch is None and session.chain is None
+    assert session.chain is None
     session.choose("four-bar")  # the menu
     assert session.chain is not None and session.params.preset == "four-bar" and session.help.content == chain_help()
     session.choose("jansen-leg")
