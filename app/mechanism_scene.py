@@ -191,14 +191,24 @@ class MechanismScene:
 
     @_locked
     def poses(self) -> dict[str, dict]:
-        """Every part's pose by part name (JSON-able): ``bar_k`` (each drawn segment), ``point/BODY.POINT`` (each
-        named point's ball), ``com_k`` (body k's centre of mass) and ``ground_k`` (each ground block)."""
+        """Every bar's pose by part name ``bar_k`` (JSON-able): what the snapshot command waits to see in the
+        browser (app/snapshot.py, its batched instance by name)."""
         out: dict[str, dict] = {}
         if self.draw is None:
             return out
         for k in range(len(self._bar_positions)):
             out[f"{self.root}/bar_{k + 1}"] = {"position": [float(v) for v in self._bar_positions[k]],
                                                "wxyz": [float(v) for v in self._bar_wxyzs[k]], "visible": True}
+        return out
+
+    @_locked
+    def parts(self) -> dict[str, dict]:
+        """The other parts' positions by name: ``point/BODY.POINT`` (each named point's ball), ``com_k`` (body k's
+        centre of mass) and ``ground_k`` (each ground block); a hosted chain's snapshot names them as the chain's
+        (app/chain_contract.py ``chain_scene``)."""
+        out: dict[str, dict] = {}
+        if self.draw is None:
+            return out
         labels = self.draw.labels
         for k, position in enumerate(self._sphere_positions):
             name = f"point/{labels[k]}" if k < len(labels) else f"com_{k - len(labels) + 1}"

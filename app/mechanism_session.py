@@ -1482,7 +1482,7 @@ class MechanismSession(SessionBase):
         """The chain session's snapshot of the hosted chain ``params`` (app/chain_contract.py ``snapshot``)."""
         def scene() -> dict:
             nodes = self.compare_view.poses() if self.compare else chain_contract.chain_scene(
-                self.scene.poses(), self.scene.root, params.n, self.trace)
+                {**self.scene.poses(), **self.scene.parts()}, self.scene.root, params.n, self.trace)
             return {"root": self.scene.root, "nodes": nodes}
 
         return chain_contract.snapshot(

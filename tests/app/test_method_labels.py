@@ -38,8 +38,9 @@ def test_both_menus_show_the_same_words_for_the_same_method(lab, crank_lab, conn
     chain_options = list(chain.controls.method.options)
     mechanism_options = list(mechanism.method.options)
     assert not set(mechanism_options) & set(METHODS), f"keys in the mechanism's menu: {mechanism_options}"
-    assert mechanism_options == [method_label(m) for m in METHODS]  # the slider-crank has mobility 1: all four
-    assert mechanism.method.value == method_label(mechanism.settings.method)
+    # the slider-crank has mobility 1: every method, its fixed-coordinate model named for what it keeps
+    assert mechanism_options == [method_label(m, chain=False) for m in METHODS]
+    assert mechanism.method.value == method_label(mechanism.settings.method, chain=False)
     assert chain.controls.method.value == method_label(chain.params.method)
     for key in ("dae", "lagrange", "newton_euler"):  # the formulations both panels offer
         assert method_label(key) in chain_options and method_label(key) in mechanism_options, key
