@@ -275,6 +275,11 @@ class MechanismSession(SessionBase):
             self.free_body = FreeBodyView(target.scene, lambda: 1.0, redraw=self.player.touch)
             self._build_panel()
             self.analysis = MechanismAnalysis(self)  # the Analysis folder (app/mechanism_analysis.py)
+            # the seed report's figures replayed with their verdicts (app/report_view.py): the course's own runs,
+            # the same whatever is shown; after Analysis, as the chain panel's tabs are ordered
+            with self.tabs.add_tab("Report"):
+                self.seed_report = SeedReportPanel(
+                    target.gui, panel_rows.guarded_bind(self.guard, self._muting.muted))
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
@@ -434,10 +439,6 @@ class MechanismSession(SessionBase):
             self.setup_upload = gui.add_upload_button("Load a setup (JSON)", mime_type="application/json")
             self.setup_upload.on_upload(lambda event: self.guard(lambda: self.upload_setup(
                 getattr(event, "client_id", None), self.setup_upload.value.name, self.setup_upload.value.content)))
-        # the seed report's figures replayed with their verdicts (app/report_view.py): the course's own runs, the
-        # same whatever is shown, as the chain panel's Report tab held them
-        with self.tabs.add_tab("Report"):
-            self.seed_report = SeedReportPanel(gui, bind)
         with self.tabs.add_tab("Help"):
             self.help = gui.add_markdown(self._help_text())  # the chain panel's for a hosted chain (_show_facts)
         self.torque_plot: Plot | None = None

@@ -75,7 +75,7 @@ def test_the_mechanism_panel_has_the_chain_panels_tabs_integrator_and_start(star
     assert isinstance(session, MechanismSession)
     tabs = page.page.get_by_role("tab").all_inner_texts()
     assert [tab.strip() for tab in tabs] == ["Mechanism", "Simulation", "Display", "Equations", "Export", "Help",
-                                            "Analysis"]  # Analysis after Help, as in a chain's panel
+                                            "Analysis", "Report"]  # Analysis, then Report after Help, as a chain's
 
     page.open_tab("Simulation")
     page.choose("Integrator", "variational")
