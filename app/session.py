@@ -33,7 +33,7 @@ from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS
 from physics.model import validated
 
-from . import commands, delivery, export, mechanism_runs, readout, share, viser_compat, warm
+from . import chain_knobs, commands, delivery, export, mechanism_runs, readout, share, viser_compat, warm
 from .analysis import Analysis
 from .camera import CameraDirector
 from .commands import CONTROL, SI
@@ -49,7 +49,6 @@ from .parameters import (
     METHOD_LABELS,
     Display,
     SessionParameters,
-    driving_count,
     in_menu_words,
     methods_for,
     settings_data,
@@ -411,7 +410,7 @@ class Session(SessionBase):
             state = None  # the displayed run is of another mechanism: start afresh
         if state is not None and new.pinned:
             t, theta, omega = state
-            theta, omega = self._close_loop(new, theta, omega)
+            theta, omega = chain_knobs.close_loop(new, theta, omega)  # a pinned chain put on its loop
             state = (t, theta, omega)
         self.params = new
         if state is None:
@@ -421,20 +420,6 @@ class Session(SessionBase):
         self.view.segment_t0 = t
         self.clear_notice()
         self.player.restart(self._specs(), t, [(theta, omega)], keep_history=True)
-
-    @staticmethod
-    def _close_loop(p: SessionParameters, theta: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Put a pinned chain's state exactly on its loop (drift, or a change of lengths or pin)."""
-        k = driving_count(p.n, True)
-        try:
-            theta = p.assembled(theta[:k], theta_prev=theta)
-        except LinkageError as error:
-            raise LinkageError(f"the moving linkage cannot close with these values: {error}") from None
-        try:
-            omega = physics.loop_closure.project_velocity(p.L, theta, omega)
-        except LinkageError:  # a dead centre: the loop goes on from rest
-            omega = np.zeros_like(omega)
-        return theta, omega
 
     def _prepare(self, spec: RunSpec, theta0: np.ndarray, omega0: np.ndarray) -> None:
         """Have the run's code loaded and its integrator compiled before its first chunk (app/warm.py), with a
