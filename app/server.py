@@ -35,7 +35,6 @@ from .mechanism_runs import start_state
 from .mechanism_session import MechanismSession, is_mechanism
 from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
-from .session import Session
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -265,8 +264,9 @@ class LabServer:
             session = MechanismSession(target, self.mechanism, label=self.mechanism_label, shared=shared)
         elif mechanism is not None:
             session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
-        else:
-            session = Session(target, preset=preset, links=links, method=self.method, shared=shared)
+        else:  # a chain preset: the one session, hosting the chain written as a mechanism
+            params = SessionParameters.from_preset(preset, links=links, method=self.method)
+            session = MechanismSession.for_chain(target, params, shared=shared)
         if shared and self.presenter_path is not None:
             session.is_presenter = self.is_presenter
         session.on_switch = lambda name, saved=None, old=session: self._switch(target, old, name, shared, saved)
