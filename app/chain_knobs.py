@@ -22,6 +22,7 @@ Plain data and numpy; no viser.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -43,14 +44,14 @@ from .controls import (
     reach_text,
 )
 from .mechanism_edits import Knob
-from .mechanism_runs import MechanismSettings
+from .mechanism_runs import MechanismSettings, is_reduced
 from .mechanism_start import FreeCoordinate
 from .number_inputs import SliderSpec
 from .parameters import SessionParameters, driving_count, methods_for, settings_data
 from .text import markdown_literal
 
 # the methods the mechanism session runs (app/mechanism_session.py METHODS), in the chain panel's order
-HOSTED_METHODS = ("newton_euler", "lagrange", "dae", "reduced")
+HOSTED_METHODS = ("newton_euler", "lagrange", "dae", "reduced", "reduced_fixed")
 BAR_HINTS = {"L": "Length of the bar (pin to pin)", "d": "Distance of the centre of mass from the proximal pin",
              "m": "Mass of the bar", "I": "Centroidal moment of inertia of the bar"}
 
@@ -170,7 +171,7 @@ def methods(params: SessionParameters, mobility_now: int) -> tuple[str, ...]:
     """The methods offered for the hosted chain: the chain's (app.parameters.methods_for) that the mechanism
     session runs, the reduced model only for mobility 1."""
     offered = methods_for(params.chain)
-    return tuple(m for m in HOSTED_METHODS if m in offered and (m != "reduced" or mobility_now == 1))
+    return tuple(m for m in HOSTED_METHODS if m in offered and (not is_reduced(m) or mobility_now == 1))
 
 
 def facts_line(params: SessionParameters) -> str:
@@ -258,3 +259,22 @@ def is_start(name: str) -> bool:
 def angles_in_degrees(theta: np.ndarray) -> list[float]:
     """Angles as the panel shows them (degrees), for snapshots and tests."""
     return [math.degrees(float(v)) for v in theta]
+
+
+# The mechanism's fixed-coordinate stop at pin O (physics.mechanism.reduced), read to say it as the chain does
+_FIXED_STOP = re.compile(r"joint 'O' stopped being a valid coordinate at t = (?P<t>\S+) s: a dead centre \(its speed "
+                         r"share fell to (?P<share>\S+), limit (?P<limit>[^)]+)\)")
+
+
+def chain_failure(message: str) -> str:
+    """A hosted chain's stop in the chain's words: the fixed-coordinate model's stop at pin ``O`` is theta1's,
+    where bars 2 and 3 of a four-bar fold into line (the chain's own sentence, physics/simulate/reduced_adapter.py);
+    any other message as it came."""
+    found = _FIXED_STOP.search(message)
+    if found is None:
+        return message
+    return (f"theta1 stopped being a valid coordinate at t = {found['t']} s: bars 2 and 3 became collinear (a dead "
+            f"centre: its speed share fell to {found['share']}, limit {found['limit']}); the fixed-coordinate "
+            "reduced model cannot continue past it, choose method 'reduced', which switches coordinates "
+            "(generalized coordinate partitioning)")
+

@@ -20,7 +20,7 @@ from physics.mechanism import Mechanism
 from .divergence import REFERENCE_LABEL, REFERENCE_TOLERANCE, DivergencePlots
 from .frame_view import COMPARE_DEPTH_STEP, COMPARE_METHODS, compare_key
 from .logs import quietly
-from .mechanism_runs import Drawing, MechanismSettings, MechanismSpec
+from .mechanism_runs import Drawing, MechanismSettings, MechanismSpec, is_reduced
 from .mechanism_scene import MechanismScene
 from .overlays import METHOD_COLORS, Plot
 from .parameters import METHOD_LABELS
@@ -35,7 +35,7 @@ def compare_specs(mechanism: Mechanism, settings: MechanismSettings,
                   runner: Callable[..., object] | None) -> list[MechanismSpec]:
     """The three formulations with the session's stabilisation (projection when the session runs the reduced
     model, which has none), then the converged reference that the divergence plots measure them against."""
-    stabilization = "projection" if settings.method == "reduced" else settings.stabilization
+    stabilization = "projection" if is_reduced(settings.method) else settings.stabilization
     base = settings.model_copy(update={"stabilization": stabilization})
     first = MechanismSpec(COMPARE_METHODS[0], mechanism, base.model_copy(update={"method": COMPARE_METHODS[0]}),
                           runner=runner)

@@ -47,7 +47,7 @@ class MechanismSettings(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    method: Literal["dae", "lagrange", "newton_euler", "reduced"] = "dae"
+    method: Literal["dae", "lagrange", "newton_euler", "reduced", "reduced_fixed"] = "dae"
     stabilization: StabilizationName = "projection"  # the one Settings' names (physics.registry.STABILIZATIONS)
     trace: str | None = None  # "body.point" whose path is drawn
     # and atol, within the span a mechanism's run allows (physics.model; compare mode's reference runs tighter)
@@ -300,7 +300,7 @@ class MechanismSpec:
         sample, so each sample of a run that measures it is stored as NaN, "measure it when shown"
         (:meth:`condition_at`). The reduced model's run measures none (0 stored, as before)."""
         run = traj.run
-        deferred = np.full(len(run.t), np.nan) if self.settings.method != "reduced" else None  # type: ignore[attr-defined]
+        deferred = np.full(len(run.t), np.nan) if not is_reduced(self.settings.method) else None  # type: ignore[attr-defined]
         return self._samples(run.t, run.q, run.qdot, run.kinetic, run.potential, run.residual,  # type: ignore[attr-defined]
                              run.reaction_rows, deferred,  # type: ignore[attr-defined]
                              paths=run.body_points or self.points)  # type: ignore[attr-defined]
@@ -380,10 +380,16 @@ def start_state(mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int]:
     return assembled.q, np.zeros_like(assembled.q), assembled.mobility
 
 
+def is_reduced(method: str) -> bool:
+    """A reduced model in one joint coordinate (``reduced``, switching; ``reduced_fixed``, its first free joint
+    kept): no stabilisation, its own DOP853 (the one registry, physics.METHODS)."""
+    return bool(METHODS[method].reduced) if method in METHODS else False
+
+
 def check_method(method: str, mobility: int) -> None:
     """The reduced model needs one free coordinate; say so in the words of the menu."""
-    if method == "reduced" and mobility != 1:
-        raise LinkageError(f"method = reduced: needs 1 degree of freedom left free by the motors (this one has "
+    if is_reduced(method) and mobility != 1:
+        raise LinkageError(f"method = {method}: needs 1 degree of freedom left free by the motors (this one has "
                            f"{mobility} free); "
                            "choose dae, lagrange or newton_euler")
 
@@ -397,7 +403,7 @@ def allowed_integrators(method: str) -> tuple[str, ...]:
     """The integrators of the registry that can run ``method`` on a mechanism: every one for a formulation
     except those that need a Lagrangian (the variational integrator: method lagrange); the reduced model
     integrates with its own DOP853 only (physics/mechanism/simulate.py)."""
-    if method == "reduced":
+    if is_reduced(method):
         return (REDUCED_INTEGRATOR,)
     return tuple(name for name, spec in INTEGRATORS.items()
                  if not (spec.needs_lagrangian and not METHODS[method].has_lagrangian))
@@ -408,8 +414,8 @@ def check_integrator(method: str, integrator: str) -> None:
     allowed = allowed_integrators(method)
     if integrator in allowed:
         return
-    if method == "reduced":
-        reason = f"method reduced integrates with {REDUCED_INTEGRATOR} only (its own switching right-hand side)"
+    if is_reduced(method):
+        reason = f"method {method} integrates with {REDUCED_INTEGRATOR} only (its own switching right-hand side)"
     elif INTEGRATORS[integrator].needs_lagrangian:
         reason = "it discretises the Lagrangian T - V, so it needs method = lagrange"
     else:

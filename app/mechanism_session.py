@@ -69,6 +69,7 @@ from .mechanism_runs import (
     centres_at,
     check_integrator,
     check_method,
+    is_reduced,
     points_at,
     run_file,
     start_state,
@@ -85,6 +86,7 @@ from .parameters import (
     METHOD_LABELS,
     Display,
     SessionParameters,
+    in_menu_words,
     method_from_label,
     method_label,
     settings_data,
@@ -98,7 +100,8 @@ from .text import markdown_literal
 from .viser_compat import check_gui_updates
 
 METHODS = {"dae": "DAE (maximal coordinates)", "lagrange": "Lagrange (spanning tree)",
-           "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)"}
+           "newton_euler": "Newton–Euler (spanning tree)", "reduced": "Reduced (1 dof)",
+           "reduced_fixed": "Reduced, first free joint fixed (1 dof)"}
 STABILIZATIONS = ("projection", "baumgarte", "none")
 START_KINDS = {name for names in START_NAMES.values() for name in (names[0], names[2])}
 SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
@@ -362,7 +365,7 @@ class MechanismSession(SessionBase):
             self.start_note = gui.add_markdown("")
         with self.tabs.add_tab("Simulation"):
             # labelled as the chain panel's (app.parameters.method_label); links and snapshots keep the keys
-            self.method = gui.add_dropdown("Method", [method_label(m) for m in METHODS],
+            self.method = gui.add_dropdown("Method", [method_label(m, self.chain is not None) for m in METHODS],
                                            initial_value=method_label("dae"),
                                            hint="Formulation integrated; its reactions are shown")
             self.method.on_update(lambda event: self.guard(
@@ -632,7 +635,7 @@ class MechanismSession(SessionBase):
                 box = self._typed_boxes.get(knob.name)
                 if box is not None and box.value != shown_value(knob.value):
                     box.value = shown_value(knob.value)
-            for handle, value in ((self.method, method_label(self.settings.method)),
+            for handle, value in ((self.method, method_label(self.settings.method, self.chain is not None)),
                                   (self.stabilization, self.settings.stabilization),
                                   (self.integrator, self.settings.integrator),
                                   (self.menu, self.label), (self.compare_box, self.compare),
@@ -641,7 +644,7 @@ class MechanismSession(SessionBase):
                     handle.value = value
             self.numbers.sync_all()
             fixed = self.settings.integrator in FIXED_STEP_INTEGRATORS
-            baumgarte = self.settings.stabilization == "baumgarte" and self.settings.method != "reduced"
+            baumgarte = self.settings.stabilization == "baumgarte" and not is_reduced(self.settings.method)
             for name, visible in (("rtol", not fixed), ("step", fixed), ("baumgarte_alpha", baumgarte),
                                   ("baumgarte_beta", baumgarte)):
                 for control in (self._knob_handles.get(name), self._typed_boxes.get(name)):
@@ -894,9 +897,9 @@ class MechanismSession(SessionBase):
             _choice("method", method, self._methods() if self.chain is not None else list(METHODS))
             check_method(method, self.mobility)
             update: dict[str, object] = {"method": method}
-            if method == "reduced":  # it closes its loops by position analysis and integrates with its own DOP853
+            if is_reduced(method):  # it closes its loops by position analysis and integrates with its own DOP853
                 update["stabilization"] = "projection"
-                update["integrator"] = allowed_integrators("reduced")[0]
+                update["integrator"] = allowed_integrators(method)[0]
             else:
                 if self.settings.integrator not in allowed_integrators(method):
                     raise LinkageError(f"method = {method}: the integrator {self.settings.integrator} does not "
@@ -911,7 +914,7 @@ class MechanismSession(SessionBase):
     def set_stabilization(self, stabilization: str) -> None:
         with self._lock:
             _choice("stabilization", stabilization, list(STABILIZATIONS))
-            if self.settings.method == "reduced" and stabilization != "projection":
+            if is_reduced(self.settings.method) and stabilization != "projection":
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
             settings = self.settings.model_copy(update={"stabilization": stabilization})
@@ -1525,7 +1528,7 @@ class MechanismSession(SessionBase):
         sketch at rest. ``same_kind``: a size dragged on a slider: the controls stay (the one under the mouse is
         not replaced), the bars are resized in place and the camera moves only when the size changed noticeably."""
         q0, qdot0, mobility, free = self._start_of(mechanism)
-        if self.settings.method == "reduced" and mobility != 1:  # a new mechanism without a free coordinate
+        if is_reduced(self.settings.method) and mobility != 1:  # a new mechanism without a free coordinate
             self.settings = self.settings.model_copy(update={"method": "dae"})
             if self.chain is not None:
                 self.chain = chain_knobs.with_settings(self.chain, self.settings)
@@ -1615,8 +1618,8 @@ class MechanismSession(SessionBase):
         try:
             self._sync_trace_menu()
             methods = self._methods()
-            self.method.options = [method_label(name) for name in methods]
-            self.method.value = method_label(self.settings.method)
+            self.method.options = [method_label(name, self.chain is not None) for name in methods]
+            self.method.value = method_label(self.settings.method, self.chain is not None)
             names = [body.name for body in m.bodies]
             if not 1 <= self.free_body.bar <= len(names) or list(self.body_menu.options) != names:
                 self.free_body.set_bar(1)  # another mechanism: its first body
@@ -1664,7 +1667,7 @@ class MechanismSession(SessionBase):
         of its own (app.parameters.methods_for) that this session runs."""
         if self.chain is not None:
             return list(chain_knobs.methods(self.chain, self.mobility))
-        return [name for name in METHODS if name != "reduced" or self.mobility == 1]
+        return [name for name in METHODS if not is_reduced(name) or self.mobility == 1]
 
     def frame_camera(self, force: bool = False, client=None) -> None:
         """Frame the mechanism in every browser of the session, or only ``client``'s (a newcomer)."""
@@ -1826,6 +1829,8 @@ class MechanismSession(SessionBase):
             self.notices.dismiss(shown)
 
     def _on_failure(self, message: str) -> None:
+        if self.chain is not None:  # in the chain's words: theta1, bars, methods as the menu names them
+            message = in_menu_words(chain_knobs.chain_failure(message))
         hint = "" if "press Reset" in message else " Press Reset to start again."
         self.show_notice("Simulation stopped", f"{message}.{hint}", color="red", seconds=None)
 

@@ -26,6 +26,7 @@ from .mechanism_runs import (
     check_integrator,
     check_method,
     drawing,
+    is_reduced,
     start_state,
 )
 from .mechanism_start import free_coordinates, pose_with, velocities_with
@@ -55,7 +56,7 @@ class SetupReplay:
         self.sketch_q = self.q0
         self.free = free_coordinates(mechanism, self.q0, self.mobility)
         self.mechanism = mechanism
-        if self.settings.method == "reduced" and self.mobility != 1:
+        if is_reduced(self.settings.method) and self.mobility != 1:
             self.settings = self.settings.model_copy(update={"method": "dae"})
 
     def start_knobs(self):
@@ -67,8 +68,8 @@ class SetupReplay:
             _choice("method", text, list(METHOD_NAMES))
             check_method(text, self.mobility)
             update: dict[str, object] = {"method": text}
-            if text == "reduced":
-                update.update(stabilization="projection", integrator=allowed_integrators("reduced")[0])
+            if is_reduced(text):
+                update.update(stabilization="projection", integrator=allowed_integrators(text)[0])
             elif self.settings.integrator not in allowed_integrators(text):
                 raise LinkageError(f"method = {text}: the integrator {self.settings.integrator} does not apply "
                                    f"to it; choose one of {', '.join(allowed_integrators(text))} first")
@@ -79,7 +80,7 @@ class SetupReplay:
             self.settings = self.settings.model_copy(update={"integrator": text})
         elif name == "stabilization":
             _choice("stabilization", text, list(STABILIZATION_NAMES))
-            if self.settings.method == "reduced" and text != "projection":
+            if is_reduced(self.settings.method) and text != "projection":
                 raise LinkageError("stabilisation: the reduced model closes its loops by position analysis; "
                                    "choose another method first")
             self.settings = self.settings.model_copy(update={"stabilization": text})

@@ -50,9 +50,16 @@ def settings_data(settings: Settings) -> dict:
     return data
 
 
-def method_label(method: str) -> str:
+# A general mechanism's fixed-coordinate reduced model keeps its first free joint, which is theta1's only for a chain
+MECHANISM_FIXED_LABEL = "Reduced, first free joint fixed"
+
+
+def method_label(method: str, chain: bool = True) -> str:
     """The words a Method menu shows for a method key (``dae`` reads ``DAE``): the one labelling of both
-    panels, chains' and mechanisms'; share links, snapshots and the command line keep the keys."""
+    panels, chains' and mechanisms'; share links, snapshots and the command line keep the keys. ``chain``:
+    False for a general mechanism, whose ``reduced_fixed`` keeps its first free joint, not theta1."""
+    if method == "reduced_fixed" and not chain:
+        return MECHANISM_FIXED_LABEL
     return METHOD_LABELS.get(method, method)
 
 
@@ -62,7 +69,7 @@ def method_from_label(label: object) -> object:
     for name, text in METHOD_LABELS.items():
         if text == label:
             return name
-    return label
+    return "reduced_fixed" if label == MECHANISM_FIXED_LABEL else label
 
 
 _METHOD_NAME = re.compile(r"\b(" + "|".join(sorted(METHOD_LABELS, key=len, reverse=True)) + r")\b")

@@ -638,3 +638,37 @@ def test_without_a_server_to_hand_it_to_a_mechanism_hosts_a_chosen_chain_here(ho
     session.open_setup(share.setup_from_state(share.state_document(edited), "the test's setup"))
     assert session.params.preset == "double" and session.link_query() == share.link_query(edited)
     assert session.notices.text is None
+
+
+def test_the_fixed_coordinate_model_stops_at_the_four_bars_dead_centre_in_the_chains_words(host):
+    """The menu's "Reduced, theta1 fixed" (the chain's key ``reduced_fixed``) on a hosted four-bar: the run stops
+    where theta1 stops being a coordinate, and the notice says so as the chain panel did; Reset recovers."""
+    session = host("four-bar")
+    assert METHOD_LABELS["reduced_fixed"] in session.method.options
+    session.method.value = METHOD_LABELS["reduced_fixed"]
+    assert wait_until(lambda: session.params.method == "reduced_fixed", timeout=30)
+    assert session.settings.method == "reduced_fixed" and session.settings.integrator == "DOP853"
+    assert session.goto_time(10.0)
+    assert wait_until(lambda: session.notice is not None and "collinear" in session.notice, timeout=120)
+    notice = session.notice
+    assert "theta1 stopped being a valid coordinate" in notice and "joint 'O'" not in notice
+    assert "Reduced (1 dof)" in notice  # the fix, named as the menu names it
+    snap = session.snapshot()
+    assert 0.0 < snap["time"] < 10.0 and snap["runs"][0]["failed"] and not snap["playing"]
+    session.reset()
+    assert session.player.wait_idle(120)
+    assert session.snapshot()["time"] == 0.0
+
+
+def test_a_mechanisms_fixed_coordinate_model_is_named_for_what_it_keeps(host):
+    """A general mechanism of mobility 1 offers the fixed-coordinate model too, labelled by what it keeps."""
+    session = host("four-bar")
+    session.choose("stephenson-six-bar")
+    assert wait_until(lambda: session.chain is None, timeout=60)
+    label = session.method.options[-1]
+    assert label != METHOD_LABELS["reduced_fixed"] and "fixed" in label
+    session.method.value = label
+    assert wait_until(lambda: session.settings.method == "reduced_fixed", timeout=30)
+    session.choose("four-bar")
+    assert wait_until(lambda: session.chain is not None, timeout=60)
+    assert METHOD_LABELS["reduced_fixed"] in session.method.options
