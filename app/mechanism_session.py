@@ -93,6 +93,7 @@ from .parameters import (
 )
 from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
+from .report_view import SeedReportPanel
 from .resources import STATIC
 from .rest_view import MechanismRests, RestPositionsPanel
 from .scene import pose_disc
@@ -430,6 +431,10 @@ class MechanismSession(SessionBase):
             self.setup_upload = gui.add_upload_button("Load a setup (JSON)", mime_type="application/json")
             self.setup_upload.on_upload(lambda event: self.guard(lambda: self.upload_setup(
                 getattr(event, "client_id", None), self.setup_upload.value.name, self.setup_upload.value.content)))
+        # the seed report's figures replayed with their verdicts (app/report_view.py): the course's own runs, the
+        # same whatever is shown, as the chain panel's Report tab held them
+        with self.tabs.add_tab("Report"):
+            self.seed_report = SeedReportPanel(gui, bind)
         with self.tabs.add_tab("Help"):
             self.help = gui.add_markdown(self._help_text())  # the chain panel's for a hosted chain (_show_facts)
         self.torque_plot: Plot | None = None

@@ -672,3 +672,17 @@ def test_a_mechanisms_fixed_coordinate_model_is_named_for_what_it_keeps(host):
     session.choose("four-bar")
     assert wait_until(lambda: session.chain is not None, timeout=60)
     assert METHOD_LABELS["reduced_fixed"] in session.method.options
+
+
+def test_the_report_tab_replays_the_seed_reports_figures_for_chains_and_mechanisms(host):
+    from app import report_view  # noqa: PLC0415
+
+    session = host("triple-a")
+    panel = session.seed_report
+    assert panel.choice.value == report_view.FIGURES[0].label
+    panel.choice.value = report_view.FIGURES[5].label
+    picture = report_view.figure_html(report_view.FIGURES[5], report_view.SEED_REPORT_FOLDER, panel.document)
+    assert wait_until(lambda: panel.figure.content == picture, timeout=10)
+    session.choose("slider-crank")  # the course's figures stay: the report is the course's, whatever is shown
+    assert wait_until(lambda: session.chain is None, timeout=60)
+    assert session.seed_report.figure.content == picture
