@@ -35,7 +35,6 @@ from .mechanism_runs import start_state
 from .mechanism_session import MechanismSession, is_mechanism
 from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
-from .session import Session
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -255,10 +254,10 @@ class LabServer:
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
                        mechanism: str | None = None, chain: bool = False,
                        saved: share.SavedSetup | None = None) -> LabSession:
-        """A chain session, or a mechanism session when the server starts with one (``--mechanism``, a
-        mechanism preset) or ``mechanism`` names one, or a setup file carries its description (``saved``);
-        ``chain``: the chain ``preset`` whatever the server starts with (a share link names it). Either kind
-        can hand its browser to the other."""
+        """The one session (app/mechanism_session.py) on ``target``: the server's mechanism when it starts with one
+        (``--mechanism``, a mechanism preset), ``mechanism`` when a link names one, a setup file's description
+        (``saved``), or else the chain ``preset`` (``chain``: whatever the server starts with; a share link names
+        it), hosted as the chain written as a mechanism. Its menu then goes to any preset in the same session."""
         if saved is not None and saved.mechanism is not None:
             session: LabSession = MechanismSession(target, saved.mechanism, label=saved.label, shared=shared)
         elif mechanism is None and self.mechanism is not None and not chain:
@@ -266,35 +265,11 @@ class LabServer:
         elif mechanism is not None:
             session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
         else:
-            session = Session(target, preset=preset, links=links, method=self.method, shared=shared)
+            params = SessionParameters.from_preset(preset, links=links, method=self.method)
+            session = MechanismSession.for_chain(target, params, shared=shared)
         if shared and self.presenter_path is not None:
             session.is_presenter = self.is_presenter
-        session.on_switch = lambda name, saved=None, old=session: self._switch(target, old, name, shared, saved)
         return session
-
-    def _switch(self, target, old: LabSession, name: str, shared: bool,
-                saved: share.SavedSetup | None = None) -> None:
-        """The mechanism menu (or a setup file, ``saved``) chose the other kind of session: remove the old
-        one's panel and scene from the browser (``target``) and start the new one there, in the same seat,
-        with the setup's values applied (refusals in one notice there)."""
-        old.close(clean=True)
-        self.trimmer.request()
-        if old.kind == "chain":  # to a general mechanism: a preset, or a setup's description
-            new = self._start_session(target, self.preset, self.links, shared=shared,
-                                      mechanism=None if saved is not None and saved.mechanism is not None else name,
-                                      saved=saved)
-        else:  # back to a chain preset
-            new = self._start_session(target, name, None, shared=shared, chain=True)
-        if saved is not None:
-            new.load_setup(saved.pairs, saved.where)
-        with self._lock:
-            if shared:
-                self.shared_session = new
-            elif target.client_id in self.sessions:
-                self.sessions[target.client_id] = new
-            else:  # the browser left meanwhile
-                new.close()
-        self._rebalance()
 
     def is_presenter(self, client_id: int | None) -> bool:
         """Whether this browser opened the presenter's address. Fails closed: an unknown sender, a connection

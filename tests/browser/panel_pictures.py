@@ -1,8 +1,9 @@
 """Reference pictures of parts of the control panel (not of the scene): made here for the tests and for
 regenerate_references.py alike, so both take the same picture the same way.
 
-``report-tab``: the Report tab of preset triple-a, opened as a person would, its contents (the free-body and
-rest-position controls and the first seed-report figure with its verdict) at the panel's own width.
+``report-tab``: the Report tab of preset triple-a, opened as a person would, its contents (the one session's
+seed report: the first figure with its verdict; the free-body diagram and rest positions are in its Display tab)
+at the panel's own width.
 """
 
 from __future__ import annotations

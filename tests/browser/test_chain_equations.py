@@ -17,9 +17,9 @@ def test_a_chains_equations_and_their_latex_in_the_page(start_lab, tmp_path):
     session.set("method", "lagrange")
     page.show_time(0.5)  # paused: the picture settles
     page.open_tab("Equations")
-    page.page.get_by_role("button", name="Show the equations of motion").click()
+    page.page.get_by_role("button", name="Show the equations of the method").click()
     shown = physics.equations_of_motion(session.params.chain, "lagrange")
-    wait_until(lambda: f"{len(shown.rows)} equations" in session.controls.equations.content,
+    wait_until(lambda: f"{len(shown.rows)} equations" in session.equations.content,  # the one session's Equations tab
                timeout_s=180, message="the equations derived")
     heading = page.page.get_by_text("Lagrange equation for θ", exact=False).first  # the chain's names
     heading.wait_for()

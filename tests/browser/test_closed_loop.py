@@ -35,7 +35,7 @@ def test_unreachable_angle_shows_a_notice_and_the_server_keeps_serving(start_lab
     assert not closes(session, UNREACHABLE_DEG) and closes(session, REACHABLE_DEG)
 
     app.open_tab("Mechanism")
-    app.drag_slider("theta1 (°)", UNREACHABLE_DEG, folder="Initial angles (degrees)")
+    app.drag_slider("theta1 (°)", UNREACHABLE_DEG, folder="Start (t = 0)")  # the one session's start folder
     notice = app.page.locator(".mantine-Notification-root", has_text="cannot")
     notice.first.wait_for(state="visible")
     text = notice.first.inner_text()
@@ -53,7 +53,7 @@ def test_unreachable_angle_shows_a_notice_and_the_server_keeps_serving(start_lab
     # the server keeps serving: its page answers, and the same browser can carry on
     with urllib.request.urlopen(f"http://127.0.0.1:{lab.port}/", timeout=30) as response:
         assert response.status == 200
-    app.drag_slider("theta1 (°)", REACHABLE_DEG, folder="Initial angles (degrees)")
+    app.drag_slider("theta1 (°)", REACHABLE_DEG, folder="Start (t = 0)")  # the one session's start folder
     wait_until(
         lambda: abs(math.degrees(session.params.theta0[0]) - REACHABLE_DEG) <= 3.0,
         message="a reachable theta1 to be applied after the refused one",

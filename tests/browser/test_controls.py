@@ -15,6 +15,9 @@ from . import pictures
 from .conftest import AppPage, assert_mechanism_drawn, save_failure, wait_until
 
 PICTURE_TIME = 2.0
+KNOBS = "Bodies and motors"  # the one session's folder of a hosted chain's numbers (app/chain_knobs.py)
+START = "Start (t = 0)"  # its folder of the start's angles and speeds
+MASS_1 = "bar 1: mass m (kg)"
 
 
 def scene_difference(app: AppPage, before: np.ndarray, after: np.ndarray) -> float:
@@ -34,11 +37,11 @@ def test_mass_and_initial_angle_sliders_and_method_dropdown_through_the_page(sta
     before = app.picture("controls-1-start")
     assert_mechanism_drawn(before, app)
 
-    # a mass: drag bar 1's "mass m (kg)" thumb from 1 kg towards 3 kg
+    # a mass: drag bar 1's "bar 1: mass m (kg)" thumb (the one panel's "Bodies and motors") from 1 kg towards 3 kg
     app.open_tab("Mechanism")
-    app.drag_slider("mass m (kg)", 3.0, folder="Bar 1")
+    app.drag_slider(MASS_1, 3.0, folder=KNOBS)
     wait_until(
-        lambda: session.params.m[0] != 1.0 and session.params.m[0] == app.slider_value("mass m (kg)", folder="Bar 1"),
+        lambda: session.params.m[0] != 1.0 and session.params.m[0] == app.slider_value(MASS_1, folder=KNOBS),
         message="bar 1's mass on the server to follow the slider",
     )
     assert abs(session.params.m[0] - 3.0) <= 0.15, session.params.m
@@ -53,7 +56,7 @@ def test_mass_and_initial_angle_sliders_and_method_dropdown_through_the_page(sta
     assert changed > pictures.FRACTION_TOLERANCE, f"the scene barely changed after the mass change ({changed:.4f})"
 
     # an initial angle: drag theta1 from 90 degrees towards 45
-    app.drag_slider("theta1 (°)", 45.0, folder="Initial angles (degrees)")
+    app.drag_slider("theta1 (°)", 45.0, folder=START)
     wait_until(
         lambda: abs(math.degrees(session.params.theta0[0]) - app.slider_value("theta1 (°)")) < 1e-6
         and app.slider_value("theta1 (°)") != 90.0,

@@ -27,13 +27,13 @@ STATUS_WAIT_S = 20.0
 
 
 def _select_controls(session) -> dict:
-    controls = session.controls
+    # the one session's menus (app/mechanism_session.py _build_panel)
     return {
-        "mechanism": controls.mechanism,
-        "method": controls.method,
-        "integrator": controls.integrator,
-        "stabilization": controls.stabilization,
-        "trace_point": controls.trace_point,
+        "mechanism": session.menu,
+        "method": session.method,
+        "integrator": session.integrator,
+        "stabilization": session.stabilization,
+        "trace_point": session.trace_menu,
     }
 
 

@@ -13,8 +13,8 @@ from .conftest import AppPage, assert_mechanism_drawn, save_failure, wait_until
 PICTURE_TIME = 3.0
 # A projector's window: the mechanism is framed beside the control panel, drawn large enough to judge colours.
 LECTURE_VIEWPORT = {"width": 1400, "height": 850}
-KINETIC_RED = (214, 39, 40)  # app/controls.py: the energy plot's series colours
-POTENTIAL_BLUE = (31, 119, 180)
+KINETIC_BLUE = (31, 119, 180)  # app/mechanism_session.py: the energy plot's series colours
+POTENTIAL_GREEN = (44, 160, 44)
 
 
 def plot_box(app: AppPage, title: str) -> dict:
@@ -53,7 +53,7 @@ def test_energy_plot_and_trace_are_drawn(start_lab):
     lab = start_lab(preset="triple-a")
     app = lab.open_page(viewport=LECTURE_VIEWPORT)
     app.show_time(PICTURE_TIME)
-    wait_until(lambda: app.session.snapshot()["scene"]["nodes"]["/linkage/trace"]["points"] > 10,
+    wait_until(lambda: app.session.trace.points_shown > 10,  # the one session's TraceLine (app/overlays.py)
                message="the trace to hold points")
     image = app.picture("overlays-1-trace-on")
     assert_mechanism_drawn(image, app)
@@ -62,7 +62,7 @@ def test_energy_plot_and_trace_are_drawn(start_lab):
     box = plot_box(app, "Energy")
     image = app.picture("overlays-2-energy-plot")
     inside = pictures.box_mask(image.shape, box)
-    for name, colour in (("kinetic", KINETIC_RED), ("potential", POTENTIAL_BLUE)):
+    for name, colour in (("kinetic", KINETIC_BLUE), ("potential", POTENTIAL_GREEN)):
         drawn = pictures.colour_match(image, colour, max_residual=50.0, shade=(0.8, 1.2))
         assert drawn[inside].sum() >= 40, f"{name} energy series missing from the plot ({drawn[inside].sum()} px)"
         columns = np.nonzero(drawn[inside.any(axis=1)][:, inside.any(axis=0)].any(axis=0))[0]
@@ -79,8 +79,8 @@ def test_energy_plot_and_trace_are_drawn(start_lab):
     # a trace length of 0 s, set with the keyboard on the slider, removes it: the check above then fails
     app.open_tab("Display")
     app.press_on_slider("Trace length (s)", "Home")
-    wait_until(lambda: app.session.trace_seconds == 0.0, message="the trace length to become 0 on the server")
-    wait_until(lambda: not app.session.snapshot()["scene"]["nodes"]["/linkage/trace"]["visible"],
+    wait_until(lambda: app.session.display.trace_seconds == 0.0, message="the trace length to become 0 on the server")
+    wait_until(lambda: not app.session.trace.handle.visible,
                message="the trace to be hidden")
     app.show_time(PICTURE_TIME)
     image = app.picture("overlays-4-trace-off")

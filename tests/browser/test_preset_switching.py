@@ -1,6 +1,7 @@
 """Every preset after others in one page (issue 24, "Two app sessions fail at their seam").
 
-Chains and general mechanisms run as two kinds of session that hand the page to each other. The presets are
+Chains and general mechanisms run in the one session (app/mechanism_session.py; a chain preset hosted), which a
+menu choice keeps: the page is never handed to another session. The presets are
 those of ``python -m physics presets`` (the chains' table, then the mechanisms'), each of one KIND: an open
 chain, a closed chain (a pinned loop), or a mechanism of 3, 4, 5 or 7 bodies (the seam that broke: 3 bodies to
 5 or 7). Every ordered pair of all presets is 272 switches, 5 to 20 s each in software rendering on 2 shared
@@ -13,10 +14,10 @@ in the panel's Mechanism menu, as a person would, and after every switch checks 
 * the page's session is the one chosen, and it plays on: simulated time advances past its start;
 * no error notice (a stopped run, "Simulation stopped", a paused session, an internal error) appears, on the
   page or on the server;
-* the panel holds exactly one set of controls, those of the session shown: one tab group, each tab and each
-  folder once, one Mechanism menu, one Timeline, one View and one Plot (app/panel_rows.py makes them in both
-  panels), none of the other kind's rows (the chain's initial angles; the mechanism's Bodies and motors) and, on every later visit of a preset, exactly the controls of its first visit
-  (nothing piles up).
+* the panel holds exactly one set of controls, those of the preset shown: one tab group, each tab and each
+  folder once, one Mechanism menu, one Timeline, View, Plot, Bodies and motors, Traced point and Stabilisation,
+  the typed boxes of exactly this preset's knobs, none of the old chain panel's rows (its initial angles) and,
+  on every later visit of a preset, exactly the controls of its first visit (nothing piles up).
 """
 
 from __future__ import annotations
@@ -34,9 +35,9 @@ from physics.mechanism import MECHANISM_PRESETS
 from .conftest import wait_until
 
 ERROR_TITLES = ("Simulation stopped", "Session paused", "Could not start", "internal error", "Error")
-CHAIN_ONLY = ("Initial angles (degrees)",)
-BOTH = ("Timeline (s)", "View", "Plot")  # rows both panels have: exactly one of each, whichever is shown
-MECHANISM_ONLY = ("Bodies and motors", "Traced point", "Stabilisation")
+OLD_CHAIN_PANEL = ("Initial angles (degrees)", "Stabilisation (loops)")  # the chain panel's rows: never shown now
+# rows the one panel has for every preset (app/mechanism_session.py _build_panel): exactly one of each
+BOTH = ("Timeline (s)", "View", "Plot", "Bodies and motors", "Traced point", "Stabilisation")
 PLAYS_ON_S = 0.3  # simulated seconds a session must advance after its switch
 
 
@@ -147,11 +148,12 @@ def _errors(page) -> list[str]:
 
 
 def _session_shows(session, name: str) -> bool:
+    """The one session shows ``name``: a mechanism as itself, a chain preset hosted (``chain``)."""
     if getattr(session, "closed", True):
         return False
     if name in MECHANISM_PRESETS:
-        return getattr(session, "label", None) == name
-    return getattr(getattr(session, "params", None), "preset", None) == name
+        return session.chain is None and session.label == name
+    return session.chain is not None and session.chain.preset == name
 
 
 def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_lab, capfd, tmp_path):
@@ -181,12 +183,11 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
         assert session.notices.text is None or not session.notices.text.startswith(ERROR_TITLES), (
             previous, name, session.notices.text)
         # the page has caught up with the switch (a busy software renderer lags behind the server): its menu
-        # shows the choice and, for a mechanism, its panel has the boxes of this mechanism's controls
+        # shows the choice and its panel has the boxes of this preset's controls (a chain's: app/chain_knobs.py)
         wait_until(lambda: _menu_value(page) == name, message=f"{previous} -> {name}: the menu to show {name}")
-        if name in MECHANISM_PRESETS:
-            expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs()}
-            wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
-                       message=f"{previous} -> {name}: the panel to show {name}'s controls")
+        expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs()}
+        wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
+                   message=f"{previous} -> {name}: the panel to show {name}'s controls")
         groups, tabs, folders = _sets_of_controls(page)
         assert groups == 1, f"{previous} -> {name}: {groups} tab groups in the panel"
         assert tabs and max(tabs.values()) == 1, f"{previous} -> {name}: tabs {dict(tabs)}"
@@ -194,9 +195,8 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
         panel = _panel_labels(page)
         menus = page.page.locator(snap.CONTROL_PANEL).locator("label", has_text=re.compile("^Mechanism$"))
         assert menus.count() == 1, f"{previous} -> {name}: {menus.count()} Mechanism menus in the panel"
-        wrong = MECHANISM_ONLY if name not in MECHANISM_PRESETS else CHAIN_ONLY
-        assert not [label for label in wrong if panel[label]], (
-            f"{previous} -> {name}: the other panel's rows stay: {[label for label in wrong if panel[label]]}")
+        assert not [label for label in OLD_CHAIN_PANEL if panel[label]], (
+            f"{previous} -> {name}: the chain panel's rows show: {[lb for lb in OLD_CHAIN_PANEL if panel[lb]]}")
         assert all(panel[label] == 1 for label in BOTH), (
             f"{previous} -> {name}: {[(label, panel[label]) for label in BOTH]} (one of each expected)")
         if name in seen:

@@ -29,7 +29,7 @@ def test_the_report_tab_fits_the_panel_and_changes_figure(start_lab):
     assert natural[0] > 0 and abs(box["height"] / box["width"] - natural[1] / natural[0]) < 0.02  # scaled, not cut
     assert "16.61" not in app.page.locator("body").inner_text()
     app.choose("Figure", FIGURES[2].label)
-    wait_until(lambda: "Figure 11" in app.session.report.seed_report.figure.content, message="figure 11 chosen")
+    wait_until(lambda: "Figure 11" in app.session.seed_report.figure.content, message="figure 11 chosen")
     app.page.locator('img[alt^="Figure 11"]').first.wait_for(state="visible")
     text = app.page.locator("body").inner_text()  # its verdict, with the report's numbers for both controllers
     assert "t = 17.81 s with ode45" in text and "16.61 s with" in text, text[-600:]

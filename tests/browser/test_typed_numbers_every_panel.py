@@ -29,8 +29,6 @@ from typing import Any, Callable
 import pytest
 
 from app import snapshot as snap
-from app.commands import QUANTITIES, split_name
-from app.number_inputs import value_in_force
 
 from .conftest import wait_until
 
@@ -193,19 +191,25 @@ def _type_with_each_setting_shown(page, session, panel: Panel, done: dict[str, l
 
 
 def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
+    """The four-bar, a chain preset hosted by the one session (app/mechanism_session.py): its knobs
+    (app/chain_knobs.py), the run's settings and the Display tab's numbers."""
     lab = start_lab(preset="four-bar")  # a closed loop: its pin's boxes and the Baumgarte gains apply
     page = lab.open_page()
     session = page.session
-    numbers = session.controls.numbers
+    assert session.chain is not None
+    display = session.numbers  # the Display tab's speed, trace length and arrow scale (app/panel_rows.py)
 
     def value(name: str) -> float:
-        return value_in_force(session, name) * QUANTITIES[split_name(name)[0]].scale
+        if name in display.controls:
+            return float(getattr(session.display, name))
+        return next(knob.value for knob in session.panel_knobs() if knob.name == name)
 
-    panel = Panel(boxes=lambda: {control.box.label: name for name, control in numbers.controls.items()},
-                  value=value, box=lambda name: numbers.controls[name].box, commits=lambda: numbers.commits)
+    panel = Panel(boxes=lambda: {**{f"type {knob.label}": knob.name for knob in session.panel_knobs()},
+                                 **{control.box.label: name for name, control in display.controls.items()}},
+                  value=value, box=session.typed_box, commits=lambda: session.typed_commits + display.commits)
     done: dict[str, list[str]] = {}
-    _type_with_each_setting_shown(page, session, panel, done, "Stabilisation (loops)", lambda: session.params)
-    hidden = {label for label, name in panel.boxes().items() if not numbers.controls[name].box.visible}  # not
+    _type_with_each_setting_shown(page, session, panel, done, "Stabilisation", lambda: session.params)
+    hidden = {label for label, name in panel.boxes().items() if not session.typed_box(name).visible}  # not
     # for this preset (a closed loop's driven angles): a person cannot type into them either
     assert set(done) | hidden == set(panel.boxes()), f"boxes never reached: {set(panel.boxes()) - set(done) - hidden}"
     typed = [label for label, outcomes in done.items() if outcomes != ["disabled"]]
@@ -213,7 +217,8 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
     assert {"L1", "d2", "m3", "I1", "theta1", "omega1", "g", "rtol", "step", "baumgarte_alpha", "baumgarte_beta",
             "pin_x", "pin_y"} <= names, names
     assert any("applied" in done[label] for label in typed)  # some texts are numbers these fields take
-    assert done["type g (m/s²)"][0] == done["type g (m/s²)"][3] == "applied"  # 25 (not 2.51) and 1000 m/s²
+    g_box = "type gravity g (m/s²)"  # app/chain_knobs.py: the chain panel's slider label
+    assert done[g_box][0] == done[g_box][3] == "applied"  # 25 (not 2.51) and 1000 m/s²
     assert all("not a number" in done[label][4] for label in typed)  # 1,5: refused, never 15
 
     _open_tab(page, "Mechanism")

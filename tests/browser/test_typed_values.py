@@ -11,8 +11,8 @@ import re
 
 from .conftest import wait_until
 
-BOX = "type I1 (kg·m²)"
-FOLDER = "Bar 1"
+BOX = "type bar 1: inertia I (kg·m²)"  # the one session's box beside knob I1 (app/chain_knobs.py)
+FOLDER = "Bodies and motors"
 
 
 def _box(app):
