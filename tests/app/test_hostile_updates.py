@@ -44,7 +44,10 @@ def test_what_a_browser_can_send_for_each_kind_of_control(current, updates, prob
 
 
 def _numeric_sliders(session):
-    return [number.slider for number in session.controls.numbers.controls.values() if not number.slider.disabled]
+    """Every numeric slider of the panel a browser can move: the generated knobs' (the chain's numbers, its start,
+    the run's settings) and the display numbers' (speed, trace length, arrow scale)."""
+    sliders = [*session._knob_handles.values(), *(number.slider for number in session.numbers.controls.values())]
+    return [slider for slider in sliders if not slider.disabled]
 
 
 def _assert_refused_quietly(session, capfd, titles, before):
@@ -63,7 +66,7 @@ def test_own_session_refuses_what_no_browser_sends_and_applies_what_one_does(con
     before = session.params
     sliders = _numeric_sliders(session)
     assert len(sliders) >= 10
-    dropdowns = [session.controls.method, session.controls.integrator]
+    dropdowns = [session.method, session.integrator]
     for slider in sliders:
         for value in HOSTILE:
             client.send_value(viser_compat.control_id(slider), value)
@@ -74,7 +77,7 @@ def test_own_session_refuses_what_no_browser_sends_and_applies_what_one_does(con
     assert wait_until(lambda: len(titles) >= expected, timeout=30), (len(titles), expected)
     _assert_refused_quietly(session, capfd, titles, before)
     # what a browser does send still arrives: a number for the gravity slider
-    gravity = session.controls.numbers.controls["g"].slider
+    gravity = session._knob_handles["g"]
     client.send_value(viser_compat.control_id(gravity), 2.5)
     assert wait_until(lambda: session.params.chain.g == pytest.approx(2.5), timeout=30), session.params.chain.g
 

@@ -1,9 +1,9 @@
-"""A hostile client's messages never kill a session or print a traceback (app/viser_compat.py, guard_messages, app/controls.py).
+"""A hostile client's messages never kill a session or print a traceback (app/viser_compat.py, guard_messages, app/mechanism_session.py).
 
 Sent through a raw websocket client (app/wsclient.py) as a script in a page could: messages that do not
 decode, an unknown type, a missing field, a control id that is a list, NaN or infinity for the integer
-"Bars (chain)" slider, a value outside a dropdown's options (the Plot dropdown's killed the session on every
-frame; the Report tab's Bar menu raised). Each is refused quietly: at most one line in the server's log, no
+"Bars (chain)" slider (the ``chain`` preset's), a value outside a dropdown's options (the Plot dropdown's killed
+the session on every frame; the free-body diagram's Body menu, the chain panel's Report tab Bar menu, raised). Each is refused quietly: at most one line in the server's log, no
 traceback, and the session goes on (its frames keep coming and Reset works)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from conftest import wait_until
 
 
 def _malformed(session) -> dict[str, bytes]:
-    links = viser_compat.control_id(session.controls.links)
+    links = viser_compat.control_id(session._knob_handles["links"])  # the "Bars (chain)" slider
     return {
         "not msgpack": b"\x00\x01garbage",
         "not a table": encode([1, 2, 3]),
@@ -41,6 +41,8 @@ def _frames_go_on(client, session) -> bool:
                                   "unknown id", "NaN bars", "infinite bars", "values a list"])
 def test_a_malformed_message_is_dropped_quietly_and_the_session_goes_on(connect, capfd, kind):
     client, session = connect()
+    session.set_mechanism("chain")  # the preset whose panel has the "Bars (chain)" slider
+    assert session.player.wait_idle(60)
     capfd.readouterr()
     n, dropped = session.params.n, viser_compat.dropped_messages
     client.send(_malformed(session)[kind])
@@ -57,18 +59,18 @@ def test_a_malformed_message_is_dropped_quietly_and_the_session_goes_on(connect,
 
 def test_a_value_outside_the_plot_dropdown_is_refused_and_the_plot_stays(connect, capfd):
     client, session = connect()
-    plot = session.controls.plot_choice
+    plot = session.plot_choice
     angles = "Angles θ(t)"
     client.send_value(viser_compat.control_id(plot), angles)
-    assert wait_until(lambda: session.controls.plot_kind == "angles", timeout=30)
+    assert wait_until(lambda: session.plot_kind == "angles", timeout=30)
     titles: list[str] = []
     show = session.show_notice
     session.show_notice = lambda title, body, **kw: (titles.append(f"{title}: {body}"), show(title, body, **kw))
     client.send_value(viser_compat.control_id(plot), "Energy; DROP TABLE")
     assert wait_until(lambda: titles, timeout=30)
-    assert "Plot = 'Energy; DROP TABLE': allowed Energy" in titles[0], titles
+    assert "plot = 'Energy; DROP TABLE': allowed Energy, Angles θ(t), Phase portrait (θ, ω)" in titles[0], titles
     assert wait_until(lambda: plot.value == angles, timeout=30), plot.value  # put back on the plot shown
-    assert session.controls.plot_kind == "angles"
+    assert session.plot_kind == "angles"
     assert _frames_go_on(client, session) and session.player.error is None
     session.guard(session.reset)
     assert session.player.wait_idle(60) and _frames_go_on(client, session)
@@ -76,18 +78,19 @@ def test_a_value_outside_the_plot_dropdown_is_refused_and_the_plot_stays(connect
     assert "Traceback" not in err and "tuple.index" not in err, err[-3000:]
 
 
-def test_the_report_tabs_bar_menu_refuses_a_bar_it_does_not_offer(connect, capfd):
+def test_the_free_body_body_menu_refuses_a_body_it_does_not_offer(connect, capfd):
     client, session = connect()
     titles: list[str] = []
     show = session.show_notice
     session.show_notice = lambda title, body, **kw: (titles.append(f"{title}: {body}"), show(title, body, **kw))
-    bar_menu = session.report.fbd_bar
+    bar_menu = session.body_menu  # the free-body diagram's Body menu (the chain panel's Report tab Bar menu)
+    assert list(bar_menu.options) == ["bar1", "bar2", "bar3"], bar_menu.options
     for count, value in enumerate(("0", "99", "1.5", "x"), start=1):
         # one at a time: viser's callbacks read the control's value when they run, not the message's
         client.send_value(viser_compat.control_id(bar_menu), value)
         assert wait_until(lambda count=count: len(titles) >= count, timeout=30), titles
-        assert f"Bar = '{value}': allowed 1, 2, 3" in titles[-1], titles
-    assert all(title.startswith("Not applied: Bar = ") for title in titles), titles
+        assert f"body = '{value}': allowed values bar1, bar2, bar3" in titles[-1], titles
+    assert all(title.startswith("Not applied: body = ") for title in titles), titles
     assert bar_menu.value in bar_menu.options
     assert _frames_go_on(client, session) and session.player.error is None
     assert "Traceback" not in capfd.readouterr().err

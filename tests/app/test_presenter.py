@@ -26,7 +26,8 @@ def shared():
 
 
 def _gravity(server):
-    return server.shared_session.controls.numbers.controls["g"].slider
+    """The gravity knob's slider of the shared session's panel (the one session hosts every chain preset)."""
+    return server.shared_session._knob_handles["g"]
 
 
 def test_the_presenter_address_is_secret_and_serves_the_page(shared):

@@ -54,7 +54,7 @@ def test_a_viewer_uploading_and_leaving_at_once_changes_nothing(lecture):
     session = lecture.shared_session
     before = (session.params.preset, session.params.n, session.params.chain.g)
     content = _setup_changing_everything()
-    uuid = viser_compat.control_id(session.controls.load_setup)
+    uuid = viser_compat.control_id(session.setup_upload)
     # the same upload from the presenter's address is applied (the file is a valid setup)
     for race in range(RACES):
         send_messages(lecture.url, upload_messages(uuid, "lecture.json", content, transfer=f"v{race}"), pause=0)
@@ -122,7 +122,7 @@ def _upload_states(server) -> dict:
 
 
 def test_an_upload_declaring_more_than_the_limit_is_refused_at_once(lecture):
-    uuid = viser_compat.control_id(lecture.shared_session.controls.load_setup)
+    uuid = viser_compat.control_id(lecture.shared_session.setup_upload)
     start = {"type": "FileTransferStartUpload", "source_component_uuid": uuid, "transfer_uuid": "big",
              "filename": "big.json", "mime_type": "application/json", "part_count": 80_000,
              "size_bytes": 40 * 10**9}
@@ -146,7 +146,7 @@ def _notices(server) -> list[str]:
 
 
 def test_a_client_sending_more_than_it_declared_is_cut_off(lecture):
-    uuid = viser_compat.control_id(lecture.shared_session.controls.load_setup)
+    uuid = viser_compat.control_id(lecture.shared_session.setup_upload)
     start = {"type": "FileTransferStartUpload", "source_component_uuid": uuid, "transfer_uuid": "liar",
              "filename": "s.json", "mime_type": "application/json", "part_count": 1, "size_bytes": 1000}
     counts = Counts()
@@ -166,7 +166,7 @@ def test_a_client_sending_more_than_it_declared_is_cut_off(lecture):
 
 def test_held_upload_bytes_stay_within_the_announced_limit(lecture):
     """Many announced transfers from one browser: at most two are kept, each at most the limit."""
-    uuid = viser_compat.control_id(lecture.shared_session.controls.load_setup)
+    uuid = viser_compat.control_id(lecture.shared_session.setup_upload)
     counts = Counts()
     presenter = BackgroundClient(lecture.presenter_url, counts)
     try:
@@ -196,9 +196,12 @@ def test_upload_problem_accepts_what_a_browser_sends_and_nothing_else():
 # ------------------------------------------------------------------------------------------ hole 6
 def test_nothing_the_pages_produce_carries_the_secret(lecture):
     secret = lecture.presenter_path.removeprefix("/presenter-").removesuffix(".html")
-    controls = lecture.shared_session.controls
-    buttons = [controls.share_button, controls.save_setup, controls.equations_button, controls.equations_tex,
-               *(getattr(controls, f"export_{kind}") for kind in ("csv", "json", "html"))]
+    panel = lecture.shared_session  # the one session: its panel's handles are attributes
+    # every button of the panel that makes a link, a download or a file: the run's CSV and JSON are the two
+    # buttons of the "Download the run" row (pressed by sending their label), the HTML replay its own button
+    presses = [(panel.share_button, True), (panel.save_setup, True), (panel.equations_button, True),
+               (panel.equations_tex, True), (panel.download_buttons, "CSV"), (panel.download_buttons, "JSON"),
+               (panel.export_html, True)]
     recorded = {"presenter": Counts(), "viewer": Counts()}
     for counts in recorded.values():
         counts.payloads = []
@@ -207,11 +210,11 @@ def test_nothing_the_pages_produce_carries_the_secret(lecture):
     try:
         assert wait_until(lambda: all(c.frames > 0 for c in recorded.values()), timeout=30)
         for client in (presenter, viewer):
-            for button in buttons:
-                client.send_value(viser_compat.control_id(button), True)
+            for button, value in presses:
+                client.send_value(viser_compat.control_id(button), value)
         assert wait_until(lambda: recorded["presenter"].by_type["FileTransferPart"] >= 5, timeout=60), \
             "the presenter's downloads did not arrive"
-        assert wait_until(lambda: "Open this setup" in controls.share_link.content, timeout=30)
+        assert wait_until(lambda: "Open this setup" in panel.share_link.content, timeout=30)
         time.sleep(1.0)
     finally:
         presenter.close()
@@ -227,20 +230,20 @@ def test_nothing_the_pages_produce_carries_the_secret(lecture):
         assert any("preset=" in target for target in targets), "the setup link was not among the frames"
         resolved = [urllib.parse.urljoin(lecture.presenter_url, target) for target in targets]
         assert not [url for url in resolved if secret in url], f"{who}: a link resolves to the presenter's page"
-    assert "presenter-" not in controls.share_link.content
+    assert "presenter-" not in panel.share_link.content
     assert secret not in "".join(_notices(lecture))
 
 
 def test_the_link_for_this_setup_is_on_the_root_address(lecture):
-    controls = lecture.shared_session.controls
-    controls.show_link()
-    assert "](/?preset=triple-a" in controls.share_link.content, controls.share_link.content
+    panel = lecture.shared_session  # the one session: its panel's handles are attributes
+    panel.show_link()
+    assert "](/?preset=triple-a" in panel.share_link.content, panel.share_link.content
 
 
 def test_the_raw_client_reaches_the_upload_handler(lecture):
     """The attack tests above depend on this client speaking viser's upload protocol: shown with a harmless
     valid file from the presenter (its notice is a refusal naming the file, not silence)."""
-    uuid = viser_compat.control_id(lecture.shared_session.controls.load_setup)
+    uuid = viser_compat.control_id(lecture.shared_session.setup_upload)
     send_messages(lecture.presenter_url, upload_messages(uuid, "not-json.json", b"{ nope"), pause=0.2)
     assert wait_until(lambda: any("not valid JSON" in text for text in _notices(lecture)), timeout=30), \
         _notices(lecture)

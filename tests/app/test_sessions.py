@@ -1,6 +1,8 @@
 """Sessions on a real server: controls change the simulation and the scene; errors stay in their session.
 
-Controls are driven by assigning ``handle.value``, which runs the same callbacks as a browser's slider.
+Every chain preset is hosted by the one session (app/mechanism_session.py, ``MechanismSession.for_chain``): its
+panel's controls are driven by assigning ``handle.value``, which runs the same callbacks as a browser's slider (a
+knob's slider is ``session._knob_handles[name]``, named as the chain's ``--set``: ``m2``, ``L1``, ``theta1``, ``g``).
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def test_mass_slider_changes_the_motion(connect):
     _, session = connect()
     assert session.goto_time(2.0)
     before = session.snapshot()
-    handle = session.controls._bar_handles[1]["m"]
+    handle = session._knob_handles["m2"]
     handle.value = 3.0  # as the browser's slider does
     assert session.params.m[1] == 3.0
     assert session.goto_time(2.0)
@@ -62,7 +64,7 @@ def test_a_change_mid_run_continues_from_the_displayed_state(connect):
     session.pause()
     assert session.player.wait_idle(120)
     t_before = session.snapshot()["time"]
-    session.controls.gravity.value = 2.5
+    session._knob_handles["g"].value = 2.5
     assert session.player.wait_idle(120)
     snap = session.snapshot()
     assert snap["parameters"]["g"] == 2.5
@@ -73,7 +75,7 @@ def test_a_change_mid_run_continues_from_the_displayed_state(connect):
 
 def test_method_dropdown_switches_formulation(connect):
     _, session = connect()
-    session.controls.method.value = "DAE"
+    session.method.value = "DAE"
     assert session.params.method == "dae"
     assert session.player.wait_idle(120)
     session.play()
@@ -87,13 +89,13 @@ def test_method_dropdown_switches_formulation(connect):
 
 def test_length_slider_resizes_the_bar_and_caps_d(connect):
     _, session = connect()
-    handles = session.controls._bar_handles[0]
-    handles["L"].value = 0.4
+    handles = session._knob_handles
+    handles["L1"].value = 0.4
     assert session.params.L[0] == pytest.approx(0.4)
     assert session.params.d[0] <= 0.4 + 1e-12
-    assert handles["d"].max == pytest.approx(0.4)
-    assert handles["d"].value <= 0.4 + 1e-12
-    bars = session.scene.batched_nodes["bars"]
+    assert handles["d1"].max == pytest.approx(0.4)
+    assert handles["d1"].value <= 0.4 + 1e-12
+    bars = session.scene._bars  # noqa: SLF001 - the scene's batched bar mesh, as the browser receives it
     assert bars.batched_scales[0][0] == pytest.approx(0.4)
     assert session.player.wait_idle(120)
     joints = np.array(session.snapshot()["joints"])
@@ -102,9 +104,9 @@ def test_length_slider_resizes_the_bar_and_caps_d(connect):
 
 def test_invalid_value_shows_a_notice_and_keeps_the_last_valid_chain(connect):
     _, session = connect()
-    handles = session.controls._bar_handles[2]
-    handles["I"].value = 0.0
-    handles["m"].value = 0.0  # with I = 0 too, bar 3 has no inertia: refused
+    handles = session._knob_handles
+    handles["I3"].value = 0.0
+    handles["m3"].value = 0.0  # with I = 0 too, bar 3 has no inertia: refused
     assert session.params.m[2] > 0.0
     assert session.notice is not None and "bar 3" in session.notice
     session.play()
@@ -117,11 +119,12 @@ def test_closed_loop_unreachable_angle_keeps_the_last_valid_start(connect):
     session.set_mechanism("four-bar")
     assert session.params.pinned
     theta_before = session.params.theta0.copy()
-    slider = session.controls._angle_handles[0]
+    slider = session._knob_handles["theta1"]
     slider.value = 60.0  # the seed four-bar's crank reaches only about [89.4°, 366°]
     assert np.allclose(session.params.theta0, theta_before)
     assert session.notice is not None and "cannot close" in session.notice
-    assert session.controls._angle_handles[1].disabled  # theta2 and theta3 are assembled, not set
+    # theta2 and theta3 are assembled, not set: the panel offers no control for them
+    assert "theta2" not in session._knob_handles and "theta3" not in session._knob_handles
     slider.value = 150.0
     assert math.degrees(session.params.theta0[0]) == pytest.approx(150.0)
     residual = physics.loop_closure.loop_residual(session.params.L, session.params.theta0, session.params.pin)
@@ -130,18 +133,18 @@ def test_closed_loop_unreachable_angle_keeps_the_last_valid_start(connect):
 
 def test_singular_start_pauses_with_a_notice_and_reset_recovers(connect):
     _, session = connect()
-    session.controls.mechanism.value = "change-point"
+    session.menu.value = "change-point"
     assert session.player.wait_idle(120)
     session.play()
     assert wait_until(lambda: session.snapshot()["time"] > 0.2)
     good_theta = session.params.theta0.copy()
-    session.controls._angle_handles[0].value = 90.0  # all four links on one line: singular
+    session._knob_handles["theta1"].value = 90.0  # all four links on one line: singular
     assert wait_until(lambda: session.notice is not None and "singular" in session.notice)
     assert not session.player.playing
     snap = session.snapshot()
     assert snap["runs"][0]["failed"]
     assert "/linkage/bar_1" in snap["scene"]["nodes"]  # the scene still shows the linkage
-    session.controls.transport.value = "Reset"
+    session.transport.value = "Reset"
     assert session.player.wait_idle(120)
     assert np.allclose(session.params.theta0, good_theta)
     session.play()
@@ -154,8 +157,8 @@ def test_two_sessions_do_not_affect_each_other(connect):
     client_a, a = connect()
     client_b, b = connect()
     assert a is not b and a.target is not b.target
-    a.controls._bar_handles[0]["m"].value = 4.0
-    a.controls.method.value = "Newton-Euler"
+    a._knob_handles["m1"].value = 4.0
+    a.method.value = "Newton-Euler"
     assert b.params.m[0] != 4.0
     assert b.params.method != "newton_euler" or a.params.method == b.params.method == "newton_euler"
     b.play()
@@ -185,14 +188,14 @@ def test_pause_holds_time_and_step_advances_one_sample(connect):
     t0 = session.snapshot()["time"]
     time.sleep(0.3)  # a paused session's time stands still
     assert session.snapshot()["time"] == t0
-    session.controls.transport.value = "Step"
+    session.transport.value = "Step"
     assert wait_until(lambda: session.snapshot()["time"] > t0)
     assert session.snapshot()["time"] == pytest.approx(t0 + 1 / 60)
 
 
 def test_compare_mode_runs_three_methods_that_agree_early(connect):
     _, session = connect()
-    session.controls.compare.value = True
+    session.compare_box.value = True
     assert session.compare
     assert session.goto_time(1.0)
     snap = session.snapshot()
@@ -201,15 +204,18 @@ def test_compare_mode_runs_three_methods_that_agree_early(connect):
     assert np.max(np.abs(tips - tips[0])) < 1e-5  # one start, three derivations, same motion early on
     for method in physics.FORMULATION_NAMES:
         assert f"/compare/{method}/bar_1" in snap["scene"]["nodes"]
-    assert not session.scene.visible and not session.scene.batched_nodes["bars"].visible
-    session.controls.compare.value = False
-    assert session.scene.batched_nodes["bars"].visible and not session.compare_scenes
+    # the single mechanism gives way to the three: its nodes are gone, not drawn under theirs
+    assert session.scene._bars is None  # noqa: SLF001 - the scene's batched bar mesh
+    assert set(session.compare_view.scenes) == set(physics.FORMULATION_NAMES)
+    session.compare_box.value = False
+    assert session.scene._bars is not None and session.scene._bars.visible  # noqa: SLF001
+    assert not session.compare_view.scenes
 
 
 def test_traced_point_and_trace_length(connect):
     _, session = connect()
     session.set("trace_seconds", 2.0)
-    session.controls.trace_point.value = "joint 1"
+    session.trace_menu.value = "joint 1"
     assert session.params.trace.bar == 1
     session.play()
     assert wait_until(lambda: session.trace.points_shown > 60)
@@ -256,7 +262,7 @@ def test_shared_session_is_watched_by_every_browser():
         a, b = BrowserStandIn(server.url), BrowserStandIn(server.url)
         assert a.wait_for(lambda c: c.bar_updates() > 10) and b.wait_for(lambda c: c.bar_updates() > 10)
         assert server.sessions == {} and server.shared_session is not None
-        server.shared_session.controls._bar_handles[0]["L"].value = 0.5
+        server.shared_session._knob_handles["L1"].value = 0.5
         assert server.shared_session.params.L[0] == 0.5
         a.close()
         b.close()
@@ -283,14 +289,14 @@ def test_a_browser_past_the_cap_is_turned_away_with_a_message():
 def test_closed_loop_without_stabilisation_runs_on_and_shows_its_drift(connect):
     _, session = connect()
     session.set_mechanism("four-bar")
-    session.controls.stabilization.value = "none"
-    session.controls.tolerance.value = -6.0  # loose: the loop visibly drifts open
+    session.stabilization.value = "none"
+    session._knob_handles["rtol"].value = -6.0  # log10(rtol), loose: the loop visibly drifts open
     assert session.goto_time(12.0)
     snap = session.snapshot()
     assert snap["runs"][0]["failed"] is None and snap["time"] == pytest.approx(12.0)
     drift_open = snap["energy"]["constraint_error"]
     assert drift_open > 1e-8  # chunked simulation kept the drift (it is not re-closed between chunks)
-    session.controls.stabilization.value = "projection"
+    session.stabilization.value = "projection"
     assert session.goto_time(12.0)
     assert session.snapshot()["energy"]["constraint_error"] < drift_open / 100
 
@@ -308,14 +314,14 @@ def test_a_closed_session_is_garbage(lab, connect):
 def test_a_run_that_stops_midway_pauses_with_a_notice_and_reset_recovers(connect):
     _, session = connect()
     session.set_mechanism("four-bar")
-    session.controls.method.value = "Reduced, theta1 fixed"  # stops at the four-bar's first dead centre
+    session.method.value = "Reduced, theta1 fixed"  # stops at the four-bar's first dead centre
     assert session.params.method == "reduced_fixed"
     assert session.goto_time(10.0)
     assert wait_until(lambda: session.notice is not None and "collinear" in session.notice)
     snap = session.snapshot()
     t_stop = snap["time"]
     assert 0.0 < t_stop < 10.0 and snap["runs"][0]["failed"] and not snap["playing"]
-    session.controls.transport.value = "Reset"
+    session.transport.value = "Reset"
     assert session.player.wait_idle(120)
     assert session.notice is None and session.snapshot()["time"] == 0.0
     session.play()
@@ -331,7 +337,7 @@ def test_a_change_right_after_a_new_mechanism_applies_to_the_new_one(connect):
     session.pause()
     with session.player.lock:  # holds the player thread back: the four-bar's start stays pending
         session.set_mechanism("four-bar")
-        session.controls.method.value = "DAE"
+        session.method.value = "DAE"
         assert session.params.method == "dae" and session.notice is None
     assert session.player.wait_idle(120)
     snap = session.snapshot()
@@ -345,9 +351,9 @@ def test_a_bar_of_next_to_no_inertia_is_refused_with_its_range(connect):
     on a damped single bar needed more integrator steps for one sample than a run may take, and the restart was
     never shown. Below 1e-9 kg·m² about its joint a bar is refused, naming the bar and the range."""
     _, session = connect()
-    handles = session.controls._bar_handles[2]
-    handles["d"].value = 0.0
-    handles["m"].value = 1.0
-    handles["I"].value = 1.17549435082e-38
+    handles = session._knob_handles
+    handles["d3"].value = 0.0
+    handles["m3"].value = 1.0
+    handles["I3"].value = 1.17549435082e-38
     assert session.params.I[2] > 1e-9
     assert session.notice is not None and "bar 3" in session.notice and ">= 1e-09 kg·m²" in session.notice

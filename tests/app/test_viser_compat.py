@@ -42,7 +42,7 @@ def test_control_values_are_checked_before_viser_casts_them():
 
 def test_every_node_of_a_session_moves_by_the_fast_path(connect):
     _, session = connect()
-    handles = list(session.scene.batched_nodes.values())
+    handles = [session.scene._bars, session.scene._spheres]  # noqa: SLF001 - the scene's two batched meshes
     assert len(handles) == 2 and all(viser_compat.fast_pose_available(h) for h in handles)
     assert viser_compat.connection_open(session.target)
 
@@ -50,7 +50,7 @@ def test_every_node_of_a_session_moves_by_the_fast_path(connect):
 def test_the_fast_path_sets_props_as_the_public_setters_do(connect):
     _, session = connect()
     session.pause()
-    bars = session.scene.batched_nodes["bars"]
+    bars = session.scene._bars  # noqa: SLF001 - the scene's batched bar mesh
     positions = np.arange(3 * len(bars.batched_positions), dtype=np.float32).reshape(-1, 3)
     wxyzs = np.tile(np.array([1.0, 0.0, 0.0, 0.0], np.float32), (len(positions), 1))
     with session.player.lock:
@@ -67,7 +67,7 @@ def test_one_frame_is_two_messages_whatever_the_number_of_bars(lab, connect):
     assert wait_until(lambda: client.counts.bar_updates() >= 10, timeout=60)
     recent = list(client.counts.watched)[-5:]
     assert all(set(m["updates"]) == {"batched_positions", "batched_wxyzs"} for _, m in recent), recent
-    assert session.scene.batched_nodes["bars"].batched_positions.shape == (7, 3)
+    assert session.scene._bars.batched_positions.shape == (7, 3)  # noqa: SLF001 - one instance per bar
     moved = {name for name, count in client.counts.pose_updates.items() if count >= 5}
     assert moved == {"/linkage/bars", "/linkage/spheres"}, client.counts.pose_updates
 
@@ -75,7 +75,7 @@ def test_one_frame_is_two_messages_whatever_the_number_of_bars(lab, connect):
 def test_a_fallback_uses_the_public_setters_and_says_so_once(connect, monkeypatch, caplog):
     _, session = connect()
     session.pause()
-    bars = session.scene.batched_nodes["bars"]
+    bars = session.scene._bars  # noqa: SLF001 - the scene's batched bar mesh
     positions = np.zeros_like(bars.batched_positions)
     monkeypatch.setattr(viser_compat, "FAST_PATH", False)
     monkeypatch.setattr(logs, "_seen", set())
@@ -134,13 +134,13 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
 
 
 def test_every_frame_is_flushed_so_no_frame_waits_for_the_next_window(connect, monkeypatch):
-    """Why each frame is flushed (app/frame_view.py): viser's sender, idle after a window, otherwise looks
+    """Why each frame is flushed (app/mechanism_session.py ``_on_frame``): viser's sender, idle after a window, otherwise looks
     again only after up to 1/60 s, and a frame drawn meanwhile meets the next one and is coalesced away."""
     _, session = connect()
     assert session.player.wait_idle(600)
     flushes = []
-    monkeypatch.setattr(session.view.target, "flush", lambda: flushes.append(time.perf_counter()))
-    sent0 = session.view.frames_sent
-    assert wait_until(lambda: session.view.frames_sent - sent0 >= 20, timeout=60)
-    frames = session.view.frames_sent - sent0
+    monkeypatch.setattr(session.target, "flush", lambda: flushes.append(time.perf_counter()))
+    sent0 = session.frames_sent
+    assert wait_until(lambda: session.frames_sent - sent0 >= 20, timeout=60)
+    frames = session.frames_sent - sent0
     assert len(flushes) >= frames - 1, (len(flushes), frames)
