@@ -74,29 +74,31 @@ def test_a_value_outside_the_model_is_refused_with_its_name(connect):
 
 def test_variational_integrator_runs_with_lagrange_and_is_refused_elsewhere(connect):
     _, session = connect()
-    session.controls.integrator.value = "variational"
+    session.integrator.value = "variational"  # as the browser sends it
     assert session.params.integrator == "variational" and session.notice is None
-    assert session.controls.step.visible and not session.controls.tolerance.visible
+    assert session._knob_handles["step"].visible and not session._knob_handles["rtol"].visible  # noqa: SLF001
     assert wait_until(lambda: session.snapshot()["time"] > 1.0)
     # Compare mode needs one integrator for all three methods: refused, the checkbox goes back off.
-    session.controls.compare.value = True
+    session.compare_box.value = True
     assert not session.compare and session.notice is not None and "variational" in session.notice
-    assert session.controls.compare.value is False
+    assert session.compare_box.value is False
     # Another method with the variational integrator: refused, naming the fix; the dropdown shows the method
     # in force again.
-    session.controls.method.value = "DAE"
+    session.method.value = "DAE"
     assert session.params.method == "lagrange"
     assert "method = Lagrange" in session.notice  # as the menu names it (the model says "lagrange")
-    assert session.controls.method.value == "Lagrange"
+    assert session.method.value == "Lagrange"
 
 
 def test_chain_links_slider_rebuilds_bars_and_scene(connect):
     _, session = connect()
-    session.controls.mechanism.value = "chain"
-    assert session.params.preset == "chain" and session.controls.links.visible
-    session.controls.links.value = 4
+    session.menu.value = "chain"  # as the browser sends it
+    links = session._knob_handles["links"]  # noqa: SLF001 - the Bars (chain) slider
+    assert session.params.preset == "chain" and links.visible
+    links.value = 4
     assert session.params.n == 4
-    assert len(session.controls._bar_handles) == 4 and len(session.controls._angle_handles) == 4
+    knobs = session._knob_handles  # noqa: SLF001 - a slider per bar's number and per start angle
+    assert {"L4", "m4", "I4", "d4", "theta4", "omega4"} <= set(knobs) and not {"L5", "theta5"} & set(knobs)
     assert session.player.wait_idle(300)
     names = session.snapshot()["scene"]["names"]
     assert "/linkage/bar_4" in names and "/linkage/bar_5" not in names and "/linkage/joint_4" in names
@@ -104,12 +106,12 @@ def test_chain_links_slider_rebuilds_bars_and_scene(connect):
 
 def test_reaction_arrows_follow_the_dae_reactions(connect):
     _, session = connect()
-    session.controls.method.value = "DAE"
-    session.controls.reactions.value = True
+    session.method.value = "DAE"
+    session.arrow_box.value = True
     session.play()
     assert wait_until(lambda: session.arrows.handle is not None and session.arrows.handle.visible)
     assert session.arrows.count == session.params.n  # one per joint of an open chain
-    session.controls.reactions.value = False
+    session.arrow_box.value = False
     assert not session.arrows.handle.visible
 
 
@@ -118,8 +120,8 @@ def test_trace_and_plots_are_fed(connect):
     session.play()
     assert wait_until(lambda: session.snapshot()["time"] > 1.0)
     assert session.trace.points_shown > 30
-    assert session.controls.energy_plot.points_shown > 30
-    t, total, kinetic, potential = session.controls.energy_plot.handle.data
+    assert session.energy_plot.points_shown > 30
+    t, kinetic, potential, total = session.energy_plot.handle.data
     assert np.all(np.diff(t) > 0) and t[-1] > 0.7  # plots are refreshed 5 times a second
     assert np.allclose(total, kinetic + potential, rtol=1e-9, atol=1e-9)
 

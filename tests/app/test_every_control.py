@@ -25,7 +25,6 @@ from hypothesis import strategies as st
 
 from app.mechanism_session import MechanismSession
 from app.server import LabServer
-from app.share import link_query
 from app.viser_compat import update_problem
 from conftest import BrowserStandIn, wait_until
 
@@ -48,7 +47,7 @@ def state_of(session) -> str:
     """The session's whole setup as a share link's query (a failure found by a long run can be replayed by
     opening it)."""
     try:
-        query = session.link_query() if isinstance(session, MechanismSession) else link_query(session.setup)
+        query = session.link_query()
     except Exception as error:  # noqa: BLE001 - a failure's message must not fail itself
         query = f"(no setup: {type(error).__name__}: {error})"
     return f"setup: {query}"
@@ -121,6 +120,8 @@ def seat(request):
     server = LabServer(port=0, warm=False, preset="triple-a" if request.param == "chain" else "crank-rocker")
     client = BrowserStandIn(server.url)
     (session,) = server.wait_for_sessions(1, 60)
+    assert isinstance(session, MechanismSession)  # the one session, for a chain preset too
+    assert (session.chain is not None) == (request.param == "chain"), "a chain preset is hosted as a chain"
     assert session.player.wait_idle(60)
     yield server, client, next(iter(server.sessions))
     client.close()
@@ -165,10 +166,7 @@ def test_after_the_property_the_seat_still_animates(seat):
     session = server.sessions[client_id]
     # the preset's own values: an edit may legitimately have left a linkage its motor cannot turn (a run that
     # stops with its reason is not a dead session)
-    if isinstance(session, MechanismSession):
-        session.guard(session.reset_to_reference)
-    else:
-        session.guard(session.controls.reset_to_preset)
+    session.guard(session.reset_to_reference)
     assert session.player.wait_idle(60)
     session.guard(session.play)
     start = session.player.display_time
@@ -177,3 +175,53 @@ def test_after_the_property_the_seat_still_animates(seat):
         "the seat stopped", type(session).__name__, session.player.playing, session.notices.text,
         [(run.failed, len(run.ring)) for run in session.player.runs])
     assert math.isfinite(session.player.display_time)
+
+
+def test_every_control_of_the_panel_takes_a_value_in_range_and_refuses_a_hostile_one(seat, capfd):
+    """Not a sample: each control of the seat's panel in turn (for the chain seat, every control of a hosted
+    chain's panel: its bars' numbers, start, settings, menus, boxes and checkboxes), from the preset's values, is
+    sent a value inside its range (a slider's middle, a checkbox flipped) and a hostile one (outside the range,
+    markup for a menu or a box); each is applied or refused in one notice line, and the session lives and stays
+    the same kind. Controls are told apart by kind and label (Reset builds a mechanism's controls again)."""
+    server, client, client_id = seat
+    session = server.sessions[client_id]
+    kind = session.chain is not None
+
+    def key(handle) -> tuple[str, str]:
+        return type(handle).__name__, handle.label
+
+    done: set[tuple[str, str]] = set()
+    while True:
+        session.guard(session.reset_to_reference)  # each control from the preset's values
+        assert session.player.wait_idle(60), busy(session, "reset")
+        left = [h for h in _controls(session) if key(h) not in done]
+        if not left:
+            break
+        handle = left[0]
+        done.add(key(handle))
+        if isinstance(handle, viser.GuiSliderHandle):
+            values = [float(handle.min) + 0.5 * (float(handle.max) - float(handle.min)), float(handle.max) + 1.0]
+        elif isinstance(handle.value, bool):
+            values = [not handle.value, handle.value]
+        else:  # a menu keeps its entry (another would leave this panel); a box gets text it must refuse
+            values = ["<b>bogus</b>"]
+        notes: list[str] = []
+        show = session.show_notice
+        session.show_notice = lambda title, body, **kw: (notes.append(f"{title}: {body}"), show(title, body, **kw))
+        try:
+            for value in values:
+                note = f"{handle.label} <- {value!r}"
+                deliver(session, handle, value)
+                assert session.player.wait_idle(60), busy(session, note)
+                assert wait_until(lambda: not session.typing(), timeout=10), note
+        finally:
+            session.show_notice = show
+        session = server.sessions[client_id]
+        assert (session.chain is not None) == kind, (handle.label, "the seat changed kind")
+        assert not session.closed and session.player.alive and session.player.error is None, handle.label
+        assert not [n for n in notes if fatal(n)], (handle.label, notes, state_of(session))
+        assert all("\n" not in n.split(": ", 1)[1] for n in notes), notes
+    generated = {key(h) for h in session._knob_handles.values()}  # noqa: SLF001 - the generated sliders
+    assert generated and generated <= done, "a generated control was not reached"
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]

@@ -13,7 +13,6 @@ import pytest
 
 from app.mechanism_session import METHODS, MechanismSession
 from app.parameters import METHOD_LABELS, method_from_label, method_label
-from app.session import Session
 from conftest import lab_of, wait_until
 
 crank_lab = lab_of("slider-crank")
@@ -32,16 +31,18 @@ def test_the_label_and_the_key_turn_into_each_other():
 
 
 def test_both_menus_show_the_same_words_for_the_same_method(lab, crank_lab, connect):
-    _, chain = connect(lab)
+    _, chain = connect(lab)  # a chain preset, hosted by the one session
     _, mechanism = connect(crank_lab)
-    assert isinstance(chain, Session) and isinstance(mechanism, MechanismSession)
-    chain_options = list(chain.controls.method.options)
+    assert isinstance(chain, MechanismSession) and chain.chain is not None
+    assert isinstance(mechanism, MechanismSession) and mechanism.chain is None
+    chain_options = list(chain.method.options)
+    assert not set(chain_options) & set(METHODS), f"keys in the chain's menu: {chain_options}"
     mechanism_options = list(mechanism.method.options)
     assert not set(mechanism_options) & set(METHODS), f"keys in the mechanism's menu: {mechanism_options}"
     # the slider-crank has mobility 1: every method, its fixed-coordinate model named for what it keeps
     assert mechanism_options == [method_label(m, chain=False) for m in METHODS]
     assert mechanism.method.value == method_label(mechanism.settings.method, chain=False)
-    assert chain.controls.method.value == method_label(chain.params.method)
+    assert chain.method.value == method_label(chain.params.method)
     for key in ("dae", "lagrange", "newton_euler"):  # the formulations both panels offer
         assert method_label(key) in chain_options and method_label(key) in mechanism_options, key
 
@@ -79,7 +80,8 @@ def test_a_value_that_is_no_label_is_refused_with_one_notice(crank_lab, connect)
 
 def test_choosing_a_label_in_the_chain_menu_runs_that_method(lab, connect):
     _, session = connect(lab)
-    session.controls.method.value = method_label("newton_euler")
+    session.method.value = method_label("newton_euler")  # as the browser sends it
     assert session.notice is None, session.notice
     assert session.params.method == "newton_euler"
     assert _running(session, "newton_euler")
+    assert session.method.value == method_label("newton_euler")  # the menu shows the label in force

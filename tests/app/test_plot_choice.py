@@ -41,28 +41,29 @@ def test_a_phase_picture_puts_a_circle_where_it_belongs():
 def test_each_plot_is_chosen_and_drawn_from_the_run(connect):
     _, session = connect()
     session.set_mechanism("triple-a")
-    controls = session.controls
-    assert controls.plot_kind == "energy" and controls.energy_plot.handle.visible
-    assert not controls.phase_image.visible and not controls.angle_plot.handle.visible
+    assert session.plot_kind == "energy" and session.energy_plot.handle.visible
+    assert not session.phase_image.visible and not session.coordinate_plot.handle.visible
     session.play()
     assert wait_until(lambda: session.snapshot()["time"] > 1.0, timeout=30)
 
-    controls.plot_choice.value = "Angles θ(t)"
-    assert controls.angle_plot.handle.visible and not controls.energy_plot.handle.visible
-    assert len(controls.angle_plot.labels) == 3
+    session.plot_choice.value = "Angles θ(t)"  # as the browser sends it
+    angles = session.coordinate_plot
+    assert angles.handle.visible and not session.energy_plot.handle.visible
+    assert len(angles.labels) == 3
     session.pause()
-    assert wait_until(lambda: controls.angle_plot.points_shown > 10, timeout=10)
-    data = controls.angle_plot.handle.data
+    assert wait_until(lambda: angles.points_shown > 10, timeout=10)
+    data = angles.handle.data
     history = session.history()
     last = np.searchsorted(history["t"], data[0][-1])
     assert data[1][-1] == pytest.approx(np.degrees(history["theta"][last, 0]), abs=1e-6)
 
-    blank = controls.phase_image.image.copy()
-    controls.plot_choice.value = "Phase portrait (θ, ω)"
-    assert controls.phase_image.visible and not controls.angle_plot.handle.visible
-    assert wait_until(lambda: not np.array_equal(controls.phase_image.image, blank), timeout=10)
+    blank = session.phase_image.image.copy()
+    session.plot_choice.value = "Phase portrait (θ, ω)"
+    assert session.phase_image.visible and not angles.handle.visible
+    assert wait_until(lambda: not np.array_equal(session.phase_image.image, blank), timeout=10)
 
     session.set_mechanism("double")
-    assert len(controls.angle_plot.labels) == 2 and not controls.angle_plot.handle.visible  # phase still chosen
+    angles = session.coordinate_plot  # the Angles plot of the new chain: one series per bar
+    assert len(angles.labels) == 2 and not angles.handle.visible  # phase still chosen
     with pytest.raises(LinkageError, match="plot = 'bogus'"):
-        controls.choose_plot("bogus")
+        session.choose_plot("bogus")

@@ -24,6 +24,7 @@ from app.server import LabServer
 from conftest import BrowserStandIn, wait_until
 from physics import Settings, get_preset, simulate
 from physics.kernels.disk_cache import kernels_folder
+from physics.mechanism import analyse
 
 ROOT = Path(__file__).resolve().parents[2]
 # After the last edit of a burst, with the code built, the motion goes on: a quiet machine takes a fraction of a
@@ -103,8 +104,10 @@ def test_a_burst_of_mechanism_switches_ends_on_the_last_and_resumes(connect):
     resumed = _resumed_within(session, RESUME_TIMEOUT)
     assert resumed is not None, "the session did not resume after the last switch"
     assert session.player.error is None and session.notice is None, (session.player.error, session.notice)
-    assert session.params.preset == "four-bar" and session.player.runs[0].spec.pinned
-    assert session.scene.layout.n == 3
+    run_mechanism = session.player.runs[0].spec.chain  # the run's model: the hosted four-bar, its loop closed
+    assert session.params.preset == "four-bar" and session.params.pinned
+    assert run_mechanism.name == "four-bar" and analyse(run_mechanism).loops
+    assert sorted(session.scene.poses()) == [f"/linkage/bar_{k}" for k in (1, 2, 3)]  # three bars drawn
     print(f"\nmechanisms: 33 switches 50 ms apart; resumed {1e3 * resumed:.0f} ms after the last")
 
 

@@ -12,15 +12,20 @@ from conftest import wait_until
 from physics.loop_closure import driving_range, loop_jacobian
 
 
+def sliders(session) -> dict:
+    """The generated controls' sliders by name (``theta1``, ``omega2``, ``L1`` ...) of the one session's panel."""
+    return session._knob_handles  # noqa: SLF001 - the panel's own handles
+
+
 def test_an_open_chain_starts_with_the_speeds_set_on_the_sliders(connect):
     _, session = connect()
     session.set_mechanism("triple-a")
-    controls = session.controls.numbers.controls
-    assert all(not controls[f"omega{k}"].slider.disabled for k in (1, 2, 3))
-    controls["omega2"].slider.value = 120.0
+    controls = sliders(session)
+    assert all(not controls[f"omega{k}"].disabled for k in (1, 2, 3))
+    controls["omega2"].value = 120.0
     session.set_typed("omega3", "-1e2")
     assert session.params.omega0 == pytest.approx(np.radians([0.0, 120.0, -100.0]))
-    assert controls["omega3"].slider.value == -100.0
+    assert controls["omega3"].value == -100.0
     expected = np.radians([0.0, 120.0, -100.0])
 
     def started_with_them() -> bool:
@@ -33,16 +38,18 @@ def test_an_open_chain_starts_with_the_speeds_set_on_the_sliders(connect):
 def test_a_closed_loop_takes_its_first_speed_and_the_others_follow_the_loop(connect):
     _, session = connect()
     session.set_mechanism("four-bar")
-    controls = session.controls.numbers.controls
-    assert not controls["omega1"].slider.disabled
-    assert controls["omega2"].slider.disabled and controls["omega3"].slider.disabled
-    assert "follows the loop" in controls["omega2"].slider.label
-    controls["omega1"].slider.value = 90.0
+    controls = sliders(session)
+    assert not controls["omega1"].disabled
+    # the speeds the loop sets are shown, greyed out and saying so (the chain panel showed them)
+    assert {"omega2", "omega3"} <= set(controls), f"no omega2/omega3 sliders: {sorted(controls)}"
+    assert controls["omega2"].disabled and controls["omega3"].disabled
+    assert "follows the loop" in controls["omega2"].label
+    controls["omega1"].value = 90.0
     p = session.params
     assert p.omega0[0] == pytest.approx(math.radians(90.0))
     residual = loop_jacobian(np.array(p.L), p.theta0) @ p.omega0
     assert np.max(np.abs(residual)) < 1e-9 and abs(p.omega0[1]) > 0.01
-    shown = [controls[f"omega{k}"].slider.value for k in (2, 3)]
+    shown = [controls[f"omega{k}"].value for k in (2, 3)]
     assert shown == pytest.approx(np.degrees(p.omega0[1:]), abs=2.5)  # on the slider's 5 °/s step
     with pytest.raises(Exception, match="this mechanism takes only omega1"):
         session.set("omega2", 10.0)
@@ -52,19 +59,19 @@ def test_the_status_line_says_paused_at_once(connect):
     """A paused player draws no new frame; the status line used to say "(playing)" until the next change."""
     _, session = connect()
     session.play()
-    assert wait_until(lambda: "(playing)" in session.controls.status.content, timeout=30)
+    assert wait_until(lambda: "(playing)" in session.status.content, timeout=30)
     session.pause()
-    assert wait_until(lambda: "(paused)" in session.controls.status.content, timeout=2), \
-        session.controls.status.content
+    assert wait_until(lambda: "(paused)" in session.status.content, timeout=2), \
+        session.status.content
     session.play()
-    assert wait_until(lambda: "(playing)" in session.controls.status.content, timeout=2)
+    assert wait_until(lambda: "(playing)" in session.status.content, timeout=2)
 
 
 def test_a_four_bar_shows_where_theta1_can_be_set(connect):
     _, session = connect()
     session.set_mechanism("four-bar")
-    line = session.controls.reach_line
-    assert line is not None and line.content.startswith("*theta1 reachable: ")
+    line = session.facts  # the line under the Mechanism menu: a four-bar's reach is its second paragraph
+    assert "\n\n*theta1 reachable: " in line.content, line.content
     p = session.params
     intervals = driving_range(p.L, p.pin)
     for low, high in intervals:
@@ -73,12 +80,12 @@ def test_a_four_bar_shows_where_theta1_can_be_set(connect):
     session.set("L1", 0.5 * p.L[0])
     assert line.content != before  # the range follows the lengths
     session.set_mechanism("triple-a")
-    assert session.controls.reach_line is None
+    assert "reachable" not in session.facts.content
 
 
 def test_the_mechanism_menu_says_what_the_preset_is(connect):
     _, session = connect()
     for name in ("triple-a", "four-bar"):
         session.set_mechanism(name)
-        text = session.controls.description.content
+        text = session.description.content
         assert text.startswith("*Seed") and len(text) > 40, text

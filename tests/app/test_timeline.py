@@ -12,7 +12,7 @@ from physics import LinkageError
 def test_the_timeline_follows_scrubs_back_and_plays_on(connect):
     _, session = connect()
     session.play()
-    timeline = session.controls.timeline
+    timeline = session.timeline  # the one session's Timeline slider
     assert wait_until(lambda: session.snapshot()["time"] > 2.0, timeout=30)
     assert wait_until(lambda: timeline.max > 1.5 and timeline.value > 1.5, timeout=5), (timeline.max, timeline.value)
     furthest = timeline.max
@@ -40,11 +40,10 @@ def test_a_new_start_clears_the_old_trace_and_plots_until_its_first_frame(connec
     """Issue 14 item 9: while a cold cache derives a new mechanism, the old trace and plots stayed beside it."""
     _, session = connect()
     session.play()
-    assert wait_until(lambda: session.view.trace.points_shown > 10 and
-                      session.controls.energy_plot.points_shown > 10, timeout=30)
+    assert wait_until(lambda: session.trace.points_shown > 10 and session.energy_plot.points_shown > 10, timeout=30)
     session.pause()
     session.player.wait_idle(30)
     with session.player.lock:  # no frame may come in between: as while the new equations are derived
-        session.view.show_start(session.params)
-        assert session.view.trace.points_shown == 0 and not session.view.trace.handle.visible
-        assert session.controls.energy_plot.points_shown == 0 and session.controls.drift_plot.points_shown == 0
+        session.set_mechanism("double")  # a new mechanism: the chain session's view.show_start
+        assert session.trace.points_shown == 0 and not session.trace.handle.visible
+        assert session.energy_plot.points_shown == 0 and session.drift_plot.points_shown == 0

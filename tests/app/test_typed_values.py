@@ -17,8 +17,16 @@ from conftest import BrowserStandIn, wait_until
 
 
 def type_into(session, name: str, text: str) -> None:
-    session.controls.typed_box(name).value = text
-    assert wait_until(lambda: not session.controls.numbers.typing(), timeout=10)
+    session.typed_box(name).value = text
+    assert wait_until(lambda: not session.typing(), timeout=10)
+
+
+def sliders(session) -> dict:
+    """Every slider of the panel with a typed box, by its name: the generated controls (the chain's numbers, its
+    start, the run's settings) and the Display tab's numbers."""
+    out = dict(session._knob_handles)  # noqa: SLF001 - the generated controls' sliders
+    out.update({name: number.slider for name, number in session.numbers.controls.items()})
+    return out
 
 
 def assert_alive(session) -> None:
@@ -44,14 +52,14 @@ def test_every_box_applies_a_good_value_and_refuses_a_bad_one_naming_field_and_r
     for name, good, read, expected, bad, words in FIELDS:
         type_into(session, name, good)
         assert read(session.params) == pytest.approx(expected, rel=1e-12), name
-        assert session.controls.typed_box(name).value == shown(name, read(session.params))
+        assert session.typed_box(name).value == shown(name, read(session.params))
         type_into(session, name, bad)
         assert read(session.params) == pytest.approx(expected, rel=1e-12), f"{name}: a refused value was applied"
         assert session.notice is not None and session.notice.startswith("Not applied"), (name, session.notice)
         for word in words:
             assert word in session.notice, (name, word, session.notice)
         # the box shows the value in force again, not what was typed
-        assert session.controls.typed_box(name).value == shown(name, read(session.params))
+        assert session.typed_box(name).value == shown(name, read(session.params))
         assert_alive(session)
     session.play()
     t0 = session.snapshot()["time"]
@@ -60,13 +68,15 @@ def test_every_box_applies_a_good_value_and_refuses_a_bad_one_naming_field_and_r
 
 def test_a_slider_and_its_box_show_the_same_value(connect):
     _, session = connect()
-    session.controls._bar_handles[0]["m"].value = 2.5
+    mass = session._knob_handles["m1"]  # noqa: SLF001 - bar 1's mass slider
+    mass.value = 2.5
     assert session.params.m[0] == 2.5
-    assert session.controls.typed_box("m1").value == "2.5"
+    assert session.typed_box("m1").value == "2.5"
     type_into(session, "m1", "4.75")  # beyond the slider's step grid, inside the model's bounds
-    assert session.controls._bar_handles[0]["m"].value == pytest.approx(4.75)
+    assert mass.value == pytest.approx(4.75)
     type_into(session, "g", "50")  # beyond the slider's useful range: the slider widens to show it
-    assert session.params.g == 50.0 and session.controls.gravity.value == 50.0 and session.controls.gravity.max >= 50
+    gravity = session._knob_handles["g"]  # noqa: SLF001
+    assert session.params.g == 50.0 and gravity.value == 50.0 and gravity.max >= 50
 
 
 def test_the_same_refusal_is_one_notification_not_a_pile(connect):
@@ -115,18 +125,17 @@ def test_hostile_values_on_every_control_give_notices_and_never_pause_the_sessio
     titles: list[str] = []
     show = session.show_notice
     session.show_notice = lambda title, body, **kw: (titles.append(title), show(title, body, **kw))
-    controls = session.controls
-    for name, number in list(controls.numbers.controls.items()):
-        if number.slider.disabled:
+    for name, slider in list(sliders(session).items()):
+        if slider.disabled:
             continue
         for value in HOSTILE_NUMBERS:
-            number.slider.value = value
+            slider.value = value
         for text in HOSTILE_TEXTS:
             session.guard(lambda name=name, text=text: session.set_typed(name, text))  # what the box's pause runs
-    controls.transport.value = "Bogus"
+    session.transport.value = "Bogus"
     session.analysis.count_dropdown.value = "bogus"
-    for dropdown in (controls.method, controls.integrator, controls.stabilization, controls.trace_point,
-                     controls.mechanism):
+    for dropdown in (session.method, session.integrator, session.stabilization, session.trace_menu, session.menu,
+                     session.plot_choice, session.body_menu):
         dropdown.value = "<b>bogus</b>"
     # "Simulation stopped": a value the models accept (L, g, omega have no upper bound) but no run survives;
     # that run stops with a notice saying why. Never "Session paused" (an error of the app itself).
@@ -144,10 +153,11 @@ def test_every_number_of_the_panel_names_its_unit(connect):
     session.set_mechanism("four-bar")  # a closed loop: the pin's controls too
     dimensionless = {"rtol", "arrow_scale"}
     units = ("(m)", "(kg)", "(kg·m²)", "(m/s²)", "(°", "(ms", "(s)", "(N·m·s)", "(1/s)", "(×)")
-    numbers = session.controls.numbers.controls
+    numbers = sliders(session)
     assert {"g", "I1", "theta1", "pin_x", "step", "speed"} <= set(numbers)
-    for name, control in numbers.items():
+    for name, slider in numbers.items():
         if name in dimensionless:
             continue
-        assert any(unit in control.slider.label for unit in units), (name, control.slider.label)
-        assert any(unit in control.box.label for unit in units), (name, control.box.label)
+        box = session.typed_box(name)
+        assert any(unit in slider.label for unit in units), (name, slider.label)
+        assert any(unit in box.label for unit in units), (name, box.label)

@@ -34,6 +34,6 @@ def test_reset_to_the_preset_values_undoes_edits(connect):
     session.set("L1", default_L1 + 0.5)
     session.set("g", default_g * 2)
     assert session.setup.L[0] == default_L1 + 0.5
-    session.guard(session.controls.reset_to_preset)  # what the button does
+    session.guard(session.reset_to_reference)  # what the "Reset to the preset's values" button does
     assert wait_until(lambda: session.setup.L[0] == default_L1 and session.setup.g == default_g, timeout=30)
     assert session.setup.preset == "double"
