@@ -143,7 +143,7 @@ def energy_values(sample: dict[str, np.ndarray], params: SessionParameters, refe
     return out
 
 
-def snapshot(*, session_id: str, shared: bool, params: SessionParameters, theta_sketch, compare: bool, player,
+def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, theta_sketch, compare: bool, player,
              notice: str | None, energy_reference: float | None, frames_sent: Callable[[], int],
              scene: Callable[[], dict]) -> dict:
     """A hosted chain's JSON snapshot with the chain session's keys (docs/app.md), written by the chain's own

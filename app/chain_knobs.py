@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from physics import LinkageError, Settings, loop_closure
+from physics.kinematics import point_on_bar
 from physics.mechanism import Mechanism
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.model import MAX_LINKS, validated
@@ -103,6 +104,24 @@ def close_loop(params: SessionParameters, theta: np.ndarray, omega: np.ndarray) 
     except LinkageError:  # a dead centre: the loop goes on from rest
         omega = np.zeros_like(omega)
     return theta, omega
+
+
+class ChainTrace:
+    """The chain's traced point (:class:`~physics.TracePoint`: bar, along, across; a coupler point, the tip, a
+    centre of mass) on hosted states ``q`` (T, 3 n): :func:`physics.kinematics.point_on_bar` of the chain's
+    angles, so that any point of the chain panel's menu is traced without a named point in the mechanism (its
+    compiled structure stays: the path is computed from the run's q, in numpy)."""
+
+    def __init__(self, params: SessionParameters) -> None:
+        self.L = np.asarray(params.L, dtype=float)
+        self.point = params.trace
+        self.sketch = sketch(params)
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        theta = q[:, 2::3] + self.sketch
+        point = self.point
+        return point_on_bar(self.L, theta, point.bar, point.along, point.across).reshape(len(q), 2)
 
 
 def trace_label(params: SessionParameters) -> str | None:

@@ -224,6 +224,9 @@ class MechanismSpec:
     # what a state ``q, qdot`` belongs to (structure_of), compared on each frame and on each edit
     structure: str = field(init=False)
     constraints: Constraints = field(init=False)  # its Phi(q, t): the condition at a shown sample (condition_at)
+    # the traced point's path of states ``q`` (T, 3 n) -> (T, 2) where it is no named point (a hosted chain's
+    # TracePoint: a coupler point, a centre of mass; app/chain_knobs.py ChainTrace); None: the named point's
+    trace_of: Callable[[np.ndarray], np.ndarray] | None = None
 
     state_fields = ("q", "qdot")
     pinned = False
@@ -280,7 +283,10 @@ class MechanismSpec:
         computed here again; the traced one is one of them, else the first body's centre."""
         points = np.stack([paths.path(q, k) for k in range(len(self.draw.labels))], axis=1)
         k = self.trace_index()
-        trace = points[:, k] if k is not None else centres_at(q)[:, 0]
+        if self.trace_of is not None:
+            trace = self.trace_of(q)
+        else:
+            trace = points[:, k] if k is not None else centres_at(q)[:, 0]
         return {
             "t": np.asarray(t, dtype=float), "q": q, "qdot": qdot, "joints": points, "com": centres_at(q),
             "trace_xy": trace, "kinetic": kinetic, "potential": potential, "energy": kinetic + potential,

@@ -39,7 +39,7 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 
-from . import chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
+from . import chain_contract, chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .controls import TIMELINE_MIN_SPAN, TIMELINE_STEP, timeline_window
@@ -82,6 +82,7 @@ from .page import READY_HTML
 from .parameters import Display, SessionParameters, method_from_label, method_label, settings_data
 from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
+from .resources import STATIC
 from .rest_view import MechanismRests, RestPositionsPanel
 from .scene import pose_disc
 from .text import markdown_literal
@@ -172,6 +173,31 @@ def coordinate_label(coordinate: FreeCoordinate) -> str:
 def coordinate_unit(coordinate: FreeCoordinate) -> str:
     """The unit a coordinate is shown in, as in the Start folder: ° for an angle, m for a place."""
     return "°" if coordinate.angular else "m"
+
+
+class CallableButton:
+    """A panel button that is also a call: ``session.export_html`` is the Export tab's "Save HTML replay" button
+    (its handle's members, for the panel and its tests) and ``session.export_html()`` the chain session's call of
+    that name (the replay's page), so that callers of either kind of session keep working."""
+
+    def __init__(self, handle, call: Callable[[], Any]) -> None:
+        object.__setattr__(self, "_handle", handle)
+        object.__setattr__(self, "_call", call)
+
+    def __call__(self) -> Any:
+        return self._call()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._handle, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        setattr(self._handle, name, value)
+
+
+def chain_help() -> str:
+    """The chain panel's Help text (static/help.md; app/controls.py shows the same file)."""
+    help_file = STATIC / "help.md"
+    return help_file.read_text(encoding="utf-8") if help_file.exists() else "See docs/app.md."
 
 
 def mechanism_names() -> list[str]:
@@ -382,7 +408,9 @@ class MechanismSession(SessionBase):
                                                          "command writes it")
             self.download_buttons.on_click(lambda event: self.guard(lambda: self.download(
                 str(self.download_buttons.value).lower(), getattr(event, "client", None))))
-            self.export_html = panel_rows.add_export_button(gui, bind, self, "html")
+            # the Save HTML replay button, and called, the chain session's export_html() (see CallableButton)
+            self.export_html = CallableButton(panel_rows.add_export_button(gui, bind, self, "html"),
+                                              self._export_html)
             # as the chain panel's Export tab (app/controls.py): the setup as a file, and one read back
             self.save_setup = gui.add_button("Save this setup (JSON)")
             self.save_setup.on_click(lambda event: self.guard(lambda: self.download(
@@ -391,7 +419,7 @@ class MechanismSession(SessionBase):
             self.setup_upload.on_upload(lambda event: self.guard(lambda: self.upload_setup(
                 getattr(event, "client_id", None), self.setup_upload.value.name, self.setup_upload.value.content)))
         with self.tabs.add_tab("Help"):
-            gui.add_markdown(MECHANISM_HELP)
+            self.help = gui.add_markdown(self._help_text())  # the chain panel's for a hosted chain (_show_facts)
         self.torque_plot: Plot | None = None
 
     def _menu_entries(self) -> list[str]:
@@ -449,14 +477,19 @@ class MechanismSession(SessionBase):
     def _build_coordinate_plot(self) -> None:
         """The Plot menu's coordinates over time, one series per coordinate of :func:`plotted_coordinates`,
         named as the Start folder names them (in its units: ° or m), beside the energy plot."""
-        self._plotted = plotted_coordinates(self.mechanism, self.free)
-        labels = [coordinate_label(c) for c in self._plotted]
+        if self.chain is not None:  # the chain panel's Angles plot: every bar's angle, θ1..θn in degrees
+            n = self.chain.n
+            self._plotted = tuple(FreeCoordinate(f"bar{k}", "angle", 3 * k - 1) for k in range(1, n + 1))
+            labels = [f"θ{k}" for k in range(1, n + 1)]
+        else:
+            self._plotted = plotted_coordinates(self.mechanism, self.free)
+            labels = [coordinate_label(c) for c in self._plotted]
         if self.coordinate_plot is not None and self.coordinate_plot.labels == labels:
             return
         if self.coordinate_plot is not None:
             self.coordinate_plot.remove()
         units = {coordinate_unit(c) for c in self._plotted}
-        self.coordinate_plot = Plot(self.target.gui, "Coordinates", labels,
+        self.coordinate_plot = Plot(self.target.gui, "Angles" if self.chain is not None else "Coordinates", labels,
                                     [BAR_COLORS[k % len(BAR_COLORS)] for k in range(len(labels))],
                                     y_label=units.pop() if len(units) == 1 else "",
                                     order=self.energy_plot.handle.order - 0.5)
@@ -469,7 +502,7 @@ class MechanismSession(SessionBase):
 
     def choose_plot(self, label: object) -> None:
         """The Plot menu (app/panel_rows.py): show the plot chosen, drawn now from the run."""
-        self._plot_kind = panel_rows.plot_kind(panel_rows.MECHANISM_PLOT_CHOICES, label)
+        self._plot_kind = panel_rows.plot_kind(self._plot_choices(), label)
         self._show_chosen_plot()
         self.refresh_plots()
 
@@ -513,7 +546,7 @@ class MechanismSession(SessionBase):
     def _knob_moved(self, knob: Knob, handle) -> None:
         if self._syncing:
             return
-        self.guard(lambda: self.set(knob.name, knob.from_slider(handle.value)))
+        self.guard(lambda: self.set(knob.name, knob.from_slider(handle.value), CONTROL))
 
     def _typed(self, name: str) -> None:
         """A keystroke in a typed box: the value is applied once typing has paused (TYPING_PAUSE_S); then the
@@ -630,17 +663,20 @@ class MechanismSession(SessionBase):
         quietly(self.sync_all, "putting the controls back after a refused value")
 
     # ------------------------------------------------------------------ edits
-    def set(self, name: str, value: object) -> None:
-        """Set a generated control (``mass:crank``, ``size:coupler``, ``speed:O2`` in °/s, ``ratio:mesh``, ``g``;
+    def set(self, name: str, value: object, units: str = SI) -> None:
+        """A hosted chain's value by the chain session's names and units (``L2``, ``m3``, ``theta1``, ``g``,
+        ``pin_x``, ``damping``, ``rtol``, ``method``, ``trace``, ``links``, a display setting; ``units`` SI:
+        radians, seconds, as ``python -m physics --set``; CONTROL: the panel's degrees and milliseconds),
+        through :func:`app.commands.apply`. For a mechanism: set a generated control (``mass:crank``, ``size:coupler``, ``speed:O2`` in °/s, ``ratio:mesh``, ``g``;
         the run's ``rtol`` and ``step`` in ms; a start's ``angle0:crank`` in °, ``omega0:crank`` in °/s):
         geometry starts again from the re-assembled sketch, a start from the new start at t = 0; masses, inertias,
         motors, gravity and the run's settings go on from the displayed state (the constraints do not depend
-        on them)."""
-        if name in DISPLAY_NAMES:  # playback speed, trace length, arrow scale (SI: seconds, a factor)
-            self._set_display(name, value, SI)
+        on them); its controls are in the panel's units whatever ``units``, which a display setting takes."""
+        if name in DISPLAY_NAMES:  # playback speed, trace length, arrow scale
+            self._set_display(name, value, units)
             return
-        if self.chain is not None:  # a hosted chain's knob, by the chain's name, in the panel's units
-            self._set_chain(name, value, CONTROL)
+        if self.chain is not None:  # a hosted chain's value, by the chain's name
+            self._set_chain(name, value, units)
             return
         with self._lock:
             if name in SETTING_KNOBS:
@@ -721,6 +757,11 @@ class MechanismSession(SessionBase):
             self._build_scene(self.q0 if state is None else q)
             self._frame_camera(points_at(self.spec.draw, self.q0), force=False)
             self.facts.content = chain_knobs.facts_line(params)  # a four-bar's reach moves with its lengths
+            self._syncing, syncing = True, self._syncing
+            try:
+                self._sync_trace_menu()  # a traced point the new lengths moved (a custom one's label)
+            finally:
+                self._syncing = syncing
             self._follow_ranges()
         self.energy_ref = None
         if state is None:
@@ -872,6 +913,21 @@ class MechanismSession(SessionBase):
             self._continue()
 
     def set_trace(self, label: str) -> None:
+        """The traced point by the menu's entry (a share link's ``trace``); a hosted chain's by the chain panel's
+        labels, through the chain's command layer: the path is the chain's TracePoint on the run's q (no new
+        structure), going on from the displayed state."""
+        if self.chain is not None:
+            with self._lock:
+                edit = commands.apply(self.chain, "trace", label, CONTROL)
+                self.chain = edit.params
+                self.settings = self.settings.model_copy(update={"trace": chain_knobs.trace_label(edit.params)})
+                self._continue()
+                self._syncing, syncing = True, self._syncing
+                try:
+                    self._sync_trace_menu()
+                finally:
+                    self._syncing = syncing
+            return
         with self._lock:
             _choice("traced point", label, ["(none)", *self.spec.draw.labels])
             self.settings = self.settings.model_copy(update={"trace": None if label == "(none)" else label})
@@ -1136,7 +1192,12 @@ class MechanismSession(SessionBase):
         (client or self.target).send_file_download(name, content)
 
     def download_file(self, kind: str) -> tuple[str, bytes]:
-        """``(file name, content)`` of a download (see :meth:`download`)."""
+        """``(file name, content)`` of a download (see :meth:`download`); a hosted chain's are the chain
+        session's files (``linkage-{preset}-{method}.csv``, its columns: app/chain_contract.py)."""
+        if self.chain is not None:
+            params = self.chain
+            return chain_contract.download_file(self.player, "main", params, chain_knobs.sketch(params),
+                                                self.spec.row_names, kind)
         if kind == "setup":
             stem = "".join(c if c.isalnum() or c in "-_" else "-" for c in self.label)
             return f"linkage-{stem}-setup.json", self.setup_document()
@@ -1215,7 +1276,11 @@ class MechanismSession(SessionBase):
         return self.player.seek(t, timeout)
 
     def snapshot(self) -> dict:
-        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys)."""
+        """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys); a hosted
+        chain's is the chain session's, key for key (app/chain_contract.py), so that scripts read one document
+        whichever session shows the chain."""
+        if self.chain is not None:
+            return self._chain_snapshot(self.chain)
         player = self.player
         with player.lock:
             run = player.runs[0] if player.runs else None
@@ -1253,6 +1318,117 @@ class MechanismSession(SessionBase):
                 "notice": self.notices.text, "frames_sent": self.frames_sent,
                 "scene": {"root": self.scene.root, "nodes": nodes, "names": sorted(nodes)},
             }
+
+    # ------------------------------------------------------------------ the chain session's API (a hosted chain)
+    def _hosted(self, what: str) -> SessionParameters:
+        """The hosted chain's parameters, for a call of the chain session's API; LinkageError naming the call
+        for a mechanism (its own calls are named in the message)."""
+        if self.chain is None:
+            raise LinkageError(f"{what}: applies to a chain preset only; {self.label!r} is a mechanism (its runs: "
+                               "download_file('csv'), snapshot(); its values: set(name, value))")
+        return self.chain
+
+    @property
+    def params(self) -> SessionParameters:
+        """The chain session's ``params``: the hosted chain's parameters in force (chain, settings, start; the
+        same object as ``chain``); LinkageError for a mechanism (its numbers: ``mechanism``, ``settings``)."""
+        return self._hosted("params")
+
+    @property
+    def setup(self) -> SessionParameters:
+        """The chain session's ``setup`` (what its panel reads): :attr:`params`."""
+        return self._hosted("setup")
+
+    @property
+    def notice(self) -> str | None:
+        """The notice shown (``"Title: text"``), or None: the chain session's ``notice``."""
+        return self.notices.text
+
+    def set_start(self, theta0, omega0, play: bool = False) -> None:
+        """The chain session's ``set_start``: start again at t = 0 from ``(theta0, omega0)`` (n,) in radians (a
+        rest position), paused unless ``play``; LinkageError when the chain's models refuse the state (nothing
+        changed), or for a mechanism (its start: :meth:`set_start_pose`)."""
+        params = self._hosted("set_start")
+        with self._lock:
+            new = params.replaced(theta0=np.array(theta0, dtype=float), omega0=np.array(omega0, dtype=float))
+            q0, qdot0 = chain_knobs.hosted_start(new)
+            self.chain, self.q0, self.qdot0 = new, q0, qdot0
+            self._build_scene(q0)
+            self.energy_ref = None
+            self._clear_plots()
+            self._restart(0.0, q0, qdot0, keep_history=False, play=play)
+        self.sync_all()
+
+    def set_mechanism(self, name: str, links: int | None = None) -> None:
+        """The chain session's ``set_mechanism``: a chain preset (``links`` for ``chain``) hosted here, the
+        integration choices in force kept where its methods take them; a mechanism preset shown here as loaded;
+        the same preset again starts from its own values. LinkageError naming the presets otherwise."""
+        chains, mechanisms = list(preset_names()), mechanism_names()
+        if not isinstance(name, str) or name not in (*chains, *mechanisms):
+            raise LinkageError(f"mechanism = {name!r}: allowed {', '.join([*chains, *mechanisms])}")
+        if name in mechanisms:
+            self._start_anew(MECHANISM_PRESETS[name](), name)
+            return
+        number = None if name != "chain" or links is None else commands.parse_links(links)
+        self.open_chain(SessionParameters.from_preset(name, links=number))
+
+    def displayed_state(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """``(t, theta, omega)`` of the first run at the sample shown (the chain session's); for a mechanism
+        ``(t, q, qdot)``, its own coordinates. None before the first sample."""
+        found = self.player.current_start()
+        if found is None:
+            return None
+        spec, t, q, qdot = found
+        if self.chain is not None and chain_knobs.same_shape(cast(MechanismSpec, spec).chain, self.chain):
+            theta, omega = chain_knobs.chain_angles(self.chain, q, qdot)
+            return t, theta, omega
+        return t, q, qdot
+
+    def state_at(self, t: float, exact: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+        """The displayed run's ``(theta, omega)`` at time ``t`` (interpolated between samples; ``exact``: only at
+        a sample's time), if stored: the chain session's; for a mechanism its ``(q, qdot)``."""
+        found = self.player.state_at(t, exact)
+        if found is None or self.chain is None:
+            return found
+        return chain_knobs.chain_angles(self.chain, *found)
+
+    def history(self, label: str = "main") -> dict:
+        """The stored samples of run ``label`` (or the first) up to the displayed time, in the chain's fields
+        (``t``, ``theta``, ``omega``, ``joints``, ``trace_xy``, energies, ``reactions``; pinned: ``tip_reaction``,
+        ``constraint_xy``), as the chain session's ``history`` (app/chain_contract.py maps the run's q)."""
+        params = self._hosted("history")
+        samples = readout.history(self.player, label)
+        return chain_contract.chain_history(samples, params, chain_knobs.sketch(params), self.spec.row_names)
+
+    def run_label(self) -> str:
+        """The JSON download's description of the run: ``preset (n bars), method, integrator``."""
+        return chain_contract.run_label(self._hosted("run_label"))
+
+    def export_csv(self) -> bytes:
+        """The run up to the displayed time as the chain session's CSV (app/export.py ``columns``)."""
+        self._hosted("export_csv")
+        return self.download_file("csv")[1]
+
+    def export_json(self) -> bytes:
+        """The run up to the displayed time as the chain session's JSON (its description :meth:`run_label`)."""
+        self._hosted("export_json")
+        return self.download_file("json")[1]
+
+    def _export_html(self) -> str:
+        """The chain session's HTML replay of the run up to the displayed time (``session.export_html()``)."""
+        self._hosted("export_html")
+        return self.download_file("html")[1].decode("utf-8")
+
+    def _chain_snapshot(self, params: SessionParameters) -> dict:
+        """The chain session's snapshot of the hosted chain ``params`` (app/chain_contract.py ``snapshot``)."""
+        def scene() -> dict:
+            nodes = self.compare_view.poses() if self.compare else self.scene.poses()
+            return {"root": self.scene.root, "nodes": nodes}
+
+        return chain_contract.snapshot(
+            session_id=self.id, shared=self.shared, params=params, theta_sketch=chain_knobs.sketch(params),
+            compare=self.compare, player=self.player, notice=self.notices.text, energy_reference=self.energy_ref,
+            frames_sent=lambda: self.frames_sent, scene=scene)
 
     def reset_to_reference(self) -> None:
         """The preset's (or file's) values again; a hosted chain's preset values, its integration choices kept."""
@@ -1321,7 +1497,8 @@ class MechanismSession(SessionBase):
             POOL.release(self.worker)
             self.worker = POOL.acquire()
         runner = self.worker.run if self.worker is not None else None
-        return MechanismSpec("main", self.mechanism, self.settings, runner=runner)
+        trace_of = None if self.chain is None else chain_knobs.ChainTrace(self.chain)  # the chain's traced point
+        return MechanismSpec("main", self.mechanism, self.settings, runner=runner, trace_of=trace_of)
 
     def _restart(self, t0: float, q0: np.ndarray, qdot0: np.ndarray, *, keep_history: bool,
                  play: bool | None = None) -> None:
@@ -1329,6 +1506,8 @@ class MechanismSession(SessionBase):
         self.notices.clear()  # a run goes on: a stopped run's notice is about the run it replaces
         self._segment_t0 = t0  # the energy error plot measures from here ("since last change")
         specs = [self.spec] if not self.compare else compare_specs(self.mechanism, self.settings, self.spec.runner)
+        for spec in specs:  # a hosted chain's traced point, in every formulation (the divergence is measured there)
+            spec.trace_of = self.spec.trace_of
         self.player.restart(cast(Any, specs), t0, [(q0, qdot0)] * len(specs), keep_history=keep_history, play=play)
 
     def _new_mechanism(self, mechanism: Mechanism, play: bool | None, same_kind: bool = False,
@@ -1377,6 +1556,8 @@ class MechanismSession(SessionBase):
 
     def _trace_name(self) -> str:
         """The point compare mode measures the formulations' divergence at (the run's traced point)."""
+        if self.chain is not None:
+            return self.chain.trace_label()
         k = self.spec.trace_index()
         return self.spec.draw.labels[k] if k is not None else f"{self.mechanism.bodies[0].name} (centre of mass)"
 
@@ -1409,12 +1590,22 @@ class MechanismSession(SessionBase):
             self.facts.content = markdown_literal(
                 f"{len(m.bodies)} bodies, {len(m.joints)} joints; {mobility_text_for(m, self.mobility)}"
                 + (f" (motors: {motors})" if motors else ""))
+        help_text = self._help_text()
+        if self.help.content != help_text:
+            self.help.content = help_text
+        choices = self._plot_choices()
+        if tuple(self.plot_choice.options) != choices:  # its callback muted below: the kind shown stays
+            syncing, self._syncing = self._syncing, True
+            try:
+                self.plot_choice.options = choices
+                self.plot_choice.value = choices[panel_rows.PLOT_KINDS.index(self._plot_kind)]
+            finally:
+                self._syncing = syncing
         # viser puts a menu whose value left its new options on the first and calls its callback: muted, or the
         # traced point chosen for this mechanism became "(none)" (crank-rocker, then slider-crank)
         syncing, self._syncing = self._syncing, True
         try:
-            self.trace_menu.options = ["(none)", *self.spec.draw.labels]
-            self.trace_menu.value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
+            self._sync_trace_menu()
             methods = self._methods()
             self.method.options = [method_label(name) for name in methods]
             self.method.value = method_label(self.settings.method)
@@ -1427,6 +1618,38 @@ class MechanismSession(SessionBase):
             self._syncing = syncing
         self._show_free_body_help()
         self.rests.forget_if_stale()  # another mechanism, or other numbers: the list no longer applies
+
+    def _plot_choices(self) -> tuple[str, ...]:
+        """The Plot menu's entries: the chain panel's (``Angles θ(t)``, ...) for a hosted chain, else the
+        mechanism's."""
+        return panel_rows.CHAIN_PLOT_CHOICES if self.chain is not None else panel_rows.MECHANISM_PLOT_CHOICES
+
+    def _help_text(self) -> str:
+        """The Help tab: the chain panel's help (static/help.md, as app/controls.py shows it) for a hosted
+        chain, :data:`MECHANISM_HELP` for a mechanism."""
+        return chain_help() if self.chain is not None else MECHANISM_HELP
+
+    def _trace_choices(self) -> list[str]:
+        """The Traced point menu's entries: a hosted chain's are the chain panel's (``coupler point``, ``tip H``,
+        ``joint k``, ``centre of mass k``: SessionParameters.trace_choices, the share link's ``trace`` values);
+        a mechanism's its named points, or none."""
+        if self.chain is not None:
+            choices = list(self.chain.trace_choices())
+            label = self.chain.trace_label()
+            return choices if label in choices else [*choices, label]  # a point of no entry's (a setup's)
+        return ["(none)", *self.spec.draw.labels]
+
+    def _sync_trace_menu(self) -> None:
+        """The Traced point menu on the entries and the point in force (its callback muted by the caller)."""
+        options = self._trace_choices()
+        if list(self.trace_menu.options) != options:
+            self.trace_menu.options = options
+        if self.chain is not None:
+            value = self.chain.trace_label()
+        else:
+            value = self.settings.trace if self.settings.trace in self.spec.draw.labels else "(none)"
+        if self.trace_menu.value != value:
+            self.trace_menu.value = value
 
     def _methods(self) -> list[str]:
         """The Method menu's keys: every formulation (the reduced model for mobility 1); for a hosted chain those
@@ -1524,6 +1747,8 @@ class MechanismSession(SessionBase):
             values, rates = data["q"][:, columns] * to_shown, data["qdot"][:, columns] * to_shown
             if kind == "angles" and self.coordinate_plot is not None:
                 self.coordinate_plot.update(t, *values.T)
+            elif kind == "phase" and len(t) >= 2 and self.chain is not None:  # the chain panel's: every bar
+                self.phase_image.image = phase_picture(values + np.degrees(chain_knobs.sketch(self.chain)), rates)
             elif kind == "phase" and len(t) >= 2:
                 first_one = self._plotted[0]
                 unit = coordinate_unit(first_one)

@@ -8,7 +8,9 @@ see whether an edit loaded a new compiled system.
 
 from __future__ import annotations
 
+import json
 import math
+import re
 import urllib.parse
 
 import numpy as np
@@ -16,12 +18,15 @@ import pytest
 import viser
 
 import physics
-from app import commands, mechanism_workers, share
+from app import commands, export, mechanism_workers, share
 from app.chain_knobs import chain_angles, hosted_start
 from app.commands import CONTROL, QUANTITIES
 from app.controls import BAR_SLIDERS, reach_text
-from app.mechanism_session import MechanismSession
-from app.parameters import SessionParameters
+from app.mechanism_session import MECHANISM_HELP, MechanismSession, chain_help
+from app.panel_rows import CHAIN_PLOT_CHOICES, MECHANISM_PLOT_CHOICES
+from app.parameters import METHOD_LABELS, SessionParameters
+from app.player import SAMPLE_DT
+from app.resources import STATIC
 from conftest import wait_until
 from physics import LinkageError, Settings
 from physics.codegen import cache as codegen_cache
@@ -328,7 +333,7 @@ def test_a_hosted_chain_gives_way_to_a_mechanism_preset_and_back(host):
     assert session.chain is not None and session.chain.preset == "four-bar" and session.label == "four-bar"
     assert "pin_x" in {knob.name for knob in session.panel_knobs()}
     session.choose("triple-b")
-    assert session.settings.trace == "bar3.D" and session.trace_menu.value == "bar3.D"  # the chain's tip
+    assert session.settings.trace == "bar3.D" and session.trace_menu.value == "tip H"  # the chain's tip
     session.choose("slider-crank")
     assert session.chain is None and session.label == "slider-crank"
     _played(session, 0.3)  # the menus' callbacks (viser's, when a value left its options) have run meanwhile
@@ -336,3 +341,276 @@ def test_a_hosted_chain_gives_way_to_a_mechanism_preset_and_back(host):
     assert session.settings.trace == mechanism.trace and session.trace_menu.value == mechanism.trace
     assert session.link_query() == "?preset=slider-crank"
     assert {f"mass:{body.name}" for body in mechanism.bodies} <= {knob.name for knob in session.panel_knobs()}
+
+
+# ---------------------------------------------------------------------------------------------- what it hands out
+# the chain session's snapshot keys, in its order (docs/app.md, "snapshot()"; app/readout.py snapshot_document)
+CHAIN_SNAPSHOT_KEYS = ["session", "shared", "parameters", "method", "compare", "playing", "speed", "time", "theta",
+                       "omega", "joints", "energy", "runs", "reference", "notice", "frames_sent", "scene"]
+RUN_KEYS = ["label", "method", "t", "theta", "omega", "joints", "trace_xy", "samples_stored", "simulated_until",
+            "failed"]
+
+
+@pytest.mark.parametrize("preset", ["triple-a", "four-bar"])
+def test_a_hosted_chains_snapshot_is_the_chain_sessions(host, preset):
+    session = host(preset, autoplay=False)
+    session.set_link_value("m2", "1.5")
+    assert session.goto_time(0.5, timeout=120), session.notices.text
+    shot = session.snapshot()
+    assert list(shot) == CHAIN_SNAPSHOT_KEYS
+    params = session.chain
+    assert shot["parameters"] == params.as_dict() and shot["method"] == params.method
+    assert shot["session"] == session.id and shot["compare"] is False and shot["reference"] is None
+    assert [list(run) for run in shot["runs"]] == [RUN_KEYS] and shot["runs"][0]["label"] == "main"
+    # the chain's angles at the time shown, from the run's own q
+    ring = session.player.runs[0].ring
+    i = ring.index_at(session.player.display_time)
+    theta, omega = chain_angles(params, ring.get("q", i), ring.get("qdot", i))
+    assert shot["time"] == pytest.approx(0.5, abs=1e-9)
+    assert np.allclose(shot["theta"], theta, atol=1e-12) and np.allclose(shot["omega"], omega, atol=1e-12)
+    joints = physics.kinematics.joint_positions(params.L, theta[None, :])[0]
+    assert np.allclose(shot["joints"], joints, atol=1e-12)
+    expected_energy = {"kinetic", "potential", "total", "reference", "relative_drift"} | (
+        {"constraint_error"} if params.pinned else set())
+    assert set(shot["energy"]) == expected_energy
+    assert shot["energy"]["total"] == pytest.approx(float(ring.get("energy", i)))
+    assert list(shot["scene"]) == ["root", "nodes", "names"] and shot["scene"]["names"] == sorted(shot["scene"]["nodes"])
+    assert shot["scene"]["root"] == "/linkage" and shot["scene"]["nodes"]
+
+
+@pytest.mark.parametrize("preset", ["double", "four-bar"])
+def test_a_hosted_chains_downloads_are_the_chain_sessions(host, preset):
+    session = host(preset, autoplay=False)
+    session.set_method("dae")
+    assert session.goto_time(0.5, timeout=120), session.notices.text
+    params = session.chain
+    stem = f"linkage-{preset}-dae"
+    name, csv = session.download_file("csv")
+    assert name == f"{stem}.csv"
+    history = session.history()
+    header = csv.decode().splitlines()[0].split(",")
+    assert header == list(export.columns(history, "dae", params.pinned))
+    assert header[:1 + 2 * params.n] == ["t", *(f"theta{k}" for k in range(1, params.n + 1)),
+                                         *(f"omega{k}" for k in range(1, params.n + 1))]
+    rows = csv.decode().splitlines()[1:]
+    assert len(rows) == len(history["t"]) and len(rows) == int(round(0.5 / SAMPLE_DT)) + 1
+    name, content = session.download_file("json")
+    assert name == f"{stem}.json" and json.loads(content)["description"] == session.run_label()
+    name, page = session.download_file("html")
+    assert name == f"{stem}-replay.html" and page.startswith(b"<!")
+    name, setup = session.download_file("setup")
+    assert name == f"linkage-{preset}-setup.json" and setup == share.state_document(params)
+    with pytest.raises(LinkageError, match="download = 'pdf': allowed csv, json, html, setup, tex"):
+        session.download_file("pdf")
+
+
+def test_the_chain_sessions_history_and_exports_on_a_hosted_chain(host):
+    session = host("four-bar", autoplay=False)
+    assert session.goto_time(0.4, timeout=120), session.notices.text
+    history = session.history()
+    ring = session.player.runs[0].ring
+    theta, omega = chain_angles(session.chain, ring.window(0, len(history["t"]) - 1)["q"],
+                                ring.window(0, len(history["t"]) - 1)["qdot"])
+    assert np.allclose(history["theta"], theta, atol=1e-12) and np.allclose(history["omega"], omega, atol=1e-12)
+    assert {"tip_reaction", "constraint_xy", "reactions", "joints"} <= set(history)
+    params = session.chain
+    assert session.run_label() == f"four-bar (3 bars), {METHOD_LABELS[params.method]}, {params.integrator}"
+    assert session.export_csv() == session.download_file("csv")[1]
+    assert session.export_json() == session.download_file("json")[1]
+    assert session.export_html() == session.download_file("html")[1].decode("utf-8")
+    assert session.export_html.label == "Save HTML replay"  # and it is still the panel's button
+    mechanism = host("triple-a", autoplay=False)
+    mechanism.choose("slider-crank")
+    for call in (mechanism.history, mechanism.run_label, mechanism.export_csv, mechanism.export_json,
+                 mechanism.export_html):
+        with pytest.raises(LinkageError, match="applies to a chain preset only; 'slider-crank' is a mechanism"):
+            call()
+
+
+# ---------------------------------------------------------------------------------------------- the traced point
+def _trace_of(params: SessionParameters, q: np.ndarray) -> np.ndarray:
+    """The chain's traced point of hosted states ``q``, by the chain's own kinematics."""
+    theta, _ = chain_angles(params, q, np.zeros_like(q))
+    point = params.trace
+    return physics.kinematics.point_on_bar(params.L, theta, point.bar, point.along, point.across)
+
+
+def test_the_four_bar_traces_its_coupler_curve(host):
+    session = host("four-bar", autoplay=False)
+    params = session.chain
+    assert params.trace == params.default_trace and params.trace.across != 0.0  # off the bar: no named point
+    assert list(session.trace_menu.options) == list(params.trace_choices())
+    assert session.trace_menu.value == "coupler point"
+    assert session.goto_time(1.5, timeout=120), session.notices.text
+    ring = session.player.runs[0].ring
+    stored = ring.window(0, len(ring) - 1, ["q", "trace_xy", "joints"])
+    assert np.allclose(stored["trace_xy"], _trace_of(params, stored["q"]), atol=1e-12)
+    # a curve of its own: away from every drawn point's path (joints, centres), and it moves
+    gaps = np.hypot(*(stored["joints"] - stored["trace_xy"][:, None, :]).transpose(2, 0, 1))
+    assert float(gaps.min()) > 0.1
+    assert float(np.ptp(stored["trace_xy"], axis=0).max()) > 0.05
+    # the line drawn is that path over the trace length
+    shown = ring.index_at(session.player.display_time)
+    window = session._trace_window(ring, session.player.display_time, shown)
+    assert len(window) > 2 and np.allclose(window, stored["trace_xy"][: shown + 1][-len(window):], atol=1e-12)
+    assert session.snapshot()["runs"][0]["trace_xy"] == pytest.approx(list(stored["trace_xy"][shown]), abs=1e-12)
+
+
+def test_choosing_the_traced_point_goes_on_without_a_new_structure(host):
+    session = host("triple-a")
+    _played(session, 0.3)
+    key = structure_key(session.mechanism)
+    loaded = set(codegen_cache._loaded)
+    _, t, _, _ = _paused_state(session)
+    session.trace_menu.value = "centre of mass 2"  # the menu's own callback, as a browser's choice
+    assert session.notices.text is None and session.trace_menu.value == "centre of mass 2"
+    assert session.player.wait_idle(60)
+    spec, t_after, _, _ = session.player.current_start()
+    assert t_after == pytest.approx(t, abs=1e-12) and structure_key(spec.chain) == key
+    _played(session, 0.2)
+    params = session.chain
+    assert params.trace == params.trace_choices()["centre of mass 2"]
+    ring = session.player.runs[0].ring
+    first = ring.index_at(t_after + 0.05)
+    stored = ring.window(first, len(ring) - 1, ["q", "trace_xy"])
+    assert np.allclose(stored["trace_xy"], _trace_of(params, stored["q"]), atol=1e-12)
+    assert set(codegen_cache._loaded) == loaded  # nothing derived or compiled
+    # the link is the chain session's (which leaves the traced point out), and a link's trace= is read as its
+    assert session.link_query() == share.link_query(_edited("triple-a", [("trace", "centre of mass 2")]))
+    other = host("triple-a", autoplay=False)
+    other.load_setup([("preset", "triple-a"), ("trace", "centre of mass 2")])
+    assert other.notices.text is None and other.chain.trace == params.trace
+    assert other.trace_menu.value == "centre of mass 2"
+    with pytest.raises(LinkageError, match="traced point = 'bar9.D': allowed tip H, joint 1"):
+        session.set_trace("bar9.D")
+
+
+# ---------------------------------------------------------------------------------------------- labels and help
+def test_a_hosted_chains_plots_and_help_are_the_chain_panels(host):
+    session = host("triple-a")
+    assert session.help.content == (STATIC / "help.md").read_text(encoding="utf-8") == chain_help()
+    assert tuple(session.plot_choice.options) == CHAIN_PLOT_CHOICES
+    session.plot_choice.value = "Angles θ(t)"  # the menu's own callback, as a browser's choice
+    assert session.plot_kind == "angles" and session.notices.text is None
+    plot = session.coordinate_plot
+    assert plot is not None and plot.labels == ["θ1", "θ2", "θ3"] and plot.handle.title == "Angles"
+    _played(session, 0.5)
+    assert wait_until(lambda: plot.points_shown > 2, timeout=30)
+    t, *angles = plot.handle.data
+    ring = session.player.runs[0].ring
+    i = ring.index_at(float(t[-1]))
+    theta, _ = chain_angles(session.chain, ring.get("q", i), ring.get("qdot", i))
+    assert float(ring.get("t", i)) == pytest.approx(float(t[-1]), abs=1e-9)
+    assert np.allclose([a[-1] for a in angles], np.degrees(theta), atol=1e-9)  # degrees, every bar
+    starts = {knob.name: knob.label for knob in session._start_knobs()}
+    assert starts == {**{f"theta{k}": f"theta{k} (°)" for k in (1, 2, 3)},
+                      **{f"omega{k}": f"omega{k} (°/s)" for k in (1, 2, 3)}}
+    session.choose("slider-crank")  # a mechanism: its own help, plot menu and coordinates
+    assert session.help.content == MECHANISM_HELP
+    assert tuple(session.plot_choice.options) == MECHANISM_PLOT_CHOICES
+    assert session.plot_choice.value == "Coordinates over time" and session.plot_kind == "angles"
+    assert session.coordinate_plot is not None and session.coordinate_plot.handle.title == "Coordinates"
+    session.set_mechanism("four-bar")  # a chain preset is hosted here again
+    assert session.help.content == chain_help() and session.plot_choice.value == "Angles θ(t)"
+
+
+# ---------------------------------------------------------------------------------------------- the chain session's API
+def test_params_setup_notice_and_set_in_si_or_control_units(host):
+    session = host("triple-a", autoplay=False)
+    assert session.params is session.chain and session.setup is session.chain
+    session.set("theta1", math.radians(30.0))  # SI by default, as python -m physics --set
+    assert session.params.theta0[0] == pytest.approx(math.radians(30.0))
+    session.set("theta1", "45", units=CONTROL)  # the panel's degrees
+    assert session.params.theta0[0] == pytest.approx(math.radians(45.0))
+    session.set("step", 2.0, units=CONTROL)  # milliseconds in the panel, seconds in SI
+    assert session.params.step == pytest.approx(2e-3)
+    session.set("step", 1e-3)
+    assert session.params.step == pytest.approx(1e-3)
+    session.set("speed", 2.0)  # a display setting
+    assert session.display.speed == 2.0
+    with pytest.raises(LinkageError) as expected:
+        commands.apply(session.params, "L1", -1.0, commands.SI)
+    with pytest.raises(LinkageError, match=re.escape(str(expected.value))):
+        session.set("L1", -1.0)
+    assert session.notice is None
+    session.guard(lambda: session.set("L1", -1.0))
+    assert session.notice == session.notices.text == f"Not applied: {expected.value}"
+    session.choose("slider-crank")
+    for name in ("params", "setup"):
+        with pytest.raises(LinkageError, match=f"{name}: applies to a chain preset only"):
+            getattr(session, name)
+
+
+def test_set_start_displayed_state_and_state_at_in_the_chains_terms(host):
+    session = host("double", autoplay=False)
+    theta0, omega0 = np.array([0.4, -0.2]), np.array([0.1, 0.3])
+    session.set_start(theta0, omega0)
+    assert np.array_equal(session.params.theta0, theta0) and np.array_equal(session.params.omega0, omega0)
+    assert session.player.wait_idle(60) and not session.player.playing  # paused unless play
+    t, theta, omega = session.displayed_state()
+    assert t == 0.0 and np.allclose(theta, theta0, atol=1e-12) and np.allclose(omega, omega0, atol=1e-12)
+    assert session.goto_time(0.5, timeout=120)
+    t, theta, omega = session.displayed_state()
+    ring = session.player.runs[0].ring
+    i = ring.index_at(t)
+    expected = chain_angles(session.params, ring.get("q", i), ring.get("qdot", i))
+    assert t == pytest.approx(0.5, abs=1e-9)
+    assert np.allclose(theta, expected[0], atol=1e-12) and np.allclose(omega, expected[1], atol=1e-12)
+    exact = session.state_at(float(ring.get("t", i)), exact=True)
+    assert exact is not None and np.allclose(exact[0], expected[0], atol=1e-12)
+    between = session.state_at(float(ring.get("t", i)) - 0.5 * SAMPLE_DT)
+    assert between is not None and len(between[0]) == 2 and session.state_at(0.1234, exact=True) is None
+    with pytest.raises(LinkageError):
+        session.set_start([0.1], [0.0])  # one angle for two bars: refused by the chain's models
+    assert np.array_equal(session.params.theta0, theta0)
+    session.set_start(theta0, omega0, play=True)
+    assert wait_until(lambda: session.player.playing and session.player.display_time > 0.1, timeout=60)
+    session.choose("slider-crank")
+    with pytest.raises(LinkageError, match="set_start: applies to a chain preset only"):
+        session.set_start(theta0, omega0)
+
+
+def test_set_mechanism_and_set_links(host):
+    session = host("triple-a", autoplay=False)
+    session.set_method("dae")
+    session.set_mechanism("chain", links=4)
+    assert session.params.preset == "chain" and session.params.n == 4 and session.params.method == "dae"
+    session.set_links(6)
+    assert session.params.n == 6 and len(session.mechanism.bodies) == 6
+    session.set_mechanism("jansen-leg")
+    assert session.chain is None and session.label == "jansen-leg"
+    with pytest.raises(LinkageError, match="links: only the 'chain' mechanism has a variable number of bars"):
+        session.set_links(3)
+    session.set_mechanism("four-bar")
+    assert session.params.preset == "four-bar" and session.label == "four-bar" and session.menu.value == "four-bar"
+    with pytest.raises(LinkageError, match="mechanism = 'nope': allowed .*triple-a.*jansen-leg"):
+        session.set_mechanism("nope")
+
+
+# ---------------------------------------------------------------------------------------------- compare mode
+def test_compare_mode_of_a_hosted_chain_runs_three_formulations_and_measures_the_chains_traced_point(host):
+    session = host("four-bar", autoplay=False)
+    session.set_compare(True)
+    _played(session, 1.0)
+    between = session.compare_view.between
+    assert between is not None and wait_until(lambda: between.points_shown > 2, timeout=60)
+    assert between.handle.title.startswith("Traced point coupler point: divergence")
+    session.pause()
+    assert session.player.wait_idle(60)
+    shot = session.snapshot()
+    assert list(shot) == CHAIN_SNAPSHOT_KEYS and shot["compare"] is True
+    assert [run["label"] for run in shot["runs"]] == ["newton_euler", "lagrange", "dae"]
+    assert [run["method"] for run in shot["runs"]] == ["newton_euler", "lagrange", "dae"]
+    assert all(list(run) == RUN_KEYS and run["failed"] is None for run in shot["runs"])
+    assert shot["reference"] is not None and shot["reference"]["label"] == "reference"
+    params = session.chain
+    for run in [*shot["runs"], shot["reference"]]:
+        point = _trace_of(params, np.array([[0.0, 0.0, v] for v in run["theta"]]).reshape(1, -1))[0]
+        assert np.allclose(run["trace_xy"], point, atol=1e-12), run["label"]
+        # the formulations agree with the converged reference at the default tolerance
+        assert np.allclose(run["theta"], shot["reference"]["theta"], atol=1e-4), run["label"]
+    for run in session.player.runs:  # every ring traces the chain's point (the divergence is measured there)
+        stored = run.ring.window(0, len(run.ring) - 1, ["q", "trace_xy"])
+        assert np.allclose(stored["trace_xy"], _trace_of(params, stored["q"]), atol=1e-12), run.spec.label
+    # the reference run's divergence read-out names every formulation (none parts visibly in a second)
+    assert session.compare_view.passing_times() == {"newton_euler": None, "lagrange": None, "dae": None}
