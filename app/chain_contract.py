@@ -145,10 +145,11 @@ def energy_values(sample: dict[str, np.ndarray], params: SessionParameters, refe
 
 def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, theta_sketch, compare: bool, player,
              notice: str | None, energy_reference: float | None, frames_sent: Callable[[], int],
-             scene: Callable[[], dict]) -> dict:
+             scene: Callable[[], dict], since: float | None = None) -> dict:
     """A hosted chain's JSON snapshot with the chain session's keys (docs/app.md), written by the chain's own
     :func:`app.readout.snapshot_document`. ``energy_reference``: the energy the drift is measured from (None:
-    the first stored sample's); ``frames_sent`` and ``scene`` (``{"root": ..., "nodes": {...}}``) are the
+    the stored sample's at time ``since``, the last change, as the chain view measures it; no ``since``: the
+    first stored sample's); ``frames_sent`` and ``scene`` (``{"root": ..., "nodes": {...}}``) are the
     hosting session's view's, read under the player's lock."""
     sample_of = sample_reader(params, theta_sketch)
 
@@ -157,7 +158,10 @@ def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, 
         if run is None:
             return {}
         sample = sample_of(run, run.ring.index_at(player.display_time))
-        reference = float(run.ring.get("energy", 0)) if energy_reference is None else float(energy_reference)
+        if energy_reference is not None:
+            reference = float(energy_reference)
+        else:
+            reference = float(run.ring.get("energy", 0 if since is None else run.ring.index_at(since)))
         return energy_values(sample, params, reference)
 
     return readout.snapshot_document(

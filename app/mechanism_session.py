@@ -13,9 +13,11 @@ It can also host a chain (issue 24, "One app session"): :meth:`MechanismSession.
 chain's own start, with the chain's knobs and names (app/chain_knobs.py: ``L1``, ``m2``, ``g``, ``theta1``,
 ``pin_x``, ``damping``, the number of bars), every edit through the chain's command layer (app/commands.py), the
 chain session's share link and a four-bar's reach line; ``self.chain`` holds the chain's parameters in force
-(None for a mechanism). Choosing a chain preset in its mechanism menu hands the browser back to a chain session
-(``on_switch``, given by the server); a hosted chain hosts the chosen chain here instead. Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or
-joint, the field and the allowed range, and the session goes on.
+(None for a mechanism). Choosing a chain preset in its mechanism menu hosts it here when a chain is shown or no
+``on_switch`` is given; a mechanism with the server's ``on_switch`` hands the browser to it. A hosted chain answers
+as the chain session does (its snapshot, downloads, ``params``, ``set``, ``set_start``, ``history``, ...).
+Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or joint, the field
+and the allowed range, and the session goes on.
 """
 
 from __future__ import annotations
@@ -79,7 +81,14 @@ from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S, NumberInputs
 from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
 from .page import READY_HTML
-from .parameters import Display, SessionParameters, method_from_label, method_label, settings_data
+from .parameters import (
+    METHOD_LABELS,
+    Display,
+    SessionParameters,
+    method_from_label,
+    method_label,
+    settings_data,
+)
 from .phase_view import BAR_COLORS, phase_picture
 from .player import SAMPLE_DT, Frame, Player
 from .resources import STATIC
@@ -1011,7 +1020,8 @@ class MechanismSession(SessionBase):
             self.sync_all()
 
     def choose(self, name: str) -> None:
-        """The mechanism menu: another mechanism preset here, a chain preset through the server."""
+        """The mechanism menu: another mechanism preset here; a chain preset hosted here when a chain is shown or
+        no server takes it (``on_switch`` None), else through the server."""
         _choice("mechanism", name, self._menu_entries())
         if name == self.label:
             return
@@ -1023,11 +1033,9 @@ class MechanismSession(SessionBase):
                 self.settings = MechanismSettings(trace=mechanism.trace)
                 self._new_mechanism(mechanism, play=True)
             return
-        if self.chain is not None:  # a chain hosted here: the other chain is hosted here too
+        if self.chain is not None or self.on_switch is None:  # hosted here (no server to hand it to)
             self.open_chain(SessionParameters.from_preset(name))
             return
-        if self.on_switch is None:
-            raise LinkageError(f"mechanism = {name!r}: this page shows mechanisms only")
         self.on_switch(name)
 
     def load_file(self, client_id: int | None, name: object, content: object) -> None:
@@ -1119,8 +1127,8 @@ class MechanismSession(SessionBase):
         self.open_setup(share.setup_from_state(content, where))
 
     def open_setup(self, saved: share.SavedSetup) -> None:
-        """A saved setup: a chain's hands the browser to a chain session (``on_switch``), a mechanism
-        preset's or a description's starts it here as loaded, then every value is applied (refusals in one
+        """A saved setup: a chain's is hosted here (or, a mechanism shown and a server's ``on_switch`` given,
+        handed to it), a mechanism preset's or a description's starts it here as loaded, then every value is applied (refusals in one
         notice); a setup naming no mechanism sets this one's values."""
         preset = saved.preset
         if saved.mechanism is not None:
@@ -1131,11 +1139,11 @@ class MechanismSession(SessionBase):
             allowed = [*preset_names(), *mechanism_names()]
             if preset not in allowed:
                 raise LinkageError(f"{saved.where}: preset = {preset!r}: allowed {', '.join(allowed)}")
-            if self.chain is not None:  # a chain's setup, and a chain hosted here: loaded here
+            if self.chain is not None or self.on_switch is None:  # a chain's setup: hosted and loaded here
+                if self.chain is None:
+                    self.open_chain(SessionParameters.from_preset(preset))
                 self.load_setup(saved.pairs, saved.where)
                 return
-            if self.on_switch is None:
-                raise LinkageError(f"{saved.where}: preset = {preset!r}: this page shows mechanisms only")
             self.on_switch(preset, saved)
             return
         self.load_setup(saved.pairs, saved.where)
@@ -1427,8 +1435,8 @@ class MechanismSession(SessionBase):
 
         return chain_contract.snapshot(
             session_id=self.id, shared=self.shared, params=params, theta_sketch=chain_knobs.sketch(params),
-            compare=self.compare, player=self.player, notice=self.notices.text, energy_reference=self.energy_ref,
-            frames_sent=lambda: self.frames_sent, scene=scene)
+            compare=self.compare, player=self.player, notice=self.notices.text, energy_reference=None,
+            frames_sent=lambda: self.frames_sent, scene=scene, since=self._segment_t0)
 
     def reset_to_reference(self) -> None:
         """The preset's (or file's) values again; a hosted chain's preset values, its integration choices kept."""
@@ -1776,6 +1784,9 @@ class MechanismSession(SessionBase):
                   else METHODS.get(self.settings.method, self.settings.method))
         integrator = self.settings.integrator if self.mobility > 0 else "position analysis"
         label = ("compare: " if self.compare else "") + f"{method} · {integrator}"
+        if self.chain is not None:  # the chain view's words (app/frame_view.py status_text)
+            label = ("compare: " + ", ".join(METHOD_LABELS[m] for m in COMPARE_METHODS) if self.compare
+                     else f"{METHOD_LABELS.get(self.settings.method, self.settings.method)} · {integrator}")
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
                                self.notices.text)
         condition = spec.condition_at(ring, index)  # this pose's alone (MechanismSpec.chunk leaves it)

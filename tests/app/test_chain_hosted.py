@@ -376,6 +376,15 @@ def test_a_hosted_chains_snapshot_is_the_chain_sessions(host, preset):
     assert shot["energy"]["total"] == pytest.approx(float(ring.get("energy", i)))
     assert list(shot["scene"]) == ["root", "nodes", "names"] and shot["scene"]["names"] == sorted(shot["scene"]["nodes"])
     assert shot["scene"]["root"] == "/linkage" and shot["scene"]["nodes"]
+    assert shot["energy"]["reference"] == pytest.approx(float(ring.get("energy", 0)))
+    # after an edit that goes on, the drift is measured from the energy at the edit, as the chain view's
+    _, t_edit, _, _ = _paused_state(session)
+    session.set("m1", 1.25)
+    _played(session, 0.2)
+    session.pause()
+    ring = session.player.runs[0].ring
+    assert session.snapshot()["energy"]["reference"] == pytest.approx(float(ring.get("energy", ring.index_at(t_edit))))
+    assert t_edit > 0.0 and ring.t_first < t_edit
 
 
 @pytest.mark.parametrize("preset", ["double", "four-bar"])
@@ -502,6 +511,8 @@ def test_a_hosted_chains_plots_and_help_are_the_chain_panels(host):
     theta, _ = chain_angles(session.chain, ring.get("q", i), ring.get("qdot", i))
     assert float(ring.get("t", i)) == pytest.approx(float(t[-1]), abs=1e-9)
     assert np.allclose([a[-1] for a in angles], np.degrees(theta), atol=1e-9)  # degrees, every bar
+    words = f"{METHOD_LABELS[session.params.method]} · {session.params.integrator}"  # the chain view's status
+    assert wait_until(lambda: words in session.status.content, timeout=30), session.status.content
     starts = {knob.name: knob.label for knob in session._start_knobs()}
     assert starts == {**{f"theta{k}": f"theta{k} (°)" for k in (1, 2, 3)},
                       **{f"omega{k}": f"omega{k} (°/s)" for k in (1, 2, 3)}}
@@ -614,3 +625,16 @@ def test_compare_mode_of_a_hosted_chain_runs_three_formulations_and_measures_the
         assert np.allclose(stored["trace_xy"], _trace_of(params, stored["q"]), atol=1e-12), run.spec.label
     # the reference run's divergence read-out names every formulation (none parts visibly in a second)
     assert session.compare_view.passing_times() == {"newton_euler": None, "lagrange": None, "dae": None}
+
+
+def test_without_a_server_to_hand_it_to_a_mechanism_hosts_a_chosen_chain_here(host):
+    session = host("triple-a", autoplay=False)
+    session.choose("slider-crank")
+    assert session.on_switch is None and session.chain is None
+    session.choose("four-bar")  # the menu
+    assert session.chain is not None and session.params.preset == "four-bar" and session.help.content == chain_help()
+    session.choose("jansen-leg")
+    edited = _edited("double", [("m2", "2.5"), ("theta1", "20")])
+    session.open_setup(share.setup_from_state(share.state_document(edited), "the test's setup"))
+    assert session.params.preset == "double" and session.link_query() == share.link_query(edited)
+    assert session.notices.text is None
