@@ -1,5 +1,6 @@
-"""The Analysis tab (issue 7): work-precision chart, chaos map and ensemble, driven through the session methods
-the tab's callbacks call. The heavy work runs in worker threads; these tests wait for them."""
+"""The Analysis tab (issue 7) of a chain shown in the one session (app/mechanism_analysis.py): work-precision chart,
+chaos map and ensemble, driven through the calls the tab's buttons make. The heavy work runs in worker threads;
+these tests wait for them."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import re
 
 import numpy as np
 
-from app.analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, follows_on
+from app.analysis import follows_on
+from app.mechanism_analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, ENSEMBLE_RATE
 from conftest import wait_until
 from physics.chain_presets import get_preset
 from physics.studies import chaos_map as chaos
@@ -19,29 +21,28 @@ FIRST_COMPILE_SECONDS = 600
 
 def test_work_precision_chart_appears_in_the_panel(connect):
     _, session = connect()
+    assert session.chain is not None  # the server's chain preset, hosted in the one session
     session.pause()
-    session.guard(session.work_precision_chart)
+    session.guard(session.analysis.work_precision_chart)  # the tab's "Work-precision chart" button
     assert "Computing" in session.analysis.chart_status.content
-    session.analysis.wait("chart", timeout=180)
-    handle = session.analysis.chart_handle
-    assert handle is not None, session.notice
-    assert "<svg" in handle.content and "</svg>" in handle.content
+    session.analysis.wait("chart", timeout=FIRST_COMPILE_SECONDS)
+    content = session.analysis.chart_html.content
+    assert "<svg" in content and "</svg>" in content, (session.notice, session.analysis.chart_status.content)
     # drawn for the panel: its width follows the panel, its legend sits under the plot, inside the picture
-
-    root = re.search(r"<svg [^>]*>", handle.content).group(0)
+    root = re.search(r"<svg [^>]*>", content).group(0)
     assert 'width="100%"' in root and 'viewBox="0 0 380 ' in root
     view_height = float(re.search(r'viewBox="0 0 380 ([\d.]+)"', root).group(1))
-    legend_y = [float(y) for y in re.findall(r'<text x="44" y="([\d.]+)" font-size="11"', handle.content)]
+    legend_y = [float(y) for y in re.findall(r'<text x="44" y="([\d.]+)" font-size="11"', content)]
     assert legend_y and max(legend_y) < view_height
 
 
 def test_chaos_map_image_appears(connect):
     _, session = connect()
     session.pause()
-    session.guard(session.chaos_map)
-    session.analysis.wait("chaos", timeout=180)
+    session.guard(session.analysis.chaos_map)  # the tab's "Chaos map" button
+    session.analysis.wait("chaos", timeout=FIRST_COMPILE_SECONDS)
     handle = session.analysis.image_handle
-    assert handle is not None, session.notice
+    assert handle is not None, (session.notice, session.analysis.chaos_status.content)
     image = np.asarray(handle.image)
 
     side = CHAOS_RESOLUTION * CHAOS_DISPLAY_SCALE
@@ -58,60 +59,57 @@ def test_chaos_map_image_appears(connect):
 def test_ensemble_node_exists_moves_and_goes_away(connect):
     _, session = connect()
     analysis = session.analysis
-    session.guard(lambda: session.set_ensemble(True, 100))
-    assert wait_until(lambda: analysis.ensemble_node is not None, timeout=180), analysis.ensemble_status.content
+    session.guard(lambda: analysis.set_ensemble(True, 100))  # the tab's Ensemble box, 100 copies
+    assert wait_until(lambda: analysis.ensemble_node is not None, timeout=FIRST_COMPILE_SECONDS), \
+        analysis.ensemble_status.content
     node = analysis.ensemble_node
     n = session.params.n
     first = np.array(node.points)
-    assert first.shape == (100 * n, 2, 3)
+    assert first.shape == (100 * n, 2, 3)  # every copy's bars
     assert np.all(first[:, :, 1] == 0.0)  # in the mechanism's x-z plane
     session.play()
-    assert wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 0.3, timeout=30)
-    assert analysis.ensemble_node is not None
-    assert not np.allclose(np.array(analysis.ensemble_node.points), first)  # it moves
-    assert analysis.ensemble.alive.all()
-    session.guard(lambda: session.set_ensemble(False))
+    assert wait_until(lambda: analysis.ensemble_node is not None
+                      and not np.allclose(np.array(analysis.ensemble_node.points), first), timeout=30)  # it moves
+    assert analysis.ensemble is not None and analysis.ensemble.alive.all()
+    session.guard(lambda: analysis.set_ensemble(False))
     assert analysis.ensemble_node is None and analysis.ensemble is None
 
 
 def test_bad_ensemble_count_is_a_notice(connect):
     _, session = connect()
-    session.guard(lambda: session.set_ensemble(True, 7))
-    assert session.notice is not None and "ensemble count" in session.notice
+    session.guard(lambda: session.analysis.set_ensemble(True, 7))
+    assert session.notice is not None and "ensemble copies = 7: allowed 20, 100" in session.notice
     assert session.analysis.ensemble_node is None
 
 
 def test_the_ensemble_stays_on_the_displayed_pendulum_and_shows_its_spread(connect):
-    """Issue 14: the ensemble (RK4 at a fixed step) drifted away from the displayed pendulum (an adaptive
-    integrator); copy 0 is now put back on it at every sample the two share, and the spread is plotted."""
+    """Issue 14: the ensemble (computed apart) drifted away from the displayed pendulum (the run shown); copy 0
+    must be on it at every sample the two share, and the spread is plotted."""
     _, session = connect()
-    # Paused at t = 0 until the copies are built: their first build compiles (two minutes on a loaded machine
-    # from an empty cache), and a display playing meanwhile would be past 6 s before they arrive (the wait below
-    # would then be no wait, and they would arrive from a catch-up of that whole time, with no frame yet).
-    session.pause()
     session.set_mechanism("triple-a")
+    # Paused until the copies are built (a display playing meanwhile would be far on before they arrive).
+    session.pause()
     analysis = session.analysis
-    session.guard(lambda: session.set_ensemble(True, 100))
+    session.guard(lambda: analysis.set_ensemble(True, 100))
     assert wait_until(lambda: analysis.ensemble is not None, timeout=FIRST_COMPILE_SECONDS), \
         analysis.ensemble_status.content
+    t0 = analysis._ensemble_t0
     session.play()
-    assert wait_until(lambda: session.snapshot()["time"] > 6.0, timeout=60)
+    assert wait_until(lambda: session.snapshot()["time"] > t0 + 6.0, timeout=60)
     session.pause()
-    # The frames below are the test's, ahead of the paused display; the player still redraws the displayed time
-    # (at once after Pause, then 4 times a second) and each redraw is a frame that moves the display back from
-    # the copies' time: a jump back, which rebuilds the ensemble. Its frames are drawn under the player's lock
-    # (re-entrant), so holding it keeps them out until the copies have been checked (a loaded machine used to
-    # let one in between and the check read a rebuilt ensemble or none).
-    with session.player.lock:
-        ensemble = analysis.ensemble
-        for _ in range(4):  # step as frames do until the copies' time is one of the displayed run's samples
-            shown = session.state_at(analysis._ensemble_t - ensemble.pending, exact=True)
+    with session.player.lock:  # the copies and the display read together
+        copies = analysis._ensemble_q
+        assert copies is not None, analysis.ensemble_status.content
+        latest = min(int(round((session.player.display_time - t0) * ENSEMBLE_RATE)), len(copies) - 1)
+        for index in range(latest, 0, -1):  # the copies' latest sample that is one of the displayed run's
+            shown = session.state_at(t0 + index / ENSEMBLE_RATE, exact=True)
             if shown is not None:
                 break
-            analysis.on_frame(analysis._ensemble_t + 1.0 / 240.0, False)
-        assert shown is not None
-        gap = float(np.max(np.abs(ensemble.theta[0] - shown[0])))
-        assert gap <= 1e-12, f"copy 0 is {gap:.3g} rad from the displayed pendulum"  # 1.4e-8 at 6 s unanchored
+        assert shown is not None and index / ENSEMBLE_RATE > 5.0
+        copy0 = np.angle(np.exp(1j * (copies[index, 0, 2::3] - shown[0])))  # body turns are the bar angles
+        gap = float(np.max(np.abs(copy0)))
+        at = t0 + index / ENSEMBLE_RATE
+        assert gap <= 1e-12, f"copy 0 is {gap:.3g} rad from the displayed pendulum at t = {at:.3g} s"
         plot = analysis.spread_plot
         assert plot.handle.visible and plot.points_shown > 10
         spread = np.asarray(plot.handle.data[1])

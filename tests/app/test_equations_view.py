@@ -29,11 +29,11 @@ def _balanced(tex: str) -> bool:
 def test_a_chains_tab_shows_the_integrated_mechanisms_equations(connect, method):
     _, session = connect()
     session.set("method", method)
-    session.controls.show_equations()
+    session.show_equations()  # what the Equations tab's button calls
     chain = session.params.chain
     expected = equations.equations_html(chain, method)  # the mechanism path's rendering (one view for both)
-    assert wait_until(lambda: session.controls.equations.content == expected, timeout=180), \
-        session.controls.equations.content[:300]
+    assert wait_until(lambda: session.equations.content == expected, timeout=180), \
+        session.equations.content[:300]
     shown = physics.equations_of_motion(chain, method)
     assert f"{len(shown.rows)} equations" in expected
     for number, (name, _, _) in enumerate(shown.rows, start=1):

@@ -57,13 +57,13 @@ def test_chain_labels_never_overlap(connect):
     """The issue's case: the triple pendulum's bars, where "-R1" was drawn over "m1·g"; several instants each."""
     _, session = connect()
     session.set_mechanism("triple-a")
-    session.report.fbd_box.value = True
+    session.free_body_box.value = True  # the Display tab's box (viser runs its callback)
     view = session.free_body
     met_at_heads = 0  # cases where the labels at the arrow heads would have met: the layout had work to do
     for t in (0.0, 0.7, 1.3, 2.5):
         assert session.goto_time(t)
         for bar in (1, 2, 3):
-            session.report.fbd_bar.value = str(bar)
+            session.body_menu.value = f"bar{bar}"
             assert wait_until(lambda bar=bar: view.shown_bar == bar and view.shown
                               and abs(view.shown_t - t) < 0.1, timeout=30)
             boxes, heads = drawn_labels(view)
@@ -79,12 +79,12 @@ def test_chain_labels_never_overlap(connect):
 def test_chain_help_names_the_preset_shown(connect):
     _, session = connect()
     session.set_mechanism("double")
-    assert "--preset double --bar 1" in session.report.fbd_help.content
-    session.report.fbd_bar.value = "2"
-    assert wait_until(lambda: "--preset double --bar 2" in session.report.fbd_help.content, timeout=30)
+    assert "--preset double --bar 1" in session.free_body_help.content
+    session.body_menu.value = "bar2"
+    assert wait_until(lambda: "--preset double --bar 2" in session.free_body_help.content, timeout=30)
     session.set_mechanism("chain", links=4)
-    assert "--preset chain --links 4" in session.report.fbd_help.content
-    assert "triple-a" not in session.report.fbd_help.content
+    assert "--preset chain --links 4" in session.free_body_help.content
+    assert "triple-a" not in session.free_body_help.content
 
 
 def test_mechanism_labels_never_overlap_and_its_help_names_the_body(rocker_lab, connect):

@@ -42,19 +42,20 @@ def test_the_drawn_forces_balance_every_bar(connect, preset, method):
     _, session = connect()
     session.set_mechanism(preset)
     session.set("method", method)
-    session.report.fbd_box.value = True
+    session.free_body_box.value = True  # the Display tab's box (viser runs its callback)
     assert session.goto_time(1.3)
     chain = session.params.chain
-    run = session.player.runs[0]
+    assert list(session.body_menu.options) == [f"bar{k}" for k in range(1, chain.n + 1)]
     for bar in range(1, chain.n + 1):
-        session.report.fbd_bar.value = str(bar)
+        session.body_menu.value = f"bar{bar}"
         assert wait_until(lambda bar=bar: session.free_body.shown_bar == bar and session.free_body.shown, timeout=30)
         assert session.free_body.visible()
-        forces = session.free_body.shown
+        with session.free_body._lock:  # the player thread draws: one drawing's forces, labels and time
+            forces, labels, shown_t = list(session.free_body.shown), session.free_body.labels(), \
+                session.free_body.shown_t
         assert len(forces) == (3 if bar < chain.n or chain.pinned else 2)
-        assert len(session.free_body.labels()) == len(forces)
-        i = run.ring.index_at(session.free_body.shown_t)
-        theta, omega = run.ring.get("theta", i).copy(), run.ring.get("omega", i).copy()
+        assert len(labels) == len(forces)
+        theta, omega = session.state_at(shown_t, exact=True)  # the displayed run's sample drawn, as bar angles
         alpha, com, a_com = independent_motion(chain, theta, omega, method)
         k = bar - 1
         b = chain.bars[k]
@@ -64,7 +65,7 @@ def test_the_drawn_forces_balance_every_bar(connect, preset, method):
         assert np.allclose(total, b.m * a_com[k], rtol=0, atol=1e-9 * size)
         assert abs(moment - b.I * alpha[k]) <= 1e-9 * size * b.L
         assert np.allclose(forces[0].point_xy, com[k], atol=1e-12)  # gravity at G
-    session.report.fbd_box.value = False
+    session.free_body_box.value = False
     assert not session.free_body.visible()
 
 
@@ -75,19 +76,17 @@ def test_a_chains_diagram_is_the_general_mechanisms_free_body(connect, preset):
     largest (the views differ in where the values come from, not in what they are)."""
     _, session = connect()
     session.set_mechanism(preset)
-    session.report.fbd_box.value = True
+    session.free_body_box.value = True
     assert session.goto_time(1.3)
     chain = session.params.chain
-    run = session.player.runs[0]
     for bar in range(1, chain.n + 1):
-        session.report.fbd_bar.value = str(bar)
+        session.body_menu.value = f"bar{bar}"
         # the diagram of this bar at the time gone to (not one drawn before the jump, at another time)
         assert wait_until(lambda bar=bar: session.free_body.shown_bar == bar and session.free_body.shown
                           and abs(session.free_body.shown_t - 1.3) < 0.05, timeout=30)
         with session.free_body._lock:  # the player thread draws: one drawing's forces and time
             shown, shown_t = list(session.free_body.shown), session.free_body.shown_t
-        i = run.ring.index_at(shown_t)
-        theta, omega = run.ring.get("theta", i).copy(), run.ring.get("omega", i).copy()
+        theta, omega = session.state_at(shown_t, exact=True)  # the displayed run's sample drawn, as bar angles
         mechanism = chain_mechanism(chain, theta)
         q, qdot = chain_state(chain, theta, theta, omega)
         loads = free_body(mechanism, evaluate(mechanism, q, qdot, "dae", shown_t), f"bar{bar}")

@@ -17,7 +17,6 @@ from app.mechanism_edits import apply_edit, body_size, knobs
 from app.mechanism_runs import MechanismSettings, MechanismSpec, drawing, points_at, torque_rows
 from app.mechanism_session import MechanismSession
 from app.server import LabServer
-from app.session import Session
 from app.wsclient import BackgroundClient, send_values
 from conftest import wait_until
 from physics import LinkageError
@@ -183,18 +182,27 @@ def test_controls_edit_trace_and_method(jansen_lab, connect):
 
 
 def test_switching_between_chains_and_mechanisms_in_one_browser(lab, connect):
+    """The one session (issue 24) shows a chain preset and a mechanism preset in turn: a mechanism chosen on a
+    chain's page keeps the browser's session, whose panel, scene and run become the mechanism's."""
     client, session = connect(lab)
-    assert isinstance(session, Session)
+    assert isinstance(session, MechanismSession) and session.chain is not None  # the server's chain preset
     client_id = next(k for k, v in lab.sessions.items() if v is session)
     session.guard(lambda: session.set_mechanism("watt-six-bar"))
-    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), MechanismSession), timeout=30)
-    mechanism_session = lab.sessions[client_id]
-    assert session.closed and session.player.alive is False
-    assert _moving(mechanism_session, 0.2)
-    mechanism_session.guard(lambda: mechanism_session.choose("double"))
-    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), Session), timeout=30)
+    assert wait_until(lambda: session.chain is None and session.label == "watt-six-bar", timeout=30)
+    assert lab.sessions[client_id] is session and not session.closed and session.player.alive
+    watt = MECHANISM_PRESETS["watt-six-bar"]()
+    snap = session.snapshot()
+    assert snap["kind"] == "mechanism" and snap["mechanism"] == "watt-six-bar" and session.menu.value == "watt-six-bar"
+    assert snap["bodies"] == [body.name for body in watt.bodies]
+    assert _moving(session, 0.2)
+    session.guard(lambda: session.choose("double"))
+    # back to a chain preset: the server may hand the browser a new session; then the one before is closed
+    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), MechanismSession)
+                      and lab.sessions[client_id].chain is not None, timeout=30)
     back = lab.sessions[client_id]
-    assert mechanism_session.closed and back.params.preset == "double"
+    assert not back.closed and (back is session or (session.closed and session.player.alive is False))
+    assert back.params.preset == "double" and back.menu.value == "double"
+    assert back.snapshot()["parameters"]["preset"] == "double"
     assert back.player.wait_idle(60) and _moving(back, 0.2)
 
 

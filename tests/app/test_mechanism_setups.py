@@ -17,7 +17,6 @@ from app.__main__ import start_from_state
 from app.mechanism_session import MechanismSession
 from app.mechanism_setups import check_mechanism_setup
 from app.server import LabServer
-from app.session import Session
 from app.wsclient import BackgroundClient, Counts, send_messages, upload_messages
 from conftest import lab_of, wait_until
 from physics import LinkageError
@@ -89,10 +88,14 @@ def _moving(session, seconds: float = 0.2) -> bool:
     return wait_until(lambda: session.player.display_time > first + seconds, timeout=240)
 
 
-def _switched(server, client_id: int, kind: type, before):
-    assert wait_until(lambda: isinstance(server.sessions.get(client_id), kind) and
-                      server.sessions[client_id] is not before, timeout=60)
+def _showing(server, client_id: int, before, shows):
+    """The session the browser ``client_id`` shows once ``shows(session)`` holds: ``before`` itself (the one
+    session hosts a chain and a mechanism alike) or the one that replaced it, ``before`` then closed (a browser
+    has one session at a time)."""
+    assert wait_until(lambda: isinstance(server.sessions.get(client_id), MechanismSession)
+                      and shows(server.sessions[client_id]), timeout=60)
     session = server.sessions[client_id]
+    assert not session.closed and (session is before or before.closed)
     assert session.player.wait_idle(60)
     return session
 
@@ -149,20 +152,21 @@ def test_a_chain_setup_switches_a_mechanism_session_to_the_chain_and_back(slider
     client_id = next(k for k, s in slider_lab.sessions.items() if s is session)
     chain = _setup({"preset": "double", "L1": 1.5, "theta1": 60, "method": "dae"})
     session.guard(lambda: session.upload_setup(None, "double.json", chain))
-    back = _switched(slider_lab, client_id, Session, session)
-    assert session.closed and back.params.preset == "double" and back.params.L[0] == 1.5
+    back = _showing(slider_lab, client_id, session, lambda s: s.chain is not None)
+    assert back.params.preset == "double" and back.params.L[0] == 1.5 and back.menu.value == "double"
     assert back.params.method == "dae" and _moving(back)
     mechanism = _setup({"preset": "jansen-leg", "g": 4.5, "speed:O": -120})
     back.guard(lambda: back.upload_setup(None, "leg.json", mechanism))
-    leg = _switched(slider_lab, client_id, MechanismSession, back)
-    assert back.closed and leg.label == "jansen-leg" and leg.mechanism.g == 4.5
+    leg = _showing(slider_lab, client_id, back, lambda s: s.chain is None and s.label == "jansen-leg")
+    assert leg.mechanism.g == 4.5 and leg.menu.value == "jansen-leg"
     assert leg.snapshot()["values"]["speed:O"] == pytest.approx(-120.0) and _moving(leg)
     description = _setup({"mass:coupler": 0.55}, MECHANISM_PRESETS["crank-rocker"]().model_dump(mode="json"))
     leg.guard(lambda: leg.choose("single"))
-    chain_again = _switched(slider_lab, client_id, Session, leg)
+    chain_again = _showing(slider_lab, client_id, leg, lambda s: s.chain is not None and s.params.preset == "single")
     chain_again.guard(lambda: chain_again.upload_setup(None, "rocker-setup.json", description))
-    rocker = _switched(slider_lab, client_id, MechanismSession, chain_again)
-    assert rocker.label == "crank-rocker (file)" and rocker.mechanism.body("coupler").mass == 0.55
+    rocker = _showing(slider_lab, client_id, chain_again,
+                      lambda s: s.chain is None and s.label == "crank-rocker (file)")
+    assert rocker.mechanism.body("coupler").mass == 0.55
     assert len(slider_lab.sessions) >= 1 and client_id in slider_lab.sessions
 
 
