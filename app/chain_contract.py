@@ -118,9 +118,13 @@ def download_file(player, label: str, params: SessionParameters, theta_sketch, r
 
 def sample_reader(params: SessionParameters, theta_sketch) -> Callable[[Any, int], dict[str, np.ndarray]]:
     """``sample_of(run, i)`` for :func:`app.readout.snapshot_document`: stored sample ``i`` of a hosted chain's
-    run in the chain's fields (the same mapping as the downloads', on one sample)."""
-    def sample_of(run, i: int) -> dict[str, np.ndarray]:
-        mapped = chain_history(run.ring.window(i, i), params, theta_sketch, run.spec.row_names)
+    run in the chain's fields (the same mapping as the downloads', on one sample); None for a run of the
+    mechanism being replaced (the menu chose this chain: the player installs its runs at its next wake)."""
+    def sample_of(run, i: int) -> dict[str, np.ndarray] | None:
+        try:
+            mapped = chain_history(run.ring.window(i, i), params, theta_sketch, run.spec.row_names)
+        except ValueError:  # another mechanism's layout (chain_history names it): not this chain's run
+            return None
         return {name: value[0] for name, value in mapped.items() if name != "t"}
 
     return sample_of
@@ -158,6 +162,8 @@ def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, 
         if run is None:
             return {}
         sample = sample_of(run, run.ring.index_at(player.display_time))
+        if sample is None:
+            return {}
         if energy_reference is not None:
             reference = float(energy_reference)
         else:

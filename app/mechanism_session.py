@@ -112,6 +112,7 @@ PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is drawn this fraction of the size long
 RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
+PREPARE_STEPS = 10  # integrator steps of the compiling call before a run's first chunk (see _prepare)
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
 TRANSPORT = ("Play", "Pause", "Step", "Reset")  # the Playback row: the page's keys Space, S and R press them
@@ -1339,8 +1340,10 @@ class MechanismSession(SessionBase):
         """JSON-able state for tests and ``python -m app snapshot --json`` (docs/app.md lists the keys); a hosted
         chain's is the chain session's, key for key (app/chain_contract.py), so that scripts read one document
         whichever session shows the chain."""
-        if self.chain is not None:
-            return self._chain_snapshot(self.chain)
+        with self._lock:  # a preset being switched to is read once its runs are installed, not half way
+            chain = self.chain
+        if chain is not None:
+            return self._chain_snapshot(chain)
         player = self.player
         with player.lock:
             run = player.runs[0] if player.runs else None
@@ -1874,8 +1877,10 @@ class MechanismSession(SessionBase):
             "them and LLVM compiles them (a second or two).")))
         timer.start()
         try:
-            spec.simulate(spec.chain, q0, qdot0, spec.settings.model_copy(update={"t_end": 1e-3, "samples": 2}),
-                          t_start=0.0)
+            # a few steps compile as much as a whole run; a stiff start must not hold the player here for
+            # millions (the run's own calls are bounded by the player's step cap)
+            spec.simulate(spec.chain, q0, qdot0, spec.settings.model_copy(
+                update={"t_end": 1e-3, "samples": 2, "max_steps": PREPARE_STEPS}), t_start=0.0)
         except LinkageError:
             pass  # the run's own first chunk reports it
         finally:

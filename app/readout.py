@@ -98,6 +98,8 @@ def snapshot_document(*, session_id, shared: bool, params, compare: bool, player
                 continue
             i = ring.index_at(player.display_time)
             sample = sample_of(run, i)
+            if sample is None:  # a run being replaced by another mechanism's (sample_of names when)
+                continue
             entry = (
                 {
                     "label": run.spec.label,

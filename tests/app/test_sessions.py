@@ -123,8 +123,9 @@ def test_closed_loop_unreachable_angle_keeps_the_last_valid_start(connect):
     slider.value = 60.0  # the seed four-bar's crank reaches only about [89.4°, 366°]
     assert np.allclose(session.params.theta0, theta_before)
     assert session.notice is not None and "cannot close" in session.notice
-    # theta2 and theta3 are assembled, not set: the panel offers no control for them
-    assert "theta2" not in session._knob_handles and "theta3" not in session._knob_handles
+    # theta2 and theta3 are assembled, not set: shown greyed ("follows the loop"), with no box to type in
+    for name in ("theta2", "theta3"):
+        assert session._knob_handles[name].disabled and name not in session._typed_boxes
     slider.value = 150.0
     assert math.degrees(session.params.theta0[0]) == pytest.approx(150.0)
     residual = physics.loop_closure.loop_residual(session.params.L, session.params.theta0, session.params.pin)

@@ -24,7 +24,8 @@ def type_into(session, name: str, text: str) -> None:
 def sliders(session) -> dict:
     """Every slider of the panel with a typed box, by its name: the generated controls (the chain's numbers, its
     start, the run's settings) and the Display tab's numbers."""
-    out = dict(session._knob_handles)  # noqa: SLF001 - the generated controls' sliders
+    # the generated controls' sliders; a closed chain's assembled angles are shown greyed, with no box
+    out = {name: handle for name, handle in session._knob_handles.items() if not handle.disabled}  # noqa: SLF001
     out.update({name: number.slider for name, number in session.numbers.controls.items()})
     return out
 
