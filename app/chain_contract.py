@@ -116,7 +116,7 @@ def download_file(player, label: str, params: SessionParameters, theta_sketch, r
     return readout.run_download(params, kind, history, run_label(params))
 
 
-def sample_reader(params: SessionParameters, theta_sketch) -> Callable[[Any, int], dict[str, np.ndarray]]:
+def sample_reader(params: SessionParameters, theta_sketch) -> Callable[[Any, int], dict[str, np.ndarray] | None]:
     """``sample_of(run, i)`` for :func:`app.readout.snapshot_document`: stored sample ``i`` of a hosted chain's
     run in the chain's fields (the same mapping as the downloads', on one sample); None for a run of the
     mechanism being replaced (the menu chose this chain: the player installs its runs at its next wake)."""
