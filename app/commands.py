@@ -422,8 +422,8 @@ def check_control(label: str, value: object, *, options: tuple | None = None, nu
 
     Why here as well as in the models: a control's own options are not a model field (the Plot dropdown, the
     Report tab's bar menu), and a value outside them was stored by viser before any callback ran; a session
-    that went on with it failed on every frame. Every control of both kinds of session is checked by this
-    one function (app/controls.py ``bind``, app/mechanism_session.py) before its action runs."""
+    that went on with it failed on every frame. Every control of the session is checked by this
+    one function (app/mechanism_session.py ``guard`` and app/panel_rows.py) before its action runs."""
     if options is not None:
         if not isinstance(value, str) or value not in options:
             raise LinkageError(f"{label} = {shown_value(value)}: allowed {', '.join(map(str, options))}")

@@ -1,22 +1,12 @@
-"""The live free-body diagram of one body in the 3D scene, for a chain and for any general mechanism: every load
+"""The live free-body diagram of one body in the 3D scene, for any preset or mechanism file: every load
 on it at the displayed sample, with names and values, the labels laid out so that none covers another.
 
-Where the loads come from (both are physics' own, the drawing is the same):
-
-* **A chain** (:class:`app.session.Session`): the ring already holds, per sample, the joint positions and every
-  joint reaction (physics/chain_reactions.py, every method) and the pin's reaction of a closed loop, so a frame only
-  picks values (:func:`forces_on_bar`), no solve on the player thread. The forces on bar k (1-based), with the
-  sign convention of docs/architecture.md: gravity ``(0, -m_k g)`` at G_k; ``R_{k-1}`` at its proximal joint
-  (the force ON bar k BY bar k-1, the ground for k = 1); ``-R_k`` at its distal joint (not on the last bar);
-  ``R_H`` at the tip of the last bar of a closed chain. Why not the general path for a chain too: the chain's
-  ring carries these reactions already, by name (R0, -R1, RH as docs/physics.md writes them), and solving the
-  DAE of ``chain_mechanism(chain)`` every other frame would cost a solve per frame for values already there.
-* **A general mechanism** (:class:`app.mechanism_session.MechanismSession`): a body may have any number of pins,
-  a slider and motors, so its loads come from :func:`physics.mechanism.statics.free_body` on the DAE's solve at
-  the displayed sample (the three formulations' reactions agree with it to 1e-9). That solve takes about 4 ms
-  for the Jansen leg, so it runs on every second frame (30 Hz) and a sample already drawn (a paused or slowed
-  run shows the same sample frame after frame) is not solved again. A pure couple (a motor's torque, a damped
-  pin) has no point to draw an arrow at: :attr:`FreeBodyView.couples` holds its text for the panel.
+Where the loads come from: every body of every preset (a chain is hosted as the mechanism it is, app/chain_knobs.py)
+may have any number of pins, a slider and motors, so its loads come from :func:`physics.mechanism.statics.free_body`
+on the DAE's solve at the displayed sample (the three formulations' reactions agree with it to 1e-9). That solve
+takes about 4 ms for the Jansen leg, so it runs on every second frame (30 Hz) and a sample already drawn (a paused
+or slowed run shows the same sample frame after frame) is not solved again. A pure couple (a motor's torque, a
+damped pin) has no point to draw an arrow at: :attr:`FreeBodyView.couples` holds its text for the panel.
 
 The diagram is drawn at the ring's sample at or before the displayed time (where its values belong), the same
 sample as the reaction arrows; in compare mode it is the first run's, as for those arrows.
@@ -39,7 +29,7 @@ from physics.mechanism import Mechanism
 from physics.mechanism.statics import FreeBody, evaluate, free_body
 
 from .logs import quietly
-from .scene import mechanism_reach, to_world
+from .scene import to_world
 
 FORCE_COLORS = {  # the colours of physics/fbd.py's SVG, in the order of the list above
     "gravity": (34, 34, 34),
@@ -69,28 +59,6 @@ class DrawnForce:
 
     def label(self) -> str:
         return f"{self.name} = {float(np.hypot(*self.force)):.3g} N"
-
-
-def forces_on_bar(chain, bar: int, theta: np.ndarray, joints: np.ndarray, reactions: np.ndarray,
-                  tip_reaction: np.ndarray | None) -> list[DrawnForce]:
-    """Every force on bar ``bar`` (1-based) of ``chain`` (a physics.Chain) at one sample.
-
-    ``theta`` (n,), ``joints`` (n+1, 2), ``reactions`` (n, 2) (entry k: on bar k+1 by bar k or the ground),
-    ``tip_reaction`` (2,) for a closed chain, else None."""
-    n = chain.n
-    i = bar - 1
-    bar_data = chain.bars[i]
-    along = np.array([np.sin(theta[i]), -np.cos(theta[i])])
-    com = joints[i] + bar_data.d * along
-    forces = [
-        DrawnForce(f"m{bar}·g", "gravity", com, np.array([0.0, -bar_data.m * chain.g])),
-        DrawnForce(f"R{i}", "proximal", joints[i].copy(), np.array(reactions[i], dtype=float)),
-    ]
-    if bar < n:
-        forces.append(DrawnForce(f"-R{bar}", "distal", joints[bar].copy(), -np.array(reactions[bar], dtype=float)))
-    elif tip_reaction is not None:
-        forces.append(DrawnForce("RH", "pin", joints[n].copy(), np.array(tip_reaction, dtype=float)))
-    return forces
 
 
 def drawn_loads(loads: FreeBody) -> tuple[list[DrawnForce], list[str]]:
@@ -178,27 +146,8 @@ class FreeBodyView:
                 run = runs.get(rf.label) if rf is not None else None
                 if rf is None or run is None or len(run.ring) == 0:
                     self.hide()
-                elif getattr(run.spec, "mechanism", None) is not None:
-                    self._update_mechanism(frame, rf, run)
                 else:
-                    self._update_chain(frame, rf, run)
-
-    def _update_chain(self, frame, rf, run) -> None:
-        ring, chain = run.ring, run.spec.chain
-        if not 1 <= self.bar <= chain.n:
-            self.hide()
-            return
-        i = min(rf.index, len(ring) - 1)
-        forces = forces_on_bar(
-            chain, self.bar, ring.get("theta", i), ring.get("joints", i), ring.get("reactions", i),
-            ring.get("tip_reaction", i) if chain.pinned else None,
-        )
-        self._draw(forces, float(chain.bars[self.bar - 1].L), mechanism_reach(chain.array("L"), chain.pin),
-                   force_labels=frame.restarted or self._frames % LABEL_EVERY == 0)
-        self._frames += 1
-        self.shown = forces
-        self.shown_bar = self.bar
-        self.shown_t = float(ring.get("t", i))
+                    self._update_mechanism(frame, rf, run)
 
     def _update_mechanism(self, frame, rf, run) -> None:
         mechanism: Mechanism = run.spec.mechanism

@@ -1,29 +1,25 @@
 """One session interface for the server, share links, snapshots and the presenter lock, whatever the model.
 
-Why: a browser's session is a chain's (:class:`app.session.Session`, the per-bar panel, the Analysis and Report
-tabs) or a general mechanism's (:class:`app.mechanism_session.MechanismSession`, the panel generated from its
-description). The server and the tools around it need neither's details: they start and close a session, give
-it the presenter check and the switch to the other kind, apply a link's values by name, pause it at a time
-and read its snapshot. :class:`LabSession` is that contract (a ``typing.Protocol`` both satisfy; mypy checks
-it where the server stores them), so ``app/server.py`` and ``app/snapshot.py`` hold one type instead of a
-union and ask no ``isinstance``. :class:`SessionBase` holds what the two kinds did alike, once.
+Why: a browser's session (:class:`app.mechanism_session.MechanismSession`, for any preset, chain or mechanism)
+has a panel, a scene, a player and workers; the server and the tools around it need none of that. They start and
+close a session, give it the presenter check, apply a link's values by name, pause it at a time and read its
+snapshot. :class:`LabSession` is that contract (a ``typing.Protocol``; mypy checks it where the server stores
+sessions), so ``app/server.py`` and ``app/snapshot.py`` depend on these few members only, and a test can stand
+in for a session. :class:`SessionBase` holds the presenter check, the notices and the browsers' bookkeeping.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable, Literal, Protocol
+from typing import Any, Callable, Protocol
 
 from .notices import NOTICE_SECONDS, Notices
 from .viser_compat import connection_open
-
-Kind = Literal["chain", "mechanism"]
 
 
 class LabSession(Protocol):
     """A session as the server and the tools around it see it."""
 
     id: int
-    kind: Kind  # "chain" or "mechanism": what a switch of the menu leaves
     shared: bool
     closed: bool
     target: Any  # the viser client (own session) or server (shared)
@@ -31,8 +27,6 @@ class LabSession(Protocol):
     camera: Any  # app.camera.CameraDirector
     notices: Notices
     is_presenter: Callable[[int], bool] | None  # --shared with a presenter: whether a browser may change things
-    # the menu (or a setup file, app.share.SavedSetup) chose the other kind: the server replaces this session
-    on_switch: Callable[..., None] | None
 
     @property
     def frames_sent(self) -> int:
@@ -68,7 +62,7 @@ class LabSession(Protocol):
 
 
 class SessionBase:
-    """What both kinds of session do alike: who may change things, notices, which browsers are theirs."""
+    """Who may change things, notices, which browsers are the session's."""
 
     target: Any
     shared: bool

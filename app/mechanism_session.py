@@ -14,10 +14,9 @@ It can also host a chain (issue 24, "One app session"): :meth:`MechanismSession.
 chain's own start, with the chain's knobs and names (app/chain_knobs.py: ``L1``, ``m2``, ``g``, ``theta1``,
 ``pin_x``, ``damping``, the number of bars), every edit through the chain's command layer (app/commands.py), the
 chain session's share link and a four-bar's reach line; ``self.chain`` holds the chain's parameters in force
-(None for a mechanism). Choosing a chain preset in its mechanism menu hosts it here when a chain is shown or no
-``on_switch`` is given; a mechanism with the server's ``on_switch`` hands the browser to the chain session (until
-the server opens every chain here, issue 24). A hosted chain answers
-as the chain session does (its snapshot, downloads, ``params``, ``set``, ``set_start``, ``history``, ...).
+(None for a mechanism). The server opens every preset in this one session, and its menu goes from any preset to
+any other in the same session (the browser keeps its seat, its panel and its tabs). A hosted chain answers
+as the chain session did (its snapshot, downloads, ``params``, ``set``, ``set_start``, ``history``, ...).
 Every GUI callback goes through :meth:`guard`: a refused value is one notice naming the body or joint, the field
 and the allowed range, and the session goes on.
 """
@@ -48,7 +47,7 @@ from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .divergence import VISIBLE_GAP
 from .free_body_view import FreeBodyView, fbd_command
-from .lab_session import Kind, SessionBase
+from .lab_session import SessionBase
 from .logs import quietly
 from .mechanism_analysis import MechanismAnalysis
 from .mechanism_compare import COMPARE_METHODS, MechanismCompare, compare_specs
@@ -226,11 +225,8 @@ def is_mechanism(name: str) -> bool:
 class MechanismSession(SessionBase):
     """A general mechanism shown in one browser (``target`` a client) or in all (``shared``, the server)."""
 
-    kind: Kind = "mechanism"
-
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
-                 autoplay: bool = True, on_switch: Callable[..., None] | None = None,
-                 chain: SessionParameters | None = None) -> None:
+                 autoplay: bool = True, chain: SessionParameters | None = None) -> None:
         # a hosted chain (app/chain_knobs.py): its parameters in force (chain, settings, start); None: a mechanism
         self.chain = chain
         self.target = target
@@ -240,7 +236,6 @@ class MechanismSession(SessionBase):
         self.reference = mechanism  # as loaded: the sliders' ranges and "Reset to the preset's values"
         self.mechanism = mechanism
         self.settings = MechanismSettings(trace=mechanism.trace) if chain is None else chain_knobs.hosted_settings(chain)
-        self.on_switch = on_switch  # (chain preset, optional app.share.SavedSetup to load there)
         self.is_presenter: Callable[[int], bool] | None = None
         self.id = id(self)
         self._lock = threading.RLock()
@@ -291,14 +286,14 @@ class MechanismSession(SessionBase):
             raise
 
     @classmethod
-    def for_chain(cls, target, params: SessionParameters, *, shared: bool = False, autoplay: bool = True,
-                  on_switch: Callable[..., None] | None = None) -> "MechanismSession":
+    def for_chain(cls, target, params: SessionParameters, *, shared: bool = False,
+                  autoplay: bool = True) -> "MechanismSession":
         """A chain preset hosted here (app/chain_knobs.py): ``params`` (``SessionParameters.from_preset``, edited
         or not) run as ``chain_mechanism(params.chain, theta = 0, damping)`` from the chain's own start, with the
         chain's knobs and names; LinkageError for a method the mechanism session does not run."""
         chain_knobs.hosted_settings(params)  # a method it cannot run: refused before anything is built
         return cls(target, chain_knobs.hosted_mechanism(params), label=params.preset, shared=shared,
-                   autoplay=autoplay, on_switch=on_switch, chain=params)
+                   autoplay=autoplay, chain=params)
 
     def _start_of(self, mechanism: Mechanism) -> tuple[np.ndarray, np.ndarray, int, tuple[FreeCoordinate, ...]]:
         """``(q0, qdot0, mobility, free)``: a mechanism's assembled sketch at rest and the coordinates its start is
@@ -1063,8 +1058,8 @@ class MechanismSession(SessionBase):
             self.sync_all()
 
     def choose(self, name: str) -> None:
-        """The mechanism menu: another mechanism preset here; a chain preset hosted here when a chain is shown or
-        no server takes it (``on_switch`` None), else through the server."""
+        """The mechanism menu: another preset here, in this same session: a mechanism preset as loaded, a chain
+        preset hosted with its own knobs (the browser keeps its seat and its panel)."""
         _choice("mechanism", name, self._menu_entries())
         if name == self.label:
             return
@@ -1076,10 +1071,7 @@ class MechanismSession(SessionBase):
                 self.settings = MechanismSettings(trace=mechanism.trace)
                 self._new_mechanism(mechanism, play=True)
             return
-        if self.chain is not None or self.on_switch is None:  # hosted here (no server to hand it to)
-            self.open_chain(SessionParameters.from_preset(name))
-            return
-        self.on_switch(name)
+        self.open_chain(SessionParameters.from_preset(name))
 
     def load_file(self, client_id: int | None, name: object, content: object) -> None:
         """A mechanism file chosen in the browser: validated and assembled, or one notice naming the element."""
@@ -1189,12 +1181,9 @@ class MechanismSession(SessionBase):
             allowed = [*preset_names(), *mechanism_names()]
             if preset not in allowed:
                 raise LinkageError(f"{saved.where}: preset = {preset!r}: allowed {', '.join(allowed)}")
-            if self.chain is not None or self.on_switch is None:  # a chain's setup: hosted and loaded here
-                if self.chain is None:
-                    self.open_chain(SessionParameters.from_preset(preset))
-                self.load_setup(saved.pairs, saved.where)
-                return
-            self.on_switch(preset, saved)
+            if self.chain is None:  # a chain's setup: hosted here, then its values (and preset) applied
+                self.open_chain(SessionParameters.from_preset(preset))
+            self.load_setup(saved.pairs, saved.where)
             return
         self.load_setup(saved.pairs, saved.where)
 
@@ -1732,6 +1721,13 @@ class MechanismSession(SessionBase):
             self.camera.frame(np.array([self.camera.disc[1]]), None, force=force, client=client)
 
     def _frame_camera(self, points_xy: np.ndarray, force: bool = True) -> None:
+        """A chain is framed on the disc it can sweep (its bars' reach around O, the pin H inside), as the chain
+        panel framed it, so that a swinging pendulum never leaves the picture; a mechanism on the disc around
+        its sketch and its ground points (a motor turns it within about that)."""
+        if self.chain is not None:
+            self.camera.disc = None
+            self.camera.frame(np.asarray(self.chain.L, dtype=float), self.chain.pin, force=force)
+            return
         draw = self.spec.draw
         centre, radius = pose_disc(np.concatenate([points_xy, draw.ground]), margin=1.3)
         self.camera.disc = (centre, radius)

@@ -20,14 +20,13 @@ from typing import Any, Callable, Protocol
 
 from .commands import QUANTITIES, Quantity, split_name
 from .logs import quietly
-from .ports import SessionPort
 
 TYPING_PAUSE_S = 0.6  # seconds without a keystroke before a typed value is applied
 
 
 class NumbersPort(Protocol):
-    """What the numbers of a panel ask of their session (the chain's :class:`~app.ports.SessionPort` has it; so
-    does a general mechanism's session for the Display tab's numbers, app/panel_rows.py)."""
+    """What the numbers of a panel ask of their session (app/mechanism_session.py's, for the Display tab's numbers
+    built by app/panel_rows.py): a narrow interface, so that the numbers never reach into the player or scene."""
 
     @property
     def closed(self) -> bool: ...
@@ -108,14 +107,13 @@ def shown(name: str, value_si: float) -> str:
 class NumberInputs:
     """The numbers of one panel. ``mute(action)`` runs a write-back without running callbacks and ``muted()``
     tells whether one is under way; ``bind(handle, action)`` attaches a callback inside the session's error
-    boundary; ``value_of(name)`` is the SI value in force (default: :func:`value_in_force` of a chain's
-    session)."""
+    boundary; ``value_of(name)`` is the SI value in force."""
 
     def __init__(self, gui, port: NumbersPort, bind: Callable, mute: Callable, muted: Callable[[], bool],
-                 value_of: Callable[[str], float] | None = None) -> None:
+                 value_of: Callable[[str], float]) -> None:
         self.gui = gui
         self.port = port
-        self._value_of = value_of or (lambda name: value_in_force(port, name))  # type: ignore[arg-type]
+        self._value_of = value_of
         self._bind = bind
         self._mute = mute
         self._muted = muted
@@ -214,19 +212,3 @@ class NumberInputs:
                 if control.timer is not None:
                     control.timer.cancel()
 
-
-def value_in_force(port: SessionPort, name: str) -> float:
-    """The SI value of a command-layer name in the session's parameters or display settings."""
-    p, display = port.setup, port.display
-    key, k = split_name(name)
-    if k is not None:
-        if key in ("theta", "omega"):
-            return float((p.theta0 if key == "theta" else p.omega0)[k - 1])
-        return float(getattr(p.chain.bars[k - 1], key))
-    if name == "g":
-        return p.g
-    if name in ("pin_x", "pin_y") and p.pin is not None:
-        return p.pin[0 if name == "pin_x" else 1]
-    if hasattr(display, name):
-        return float(getattr(display, name))
-    return float(getattr(p.settings, name))

@@ -1,7 +1,7 @@
 """The running app: one viser server on 127.0.0.1, a session per browser (or one shared), a cap on sessions.
 
 :class:`LabServer` is what ``python -m app`` starts and what tests start in-process on a free port. Each
-browser that connects gets its own :class:`~app.session.Session` on its client handle; closing the tab
+browser that connects gets its own :class:`~app.mechanism_session.MechanismSession` (any preset) on its client handle; closing the tab
 closes the session (player thread stopped, buffers dropped). Past ``max_sessions`` a browser is turned away
 with a message in its page. With ``shared``, one session lives on the server's shared scene and GUI and every
 browser watches (and drives) it. With ``processes`` > 1 the server is that many processes on one port, each

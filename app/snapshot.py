@@ -408,13 +408,13 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     wait_for_node_positions(page, node_positions(session))
     if tight:
         positions = node_positions(session)
-        points = np.array([(p[0], p[2]) for p in positions.values()])  # world (x, 0, y) -> the plane
-        if session.kind == "mechanism":  # a general mechanism: every drawn point (its parts are bars only)
-            points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
+        # every drawn point as it stands at t (a chain's joints, a mechanism's body points)
+        points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
         on_page = project_to_page(page, list(positions))
         session.camera.disc = disc = pose_disc(points)
-        if session.kind == "chain":  # a chain: framed by its bars and pin, within the disc
-            session.camera.frame(session.params.L, session.params.pin, force=True)
+        chain = getattr(session, "chain", None)
+        if chain is not None:  # a chain: framed by its bars and pin, within the disc
+            session.camera.frame(np.asarray(chain.L, dtype=float), chain.pin, force=True)
         else:  # a general mechanism: by the disc alone (as app/mechanism_session.py frames it)
             session.camera.frame(np.array([disc[1]]), None, force=True)
         deadline = time.monotonic() + CAMERA_WAIT_S  # the camera's move shows as the nodes moving on the page

@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import io
 import json
+import math
 import threading
 from types import SimpleNamespace
 
@@ -22,12 +23,11 @@ import pytest
 import physics
 from app import chain_contract, export, readout
 from app.buffers import TrajectoryRing
-from app.frame_view import FrameView
 from app.mechanism_runs import MechanismSettings, MechanismSpec
-from app.parameters import SessionParameters, settings_data
+from app.overlays import energy_scale, relative_drift
+from app.parameters import METHOD_LABELS, SessionParameters, settings_data
 from app.player import SAMPLE_DT
-from app.runs import Frame, Run, RunFrame, chunk_dict, com_ratio
-from app.session import Session
+from app.runs import Run, chunk_dict, com_ratio
 from physics import Settings
 from physics.mechanism.chains import chain_mechanism, chain_state
 from physics.model import validated
@@ -149,8 +149,25 @@ def test_downloads_are_the_chain_sessions_files(preset, method):
 
 
 def test_run_label_is_the_chain_sessions():
+    """The JSON download's ``description``, as docs/app.md words it: preset, bars, method as the menu names it,
+    integrator."""
     params = SessionParameters.from_preset("four-bar", method="dae")
-    assert chain_contract.run_label(params) == Session.run_label(SimpleNamespace(params=params))  # type: ignore[arg-type]
+    assert chain_contract.run_label(params) == f"four-bar (3 bars), {METHOD_LABELS['dae']}, {params.integrator}"
+
+
+def chain_energy_values(run, index: int, reference: float) -> dict:
+    """docs/app.md's ``energy`` keys read straight from the chain route's own ring (physics.simulate's samples,
+    app/buffers.py's fields): the reference the hosted chain's mapping is checked against."""
+    chain = run.spec.chain
+    energy = float(run.ring.get("energy", index))
+    scale = energy_scale(chain.array("m"), chain.array("L"), chain.g)
+    out = {"kinetic": float(run.ring.get("kinetic", index)), "potential": float(run.ring.get("potential", index)),
+           "total": energy, "reference": reference,
+           "relative_drift": float(relative_drift(np.array([energy]), reference, scale)[0])}
+    if chain.pinned:
+        cxy = run.ring.get("constraint_xy", index)
+        out["constraint_error"] = float(math.hypot(cxy[0], cxy[1]))
+    return out
 
 
 def assert_same_document(ours, theirs, where: str = "snapshot") -> None:
@@ -179,14 +196,11 @@ def test_snapshot_is_the_chain_sessions(preset, method):
     chain_run = Run(spec=chain_spec, ring=chain_ring, com_ratio=com_ratio(params.chain))  # type: ignore[arg-type]
     index = chain_ring.index_at(shown)
     reference = float(chain_ring.get("energy", 0))
-    # the chain view's own read-out of its displayed sample (FrameView.current_values)
-    view = SimpleNamespace(last_frame=Frame(t=shown, runs=[RunFrame("main", index, np.zeros(0), np.zeros(0))]),
-                           energy_ref=reference)
     scene = {"root": "/linkage", "nodes": {"/linkage/bar_1": {"visible": True}}}
     common = {"session_id": "s1", "shared": False, "params": params, "compare": False, "notice": None,
               "frames_sent": lambda: 7, "scene": lambda: scene}
     theirs = readout.snapshot_document(player=player_of([chain_run], shown), sample_of=readout.ring_sample,
-                                       energy=lambda runs: FrameView.current_values(view, runs),  # type: ignore[arg-type]
+                                       energy=lambda runs: chain_energy_values(runs["main"], index, reference),
                                        **common)
     ours = chain_contract.snapshot(theta_sketch=sketch, energy_reference=None,
                                    player=player_of([Run(spec=spec, ring=ring, com_ratio=np.zeros(0))], shown),

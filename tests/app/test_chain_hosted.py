@@ -19,9 +19,8 @@ import viser
 
 import physics
 from app import commands, export, mechanism_workers, share
-from app.chain_knobs import chain_angles, hosted_start
+from app.chain_knobs import BAR_SLIDERS, chain_angles, hosted_start, reach_text
 from app.commands import CONTROL, QUANTITIES
-from app.controls import BAR_SLIDERS, reach_text
 from app.mechanism_session import MECHANISM_HELP, MechanismSession, chain_help
 from app.panel_rows import CHAIN_PLOT_CHOICES, MECHANISM_PLOT_CHOICES
 from app.parameters import METHOD_LABELS, SessionParameters

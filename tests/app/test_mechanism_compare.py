@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.divergence import REFERENCE_LABEL, REFERENCE_TOLERANCE
-from app.frame_view import COMPARE_METHODS
-from app.mechanism_compare import compare_specs, visible_gap
+from app.mechanism_compare import COMPARE_METHODS, compare_specs, visible_gap
 from app.mechanism_runs import MechanismSettings
 from app.mechanism_session import MechanismSession
 from conftest import lab_of, wait_until
