@@ -413,43 +413,6 @@ def shown_value(value: object, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
-def check_control(label: str, value: object, *, options: tuple | None = None, number: bool = False,
-                  whole: bool = False, low: float | None = None, high: float | None = None,
-                  flag: bool = False) -> None:
-    """The value a control delivered is one the control offers, else one LinkageError line naming the control
-    and what it allows: one of its ``options`` (a dropdown, a button group), true or false (``flag``: a
-    checkbox), or a finite number (``number``; a whole one with ``whole``) within ``low``..``high``.
-
-    Why here as well as in the models: a control's own options are not a model field (the Plot dropdown, the
-    Report tab's bar menu), and a value outside them was stored by viser before any callback ran; a session
-    that went on with it failed on every frame. Every control of the session is checked by this
-    one function (app/mechanism_session.py ``guard`` and app/panel_rows.py) before its action runs."""
-    if options is not None:
-        if not isinstance(value, str) or value not in options:
-            raise LinkageError(f"{label} = {shown_value(value)}: allowed {', '.join(map(str, options))}")
-        return
-    if flag:
-        if not isinstance(value, bool):
-            raise LinkageError(f"{label} = {shown_value(value)}: allowed true or false")
-        return
-    if not number:
-        return
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise LinkageError(f"{label} = {shown_value(value)}: not a number")
-    try:
-        as_float = float(value)
-    except OverflowError:
-        as_float = math.inf
-    if not math.isfinite(as_float):
-        raise LinkageError(f"{label} = {shown_value(value)}: must be a finite number")
-    if whole and as_float != int(as_float):
-        raise LinkageError(f"{label} = {shown_value(value)}: must be a whole number")
-    low = -math.inf if low is None else low
-    high = math.inf if high is None else high
-    if not low <= as_float <= high:
-        raise LinkageError(f"{label} = {as_float:g}: allowed range {low:g} <= {label} <= {high:g}")
-
-
 def options_of(name: str) -> tuple[str, ...]:
     """The values a choice accepts, from the Settings field's ``Literal`` type."""
     return tuple(typing.get_args(Settings.model_fields[name].annotation))
