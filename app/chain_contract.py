@@ -175,18 +175,25 @@ def snapshot(*, session_id: int | str, shared: bool, params: SessionParameters, 
         sample_of=sample_of, energy=energy, frames_sent=frames_sent, scene=scene)
 
 
+def chain_part_sources(root: str, n: int) -> dict[str, str]:
+    """The chain's part names (``joint_k``, ``ground``) and the hosted drawing's part each is
+    (:meth:`app.mechanism_scene.MechanismScene.parts`): bar 1's proximal point, bar k's distal point, the first
+    ground block."""
+    sources = {f"{root}/joint_{k}": f"{root}/point/bar1.P" if k == 0 else f"{root}/point/bar{k}.D"
+               for k in range(n + 1)}
+    sources[f"{root}/ground"] = f"{root}/ground_0"
+    return sources
+
+
 def chain_scene(nodes: dict[str, dict], root: str, n: int, trace) -> dict[str, dict]:
     """The scene's parts under the chain's names (docs/app.md): ``joint_0`` the ground pin O (bar 1's proximal
     point), ``joint_k`` bar k's distal point (the tip is ``joint_n``), ``com_k``, ``bar_k``, ``ground`` (the pivot's
     block) and ``trace`` (whether the traced point's line is shown, and how many points it holds). The hosted
     chain's drawing names them by body point (:meth:`app.mechanism_scene.MechanismScene.poses`)."""
     named = {name: pose for name, pose in nodes.items() if "/point/" not in name and "/ground_" not in name}
-    for k in range(n + 1):
-        point = nodes.get(f"{root}/point/bar1.P" if k == 0 else f"{root}/point/bar{k}.D")
-        if point is not None:
-            named[f"{root}/joint_{k}"] = point
-    if f"{root}/ground_0" in nodes:
-        named[f"{root}/ground"] = nodes[f"{root}/ground_0"]
+    for chain_name, source in chain_part_sources(root, n).items():
+        if source in nodes:
+            named[chain_name] = nodes[source]
     named[f"{root}/trace"] = {"visible": bool(getattr(trace, "points_shown", 0)),
                               "points": int(getattr(trace, "points_shown", 0))}
     return named

@@ -10,10 +10,9 @@ whatever the mechanism and the tools that count frames (app/wsclient.py) see no 
                        centre of mass
     {root}/ground_k    the fixed points; {root}/guides the sliders' guides on the ground (static)
 
-Part names for :meth:`poses`: ``bar_k`` (segment k, 1-based), the instance k - 1 of ``{root}/bars`` as for a
-chain (:func:`app.scene.part_instance`), so that a picture waits for the browser to show the server's poses. The
-spheres are not listed: a chain interleaves joints and centres of mass in its batch, a mechanism lists its points
-then its centres, and ``part_instance`` would look for the wrong instance.
+Part names for :meth:`poses`: ``bar_k`` (segment k, 1-based), the instance k - 1 of ``{root}/bars``; :meth:`parts`
+names the points, centres and ground blocks, and :meth:`instance_of` says where each is drawn, so that a picture
+waits for the browser to show the server's poses (app/snapshot.py).
 """
 
 from __future__ import annotations
@@ -216,6 +215,28 @@ class MechanismScene:
         for k, xy in enumerate(self.draw.ground):
             out[f"{self.root}/ground_{k}"] = {"position": [float(v) for v in to_world(xy)], "visible": True}
         return out
+
+    @_locked
+    def instance_of(self, name: str) -> tuple[str, int | None] | None:
+        """Where part ``name`` of :meth:`poses` or :meth:`parts` is drawn in the browser: ``(batched node,
+        instance)`` or ``(node, None)``; None for a name that is not this scene's. Why not
+        :func:`app.scene.part_instance`: a chain's old scene interleaved joints and centres in its batch, this
+        one lists the points, then the centres, so the instance depends on the drawing."""
+        prefix = f"{self.root}/"
+        if self.draw is None or not name.startswith(prefix):
+            return None
+        part = name[len(prefix):]
+        labels = self.draw.labels
+        kind, _, number = part.partition("_")
+        if part.startswith("point/") and part[len("point/"):] in labels:
+            return f"{self.root}/spheres", labels.index(part[len("point/"):])
+        if number.isdigit() and kind == "bar" and 1 <= int(number) <= len(self._bar_positions):
+            return f"{self.root}/bars", int(number) - 1
+        if number.isdigit() and kind == "com" and 1 <= int(number) <= len(self._sphere_positions) - len(labels):
+            return f"{self.root}/spheres", len(labels) + int(number) - 1
+        if number.isdigit() and kind == "ground" and int(number) < len(self.draw.ground):
+            return name, None
+        return None
 
     @_locked
     def remove(self) -> None:

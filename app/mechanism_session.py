@@ -1471,6 +1471,20 @@ class MechanismSession(SessionBase):
         self._hosted("export_html")
         return self.download_file("html")[1].decode("utf-8")
 
+    def part_addresses(self) -> dict[str, tuple[str, int | None]]:
+        """Where each part the snapshot names (its ``scene.nodes``) is drawn in the browser: ``(node, instance)``
+        (app/snapshot.py waits for the browser to show those positions). Compare mode's translucent copies are
+        named as :func:`app.scene.part_instance` reads them, so they are not listed."""
+        scene = self.scene
+        chain = self.chain
+        sources = chain_contract.chain_part_sources(scene.root, chain.n) if chain is not None else {}
+        out: dict[str, tuple[str, int | None]] = {}
+        for name in [*scene.poses(), *scene.parts(), *sources]:
+            where = scene.instance_of(sources.get(name, name))
+            if where is not None:
+                out[name] = where
+        return out
+
     def _chain_snapshot(self, params: SessionParameters) -> dict:
         """The chain session's snapshot of the hosted chain ``params`` (app/chain_contract.py ``snapshot``)."""
         def scene() -> dict:

@@ -226,11 +226,21 @@ const partPosition = (mutable, [nodeName, index], world) => {
 """
 
 
-def _addresses(names: Sequence[str]) -> list[list]:
-    return [[name, *part_instance(name)] for name in names]
+def _addresses(names: Sequence[str], where: Mapping[str, tuple[str, int | None]] | None = None) -> list[list]:
+    """``[name, node, instance]`` of each part: from ``where`` (a session's ``part_addresses()``, which knows its
+    drawing), else by the part's name (:func:`app.scene.part_instance`)."""
+    where = where or {}
+    return [[name, *(where.get(name) or part_instance(name))] for name in names]
 
 
-def browser_node_positions(page: Any, names: Sequence[str]) -> dict[str, list[float] | None]:
+def node_addresses(session: Any) -> dict[str, tuple[str, int | None]]:
+    """Where the session's parts are drawn in the browser (its ``part_addresses()``; none for another object)."""
+    addresses = getattr(session, "part_addresses", None)
+    return dict(addresses()) if callable(addresses) else {}
+
+
+def browser_node_positions(page: Any, names: Sequence[str],
+                           where: Mapping[str, tuple[str, int | None]] | None = None) -> dict[str, list[float] | None]:
     """Local positions of scene nodes or parts as the browser holds them (None: not there yet)."""
     return page.evaluate(
         "(addresses) => {" + PART_POSITION_JS + """
@@ -239,15 +249,18 @@ def browser_node_positions(page: Any, names: Sequence[str]) -> dict[str, list[fl
                 return [name, p === null ? null : [p.x, p.y, p.z]];
             }));
         }""",
-        _addresses(names),
+        _addresses(names, where),
     )
 
 
 def wait_for_node_positions(
-    page: Any, positions: Mapping[str, Sequence[float]], tolerance: float = 1e-5, timeout_s: float = PAGE_TIMEOUT_S
+    page: Any, positions: Mapping[str, Sequence[float]], tolerance: float = 1e-5, timeout_s: float = PAGE_TIMEOUT_S,
+    where: Mapping[str, tuple[str, int | None]] | None = None,
 ) -> None:
-    """Wait until every named scene node or part exists in the browser at the server's position."""
-    expected = [[*address, [float(v) for v in positions[address[0]]]] for address in _addresses(list(positions))]
+    """Wait until every named scene node or part exists in the browser at the server's position (``where``: the
+    session's :func:`node_addresses`)."""
+    expected = [[*address, [float(v) for v in positions[address[0]]]]
+                for address in _addresses(list(positions), where)]
     page.wait_for_function(
         "([expected, tolerance]) => {" + PART_POSITION_JS + """
             return expected.every(([name, node, index, position]) => {
@@ -262,7 +275,8 @@ def wait_for_node_positions(
     )
 
 
-def project_to_page(page: Any, names: Sequence[str]) -> dict[str, list[float] | None]:
+def project_to_page(page: Any, names: Sequence[str],
+                    where: Mapping[str, tuple[str, int | None]] | None = None) -> dict[str, list[float] | None]:
     """Page pixel coordinates ``[x, y]`` of the named scene nodes' or parts' origins, through the browser's own
     camera (None for one the browser does not have)."""
     return page.evaluate(
@@ -276,7 +290,7 @@ def project_to_page(page: Any, names: Sequence[str]) -> dict[str, list[float] | 
                 return [name, [rect.left + (point.x + 1) / 2 * rect.width, rect.top + (1 - point.y) / 2 * rect.height]];
             }));
         }""",
-        _addresses(names),
+        _addresses(names, where),
     )
 
 
@@ -405,12 +419,13 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     """PNG of the scene at simulated time ``t``, paused, once the browser shows the server's poses; ``tight``:
     framed on the mechanism as it stands at ``t`` rather than on its whole reach."""
     show_time(session, t, progress=progress)
-    wait_for_node_positions(page, node_positions(session))
+    where = node_addresses(session)
+    wait_for_node_positions(page, node_positions(session), where=where)
     if tight:
         positions = node_positions(session)
         # every drawn point as it stands at t (a chain's joints, a mechanism's body points)
         points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
-        on_page = project_to_page(page, list(positions))
+        on_page = project_to_page(page, list(positions), where)
         session.camera.disc = disc = pose_disc(points)
         chain = getattr(session, "chain", None)
         if chain is not None:  # a chain: framed by its bars and pin, within the disc
@@ -418,7 +433,7 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
         else:  # a general mechanism: by the disc alone (as app/mechanism_session.py frames it)
             session.camera.frame(np.array([disc[1]]), None, force=True)
         deadline = time.monotonic() + CAMERA_WAIT_S  # the camera's move shows as the nodes moving on the page
-        while time.monotonic() < deadline and project_to_page(page, list(positions)) == on_page:
+        while time.monotonic() < deadline and project_to_page(page, list(positions), where) == on_page:
             time.sleep(POLL_MS / 1000.0)
     return settled_screenshot(page, clip=canvas_clip(page))
 

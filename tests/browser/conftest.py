@@ -161,7 +161,8 @@ class AppPage:
         self.wait_for_server_poses()
 
     def wait_for_server_poses(self) -> None:
-        snap.wait_for_node_positions(self.page, snap.node_positions(self.session))
+        snap.wait_for_node_positions(self.page, snap.node_positions(self.session),
+                                     where=snap.node_addresses(self.session))
 
     def picture(self, name: str, clip: dict | None = None) -> np.ndarray:
         """The page (or ``clip``) once it has stopped changing, as (H, W, 3) RGB. With
@@ -173,7 +174,7 @@ class AppPage:
         return pictures.decode_png(png)
 
     def project(self, names) -> dict[str, list[float] | None]:
-        return snap.project_to_page(self.page, names)
+        return snap.project_to_page(self.page, names, snap.node_addresses(self.session))
 
     def panel_box(self) -> dict | None:
         return self.page.locator(snap.CONTROL_PANEL).bounding_box()
