@@ -750,11 +750,19 @@ class MechanismSession(SessionBase):
                 self._set_settings(apply_setting(self.settings, name, shown))
                 self.chain = chain_knobs.with_settings(edit.params, self.settings)
             elif edit.restart:
-                self._chain_start(edit.params)
+                if not self._same_start(edit.params, chain):  # a slider's echo of the start in force is no edit:
+                    self._chain_start(edit.params)  # starting again would take down a refusal's notice meanwhile
             else:
                 key = commands.split_name(name)[0]
                 self._chain_continue(edit.params, geometry=key in ("L", "d", "pin_x", "pin_y"))
             self._sync_boxes()
+
+    @staticmethod
+    def _same_start(new: SessionParameters, old: SessionParameters) -> bool:
+        """The same start angles and speeds (to 1e-12 rad, rad/s): a browser that puts a slider back on the
+        value in force (after a refused value was written back to it) sends that value again."""
+        return bool(np.allclose(new.theta0, old.theta0, rtol=0.0, atol=1e-12)
+                    and np.allclose(new.omega0, old.omega0, rtol=0.0, atol=1e-12))
 
     def _chain_start(self, params: SessionParameters) -> None:
         """A new start of the hosted chain (its angles or speeds): again at t = 0 from it. The start it replaces
