@@ -38,6 +38,7 @@ from physics.mechanism import MECHANISM_PRESETS, Mechanism, analyse
 from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.chains import chain_state
 from physics.mechanism.files import mechanism_from_bytes
+from physics.mechanism.parameters import structure_key
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
@@ -71,6 +72,7 @@ from .mechanism_runs import (
     check_method,
     is_reduced,
     points_at,
+    route_options,
     run_file,
     start_state,
     torque_rows,
@@ -237,6 +239,7 @@ class MechanismSession(SessionBase):
         self.mechanism = mechanism
         self.settings = MechanismSettings(trace=mechanism.trace) if chain is None else chain_knobs.hosted_settings(chain)
         self.is_presenter: Callable[[int], bool] | None = None
+        self._prepared: set[tuple] = set()  # what _prepare has compiled in this session's worker
         self.id = id(self)
         self._lock = threading.RLock()
         self.reactions_on = False
@@ -1573,7 +1576,11 @@ class MechanismSession(SessionBase):
         if self.worker is not None and not self.worker.alive:  # it died: a new one for the next run
             POOL.release(self.worker)
             self.worker = POOL.acquire()
-        runner = self.worker.run if self.worker is not None else None
+        # A chain's chunk is compiled code in its own coordinates (a millisecond for the seed's triple pendulum),
+        # as the chain route has always run it in the server's interpreter: a worker's pipe would add two
+        # process hops to every call, most of an edit's time to its first frame on a loaded machine (BENCHMARKS.md).
+        # A general mechanism's numpy and Python per chunk stays in the worker, off the frames' interpreter.
+        runner = self.worker.run if self.worker is not None and self.chain is None else None
         trace_of = None if self.chain is None else chain_knobs.ChainTrace(self.chain)  # the chain's traced point
         return MechanismSpec("main", self.mechanism, self.settings, runner=runner, trace_of=trace_of)
 
@@ -1888,7 +1895,15 @@ class MechanismSession(SessionBase):
 
     def _prepare(self, spec: MechanismSpec, q0: np.ndarray, qdot0: np.ndarray) -> None:
         """Derive the chosen formulation before the first chunk (the tree formulations take sympy about a
-        second for a six-bar), with a progress notice when it takes longer than PREPARE_NOTICE_DELAY."""
+        second for a six-bar), with a progress notice when it takes longer than PREPARE_NOTICE_DELAY. Once per
+        structure and run choices in this session's worker: an edit of a number compiles nothing (the numbers are
+        the compiled code's parameters), so it does not pay a call of the worker for it (about half of an
+        edit's time to its first frame)."""
+        settings = spec.settings
+        key = (structure_key(spec.chain), settings.method, settings.integrator, settings.stabilization,
+               *route_options(settings), id(self.worker))
+        if key in self._prepared:
+            return
         shown: list = []
         timer = threading.Timer(PREPARE_NOTICE_DELAY, lambda: shown.extend(self.notices.progress(
             "Deriving equations...", f"{METHODS.get(spec.settings.method)} for {spec.chain.name}: sympy derives "
@@ -1901,6 +1916,8 @@ class MechanismSession(SessionBase):
                 update={"t_end": 1e-3, "samples": 2, "max_steps": PREPARE_STEPS}), t_start=0.0)
         except LinkageError:
             pass  # the run's own first chunk reports it
+        else:
+            self._prepared.add(key)
         finally:
             timer.cancel()
             self.notices.dismiss(shown)
