@@ -1,6 +1,17 @@
-"""The Analysis section of a general mechanism's panel (issue 24): the studies the command line runs for a
+"""The Analysis section of the one session's panel (issue 24): the studies the command line runs for a
 mechanism, computed for the one shown: a work-precision chart, an ensemble of copies a hair apart drawn over
 it, a chaos map over two body angles, and the list of its rest poses.
+
+A hosted chain (``session.chain`` not None) keeps what the chain's own Analysis tab gave (issue 7), because its
+studies are better than the general ones for a chain: the work-precision chart sweeps the chain's integrators
+(RK45, DOP853, the fixed-step midpoint and variational ones: :func:`physics.studies.work_precision.
+work_precision_chain`), the ensemble is the chain's batched RK4 :class:`~physics.ensemble.Ensemble` (100 or 1000
+copies 1e-9 rad apart, cheap enough to follow the display as it plays, for as long as it plays, with copy 0 put
+back on the displayed run at every sample the two share), and the chaos map is the double pendulum's 64 x 64
+map. Everything else (the buttons, the workers and their notices, the refusals, discarding a stale study, the
+rest poses) is one code path; the chain's studies differ only inside :meth:`MechanismAnalysis.
+work_precision_chart`, :meth:`~MechanismAnalysis.chaos_map`, the ensemble's build and :meth:`~MechanismAnalysis.
+follow` (the watcher's step of the chain's copies).
 
 For every linkage, chains included (a chain is hosted as a mechanism): a button only starts a
 worker thread and returns; one notice says the study is being computed, one that it is done, refused or
@@ -25,13 +36,16 @@ from typing import Any, Callable
 
 import numpy as np
 
-from physics import LinkageError
-from physics.ensemble import MechanismEnsemble
+from physics import FORMULATION_NAMES, LinkageError
+from physics.chain_presets import get_preset
+from physics.ensemble import Ensemble, MechanismEnsemble
 from physics.mechanism.statics import refuse_without_rest, rest_poses
+from physics.status import Status
 from physics.studies.chaos_map import framed_picture
 from physics.studies.report import Progress
 from physics.studies.work_precision_chart import chart
 
+from .buffers import ThinnedSeries
 from .logs import quietly
 from .mechanism_runs import points_at
 from .overlays import Plot
@@ -53,6 +67,22 @@ CHAOS_METHOD = "dae"  # the fastest of the general engine's formulations for a m
 CHAOS_DISPLAY_SCALE = 16  # each pixel drawn as 16 x 16 screen pixels: 256 px, as the chain's map
 WATCH_SECONDS = 1.0 / 30.0  # how often the watcher moves the copies drawn (and looks for a change of mechanism)
 IDLE_WATCH_SECONDS = 0.2  # how often it looks for a change of mechanism while no copies are drawn
+# a hosted chain's studies: the chain's Analysis tab's (main's app/analysis.py, issue 7)
+CHAIN_ENSEMBLE_COUNTS = ("100", "1000")  # the batched RK4 kernel: 1000 copies still follow the display
+CHAIN_ENSEMBLE_SPREAD = 1e-9  # rad between the initial angles of neighbouring copies
+CHAIN_ENSEMBLE_NODE = "/ensemble/links"
+MAX_FRAME_DT = 4.0  # s of simulated time the copies follow in one look at most (a jump back or far ahead restarts
+# them instead); 4 s covers the fastest playback (8x) on a server that looks only twice a second: a slow or loaded
+# machine must not restart the ensemble on every look (it would never fan out); the catch-up costs at most 960
+# RK4 steps of the batch
+SPREAD_EVERY = 3  # looks of the watcher between updates of a chain's spread figure (10 Hz)
+SPREAD_POINTS = 512  # points of that figure at most, over the ensemble's whole life (ThinnedSeries)
+CHAIN_CHAOS_PRESET = "double"  # the chain's map is the double pendulum's, whatever chain is shown
+CHAIN_CHAOS_METHOD = "lagrange"
+CHAIN_CHAOS_RESOLUTION = 64
+CHAIN_CHAOS_STEP = 0.01
+CHAIN_CHAOS_DISPLAY_SCALE = 4  # each pixel drawn as 4 x 4 screen pixels: with its axes and colour bar, 384 px wide
+CHAIN_INTEGRATORS = ("RK45", "DOP853", "midpoint", "variational")  # work_precision_chain's: the chain tab's chart
 STUDIES = {"chart": "work-precision chart", "ensemble": "ensemble", "chaos": "chaos map",
            "equilibrium": "rest poses"}
 
@@ -79,6 +109,38 @@ def copy_segments(draw, q: np.ndarray) -> np.ndarray:
     return to_world(ends.reshape(-1, 2, 2)).astype(np.float32)
 
 
+def segments(joints: np.ndarray) -> np.ndarray:
+    """A chain's joint positions (N, n + 1, 2) -> line segments (N * n, 2, 3) in the world (the x-z plane)."""
+    ends = np.stack([joints[:, :-1], joints[:, 1:]], axis=2)  # (N, n, 2, 2)
+    return to_world(ends.reshape(-1, 2, 2)).astype(np.float32)
+
+
+def follows_on(dt: float) -> bool:
+    """Whether a chain's ensemble follows a look that finds the display moved by ``dt`` s of simulated time
+    (advancing its copies by ``dt``), rather than starting again from the displayed state: it does for every step
+    forward a playing server makes, however seldom it looks, and not for a jump back or far ahead (the timeline)."""
+    return 0.0 <= dt <= MAX_FRAME_DT
+
+
+def catch_up(ensemble: Ensemble, t: float, displayed_state: Callable[[], tuple | None], rounds: int = 8) -> float:
+    """Advance copies built from the state at ``t`` to where the display is now; returns the display time they
+    stand for. Why: a playing display moves on while the copies are built (in a worker: the first build
+    compiles, a loaded machine is slow), and a look that finds them more than ``MAX_FRAME_DT`` behind takes it
+    for a jump and builds them again, which on a loaded machine never ended (CI saw the ensemble rebuilt
+    through 6 s of play). Each round closes the gap the last one left; a display that went back is left to the
+    next look (a jump back restarts)."""
+    for _ in range(rounds):
+        state = displayed_state()
+        if state is None or not state[0] > t:
+            break
+        gap = state[0] - t
+        ensemble.advance(gap)
+        t = state[0]
+        if gap <= MAX_FRAME_DT / 8:
+            break
+    return t
+
+
 def rest_table(mechanism, poses) -> str:
     """Markdown table of rest poses: each body's angle from the sketch, stability and potential energy."""
     names = [body.name for body in mechanism.bodies]
@@ -101,14 +163,18 @@ class MechanismAnalysis:
         self._jobs: dict[str, threading.Thread] = {}
         self._shown: dict[str, Any] = {}  # study -> the mechanism (object) its result shown was computed for
         self.image_handle: Any = None
-        self.ensemble: MechanismEnsemble | None = None
+        self.ensemble: MechanismEnsemble | Ensemble | None = None  # a mechanism's computed copies or a chain's
         self.ensemble_node: Any = None
         self._ensemble_spec: Any = None  # the run the copies were started from
         self._ensemble_t0 = 0.0
+        self._ensemble_t: float | None = None  # a chain's copies: the display time they stand for
+        self._spread = ThinnedSeries(SPREAD_POINTS)  # a chain's spread over the ensemble's life (its figure)
+        self._looks = 0  # a chain's copies: looks that advanced them (the spread figure every SPREAD_EVERY)
         self._ensemble_q: np.ndarray | None = None  # (samples, N, 3 B)
         self._ensemble_index = -1
         self._ensemble_generation = 0  # bumped when the copies shown or under way are dropped
-        self.ensemble_count = int(ENSEMBLE_COUNTS[0])
+        self._chain_kind = session.chain is not None  # the kind the widgets are labelled for (_sync_kind)
+        self.ensemble_count = int(self._counts()[0])
         self.notices: list[tuple[str, str]] = []  # (title, body) of every notice this section showed (tests)
         self.times: np.ndarray | None = None  # the chaos map's flip times shown
         self.poses: list = []  # the rest poses shown
@@ -125,34 +191,80 @@ class MechanismAnalysis:
         self.folder = tabs.add_tab("Analysis") if tabs is not None else gui.add_folder("Analysis",
                                                                                       expand_by_default=False)
         with self.folder:
-            self.chart_button = gui.add_button("Work-precision chart", hint="Error against wall time for every "
-                                               "method of this mechanism (DOP853, projection; a few seconds)")
+            self.chart_button = gui.add_button("Work-precision chart", hint=self._chart_hint())
             self.chart_button.on_click(lambda event: s.guard(self.work_precision_chart))
             self.chart_status = gui.add_markdown("Error of the traced point against wall time, every method.")
             self.chart_html = gui.add_html("")
-            self.ensemble_box = gui.add_checkbox("Ensemble", initial_value=False, hint=(
-                f"Copies of the mechanism, every body turned {ENSEMBLE_SPREAD:g} rad further than the last, run "
-                f"{ENSEMBLE_SECONDS:g} s from the displayed state (mobility >= 1)"))
+            self.ensemble_box = gui.add_checkbox("Ensemble", initial_value=False, hint=self._ensemble_hint())
             self.ensemble_box.on_update(lambda event: None if self._setting_box else s.guard(
                 lambda: self.set_ensemble(self.ensemble_box.value)))
-            self.count_dropdown = gui.add_dropdown("Ensemble copies", ENSEMBLE_COUNTS,
+            self.count_dropdown = gui.add_dropdown("Ensemble copies", self._counts(),
                                                    initial_value=str(self.ensemble_count))
-            self.count_dropdown.on_update(lambda event: s.guard(
+            self.count_dropdown.on_update(lambda event: None if self._setting_box else s.guard(
                 lambda: self.set_ensemble(self.ensemble_box.value, self.count_dropdown.value)))
             self.ensemble_status = gui.add_markdown("")
-            self.spread_plot = Plot(gui, "Ensemble spread: largest distance of the traced point from copy 0",
+            self.spread_plot = Plot(gui, "Ensemble spread: largest distance of the traced point (a chain's tip) "
+                                    "from copy 0",
                                     ["spread"], [(148, 103, 189)], log=True, height=140, y_label="m")
             self.spread_plot.set_visible(False)
-            self.chaos_button = gui.add_button(
-                f"Chaos map ({CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})",
-                hint="The first two bodies' initial angles, coloured by the time until a body turns over "
-                "(mobility >= 2)")
+            self.chaos_button = gui.add_button(self._chaos_label(), hint=self._chaos_hint())
             self.chaos_button.on_click(lambda event: s.guard(self.chaos_map))
             self.chaos_status = gui.add_markdown("")
             self.rest_button = gui.add_button("Rest poses", hint="Every pose where the mechanism stays at rest, "
                                               "and whether it is stable (mobility >= 1, no turning motor)")
             self.rest_button.on_click(lambda event: s.guard(self.equilibria))
             self.rest_status = gui.add_markdown("")
+
+    # ------------------------------------------------------------------ the kind shown: a chain or a mechanism
+    def _for_chain(self) -> bool:
+        """A hosted chain is shown: its studies are the chain tab's (see the module's docstring)."""
+        return self.session.chain is not None
+
+    def _counts(self) -> tuple[str, ...]:
+        return CHAIN_ENSEMBLE_COUNTS if self._for_chain() else ENSEMBLE_COUNTS
+
+    def _chart_hint(self) -> str:
+        if self._for_chain():
+            return f"Error against wall time of the chain's method with {', '.join(CHAIN_INTEGRATORS)} (a few seconds)"
+        return "Error against wall time for every method of this mechanism (DOP853, projection; a few seconds)"
+
+    def _ensemble_hint(self) -> str:
+        if self._for_chain():
+            return (f"Copies of the chain whose initial angles differ by {CHAIN_ENSEMBLE_SPREAD:g} rad, advanced by "
+                    "RK4 with the display as it plays")
+        return (f"Copies of the mechanism, every body turned {ENSEMBLE_SPREAD:g} rad further than the last, run "
+                f"{ENSEMBLE_SECONDS:g} s from the displayed state (mobility >= 1)")
+
+    def _chaos_label(self) -> str:
+        if self._for_chain():
+            return f"Chaos map (double pendulum, {CHAIN_CHAOS_RESOLUTION} x {CHAIN_CHAOS_RESOLUTION})"
+        return f"Chaos map ({CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})"
+
+    def _chaos_hint(self) -> str:
+        if self._for_chain():
+            return (f"Initial-angle plane of the double pendulum (theta1 across, theta2 up) coloured by the time "
+                    f"until a link first flips (log scale, up to {CHAOS_T_MAX:g} s)")
+        return "The first two bodies' initial angles, coloured by the time until a body turns over (mobility >= 2)"
+
+    def _sync_kind(self) -> None:
+        """Label the widgets for the kind shown (the session went from a mechanism to a chain or back: the menu,
+        a share link); the copies' count goes to that kind's default. Called by the watcher and by every study's
+        entry point, so that a click right after the change already gets the kind's study."""
+        chain = self._for_chain()
+        if chain == self._chain_kind:
+            return
+        self._chain_kind = chain
+        self.ensemble_count = int(self._counts()[0])
+        self._setting_box = True  # the dropdown's own update is not the user's
+        try:
+            self.count_dropdown.options = self._counts()
+            self.count_dropdown.value = str(self.ensemble_count)
+        finally:
+            self._setting_box = False
+        self.chaos_button.label = self._chaos_label()
+        for handle, hint in ((self.chart_button, self._chart_hint()), (self.ensemble_box, self._ensemble_hint()),
+                             (self.chaos_button, self._chaos_hint())):
+            quietly(lambda: setattr(handle, "hint", hint), "relabelling the Analysis tab")
 
     def _notice(self, title: str, body: str, color: str) -> None:
         self.notices.append((title, body))
@@ -228,7 +340,12 @@ class MechanismAnalysis:
     # ------------------------------------------------------------------ work-precision chart
     def work_precision_chart(self) -> None:
         """Every method of this mechanism swept over the tolerance (any mechanism: a driven one is integrated
-        with its motor's angle held as a constraint), drawn as the chain tab's chart."""
+        with its motor's angle held as a constraint), drawn as the chain tab's chart. A hosted chain gets the
+        chain tab's own chart (:meth:`_chain_chart`): its method with every integrator the chain runs."""
+        self._sync_kind()
+        if self._for_chain():
+            self._chain_chart()
+            return
         mechanism, label = self.session.mechanism, self.session.label
 
         def compute(stale):
@@ -250,10 +367,46 @@ class MechanismAnalysis:
 
         self._start("chart", compute, show, self.chart_status)
 
+    def _chain_chart(self) -> None:
+        """The chain tab's chart for the parameters in force: the chain's method (Lagrange for one the chain's
+        sweep does not run) with RK45 and DOP853 over the tolerance and the fixed-step midpoint and variational
+        integrators over the step, 5 s from the chain's start. Why not the mechanism's sweep: for a chain the
+        question the chart answers is which integrator, and the chain's models run all of them (the general
+        engine only scipy's, with projection)."""
+        params, label = self.session.chain, self.session.label
+        assert params is not None
+        formulations = (params.method,) if params.method in FORMULATION_NAMES else ("lagrange",)
+        chain, theta0, omega0, trace = params.chain, params.theta0.copy(), params.omega0.copy(), params.trace
+
+        def compute(stale):
+            from physics.studies import work_precision as bench  # noqa: PLC0415 - see work_precision_chart
+
+            # no steps to stop at: what it computed for a run replaced meanwhile is discarded at its end (_start)
+            result = bench.work_precision_chain(chain, theta0, omega0, trace=trace, formulations=formulations,
+                                                integrators=CHAIN_INTEGRATORS, narrow=True)
+            return result
+
+        def show(result) -> str:
+            case, svg = result
+            self.chart_html.content = f'<div style="width:100%">{fit_width(svg)}</div>'
+            integrators = [i for i in CHAIN_INTEGRATORS if any(c["integrator"] == i for c in case["curves"])]
+            failed = sum(point["status"] != Status.OK for curve in case["curves"] for point in curve["points"])
+            self.chart_status.content = markdown_literal(
+                f"Work-precision of {label}: {params.n} bars, {formulations[0]} with {', '.join(integrators)}, "
+                f"horizon {case['horizon']:g} s, {failed} failed runs.")
+            return f"work-precision chart of {label} ({len(case['curves'])} integrators)"
+
+        self._start("chart", compute, show, self.chart_status)
+
     # ------------------------------------------------------------------ chaos map
     def chaos_map(self) -> None:
         """The chaos map over the first two bodies' initial angles (mobility >= 2; refused in one line
-        otherwise), row band by row band so that a change of mechanism stops it."""
+        otherwise), row band by row band so that a change of mechanism stops it. A hosted chain gets the chain
+        tab's map (:meth:`_chain_chaos_map`)."""
+        self._sync_kind()
+        if self._for_chain():
+            self._chain_chaos_map()
+            return
         s = self.session
         mechanism, label = s.mechanism, s.label
         if s.mobility < 2:
@@ -300,6 +453,39 @@ class MechanismAnalysis:
 
         self._start("chaos", compute, show, self.chaos_status)
 
+    def _chain_chaos_map(self) -> None:
+        """The chain tab's map: the double pendulum's initial-angle plane, 64 x 64 by the chain's compiled
+        Lagrange model, whatever chain is shown (a map needs two free angles and is a picture of the double
+        pendulum's chaos, the course's example; the chain tab never mapped another)."""
+        s = self.session
+        label = s.label
+        chain = get_preset(CHAIN_CHAOS_PRESET).chain
+
+        def compute(stale):
+            from physics.studies import chaos_map as chaos  # noqa: PLC0415 - see work_precision_chart
+
+            times = chaos.compute_map(chain, CHAIN_CHAOS_METHOD, CHAIN_CHAOS_RESOLUTION, CHAOS_T_MAX, CHAIN_CHAOS_STEP)
+            rgb = chaos.to_rgb(times, CHAOS_T_MAX, CHAIN_CHAOS_STEP)
+            rgb = np.repeat(np.repeat(rgb, CHAIN_CHAOS_DISPLAY_SCALE, axis=0), CHAIN_CHAOS_DISPLAY_SCALE, axis=1)
+            return times, framed_picture(rgb, CHAOS_T_MAX, CHAIN_CHAOS_STEP)  # axes, ticks, colour bar, key
+
+        def show(result) -> str:
+            times, picture = result
+            self.times = times
+            if self.image_handle is None:
+                with self.folder:
+                    self.image_handle = s.target.gui.add_image(picture, label="Chaos map (double pendulum)",
+                                                               format="png", order=self.chaos_status.order + 0.1)
+            else:
+                self.image_handle.image = picture
+                self.image_handle.visible = True
+            self.chaos_status.content = markdown_literal(
+                f"Chaos map of the double pendulum: {CHAIN_CHAOS_RESOLUTION} x {CHAIN_CHAOS_RESOLUTION}, theta1 "
+                f"across, theta2 up, in [-pi, pi], flip time up to {CHAOS_T_MAX:g} s.")
+            return f"chaos map of the double pendulum ({CHAIN_CHAOS_RESOLUTION} x {CHAIN_CHAOS_RESOLUTION}, {label} shown)"
+
+        self._start("chaos", compute, show, self.chaos_status)
+
     # ------------------------------------------------------------------ rest poses
     def equilibria(self) -> None:
         """Every rest pose the search finds, lowest potential first (a mechanism with a free motion and no
@@ -324,11 +510,13 @@ class MechanismAnalysis:
     # ------------------------------------------------------------------ ensemble
     def set_ensemble(self, on: object, count: object = None) -> None:
         """The ensemble on (computed from the displayed state in a worker, then drawn over the mechanism) or off;
-        ``count`` one of ENSEMBLE_COUNTS."""
+        ``count`` one of ENSEMBLE_COUNTS (a hosted chain's: CHAIN_ENSEMBLE_COUNTS)."""
+        self._sync_kind()
         if count is not None:
+            counts = self._counts()
             text = str(count).strip() if isinstance(count, (str, int)) and not isinstance(count, bool) else None
-            if text not in ENSEMBLE_COUNTS:
-                raise LinkageError(f"ensemble copies = {count!r}: allowed {', '.join(ENSEMBLE_COUNTS)}")
+            if text not in counts:
+                raise LinkageError(f"ensemble copies = {count!r}: allowed {', '.join(counts)}")
             self.ensemble_count = int(text)
         self._drop_ensemble()  # and calls off copies under way
         if not on:
@@ -340,9 +528,14 @@ class MechanismAnalysis:
             self._refuse("ensemble", f"{s.label} has mobility 0: its motors fix every body, so every copy would "
                          "follow the same path; an ensemble needs mobility >= 1", self.ensemble_status)
             return
-        self._start_ensemble()
+        if self._for_chain():
+            self._start_chain_ensemble()
+        else:
+            self._start_ensemble()
 
     def _start_ensemble(self) -> None:
+        """A mechanism's copies: whole runs of the general engine (no batched kernel), ENSEMBLE_SECONDS of them
+        computed at once from the displayed state; the watcher shows the sample nearest the displayed time."""
         s = self.session
         spec, mechanism, label, count = s.spec, s.mechanism, s.label, self.ensemble_count
         settings = s.settings
@@ -396,12 +589,99 @@ class MechanismAnalysis:
         self._start("ensemble", compute, show, self.ensemble_status,
                     wanted=lambda: generation == self._ensemble_generation)
 
+    def _start_chain_ensemble(self) -> None:
+        """A hosted chain's copies (the chain tab's ensemble): the chain's batched RK4 :class:`Ensemble` built from
+        the displayed state (copy 0 exactly on it) in a worker, compiled there and caught up with a display that
+        played on meanwhile (:func:`catch_up`); the watcher then advances them with the display for as long as it
+        plays (:meth:`follow`). Why not the mechanism's precomputed window: a chain's kernel steps 1000 copies
+        faster than real time, so the fan can be watched opening for minutes, not 20 s."""
+        s = self.session
+        params, spec, label, count = s.chain, s.spec, s.label, self.ensemble_count
+        assert params is not None
+        state = s.displayed_state()  # the hosted chain's (t, theta, omega) at the sample shown
+        if state is None or len(state[1]) != params.n:
+            t, theta, omega = 0.0, params.theta0.copy(), params.omega0.copy()
+        else:
+            t, theta, omega = state
+        chain, damping = params.chain, params.damping
+        method = params.method if params.method in FORMULATION_NAMES else "lagrange"
+
+        def compute(stale):
+            ensemble = Ensemble(chain, theta, omega, method, count, CHAIN_ENSEMBLE_SPREAD, damping=damping)
+            ensemble.prepare()  # its first compilation here, not in the watcher (catch_up may take no step)
+            if stale():
+                raise Discarded
+            shown = catch_up(ensemble, t, s.displayed_state)
+            return ensemble, shown
+
+        def show(result) -> str:
+            ensemble, shown = result
+            self.ensemble, self._ensemble_spec, self._ensemble_t0, self._ensemble_t = ensemble, spec, t, shown
+            self._draw_copies(CHAIN_ENSEMBLE_NODE, segments(ensemble.joints()), copy_colors(count, params.n))
+            self._spread.clear()
+            self._spread.append(shown, ensemble.tip_spread())
+            self._looks = 0
+            self.spread_plot.set_visible(True)
+            self.ensemble_status.content = markdown_literal(
+                f"{count} copies of {label} from t = {t:.3g} s, {method}, RK4 step {ensemble.step * 1e3:.3g} ms; "
+                "they follow the display as it plays.")
+            return f"ensemble of {count} copies of {label}"
+
+        generation = self._ensemble_generation
+        self._start("ensemble", compute, show, self.ensemble_status,
+                    wanted=lambda: generation == self._ensemble_generation)
+
+    def _draw_copies(self, name: str, points: np.ndarray, colors: np.ndarray) -> None:
+        """The copies' bars as thin lines just in front of the mechanism's (the camera looks from -y): copies still
+        together show on them. One node for either kind (``name`` replaces a node of the same name)."""
+        s = self.session
+        width = BAR_WIDTH_FRACTION * s.spec.draw.size
+        self.ensemble_node = s.target.scene.add_line_segments(name, points, colors, thickness=0.3 * width,
+                                                              position=(0.0, -width, 0.0))
+
+    def follow(self, t: float) -> None:
+        """Advance a chain's copies to the displayed time ``t`` (the watcher, 30 times a second) and redraw them:
+        by ``t`` minus the time they stand for when :func:`follows_on` that step, else (the timeline dragged back
+        or far ahead) built again from the displayed state. Copy 0 is put back on the displayed run whenever the
+        copies' time is one of its samples (:meth:`Ensemble.anchor`: fixed-step RK4 and the display's adaptive
+        integrator part as fast as the copies do in a chaotic motion). Runs under the player's lock, as the chain
+        tab's frames did, so that the copies and the display are read together (its tests hold that lock)."""
+        s = self.session
+        with s.player.lock:
+            with self._lock:
+                ensemble, node, last = self.ensemble, self.ensemble_node, self._ensemble_t
+                if not isinstance(ensemble, Ensemble) or node is None or last is None:
+                    return
+                dt = t - last
+                follows = follows_on(dt)
+                self._ensemble_t = t if follows else None
+            if not follows:
+                self._drop_ensemble()
+                self._start_chain_ensemble()
+                return
+            if dt == 0.0:
+                return
+            ensemble.advance(dt)
+            shown = s.state_at(t - ensemble.pending, exact=True)
+            if shown is not None and len(shown[0]) == ensemble.theta.shape[1]:
+                ensemble.anchor(*shown)
+            node.points = segments(ensemble.joints())
+            with self._lock:
+                self._spread.append(t, ensemble.tip_spread())
+                self._looks += 1
+                spread = self._spread.arrays() if self._looks % SPREAD_EVERY == 0 else None
+        if spread is not None:
+            self.spread_plot.update(*spread)
+        if not ensemble.alive.all():
+            self.ensemble_status.content = markdown_literal(
+                f"{int(ensemble.alive.sum())} of {ensemble.count} copies alive: {ensemble.message}")
+
     def _drop_ensemble(self) -> None:
         """Take the copies out of the scene and forget them (the box off, another run, the session's end)."""
         with self._lock:
             self._ensemble_generation += 1
             node, self.ensemble_node = self.ensemble_node, None
-            self.ensemble, self._ensemble_q, self._ensemble_spec = None, None, None
+            self.ensemble, self._ensemble_q, self._ensemble_spec, self._ensemble_t = None, None, None, None
         if node is not None:
             quietly(node.remove, "removing the ensemble's copies")
         quietly(lambda: self.spread_plot.set_visible(False), "hiding the spread plot")
@@ -422,8 +702,9 @@ class MechanismAnalysis:
 
     def _look(self) -> None:
         """Clear what was computed for another mechanism than the one shown; move the copies to the displayed
-        time (the sample nearest it; held at the ends of their window)."""
+        time (the sample nearest it; held at the ends of their window; a chain's copies: :meth:`follow`)."""
         s = self.session
+        self._sync_kind()
         cleared = []
         with self._lock:
             for name, mechanism in list(self._shown.items()):
@@ -434,9 +715,16 @@ class MechanismAnalysis:
         for name in cleared:
             self._clear(name)
         if ensemble_stale:  # Reset, another mechanism, an edit or a setting: the copies are another run's
+            chain_copies = isinstance(self.ensemble, Ensemble)
             self._drop_ensemble()
+            if chain_copies and self._for_chain():  # the chain tab's: built again from the new run's display
+                self._start_chain_ensemble()
+                return
             self._untick()
             self.ensemble_status.content = "The run changed: tick Ensemble again for copies of this one."
+            return
+        if isinstance(self.ensemble, Ensemble):  # a chain's copies follow the display (not a computed window)
+            self.follow(s.player.display_time)
             return
         with self._lock:
             q, node = self._ensemble_q, self.ensemble_node

@@ -1,5 +1,7 @@
 """The Analysis tab (issue 7) of a chain shown in the one session (app/mechanism_analysis.py): work-precision chart,
-chaos map and ensemble, driven through the calls the tab's buttons make. The heavy work runs in worker threads;
+chaos map and ensemble, driven through the calls the tab's buttons make. A hosted chain keeps the chain tab's
+studies (the chain's integrators in the chart, the double pendulum's 64 x 64 map, the batched RK4 ensemble that
+follows the display for as long as it plays, copy 0 on the displayed run). The heavy work runs in worker threads;
 these tests wait for them."""
 
 from __future__ import annotations
@@ -8,8 +10,15 @@ import re
 
 import numpy as np
 
-from app.analysis import follows_on
-from app.mechanism_analysis import CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, ENSEMBLE_RATE
+from app.mechanism_analysis import (
+    CHAIN_CHAOS_DISPLAY_SCALE,
+    CHAIN_CHAOS_RESOLUTION,
+    CHAIN_ENSEMBLE_COUNTS,
+    CHAIN_INTEGRATORS,
+    MAX_FRAME_DT,
+    catch_up,
+    follows_on,
+)
 from conftest import wait_until
 from physics.chain_presets import get_preset
 from physics.studies import chaos_map as chaos
@@ -34,6 +43,13 @@ def test_work_precision_chart_appears_in_the_panel(connect):
     view_height = float(re.search(r'viewBox="0 0 380 ([\d.]+)"', root).group(1))
     legend_y = [float(y) for y in re.findall(r'<text x="44" y="([\d.]+)" font-size="11"', content)]
     assert legend_y and max(legend_y) < view_height
+    # the chain tab's chart: the chain's method with every integrator it had, not the mechanism's DOP853 alone
+    method = session.params.method
+    assert CHAIN_INTEGRATORS == ("RK45", "DOP853", "midpoint", "variational")
+    for integrator in CHAIN_INTEGRATORS:
+        assert f"{method} / {integrator} (" in content, integrator
+    status = session.analysis.chart_status.content.replace("\\", "")
+    assert "RK45, DOP853, midpoint, variational" in status and "horizon 5 s" in status
 
 
 def test_chaos_map_image_appears(connect):
@@ -45,13 +61,15 @@ def test_chaos_map_image_appears(connect):
     assert handle is not None, (session.notice, session.analysis.chaos_status.content)
     image = np.asarray(handle.image)
 
-    side = CHAOS_RESOLUTION * CHAOS_DISPLAY_SCALE
+    side = CHAIN_CHAOS_RESOLUTION * CHAIN_CHAOS_DISPLAY_SCALE
+    assert session.analysis.times.shape == (64, 64)  # the chain tab's map of the double pendulum
     assert image.shape[1] <= 384, "wider than the panel"
     top, left = chaos.FRAME_TOP, chaos.FRAME_LEFT
     assert image.shape[0] > side + top and image.shape[1] > side + left  # axes, colour bar and key around it
     mapped = image[top:top + side, left:left + side]
     # Each map pixel is a uniform block of the display scale.
-    blocks = mapped.reshape(CHAOS_RESOLUTION, CHAOS_DISPLAY_SCALE, CHAOS_RESOLUTION, CHAOS_DISPLAY_SCALE, 3)
+    blocks = mapped.reshape(CHAIN_CHAOS_RESOLUTION, CHAIN_CHAOS_DISPLAY_SCALE, CHAIN_CHAOS_RESOLUTION,
+                            CHAIN_CHAOS_DISPLAY_SCALE, 3)
     assert np.all(blocks == blocks[:, :1, :, :1, :])
     assert len(np.unique(mapped.reshape(-1, 3), axis=0)) > 4  # a picture, not a flat fill
 
@@ -59,7 +77,10 @@ def test_chaos_map_image_appears(connect):
 def test_ensemble_node_exists_moves_and_goes_away(connect):
     _, session = connect()
     analysis = session.analysis
-    session.guard(lambda: analysis.set_ensemble(True, 100))  # the tab's Ensemble box, 100 copies
+    # the chain tab's counts, 100 by default
+    assert analysis.count_dropdown.options == CHAIN_ENSEMBLE_COUNTS == ("100", "1000")
+    assert analysis.ensemble_count == 100 and analysis.count_dropdown.value == "100"
+    session.guard(lambda: analysis.set_ensemble(True))  # the tab's Ensemble box
     assert wait_until(lambda: analysis.ensemble_node is not None, timeout=FIRST_COMPILE_SECONDS), \
         analysis.ensemble_status.content
     node = analysis.ensemble_node
@@ -67,10 +88,12 @@ def test_ensemble_node_exists_moves_and_goes_away(connect):
     first = np.array(node.points)
     assert first.shape == (100 * n, 2, 3)  # every copy's bars
     assert np.all(first[:, :, 1] == 0.0)  # in the mechanism's x-z plane
+    assert analysis.ensemble.count == 100
     session.play()
-    assert wait_until(lambda: analysis.ensemble_node is not None
-                      and not np.allclose(np.array(analysis.ensemble_node.points), first), timeout=30)  # it moves
-    assert analysis.ensemble is not None and analysis.ensemble.alive.all()
+    assert wait_until(lambda: analysis.ensemble is not None and analysis.ensemble.time > 0.3, timeout=30)
+    assert analysis.ensemble_node is not None
+    assert not np.allclose(np.array(analysis.ensemble_node.points), first)  # it moves
+    assert analysis.ensemble.alive.all()
     session.guard(lambda: analysis.set_ensemble(False))
     assert analysis.ensemble_node is None and analysis.ensemble is None
 
@@ -78,42 +101,101 @@ def test_ensemble_node_exists_moves_and_goes_away(connect):
 def test_bad_ensemble_count_is_a_notice(connect):
     _, session = connect()
     session.guard(lambda: session.analysis.set_ensemble(True, 7))
-    assert session.notice is not None and "ensemble copies = 7: allowed 20, 100" in session.notice
+    assert session.notice is not None and "ensemble copies = 7: allowed 100, 1000" in session.notice
     assert session.analysis.ensemble_node is None
 
 
 def test_the_ensemble_stays_on_the_displayed_pendulum_and_shows_its_spread(connect):
-    """Issue 14: the ensemble (computed apart) drifted away from the displayed pendulum (the run shown); copy 0
-    must be on it at every sample the two share, and the spread is plotted."""
+    """Issue 14: the ensemble (RK4 at a fixed step) drifted away from the displayed pendulum (an adaptive
+    integrator); copy 0 starts on it and is put back on it at every sample the two share, and the spread is
+    plotted."""
     _, session = connect()
-    session.set_mechanism("triple-a")
-    # Paused until the copies are built (a display playing meanwhile would be far on before they arrive).
+    # Paused until the copies are built: their first build compiles (two minutes on a loaded machine from an
+    # empty cache), and a display playing meanwhile would be past 6 s before they arrive.
     session.pause()
+    session.set_mechanism("triple-a")
+    assert session.chain is not None and session.chain.preset == "triple-a"
     analysis = session.analysis
     session.guard(lambda: analysis.set_ensemble(True, 100))
     assert wait_until(lambda: analysis.ensemble is not None, timeout=FIRST_COMPILE_SECONDS), \
         analysis.ensemble_status.content
+    with session.player.lock:  # at the moment the copies start: copy 0 is the displayed state
+        ensemble = analysis.ensemble
+        t, theta, _ = session.displayed_state()
+        assert analysis._ensemble_t0 == t and ensemble.time == 0.0
+        gap = float(np.max(np.abs(ensemble.theta[0] - theta)))
+        assert gap <= 1e-12, f"copy 0 starts {gap:.3g} rad from the displayed pendulum"
     t0 = analysis._ensemble_t0
     session.play()
     assert wait_until(lambda: session.snapshot()["time"] > t0 + 6.0, timeout=60)
     session.pause()
-    with session.player.lock:  # the copies and the display read together
-        copies = analysis._ensemble_q
-        assert copies is not None, analysis.ensemble_status.content
-        latest = min(int(round((session.player.display_time - t0) * ENSEMBLE_RATE)), len(copies) - 1)
-        for index in range(latest, 0, -1):  # the copies' latest sample that is one of the displayed run's
-            shown = session.state_at(t0 + index / ENSEMBLE_RATE, exact=True)
+    # The steps below are the test's, ahead of the paused display; the watcher follows the displayed time, which is
+    # behind them: a jump back, which rebuilds the ensemble. It follows under the player's lock (re-entrant), so
+    # holding it keeps the watcher out until the copies have been checked.
+    with session.player.lock:
+        ensemble = analysis.ensemble
+        assert ensemble is analysis.ensemble and ensemble.time > 5.0, "the copies did not follow the display"
+        for _ in range(4):  # step as the watcher does until the copies' time is one of the displayed run's samples
+            shown = session.state_at(analysis._ensemble_t - ensemble.pending, exact=True)
             if shown is not None:
                 break
-        assert shown is not None and index / ENSEMBLE_RATE > 5.0
-        copy0 = np.angle(np.exp(1j * (copies[index, 0, 2::3] - shown[0])))  # body turns are the bar angles
-        gap = float(np.max(np.abs(copy0)))
-        at = t0 + index / ENSEMBLE_RATE
-        assert gap <= 1e-12, f"copy 0 is {gap:.3g} rad from the displayed pendulum at t = {at:.3g} s"
+            analysis.follow(analysis._ensemble_t + 1.0 / 240.0)
+        assert shown is not None
+        gap = float(np.max(np.abs(ensemble.theta[0] - shown[0])))
+        assert gap <= 1e-12, f"copy 0 is {gap:.3g} rad from the displayed pendulum"  # 1.4e-8 at 6 s unanchored
         plot = analysis.spread_plot
         assert plot.handle.visible and plot.points_shown > 10
         spread = np.asarray(plot.handle.data[1])
     assert spread[-1] > spread[0]  # the fan opens (log10 of the spread)
+
+
+def test_the_ensemble_follows_the_display_for_as_long_as_it_plays(connect):
+    """The chain tab's ensemble is not a window computed ahead (a mechanism's 20 s): its copies are advanced with
+    the display, the same copies after 30 s and more of play, and they fan out."""
+    _, session = connect()
+    session.pause()
+    session.set_mechanism("triple-a")
+    analysis = session.analysis
+    session.guard(lambda: analysis.set_ensemble(True))
+    assert wait_until(lambda: analysis.ensemble is not None, timeout=FIRST_COMPILE_SECONDS), \
+        analysis.ensemble_status.content
+    ensemble, built, t0 = analysis.ensemble, analysis._ensemble_generation, analysis._ensemble_t0
+    session.set("speed", 8.0)
+    session.play()
+    assert wait_until(lambda: session.player.display_time > t0 + 32.0, timeout=240)
+    assert wait_until(lambda: ensemble.time > 31.0, timeout=10)  # still advancing past 30 s
+    session.pause()
+    with session.player.lock:
+        assert analysis.ensemble is ensemble and analysis._ensemble_generation == built, "rebuilt while playing"
+        assert abs(t0 + ensemble.time + ensemble.pending - session.player.display_time) < MAX_FRAME_DT
+        assert ensemble.alive.all()
+        spread = ensemble.tip_spread()
+    assert spread > 1e-3, f"the copies' tips are only {spread:.3g} m apart after 30 s"  # from 1e-9 rad
+
+
+def test_an_edit_builds_the_copies_again_from_the_displayed_state(connect):
+    """As the chain tab's: a physical number edited mid-run goes on from the displayed state, and so do the copies
+    (built again for the new numbers, still ticked), copy 0 on the display again."""
+    _, session = connect()
+    session.pause()
+    session.set_mechanism("triple-a")
+    analysis = session.analysis
+    session.guard(lambda: analysis.set_ensemble(True))
+    assert wait_until(lambda: analysis.ensemble is not None, timeout=FIRST_COMPILE_SECONDS)
+    session.play()
+    assert wait_until(lambda: session.player.display_time > 1.0, timeout=60)
+    session.pause()
+    old = analysis.ensemble
+    session.guard(lambda: session.set("g", 5.0))
+    assert wait_until(lambda: analysis.ensemble is not None and analysis.ensemble is not old, timeout=60), \
+        analysis.notices
+    n = session.params.n
+    assert [title for title, _ in analysis.notices].count("Ensemble discarded") == 0  # built again, not dropped
+    assert old.params[4 * n] != 5.0 and analysis.ensemble.params[4 * n] == 5.0  # g = 5: the new numbers
+    with session.player.lock:
+        t, theta, _ = session.displayed_state()
+        assert analysis._ensemble_t0 == t >= 1.0 and analysis.ensemble.time == 0.0  # paused: nothing to catch up
+        assert float(np.max(np.abs(analysis.ensemble.theta[0] - theta))) <= 1e-12
 
 
 def test_a_slow_frame_advances_the_ensemble_and_a_jump_back_restarts_it():
@@ -131,7 +213,6 @@ def test_copies_built_while_the_display_played_on_are_brought_to_it_not_built_ag
     """On a loaded machine the copies took longer to build than ``MAX_FRAME_DT`` of playback; the next frame
     took the gap for a jump and built them again, for ever (CI: no ensemble to compare after 6 s of play).
     ``catch_up`` advances them to the display before they are shown."""
-    from app.analysis import MAX_FRAME_DT, catch_up  # noqa: PLC0415
     from physics.ensemble import Ensemble  # noqa: PLC0415
 
     preset = get_preset("triple-a")

@@ -9,9 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.mechanism_analysis import CHAOS_RESOLUTION, ENSEMBLE_RATE, ENSEMBLE_SECONDS, ENSEMBLE_SPREAD
+from app.mechanism_analysis import (
+    CHAIN_ENSEMBLE_COUNTS,
+    CHAOS_RESOLUTION,
+    ENSEMBLE_COUNTS,
+    ENSEMBLE_RATE,
+    ENSEMBLE_SECONDS,
+    ENSEMBLE_SPREAD,
+)
 from app.mechanism_session import MechanismSession
 from conftest import lab_of, wait_until
+from physics.ensemble import Ensemble, MechanismEnsemble
 from physics.mechanism.constraints import Constraints
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -180,3 +188,31 @@ def test_chaos_map_of_a_mobility_two_mechanism(slider_lab, connect):
     assert np.count_nonzero(times > 0) > CHAOS_RESOLUTION
     status = analysis.chaos_status.content.replace("\\", "")  # markdown_literal escapes the dots
     assert analysis.image_handle is not None and "upper.phi across, lower.phi up" in status
+
+
+def test_the_studies_follow_the_kind_shown_a_mechanism_or_a_hosted_chain(slider_lab, connect):
+    """One Analysis section for every preset: a mechanism's studies (20 or 100 whole runs, a 16 x 16 map), and once
+    a chain preset is hosted in the same session the chain tab's (100 or 1000 batched RK4 copies, the double
+    pendulum's 64 x 64 map); back to a mechanism, its own again."""
+    _, session = connect(slider_lab)
+    analysis = session.analysis
+    assert session.chain is None
+    assert analysis.count_dropdown.options == ENSEMBLE_COUNTS and analysis.ensemble_count == 20
+    assert analysis.chaos_button.label == f"Chaos map ({CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})"
+    session.guard(lambda: session.set_mechanism("double"))
+    assert session.chain is not None
+    session.pause()
+    session.guard(lambda: analysis.set_ensemble(True))  # at once: the click after the change gets the chain's
+    assert analysis.count_dropdown.options == CHAIN_ENSEMBLE_COUNTS and analysis.ensemble_count == 100
+    assert analysis.count_dropdown.value == "100"
+    assert analysis.chaos_button.label == "Chaos map (double pendulum, 64 x 64)"
+    analysis.wait("ensemble", timeout=600)
+    assert isinstance(analysis.ensemble, Ensemble) and analysis.ensemble.count == 100, analysis.notices
+    assert analysis.ensemble.spread == 1e-9 and np.array(analysis.ensemble_node.points).shape == (100 * 2, 2, 3)
+    session.guard(lambda: session.set_mechanism("slider-crank"))  # the chain's copies are not the mechanism's
+    assert wait_until(lambda: analysis.ensemble_node is None and analysis.ensemble_box.value is False, timeout=10)
+    assert analysis.count_dropdown.options == ENSEMBLE_COUNTS and analysis.ensemble_count == 20
+    assert analysis.chaos_button.label == f"Chaos map ({CHAOS_RESOLUTION} x {CHAOS_RESOLUTION})"
+    session.guard(lambda: analysis.set_ensemble(True))
+    analysis.wait("ensemble")
+    assert isinstance(analysis.ensemble, MechanismEnsemble) and analysis.ensemble.count == 20, analysis.notices
