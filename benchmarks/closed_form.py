@@ -544,8 +544,11 @@ def _physics_from(tree: str) -> None:
     sys.path.insert(0, os.path.abspath(tree))
 
 
-def _child(tree: str | None, repeats: int) -> dict:
-    """One run of this command in a fresh process, ``physics`` from ``tree`` (None: this checkout)."""
+def _child(tree: str | None, repeats: int, cache: str | None = None) -> dict:
+    """One run of this command in a fresh process, ``physics`` from ``tree`` (None: this checkout), with
+    ``cache`` (when given) as its ``LINKAGE_LAB_CACHE``: a generated system's file name carries its generator's
+    digest, so two trees sharing one folder remove each other's files as stale and derive them again."""
+    import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415
 
     command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats)]
@@ -554,7 +557,10 @@ def _child(tree: str | None, repeats: int) -> dict:
     import pathlib  # noqa: PLC0415
 
     root = pathlib.Path(__file__).resolve().parent.parent  # this checkout: its benchmarks, the baselines
-    done = subprocess.run(command, capture_output=True, text=True, check=False, cwd=root)
+    env = dict(os.environ)
+    if cache is not None:
+        env["LINKAGE_LAB_CACHE"] = cache
+    done = subprocess.run(command, capture_output=True, text=True, check=False, cwd=root, env=env)
     if done.returncode not in (0, 1):
         raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}")
     return json.loads(done.stdout)
@@ -563,8 +569,13 @@ def _child(tree: str | None, repeats: int) -> dict:
 def compare_before(before: str, rounds: int, repeats: int) -> dict:
     """This checkout's ``physics.simulate`` and ``before``'s, each in its own process against the same two
     closed forms (this checkout's), the order alternating per round; medians over the rounds of each round's
-    medians, and each tree's ratios."""
+    medians, and each tree's ratios. Each tree has a cache folder of its own, ``closed-form-after`` and
+    ``closed-form-before`` under ``LINKAGE_LAB_CACHE`` or a new temporary folder."""
     import os  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    base = os.environ.get("LINKAGE_LAB_CACHE") or tempfile.mkdtemp(prefix="closed-form-")
+    caches = {label: os.path.join(base, f"closed-form-{label}") for label in ("after", "before")}
 
     runs: dict[str, list[dict]] = {"after": [], "before": []}
     for round_index in range(rounds):
@@ -572,7 +583,7 @@ def compare_before(before: str, rounds: int, repeats: int) -> dict:
         if round_index % 2:
             order.reverse()
         for label, tree in order:
-            result = _child(tree, repeats)
+            result = _child(tree, repeats, caches[label])
             result["load_average"] = os.getloadavg()[0]
             runs[label].append(result)
     summary: dict = {"rounds": rounds, "repeats": repeats, "before": os.path.abspath(before)}

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import threading
+from operator import is_ as _is
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -158,9 +159,8 @@ def chain_route(chain: Chain, method: str, damping: float) -> ChainAsMechanism:
     key = (id(chain), method, float(damping))
     entry = _routes.get(key)
     bars = chain.bars
-    if entry is not None and entry[0] is chain and len(entry[1]) == len(bars) and all(
-        kept is bar for kept, bar in zip(entry[1], bars)
-    ):
+    # map(operator.is_) over the bars: the same identity test as a generator, without a Python frame per bar
+    if entry is not None and entry[0] is chain and len(entry[1]) == len(bars) and all(map(_is, entry[1], bars)):
         return entry[2]
     route = None
     if USE_RECORDS:

