@@ -34,11 +34,10 @@ from typing import Any, Callable, cast
 import numpy as np
 
 from physics import LinkageError, Settings, preset_names
-from physics.mechanism import MECHANISM_PRESETS, Mechanism, analyse
+from physics.mechanism import MECHANISM_PRESETS, Mechanism, analyse, structure_key
 from physics.mechanism.assembly import mobility_text_for
 from physics.mechanism.chains import chain_state
 from physics.mechanism.files import mechanism_from_bytes
-from physics.mechanism.parameters import structure_key
 from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated

@@ -39,3 +39,12 @@ def derived_system(mechanism: Mechanism, method: str, rotations: str = "relative
     from .symbolic import derive_system  # noqa: PLC0415 - sympy: only when asked for
 
     return derive_system(mechanism, method, rotations)
+
+
+def structure_key(mechanism: Mechanism) -> str:
+    """What compiled code of ``mechanism`` is keyed by: a short digest of its topology and joint kinds, never its
+    numbers (masses, sizes, motor speeds, g are the compiled code's parameters). Two mechanisms with the same
+    key run on the same compiled code (the app compiles once per key, docs/architecture.md)."""
+    from .parameters import structure_key as key  # noqa: PLC0415 - the structure's pieces load only when asked for
+
+    return key(mechanism)
