@@ -45,6 +45,8 @@ class LabSession(Protocol):
 
     def set_compare(self, on: bool) -> None: ...
 
+    def set_lecture(self, on: bool) -> None: ...
+
     def set_link_value(self, name: str, text: str) -> None:
         """One value of a share link or a setup file, by its name, in the panel's units."""
 

@@ -42,7 +42,7 @@ from physics.mechanism.singularity import NEAR_SINGULAR_CONDITION
 from physics.mechanism.topology import joint_bodies
 from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 
-from . import chain_contract, chain_knobs, commands, delivery, panel_rows, readout, share, viser_compat
+from . import chain_contract, chain_knobs, commands, delivery, lecture, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .divergence import VISIBLE_GAP
@@ -81,7 +81,15 @@ from .mechanism_start import FreeCoordinate, free_coordinates, pose_with, veloci
 from .mechanism_workers import POOL
 from .notices import Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S, NumberInputs
-from .overlays import METHOD_COLORS, Plot, ReactionArrows, TraceLine, relative_drift, status_markdown
+from .overlays import (
+    ENERGY_COLORS,
+    METHOD_COLORS,
+    Plot,
+    ReactionArrows,
+    TraceLine,
+    relative_drift,
+    status_markdown,
+)
 from .page import READY_HTML
 from .parameters import (
     METHOD_LABELS,
@@ -323,6 +331,7 @@ class MechanismSession(SessionBase):
             return handle
 
         self.status = keep(gui.add_markdown(""))
+        self.lecture_style = keep(gui.add_html(""))  # lecture mode's stylesheet while it is on (app/lecture.py)
         # as the chain panel's: the page's keys (Space, S, R) press these buttons (static/page.html)
         self.transport = keep(gui.add_button_group("Playback", TRANSPORT,
                                                    hint="Reset: start again from the start in force (t = 0)"))
@@ -347,7 +356,7 @@ class MechanismSession(SessionBase):
         self._plotted: tuple[FreeCoordinate, ...] = ()
         self.phase_image = keep(panel_rows.add_phase_image(gui))
         self.energy_plot = Plot(gui, "Energy", ["kinetic", "potential", "total"],
-                                [(31, 119, 180), (44, 160, 44), (30, 30, 30)], y_label="J")
+                                list(ENERGY_COLORS), y_label="J")
         self._gui.append(self.energy_plot.handle)
         self.drift_plot = panel_rows.add_drift_plot(gui)
         self._gui.append(self.drift_plot.handle)
@@ -392,6 +401,9 @@ class MechanismSession(SessionBase):
             self.stabilization.on_update(
                 lambda event: self.guard(lambda: self.set_stabilization(str(self.stabilization.value))))
         with self.tabs.add_tab("Display"):
+            self.lecture_box = gui.add_checkbox("Lecture mode", False, hint="Text, charts and figures readable from "
+                                                "the back row: larger text, a wider panel (also ?lecture=1, --lecture)")
+            self.lecture_box.on_update(lambda event: self.guard(lambda: self.set_lecture(bool(self.lecture_box.value))))
             panel_rows.add_motion_numbers(self.numbers.add, self.display)
             self.trace_menu = gui.add_dropdown("Traced point", ["(none)"], initial_value="(none)",
                                                hint="Any named point of any body")
@@ -440,6 +452,18 @@ class MechanismSession(SessionBase):
         with self.tabs.add_tab("Help"):
             self.help = gui.add_markdown(self._help_text())  # the chain panel's for a hosted chain (_show_facts)
         self.torque_plot: Plot | None = None
+
+    def set_lecture(self, on: bool) -> None:
+        """Lecture mode on or off for this session's panel: its stylesheet, and every chart's canvas text and size
+        (app/lecture.py). Only how things are drawn changes; nothing of the run."""
+        self.lecture_style.content = lecture.LECTURE_CSS if on else ""
+        lecture.switch(self.target.gui, on)
+        if bool(self.lecture_box.value) != on:
+            self.lecture_box.value = on
+
+    @property
+    def lecture(self) -> bool:
+        return bool(self.lecture_box.value)
 
     def _menu_entries(self) -> list[str]:
         entries = list(preset_names()) + mechanism_names()

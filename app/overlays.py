@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from . import lecture
 from .logs import quietly
 from .scene import to_world
 from .text import markdown_literal
@@ -28,6 +29,10 @@ METHOD_COLORS = {
     "dae": (44, 160, 44),
     "reduced": (148, 103, 189),
 }
+# chart lines legible on the panel's white and on its near-black (dark mode): each of these has a contrast ratio of
+# at least 3 against both (tests/browser/test_lecture.py measures it in the browser); a near-black line vanished
+ENERGY_COLORS = ((31, 119, 180), (44, 160, 44), (230, 85, 13))  # kinetic, potential, total
+RESIDUAL_COLOR = (168, 98, 62)
 PLOT_POINTS = 300  # points per plotted series (downsampled), enough for a 300 px wide panel
 DIVERGENCE_FLOOR = 1e-16  # log-scale plots cannot show zero
 
@@ -157,18 +162,34 @@ class Plot:
             {"label": label, "stroke": _rgb(color), "width": 1.5} for label, color in zip(labels, colors)
         ]
         data = tuple(np.zeros(2) for _ in range(len(labels) + 1))
+        self._axis_labels = (_x_axis()["label"], ("log10 " + y_label).strip() if log else y_label)
+        self._height = height
+        self.lecture = lecture.is_on(gui)
         self.handle = gui.add_uplot(
             data=data,
             series=tuple(series),
             title=title,
             scales={"x": {"time": False, "auto": True}, "y": {"auto": True}},
-            axes=(_x_axis(), {"label": ("log10 " + y_label).strip() if log else y_label, "size": 50}),
             legend={"show": True, "live": False},
-            height=height,
-            aspect=2.0,
             order=order,
+            **lecture.chart_style(self.lecture, *self._axis_labels, height),
         )
+        lecture.register(gui, self)
         self.points_shown = 0
+
+    def set_lecture(self, on: bool) -> None:
+        """Lecture mode's larger canvas text and panel-wide size, or the default (app/lecture.py)."""
+        if on == self.lecture:
+            return
+        self.lecture = on
+        style = lecture.chart_style(on, *self._axis_labels, self._height)
+
+        def apply() -> None:
+            self.handle.axes = style["axes"]
+            self.handle.aspect = style["aspect"]
+            self.handle.height = style["height"]
+
+        quietly(apply, "restyling a chart for lecture mode")
 
     def update(self, t: np.ndarray, *ys: np.ndarray) -> None:
         if len(t) < 2:

@@ -26,7 +26,7 @@ import numpy as np
 from physics import LinkageError
 
 from .number_inputs import SliderSpec
-from .overlays import Plot
+from .overlays import RESIDUAL_COLOR, Plot
 from .parameters import Display
 from .phase_view import phase_picture
 
@@ -140,7 +140,7 @@ def add_drift_plot(gui) -> Plot:
 
 def add_residual_plot(gui, title: str, label: str, y_label: str) -> Plot:
     """How far the loops are from closed, on a log scale (a chain's tip from its pin, a mechanism's residual)."""
-    return Plot(gui, title, [label], [(140, 86, 75)], log=True, height=130, y_label=y_label)
+    return Plot(gui, title, [label], [RESIDUAL_COLOR], log=True, height=130, y_label=y_label)
 
 
 def show_plot(kind: str, energy: list[Plot], coordinates: Plot | None, phase_image) -> None:

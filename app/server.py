@@ -89,6 +89,21 @@ VIEWER_STYLE = """<style>
 </style>"""
 
 
+def lecture_from(setup: list[tuple[str, str]], default: bool) -> tuple[list[tuple[str, str]], bool, list[str]]:
+    """A link's ``lecture=1`` (or ``0``) taken out of its setup: the setup without it, whether the session starts
+    in lecture mode (``default``: ``--lecture``), and the reason a value other than 0 or 1 is not applied."""
+    values = [value for key, value in setup if key == "lecture"]
+    rest = [(key, value) for key, value in setup if key != "lecture"]
+    if not values:
+        return rest, default, []
+    value = values[-1].strip().lower()
+    if value in ("1", "true", "on", ""):
+        return rest, True, []
+    if value in ("0", "false", "off"):
+        return rest, False, []
+    return rest, default, [f"lecture: {values[-1][:20]!r} is not 0 or 1 (lecture=1 opens the page in lecture mode)"]
+
+
 class LabServer:
     """A viser server with Linkage Lab sessions. ``stop()`` closes every session and frees the port."""
 
@@ -110,6 +125,7 @@ class LabServer:
         presenter: bool = True,
         mechanism: Mechanism | None = None,
         mechanism_label: str | None = None,
+        lecture: bool = False,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -148,6 +164,7 @@ class LabServer:
         self.preset, self.links, self.method = preset, links, method
         self.max_sessions = int(max_sessions)
         self.shared = shared
+        self.lecture = lecture  # --lecture: every session starts in lecture mode (app/lecture.py)
         self.setup = list(setup or [])  # --state: the saved setup every new session starts from (app/share.py)
         self.started = time.time()
         binding = server_processes.reuse_port_binding() if reuse_port else contextlib.nullcontext()
@@ -177,13 +194,15 @@ class LabServer:
             self.shared_session = self._start_session(self.viser, preset, links, shared=True)
             if self.setup:
                 self.shared_session.load_setup(self.setup, "the setup file")
+            if lecture:
+                self.shared_session.set_lecture(True)
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
         self.siblings: server_processes.Siblings | None = None
         if processes > 1:
             options = {"host": host, "preset": preset, "links": links, "method": method,
                        "max_sessions": max_sessions, "warm": warm, "setup": self.setup,
-                       "mechanism": mechanism, "mechanism_label": mechanism_label}
+                       "mechanism": mechanism, "mechanism_label": mechanism_label, "lecture": lecture}
             try:
                 self.siblings = server_processes.start_siblings(processes - 1, self.port, options, self.seats)
             except BaseException:
@@ -220,6 +239,8 @@ class LabServer:
         session = None
         try:
             setup, refused = self._setup_of(client)
+            setup, lecture_mode, refused_lecture = lecture_from(setup, self.lecture)
+            refused += refused_lecture
             preset, links, not_started = share.start_of(setup, self.preset, self.links, mechanisms=True)
             named = dict(setup).get("preset") == preset  # the link's own preset wins over the server's start
             session = self._start_session(client, preset, links, shared=False,
@@ -227,6 +248,8 @@ class LabServer:
                                           chain=named and not is_mechanism(preset))
             # the link's values by the names of the session's panel, chain or mechanism
             refused += not_started + share.apply_setup(setup, session.set_link_value)
+            if lecture_mode:
+                session.set_lecture(True)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
             elif (compiling := self.compile_notices.line) is not None:  # arrived while the process compiles

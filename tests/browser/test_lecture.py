@@ -1,0 +1,203 @@
+"""Lecture mode and dark mode, measured in Chromium (issue 26, "Readable from the back row").
+
+Text sizes are read as a person sees them: the computed font size of every visible text in the panel (scaled by
+an SVG's own scale for figure text) and, for the uPlot charts' canvases, the size each text was drawn at (the
+canvas's ``fillText`` is watched from the page's first script) times the canvas's CSS-to-canvas scale.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from app import snapshot as snap
+
+from .conftest import OUTPUT, SERVER_TIMEOUT_S, wait_until
+
+pytestmark = pytest.mark.browser
+
+# Every canvas text is recorded with the size it was drawn at (in canvas pixels, through the context's transform,
+# so a rotated axis label counts with its own size).
+RECORD_CANVAS_TEXT = """
+(() => {
+  const fill = CanvasRenderingContext2D.prototype.fillText;
+  CanvasRenderingContext2D.prototype.fillText = function (text, x, y, maxWidth) {
+    const size = /(\\d+(?:\\.\\d+)?)px/.exec(this.font);
+    if (size && this.canvas) {
+      const t = this.getTransform();
+      this.canvas.__texts = this.canvas.__texts || new Map();
+      this.canvas.__texts.set(String(text), parseFloat(size[1]) * Math.hypot(t.c, t.d));
+    }
+    return fill.apply(this, arguments);
+  };
+})();
+"""
+
+PANEL_TEXT_SIZES = """
+() => {
+  const panel = document.querySelector('[data-testid="floating-panel"]');
+  const out = [];
+  const shown = (r) => r.width > 0 && r.height > 0 && r.bottom > 0 && r.top < innerHeight && r.right > 0 &&
+                       r.left < innerWidth;
+  const walker = document.createTreeWalker(panel, NodeFilter.SHOW_TEXT);
+  for (let node = walker.nextNode(); node; node = walker.nextNode()) {
+    if (!node.textContent.trim()) continue;
+    const element = node.parentElement;
+    const range = document.createRange();
+    range.selectNodeContents(node);
+    if (!shown(range.getBoundingClientRect())) continue;
+    const style = getComputedStyle(element);
+    if (style.visibility === "hidden" || style.opacity === "0") continue;
+    let px = parseFloat(style.fontSize);
+    const svg = element.closest("svg");
+    if (svg && svg.getScreenCTM()) px *= svg.getScreenCTM().a;
+    out.push({text: node.textContent.trim().slice(0, 40), px: px, kind: element.tagName});
+  }
+  for (const canvas of panel.querySelectorAll("canvas")) {
+    const r = canvas.getBoundingClientRect();
+    if (!shown(r) || !canvas.__texts || !canvas.width) continue;
+    for (const [text, px] of canvas.__texts) out.push({text: text.slice(0, 40), px: px * r.width / canvas.width,
+                                                      kind: "CANVAS"});
+  }
+  return out;
+}
+"""
+
+
+def open_with(lab, query: str = "", viewport: dict | None = None, scheme: str = "light"):
+    """A page of ``lab`` with ``query`` added to the app's address, canvas text recorded; paused once drawn."""
+    before = set(lab.server.sessions)
+    context = lab.browser.new_context(viewport=viewport or {"width": 1920, "height": 1080}, device_scale_factor=1,
+                                      color_scheme=scheme)
+    context.add_init_script(RECORD_CANVAS_TEXT)
+    page = context.new_page()
+    page.set_default_timeout(SERVER_TIMEOUT_S * 1000)
+    lab.opened.append(page)
+    page.goto(snap.page_url(lab.port) + query)
+    wait_until(lambda: set(lab.server.sessions) - before, message="a session for the page")
+    (client_id,) = set(lab.server.sessions) - before
+    session = lab.server.session_for(client_id)
+    session.pause()
+    snap.wait_until_drawn(page)
+    return page, session
+
+
+def text_sizes(page) -> list[dict]:
+    return page.evaluate(PANEL_TEXT_SIZES)
+
+
+def wait_for_panel_width(page, at_least: float) -> float:
+    deadline = time.monotonic() + SERVER_TIMEOUT_S
+    while time.monotonic() < deadline:
+        width = page.locator(snap.CONTROL_PANEL).bounding_box()["width"]
+        if width >= at_least:
+            return width
+        time.sleep(0.05)
+    raise AssertionError(f"the panel stayed {width:.0f} px wide (wanted at least {at_least:.0f} px)")
+
+
+def keep_picture(page, name: str) -> None:
+    OUTPUT.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(OUTPUT / f"{name}.png"))
+
+
+def test_lecture_mode_makes_every_panel_and_chart_text_18px_at_1920(start_lab):
+    """Default mode has text under 18 px (so the measurement can tell); the Display tab's checkbox turns lecture
+    mode on, and then every visible text of the panel and its charts is at least 18 px, in a wider panel."""
+    lab = start_lab(preset="double")
+    page, session = open_with(lab)
+    default_width = page.locator(snap.CONTROL_PANEL).bounding_box()["width"]
+    before = text_sizes(page)
+    assert min(item["px"] for item in before) < 18, "default mode already has no text under 18 px"
+    page.get_by_role("tab", name="Display", exact=True).click()
+    page.get_by_label("Lecture mode").check()
+    wait_until(lambda: session.lecture, message="the session in lecture mode")
+    width = wait_for_panel_width(page, 1.4 * default_width)
+    assert width >= 0.3 * 1920
+    page.get_by_role("tab", name="Mechanism", exact=True).click()
+    page.wait_for_timeout(1500)  # the charts redraw at the panel's new width
+    sizes = text_sizes(page)
+    keep_picture(page, "lecture-1920")
+    drawn = [item for item in sizes if item["kind"] == "CANVAS"]
+    assert len(drawn) >= 8, f"the charts' canvas text was not measured: {drawn}"
+    small = [item for item in sizes if item["px"] < 18.0]
+    assert not small, f"text under 18 px in lecture mode at 1920x1080: {small[:10]}"
+    # and back: the checkbox turns it off again
+    page.get_by_role("tab", name="Display", exact=True).click()
+    page.get_by_label("Lecture mode").uncheck()
+    wait_until(lambda: not session.lecture, message="lecture mode off")
+    assert page.locator(snap.CONTROL_PANEL).bounding_box()["width"] == pytest.approx(default_width, abs=2)
+
+
+def test_a_lecture_link_opens_in_lecture_mode_and_text_follows_the_window(start_lab):
+    """``?lecture=1`` starts the page's session in lecture mode; at 1280 px the text is in proportion (at least
+    12 px), and a bad value is one notice naming the field."""
+    lab = start_lab(preset="double")
+    page, session = open_with(lab, "&lecture=1", viewport={"width": 1280, "height": 720})
+    assert session.lecture
+    sizes = [item["px"] for item in text_sizes(page) if item["kind"] != "CANVAS"]
+    assert min(sizes) >= 12.0 * 0.98 and min(sizes) <= 18 * 1280 / 1920 + 1.0, sizes
+    page2, session2 = open_with(lab, "&lecture=maybe")
+    assert not session2.lecture
+    page2.wait_for_selector(".mantine-Notification-root, :text('lecture: ')", timeout=SERVER_TIMEOUT_S * 1000)
+    assert "lecture: 'maybe' is not 0 or 1" in page2.locator("body").inner_text()
+
+
+def _contrast(a: list[float], b: list[float]) -> float:
+    def luminance(rgb):
+        channels = [c / 255 for c in rgb[:3]]
+        linear = [c / 12.92 if c <= 0.03928 else ((c + 0.055) / 1.055) ** 2.4 for c in channels]
+        return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
+
+    high, low = sorted((luminance(a), luminance(b)), reverse=True)
+    return (high + 0.05) / (low + 0.05)
+
+
+# Each chart's key markers (the colour of its line, as uPlot draws the key) and the colour the chart sits on.
+CHART_COLOURS = """
+() => {
+  const rgb = (text) => (text.match(/[\\d.]+/g) || []).map(Number);
+  const opaque = (element) => {
+    for (let e = element; e; e = e.parentElement) {
+      const c = rgb(getComputedStyle(e).backgroundColor);
+      if (c.length >= 3 && (c.length < 4 || c[3] > 0.5)) return c.slice(0, 3);
+    }
+    return [255, 255, 255];
+  };
+  return [...document.querySelectorAll('[data-testid="floating-panel"] .uplot')].filter(
+    (plot) => plot.getBoundingClientRect().height > 0).map((plot) => ({
+      title: (plot.querySelector(".u-title") || {}).textContent,
+      background: opaque(plot),
+      lines: [...plot.querySelectorAll(".u-legend .u-series")].map((row) => ({
+        label: row.textContent.trim(), marker: row.querySelector(".u-marker") &&
+          rgb(getComputedStyle(row.querySelector(".u-marker")).borderColor).slice(0, 3),
+        text: rgb(getComputedStyle(row).color).slice(0, 3)})).filter((line) => line.marker && line.marker.length)}));
+}
+"""
+
+
+@pytest.mark.parametrize("scheme", ["dark", "light"])
+def test_every_chart_line_and_key_stands_out_in_both_schemes(start_lab, scheme):
+    """Every chart's lines (the colours of its key's markers, which are the series' strokes) have a contrast ratio
+    of at least 3 against the chart's background, and the key's text at least 4.5, in dark and light mode; the
+    drawn chart really has pixels of each line's colour."""
+    lab = start_lab(preset="four-bar")
+    page, session = open_with(lab, "", viewport={"width": 1280, "height": 900}, scheme=scheme)
+    session.play()
+    wait_until(lambda: session.player.display_time > 1.0, message="a second of motion")
+    session.pause()
+    page.wait_for_timeout(1000)
+    charts = page.evaluate(CHART_COLOURS)
+    keep_picture(page, f"charts-{scheme}")
+    assert len(charts) >= 2, charts
+    if scheme == "dark":
+        assert all(sum(chart["background"]) < 3 * 80 for chart in charts), charts
+    poor = []
+    for chart in charts:
+        for line in chart["lines"]:
+            line_contrast = _contrast(line["marker"], chart["background"])
+            text_contrast = _contrast(line["text"], chart["background"])
+            if line_contrast < 3.0 or text_contrast < 4.5:
+                poor.append((chart["title"], line["label"], round(line_contrast, 2), round(text_contrast, 2)))
+    assert not poor, f"{scheme}: lines or keys too faint against their chart (title, line, contrast): {poor}"
