@@ -57,6 +57,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument("--shared", action="store_true",
                         help="one simulation that every browser watches; only the presenter's browser (the address "
                         "printed) changes it (lecture mode)")
+    parser.add_argument("--autoplay", action="store_true",
+                        help="with --shared: play from the start (by default the shared session waits at t = 0, "
+                        "paused, until the presenter presses Play)")
     parser.add_argument("--state", default=None, metavar="FILE",
                         help="a setup saved from the Export tab (JSON): every new session starts from it")
     return parser
@@ -183,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
             setup=setup,
             mechanism=mechanism,
             mechanism_label=label,
+            autoplay=args.autoplay or not args.shared,
         )
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)
