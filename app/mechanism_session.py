@@ -285,8 +285,6 @@ class MechanismSession(SessionBase):
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
-            if shared:  # a lecture's equations are there for every viewer to read (a viewer presses nothing)
-                self.show_equations()
             target.gui.add_html(READY_HTML)
         except BaseException:
             self.player.stop()
