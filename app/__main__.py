@@ -56,10 +56,13 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                         "(default: one per core and one more; --shared uses one)")
     parser.add_argument("--shared", action="store_true",
                         help="one simulation that every browser watches; only the presenter's browser (the address "
-                        "printed) changes it (lecture mode)")
+                        "printed) changes it (a lecture: the presenter drives, the audience watches)")
     parser.add_argument("--lecture", action="store_true",
                         help="every browser's panel starts in lecture mode: larger text, a wider panel, larger "
                         "chart text (a link's ?lecture=1 does it for one browser; the Display tab switches it)")
+    parser.add_argument("--autoplay", action="store_true",
+                        help="with --shared: play from the start (by default the shared session waits at t = 0, "
+                        "paused, until the presenter presses Play)")
     parser.add_argument("--state", default=None, metavar="FILE",
                         help="a setup saved from the Export tab (JSON): every new session starts from it")
     return parser
@@ -187,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
             mechanism=mechanism,
             mechanism_label=label,
             lecture=args.lecture,
+            autoplay=args.autoplay or not args.shared,
         )
     except LinkageError as error:
         print(f"linkage-lab: error: {error}", file=sys.stderr)

@@ -58,6 +58,15 @@ class LabSession(Protocol):
 
     def pause(self) -> None: ...
 
+    def open_setup(self, saved: Any) -> None:
+        """A saved setup (app/share.py ``SavedSetup``: a file's or a link's), its mechanism then its values."""
+
+    def wait_at_start(self) -> None:
+        """Back to t = 0 from the start in force, paused (a --shared lecture waits for the presenter's Play)."""
+
+    def guard(self, action: Callable[[], object]) -> object:
+        """Run one action; a refusal is a notice, never an exception."""
+
     def goto_time(self, t: float, timeout: float = ...) -> bool: ...
 
     def snapshot(self) -> dict: ...

@@ -227,6 +227,12 @@ def mechanism_names() -> list[str]:
     return list(MECHANISM_PRESETS)
 
 
+VIEWERS_LINK = ("[Viewers' link](/) (right-click to copy): the page every student opens to watch this lecture "
+                "(the server's address, without the presenter's secret).")
+"""A --shared session's Export tab: the address to give the audience (a relative link: the browser completes it
+with the server's own address, never with the page the presenter opened)."""
+
+
 def is_mechanism(name: str) -> bool:
     return name in MECHANISM_PRESETS
 
@@ -432,7 +438,8 @@ class MechanismSession(SessionBase):
         with self.tabs.add_tab("Export"):
             self.share_button = gui.add_button("Link to this setup")
             self.share_button.on_click(lambda event: self.guard(self.show_link))
-            self.share_link = gui.add_markdown("A link that opens this mechanism with these values and settings "
+            self.share_link = gui.add_markdown((VIEWERS_LINK + "\n\n" if self.shared else "")
+                                               + "A link that opens this mechanism with these values and settings "
                                                "in a new session (press the button for the current ones).")
             self.download_buttons = gui.add_button_group("Download the run", DOWNLOADS,
                                                          hint="The run up to the displayed time, as the mechanism "
@@ -1222,10 +1229,22 @@ class MechanismSession(SessionBase):
         self.load_setup(saved.pairs, saved.where)
 
     def show_link(self) -> None:
-        """The link for the current setup in the Export folder, on the server's root address."""
-        query = self.link_query()
-        self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this to "
-                                   f"the server's address:\n\n`/{query}`")
+        """The link for the current setup in the Export folder, on the server's root address; in a --shared
+        lecture also the viewers' link. Neither carries the presenter's secret address: both are written from
+        the server's root (``/``), whatever page the presenter opened."""
+        if not self.shared:
+            query = self.link_query()
+            self.share_link.content = (f"[Open this setup](/{query}) (right-click to copy the link), or add this "
+                                       f"to the server's address:\n\n`/{query}`")
+            return
+        try:
+            query = self.link_query()
+        except LinkageError as error:  # a mechanism from a file: no link names it; the viewers' link still holds
+            setup = f"No link for this setup: {markdown_literal(str(error))}"
+        else:
+            setup = (f"[This setup](/{query}) (right-click to copy): on a server of one's own (`python -m app`) "
+                     f"it opens this setup; added to the presenter's address it sets up this lecture:\n\n`/{query}`")
+        self.share_link.content = (f"{VIEWERS_LINK}\n\n{setup}")
 
     def show_equations(self, wait: bool = False) -> None:
         """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
@@ -1569,6 +1588,13 @@ class MechanismSession(SessionBase):
         with self.player.lock:
             self._refresh_status()  # the status line says "paused" at once, not at the next status frame
 
+    def wait_at_start(self) -> None:
+        """Back to t = 0 from the start in force, paused: a --shared lecture waits for the presenter's Play (a
+        link or setup just applied may have set it playing); the charts show the start sample meanwhile."""
+        with self._lock:
+            self._restart(0.0, self.q0, self.qdot0, keep_history=False, play=False)
+        self.player.touch()
+
     def step(self) -> None:
         """Pause and advance the display by one sample (1/60 s), simulating it first if need be."""
         self.player.step()
@@ -1641,6 +1667,8 @@ class MechanismSession(SessionBase):
         self.arrows.hide()
         if not same_kind:
             self._build_knobs()
+            if self._equations_shown:  # shown once, they follow the mechanism as they follow the method
+                self.show_equations()
         self._show_chosen_plot()
         self._show_facts()
         self._frame_camera(points_at(draw, q0), force=not same_kind)

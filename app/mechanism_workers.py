@@ -129,11 +129,19 @@ class Worker:
         raise value
 
     def stop(self) -> None:
+        self.ask_to_stop()
+        self.wait_stopped()
+
+    def ask_to_stop(self) -> None:
+        """Ask it to finish after its chunk in hand, without waiting (a pool asks all, then waits)."""
         try:
             with self._lock:
                 self._connection.send(None)  # asks it to finish
         except (OSError, ValueError):  # its end is closed: it has finished already, the wait below returns
             self.process.poll()
+
+    def wait_stopped(self) -> None:
+        """Wait for it to finish (2 s), else kill it."""
         try:
             self.process.wait(2.0)
         except subprocess.TimeoutExpired:
@@ -172,8 +180,10 @@ class WorkerPool:
     def stop(self) -> None:
         with self._lock:
             workers, self.workers = self.workers, []
+        for worker in workers:  # all asked first: each may finish a chunk, and one after another they took seconds
+            worker.ask_to_stop()
         for worker in workers:
-            worker.stop()
+            worker.wait_stopped()
 
     def stop_idle(self) -> None:
         """Stop the workers no session holds (a command that served its one session is done with them)."""

@@ -192,7 +192,9 @@ class Plot:
         quietly(apply, "restyling a chart for lecture mode")
 
     def update(self, t: np.ndarray, *ys: np.ndarray) -> None:
-        if len(t) < 2:
+        """The series over ``t``; a single sample (a run paused at its start) is drawn as its point, so that a
+        chart never sits empty while the start is shown."""
+        if len(t) < 1:
             return
         arrays = _downsample(t, *ys)
         if self.log:

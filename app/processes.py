@@ -189,12 +189,18 @@ class Siblings:
     def alive(self) -> int:
         return sum(p.is_alive() for p in self._processes)
 
-    def stop(self) -> None:
+    def ask_to_stop(self) -> None:
+        """Send each sibling SIGTERM without waiting: the first process closes its own sessions meanwhile, so
+        that the whole stop fits in the grace period of app/lifetime.py (issue 26: a lone SIGINT to the first
+        of three processes, its sessions and the siblings' stopped one after the other, took longer)."""
         self._stopping.set()
-        self._watcher.join(2.0)
         for process in self._processes:
             if process.is_alive():
                 process.terminate()
+
+    def stop(self) -> None:
+        self.ask_to_stop()
+        self._watcher.join(2.0)
         deadline = time.monotonic() + SIBLING_STOP_TIMEOUT
         for process in self._processes:
             process.join(max(0.0, deadline - time.monotonic()))
@@ -235,8 +241,9 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
         if server.port != port:  # viser moved on: the shared port was not ours to join
             server.stop()
             raise OSError(f"bound {server.port} instead of {port}")
-    except KeyboardInterrupt:  # stopped while starting
-        return
+    except KeyboardInterrupt:  # stopped while starting: nothing served yet, nothing to close
+        # a half-built server's threads (viser's) would hold the process until the first one kills it (5 s)
+        os._exit(0)
     except Exception as error:  # reported to the first process, which serves on
         ready.put(f"{type(error).__name__}: {error}")
         return

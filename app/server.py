@@ -126,6 +126,7 @@ class LabServer:
         mechanism: Mechanism | None = None,
         mechanism_label: str | None = None,
         lecture: bool = False,
+        autoplay: bool = True,
     ) -> None:
         if not 0 <= int(port) <= 65535:
             raise LinkageError(f"--port {port}: allowed range 0 <= port <= 65535 (0 picks a free port)")
@@ -166,6 +167,8 @@ class LabServer:
         self.shared = shared
         self.lecture = lecture  # --lecture: every session starts in lecture mode (app/lecture.py)
         self.setup = list(setup or [])  # --state: the saved setup every new session starts from (app/share.py)
+        # --shared: False (the command's default) waits at t = 0, paused, until the presenter presses Play
+        self.autoplay = autoplay
         self.started = time.time()
         binding = server_processes.reuse_port_binding() if reuse_port else contextlib.nullcontext()
         page = viser_compat.serving_page_from(page_folder())  # the loading screen from the first paint
@@ -196,6 +199,8 @@ class LabServer:
                 self.shared_session.load_setup(self.setup, "the setup file")
             if lecture:
                 self.shared_session.set_lecture(True)
+            if not autoplay:  # loading the setup may have played it: the lecture starts when the presenter says
+                self.shared_session.wait_at_start()
         self.viser.on_client_connect(self._connect)
         self.viser.on_client_disconnect(self._disconnect)
         self.siblings: server_processes.Siblings | None = None
@@ -230,6 +235,7 @@ class LabServer:
         if self.shared_session is not None:
             self._seat_in_audience(client)
             self.shared_session.frame_camera(client=client)  # the newcomer only; the others keep their view
+            self._shared_link(client)
             return
         if not self.seats.take(self.max_sessions):
             with self._lock:
@@ -281,15 +287,16 @@ class LabServer:
         (``--mechanism``, a mechanism preset), ``mechanism`` when a link names one, a setup file's description
         (``saved``), or else the chain ``preset`` (``chain``: whatever the server starts with; a share link names
         it), hosted as the chain written as a mechanism. Its menu then goes to any preset in the same session."""
+        play = self.autoplay or not shared  # a lecture waits for the presenter's Play (--autoplay: it plays)
         if saved is not None and saved.mechanism is not None:
-            session: LabSession = MechanismSession(target, saved.mechanism, label=saved.label, shared=shared)
+            session: LabSession = MechanismSession(target, saved.mechanism, label=saved.label, shared=shared, autoplay=play)
         elif mechanism is None and self.mechanism is not None and not chain:
-            session = MechanismSession(target, self.mechanism, label=self.mechanism_label, shared=shared)
+            session = MechanismSession(target, self.mechanism, label=self.mechanism_label, shared=shared, autoplay=play)
         elif mechanism is not None:
-            session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared)
+            session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared, autoplay=play)
         else:
             params = SessionParameters.from_preset(preset, links=links, method=self.method)
-            session = MechanismSession.for_chain(target, params, shared=shared)
+            session = MechanismSession.for_chain(target, params, shared=shared, autoplay=play)
         if shared and self.presenter_path is not None:
             session.is_presenter = self.is_presenter
         return session
@@ -304,7 +311,9 @@ class LabServer:
         with self._lock:
             if client_id in self._presenters:
                 return True
-        if viser_compat.connection_path(self.viser, client_id) != self.presenter_path:
+        path = viser_compat.connection_path(self.viser, client_id)
+        # the presenter's page opened with a share link connects under its own address (static/page.html)
+        if path != self.presenter_path and not (path or "").startswith(self.presenter_path + share.SETUP_PATH):
             return False
         with self._lock:
             self._presenters.add(client_id)
@@ -321,6 +330,36 @@ class LabServer:
             client.gui.add_html(VIEWER_STYLE)
 
         quietly(tell, "showing a viewer who controls the session")
+
+    def _shared_link(self, client) -> None:
+        """A share link opened on the shared session: the presenter's page (or anyone's, without a presenter
+        lock) applies its setup to the session, which then waits at t = 0 unless ``autoplay``; a viewer's page
+        is told once that the presenter controls the setup (nothing applied)."""
+        session = self.shared_session
+        if session is None:
+            return
+        path = viser_compat.connection_path(self.viser, client.client_id) or ""
+        presenter = self.presenter_path is None or self.is_presenter(client.client_id)
+        if presenter and self.presenter_path is not None and path.startswith(self.presenter_path):
+            path = path[len(self.presenter_path):]
+        try:
+            pairs = share.setup_from_path(path)
+        except LinkageError as error:
+            reason = str(error)
+            quietly(lambda: client.add_notification("Link not applied", reason, color="yellow"),
+                    "telling a browser its link was refused")
+            return
+        if not pairs:
+            return
+        if not presenter:
+            quietly(lambda: client.add_notification(
+                "The presenter controls the setup", "This page's link is not applied: everyone watches the "
+                "presenter's session, set up from the presenter's page.", color="blue", auto_close_seconds=None),
+                "telling a viewer the presenter controls the setup")
+            return
+        session.guard(lambda: session.open_setup(share.SavedSetup(pairs, where="the link")))
+        if not self.autoplay:
+            session.wait_at_start()
 
     def _setup_of(self, client) -> tuple[list[tuple[str, str]], list[str]]:
         """The setup a share link carries (app/share.py), and why it cannot be read if so."""
@@ -394,15 +433,22 @@ class LabServer:
 
     def stop(self) -> None:
         siblings = getattr(self, "siblings", None)
-        if siblings is not None:
-            siblings.stop()
-            self.siblings = None
+        if siblings is not None:  # they stop their sessions while this process stops its own
+            siblings.ask_to_stop()
         with self._lock:
             sessions = list(self.sessions.values())
             self.sessions.clear()
-        for session in sessions:
-            session.close()
+        # closed side by side: each waits for its own player thread, and one after another they outlasted the
+        # grace period of app/lifetime.py with a few browsers open
+        closers = [threading.Thread(target=session.close, name="session-close", daemon=True) for session in sessions]
+        for closer in closers:
+            closer.start()
+        for closer in closers:
+            closer.join()
             self.seats.release()
+        if siblings is not None:
+            siblings.stop()
+            self.siblings = None
         if self.shared_session is not None:
             self.shared_session.close()
         with contextlib.redirect_stdout(io.StringIO()):
