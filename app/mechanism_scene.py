@@ -76,6 +76,17 @@ class MechanismScene:
         self._widths = np.zeros(0)
 
     @property
+    def bars(self):
+        """The bars' batched node (None before a build or after :meth:`remove`): what a drag grabs
+        (app/drag_start.py)."""
+        return self._bars
+
+    @property
+    def spheres(self):
+        """The points' and centres of mass' batched node (a slider's one-point block is a ball): grabbed too."""
+        return self._spheres
+
+    @property
     def reach(self) -> float:
         return self.draw.size if self.draw is not None else 1.0
 

@@ -46,6 +46,7 @@ from . import chain_contract, chain_knobs, commands, delivery, lecture, panel_ro
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
 from .divergence import VISIBLE_GAP
+from .drag_start import DragStart
 from .free_body_view import FreeBodyView, fbd_command
 from .lab_session import SessionBase
 from .logs import quietly
@@ -295,6 +296,7 @@ class MechanismSession(SessionBase):
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
+            self.drag = DragStart(self)  # drag a bar in the paused scene to set the start (app/drag_start.py)
             target.gui.add_html(READY_HTML)
         except BaseException:
             self.player.stop()
@@ -1834,6 +1836,8 @@ class MechanismSession(SessionBase):
                 self._update_arrows(run, rf, spec)
             self.free_body.update(frame, {r.spec.label: r for r in self.player.runs})
         quietly(self.target.flush, "flushing a frame")
+        if hasattr(self, "drag"):
+            self.drag.follow()  # bound to the bars while paused, unbound while playing
         self.frames_sent += 1
         if frame.restarted or frame.counter % PLOT_EVERY == 0 or self._plots_due:
             self._plots_due = False
@@ -1988,6 +1992,7 @@ class MechanismSession(SessionBase):
         if not self._stop():
             return
         POOL.release(self.worker)
+        self.drag.close()
         for timer in self._typing.values():
             timer.cancel()
         self.numbers.close()
