@@ -213,7 +213,9 @@ def status_markdown(
     notice: str | None,
 ) -> str:
     state = "playing" if playing else "paused"
-    parts = [f"**t = {t:8.3f} s** ({state})", f"real-time factor {rtf:4.2f}×", method_label]
+    # Scrubbing back moves the shown time backwards: a negative "factor" says nothing about the run's speed.
+    pace = f"real-time factor {rtf:4.2f}×" if math.isfinite(rtf) and rtf >= 0 else "scrubbing"
+    parts = [f"**t = {t:8.3f} s** ({state})", pace, method_label]
     if drift is not None and math.isfinite(drift):
         parts.append(f"energy error {drift:.2e}")
     if constraint is not None and math.isfinite(constraint):
