@@ -427,22 +427,36 @@ MAX_CAPTION = 200
 CAMERA_WAIT_S = 5.0
 
 
+CAPTION_HEIGHT_FRACTION = 0.045  # the font's size per picture height: its letters (ascender to descender) ~3.5 %
+
+
 def labelled(png: bytes, caption: str | None, stamp: str | None) -> bytes:
-    """``png`` with a caption (bottom left) and a time stamp (bottom right) drawn on a light band, for slides."""
+    """``png`` with a caption (bottom left) and a time stamp (bottom right) drawn on a light band, for slides.
+    The text scales with the picture (Pillow's scalable default font, :data:`CAPTION_HEIGHT_FRACTION` of its
+    height), so a 1920x1080 slide reads from the back row as a small one does; a caption wider than the picture
+    is shrunk, never below 3 % of its height."""
     if not caption and not stamp:
         return png
-    from PIL import Image, ImageDraw  # noqa: PLC0415 - Pillow (viser's) only for labelled pictures
+    from PIL import Image, ImageDraw, ImageFont  # noqa: PLC0415 - Pillow (viser's) only for labelled pictures
 
     image = Image.open(io.BytesIO(png)).convert("RGB")
     draw = ImageDraw.Draw(image)
-    band = 24
     width, height = image.size
+    size = max(12, round(CAPTION_HEIGHT_FRACTION * height))
+    smallest = max(12, round(0.035 * height))
+    text = f"{caption or ''}    {stamp or ''}"
+    while size > smallest and draw.textlength(text, font=ImageFont.load_default(size=size)) > width - size:
+        size -= 1
+    font = ImageFont.load_default(size=size)
+    band = round(size * 1.5)
+    margin = round(size / 2)
     draw.rectangle([0, height - band, width, height], fill=(245, 245, 245))
+    top = height - band + round(size * 0.2)
     if caption:
-        draw.text((8, height - band + 6), caption, fill=(20, 20, 20))
+        draw.text((margin, top), caption, fill=(20, 20, 20), font=font)
     if stamp:
-        right = draw.textlength(stamp)
-        draw.text((width - right - 8, height - band + 6), stamp, fill=(20, 20, 20))
+        right = draw.textlength(stamp, font=font)
+        draw.text((width - right - margin, top), stamp, fill=(20, 20, 20), font=font)
     out = io.BytesIO()
     image.save(out, format="PNG")
     return out.getvalue()
