@@ -48,6 +48,7 @@ class TraceLine:
         )
         self.handle.visible = False
         self.points_shown = 0
+        self.shown_xy = np.zeros((0, 2))  # the path as drawn now (a picture framed on the pose includes it)
         self._colors: np.ndarray | None = None
 
     @property
@@ -61,6 +62,7 @@ class TraceLine:
             if self.handle.visible:
                 self.handle.visible = False
             self.points_shown = 0
+            self.shown_xy = np.zeros((0, 2))
             return
         segments = np.zeros((m - 1, 2, 3), np.float32)
         segments[:, 0, 0], segments[:, 0, 2] = xy[:-1, 0], xy[:-1, 1]  # world (x, 0, y), see scene.to_world
@@ -75,6 +77,7 @@ class TraceLine:
         if not self.handle.visible:
             self.handle.visible = True
         self.points_shown = m
+        self.shown_xy = np.asarray(xy, dtype=float)[:, :2]
 
 
     def remove(self) -> None:

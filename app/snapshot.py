@@ -400,6 +400,15 @@ def node_positions(session: Any) -> dict[str, list[float]]:
     return {name: node["position"] for name, node in nodes.items() if "position" in node}
 
 
+def pose_points(session: Any) -> np.ndarray:
+    """Every drawn point as it stands now (a chain's joints, a mechanism's body points) and the trace as drawn:
+    what a picture framed on the pose must hold (the trace was cut at the picture's edge)."""
+    points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
+    trace = getattr(session, "trace", None)
+    shown = getattr(trace, "shown_xy", None)
+    return points if shown is None or len(shown) < 2 else np.vstack([points, shown])
+
+
 def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], None] | None = None,
                   tight: bool = False) -> bytes:
     """PNG of the scene at simulated time ``t``, paused, once the browser shows the server's poses; ``tight``:
@@ -408,8 +417,7 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     wait_for_node_positions(page, node_positions(session))
     if tight:
         positions = node_positions(session)
-        # every drawn point as it stands at t (a chain's joints, a mechanism's body points)
-        points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
+        points = pose_points(session)
         on_page = project_to_page(page, list(positions))
         session.camera.disc = disc = pose_disc(points)
         chain = getattr(session, "chain", None)
