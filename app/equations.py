@@ -22,7 +22,7 @@ import physics
 from .math_lines import TEX_LINE_CHARACTERS, multline
 from .parameters import METHOD_LABELS
 
-PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
+PANEL_LINE_CHARACTERS = 46  # about what a line of maths in the 384-px panel holds inside its padding (plain text)
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
 
 
