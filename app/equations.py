@@ -22,7 +22,7 @@ import physics
 from .math_lines import TEX_LINE_CHARACTERS, multline
 from .parameters import METHOD_LABELS
 
-PANEL_LINE_CHARACTERS = 56  # about what a line of maths in the 384-px panel holds (sympy's plain-text length)
+PANEL_LINE_CHARACTERS = 46  # about what a line of maths in the 384-px panel holds inside its padding (plain text)
 MAX_ROW_CHARACTERS = 20000  # a row longer than this (n >= 6 Lagrange) is summarised, not printed
 
 
@@ -47,40 +47,99 @@ def _heading(row_name: str) -> str:
     return re.sub(r"\bG(\d+)\b", "G<sub>\\1</sub>", text)
 
 
-def _term_lines(terms: list, width: int) -> list[list]:
-    """Terms grouped greedily into lines of about ``width`` characters of their plain-text form."""
-    lines: list[list] = []
-    current: list = []
+def collected_terms(lhs_terms: list, unknowns: list) -> list[tuple]:
+    """The left side as ``(coefficient, unknown)`` pairs, the coefficient of each unknown collected
+    (``sympy.collect``), in the unknowns' order: ``I1 θ̈1 + d1² m1 θ̈1 + L1² m2 θ̈1`` reads
+    ``(I1 + d1² m1 + L1² m2) θ̈1``, each acceleration once. For reading only: the derivation
+    (``equations.system``) and its expanded rows are never changed. A term in no unknown (none in ``A x``) would
+    come last as ``(term, None)``, never dropped."""
+    by_unknown = sp.collect(sp.Add(*lhs_terms), unknowns, evaluate=False)
+    pairs = [(by_unknown[unknown], unknown) for unknown in unknowns if by_unknown.get(unknown, 0) != 0]
+    rest = by_unknown.get(sp.Integer(1), 0)
+    pairs += [(term, None) for term in sp.Add.make_args(rest) if term != 0]
+    return pairs or [(sp.Integer(0), None)]
+
+
+# A piece of a printed sum: its sign ("+" or "-"), its MathML and its plain-text length (the width it takes).
+Piece = tuple[str, str, int]
+_MINUS = "-"  # as sympy prints a difference (θ1 - θ2)
+_TIMES = "<mo>&InvisibleTimes;</mo>"
+
+
+def _pieces(term, width: int, unknown=None) -> list[Piece]:
+    """``term`` (times ``unknown``, printed after it, when given) as the pieces a line may break between: the
+    whole term when it is short; a longer one with a sum in it (``(a + b + ...) θ̈``) opened up, its sum's terms
+    pieces of their own (recursively), so that no line runs past the panel."""
+    negative = term.could_extract_minus_sign()
+    magnitude = -term if negative else term
+    sign = "-" if negative else "+"
+    tail = "" if unknown is None else _presentation(unknown)
+    size = len(str(magnitude)) + 3 + (len(str(unknown)) if unknown is not None else 0)
+    if unknown is not None and magnitude == 1:
+        return [(sign, tail, size)]
+    if isinstance(magnitude, sp.Add):  # a collected coefficient: (sum) unknown
+        before, total, after = [], magnitude, []
+    else:
+        factors = list(magnitude.args) if isinstance(magnitude, sp.Mul) else []
+        opened = next((k for k, factor in enumerate(factors) if isinstance(factor, sp.Add)), None)
+        if size <= width or opened is None:
+            return [(sign, _presentation(magnitude) + (_TIMES + tail if tail else ""), size)]
+        before, total, after = factors[:opened], factors[opened], factors[opened + 1:]
+    if size <= width:
+        return [(sign, f"<mo>(</mo>{_presentation(total)}<mo>)</mo>{tail}", size)]
+    # The parentheses of a sum broken over lines are plain (not stretched to what one line holds).
+    pieces = [piece for inner_term in sp.Add.make_args(total) for piece in _pieces(inner_term, width)]
+    first_sign, first_body, first_size = pieces[0]
+    lead = (_presentation(sp.Mul(*before)) if before else "") + "<mo stretchy=\"false\">(</mo>"
+    lead += f"<mo>{_MINUS}</mo>" if first_sign == "-" else ""
+    pieces[0] = (sign, lead + first_body, first_size + 2)
+    last_sign, last_body, last_size = pieces[-1]
+    closing = "<mo stretchy=\"false\">)</mo>" + (_presentation(sp.Mul(*after)) if after else "") + tail
+    pieces[-1] = (last_sign if len(pieces) > 1 else sign, last_body + closing,
+                  last_size + 2 + len(str(sp.Mul(*after))) + len(str(unknown or "")))
+    return pieces
+
+
+def _piece_lines(pieces: list[Piece], width: int) -> list[list[Piece]]:
+    """Pieces grouped greedily into lines of about ``width`` characters of their plain-text form."""
+    lines: list[list[Piece]] = []
+    current: list[Piece] = []
     used = 0
-    for term in terms:
-        size = len(str(term)) + 3
-        if current and used + size > width:
+    for piece in pieces:
+        if current and used + piece[2] > width:
             lines.append(current)
             current, used = [], 0
-        current.append(term)
-        used += size
+        current.append(piece)
+        used += piece[2]
     if current:
         lines.append(current)
     return lines
 
 
-def _equation_lines(lhs_terms: list, rhs, width: int = PANEL_LINE_CHARACTERS) -> str:
-    """``lhs = rhs`` as MathML lines that fit the panel: broken between terms (browsers do not break MathML
-    themselves); a line that continues a sum starts with its sign, the right side starts with ``=``."""
+def _equation_lines(lhs_pairs: list, rhs, width: int = PANEL_LINE_CHARACTERS) -> str:
+    """``lhs = rhs`` (the left side as :func:`collected_terms`) as MathML lines that fit the panel: broken between terms, or inside a long term between the
+    terms of its sum (browsers do not break MathML themselves); a line that continues a sum starts with its sign,
+    the right side starts with ``=``."""
 
-    def block(terms, lead: str) -> str:
-        expr = sp.Add(*terms, evaluate=False) if len(terms) > 1 else terms[0]
-        body = _presentation(expr)
-        negative = terms[0].could_extract_minus_sign()
-        sign = "" if not lead else (f"<mo>{lead}</mo>" if lead == "=" or not negative else "")
-        indent = "0" if not lead else "1.5em"
-        return f'<div style="margin:0.35em 0 0.35em {indent};line-height:2"><math>{sign}{body}</math></div>'
+    def side(pairs: list, first_lead: str) -> list[str]:
+        pieces = [piece for term, unknown in pairs for piece in _pieces(term, width, unknown)]
+        blocks = []
+        for k, line in enumerate(_piece_lines(pieces, width)):
+            body = ""
+            for j, (sign, piece_body, _) in enumerate(line):
+                starts_side = k == 0 and j == 0
+                if sign == "-":
+                    body += f"<mo>{_MINUS}</mo>"
+                elif not starts_side:
+                    body += "<mo>+</mo>"
+                body += piece_body
+            lead = f"<mo>{first_lead}</mo>" if k == 0 and first_lead else ""
+            indent = "1.5em" if k or first_lead else "0"
+            blocks.append(f'<div style="margin:0.35em 0 0.35em {indent};line-height:2"><math>{lead}{body}</math></div>')
+        return blocks
 
-    parts = [block(terms, "" if k == 0 else "+") for k, terms in enumerate(_term_lines(lhs_terms, width))]
-    rhs_terms = list(sp.Add.make_args(rhs)) or [sp.Integer(0)]
-    for k, terms in enumerate(_term_lines(rhs_terms, width)):
-        parts.append(block(terms, "=" if k == 0 else "+"))
-    return "".join(parts)
+    rhs_pairs = [(term, None) for term in sp.Add.make_args(rhs)] or [(sp.Integer(0), None)]
+    return "".join(side(lhs_pairs, "") + side(rhs_pairs, "="))
 
 
 REDUCED = ("<p>The <b>reduced</b> model integrates the linkage in its one free coordinate and places every body "
@@ -120,7 +179,7 @@ def equations_html(linkage, method: str) -> str:
     for ``method``: :func:`physics.equations_of_motion`, the one view of both panels."""
     equations = _equations(linkage, method)
     if equations is None:
-        return REDUCED
+        return _padded(REDUCED)
     symbols = CHAIN_SYMBOLS if isinstance(linkage, physics.Chain) else MECHANISM_SYMBOLS
     return _system_html(equations, _title(linkage, equations), symbols)
 
@@ -131,18 +190,30 @@ def _system_html(equations, title: str, symbols: str) -> str:
         f"<p>{title}: {len(equations.unknowns)} equations, linear in the unknowns "
         f"below, written as <i>A x = b</i> and solved at every evaluation of the right-hand side. State: "
         f"{_heading(equations.coordinates)}.</p>",
-        "<p>Unknowns <i>x</i>:</p>",
-        f'<div style="overflow-x:auto">{_math(sp.Matrix(equations.unknowns).T)}</div>',
-        '<div style="overflow-x:auto">',
+        f"<p>Unknowns <i>x</i>: {_unknowns_list(equations.unknowns)}</p>",
+        "<div>",
     ]
     for i, (row_name, lhs_terms, rhs) in enumerate(equations.rows):
-        text = _equation_lines(lhs_terms, rhs)
+        text = _equation_lines(collected_terms(lhs_terms, equations.unknowns), rhs)
         if len(text) > MAX_ROW_CHARACTERS:
             text = f"<p><i>(this row prints to {len(text)} characters of MathML: too long to show)</i></p>"
         parts.append(f"<p><b>{i + 1}. {_heading(row_name)}</b></p>{text}")
     parts.append("</div>")
     parts.append(f"<p>{symbols}</p>")
-    return "".join(parts)
+    return _padded("".join(parts))
+
+
+def _unknowns_list(unknowns: list) -> str:
+    """The vector of unknowns as ``(x1, x2, ...)`` in running text, one small formula per entry, so the browser
+    wraps it at the panel's edge (a MathML row vector does not wrap: 72 unknowns of a 12-bar DAE ran off it)."""
+    entries = [f'<span style="white-space:nowrap"><math>{_presentation(unknown)}</math>'
+               f'{"," if k < len(unknowns) - 1 else ")"}</span>' for k, unknown in enumerate(unknowns)]
+    return "(" + " ".join(entries)
+
+
+def _padded(content: str) -> str:
+    """The tab's content with a margin inside the panel's border (the maths sat flush against it)."""
+    return f'<div style="padding:0.25em 0.9em;overflow-wrap:anywhere">{content}</div>'
 
 
 def _tex_text(text: str) -> str:
@@ -183,11 +254,23 @@ def _latex(expr) -> str:
     return sp.latex(expr, symbol_names={symbol: tex_symbol(symbol.name) for symbol in expr.free_symbols})
 
 
+def _latex_product(coefficient, unknown) -> str:
+    """A collected term in LaTeX: ``\\left(sum\\right) unknown``, the coefficient first as the tab shows it."""
+    if unknown is None:
+        return _latex(coefficient)
+    if coefficient == 1 or coefficient == -1:
+        return ("- " if coefficient == -1 else "") + _latex(unknown)
+    if isinstance(coefficient, sp.Add):
+        return rf"\left({_latex(coefficient)}\right) {_latex(unknown)}"
+    return f"{_latex(coefficient)} {_latex(unknown)}"
+
+
 def latex_rows(equations) -> list[tuple[str, str]]:
     """``(row name, "lhs = rhs" in LaTeX)`` per row of ``equations`` (:func:`physics.equations_of_motion`)."""
     rows = []
     for row_name, lhs_terms, rhs in equations.rows:
-        lhs = " + ".join(_latex(term) for term in lhs_terms).replace("+ -", "- ")
+        lhs = " + ".join(_latex_product(coefficient, unknown)
+                         for coefficient, unknown in collected_terms(lhs_terms, equations.unknowns)).replace("+ -", "- ")
         rows.append((row_name, f"{lhs} = {_latex(rhs)}"))
     return rows
 

@@ -53,6 +53,7 @@ class TraceLine:
         )
         self.handle.visible = False
         self.points_shown = 0
+        self.shown_xy = np.zeros((0, 2))  # the path as drawn now (a picture framed on the pose includes it)
         self._colors: np.ndarray | None = None
 
     @property
@@ -66,6 +67,7 @@ class TraceLine:
             if self.handle.visible:
                 self.handle.visible = False
             self.points_shown = 0
+            self.shown_xy = np.zeros((0, 2))
             return
         segments = np.zeros((m - 1, 2, 3), np.float32)
         segments[:, 0, 0], segments[:, 0, 2] = xy[:-1, 0], xy[:-1, 1]  # world (x, 0, y), see scene.to_world
@@ -80,6 +82,7 @@ class TraceLine:
         if not self.handle.visible:
             self.handle.visible = True
         self.points_shown = m
+        self.shown_xy = np.asarray(xy, dtype=float)[:, :2]
 
 
     def remove(self) -> None:
@@ -236,7 +239,9 @@ def status_markdown(
     notice: str | None,
 ) -> str:
     state = "playing" if playing else "paused"
-    parts = [f"**t = {t:8.3f} s** ({state})", f"real-time factor {rtf:4.2f}×", method_label]
+    # Scrubbing back moves the shown time backwards: a negative "factor" says nothing about the run's speed.
+    pace = f"real-time factor {rtf:4.2f}×" if math.isfinite(rtf) and rtf >= 0 else "scrubbing"
+    parts = [f"**t = {t:8.3f} s** ({state})", pace, method_label]
     if drift is not None and math.isfinite(drift):
         parts.append(f"energy error {drift:.2e}")
     if constraint is not None and math.isfinite(constraint):

@@ -414,6 +414,15 @@ def node_positions(session: Any) -> dict[str, list[float]]:
     return {name: node["position"] for name, node in nodes.items() if "position" in node}
 
 
+def pose_points(session: Any) -> np.ndarray:
+    """Every drawn point as it stands now (a chain's joints, a mechanism's body points) and the trace as drawn:
+    what a picture framed on the pose must hold (the trace was cut at the picture's edge)."""
+    points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
+    trace = getattr(session, "trace", None)
+    shown = getattr(trace, "shown_xy", None)
+    return points if shown is None or len(shown) < 2 else np.vstack([points, shown])
+
+
 def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], None] | None = None,
                   tight: bool = False) -> bytes:
     """PNG of the scene at simulated time ``t``, paused, once the browser shows the server's poses; ``tight``:
@@ -423,8 +432,7 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
     wait_for_node_positions(page, node_positions(session), where=where)
     if tight:
         positions = node_positions(session)
-        # every drawn point as it stands at t (a chain's joints, a mechanism's body points)
-        points = np.array(session.snapshot()["joints"], dtype=float).reshape(-1, 2)
+        points = pose_points(session)
         on_page = project_to_page(page, list(positions), where)
         session.camera.disc = disc = pose_disc(points)
         chain = getattr(session, "chain", None)
@@ -442,22 +450,36 @@ MAX_CAPTION = 200
 CAMERA_WAIT_S = 5.0
 
 
+CAPTION_HEIGHT_FRACTION = 0.045  # the font's size per picture height: its letters (ascender to descender) ~3.5 %
+
+
 def labelled(png: bytes, caption: str | None, stamp: str | None) -> bytes:
-    """``png`` with a caption (bottom left) and a time stamp (bottom right) drawn on a light band, for slides."""
+    """``png`` with a caption (bottom left) and a time stamp (bottom right) drawn on a light band, for slides.
+    The text scales with the picture (Pillow's scalable default font, :data:`CAPTION_HEIGHT_FRACTION` of its
+    height), so a 1920x1080 slide reads from the back row as a small one does; a caption wider than the picture
+    is shrunk, never below 3 % of its height."""
     if not caption and not stamp:
         return png
-    from PIL import Image, ImageDraw  # noqa: PLC0415 - Pillow (viser's) only for labelled pictures
+    from PIL import Image, ImageDraw, ImageFont  # noqa: PLC0415 - Pillow (viser's) only for labelled pictures
 
     image = Image.open(io.BytesIO(png)).convert("RGB")
     draw = ImageDraw.Draw(image)
-    band = 24
     width, height = image.size
+    size = max(12, round(CAPTION_HEIGHT_FRACTION * height))
+    smallest = max(12, round(0.035 * height))
+    text = f"{caption or ''}    {stamp or ''}"
+    while size > smallest and draw.textlength(text, font=ImageFont.load_default(size=size)) > width - size:
+        size -= 1
+    font = ImageFont.load_default(size=size)
+    band = round(size * 1.5)
+    margin = round(size / 2)
     draw.rectangle([0, height - band, width, height], fill=(245, 245, 245))
+    top = height - band + round(size * 0.2)
     if caption:
-        draw.text((8, height - band + 6), caption, fill=(20, 20, 20))
+        draw.text((margin, top), caption, fill=(20, 20, 20), font=font)
     if stamp:
-        right = draw.textlength(stamp)
-        draw.text((width - right - 8, height - band + 6), stamp, fill=(20, 20, 20))
+        right = draw.textlength(stamp, font=font)
+        draw.text((width - right - margin, top), stamp, fill=(20, 20, 20), font=font)
     out = io.BytesIO()
     image.save(out, format="PNG")
     return out.getvalue()

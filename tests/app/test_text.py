@@ -23,3 +23,11 @@ def test_status_line_quotes_a_notice_as_text():
 
 def test_html_literal_escapes_quotes_and_tags():
     assert html_literal("<a href='x'>\"") == "&lt;a href=&#x27;x&#x27;&gt;&quot;"
+
+
+def test_status_line_never_shows_a_negative_real_time_factor():
+    """Scrubbing back moves the shown time backwards over the rate window (issue 26: "real-time factor -7.12x")."""
+    scrubbing = status_markdown(3.0, False, -7.12, "Lagrange", None, None, None)
+    assert "-7.12" not in scrubbing and "real-time factor" not in scrubbing and "scrubbing" in scrubbing
+    playing = status_markdown(3.0, True, 1.0, "Lagrange", None, None, None)
+    assert "real-time factor 1.00×" in playing
