@@ -127,7 +127,8 @@ def test_the_export_tab_gives_the_viewers_link_and_this_setups_link_without_the_
     content = session.share_link.content
     assert "[Viewers' link](/)" in content
     assert f"(/{session.link_query()})" in content
-    session.player.step(30)  # a run to download (the lecture waits at its start)
+    session.player.step(30)  # a run to download (the lecture waits at its start); the player steps on its thread
+    assert wait_until(lambda: session.player.runs and len(session.player.runs[0].ring) >= 2, timeout=60)
     files = {kind: session.download_file(kind)[1] for kind in ("csv", "json", "setup", "html")}
     texts = {"link": content, "notice": session.notices.text or "", "status": session.status.content,
              **{kind: data.decode("utf-8", "replace") for kind, data in files.items()}}
