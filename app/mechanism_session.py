@@ -23,6 +23,7 @@ and the allowed range, and the session goes on.
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import math
 import threading
@@ -1967,8 +1968,14 @@ class MechanismSession(SessionBase):
         try:
             # a few steps compile as much as a whole run; a stiff start must not hold the player here for
             # millions (the run's own calls are bounded by the player's step cap)
-            spec.simulate(spec.chain, q0, qdot0, spec.settings.model_copy(
-                update={"t_end": 1e-3, "samples": 2, "max_steps": PREPARE_STEPS}), t_start=0.0)
+            brief = spec.settings.model_copy(update={"t_end": 1e-3, "samples": 2, "max_steps": PREPARE_STEPS})
+            if spec.runner is None and self.worker is not None:
+                # a hosted chain's chunks run here, but a structure never derived is derived by the worker
+                # (sympy holds the interpreter lock for up to seconds): it leaves the generated code in the
+                # cache folder, which this interpreter then loads without sympy
+                MechanismSpec.simulate(dataclasses.replace(spec, runner=self.worker.run), spec.chain, q0, qdot0,
+                                       brief, t_start=0.0)
+            spec.simulate(spec.chain, q0, qdot0, brief, t_start=0.0)
         except LinkageError:
             pass  # the run's own first chunk reports it
         else:

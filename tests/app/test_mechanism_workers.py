@@ -83,3 +83,43 @@ def test_a_worker_computes_what_the_server_would_and_a_dead_one_is_reported_and_
     finally:
         pool.stop()
     assert not pool.workers
+
+
+HOSTED = """
+import json, sys, time
+from app.server import LabServer
+from app.wsclient import BackgroundClient
+server = LabServer(port=0, warm=False, preset="chain", links=7)
+client = BackgroundClient(server.url)
+(session,) = server.wait_for_sessions(1)
+def moved(seconds):
+    start = session.player.display_time
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and session.player.display_time < start + seconds:
+        time.sleep(0.02)
+    return session.player.display_time >= start + seconds
+ok = moved(0.3)
+for method in ("newton_euler", "lagrange"):
+    session.guard(lambda: session.set("method", method))
+    session.player.wait_idle(120)
+    ok = ok and moved(0.3) and session.player.runs[0].spec.settings.method == method
+print(json.dumps({"moved": ok, "notice": session.notices.text, "hosted": session.chain is not None,
+                  "in_server": session.player.runs[0].spec.runner is None, "sympy": "sympy" in sys.modules}))
+client.close()
+server.stop()
+"""
+
+
+def test_a_hosted_chain_runs_here_but_is_never_derived_here(tmp_path):
+    """A chain's chunks are compiled code run in the server's interpreter (no process hop per edit), but a
+    structure never derived is derived by the session's worker: the server never imports sympy. A cache folder of
+    its own makes every derivation a first one."""
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    env = {**__import__("os").environ, "LINKAGE_LAB_CACHE": str(cache)}
+    done = subprocess.run([sys.executable, "-c", HOSTED], cwd=ROOT, capture_output=True, text=True, timeout=600,
+                          env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result == {"moved": True, "notice": None, "hosted": True, "in_server": True, "sympy": False}, (
+        result, done.stderr[-2000:])
