@@ -182,6 +182,17 @@ class MechanismScene:
         return bar_positions, bar_wxyzs, to_world(spheres).astype(np.float32)
 
     @_locked
+    def resend(self) -> None:
+        """Send the pose drawn now again, as a frame would: a browser sees the start pose as moved parts before a
+        long first derivation (the pose its scene was built with arrived as the parts' creation)."""
+        if self.draw is None or self._spheres is None:
+            return
+        if self._bars is not None:
+            update_node_props(self._bars, {"batched_positions": self._bar_positions,
+                                           "batched_wxyzs": self._bar_wxyzs})
+        update_node_props(self._spheres, {"batched_positions": self._sphere_positions})
+
+    @_locked
     def show(self, points_xy: np.ndarray, com_xy: np.ndarray) -> None:
         """Move every part to one frame (two messages at most; bodies are rigid, so no bar changes length)."""
         if self.draw is None or self._spheres is None:

@@ -1960,6 +1960,8 @@ class MechanismSession(SessionBase):
                *route_options(settings), id(self.worker))
         if key in self._prepared:
             return
+        if not self.compare:  # the start pose is on the page before a first derivation's notice (a cold cache)
+            quietly(self.scene.resend, "showing the start pose")
         shown: list = []
         timer = threading.Timer(PREPARE_NOTICE_DELAY, lambda: shown.extend(self.notices.progress(
             "Deriving equations...", f"{METHODS.get(spec.settings.method)} for {spec.chain.name}: sympy derives "

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import physics
-from app import controls, panel_rows, viser_compat
+from app import chain_knobs, mechanism_edits, panel_rows, viser_compat
+from app.mechanism_runs import MechanismSettings
 from app.scene import camera_pose
 from app.server import is_loopback
 from app.wsclient import BackgroundClient, moves_positions
@@ -30,9 +31,8 @@ def _inside(spec, low, high):
 
 @pytest.mark.parametrize(
     "spec",
-    [*controls.BAR_SLIDERS.values(), controls.GRAVITY_SLIDER, controls.DAMPING_SLIDER, controls.ALPHA_SLIDER,
-     controls.BETA_SLIDER, controls.STEP_SLIDER, panel_rows.SPEED_SLIDER, panel_rows.TRACE_SLIDER,
-     panel_rows.ARROW_SLIDER],
+    [*chain_knobs.BAR_SLIDERS.values(), chain_knobs.GRAVITY_SLIDER, chain_knobs.DAMPING_SLIDER,
+     panel_rows.SPEED_SLIDER, panel_rows.TRACE_SLIDER, panel_rows.ARROW_SLIDER],
     ids=lambda s: f"{s.model.__name__}.{s.field}",
 )
 def test_slider_ranges_sit_inside_the_model_bounds(spec):
@@ -44,22 +44,32 @@ def test_slider_ranges_sit_inside_the_model_bounds(spec):
     _inside(spec, low, high)
 
 
-def test_log_and_millisecond_sliders_map_inside_the_settings_bounds():
+def test_the_run_settings_sliders_map_inside_the_settings_bounds():
+    """The Simulation tab's numbers (app/mechanism_edits.settings_knobs): the tolerance's log10 slider, the fixed
+    step in ms and the Baumgarte gains stay inside the models' bounds at both ends."""
     rtol = physics.Settings.model_fields["rtol"].metadata
-    lo_exp, hi_exp, _ = controls.TOLERANCE_LOG10
+    knobs = {knob.name: knob for knob in mechanism_edits.settings_knobs(MechanismSettings())}
+    lo_exp, hi_exp = knobs["rtol"].slider_bounds()
     ge = next(m.ge for m in rtol if hasattr(m, "ge"))  # rtol's floor is inclusive (1e-14, physics.model)
     le = next(m.le for m in rtol if hasattr(m, "le"))
     assert ge <= 10.0**lo_exp and 10.0**hi_exp <= le
     step = physics.Settings.model_fields["step"].metadata
     gt = next(m.gt for m in step if hasattr(m, "gt"))
     le = next(m.le for m in step if hasattr(m, "le"))
-    lo_ms, hi_ms, _ = controls.STEP_MS
+    lo_ms, hi_ms = knobs["step"].slider_bounds()
     assert gt < lo_ms * 1e-3 and hi_ms * 1e-3 <= le
+    for name in ("baumgarte_alpha", "baumgarte_beta"):
+        low, high = knobs[name].slider_bounds()
+        bounds = physics.Settings.model_fields[name].metadata
+        assert low >= next(m.ge for m in bounds if hasattr(m, "ge")), name
+        upper = [m.le for m in bounds if hasattr(m, "le")]
+        assert not upper or high <= upper[0], name
 
 
-def test_dropdowns_offer_the_model_literals():
-    assert controls.INTEGRATOR_OPTIONS == tuple(physics.INTEGRATOR_NAMES)
-    assert set(controls.STABILIZATION_OPTIONS) == {"none", "baumgarte", "projection"}
+def test_dropdowns_offer_the_model_literals(connect):
+    _, session = connect()
+    assert tuple(session.integrator.options) == tuple(physics.INTEGRATOR_NAMES)
+    assert set(session.stabilization.options) == {"none", "baumgarte", "projection"}
 
 
 def test_a_value_outside_the_model_is_refused_with_its_name(connect):
