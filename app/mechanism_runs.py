@@ -30,11 +30,14 @@ from .buffers import TrajectoryRing
 from .player import SAMPLE_DT
 
 # A chunk's work in the player's unit, a compiled chain right-hand side (about 2.7 us: CHUNK_WORK_BUDGET = 3000
-# of them is about 8 ms), measured for the presets with one-off timings: one right-hand side of a mechanism
-# (the DOP853 stepper's Python around machine code) costs about 6 units, and one sample (position analysis or
-# projection, velocities, reactions and energies in numpy) about 75 units per body.
-EVALUATION_WORK = 6
-SAMPLE_WORK = 75
+# of them is about 8 ms). Measured on the one engine (CPU time of a chunk of 6 and of 60 samples, simulate and
+# store, 2026-11-28): a right-hand side of the slider-crank about 0.9 us (a third of a unit), a sample about
+# 2.7 us per body (one unit; the Jansen leg's 54 more samples 1.0 ms); a hosted triple pendulum's chunk about
+# 0.9 ms whatever its length. The figures below are rounded up. They were 6 and 75 when a mechanism's stepper and
+# samples were Python: on the one engine those kept every chunk at a few samples, so a classroom's sessions paid
+# a chunk's fixed cost (about 1 ms) ten times a second each and their frames starved (tests/app/test_load.py).
+EVALUATION_WORK = 1
+SAMPLE_WORK = 2
 
 
 def _settings_field(name: str) -> Any:
@@ -288,7 +291,7 @@ class MechanismSpec:
         """A chunk's stored samples. Every drawn point's path is the run's own (``paths``: physics' named
         points, :class:`~physics.mechanism.run_table.BodyPoints`, whose first names are the drawing's labels), never
         computed here again; the traced one is one of them, else the first body's centre."""
-        points = np.stack([paths.path(q, k) for k in range(len(self.draw.labels))], axis=1)
+        points = paths.paths(q, len(self.draw.labels))
         k = self.trace_index()
         if self.trace_of is not None:
             trace = self.trace_of(q)

@@ -122,6 +122,7 @@ PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
 ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is drawn this fraction of the size long
 RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
+PREPARED_HERE: set[tuple] = set()  # what _prepare has made ready for the chains this process runs itself
 PREPARE_STEPS = 10  # integrator steps of the compiling call before a run's first chunk (see _prepare)
 PREPARE_NOTICE_DELAY = 1.0
 MAX_GOTO_TIME = 1e5  # as the chain session's
@@ -1956,9 +1957,11 @@ class MechanismSession(SessionBase):
         the compiled code's parameters), so it does not pay a call of the worker for it (about half of an
         edit's time to its first frame)."""
         settings = spec.settings
+        # a worker's compiled code is its own; a chain run here finds the derived code in the cache folder,
+        # whichever session of this process had it derived (a classroom's sessions pay for it once)
         key = (structure_key(spec.chain), settings.method, settings.integrator, settings.stabilization,
-               *route_options(settings), id(self.worker))
-        if key in self._prepared:
+               *route_options(settings), id(self.worker) if spec.runner is not None else None)
+        if key in self._prepared or key in PREPARED_HERE:
             return
         if not self.compare:  # the start pose is on the page before a first derivation's notice (a cold cache)
             quietly(self.scene.resend, "showing the start pose")
@@ -1981,7 +1984,7 @@ class MechanismSession(SessionBase):
         except LinkageError:
             pass  # the run's own first chunk reports it
         else:
-            self._prepared.add(key)
+            (PREPARED_HERE if spec.runner is None else self._prepared).add(key)
         finally:
             timer.cancel()
             self.notices.dismiss(shown)

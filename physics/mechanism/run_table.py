@@ -36,6 +36,20 @@ class BodyPoints:
     body: tuple[int, ...]
     offset: tuple[tuple[float, float], ...]
 
+    def paths(self, q: np.ndarray, count: int) -> np.ndarray:
+        """The first ``count`` points at every pose of ``q (T, 3 B)`` -> ``(T, count, 2)``: :meth:`path` of each,
+        the body points in one batched pass (a chunk's drawing: one call instead of one per point)."""
+        q = np.asarray(q, dtype=float)
+        out = np.empty((q.shape[0], count, 2))
+        body = np.array(self.body[:count], dtype=int)
+        offset = np.array(self.offset[:count], dtype=float).reshape(-1, 2)
+        moving = body >= 0
+        if moving.any():
+            out[:, moving] = points_at_poses(q, body[moving], offset[moving])
+        if not moving.all():
+            out[:, ~moving] = offset[~moving]
+        return out
+
     def path(self, q: np.ndarray, index: int) -> np.ndarray:
         """Point ``names[index]`` at every pose of ``q (T, 3 B)`` -> ``(T, 2)``."""
         q = np.asarray(q, dtype=float)

@@ -214,7 +214,7 @@ def test_nothing_the_pages_produce_carries_the_secret(lecture):
                 client.send_value(viser_compat.control_id(button), value)
         assert wait_until(lambda: recorded["presenter"].by_type["FileTransferPart"] >= 5, timeout=60), \
             "the presenter's downloads did not arrive"
-        assert wait_until(lambda: "Open this setup" in panel.share_link.content, timeout=30)
+        assert wait_until(lambda: "[This setup](/" in panel.share_link.content, timeout=30)  # the setup's link
         time.sleep(1.0)
     finally:
         presenter.close()
