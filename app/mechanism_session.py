@@ -791,7 +791,10 @@ class MechanismSession(SessionBase):
                     self._chain_start(edit.params)  # starting again would take down a refusal's notice meanwhile
             else:
                 key = commands.split_name(name)[0]
-                self._chain_continue(edit.params, geometry=key in ("L", "d", "pin_x", "pin_y"))
+                try:
+                    self._chain_continue(edit.params, geometry=key in ("L", "d", "pin_x", "pin_y"))
+                except LinkageError as error:  # the refusal names the field typed, as every refusal does
+                    raise LinkageError(f"{name} = {value!s:.40}: {error}") from None
             self._sync_boxes()
 
     @staticmethod
