@@ -789,6 +789,8 @@ class MechanismSession(SessionBase):
             elif edit.restart:
                 if not self._same_start(edit.params, chain):  # a slider's echo of the start in force is no edit:
                     self._chain_start(edit.params)  # starting again would take down a refusal's notice meanwhile
+                else:
+                    self.chain = edit.params  # the same start as written (a typed -0 for 0): nothing starts again
             else:
                 key = commands.split_name(name)[0]
                 try:

@@ -211,7 +211,9 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
             return float(getattr(session.display, name))
         return next(knob.value for knob in session.panel_knobs() if knob.name == name)
 
-    panel = Panel(boxes=lambda: {**{f"type {knob.label}": knob.name for knob in session.panel_knobs()},
+    # a closed loop's assembled angles follow it, greyed, with no box (a person cannot type into them either)
+    panel = Panel(boxes=lambda: {**{f"type {knob.label}": knob.name for knob in session.panel_knobs()
+                                    if not knob.follows},
                                  **{control.box.label: name for name, control in display.controls.items()}},
                   value=value, box=session.typed_box, commits=lambda: session.typed_commits + display.commits)
     done: dict[str, list[str]] = {}
