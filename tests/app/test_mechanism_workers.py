@@ -24,6 +24,14 @@ from physics.mechanism.simulate import simulate_mechanism
 
 ROOT = Path(__file__).resolve().parents[2]
 
+# the scripts' wait for the session's display to move on ``seconds`` of simulated time (two minutes at most)
+MOVED = """def moved(seconds):
+    start = session.player.display_time
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and session.player.display_time < start + seconds:
+        time.sleep(0.02)
+    return session.player.display_time >= start + seconds"""
+
 SCRIPT = """
 import json, sys, time
 from app.server import LabServer
@@ -31,12 +39,7 @@ from app.wsclient import BackgroundClient
 server = LabServer(port=0, warm=False, preset="slider-crank")
 client = BackgroundClient(server.url)
 (session,) = server.wait_for_sessions(1)
-def moved(seconds):
-    start = session.player.display_time
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and session.player.display_time < start + seconds:
-        time.sleep(0.02)
-    return session.player.display_time >= start + seconds
+MOVED
 ok = moved(0.3)
 for method in ("lagrange", "newton_euler"):
     session.guard(lambda: session.set_method(method))
@@ -49,7 +52,7 @@ print(json.dumps({"moved": ok, "notice": session.notices.text, "workers": len(wo
                                       for name in sys.modules)}))
 client.close()
 server.stop()
-"""
+""".replace("MOVED", MOVED)
 
 
 def test_the_server_never_derives_or_integrates_a_mechanism_itself():
@@ -92,12 +95,7 @@ from app.wsclient import BackgroundClient
 server = LabServer(port=0, warm=False, preset="chain", links=7)
 client = BackgroundClient(server.url)
 (session,) = server.wait_for_sessions(1)
-def moved(seconds):
-    start = session.player.display_time
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and session.player.display_time < start + seconds:
-        time.sleep(0.02)
-    return session.player.display_time >= start + seconds
+MOVED
 ok = moved(0.3)
 for method in ("newton_euler", "lagrange"):
     session.guard(lambda: session.set("method", method))
@@ -107,7 +105,7 @@ print(json.dumps({"moved": ok, "notice": session.notices.text, "hosted": session
                   "in_server": session.player.runs[0].spec.runner is None, "sympy": "sympy" in sys.modules}))
 client.close()
 server.stop()
-"""
+""".replace("MOVED", MOVED)
 
 
 def test_a_hosted_chain_runs_here_but_is_never_derived_here(tmp_path):
