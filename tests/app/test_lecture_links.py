@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from app.mechanism_session import VIEWERS_LINK
+from app.player import SAMPLE_DT
 from app.server import LabServer
 from app.share import SETUP_PATH
 from conftest import BrowserStandIn, wait_until
@@ -127,8 +128,9 @@ def test_the_export_tab_gives_the_viewers_link_and_this_setups_link_without_the_
     content = session.share_link.content
     assert "[Viewers' link](/)" in content
     assert f"(/{session.link_query()})" in content
-    session.player.step(30)  # a run to download (the lecture waits at its start); the player steps on its thread
-    assert wait_until(lambda: session.player.runs and len(session.player.runs[0].ring) >= 2, timeout=60)
+    # a run to download (the lecture waits at its start): seek blocks until the display shows the time, since
+    # the downloads hold the samples up to the displayed time, not the ones simulated ahead of it
+    assert session.player.seek(30 * SAMPLE_DT, timeout=60)
     files = {kind: session.download_file(kind)[1] for kind in ("csv", "json", "setup", "html")}
     texts = {"link": content, "notice": session.notices.text or "", "status": session.status.content,
              **{kind: data.decode("utf-8", "replace") for kind, data in files.items()}}
