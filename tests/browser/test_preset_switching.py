@@ -37,7 +37,9 @@ from .conftest import wait_until
 ERROR_TITLES = ("Simulation stopped", "Session paused", "Could not start", "internal error", "Error")
 OLD_CHAIN_PANEL = ("Initial angles (degrees)", "Stabilisation (loops)")  # the chain panel's rows: never shown now
 # rows the one panel has for every preset (app/mechanism_session.py _build_panel): exactly one of each
-BOTH = ("Timeline (s)", "View", "Plot", "Bodies and motors", "Traced point", "Stabilisation")
+BOTH = ("Timeline (s)", "View", "Plot", "Bodies and motors")
+# rows of the other tabs (a page draws only the open tab's rows): exactly one of each there
+IN_TABS = {"Simulation": ("Stabilisation",), "Display": ("Traced point",)}
 PLAYS_ON_S = 0.3  # simulated seconds a session must advance after its switch
 
 
@@ -121,12 +123,12 @@ def test_the_walk_takes_every_pair_of_kinds_and_every_preset_in_and_out():
 
 
 def _panel_labels(page) -> collections.Counter:
-    """The labels and folder titles of the control panel (every row a person sees)."""
-    panel = page.page.locator(snap.CONTROL_PANEL)
-    labels = panel.locator("label").all_inner_texts()
-    titles = panel.locator(".mantine-Paper-root > .mantine-Paper-root").all_inner_texts()
-    buttons = panel.locator("button").all_inner_texts()
-    return collections.Counter([t.strip() for t in labels + titles + buttons if t.strip()])
+    """The labels, folder titles and buttons of the control panel that a person sees."""
+    # a tab once opened stays in the page, hidden: only the rows drawn (the open tab's and those above the tabs) count
+    texts = page.page.locator(snap.CONTROL_PANEL).evaluate(
+        """panel => [...panel.querySelectorAll("label, .mantine-Paper-root > .mantine-Paper-root, button")]
+               .filter(element => element.checkVisibility()).map(element => element.innerText)""")
+    return collections.Counter([t.strip() for t in texts if t.strip()])
 
 
 def _sets_of_controls(page) -> tuple[int, collections.Counter, collections.Counter]:
@@ -185,9 +187,14 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
         # the page has caught up with the switch (a busy software renderer lags behind the server): its menu
         # shows the choice and its panel has the boxes of this preset's controls (a chain's: app/chain_knobs.py)
         wait_until(lambda: _menu_value(page) == name, message=f"{previous} -> {name}: the menu to show {name}")
-        expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs()}
-        wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
-                   message=f"{previous} -> {name}: the panel to show {name}'s controls")
+        # a closed loop's assembled angles follow it, greyed, with no box to type into
+        expected = {f"type {knob.label}" for knob in session.mechanism_tab_knobs() if not knob.follows}
+        try:
+            wait_until(lambda: {label for label in _panel_labels(page) if label.startswith("type ")} == expected,
+                       message=f"{previous} -> {name}: the panel to show {name}'s controls")
+        except AssertionError as error:
+            shown = {label for label in _panel_labels(page) if label.startswith("type ")}
+            raise AssertionError(f"{error}: extra {sorted(shown - expected)}, missing {sorted(expected - shown)}") from None
         groups, tabs, folders = _sets_of_controls(page)
         assert groups == 1, f"{previous} -> {name}: {groups} tab groups in the panel"
         assert tabs and max(tabs.values()) == 1, f"{previous} -> {name}: tabs {dict(tabs)}"
@@ -199,6 +206,16 @@ def test_every_preset_after_every_other_plays_on_with_one_set_of_controls(start_
             f"{previous} -> {name}: the chain panel's rows show: {[lb for lb in OLD_CHAIN_PANEL if panel[lb]]}")
         assert all(panel[label] == 1 for label in BOTH), (
             f"{previous} -> {name}: {[(label, panel[label]) for label in BOTH]} (one of each expected)")
+        for tab, rows in IN_TABS.items():
+            page.open_tab(tab)
+            wait_until(lambda: all(_panel_labels(page)[label] >= 1 for label in rows), timeout_s=20,
+                       message=f"{previous} -> {name}: the {tab} tab to show {rows}")
+            in_tab = _panel_labels(page)
+            assert all(in_tab[label] == 1 for label in rows), (
+                f"{previous} -> {name}: {tab} tab {[(label, in_tab[label]) for label in rows]} (one of each expected)")
+        page.open_tab("Mechanism")
+        wait_until(lambda: _panel_labels(page)["Bodies and motors"] == 1, timeout_s=20,
+                   message=f"{previous} -> {name}: the Mechanism tab back")
         if name in seen:
             try:
                 wait_until(lambda: _panel_labels(page) == seen[name], timeout_s=20, message="the panel")
