@@ -1,15 +1,19 @@
-"""A general mechanism's run as a self-contained HTML replay page (what ``app.show(run, mechanism)`` shows).
+"""A run as a self-contained HTML replay page (what ``app.show(run, ...)`` and "download replay" give).
 
-The chains' page (:mod:`app.replay`) draws bars from their lengths; a mechanism is drawn as the app's mechanism
-view draws it (:class:`app.mechanism_scene.MechanismScene`: every body's bars and points, the ground, the
-sliders' guides) on the same private recording server, under the same lock, frame by frame.
+Every linkage is drawn as the app's view draws it (:class:`app.mechanism_scene.MechanismScene`: every body's
+bars and points, the ground, the sliders' guides) on the private recording server of :mod:`app.replay`, under
+its lock, frame by frame. A chain's run is drawn as the mechanism it is (:func:`physics.mechanism.chains.chain_mechanism`),
+so a chain's page and a mechanism's are one drawing.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .mechanism_runs import Drawing, centres_at, points_at
+from physics import Chain
+from physics.mechanism.chains import chain_mechanism
+
+from .mechanism_runs import Drawing, centres_at, drawing, points_at
 from .mechanism_scene import MechanismScene
 from .overlays import TraceLine
 from .replay import REPLAY_FPS, REPLAY_MAX_SECONDS, SOURCE_RATE, TRACE_SECONDS, recording_server
@@ -49,3 +53,21 @@ def mechanism_replay_html(draw: Drawing, history: dict[str, np.ndarray], title: 
                 trace.update(trace_xy[max(first, i - trace_samples) : i + 1])
             serializer.insert_sleep(stride / rate)
         return serializer.as_html()
+
+
+def chain_replay_html(history: dict[str, np.ndarray], chain: Chain, title: str = "Linkage Lab replay",
+                      rate: float = SOURCE_RATE) -> str:
+    """HTML replay of a chain's ``history`` (``t (T,)``, ``joints (T, n + 1, 2)``, ``trace_xy (T, 2)``) of
+    ``chain``: each bar's pose read off its two joints (centre of mass at ``d`` along it, its absolute angle),
+    drawn as the chain's mechanism sketched at the first sample."""
+    joints = np.asarray(history["joints"], dtype=float)
+    if len(history["t"]) < 2:
+        raise ValueError("nothing to replay yet: fewer than two samples")
+    along = joints[:, 1:] - joints[:, :-1]  # (T, n, 2): L (sin theta, -cos theta)
+    theta = np.arctan2(along[..., 0], -along[..., 1])
+    share = chain.array("d") / chain.array("L")  # lengths are validated positive
+    centres = joints[:, :-1] + share[None, :, None] * along
+    sketch = theta[0]
+    q = np.concatenate([centres, (theta - sketch)[..., None]], axis=2).reshape(len(joints), -1)
+    samples = {"t": history["t"], "q": q, "trace_xy": history["trace_xy"]}
+    return mechanism_replay_html(drawing(chain_mechanism(chain, sketch)), samples, title=title, rate=rate)

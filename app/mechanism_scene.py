@@ -1,7 +1,7 @@
 """The 3D picture of a general mechanism: every body's bars, its points and centres of mass, the ground.
 
-The same batched nodes as :class:`app.scene.LinkageScene`, under the same root, so a frame is two messages
-whatever the mechanism and the tools that count frames (app/wsclient.py) see no difference::
+Chains and mechanisms alike: the same batched nodes under one root, so a frame is two messages whatever the
+linkage and the tools that count frames (app/wsclient.py) see no difference::
 
     {root}/bars        one batched box mesh: instance k is segment k of the drawing (a bar body is one segment,
                        a plate the edges of its outline), coloured by body, then one thin grey bar per gear
@@ -241,9 +241,8 @@ class MechanismScene:
     @_locked
     def instance_of(self, name: str) -> tuple[str, int | None] | None:
         """Where part ``name`` of :meth:`poses` or :meth:`parts` is drawn in the browser: ``(batched node,
-        instance)`` or ``(node, None)``; None for a name that is not this scene's. Why not
-        :func:`app.scene.part_instance`: a chain's old scene interleaved joints and centres in its batch, this
-        one lists the points, then the centres, so the instance depends on the drawing."""
+        instance)`` or ``(node, None)``; None for a name that is not this scene's. The batch lists the points,
+        then the centres, so the instance depends on the drawing."""
         prefix = f"{self.root}/"
         if self.draw is None or not name.startswith(prefix):
             return None

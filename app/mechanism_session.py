@@ -1536,7 +1536,7 @@ class MechanismSession(SessionBase):
     def part_addresses(self) -> dict[str, tuple[str, int | None]]:
         """Where each part the snapshot names (its ``scene.nodes``) is drawn in the browser: ``(node, instance)``
         (app/snapshot.py waits for the browser to show those positions). Compare mode's translucent copies are
-        named as :func:`app.scene.part_instance` reads them, so they are not listed."""
+        named by their own scenes (``/compare/<method>/bar_k``)."""
         scene = self.scene
         chain = self.chain
         sources = chain_contract.chain_part_sources(scene.root, chain.n) if chain is not None else {}
@@ -1545,6 +1545,12 @@ class MechanismSession(SessionBase):
             where = scene.instance_of(sources.get(name, name))
             if where is not None:
                 out[name] = where
+        if self.compare:
+            for copy in self.compare_view.scenes.values():
+                for name in [*copy.poses(), *copy.parts()]:
+                    where = copy.instance_of(name)
+                    if where is not None:
+                        out[name] = where
         return out
 
     def _chain_snapshot(self, params: SessionParameters) -> dict:

@@ -3,8 +3,8 @@
 ``physics`` never imports viser or the app (the import contracts of pyproject.toml), so the notebook's door is
 here, exposed as ``app.show(run, chain)`` for a chain's run and ``app.show(run, mechanism)`` for a general
 mechanism's (both runs are a :class:`physics.Trajectory`): the run is drawn by the app's own scene on viser's
-recording server and serialised into one self-contained HTML page (:mod:`app.replay`, the same page the app's
-"download replay" gives; :mod:`app.mechanism_replay` for a mechanism, drawn as the mechanism view draws it). In IPython (Jupyter, JupyterLab, VS Code) the page is displayed inline in an iframe; elsewhere it is
+recording server and serialised into one self-contained HTML page (:mod:`app.mechanism_replay`, the same page the app's
+"download replay" gives, a chain drawn as the mechanism it is). In IPython (Jupyter, JupyterLab, VS Code) the page is displayed inline in an iframe; elsewhere it is
 written to a temporary file and opened in the default browser.
 """
 
@@ -13,14 +13,14 @@ from __future__ import annotations
 import html
 import tempfile
 import webbrowser
-from types import SimpleNamespace
 
 import numpy as np
 
 from physics import Chain, LinkageError, Trajectory
 from physics.mechanism import Mechanism
 
-from .replay import replay_html
+from .mechanism_replay import chain_replay_html, mechanism_replay_html
+from .mechanism_runs import drawing
 
 
 def _samples_per_second(t: np.ndarray) -> float:
@@ -45,15 +45,11 @@ def replay_page(run: Trajectory, model: Chain | Mechanism, title: str | None = N
     if run.joints.shape[1] != model.n + 1:
         raise LinkageError(f"chain: the run has {run.joints.shape[1] - 1} bars, the chain {model.n}")
     history = {"t": run.t, "joints": run.joints, "trace_xy": run.trace_xy}
-    params = SimpleNamespace(L=model.array("L"), d=model.array("d"), pin=model.pin)
-    return replay_html(history, params, title=label, rate=_samples_per_second(run.t))
+    return chain_replay_html(history, model, title=label, rate=_samples_per_second(run.t))
 
 
 def _mechanism_page(run: Trajectory, mechanism, label: str) -> str:
-    """A mechanism's run drawn by its mechanism (the drawing loads only here: a chain's page never needs it)."""
-    from .mechanism_replay import mechanism_replay_html  # noqa: PLC0415
-    from .mechanism_runs import drawing  # noqa: PLC0415
-
+    """A mechanism's run drawn by its mechanism."""
     if not isinstance(mechanism, Mechanism):
         raise LinkageError(f"mechanism: the physics.mechanism.Mechanism of the run (a mechanism's run), not "
                            f"{type(mechanism).__name__}")

@@ -12,7 +12,6 @@ from physics import LinkageError
 
 from . import export, share
 from .divergence import REFERENCE_LABEL
-from .replay import replay_html
 
 
 def history(player, label: str = "main") -> dict:
@@ -29,7 +28,9 @@ def history(player, label: str = "main") -> dict:
 def replay(samples: dict, params, label: str) -> str:
     """The HTML replay of ``samples``; a run too short to replay is a refusal (LinkageError), not a fault."""
     try:
-        return replay_html(samples, params, title=f"Linkage Lab replay: {label}")
+        from .mechanism_replay import chain_replay_html  # noqa: PLC0415 - the recorder: on export only
+
+        return chain_replay_html(samples, params.chain, title=f"Linkage Lab replay: {label}")
     except ValueError as error:
         raise LinkageError(str(error)) from None
 

@@ -29,7 +29,7 @@ import numpy as np
 from physics import METHOD_NAMES, LinkageError, preset_names
 from physics.mechanism import MECHANISM_PRESETS
 
-from .scene import part_instance, pose_disc
+from .scene import pose_disc
 
 CHROMIUM_ENV = "LINKAGE_LAB_CHROMIUM"
 CHROMIUM_CANDIDATES = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "chromium", "chromium-browser")
@@ -202,7 +202,7 @@ def wait_for_drawn_frames(page: Any, frames: int = 2, timeout_s: float = 30.0) -
     )
 
 
-# Position of a scene node or of one instance of a batched node (app/scene.py, ``part_instance``) in the
+# Position of a scene node or of one instance of a batched node (a session's ``part_addresses()``) in the
 # browser: world coordinates, or local ones (in the frame of the node's parent); null when not there yet.
 PART_POSITION_JS = """
 const partPosition = (mutable, [nodeName, index], world) => {
@@ -228,9 +228,9 @@ const partPosition = (mutable, [nodeName, index], world) => {
 
 def _addresses(names: Sequence[str], where: Mapping[str, tuple[str, int | None]] | None = None) -> list[list]:
     """``[name, node, instance]`` of each part: from ``where`` (a session's ``part_addresses()``, which knows its
-    drawing), else by the part's name (:func:`app.scene.part_instance`)."""
+    drawing), else the scene node of that name."""
     where = where or {}
-    return [[name, *(where.get(name) or part_instance(name))] for name in names]
+    return [[name, *(where.get(name) or (name, None))] for name in names]
 
 
 def node_addresses(session: Any) -> dict[str, tuple[str, int | None]]:

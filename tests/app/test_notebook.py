@@ -66,11 +66,17 @@ def test_the_page_holds_every_sample_of_the_run_at_its_own_pace(triple):
     assert payload["durationSeconds"] == pytest.approx(run.t[-1] - run.t[0] + (run.t[1] - run.t[0]), rel=1e-6)
     frames = sphere_frames(payload, buffers)
     assert len(frames) >= len(run.t) - 1  # a frame whose spheres did not move sends nothing
-    joints = frames[-1][1][0::2]  # instance 2k is joint k
-    planar = joints[:, [0, 2]] if np.ptp(joints[:, 1]) == 0 else joints[:, :2]
-    np.testing.assert_allclose(planar, run.joints[-1], atol=1e-5)  # float32 on the wire
+    # the chain is drawn as the mechanism it is: its spheres are the drawn points, then the centres of mass
+    drawn = frames[-1][1][:, [0, 2]]  # world (x, 0, y), float32 on the wire
+    com = run.joints[-1][:-1] + (chain.array("d") / chain.array("L"))[:, None] * np.diff(run.joints[-1], axis=0)
+    for where in [*run.joints[-1], *com]:
+        assert np.min(np.linalg.norm(drawn - where, axis=1)) < 1e-5, (where, drawn)
+    assert len(drawn) >= len(run.joints[-1]) + chain.n
     times = [when for when, _ in frames]
-    assert times == sorted(times) and times[-1] - times[0] == pytest.approx(run.t[-1] - run.t[0], rel=1e-6)
+    # one frame per sample, each a sample's time after the one before (the first pose is drawn as the scene is
+    # built, so its spheres may send no update of their own)
+    np.testing.assert_allclose(np.diff(times), run.t[1] - run.t[0], rtol=1e-6)
+    assert times[-1] - times[0] >= run.t[-2] - run.t[0] - 1e-9
 
 
 def test_the_page_names_the_run():
