@@ -187,15 +187,15 @@ def measure_browser_start() -> dict:
 
 def measure_latency(samples: int = 40) -> dict:
     """Median and worst slider-to-pose latencies, in milliseconds."""
-    from .mechanism_session import MechanismSession
     from .server import LabServer
+    from .session import Session
     from .wsclient import BackgroundClient
 
     server = LabServer(port=0)
     client = BackgroundClient(server.url)
     try:
         session = server.wait_for_sessions(1, timeout=600)[0]
-        assert isinstance(session, MechanismSession) and session.chain is not None, "the benchmark drives a chain"
+        assert isinstance(session, Session) and session.chain is not None, "the benchmark drives a chain"
         session.player.wait_idle(600)
         angle = session._knob_handles["theta1"]  # the start's first angle and bar 1's mass, by their --set names
         mass = session._knob_handles["m1"]

@@ -1,6 +1,6 @@
 """A chain hosted by the mechanism session: its knobs, its mechanism, its start and its state, by the chain's names.
 
-Why: issue 24 wants one app session. The mechanism session (app/mechanism_session.py) runs a chain preset as
+Why: issue 24 wants one app session. The mechanism session (app/session.py) runs a chain preset as
 ``physics.mechanism.chains.chain_mechanism(chain, theta_sketch, damping)`` and shows the chain's own panel
 numbers as :class:`~app.mechanism_edits.Knob` objects, so the one control generator draws them: the number of
 bars (the ``chain`` preset), g, per bar L, d, m and I, the start (per driving bar its initial angle in degrees and
@@ -77,7 +77,7 @@ def reach_text(p) -> str:
     return "*theta1 reachable: " + " and ".join(parts) + "*"
 
 
-# the methods the mechanism session runs (app/mechanism_session.py METHODS), in the chain panel's order
+# the methods the mechanism session runs (app/session.py METHODS), in the chain panel's order
 HOSTED_METHODS = ("newton_euler", "lagrange", "dae", "reduced", "reduced_fixed")
 BAR_HINTS = {"L": "Length of the bar (pin to pin)", "d": "Distance of the centre of mass from the proximal pin",
              "m": "Mass of the bar", "I": "Centroidal moment of inertia of the bar"}

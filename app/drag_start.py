@@ -6,7 +6,7 @@ under the mouse), so the bars the scene already draws are what a person grabs; n
 is bound only while paused (a left-drag on a bar then turns the bar instead of orbiting the camera; while playing
 it orbits as before) and not in compare mode (three mechanisms, none of them the start's).
 
-What a drag sets, through the session's own start path (``MechanismSession.set``, the Start folder's sliders':
+What a drag sets, through the session's own start path (``Session.set``, the Start folder's sliders':
 same validation, same notices, same restart at t = 0, paused):
 
 * the dragged body's own free angle, when it has one and a pivot (a chain's bar k of its driving bars turns about
@@ -142,7 +142,7 @@ def wrap_degrees(angle: float) -> float:
 
 
 class DragStart:
-    """The drag of one session's scene (``session``: a :class:`~app.mechanism_session.MechanismSession`)."""
+    """The drag of one session's scene (``session``: a :class:`~app.session.Session`)."""
 
     def __init__(self, session) -> None:
         self.session = session

@@ -1,6 +1,6 @@
 """One session interface for the server, share links, snapshots and the presenter lock, whatever the model.
 
-Why: a browser's session (:class:`app.mechanism_session.MechanismSession`, for any preset, chain or mechanism)
+Why: a browser's session (:class:`app.session.Session`, for any preset, chain or mechanism)
 has a panel, a scene, a player and workers; the server and the tools around it need none of that. They start and
 close a session, give it the presenter check, apply a link's values by name, pause it at a time and read its
 snapshot. :class:`LabSession` is that contract (a ``typing.Protocol``; mypy checks it where the server stores

@@ -153,7 +153,7 @@ def rest_table(mechanism, poses) -> str:
 
 
 class MechanismAnalysis:
-    """The Analysis folder of a :class:`~app.mechanism_session.MechanismSession` (``session``): its widgets, its
+    """The Analysis folder of a :class:`~app.session.Session` (``session``): its widgets, its
     workers and the ensemble drawn in the session's scene. ``remove()`` ends it with the session."""
 
     def __init__(self, session) -> None:

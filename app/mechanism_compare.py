@@ -91,7 +91,7 @@ class MechanismCompare:
                                                    position=(0.0, COMPARE_DEPTH_STEP * k * reach, 0.0))
             self.scenes[method] = MechanismScene(self.target, f"/compare/{method}", palette=[METHOD_COLORS[method]])
             self.scenes[method].build(draw, points_xy, com_xy)
-        # the key top left of the disc the camera frames (as app/mechanism_session.py frames it)
+        # the key top left of the disc the camera frames (as app/session.py frames it)
         centre, radius = pose_disc(np.concatenate([points_xy, draw.ground]), margin=1.3)
         self._key = compare_key(scene, radius, (float(centre[0]), float(centre[1])))
         gui = self.target.gui

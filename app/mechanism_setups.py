@@ -2,7 +2,7 @@
 
 Why: a setup file given on the command line must be right as a whole (one line naming the first value refused,
 exit 2) before the server listens, as a chain's is (:func:`app.share.check_setup`). A browser's session applies
-a setup value by value through its panel (:meth:`app.mechanism_session.MechanismSession.set_link_value`); this
+a setup value by value through its panel (:meth:`app.session.Session.set_link_value`); this
 module replays the same values, in the same order and through the same models (:mod:`app.mechanism_edits`,
 :mod:`app.mechanism_start`, :mod:`app.mechanism_runs`), on plain data. Plain numpy and pydantic; no viser.
 """

@@ -25,7 +25,7 @@ TYPING_PAUSE_S = 0.6  # seconds without a keystroke before a typed value is appl
 
 
 class NumbersPort(Protocol):
-    """What the numbers of a panel ask of their session (app/mechanism_session.py's, for the Display tab's numbers
+    """What the numbers of a panel ask of their session (app/session.py's, for the Display tab's numbers
     built by app/panel_rows.py): a narrow interface, so that the numbers never reach into the player or scene."""
 
     @property

@@ -1,6 +1,6 @@
 """The rows every linkage's panel has, a chain's and any mechanism's, in functions of their own.
 
-The one session (:class:`app.mechanism_session.MechanismSession`) builds these rows with the functions here, so
+The one session (:class:`app.session.Session`) builds these rows with the functions here, so
 the panel's module stays about what changes with the model, and each row is tested on its own:
 
 * the **View** button group beside Playback (Front / 3D; the page's F key presses it, static/page.html);

@@ -1,7 +1,7 @@
 """The running app: one viser server on 127.0.0.1, a session per browser (or one shared), a cap on sessions.
 
 :class:`LabServer` is what ``python -m app`` starts and what tests start in-process on a free port. Each
-browser that connects gets its own :class:`~app.mechanism_session.MechanismSession` (any preset) on its client handle; closing the tab
+browser that connects gets its own :class:`~app.session.Session` (any preset) on its client handle; closing the tab
 closes the session (player thread stopped, buffers dropped). Past ``max_sessions`` a browser is turned away
 with a message in its page. With ``shared``, one session lives on the server's shared scene and GUI and every
 browser watches (and drives) it. With ``processes`` > 1 the server is that many processes on one port, each
@@ -32,9 +32,9 @@ from .compile_notice import CompileNotices
 from .lab_session import LabSession
 from .logs import quietly
 from .mechanism_runs import start_state
-from .mechanism_session import MechanismSession, is_mechanism
 from .page import READY_HTML, add_alias, page_folder
 from .parameters import SessionParameters
+from .session import Session, is_mechanism
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -283,20 +283,20 @@ class LabServer:
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
                        mechanism: str | None = None, chain: bool = False,
                        saved: share.SavedSetup | None = None) -> LabSession:
-        """The one session (app/mechanism_session.py) on ``target``: the server's mechanism when it starts with one
+        """The one session (app/session.py) on ``target``: the server's mechanism when it starts with one
         (``--mechanism``, a mechanism preset), ``mechanism`` when a link names one, a setup file's description
         (``saved``), or else the chain ``preset`` (``chain``: whatever the server starts with; a share link names
         it), hosted as the chain written as a mechanism. Its menu then goes to any preset in the same session."""
         play = self.autoplay or not shared  # a lecture waits for the presenter's Play (--autoplay: it plays)
         if saved is not None and saved.mechanism is not None:
-            session: LabSession = MechanismSession(target, saved.mechanism, label=saved.label, shared=shared, autoplay=play)
+            session: LabSession = Session(target, saved.mechanism, label=saved.label, shared=shared, autoplay=play)
         elif mechanism is None and self.mechanism is not None and not chain:
-            session = MechanismSession(target, self.mechanism, label=self.mechanism_label, shared=shared, autoplay=play)
+            session = Session(target, self.mechanism, label=self.mechanism_label, shared=shared, autoplay=play)
         elif mechanism is not None:
-            session = MechanismSession(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared, autoplay=play)
+            session = Session(target, MECHANISM_PRESETS[mechanism](), label=mechanism, shared=shared, autoplay=play)
         else:
             params = SessionParameters.from_preset(preset, links=links, method=self.method)
-            session = MechanismSession.for_chain(target, params, shared=shared, autoplay=play)
+            session = Session.for_chain(target, params, shared=shared, autoplay=play)
         if shared and self.presenter_path is not None:
             session.is_presenter = self.is_presenter
         return session

@@ -438,7 +438,7 @@ def scene_picture(page: Any, session: Any, t: float, progress: Callable[[str], N
         chain = getattr(session, "chain", None)
         if chain is not None:  # a chain: framed by its bars and pin, within the disc
             session.camera.frame(np.asarray(chain.L, dtype=float), chain.pin, force=True)
-        else:  # a general mechanism: by the disc alone (as app/mechanism_session.py frames it)
+        else:  # a general mechanism: by the disc alone (as app/session.py frames it)
             session.camera.frame(np.array([disc[1]]), None, force=True)
         deadline = time.monotonic() + CAMERA_WAIT_S  # the camera's move shows as the nodes moving on the page
         while time.monotonic() < deadline and project_to_page(page, list(positions), where) == on_page:

@@ -169,7 +169,7 @@ def test_the_wheel_installs_app_and_physics_only_with_their_data(wheel):
                 for top in FIRST_PARTY for path in (ROOT / top).rglob("__init__.py")}
     assert packages <= names, sorted(packages - names)
     for module in ("physics/studies/report.py", "physics/registry.py", "physics/kernels/abi.py",
-                   "physics/simulate/scipy_backend.py", "app/mechanism_session.py", "app/resources.py"):
+                   "physics/simulate/scipy_backend.py", "app/session.py", "app/resources.py"):
         assert module in names, module
     dist_info = f"linkage_lab-{physics.__version__}.dist-info"
     assert f"{dist_info}/licenses/LICENSE" in names
@@ -204,7 +204,7 @@ def test_the_installed_wheel_runs_the_cli_and_the_app(wheel, tmp_path):
     outside = tmp_path / "elsewhere"  # not the repository: `python -m` puts the working folder first on sys.path
     outside.mkdir()
     env = {key: value for key, value in os.environ.items() if key not in ("PYTHONPATH", "PYTHONHOME")}
-    where = subprocess.run([str(python), "-c", "import app, physics, app.resources as r, app.mechanism_session as c; "
+    where = subprocess.run([str(python), "-c", "import app, physics, app.resources as r, app.session as c; "
                             "print(app.__file__); print(physics.__file__); print(r.static_folder()); "
                             "print((c.STATIC / 'help.md').is_file())"],
                            cwd=outside, env=env, capture_output=True, text=True, timeout=120)

@@ -21,11 +21,11 @@ import physics
 from app import commands, export, mechanism_workers, share
 from app.chain_knobs import BAR_SLIDERS, chain_angles, hosted_start, reach_text
 from app.commands import CONTROL, QUANTITIES
-from app.mechanism_session import MECHANISM_HELP, MechanismSession, chain_help
 from app.panel_rows import CHAIN_PLOT_CHOICES, MECHANISM_PLOT_CHOICES
 from app.parameters import METHOD_LABELS, SessionParameters
 from app.player import SAMPLE_DT
 from app.resources import STATIC
+from app.session import MECHANISM_HELP, Session, chain_help
 from conftest import wait_until
 from physics import LinkageError, Settings
 from physics.codegen import cache as codegen_cache
@@ -44,12 +44,12 @@ def in_process():
 @pytest.fixture
 def host(in_process):
     """``host(preset)``: a chain preset hosted by a mechanism session on a viser server of its own."""
-    opened: list[tuple[MechanismSession, viser.ViserServer]] = []
+    opened: list[tuple[Session, viser.ViserServer]] = []
 
-    def _host(preset: str, links: int | None = None, autoplay: bool = True) -> MechanismSession:
+    def _host(preset: str, links: int | None = None, autoplay: bool = True) -> Session:
         params = SessionParameters.from_preset(preset, links=links)
         server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-        session = MechanismSession.for_chain(server, params, shared=True, autoplay=autoplay)
+        session = Session.for_chain(server, params, shared=True, autoplay=autoplay)
         opened.append((session, server))
         assert session.player.wait_idle(120), "the first start was not shown"
         return session
@@ -60,13 +60,13 @@ def host(in_process):
         server.stop()
 
 
-def _played(session: MechanismSession, seconds: float) -> None:
+def _played(session: Session, seconds: float) -> None:
     session.play()
     start = session.player.display_time
     assert wait_until(lambda: session.player.display_time > start + seconds, timeout=120), session.notices.text
 
 
-def _paused_state(session: MechanismSession):
+def _paused_state(session: Session):
     session.pause()
     assert session.player.wait_idle(60)
     spec, t, q, qdot = session.player.current_start()

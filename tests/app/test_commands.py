@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 import physics
 from app import commands
 from app.commands import CONTROL, SI
-from app.mechanism_session import MechanismSession
 from app.number_inputs import NumbersPort
 from app.parameters import Display, SessionParameters
+from app.session import Session
 
 settings.register_profile("app-ci", max_examples=60, deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.too_slow])
@@ -196,9 +196,9 @@ def test_the_session_offers_every_member_of_the_port_and_the_numbers_use_nothing
     members |= set(getattr(NumbersPort, "__annotations__", {}))
     assert {"closed", "guard", "set", "set_typed"} <= members
     instance = {"closed"}  # a plain attribute, set when a session is made
-    missing = sorted(name for name in members - instance if not hasattr(MechanismSession, name))
+    missing = sorted(name for name in members - instance if not hasattr(Session, name))
     assert missing == []
-    assert "self.closed = " in inspect.getsource(MechanismSession.__init__)
+    assert "self.closed = " in inspect.getsource(Session.__init__)
     app = Path(__file__).resolve().parents[2] / "app"
     for module in ("number_inputs.py", "panel_rows.py"):
         text = (app / module).read_text()

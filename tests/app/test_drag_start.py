@@ -18,9 +18,9 @@ import viser
 import physics
 from app import drag_start, mechanism_workers
 from app.mechanism_runs import points_at
-from app.mechanism_session import MECHANISM_PRESETS, MechanismSession
 from app.parameters import SessionParameters
 from app.scene import to_world
+from app.session import MECHANISM_PRESETS, Session
 from conftest import wait_until
 
 
@@ -35,15 +35,15 @@ def in_process():
 @pytest.fixture
 def open_session(in_process):
     """``open_session(preset)``: a paused session of a chain or mechanism preset on a viser server of its own."""
-    opened: list[tuple[MechanismSession, viser.ViserServer]] = []
+    opened: list[tuple[Session, viser.ViserServer]] = []
 
-    def _open(preset: str) -> MechanismSession:
+    def _open(preset: str) -> Session:
         server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
         if preset in MECHANISM_PRESETS:
-            session = MechanismSession(server, MECHANISM_PRESETS[preset](), label=preset, shared=True,
+            session = Session(server, MECHANISM_PRESETS[preset](), label=preset, shared=True,
                                        autoplay=False)
         else:
-            session = MechanismSession.for_chain(server, SessionParameters.from_preset(preset), shared=True,
+            session = Session.for_chain(server, SessionParameters.from_preset(preset), shared=True,
                                                  autoplay=False)
         opened.append((session, server))
         assert session.player.wait_idle(120), "the first start was not shown"
@@ -55,7 +55,7 @@ def open_session(in_process):
         server.stop()
 
 
-def instance_of(session: MechanismSession, body: str) -> tuple[int, str]:
+def instance_of(session: Session, body: str) -> tuple[int, str]:
     """The first instance drawn for ``body`` and its node: a bar, or (a one-point body: a slider's block) its
     point's ball."""
     names = [b.name for b in session.mechanism.bodies]
@@ -66,12 +66,12 @@ def instance_of(session: MechanismSession, body: str) -> tuple[int, str]:
     return int(np.flatnonzero(draw.owner == names.index(body))[0]), "spheres"
 
 
-def point(session: MechanismSession, label: str, q=None) -> np.ndarray:
+def point(session: Session, label: str, q=None) -> np.ndarray:
     draw = session.spec.draw
     return points_at(draw, session.q0 if q is None else q)[draw.labels.index(label)]
 
 
-def drag(session: MechanismSession, body: str, grab_xy, *targets_xy) -> None:
+def drag(session: Session, body: str, grab_xy, *targets_xy) -> None:
     """A drag of ``body`` grabbed at ``grab_xy`` through ``targets_xy`` (physics x, y), the last one released."""
     instance, node = instance_of(session, body)
     grab = to_world(np.asarray(grab_xy, dtype=float))
@@ -86,7 +86,7 @@ def direction(theta: float) -> np.ndarray:
     return np.array([math.sin(theta), -math.cos(theta)])
 
 
-def count_notices(session: MechanismSession) -> list[str]:
+def count_notices(session: Session) -> list[str]:
     shown: list[str] = []
     original = session.notices.show
 

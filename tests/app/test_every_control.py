@@ -23,8 +23,8 @@ import viser
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.mechanism_session import MechanismSession
 from app.server import LabServer
+from app.session import Session
 from app.viser_compat import update_problem
 from conftest import BrowserStandIn, wait_until
 
@@ -120,7 +120,7 @@ def seat(request):
     server = LabServer(port=0, warm=False, preset="triple-a" if request.param == "chain" else "crank-rocker")
     client = BrowserStandIn(server.url)
     (session,) = server.wait_for_sessions(1, 60)
-    assert isinstance(session, MechanismSession)  # the one session, for a chain preset too
+    assert isinstance(session, Session)  # the one session, for a chain preset too
     assert (session.chain is not None) == (request.param == "chain"), "a chain preset is hosted as a chain"
     assert session.player.wait_idle(60)
     yield server, client, next(iter(server.sessions))

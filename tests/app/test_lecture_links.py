@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from app.mechanism_session import VIEWERS_LINK
 from app.player import SAMPLE_DT
 from app.server import LabServer
+from app.session import VIEWERS_LINK
 from app.share import SETUP_PATH
 from conftest import BrowserStandIn, wait_until
 

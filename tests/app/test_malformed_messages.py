@@ -1,4 +1,4 @@
-"""A hostile client's messages never kill a session or print a traceback (app/viser_compat.py, guard_messages, app/mechanism_session.py).
+"""A hostile client's messages never kill a session or print a traceback (app/viser_compat.py, guard_messages, app/session.py).
 
 Sent through a raw websocket client (app/wsclient.py) as a script in a page could: messages that do not
 decode, an unknown type, a missing field, a control id that is a list, NaN or infinity for the integer

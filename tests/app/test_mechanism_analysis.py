@@ -17,7 +17,7 @@ from app.mechanism_analysis import (
     ENSEMBLE_SECONDS,
     ENSEMBLE_SPREAD,
 )
-from app.mechanism_session import MechanismSession
+from app.session import Session
 from conftest import lab_of, wait_until
 from physics.ensemble import Ensemble, MechanismEnsemble
 from physics.mechanism.constraints import Constraints
@@ -43,7 +43,7 @@ def titles(analysis, since: int = 0) -> list[str]:
 
 def test_studies_that_do_not_apply_are_refused_in_one_line_each(rocker_lab, connect):
     _, session = connect(rocker_lab)
-    assert isinstance(session, MechanismSession) and session.mobility == 0
+    assert isinstance(session, Session) and session.mobility == 0
     analysis = session.analysis
     session.guard(analysis.chaos_map)
     assert titles(analysis) == ["Chaos map refused"]

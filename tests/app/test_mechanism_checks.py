@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from app.mechanism_edits import apply_edit
-from app.mechanism_session import MechanismSession
 from app.player import SAMPLE_DT
 from app.server import LabServer
+from app.session import Session
 from conftest import wait_until
 from physics import LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Mechanism
@@ -92,7 +92,7 @@ def _moving(session, seconds: float = 0.3) -> bool:
 
 def test_an_uploaded_file_that_cannot_run_leaves_the_mechanism_shown(rocker_lab, connect):
     _, session = connect(rocker_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     shown, label = session.mechanism, session.label
     for name, data, words in CANNOT_RUN:
         content = Mechanism.model_validate(data).model_dump_json().encode()

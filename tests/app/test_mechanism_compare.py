@@ -8,7 +8,7 @@ import numpy as np
 from app.divergence import REFERENCE_LABEL, REFERENCE_TOLERANCE
 from app.mechanism_compare import COMPARE_METHODS, compare_specs, visible_gap
 from app.mechanism_runs import MechanismSettings
-from app.mechanism_session import MechanismSession
+from app.session import Session
 from conftest import lab_of, wait_until
 from physics.mechanism import MECHANISM_PRESETS
 from physics.mechanism.simulate import simulate_mechanism
@@ -39,7 +39,7 @@ def test_compare_specs_are_the_three_formulations_and_a_tight_projected_referenc
 
 def test_compare_mode_runs_three_formulations_side_by_side_and_measures_their_divergence(crank_lab, connect):
     _, session = connect(crank_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     session.guard(lambda: session.set_compare(True))
     assert session.notices.text is None, session.notices.text
     assert session.compare and session.method.disabled

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app import mechanism_session
+from app import session as session_module
 from app.mechanism_runs import MechanismSettings, MechanismSpec, start_state
 from app.mechanism_workers import _chunk
 from conftest import lab_of, wait_until
@@ -70,7 +70,7 @@ def test_the_status_line_shows_the_condition_of_the_shown_pose(slider_lab, conne
     _, session = connect(slider_lab)
     assert wait_until(lambda: len(session.player.runs[0].ring) > 10, timeout=60)
     session.player.pause()
-    monkeypatch.setattr(mechanism_session, "NEAR_SINGULAR_CONDITION", 0.5)
+    monkeypatch.setattr(session_module, "NEAR_SINGULAR_CONDITION", 0.5)
     run = session.player.runs[0]
     index = run.ring.index_at(session.player.display_time)
     expected = jacobian_condition(run.spec.constraints, run.ring.get("q", index))

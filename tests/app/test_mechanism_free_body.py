@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.mechanism_session import MechanismSession
+from app.session import Session
 from conftest import lab_of, wait_until
 from physics.mechanism.statics import evaluate, free_body
 
@@ -14,7 +14,7 @@ rocker_lab = lab_of("crank-rocker")
 
 def test_the_drawn_loads_are_the_bodys_and_balance_its_motion(rocker_lab, connect):
     _, session = connect(rocker_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     assert list(session.body_menu.options) == [body.name for body in session.mechanism.bodies]
     session.guard(lambda: session.set_free_body_body("coupler"))
     session.guard(lambda: session.set_free_body(True))

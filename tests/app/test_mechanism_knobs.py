@@ -14,9 +14,9 @@ import pytest
 from app.commands import CONTROL, QUANTITIES, parse_number, read_number
 from app.mechanism_edits import apply_edit, apply_setting, knobs, settings_knobs, start_knobs
 from app.mechanism_runs import MechanismSettings, MechanismSpec, allowed_integrators, check_integrator, start_state
-from app.mechanism_session import MechanismSession
 from app.mechanism_start import free_coordinates, pose_with, velocities_with
 from app.server import LabServer
+from app.session import Session
 from conftest import lab_of, wait_until
 from physics import INTEGRATOR_NAMES, LinkageError
 from physics.mechanism import MECHANISM_PRESETS, Constraints, Mechanism
@@ -112,7 +112,7 @@ def test_the_run_settings_are_knobs_with_ranges():
 
 def test_the_integrator_menu_applies_or_refuses_naming_what_is_allowed(slider_lab, connect):
     _, session = connect(slider_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     assert list(session.integrator.options) == list(INTEGRATOR_NAMES)
     session.guard(lambda: session.set_integrator("variational"))  # the DAE has no Lagrangian
     assert _notice(session).startswith("Not applied") and "allowed RK45, DOP853, ode45, Radau, LSODA, midpoint" in \

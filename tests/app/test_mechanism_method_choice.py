@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from app.mechanism_session import MechanismSession
 from app.server import LabServer
+from app.session import Session
 from conftest import wait_until
 
 
@@ -29,7 +29,7 @@ def _moving(session, seconds: float = 0.3) -> bool:
 @pytest.mark.parametrize("stabilization", ["none", "baumgarte"])
 def test_choosing_the_reduced_model_after_another_stabilisation_plays_on(crank_lab, connect, stabilization):
     _, session = connect(crank_lab)
-    assert isinstance(session, MechanismSession) and session.mobility == 1
+    assert isinstance(session, Session) and session.mobility == 1
     session.guard(lambda: session.set_stabilization(stabilization))
     assert session.settings.stabilization == stabilization and session.notices.text is None
     session.guard(lambda: session.set_method("reduced"))

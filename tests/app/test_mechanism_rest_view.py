@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.mechanism_session import MechanismSession
+from app.session import Session
 from conftest import lab_of, wait_until
 from physics import LinkageError
 from physics.mechanism.statics import rest_poses
@@ -34,7 +34,7 @@ def max_speed_over(session, seconds: float) -> float:
 
 def test_the_list_is_physics_rest_poses_and_a_stable_one_stays_still(slider_lab, connect):
     _, session = connect(slider_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     panel = find(session)
     expected = rest_poses(session.mechanism)
     assert len(panel.rests) == len(expected) >= 2

@@ -9,8 +9,8 @@ import viser
 
 from app.mechanism_runs import centres_at, drawing, points_at
 from app.mechanism_scene import MESH_WIDTH_SHARE, MechanismScene
-from app.mechanism_session import MechanismSession
 from app.server import LabServer
+from app.session import Session
 from conftest import BrowserStandIn, wait_until
 from physics.mechanism import MECHANISM_PRESETS
 from physics.mechanism.assembly import assemble
@@ -61,7 +61,7 @@ def test_a_session_plays_the_geared_five_bar_with_its_gear_line_and_contact_torq
     try:
         assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
         (session,) = server.sessions.values()
-        assert isinstance(session, MechanismSession)
+        assert isinstance(session, Session)
         assert session.player.wait_idle(60)
         first = session.player.display_time
         assert wait_until(lambda: session.player.display_time > first + 0.3, timeout=60)

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 from app import viser_compat
 from app.mechanism_edits import apply_edit, body_size, knobs
 from app.mechanism_runs import MechanismSettings, MechanismSpec, drawing, points_at, torque_rows
-from app.mechanism_session import MechanismSession
 from app.server import LabServer
+from app.session import Session
 from app.wsclient import BackgroundClient, send_values
 from conftest import wait_until
 from physics import LinkageError
@@ -134,7 +134,7 @@ def test_chunks_continue_one_run_exactly():
 # ---------------------------------------------------------------------------------------------- in the server
 def test_a_mechanism_preset_animates_with_its_foot_traced_and_its_torque_plotted(jansen_lab, connect):
     client, session = connect(jansen_lab)
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     assert _moving(session)
     assert wait_until(lambda: session.frames_sent > 20, timeout=30)
     assert wait_until(lambda: session.trace.points_shown > 10, timeout=30)
@@ -185,7 +185,7 @@ def test_switching_between_chains_and_mechanisms_in_one_browser(lab, connect):
     """The one session (issue 24) shows a chain preset and a mechanism preset in turn: a mechanism chosen on a
     chain's page keeps the browser's session, whose panel, scene and run become the mechanism's."""
     client, session = connect(lab)
-    assert isinstance(session, MechanismSession) and session.chain is not None  # the server's chain preset
+    assert isinstance(session, Session) and session.chain is not None  # the server's chain preset
     client_id = next(k for k, v in lab.sessions.items() if v is session)
     session.guard(lambda: session.set_mechanism("watt-six-bar"))
     assert wait_until(lambda: session.chain is None and session.label == "watt-six-bar", timeout=30)
@@ -197,7 +197,7 @@ def test_switching_between_chains_and_mechanisms_in_one_browser(lab, connect):
     assert _moving(session, 0.2)
     session.guard(lambda: session.choose("double"))
     # back to a chain preset: the server may hand the browser a new session; then the one before is closed
-    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), MechanismSession)
+    assert wait_until(lambda: isinstance(lab.sessions.get(client_id), Session)
                       and lab.sessions[client_id].chain is not None, timeout=30)
     back = lab.sessions[client_id]
     assert not back.closed and (back is session or (session.closed and session.player.alive is False))
@@ -214,7 +214,7 @@ def test_a_mechanism_file_from_the_command_line(tmp_path):
         client = BackgroundClient(server.url)
         try:
             (session,) = server.wait_for_sessions(1)
-            assert isinstance(session, MechanismSession) and session.label == "rocker.json"
+            assert isinstance(session, Session) and session.label == "rocker.json"
             assert "rocker.json" in session.menu.options
             assert _moving(session, 0.2)
         finally:
@@ -237,7 +237,7 @@ def test_shared_mechanism_viewer_changes_nothing_and_the_presenter_does(tmp_path
     server = LabServer(port=0, warm=False, shared=True, preset="crank-rocker")
     try:
         session = server.shared_session
-        assert isinstance(session, MechanismSession) and session.is_presenter is not None
+        assert isinstance(session, Session) and session.is_presenter is not None
         handle = session._knob_handles["mass:coupler"]
         before = session.mechanism.body("coupler").mass
         viewer = BackgroundClient(server.url)

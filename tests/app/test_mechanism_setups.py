@@ -14,9 +14,9 @@ import pytest
 
 from app import share, viser_compat
 from app.__main__ import start_from_state
-from app.mechanism_session import MechanismSession
 from app.mechanism_setups import check_mechanism_setup
 from app.server import LabServer
+from app.session import Session
 from app.wsclient import BackgroundClient, Counts, send_messages, upload_messages
 from conftest import lab_of, wait_until
 from physics import LinkageError
@@ -52,7 +52,7 @@ def _setup(values: dict, mechanism: dict | None = None) -> bytes:
     return json.dumps(document).encode()
 
 
-def _state(session: MechanismSession) -> dict:
+def _state(session: Session) -> dict:
     """What a setup must restore: the mechanism, its numbers, the run's settings and the start."""
     snap = session.snapshot()
     return {"mechanism": session.label, "values": snap["values"], "start": snap["start"],
@@ -75,7 +75,7 @@ def _same(got, expected, where: str = "") -> None:
         assert got == expected, (where, got, expected)
 
 
-def _edited(session: MechanismSession) -> None:
+def _edited(session: Session) -> None:
     for name, text in EDITS:
         session.set_link_value(name, text)
     snap = session.snapshot()
@@ -92,7 +92,7 @@ def _showing(server, client_id: int, before, shows):
     """The session the browser ``client_id`` shows once ``shows(session)`` holds: ``before`` itself (the one
     session hosts a chain and a mechanism alike) or the one that replaced it, ``before`` then closed (a browser
     has one session at a time)."""
-    assert wait_until(lambda: isinstance(server.sessions.get(client_id), MechanismSession)
+    assert wait_until(lambda: isinstance(server.sessions.get(client_id), Session)
                       and shows(server.sessions[client_id]), timeout=60)
     session = server.sessions[client_id]
     assert not session.closed and (session is before or before.closed)
@@ -212,7 +212,7 @@ def test_a_viewer_of_a_locked_lecture_cannot_load_a_setup():
     server = LabServer(port=0, warm=False, shared=True, preset="slider-crank")
     try:
         session = server.shared_session
-        assert isinstance(session, MechanismSession) and server.presenter_url is not None
+        assert isinstance(session, Session) and server.presenter_url is not None
         content = _setup({"preset": "slider-crank", "g": 2.5, "mass:crank": 0.4321})
         with pytest.raises(LinkageError, match="the presenter controls this session"):
             session.upload_setup(7, "s.json", content)  # not the presenter's browser
@@ -263,7 +263,7 @@ def test_every_new_session_starts_from_a_mechanism_setup(tmp_path, shared):
         client = BackgroundClient(server.url)
         try:
             session = server.shared_session if shared else server.wait_for_sessions(1)[0]
-            assert isinstance(session, MechanismSession) and session.label == "rocker"
+            assert isinstance(session, Session) and session.label == "rocker"
             assert session.mechanism.g == 3.5 and session.mechanism.body("coupler").mass == 0.55
             assert _moving(session)
         finally:

@@ -47,7 +47,7 @@ def _session_objects() -> collections.Counter:
         module, name = getattr(kind, "__module__", ""), getattr(kind, "__qualname__", "")
         if not isinstance(module, str) or not isinstance(name, str):  # a class whose names are descriptors
             continue
-        if (name in ("Session", "MechanismSession", "Player", "TrajectoryRing", "Controls", "ClientHandle")
+        if (name in ("Session", "Session", "Player", "TrajectoryRing", "Controls", "ClientHandle")
                 or (module.startswith("viser.") and name.endswith("Handle"))):
             counts[f"{module}.{name}"] += 1
     return counts

@@ -11,8 +11,8 @@ import urllib.parse
 
 import pytest
 
-from app.mechanism_session import METHODS, MechanismSession
 from app.parameters import METHOD_LABELS, method_from_label, method_label
+from app.session import METHODS, Session
 from conftest import lab_of, wait_until
 
 crank_lab = lab_of("slider-crank")
@@ -33,8 +33,8 @@ def test_the_label_and_the_key_turn_into_each_other():
 def test_both_menus_show_the_same_words_for_the_same_method(lab, crank_lab, connect):
     _, chain = connect(lab)  # a chain preset, hosted by the one session
     _, mechanism = connect(crank_lab)
-    assert isinstance(chain, MechanismSession) and chain.chain is not None
-    assert isinstance(mechanism, MechanismSession) and mechanism.chain is None
+    assert isinstance(chain, Session) and chain.chain is not None
+    assert isinstance(mechanism, Session) and mechanism.chain is None
     chain_options = list(chain.method.options)
     assert not set(chain_options) & set(METHODS), f"keys in the chain's menu: {chain_options}"
     mechanism_options = list(mechanism.method.options)

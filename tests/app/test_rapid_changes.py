@@ -260,7 +260,7 @@ def test_twenty_browsers_come_and_go_and_leave_no_thread_process_or_memory_behin
 
 
 def test_twenty_mechanism_browsers_come_and_go_and_leave_no_thread_process_or_memory_behind():
-    """The same for general mechanisms (app/mechanism_session.py): their worker processes are a pool of at most
+    """The same for general mechanisms (app/session.py): their worker processes are a pool of at most
     one per core, kept for the next session, so the count of child processes does not grow either."""
     server = LabServer(port=0, warm=False, preset="slider-crank")
     try:

@@ -36,7 +36,7 @@ def test_a_missing_figure_points_to_the_command(tmp_path):
 
 def test_the_report_tab_opens_on_the_first_figure(connect):
     _, session = connect()
-    # the one session's Report tab (app/mechanism_session.py): ``seed_report``, a SeedReportPanel(gui, self._bind)
+    # the one session's Report tab (app/session.py): ``seed_report``, a SeedReportPanel(gui, self._bind)
     panel = session.seed_report
     assert panel.choice.value == report_view.FIGURES[0].label
     panel.choice.value = report_view.FIGURES[5].label

@@ -1,6 +1,6 @@
 """Sessions on a real server: controls change the simulation and the scene; errors stay in their session.
 
-Every chain preset is hosted by the one session (app/mechanism_session.py, ``MechanismSession.for_chain``): its
+Every chain preset is hosted by the one session (app/session.py, ``Session.for_chain``): its
 panel's controls are driven by assigning ``handle.value``, which runs the same callbacks as a browser's slider (a
 knob's slider is ``session._knob_handles[name]``, named as the chain's ``--set``: ``m2``, ``L1``, ``theta1``, ``g``).
 """

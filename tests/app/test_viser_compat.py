@@ -134,7 +134,7 @@ def test_the_page_is_visers_own_with_the_loading_screen_first_in_its_body():
 
 
 def test_every_frame_is_flushed_so_no_frame_waits_for_the_next_window(connect, monkeypatch):
-    """Why each frame is flushed (app/mechanism_session.py ``_on_frame``): viser's sender, idle after a window, otherwise looks
+    """Why each frame is flushed (app/session.py ``_on_frame``): viser's sender, idle after a window, otherwise looks
     again only after up to 1/60 s, and a frame drawn meanwhile meets the next one and is coalesced away."""
     _, session = connect()
     assert session.player.wait_idle(600)

@@ -27,7 +27,7 @@ STATUS_WAIT_S = 20.0
 
 
 def _select_controls(session) -> dict:
-    # the one session's menus (app/mechanism_session.py _build_panel)
+    # the one session's menus (app/session.py _build_panel)
     return {
         "mechanism": session.menu,
         "method": session.method,

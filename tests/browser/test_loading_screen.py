@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from app import mechanism_session as session_module
+from app import session as session_module
 from app import snapshot as snap
 
 pytestmark = pytest.mark.browser
@@ -29,13 +29,13 @@ COVERED = """() => {
 def slow_sessions(monkeypatch):
     """Sessions that take 3 s to build (as on a busy machine or a cold cache), released by the test."""
     release = threading.Event()
-    build = session_module.MechanismSession.__init__  # the one session, which every preset opens in
+    build = session_module.Session.__init__  # the one session, which every preset opens in
 
     def slow(self, *args, **kwargs):
         release.wait(3.0)
         build(self, *args, **kwargs)
 
-    monkeypatch.setattr(session_module.MechanismSession, "__init__", slow)
+    monkeypatch.setattr(session_module.Session, "__init__", slow)
     return release
 
 

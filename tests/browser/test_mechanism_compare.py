@@ -16,8 +16,8 @@ def _pixels_near(image: np.ndarray, right: float, color: tuple[int, int, int], t
 
 
 def test_a_mechanism_in_compare_mode_and_its_free_body_diagram(start_lab):
-    from app.mechanism_session import COMPARE_METHODS  # the one session's (not the chain view's module)
     from app.overlays import METHOD_COLORS
+    from app.session import COMPARE_METHODS  # the one session's (not the chain view's module)
 
     lab = start_lab(preset="crank-rocker")
     page = lab.open_page()

@@ -16,13 +16,13 @@ def _saturated_pixels(image: np.ndarray, right: float) -> int:
 
 
 def test_choosing_the_jansen_leg_draws_it_with_its_controls_and_a_chain_comes_back(start_lab):
-    from app.mechanism_session import MechanismSession
+    from app.session import Session
 
     lab = start_lab(preset="single")
     page = lab.open_page()
     client_id = page.client_id
     session = lab.server.session_for(client_id)
-    assert isinstance(session, MechanismSession) and session.chain is not None  # a chain preset in the one session
+    assert isinstance(session, Session) and session.chain is not None  # a chain preset in the one session
     page.show_time(0.5)
     single = page.picture("mechanism-menu-single")
     right = page.panel_box()["x"]
@@ -77,12 +77,12 @@ def test_the_mechanism_panel_has_the_chain_panels_tabs_integrator_and_start(star
     typed crank angle and the run starts there."""
     import math
 
-    from app.mechanism_session import MechanismSession
+    from app.session import Session
 
     lab = start_lab(preset="slider-crank")
     page = lab.open_page()
     session = page.session
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
     tabs = page.page.get_by_role("tab").all_inner_texts()
     assert [tab.strip() for tab in tabs] == ["Mechanism", "Simulation", "Display", "Equations", "Export", "Help",
                                             "Analysis", "Report"]  # Analysis, then Report after Help, as a chain's

@@ -13,7 +13,7 @@ from .conftest import AppPage, assert_mechanism_drawn, save_failure, wait_until
 PICTURE_TIME = 3.0
 # A projector's window: the mechanism is framed beside the control panel, drawn large enough to judge colours.
 LECTURE_VIEWPORT = {"width": 1400, "height": 850}
-KINETIC_BLUE = (31, 119, 180)  # app/mechanism_session.py: the energy plot's series colours
+KINETIC_BLUE = (31, 119, 180)  # app/session.py: the energy plot's series colours
 POTENTIAL_GREEN = (44, 160, 44)
 
 

@@ -1,6 +1,6 @@
 """Every preset after others in one page (issue 24, "Two app sessions fail at their seam").
 
-Chains and general mechanisms run in the one session (app/mechanism_session.py; a chain preset hosted), which a
+Chains and general mechanisms run in the one session (app/session.py; a chain preset hosted), which a
 menu choice keeps: the page is never handed to another session. The presets are
 those of ``python -m physics presets`` (the chains' table, then the mechanisms'), each of one KIND: an open
 chain, a closed chain (a pinned loop), or a mechanism of 3, 4, 5 or 7 bodies (the seam that broke: 3 bodies to
@@ -36,7 +36,7 @@ from .conftest import wait_until
 
 ERROR_TITLES = ("Simulation stopped", "Session paused", "Could not start", "internal error", "Error")
 OLD_CHAIN_PANEL = ("Initial angles (degrees)", "Stabilisation (loops)")  # the chain panel's rows: never shown now
-# rows the one panel has for every preset (app/mechanism_session.py _build_panel): exactly one of each
+# rows the one panel has for every preset (app/session.py _build_panel): exactly one of each
 BOTH = ("Timeline (s)", "View", "Plot", "Bodies and motors")
 # rows of the other tabs (a page draws only the open tab's rows): exactly one of each there
 IN_TABS = {"Simulation": ("Stabilisation",), "Display": ("Traced point",)}

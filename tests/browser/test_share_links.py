@@ -55,12 +55,12 @@ def test_a_general_mechanism_opens_from_its_preset_link_and_its_own_link_reopens
     """Issue 24: ``/?preset=jansen-leg`` (the page's preset link) was refused and the mechanism panel had no
     link. A link names a mechanism preset and its panel's values; the panel's link reopens the same setup."""
     from app.mechanism_edits import knobs
-    from app.mechanism_session import MechanismSession
+    from app.session import Session
 
     lab = start_lab(preset="triple-a")
     app = _open(lab, "?preset=jansen-leg&mass:crank=2.5e-1&speed:O=-1.2e2&method=lagrange")
     session = app.session
-    assert isinstance(session, MechanismSession) and session.label == "jansen-leg"
+    assert isinstance(session, Session) and session.label == "jansen-leg"
     assert session.mechanism.body("crank").mass == 0.25 and session.settings.method == "lagrange"
     assert session.mechanism.drivers[0].speed == pytest.approx(math.radians(-120), rel=1e-12)
     assert session.notices.text is None, session.notices.text
@@ -76,7 +76,7 @@ def test_a_general_mechanism_opens_from_its_preset_link_and_its_own_link_reopens
     assert href.startswith("/?preset=jansen-leg") and "g=3.5" in href, href  # the root address
 
     other = _open(lab, href.removeprefix("/"))
-    wait_until(lambda: isinstance(other.session, MechanismSession) and other.session.mechanism.g == 3.5,
+    wait_until(lambda: isinstance(other.session, Session) and other.session.mechanism.g == 3.5,
                message="the link's mechanism and gravity")
     again = other.session
     assert again.label == "jansen-leg" and again.settings == session.settings
@@ -88,6 +88,6 @@ def test_a_general_mechanism_opens_from_its_preset_link_and_its_own_link_reopens
 
     # a value the link cannot apply is one notice naming it; the rest is applied
     third = _open(lab, "?preset=slider-crank&mass:rod=1,5&g=2")
-    wait_until(lambda: isinstance(third.session, MechanismSession) and third.session.mechanism.g == 2.0,
+    wait_until(lambda: isinstance(third.session, Session) and third.session.mechanism.g == 2.0,
                message="the link's gravity")
     assert "rod: m (kg) = '1,5': not a number" in (third.session.notices.text or ""), third.session.notices.text

@@ -198,7 +198,7 @@ def _type_with_each_setting_shown(page, session, panel: Panel, done: dict[str, l
 
 
 def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
-    """The four-bar, a chain preset hosted by the one session (app/mechanism_session.py): its knobs
+    """The four-bar, a chain preset hosted by the one session (app/session.py): its knobs
     (app/chain_knobs.py), the run's settings and the Display tab's numbers."""
     lab = start_lab(preset="four-bar")  # a closed loop: its pin's boxes and the Baumgarte gains apply
     page = lab.open_page()
@@ -237,12 +237,12 @@ def test_every_box_of_the_chain_panel_reads_typed_numbers_as_written(start_lab):
 
 @pytest.mark.parametrize("preset", ["slider-crank", "geared-five-bar"])
 def test_every_box_of_the_mechanism_panel_reads_typed_numbers_as_written(start_lab, preset):
-    from app.mechanism_session import MechanismSession
+    from app.session import Session
 
     lab = start_lab(preset=preset)
     page = lab.open_page()
     session = page.session
-    assert isinstance(session, MechanismSession)
+    assert isinstance(session, Session)
 
     display = session.numbers  # the Display tab's speed, trace length and arrow scale (app/panel_rows.py)
 

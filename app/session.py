@@ -1,7 +1,7 @@
 """One browser's (or, with ``--shared``, one lecture's) linkage: a triple pendulum, a four-bar, a slider-crank, a
 six-bar, a Jansen leg: the app's one session class (issue 24), every linkage a mechanism.
 
-A :class:`MechanismSession` runs any mechanism of ``physics.mechanism``: the player (app/player.py, through
+A :class:`Session` runs any mechanism of ``physics.mechanism``: the player (app/player.py, through
 :class:`app.mechanism_runs.MechanismSpec`), batched scene nodes, notices, presenter lock and delivery pacing,
 and a panel generated from the
 mechanism's description (app/mechanism_edits.py): per body its size, mass and inertia, per motor its speed or
@@ -9,7 +9,7 @@ torque, gravity; the formulation (DAE, Lagrange, Newton-Euler on a spanning tree
 mobility 1) and the stabilisation; the traced point (any named point of any body); reaction arrows at the
 pins; energy and, for a speed motor, the driving torque over time.
 
-It can also host a chain (issue 24, "One app session"): :meth:`MechanismSession.for_chain` runs a chain preset's
+It can also host a chain (issue 24, "One app session"): :meth:`Session.for_chain` runs a chain preset's
 :class:`app.parameters.SessionParameters` as ``physics.mechanism.chains.chain_mechanism`` hanging down, from the
 chain's own start, with the chain's knobs and names (app/chain_knobs.py: ``L1``, ``m2``, ``g``, ``theta1``,
 ``pin_x``, ``damping``, the number of bars), every edit through the chain's command layer (app/commands.py), the
@@ -240,7 +240,7 @@ def is_mechanism(name: str) -> bool:
     return name in MECHANISM_PRESETS
 
 
-class MechanismSession(SessionBase):
+class Session(SessionBase):
     """A general mechanism shown in one browser (``target`` a client) or in all (``shared``, the server)."""
 
     def __init__(self, target, mechanism: Mechanism, *, label: str | None = None, shared: bool = False,
@@ -307,7 +307,7 @@ class MechanismSession(SessionBase):
 
     @classmethod
     def for_chain(cls, target, params: SessionParameters, *, shared: bool = False,
-                  autoplay: bool = True) -> "MechanismSession":
+                  autoplay: bool = True) -> "Session":
         """A chain preset hosted here (app/chain_knobs.py): ``params`` (``SessionParameters.from_preset``, edited
         or not) run as ``chain_mechanism(params.chain, theta = 0, damping)`` from the chain's own start, with the
         chain's knobs and names; LinkageError for a method the mechanism session does not run."""
