@@ -24,6 +24,7 @@ from .prepared import prepared
 from .writer import to_json, to_toml
 
 CURVE_SAMPLES = 120  # poses over a motor's turn: 3 degrees apart
+STEP_DONE = 1e3  # a Newton step below this many assembly tolerances ends the iteration (its square is negligible)
 
 
 @dataclass(frozen=True)
@@ -112,8 +113,14 @@ def drag(design: Design, reference: str, xy: tuple[float, float], grid: float | 
         return moved
     mechanism = moved.to_mechanism()
     analyse_or_refuse(mechanism)
-    assembled = assemble(mechanism)
+    # without its motors: the pins' written-out rows (a tenth of the generic rows' time), and a motor's angle is
+    # not the designer's to keep while a pivot moves (the run starts from whatever pose is drawn)
+    assembled = assemble(_without_motors(mechanism))
     return posed_design(moved, mechanism, assembled.q)
+
+
+def _without_motors(mechanism: Mechanism) -> Mechanism:
+    return mechanism.model_copy(update={"drivers": []}) if mechanism.drivers else mechanism
 
 
 def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
@@ -129,10 +136,10 @@ def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
     if not (isinstance(samples, int) and 8 <= samples <= 3600):
         raise LinkageError(f"samples = {samples!r}: allowed 8 <= samples <= 3600")
     mechanism = design.to_mechanism()
-    free = mechanism.model_copy(update={"drivers": []})  # the motors' angles are this sweep's own rows
+    free = _without_motors(mechanism)  # the motors' angles are this sweep's own rows
     pieces = prepared(free)
     constraints = pieces.constraints
-    start = assemble(mechanism).q
+    start = assemble(free).q
     bodies = [body.name for body in mechanism.bodies]
     joints = {joint.name: joint for joint in mechanism.joints}
     driven = []  # (column of body a's angle or None, of body b's, speed)
@@ -143,6 +150,12 @@ def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
         ends = [pin.b.partition(".")[0], pin.a.partition(".")[0]]
         columns = [3 * bodies.index(end) + 2 if end in bodies else None for end in ends]
         driven.append((columns[0], columns[1], float(driver.speed)))
+    motor_rows = np.zeros((len(driven), start.size))  # each speed motor's angle row: +1 and -1 on two angles
+    for row, (a, b, _) in enumerate(driven):
+        if a is not None:
+            motor_rows[row, a] += 1.0
+        if b is not None:
+            motor_rows[row, b] -= 1.0
     owner, _, point = design.trace.partition(".")
     index = bodies.index(owner)
     sketch_xy = mechanism.body(owner).points[point]
@@ -154,7 +167,7 @@ def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
     for k, t in enumerate(np.linspace(0.0, period, samples + 1)):
         targets = [_relative_angle(start, a, b) + speed * t for a, b, speed in driven]
         guess = q + (q - before) if k > 1 else q  # a straight-line predictor along the curve
-        found = _closed(pieces, constraints, driven, targets, guess, tolerance)
+        found = _closed(pieces, constraints, driven, motor_rows, targets, guess, tolerance)
         if found is None:
             continue
         before, q = (q if k > 0 else found), found
@@ -166,26 +179,21 @@ def _relative_angle(q: np.ndarray, a: int | None, b: int | None) -> float:
     return (0.0 if a is None else float(q[a])) - (0.0 if b is None else float(q[b]))
 
 
-def _closed(pieces, constraints: Constraints, driven, targets, guess: np.ndarray, tolerance: float):
+def _closed(pieces, constraints: Constraints, driven, motor_rows: np.ndarray, targets, guess: np.ndarray,
+            tolerance: float):
     """The pose near ``guess`` where every joint closes and each speed motor's angle is at its target
     (Newton, minimum-norm steps), or None when it does not converge: the curve breaks there."""
     q = guess.copy()
     rows = pieces.pin_rows
+    weights = pieces.assembly_weights
     for _ in range(NEWTON_STEPS):
         residual, jacobian = rows.rows_at(q) if rows is not None else (constraints.residual(q, 0.0), None)
         if jacobian is None:
             jacobian = constraints.jacobian(q)
         motor_residual = np.array([_relative_angle(q, a, b) - target for (a, b, _), target in zip(driven, targets)])
-        motor_rows = np.zeros((len(driven), q.size))
-        for row, (a, b, _) in enumerate(driven):
-            if a is not None:
-                motor_rows[row, a] += 1.0
-            if b is not None:
-                motor_rows[row, b] -= 1.0
         full = np.concatenate([residual, motor_residual])
         if np.max(np.abs(full), initial=0.0) <= tolerance:
             return q
-        weights = pieces.assembly_weights
         matrix = np.vstack([jacobian, motor_rows]) * weights
         try:  # square and regular away from a dead point: one solve, a third of a least-squares step's time
             step = np.linalg.solve(matrix, -full) if matrix.shape[0] == matrix.shape[1] else None
@@ -193,9 +201,12 @@ def _closed(pieces, constraints: Constraints, driven, targets, guess: np.ndarray
             step = None
         if step is None:
             step = np.linalg.lstsq(matrix, -full, rcond=None)[0]
-        q = q + weights * step
+        moved = weights * step
+        q = q + moved
         if not np.all(np.isfinite(q)):
             return None
+        if np.max(np.abs(moved)) <= STEP_DONE * tolerance:  # Newton converges quadratically: the residual after a
+            return q  # step this small is far below the tolerance, so it is not evaluated again
     return None
 
 

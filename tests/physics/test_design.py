@@ -22,6 +22,7 @@ from physics.mechanism.design_analysis import (
     drag,
     topology_of,
 )
+from physics.studies.design_bench import drag_latency
 
 
 def four_bar() -> Design:
@@ -209,3 +210,9 @@ def test_random_edits_keep_the_design_valid_or_are_refused_and_undo_redo_are_exa
         history.apply(after)
         assert history.undo() == before
         assert history.redo() == after
+
+
+def test_the_drag_benchmark_times_a_full_curve_of_each_preset():
+    for preset in ("crank-rocker", "jansen-leg"):
+        row = drag_latency(preset, 2)
+        assert row["curve_points_assembled"] == row["curve_samples"] + 1 and 0 < row["min_s"] <= row["median_s"]
