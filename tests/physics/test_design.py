@@ -3,6 +3,7 @@ coupler curves, and files."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -216,3 +217,10 @@ def test_the_drag_benchmark_times_a_full_curve_of_each_preset():
     for preset in ("crank-rocker", "jansen-leg"):
         row = drag_latency(preset, 2)
         assert row["curve_points_assembled"] == row["curve_samples"] + 1 and 0 < row["min_s"] <= row["median_s"]
+
+
+def test_bench_suite_design_writes_its_report(tmp_path, capsys):
+    assert main(["bench", "--suite", "design", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "design.json").read_text())
+    assert [row["preset"] for row in document["drags"]] == ["crank-rocker", "jansen-leg"]
+    assert "| jansen-leg | ground.P |" in capsys.readouterr().out
