@@ -21,6 +21,7 @@ from .design import Design, DesignBody, design_from_mechanism
 from .files import mechanism_from_text
 from .joints import kind_of
 from .prepared import prepared
+from .topology import analyse
 from .writer import to_json, to_toml
 
 CURVE_SAMPLES = 120  # poses over a motor's turn: 3 degrees apart
@@ -112,7 +113,10 @@ def drag(design: Design, reference: str, xy: tuple[float, float], grid: float | 
     if not moved.is_complete():
         return moved
     mechanism = moved.to_mechanism()
-    analyse_or_refuse(mechanism)
+    try:
+        analyse(mechanism)
+    except ValueError:  # a body not yet joined to the ground: nothing to assemble, the point just moves
+        return moved
     # without its motors: the pins' written-out rows (a tenth of the generic rows' time), and a motor's angle is
     # not the designer's to keep while a pivot moves (the run starts from whatever pose is drawn)
     assembled = assemble(_without_motors(mechanism))

@@ -126,6 +126,11 @@ def test_edits_name_what_they_refuse():
         design.move_point("ground.O2", (0.1, 0.1), grid=0.0)
 
 
+def test_a_point_of_a_body_not_yet_joined_to_the_ground_drags_freely():
+    design = four_bar().add_bar("loose", ("p", (1.0, 1.0)), ("q", (1.2, 1.0)))
+    assert drag(design, "loose.q", (1.3, 1.1)).point("loose.q") == (1.3, 1.1)
+
+
 def test_deleting_a_body_removes_its_joints_and_their_motors():
     design = four_bar().add_motor("O2p", speed=1.0).set_trace("crank.A").delete("crank")
     assert {j.name for j in design.joints} == {"Bp", "O4p"} and design.drivers == () and design.trace is None
@@ -161,7 +166,7 @@ def references(design: Design) -> list[str]:
 def edit(draw, design: Design):
     refs = references(design)
     which = draw(st.sampled_from(["ground", "bar", "plate", "pin", "slider", "motor", "delete", "rename", "move",
-                                  "trace"]))
+                                  "trace", "drag"]))
     if which == "ground":
         return lambda d: d.add_ground(draw(NAMES), draw(XY))
     if which == "bar":
@@ -182,6 +187,8 @@ def edit(draw, design: Design):
         return lambda d: d.rename(draw(NAMES), draw(NAMES))
     if which == "trace":
         return lambda d: d.set_trace(draw(st.sampled_from(refs)))
+    if which == "drag":
+        return lambda d: drag(d, draw(st.sampled_from(refs)), draw(XY))
     return lambda d: d.move_point(draw(st.sampled_from(refs)), draw(XY), draw(st.one_of(st.none(), st.just(0.05))))
 
 
