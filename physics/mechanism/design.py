@@ -135,7 +135,7 @@ class Design:
             raise LinkageError(f"pin {name!r}: joins {a.partition('.')[0]!r} to itself")
         if {a.partition(".")[0], b.partition(".")[0]} == {GROUND}:
             raise LinkageError(f"pin {name!r}: both points are on the ground")
-        return self._with_joints((*self.joints, Revolute(name=name, a=a, b=b)))
+        return self._with_joints((*self.joints, _built(f"pin {name!r}", Revolute, name=name, a=a, b=b)))
 
     def add_slider(self, name: str, point: str, through: str, direction: Point) -> Design:
         """A slider: ``point`` (``body.point``) slides on the line through ``through`` (a point of the ground or
@@ -152,7 +152,8 @@ class Design:
         dx, dy = _point(direction, f"slider {name!r}: direction")
         if math.hypot(dx, dy) == 0.0:
             raise LinkageError(f"slider {name!r}: direction must not be [0, 0]")
-        joint = Prismatic(name=name, body=body, point=point_name, on=on, through=through_name, direction=(dx, dy))
+        joint = _built(f"slider {name!r}", Prismatic, name=name, body=body, point=point_name, on=on,
+                       through=through_name, direction=(dx, dy))
         return self._with_joints((*self.joints, joint))
 
     def add_motor(self, pin: str, speed: float | None = None, torque: float | None = None) -> Design:
@@ -162,11 +163,7 @@ class Design:
             raise LinkageError(f"motor on {pin!r}: no pin of that name (pins: {', '.join(self._pins()) or 'none'})")
         if any(driver.joint == pin for driver in self.drivers):
             raise LinkageError(f"motor on {pin!r}: that pin already has a motor")
-        try:
-            driver = Driver(joint=pin, speed=speed, torque=torque)
-        except ValidationError as error:
-            message = str(error.errors()[0].get("msg", "invalid")).removeprefix("Value error, ")
-            raise LinkageError(f"motor on {pin!r}: {message}") from None
+        driver = _built(f"motor on {pin!r}", Driver, joint=pin, speed=speed, torque=torque)
         return replace(self, drivers=(*self.drivers, driver))
 
     def set_trace(self, reference: str | None) -> Design:
@@ -232,10 +229,12 @@ class Design:
         owner, _, name = reference.partition(".")
         if owner == GROUND:
             return replace(self, ground=tuple((n, (x, y) if n == name else p) for n, p in self.ground))
-        bodies = tuple(
-            replace(b, points=tuple((n, (x, y) if n == name else p) for n, p in b.points), mass=None, com=None,
-                    inertia=None) if b.name == owner else b
-            for b in self.bodies)
+        points = tuple((n, (x, y) if n == name else p) for n, p in self.body(owner).points)
+        if _outline_length(tuple(xy for _, xy in points)) == 0.0:
+            raise LinkageError(f"point {reference!r}: moved to {[x, y]}, every point of body {owner!r} would "
+                               "coincide (a body needs a length)")
+        bodies = tuple(replace(b, points=points, mass=None, com=None, inertia=None) if b.name == owner else b
+                       for b in self.bodies)
         return replace(self, bodies=bodies)
 
     # -- helpers -----------------------------------------------------------------------------------------
@@ -272,6 +271,17 @@ class Design:
         if len(joints) > 4 * MAX_BODIES:
             raise LinkageError(f"joint {joints[-1].name!r}: a design holds at most {4 * MAX_BODIES} joints")
         return replace(self, joints=joints)
+
+
+def _built(what: str, model: Any, **fields: Any) -> Any:
+    """``model(**fields)``, or one LinkageError naming ``what``, the field and the model's own reason."""
+    try:
+        return model(**fields)
+    except ValidationError as error:
+        item = error.errors()[0]
+        where = ".".join(str(part) for part in item.get("loc", ()))
+        message = str(item.get("msg", "invalid")).removeprefix("Value error, ")
+        raise LinkageError(f"{what}: {where + ': ' if where else ''}{message}") from None
 
 
 def _point(xy: Any, what: str) -> Point:
