@@ -11,7 +11,8 @@ baumgarte, projection) swept over the tolerance (physics.studies.mechanism_work_
 
 Suites: ``work-precision`` (default; physics.studies.work_precision), ``ensemble`` (pendulum-steps per second,
 physics.studies.ensemble_bench), ``chaos`` (chaos-map pixels per second, 1 and 2 workers,
-physics.studies.chaos_map), ``models`` (the cheapest model for each question, physics.studies.models).
+physics.studies.chaos_map), ``models`` (the cheapest model for each question, physics.studies.models),
+``design`` (Design mode's drag latency: re-assembly + coupler curve, physics.studies.design_bench).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from ..arguments import Parser, parse_names
 from ..errors import LinkageError
 from ..outputs import check_output_folder
 from ..registry import INTEGRATOR_NAMES
-from . import chaos_map, ensemble_bench, models
+from . import chaos_map, design_bench, ensemble_bench, models
 from .mechanism_cases import FORMULATIONS as MECHANISM_FORMULATIONS
 from .mechanism_cases import MECHANISM_INTEGRATORS, STABILIZATIONS, load_case, mechanism_names
 from .mechanism_work_precision import MECHANISM_FULL, MECHANISM_QUICK, mechanism_document
@@ -37,6 +38,7 @@ SUITES: dict[str, Callable[..., list[Path]]] = {
     "ensemble": ensemble_bench.benchmark,
     "chaos": chaos_map.benchmark,
     "models": models.benchmark,
+    "design": design_bench.benchmark,
 }
 
 
@@ -89,7 +91,7 @@ def _with_mechanisms(options: dict, mechanisms: dict, args, run_chains: bool, pr
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="python -m physics bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--suite", default="work-precision",
-                        choices=("work-precision", "ensemble", "chaos", "models", "all"))
+                        choices=("work-precision", "ensemble", "chaos", "models", "design", "all"))
     parser.add_argument("--preset", default=None, metavar="NAME[,NAME]",
                         help=f"cases for work-precision (default: {', '.join(ALL_CASES)}; --quick: triple-c), or "
                              f"mechanism presets ({', '.join(mechanism_names())})")
@@ -113,11 +115,11 @@ def main(argv=None) -> int:
     check_output_folder(args.out)  # before any work: a benchmark is minutes of it
     out = Path(args.out)
     progress = not args.no_progress
-    suites = ("work-precision", "ensemble", "chaos", "models") if args.suite == "all" else (args.suite,)
+    suites = ("work-precision", "ensemble", "chaos", "models", "design") if args.suite == "all" else (args.suite,)
     mechanism_asked = args.mechanism is not None or any(name.strip() in mechanism_names()
                                                         for name in (args.preset or "").split(","))
     if mechanism_asked and args.suite != "work-precision":  # refused before minutes of other suites' work
-        raise LinkageError(f"--suite {args.suite}: the ensemble, chaos and models suites measure the chains' batched "
+        raise LinkageError(f"--suite {args.suite}: the ensemble, chaos, models and design suites measure the chains' batched "
                            "engine; a mechanism's study is --suite work-precision")
     if args.repeats is not None and not 1 <= args.repeats <= 100:
         raise LinkageError(f"--repeats = {args.repeats}: allowed range 1 <= repeats <= 100")

@@ -1,0 +1,238 @@
+"""Design mode's model (physics/mechanism/design.py, design_analysis.py): edits, undo/redo, topology, drags,
+coupler curves, and files."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from physics.cli import main
+from physics.errors import LinkageError
+from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.design import Design, History, design_from_mechanism
+from physics.mechanism.design_analysis import (
+    check_assembles,
+    coupler_curve,
+    design_from_text,
+    design_to_text,
+    drag,
+    topology_of,
+)
+from physics.studies.design_bench import drag_latency
+
+
+def four_bar() -> Design:
+    """A crank-rocker drawn from nothing: crank 0.1, coupler 0.43, rocker 0.25, ground 0.4 (Grashof: s + l < p + q)."""
+    design = Design().add_ground("O2", (0.0, 0.0)).add_ground("O4", (0.4, 0.0))
+    design = design.add_bar("crank", ("A0", (0.0, 0.0)), ("A", (0.1, 0.0)))
+    design = design.add_bar("coupler", ("A", (0.1, 0.0)), ("B", (0.45, 0.25)))
+    design = design.add_bar("rocker", ("B", (0.45, 0.25)), ("B0", (0.4, 0.0)))
+    design = design.add_pin("O2p", "ground.O2", "crank.A0").add_pin("Ap", "crank.A", "coupler.A")
+    return design.add_pin("Bp", "coupler.B", "rocker.B").add_pin("O4p", "rocker.B0", "ground.O4")
+
+
+def test_a_four_bar_built_from_nothing_has_mobility_one_and_a_motor_drives_it():
+    design = four_bar()
+    free = topology_of(design)
+    assert (free.bodies, free.joints, free.mobility, free.grubler) == (3, 4, 1, 1)
+    assert free.loops == ("loop Ap - O2p - O4p - Bp",)
+    assert free.text().startswith("mobility 1 ") and "no motor" in free.text()
+    driven = topology_of(design.add_motor("O2p", speed=2 * math.pi))
+    assert driven.mobility == 1 and "driven by 1 motor" in driven.text() and driven.text().endswith("0 free")
+
+
+def test_a_slider_crank_with_a_slider_on_the_ground_has_mobility_one():
+    design = Design().add_ground("O", (0.0, 0.0)).add_ground("rail", (0.0, 0.0))
+    design = design.add_bar("crank", ("O", (0.0, 0.0)), ("A", (0.05, 0.0)))
+    design = design.add_bar("rod", ("A", (0.05, 0.0)), ("B", (0.25, 0.0)))
+    design = design.add_bar("piston", ("B", (0.25, 0.0)), ("C", (0.3, 0.0)))
+    design = design.add_pin("O1", "ground.O", "crank.O").add_pin("A1", "crank.A", "rod.A")
+    design = design.add_pin("B1", "rod.B", "piston.B").add_slider("S", "piston.B", "ground.rail", (1.0, 0.0))
+    topology = topology_of(design)
+    assert topology.mobility == 1 and topology.grubler == 1, topology.notice
+    design = design.add_motor("O1", speed=3.0).set_trace("piston.B")
+    xs = coupler_curve(design, samples=72)[:, 0]
+    assert np.all(np.isfinite(xs))
+    assert max(xs) - min(xs) == pytest.approx(0.1, rel=1e-6)  # the stroke is twice the crank
+
+
+def test_an_extra_pin_that_over_constrains_is_refused_naming_its_loop():
+    design = four_bar().add_bar("brace", ("P", (0.1, 0.0)), ("Q", (0.45, 0.25)))
+    design = design.add_pin("P1", "crank.A", "brace.P").add_pin("Q1", "brace.Q", "rocker.B")
+    topology = topology_of(design)
+    assert topology.mobility is None and "over-constrained" in topology.notice and "loop" in topology.notice
+    with pytest.raises(LinkageError, match="loop .*over-constrained"):
+        check_assembles(design)
+
+
+def test_an_impossible_drag_is_refused_naming_the_joint_and_the_last_design_stays():
+    design = four_bar()
+    with pytest.raises(LinkageError, match=r"joint '(O2p|Ap|Bp|O4p)': the mechanism cannot be assembled"):
+        drag(design, "ground.O4", (3.0, 0.0))
+    assert design == four_bar()
+
+
+def test_a_drag_keeps_the_bars_lengths_and_the_branch_and_changes_the_coupler_curve():
+    design = four_bar().add_motor("O2p", speed=2 * math.pi).set_trace("coupler.B")
+    before = coupler_curve(design)
+    moved = drag(design, "ground.O4", (0.42, 0.01), grid=0.01)
+    assert moved.point("ground.O4") == (0.42, 0.01)
+    for body in moved.bodies:
+        old = dict(design.body(body.name).points)
+        new = dict(body.points)
+        first, second = list(old)
+        assert math.dist(new[first], new[second]) == pytest.approx(math.dist(old[first], old[second]), abs=1e-9)
+    assert moved.point("coupler.B")[1] > 0  # the branch drawn (B above the ground line) is kept
+    after = coupler_curve(moved)
+    assert np.all(np.isfinite(after)) and np.max(np.abs(after - before)) > 1e-3
+
+
+def test_the_coupler_curve_closes_over_a_full_turn():
+    curve = coupler_curve(four_bar().add_motor("O2p", speed=2 * math.pi).set_trace("coupler.B"))
+    assert np.all(np.isfinite(curve)) and np.allclose(curve[0], curve[-1], atol=1e-9)
+
+
+def test_save_and_load_give_the_same_design_in_toml_and_json():
+    design = four_bar().add_motor("O2p", speed=2 * math.pi).set_trace("coupler.B")
+    assert design_from_text(design_to_text(design, "toml"), "d.toml") == design
+    assert design_from_text(design_to_text(design, "json"), "d.json") == design
+
+
+def test_a_design_of_the_four_bar_preset_runs_as_the_preset_does(tmp_path, capsys):
+    design = design_from_mechanism(MECHANISM_PRESETS["crank-rocker"]())
+    path = tmp_path / "design.toml"
+    path.write_text(design_to_text(design))
+    assert main(["simulate", "--mechanism", str(path), "--t-end", "0.2", "--samples", "11"]) == 0
+    from_design = capsys.readouterr().out
+    assert main(["simulate", "--preset", "crank-rocker", "--t-end", "0.2", "--samples", "11"]) == 0
+    from_preset = capsys.readouterr().out
+    assert from_design.count("\n") == 12 and from_design == from_preset
+
+
+def test_edits_name_what_they_refuse():
+    design = four_bar()
+    with pytest.raises(LinkageError, match="ground point 'O2': that name is taken"):
+        design.add_ground("O2", (1.0, 1.0))
+    with pytest.raises(LinkageError, match="plate 'p': needs at least 3 points"):
+        design.add_plate("p", [("a", (0.0, 0.0)), ("b", (1.0, 0.0))])
+    with pytest.raises(LinkageError, match="motor on 'nope'"):
+        design.add_motor("nope", speed=1.0)
+    with pytest.raises(LinkageError, match="grid"):
+        design.move_point("ground.O2", (0.1, 0.1), grid=0.0)
+
+
+def test_a_point_of_a_body_not_yet_joined_to_the_ground_drags_freely():
+    design = four_bar().add_bar("loose", ("p", (1.0, 1.0)), ("q", (1.2, 1.0)))
+    assert drag(design, "loose.q", (1.3, 1.1)).point("loose.q") == (1.3, 1.1)
+
+
+def test_deleting_a_body_removes_its_joints_and_their_motors():
+    design = four_bar().add_motor("O2p", speed=1.0).set_trace("crank.A").delete("crank")
+    assert {j.name for j in design.joints} == {"Bp", "O4p"} and design.drivers == () and design.trace is None
+
+
+def test_renaming_a_body_renames_every_reference():
+    design = four_bar().add_motor("O2p", speed=1.0).rename("crank", "input").rename("O2p", "drive")
+    assert design.to_mechanism().joints[0].b == "input.A0" and design.drivers[0].joint == "drive"
+    assert topology_of(design).mobility == 1
+
+
+def test_undo_and_redo_with_nothing_to_do_are_refused():
+    history = History()
+    with pytest.raises(LinkageError, match="nothing to undo"):
+        history.undo()
+    with pytest.raises(LinkageError, match="nothing to redo"):
+        history.redo()
+
+
+NAMES = st.sampled_from(["a", "b", "c", "d", "e", "f", "g", "h", "O2", "crank", "Ap", "x-1", "1bad", "ground"])
+POINT_NAMES = st.sampled_from(["p", "q", "r"])
+# one coordinate in ten is out of bounds (NaN or 1e9 m): most edits are valid, some must be refused
+COORDINATE = st.integers(0, 9).flatmap(
+    lambda k: st.sampled_from([float("nan"), 1e9]) if k == 0 else st.floats(-2.0, 2.0, allow_nan=False))
+STARTS = st.sampled_from(["empty", "four-bar", "driven four-bar"])
+XY = st.tuples(COORDINATE, COORDINATE)
+
+
+def references(design: Design) -> list[str]:
+    refs = [f"ground.{name}" for name, _ in design.ground]
+    refs += [f"{body.name}.{point}" for body in design.bodies for point, _ in body.points]
+    return refs + ["nobody.p"]
+
+
+@st.composite
+def edit(draw, design: Design):
+    refs = references(design)
+    which = draw(st.sampled_from(["ground", "bar", "plate", "pin", "slider", "motor", "delete", "rename", "move",
+                                  "trace", "drag"]))
+    if which == "ground":
+        return lambda d: d.add_ground(draw(NAMES), draw(XY))
+    if which == "bar":
+        return lambda d: d.add_bar(draw(NAMES), (draw(POINT_NAMES), draw(XY)), (draw(POINT_NAMES), draw(XY)))
+    if which == "plate":
+        corners = draw(st.lists(st.tuples(POINT_NAMES, XY), min_size=2, max_size=4))
+        return lambda d: d.add_plate(draw(NAMES), corners)
+    if which == "pin":
+        return lambda d: d.add_pin(draw(NAMES), draw(st.sampled_from(refs)), draw(st.sampled_from(refs)))
+    if which == "slider":
+        return lambda d: d.add_slider(draw(NAMES), draw(st.sampled_from(refs)), draw(st.sampled_from(refs)), draw(XY))
+    if which == "motor":
+        speed = draw(st.one_of(st.none(), st.floats(-2e3, 2e3)))
+        return lambda d: d.add_motor(draw(NAMES), speed=speed, torque=None if speed is not None else 1.0)
+    if which == "delete":
+        return lambda d: d.delete(draw(st.one_of(NAMES, st.just("motor:a"))))
+    if which == "rename":
+        return lambda d: d.rename(draw(NAMES), draw(NAMES))
+    if which == "trace":
+        return lambda d: d.set_trace(draw(st.sampled_from(refs)))
+    if which == "drag":
+        return lambda d: drag(d, draw(st.sampled_from(refs)), draw(XY))
+    return lambda d: d.move_point(draw(st.sampled_from(refs)), draw(XY), draw(st.one_of(st.none(), st.just(0.05))))
+
+
+def well_formed(design: Design) -> None:
+    """A design's invariants: unique names, every joint's points exist; when complete it is a valid Mechanism."""
+    names = [n for n, _ in design.ground] + [b.name for b in design.bodies] + [j.name for j in design.joints]
+    assert len(names) == len(set(names))
+    if design.is_complete():
+        design.to_mechanism()  # raises if any reference dangles
+        topology_of(design)  # never raises: a notice at worst
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_random_edits_keep_the_design_valid_or_are_refused_and_undo_redo_are_exact(data):
+    start = data.draw(STARTS)
+    history = History(current=Design() if start == "empty" else four_bar() if start == "four-bar" else
+                      four_bar().add_motor("O2p", speed=1.0).set_trace("coupler.B"))
+    for _ in range(data.draw(st.integers(1, 14))):
+        before = history.current
+        change = data.draw(edit(before))
+        try:
+            after = change(before)
+        except LinkageError as error:
+            assert str(error)  # one notice, and nothing changed
+            assert history.current is before
+            continue
+        well_formed(after)
+        history.apply(after)
+        assert history.undo() == before
+        assert history.redo() == after
+
+
+def test_the_drag_benchmark_times_a_full_curve_of_each_preset():
+    for preset in ("crank-rocker", "jansen-leg"):
+        row = drag_latency(preset, 2)
+        assert row["curve_points_assembled"] == row["curve_samples"] + 1 and 0 < row["min_s"] <= row["median_s"]
+
+
+def test_bench_suite_design_writes_its_report(tmp_path, capsys):
+    assert main(["bench", "--suite", "design", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "design.json").read_text())
+    assert [row["preset"] for row in document["drags"]] == ["crank-rocker", "jansen-leg"]
+    assert "| jansen-leg | ground.P |" in capsys.readouterr().out
