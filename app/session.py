@@ -372,8 +372,9 @@ class Session(SessionBase):
         self._gui.append(self.drift_plot.handle)
         self.residual_plot = panel_rows.add_residual_plot(gui, RESIDUAL_TITLE, "|Φ|", "")
         self._gui.append(self.residual_plot.handle)
-        # the tabs: what applies to the linkage shown in each
-        self.tabs = keep(gui.add_tab_group())
+        # the tabs: what applies to the linkage shown in each; drawn above the Plot menu and its charts, so that at
+        # 1280x720 the open tab's first controls show without scrolling past two charts (issue 26)
+        self.tabs = keep(gui.add_tab_group(order=self.plot_choice.order - 0.5))
         with self.tabs.add_tab("Mechanism"):
             self.menu = gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
                                          hint="A chain preset or a planar mechanism")
