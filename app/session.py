@@ -120,6 +120,7 @@ SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
 PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
+REFUSED = "Not applied"  # the title of a refused value's notice (taken down by the next action applied)
 ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is drawn this fraction of the size long
 RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
 PREPARED_HERE: set[tuple] = set()  # what _prepare has made ready for the chains this process runs itself
@@ -705,13 +706,19 @@ class Session(SessionBase):
 
     # ------------------------------------------------------------------ boundary and notices
     def guard(self, action: Callable[[], object]) -> object:
-        """Run one GUI action; a refused value is a notice and the controls go back to the values in force."""
+        """Run one GUI action; a refused value is a notice and the controls go back to the values in force. An
+        action that is applied and says nothing takes down the refusal still shown ("Not applied"): it was about
+        a value that is no longer the one in question."""
         if self._syncing:
             return None
+        serial = self.notices.serial
         try:
-            return action()
+            result = action()
+            if self.notices.serial == serial:
+                self.notices.withdraw(REFUSED)
+            return result
         except LinkageError as error:  # a hosted chain's in its menu's words (``method = Lagrange``)
-            self.show_notice("Not applied", in_menu_words(str(error)) if self.chain is not None else str(error),
+            self.show_notice(REFUSED, in_menu_words(str(error)) if self.chain is not None else str(error),
                              color="yellow")
             quietly(self.sync_all, "putting the controls back")
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
@@ -722,7 +729,7 @@ class Session(SessionBase):
         return None
 
     def _refuse_update(self, handle, problem: str) -> None:
-        self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
+        self.show_notice(REFUSED, f"{handle.label}: {problem}", color="yellow")
         quietly(self.sync_all, "putting the controls back after a refused value")
 
     # ------------------------------------------------------------------ edits
