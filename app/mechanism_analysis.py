@@ -49,6 +49,7 @@ from .buffers import ThinnedSeries
 from .logs import quietly
 from .mechanism_runs import points_at
 from .overlays import Plot
+from .page import FIGURE_CLASS
 from .scene import BAR_WIDTH_FRACTION, to_world
 from .text import markdown_literal
 
@@ -763,6 +764,8 @@ def copy_colors(count: int, n: int) -> np.ndarray:
 
 
 def fit_width(svg: str) -> str:
-    """An SVG drawn at the panel's width (its viewBox keeps the proportions): never wider than the panel."""
-    return re.sub(r'^<svg ([^>]*?)width="[\d.]+" height="[\d.]+"', r'<svg \1width="100%" style="height:auto"', svg,
+    """An SVG drawn at the panel's width (its viewBox keeps the proportions): never wider than the panel. It is a
+    figure drawn on white (``FIGURE_CLASS``: the page shows it in dark mode with its lightness turned round)."""
+    return re.sub(r'^<svg ([^>]*?)width="[\d.]+" height="[\d.]+"',
+                  rf'<svg class="{FIGURE_CLASS}" \1width="100%" style="height:auto"', svg,
                   count=1)

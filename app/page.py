@@ -25,6 +25,9 @@ from pathlib import Path
 from .resources import STATIC
 
 ADDITIONS = STATIC / "page.html"  # app/resources.py: the installed app/static, else the repository's static/
+FIGURE_CLASS = "linkage-lab-figure"
+"""The class of a study's or the seed report's figure (an SVG drawn on white): in dark mode the page's stylesheet
+(static/page.html) turns its lightness round and keeps its hues, so it is no white block on a dark panel."""
 READY_ID = "linkage-lab-ready"
 READY_HTML = f'<span id="{READY_ID}" hidden></span>'
 """Added to a browser's panel when its session is shown (or it is told the server is full)."""

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from .page import FIGURE_CLASS
 from .text import html_literal
 
 SEED_REPORT_FOLDER = Path(__file__).resolve().parents[1] / "docs" / "seed-report"
@@ -142,7 +143,7 @@ def figure_html(figure: ReportFigure, folder: Path = SEED_REPORT_FOLDER, documen
     except (KeyError, TypeError, ValueError):
         verdict = ""
     data = base64.b64encode(svg).decode("ascii")
-    image = (f'<img alt="{html_literal(figure.label)}" src="data:image/svg+xml;base64,{data}" '
+    image = (f'<img class="{FIGURE_CLASS}" alt="{html_literal(figure.label)}" src="data:image/svg+xml;base64,{data}" '
              'style="width:100%;height:auto;display:block;border:1px solid #ddd"/>')
     parts = [image]
     if verdict:

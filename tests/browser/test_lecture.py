@@ -204,3 +204,46 @@ def test_every_chart_line_and_key_stands_out_in_both_schemes(start_lab, scheme):
             if line_contrast < 3.0 or text_contrast < 4.5:
                 poor.append((chart["title"], line["label"], round(line_contrast, 2), round(text_contrast, 2)))
     assert not poor, f"{scheme}: lines or keys too faint against their chart (title, line, contrast): {poor}"
+
+
+def _lightness(png: bytes) -> tuple[float, float]:
+    """The median lightness (0-255) of a picture and the share of its pixels far from that median (its drawing)."""
+    import numpy as np  # noqa: PLC0415
+
+    from . import pictures  # noqa: PLC0415
+
+    lightness = pictures.decode_png(png)[..., :3].astype(float).mean(axis=2)
+    median = float(np.median(lightness))
+    return median, float(np.mean(np.abs(lightness - median) > 60))
+
+
+@pytest.mark.parametrize("scheme", ["dark", "light"])
+def test_figures_follow_the_scheme(start_lab, scheme):
+    """Issue 26: the work-precision chart was a white block in dark mode. A study's chart and the seed report's
+    figure are drawn on white; in dark mode the page shows them dark (their lightness turned round), with their
+    drawing still standing out; in light mode they stay white."""
+    from .panel_pictures import REPORT_IMAGE, open_report_tab  # noqa: PLC0415
+
+    lab = start_lab(preset="triple-a")
+    page, session = open_with(lab, "", viewport={"width": 1280, "height": 900}, scheme=scheme)
+    open_report_tab(page)
+    figure = page.locator(REPORT_IMAGE).first
+    figure.scroll_into_view_if_needed()
+    pictures = {"report figure": figure.screenshot()}
+    page.get_by_role("tab", name="Analysis", exact=True).click()
+    page.get_by_role("button", name="Work-precision chart", exact=True).click()
+    wait_until(lambda: session.analysis.chart_html.content != "", timeout_s=240.0,
+               message="the work-precision chart on the server")
+    chart = page.locator("svg", has_text="Work-precision").first
+    chart.wait_for(state="visible")
+    chart.scroll_into_view_if_needed()
+    page.wait_for_timeout(300)
+    pictures["work-precision chart"] = chart.screenshot()
+    keep_picture(page, f"figures-{scheme}")
+    for name, png in pictures.items():
+        median, drawn = _lightness(png)
+        if scheme == "dark":
+            assert median < 90, f"{name}: a light block in dark mode (median lightness {median:.0f})"
+        else:
+            assert median > 200, f"{name}: not on white in light mode (median lightness {median:.0f})"
+        assert drawn > 0.01, f"{name}: nothing drawn stands out ({100 * drawn:.2f} % of its pixels)"
