@@ -81,7 +81,7 @@ from .mechanism_runs import (
 from .mechanism_scene import MechanismScene
 from .mechanism_start import FreeCoordinate, free_coordinates, pose_with, velocities_with
 from .mechanism_workers import POOL
-from .notices import Notices, ViewerRefusals
+from .notices import NOTICE_SECONDS, Notices, ViewerRefusals
 from .number_inputs import TYPING_PAUSE_S, NumberInputs
 from .overlays import (
     ENERGY_COLORS,
@@ -296,7 +296,8 @@ class Session(SessionBase):
             with self.tabs.add_tab("Report"):
                 self.seed_report = SeedReportPanel(
                     target.gui, panel_rows.guarded_bind(self.guard, self._muting.muted))
-            check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
+            check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared),
+                              open_to_all=self._reading_only)
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
             self.drag = DragStart(self)  # drag a bar in the paused scene to set the start (app/drag_start.py)
@@ -436,7 +437,7 @@ class Session(SessionBase):
             self.rests = RestPositionsPanel(None, gui, self._bind, source=MechanismRests(self))
         with self.tabs.add_tab("Equations"):
             self.equations_button = gui.add_button("Show the equations of the method")
-            self.equations_button.on_click(lambda event: self.guard(self.show_equations))
+            self.equations_button.on_click(lambda event: self._equations_asked(getattr(event, "client", None)))
             self.equations_tex = gui.add_button("Download as LaTeX")
             self.equations_tex.on_click(lambda event: self.download_equations(getattr(event, "client", None)))
             self.equations = gui.add_html("<p>The linear system <i>A x = b</i> the chosen method integrates, derived "
@@ -1263,23 +1264,69 @@ class Session(SessionBase):
                      f"it opens this setup; added to the presenter's address it sets up this lecture:\n\n`/{query}`")
         self.share_link.content = (f"{VIEWERS_LINK}\n\n{setup}")
 
+    def _reading_only(self, handle) -> bool:
+        """The controls any browser of a presenter's session may press: they read, for the sender's page alone
+        (the equations, their LaTeX), and change nothing shared."""
+        return handle is self.equations_button or handle is self.equations_tex
+
+    def _equations_asked(self, client) -> None:
+        """The Equations button: the presenter's (or a lone browser's) press shows them in the panel everyone
+        sees (an action of the session's, through :meth:`guard`); a viewer's opens them in a window of its own
+        page only, and nothing of the session, its notices included, changes."""
+        if client is None or self.may_change(getattr(client, "client_id", None)):
+            self.guard(self.show_equations)
+        else:
+            quietly(lambda: self.show_equations_to(client), "opening a viewer's equations")
+
+    def _equations_content(self) -> Callable[[], str]:
+        """``derive()``: the equations' HTML for the mechanism and method in force now (sympy: call it in a
+        thread), or the reason they could not be derived."""
+        mechanism = self.chain.chain if self.chain is not None else self.mechanism
+        method = self.settings.method
+
+        def derive() -> str:
+            from .equations import equations_html  # noqa: PLC0415 - sympy: only when asked for
+
+            try:
+                return equations_html(mechanism, method)
+            except Exception as error:  # shown where the equations would be; the session goes on
+                return f"<p>Could not derive the equations: {html.escape(f'{type(error).__name__}: {error}')}</p>"
+
+        return derive
+
+    def show_equations_to(self, client, wait: bool = False) -> None:
+        """The equations of the method in force in a window on ``client``'s page alone (a viewer of a lecture
+        reads them without changing what the presenter shows); ``wait``: return once shown (tests)."""
+        derive, title = self._equations_content(), f"Equations: {self.label}, {METHODS[self.settings.method]}"
+
+        def show() -> None:
+            content = derive()
+            if self.closed:
+                return
+
+            def build() -> None:
+                with client.gui.add_modal(title) as modal:
+                    client.gui.add_html(content)
+                    client.gui.add_button("Close").on_click(lambda event: modal.close())
+            quietly(build, "showing a viewer the equations")
+
+        worker = threading.Thread(target=show, daemon=True, name="mechanism-equations-viewer")
+        worker.start()
+        if wait:
+            worker.join()
+
     def show_equations(self, wait: bool = False) -> None:
         """Derive (sympy, in a thread: a second or so) and show the equations of the method in force for this
         mechanism in the Equations folder (a hosted chain's: the chain's, in its angles theta, as its LaTeX
         download gives them); shown once, they follow a change of method; ``wait``: return once shown (tests)."""
         self._equations_shown = True
-        mechanism = self.chain.chain if self.chain is not None else self.mechanism
         method, label = self.settings.method, self.label
         self.equations.content = (f"<p><i>Deriving the {html.escape(METHODS[method])} equations (the first time "
                                   f"for this mechanism and method: a few seconds)...</i></p>")
+        content_now = self._equations_content()
 
         def derive() -> None:
-            from .equations import equations_html  # noqa: PLC0415 - sympy: only when asked for
-
-            try:
-                content = equations_html(mechanism, method)
-            except Exception as error:  # shown where the equations would be; the session goes on
-                content = f"<p>Could not derive the equations: {html.escape(f'{type(error).__name__}: {error}')}</p>"
+            content = content_now()
             if not self.closed and self.label == label:  # not another mechanism's meanwhile
                 self.equations.content = content
 
@@ -1295,7 +1342,13 @@ class Session(SessionBase):
             try:
                 name, content = self.download_file("tex")
             except LinkageError as error:
-                self.show_notice("No equations to download", str(error))
+                if client is None or self.may_change(getattr(client, "client_id", None)):
+                    self.show_notice("No equations to download", str(error))
+                else:  # a viewer's press: told on its own page
+                    reason = str(error)
+                    quietly(lambda: client.add_notification("No equations to download", reason, color="yellow",
+                                                            auto_close_seconds=NOTICE_SECONDS),
+                            "telling a viewer")
                 return
             if not self.closed:
                 (client or self.target).send_file_download(name, content)

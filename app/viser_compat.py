@@ -174,13 +174,15 @@ def check_gui_updates(
     refuse: Callable[[Any, str], None],
     allowed: Callable[[int], bool] | None = None,
     refuse_sender: Callable[[int, Any], None] | None = None,
+    open_to_all: Callable[[Any], bool] | None = None,
 ) -> bool:
     """Put :func:`update_problem` in front of viser's handler of a browser's control updates for ``gui`` (a
     ``GuiApi``): a value no browser would send is dropped and ``refuse(handle, reason)`` is called (the
     session's notice); an update from a browser for which ``allowed(client_id)`` is False (a viewer of a
-    presenter's session) is dropped and ``refuse_sender(client_id, handle)`` is called; every other update goes
-    on to viser unchanged. False when this viser has another shape (then viser's own casting stays the only
-    check)."""
+    presenter's session) is dropped and ``refuse_sender(client_id, handle)`` is called, unless
+    ``open_to_all(handle)`` (a button that only reads, for the sender's page alone: its callback tells the
+    presenter from a viewer); every other update goes on to viser unchanged. False when this viser has another
+    shape (then viser's own casting stays the only check)."""
     interface = getattr(gui, "_websock_interface", None) if VERSION_TESTED else None
     handlers = getattr(interface, "_incoming_handlers", {}).get(GuiUpdateMessage) if interface is not None else None
     original = getattr(gui, "_handle_gui_updates", None)
@@ -200,7 +202,7 @@ def check_gui_updates(
         handle = controls.get(getattr(message, "uuid", None))
         if handle is None:
             return  # not one of this GUI's controls: viser would ignore it too
-        if allowed is not None and not allowed(client_id):
+        if allowed is not None and not allowed(client_id) and not (open_to_all is not None and open_to_all(handle)):
             try:
                 if refuse_sender is not None:
                     refuse_sender(client_id, handle)

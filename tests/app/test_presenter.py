@@ -95,3 +95,37 @@ def test_the_command_prints_the_presenter_and_viewer_addresses():
     assert lines[1].startswith("Presenter (only this browser can change anything") and \
         f"{viewer_url}/presenter-" in lines[1], lines
     assert lines[2].strip() == f"Viewers: {viewer_url}", lines
+
+
+def test_a_viewer_reads_the_equations_on_its_own_page_and_changes_nothing_shared(shared):
+    """Issue 26: a viewer could not open the equations until the presenter did. A viewer's press of "Show the
+    equations" opens them in a window of its own page; the panel everyone sees, the notices and the other
+    viewers' pages stay as they were. Any other control stays the presenter's."""
+    session = shared.shared_session
+    reader, other = BackgroundClient(shared.url), BackgroundClient(shared.url)
+    try:
+        assert wait_until(lambda: len(shared.viser.get_clients()) >= 2, timeout=30)
+        shared_content, notice = session.equations.content, session.notices.text
+        reader.send_value(viser_compat.control_id(session.equations_button), True)
+        assert reader.wait_for(lambda counts: counts.by_type["GuiModalMessage"] >= 1, timeout=120), \
+            "the viewer who pressed got no window of equations"
+        time.sleep(0.5)
+        assert other.counts.by_type["GuiModalMessage"] == 0, "another viewer's page got the window too"
+        assert not session._equations_shown and session.equations.content == shared_content
+        assert session.notices.text == notice
+        # a control that changes the session is still refused to a viewer
+        before = session.params.chain.g
+        send_values(shared.url, [(viser_compat.control_id(_gravity(shared)), before + 1.0)])
+        time.sleep(0.5)
+        assert session.params.chain.g == before
+    finally:
+        reader.close()
+        other.close()
+
+
+def test_the_presenters_press_shows_the_equations_to_everyone(shared):
+    session = shared.shared_session
+    send_values(shared.presenter_url, [(viser_compat.control_id(session.equations_button), True)])
+    assert wait_until(lambda: session._equations_shown and "Deriving" not in session.equations.content, timeout=120)
+    assert "<math" in session.equations.content or "\\(" in session.equations.content or "A x = b" in \
+        session.equations.content
