@@ -708,14 +708,17 @@ class Session(SessionBase):
     # ------------------------------------------------------------------ boundary and notices
     def guard(self, action: Callable[[], object]) -> object:
         """Run one GUI action; a refused value is a notice and the controls go back to the values in force. An
-        action that is applied and says nothing takes down the refusal still shown ("Not applied"): it was about
-        a value that is no longer the one in question."""
+        action that applies a value and says nothing takes down the refusal still shown ("Not applied"): it was
+        about a value that is no longer the one in question."""
         if self._syncing:
             return None
         serial = self.notices.serial
+        refused_state = self._state_words() if self.notices.showing == REFUSED else None
         try:
             result = action()
-            if self.notices.serial == serial:
+            # taken down only when a value was applied: a slider's echo of the value put back changes nothing
+            if (refused_state is not None and self.notices.serial == serial
+                    and self._state_words() != refused_state):
                 self.notices.withdraw(REFUSED)
             return result
         except LinkageError as error:  # a hosted chain's in its menu's words (``method = Lagrange``)
@@ -728,6 +731,13 @@ class Session(SessionBase):
             self.show_notice("Session paused", f"{type(error).__name__}: {error}. Press Reset to start again.",
                              color="red", seconds=None)
         return None
+
+    def _state_words(self) -> object:
+        """What the session has in force, as a share link or a setup file words it (compared, never shown)."""
+        try:
+            return share.link_query(self.chain) if self.chain is not None else tuple(self.setup_pairs())
+        except LinkageError:
+            return None
 
     def _refuse_update(self, handle, problem: str) -> None:
         self.show_notice(REFUSED, f"{handle.label}: {problem}", color="yellow")

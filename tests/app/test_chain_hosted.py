@@ -698,6 +698,9 @@ def test_the_next_value_applied_takes_down_a_refusal_and_leaves_other_notices(ho
     session.guard(lambda: session.set_typed("L1", "-1"))
     assert session.notices.text.startswith("Not applied: ") and "L1" in session.notices.text
     assert session.notices.showing == "Not applied"  # the notification in the browser
+    in_force = repr(session.chain.chain.bars[0].L)
+    session.guard(lambda: session.set_typed("L1", in_force))  # a control's echo of the value put back
+    assert session.notices.showing == "Not applied", "an echo that applies nothing took the refusal down"
     session.guard(lambda: session.set_typed("L1", "1.2"))
     assert session.chain.chain.bars[0].L == pytest.approx(1.2)
     assert session.notices.text is None and session.notices.showing is None  # the status line and the browser
