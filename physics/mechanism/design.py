@@ -26,7 +26,7 @@ from pydantic import ValidationError
 from ..errors import LinkageError
 from .description import GROUND, MAX_BODIES, MAX_POINTS_PER_BODY, Body, Driver, Mechanism, Prismatic, Revolute
 from .files import mechanism_from_document
-from .presets import LINEAR_DENSITY
+from .presets import rods_mass_properties
 
 Point = tuple[float, float]
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,39}$")
@@ -322,15 +322,7 @@ def default_mass_properties(points: tuple[Point, ...]) -> tuple[float, Point, fl
     outline: a bar (two points) is one rod, a plate its polygon's edges."""
     edges = [(points[0], points[1])] if len(points) == 2 else [
         (points[k], points[(k + 1) % len(points)]) for k in range(len(points))]
-    lengths = [math.dist(p, q) for p, q in edges]
-    masses = [LINEAR_DENSITY * length for length in lengths]
-    mass = sum(masses)
-    midpoints = [((p[0] + q[0]) / 2, (p[1] + q[1]) / 2) for p, q in edges]
-    centre = (sum(m * x for m, (x, _) in zip(masses, midpoints)) / mass,
-              sum(m * y for m, (_, y) in zip(masses, midpoints)) / mass)
-    inertia = sum(m * length**2 / 12 + m * math.dist(mid, centre) ** 2
-                  for m, length, mid in zip(masses, lengths, midpoints))
-    return mass, centre, inertia
+    return rods_mass_properties(edges)
 
 
 def _body_document(body: DesignBody) -> dict:

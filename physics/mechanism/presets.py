@@ -48,6 +48,21 @@ def bar(name: str, first: tuple[str, Point], second: tuple[str, Point], extra: d
     return Body(name=name, points=points, mass=mass, com=centre, inertia=mass * length**2 / 12)
 
 
+def rods_mass_properties(edges) -> tuple[float, Point, float]:
+    """Mass, centre of mass and centroidal inertia of uniform rods of LINEAR_DENSITY along ``edges`` (pairs of
+    points): each rod ``m_k = LINEAR_DENSITY L_k`` with ``I = m_k L_k^2 / 12`` about its midpoint ``c_k``; G is the
+    length-weighted mean of the midpoints and ``I_G = sum (m_k L_k^2 / 12 + m_k |c_k - G|^2)``."""
+    lengths = [math.dist(p, q) for p, q in edges]
+    masses = [LINEAR_DENSITY * length for length in lengths]
+    mass = sum(masses)
+    midpoints = [((p[0] + q[0]) / 2, (p[1] + q[1]) / 2) for p, q in edges]
+    centre = (sum(m * x for m, (x, _) in zip(masses, midpoints)) / mass,
+              sum(m * y for m, (_, y) in zip(masses, midpoints)) / mass)
+    inertia = sum(m * length**2 / 12 + m * math.dist(mid, centre) ** 2
+                  for m, length, mid in zip(masses, lengths, midpoints))
+    return mass, centre, inertia
+
+
 def plate(name: str, corners: dict[str, Point], model: str = PLATE_MODEL) -> Body:
     """A triangular plate through three named points, its mass, centre of mass and centroidal inertia from one
     model: ``"frame"``, three uniform bars along its edges (each ``m_k = LINEAR_DENSITY L_k`` with ``I = m_k L_k^2 /
@@ -58,13 +73,7 @@ def plate(name: str, corners: dict[str, Point], model: str = PLATE_MODEL) -> Bod
     edges = ((a, b), (b, c), (c, a))
     lengths = [math.dist(p, q) for p, q in edges]
     if model == "frame":
-        masses = [LINEAR_DENSITY * length for length in lengths]
-        mass = sum(masses)
-        midpoints = [((p[0] + q[0]) / 2, (p[1] + q[1]) / 2) for p, q in edges]
-        centre = (sum(m * x for m, (x, _) in zip(masses, midpoints)) / mass,
-                  sum(m * y for m, (_, y) in zip(masses, midpoints)) / mass)
-        inertia = sum(m * length**2 / 12 + m * math.dist(mid, centre) ** 2
-                      for m, length, mid in zip(masses, lengths, midpoints))
+        mass, centre, inertia = rods_mass_properties(edges)
     elif model == "lamina":
         area = abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) / 2
         mass = AREAL_DENSITY * area
