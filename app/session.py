@@ -911,13 +911,19 @@ class Session(SessionBase):
             mechanism = chain_knobs.hosted_mechanism(params)
             self.chain, self.settings = params, settings
             self.label, self.reference = params.preset, mechanism
-            self._syncing = True  # the menu's own callback is not a choice
-            try:
-                self.menu.options = self._menu_entries()
-                self.menu.value = self.label
-            finally:
-                self._syncing = False
+            self._show_in_menu()
             self._new_mechanism(mechanism, play=play)
+
+    def _show_in_menu(self) -> None:
+        """The Mechanism menu on the entries and the linkage in force, its callback muted: this is no choice, and
+        viser puts a menu whose value left its options on the first entry and calls the callback (a second file
+        would switch this browser to a chain)."""
+        self._syncing = True
+        try:
+            self.menu.options = self._menu_entries()
+            self.menu.value = self.label
+        finally:
+            self._syncing = False
 
     def _set_display(self, name: str, value: object, units: str) -> None:
         """A display setting (the chain's :func:`app.commands.apply_display`: its bounds and its notices): the
@@ -1160,14 +1166,7 @@ class Session(SessionBase):
             self.chain = None
             self.label, self.reference = label, mechanism
             self.settings = MechanismSettings(trace=mechanism.trace)
-            # viser puts a menu whose value left its options on the first (a chain preset) and calls its
-            # callback: muted, or a second file would switch this browser to a chain
-            self._syncing = True
-            try:
-                self.menu.options = self._menu_entries()
-                self.menu.value = self.label
-            finally:
-                self._syncing = False
+            self._show_in_menu()
             self._new_mechanism(mechanism, play=True)
 
     def reset(self) -> None:
