@@ -141,6 +141,14 @@ def wrap_degrees(angle: float) -> float:
     return (angle + 180.0) % 360.0 - 180.0
 
 
+def _same_nodes(nodes: tuple | None, bound: tuple | None) -> bool:
+    """Whether ``nodes`` are the very handles ``bound`` holds: by identity, since viser's handles are dataclasses
+    whose ``==`` compares their numpy fields (and raises) once a rebuilt scene holds new handles."""
+    if nodes is None or bound is None:
+        return nodes is bound
+    return len(nodes) == len(bound) and all(a is b for a, b in zip(nodes, bound))
+
+
 class DragStart:
     """The drag of one session's scene (``session``: a :class:`~app.session.Session`)."""
 
@@ -165,11 +173,11 @@ class DragStart:
         scene = session.scene
         paused = not (session.compare or session.closed or session.player.playing)
         nodes = (scene.bars, scene.spheres) if paused and scene.bars is not None else None
-        if nodes == self._bound:
+        if _same_nodes(nodes, self._bound):
             return
         old, self._bound = self._bound, nodes
         for node in old or ():
-            if node is not None:
+            if node is not None and (node is scene.bars or node is scene.spheres):  # a rebuilt scene's old nodes are gone
                 quietly(lambda node=node: node.remove_drag_callback("all"), "unbinding the drag")
         if nodes is not None:
             bars, spheres = nodes

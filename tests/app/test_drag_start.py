@@ -217,3 +217,18 @@ def test_the_mouse_ray_meets_the_plane_of_the_motion():
     through = np.array([2.0, 5.0, 4.0])
     assert np.allclose(drag_start.plane_point(through, eye), [1.5, 3.0])
     assert np.allclose(drag_start.plane_point(through, None), [2.0, 4.0])
+
+
+def test_a_scene_rebuilt_while_paused_moves_the_drag_to_its_new_bars(open_session):
+    """Moving the four-bar's ground pin redraws its ground, so the scene is built anew while paused: the drag
+    follows the new bars, and the player draws on (viser's handles compared with ``==`` raised here, which stopped
+    the player with an internal error)."""
+    session = open_session("four-bar")
+    assert wait_until(lambda: session.drag.bound, 30)
+    old_bars = session.scene.bars
+    session.set_typed("pin_x", "1.2")
+    assert wait_until(lambda: session.scene.bars is not old_bars, 30), "the ground moved: a new drawing"
+    assert wait_until(lambda: session.drag.bound and session.drag._bound[0] is session.scene.bars, 30)
+    time.sleep(0.6)  # a paused player draws a frame a quarter second at least
+    assert session.player.error is None
+    assert not session.player.playing
