@@ -46,6 +46,7 @@ from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 from . import chain_contract, chain_knobs, commands, delivery, lecture, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
+from .design_view import DesignView
 from .divergence import VISIBLE_GAP
 from .drag_start import DragStart
 from .free_body_view import FreeBodyView, fbd_command
@@ -295,6 +296,7 @@ class Session(SessionBase):
             with self.tabs.add_tab("Report"):
                 self.seed_report = SeedReportPanel(
                     target.gui, panel_rows.guarded_bind(self.guard, self._muting.muted))
+            self.design_view = DesignView(self)  # the Design tab and its points in the scene (app/design_view.py)
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared))
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
             self._new_mechanism(mechanism, play=autoplay)
@@ -2016,6 +2018,7 @@ class Session(SessionBase):
             return
         POOL.release(self.worker)
         self.drag.close()
+        self.design_view.close()
         for timer in self._typing.values():
             timer.cancel()
         self.numbers.close()
