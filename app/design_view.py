@@ -219,8 +219,9 @@ class DesignView:
                                                             getattr(event, "client", None)))
             self.open_button = gui.add_upload_button("Open a design file (TOML or JSON)",
                                                      hint="A mechanism file; at most 1 MB")
-            bind(self.open_button, lambda event: self.open_file(self.open_button.value.name,
-                                                                self.open_button.value.content), "on_upload")
+            bind(self.open_button, lambda event: self.open_upload(getattr(event, "client_id", None),
+                                                                  self.open_button.value.name,
+                                                                  self.open_button.value.content), "on_upload")
 
     def _write(self, handle, value: object) -> None:
         """Show ``value`` in a control of the tab without acting on it."""
@@ -445,6 +446,13 @@ class DesignView:
     def save(self, fmt: str, client=None) -> None:
         name, content = self.save_file(fmt)
         (client or self.session.target).send_file_download(name, content)
+
+    def open_upload(self, client_id: int | None, name: object, content: object) -> Design | None:
+        """A file chosen in the browser (an upload finishes after its sender may have gone: the sender is
+        checked here, as the Mechanism tab's upload is; a viewer of a presenter's session may not open one)."""
+        if not self.session.may_change(client_id):
+            raise LinkageError("design file: the presenter controls this session")
+        return self.open_file(name, content)
 
     def open_file(self, name: object, content: object) -> Design | None:
         """A mechanism file (TOML or JSON by its ending) opened as the design; one notice when it is not one."""
