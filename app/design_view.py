@@ -36,7 +36,7 @@ from .drag_start import plane_point
 from .logs import quietly
 from .scene import BAR_COLORS, GROUND_COLOR, instance_colors, pose_disc, to_world
 from .shapes import UNIT_SPHERE
-from .viser_compat import update_node_props
+from .viser_compat import connection_open, update_node_props
 
 TOOLS = ("Drag points", "Ground pivot", "Bar", "Plate", "Pin", "Slider")
 TOOL_HINTS = {
@@ -486,7 +486,10 @@ class DesignView:
         if on:
             if session.compare:
                 session.set_compare(False)
-            session.pause()
+            if session.player.restart_pending:  # a start about to play (a page just opened): it waits instead
+                session.wait_at_start()
+            else:
+                session.pause()
             self._run_frame = scene.add_frame(RUN_ROOT, show_axes=False, visible=False)
             self._view_before = session.camera.view
             session.set_camera_view("front")
@@ -721,6 +724,11 @@ class DesignView:
         self._layout = None
 
     def close(self) -> None:
+        """Stop the drag worker, remove the design's nodes and show the run's frame again (removing it would
+        remove the run's nodes under it before the session does: viser warns of every second removal)."""
         self._closed = True
         self._wake.set()
         self._remove_nodes()
+        frame = self._run_frame
+        if frame is not None and not frame.visible and (self.session.shared or connection_open(self.session.target)):
+            quietly(lambda: setattr(frame, "visible", True), "showing the run's frame")

@@ -9,6 +9,7 @@ test (tests/browser/test_design.py) drives the same with real mouse events.
 from __future__ import annotations
 
 import math
+import urllib.parse
 
 import numpy as np
 import pytest
@@ -17,8 +18,10 @@ import viser
 from app import mechanism_workers
 from app.design_view import TOOLS, design_flag_from, handles_of
 from app.scene import to_world
+from app.server import LabServer
 from app.session import MECHANISM_PRESETS, Session
-from conftest import wait_until
+from app.share import SETUP_PATH
+from conftest import BrowserStandIn, wait_until
 from physics.mechanism.design_analysis import design_from_text, topology_of
 
 CRANK, COUPLER_END, GROUND_2 = (0.1, 0.0), (0.45, 0.25), (0.4, 0.0)
@@ -194,3 +197,19 @@ def test_a_link_asks_for_design_mode_with_design_1():
     assert design_flag_from([("g", "9")]) == ([("g", "9")], False, [])
     rest, on, refused = design_flag_from([("design", "yes please")])
     assert rest == [] and not on and "design" in refused[0]
+
+
+def test_a_link_with_design_1_opens_the_session_designing(in_process):
+    server = LabServer(port=0, warm=False, preset="crank-rocker")
+    client = None
+    try:
+        client = BrowserStandIn(server.url + SETUP_PATH + urllib.parse.quote("preset=crank-rocker&design=1", safe=""))
+        assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+        (session,) = server.sessions.values()
+        assert wait_until(lambda: session.design_view.on, timeout=60), "the page opens designing"
+        assert session.camera.view == "front" and not session.player.playing
+        assert session.design_view.designing_box.value is True
+    finally:
+        if client is not None:
+            client.close()
+        server.stop()
