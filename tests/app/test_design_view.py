@@ -213,3 +213,45 @@ def test_a_link_with_design_1_opens_the_session_designing(in_process):
         if client is not None:
             client.close()
         server.stop()
+
+
+def test_a_slider_crank_drawn_by_clicks_with_the_slider_tool_strokes_twice_its_crank(session):
+    view = session.design_view
+    view.set_designing(True)
+    view.set_tool("Ground pivot")
+    view.click((0.0, 0.0))
+    view.click((0.5, 0.0))  # the guide's point on the ground
+    view.set_tool("Bar")  # crank, rod, and a piston pinned to the rod (a slider holds its body's angle too)
+    for first, second in (((0.0, 0.0), (0.05, 0.0)), ((0.05, 0.0), (0.25, 0.0)), ((0.25, 0.0), (0.3, 0.0))):
+        view.click(first)
+        view.click(second)
+    view.set_tool("Slider")
+    view.click((0.3, 0.0))  # the piston's far end: the sliding point
+    view.click((0.5, 0.0))  # a point of its guide, along the default direction 1, 0
+    design = view.design
+    slider = next(j for j in design.joints if j.kind == "prismatic")
+    assert (slider.body, slider.point, slider.on, slider.through) == ("bar3", "B", "ground", "G2")
+    assert topology_of(design).mobility == 1, view.topology_line.content
+    pin = next(j.name for j in design.joints if j.kind == "revolute" and "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=3.0)
+    view.set_trace("bar3.B")
+    assert view.curve is not None and np.all(np.isfinite(view.curve))
+    assert np.ptp(view.curve[:, 0]) == pytest.approx(0.1, rel=1e-6) and np.ptp(view.curve[:, 1]) < 1e-9
+    assert {"bodies", "curve", "points"} <= set(view._nodes)
+
+
+def test_a_viewer_of_a_presenters_session_cannot_click_or_drag_the_design(session):
+    view = build_four_bar(session)
+    before = view.design
+    session.is_presenter = lambda client_id: client_id == 1
+    notices = count_notices(session)
+    view.set_tool("Ground pivot")
+    view.click((0.2, 0.2), client_id=2)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    view.handle("start", instance, to_world(np.array(GROUND_2)), client_id=2)
+    view.handle("end", instance, to_world(np.array([0.42, 0.0])), client_id=2)
+    assert view.design == before and len(notices) == 2 and all("presenter" in n for n in notices), notices
+    with pytest.raises(Exception, match="presenter"):
+        view.open_upload(2, "design.toml", view.save_file("toml")[1])
+    view.click((0.2, 0.2), client_id=1)
+    assert view.design.point("ground.G3") == (0.2, 0.2)
