@@ -255,3 +255,16 @@ def test_a_viewer_of_a_presenters_session_cannot_click_or_drag_the_design(sessio
         view.open_upload(2, "design.toml", view.save_file("toml")[1])
     view.click((0.2, 0.2), client_id=1)
     assert view.design.point("ground.G3") == (0.2, 0.2)
+
+
+def test_a_burst_of_drag_moves_is_coalesced_and_ends_as_one_edit(session):
+    view = build_four_bar(session)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    edits = len(view.history.done)
+    view.push("start", instance, to_world(np.array(GROUND_2)))
+    for k in range(40):  # viser sends ~20 a second; here all at once
+        view.push("update", instance, to_world(np.array([0.4 + 0.001 * k, 0.0])))
+    view.push("end", instance, to_world(np.array([0.45, 0.02])))
+    assert wait_until(lambda: len(view.history.done) == edits + 1, timeout=30), "the drag ends as one edit"
+    assert view.design.point("ground.G2") == pytest.approx((0.45, 0.02))
+    assert 1 <= view.drags_applied <= 5, "the moves in between were coalesced (the newest wins)"
