@@ -148,6 +148,7 @@ class DesignView:
         self._nodes: dict[str, Any] = {}
         self._layout: tuple | None = None
         self._view_before: str | None = None
+        self._disc_before: tuple | None = None
         self._run_frame: Any = None
         self._lock = threading.RLock()
         self._events: list[tuple] = []
@@ -427,8 +428,13 @@ class DesignView:
         designing ends so the run is seen."""
         mechanism = self.design.to_mechanism()  # LinkageError: no body or no joint yet
         label = f"{self.design.name} (design)"
-        self.session._start_anew(mechanism, label)  # LinkageError naming the joint that stays open
-        self.set_designing(False)
+        designing = self.on
+        self.set_designing(False)  # first: the run's framing is the new mechanism's
+        try:
+            self.session._start_anew(mechanism, label)  # LinkageError naming the joint that stays open
+        except LinkageError:
+            self.set_designing(designing)
+            raise
 
     def start_from_preset(self) -> Design | None:
         """The mechanism shown (a preset, a file, a design that ran) opened as a design."""
@@ -491,7 +497,7 @@ class DesignView:
             else:
                 session.pause()
             self._run_frame = scene.add_frame(RUN_ROOT, show_axes=False, visible=False)
-            self._view_before = session.camera.view
+            self._view_before, self._disc_before = session.camera.view, session.camera.disc
             session.set_camera_view("front")
             scene.on_click()(self._on_click)
             self.shown = self.design
@@ -503,9 +509,9 @@ class DesignView:
             self._remove_nodes()
             if self._run_frame is not None:
                 self._run_frame.visible = True
+            session.camera.disc = self._disc_before  # the run's framing, as it was
             if self._view_before is not None:
                 session.set_camera_view(self._view_before)
-            session.frame_camera(force=True)
 
     def _frame(self) -> None:
         """Frame the camera on the design (its points, or a disc around the origin while it has none)."""

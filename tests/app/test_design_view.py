@@ -268,3 +268,14 @@ def test_a_burst_of_drag_moves_is_coalesced_and_ends_as_one_edit(session):
     assert wait_until(lambda: len(view.history.done) == edits + 1, timeout=30), "the drag ends as one edit"
     assert view.design.point("ground.G2") == pytest.approx((0.45, 0.02))
     assert 1 <= view.drags_applied <= 5, "the moves in between were coalesced (the newest wins)"
+
+
+def test_run_of_a_design_that_cannot_close_is_one_notice_and_designing_goes_on(session):
+    view = build_four_bar(session)
+    view.add_ground("far", (2.0, 0.0))
+    view.add_pin("stretch", "bar2.B", "ground.far")  # the coupler's end cannot reach 2 m
+    label, mechanism = session.label, session.mechanism
+    notices = count_notices(session)
+    session.guard(view.run)  # what the Run button does
+    assert len(notices) == 1 and "Not applied" in notices[0], notices
+    assert view.on and session.label == label and session.mechanism == mechanism
