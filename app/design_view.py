@@ -247,10 +247,15 @@ class DesignView:
         """One edit of the current design; a refusal (LinkageError) is one notice naming the item, and the
         design is unchanged."""
         try:
-            return self._apply(change(self.design))
+            with self._lock:  # two clicks handled at once (viser's thread pool) must not lose one
+                design = change(self.design)
+                self.history.apply(design)
+                self.shown, self.pending = design, []
         except LinkageError as error:
             self.refuse(str(error))
             return None
+        self._show()
+        return design
 
     def refuse(self, message: str) -> None:
         self.session.show_notice("Not applied", message, color="yellow")

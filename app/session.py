@@ -1597,6 +1597,7 @@ class Session(SessionBase):
                        and self.player.display_time >= runs[0].ring.t_last - 1e-9)
         if stopped:
             raise LinkageError("the simulation stopped here; press Reset (or change a value) to go on")
+        self.design_view.set_designing(False)  # Play shows the run (app/design_view.py)
         self.player.play()
 
     def pause(self) -> None:

@@ -279,3 +279,12 @@ def test_run_of_a_design_that_cannot_close_is_one_notice_and_designing_goes_on(s
     session.guard(view.run)  # what the Run button does
     assert len(notices) == 1 and "Not applied" in notices[0], notices
     assert view.on and session.label == label and session.mechanism == mechanism
+
+
+def test_play_while_designing_shows_the_run_again(session):
+    view = session.design_view
+    view.set_designing(True)
+    assert view.on and not session.player.playing and view._run_frame.visible is False
+    session.press("Play")
+    assert not view.on and view._run_frame.visible is True
+    assert wait_until(lambda: session.player.playing, timeout=30)
