@@ -12,6 +12,7 @@ import pytest
 
 from app import snapshot as snap
 from app.design_view import handles_of
+from physics.mechanism.design_analysis import topology_of
 
 from .conftest import AppPage, wait_until
 
@@ -96,3 +97,51 @@ def test_a_four_bar_drawn_with_the_mouse_has_mobility_one_drags_and_runs(start_l
     wait_until(lambda: session.label == "design (design)" and not view.on, message="the design to run")
     wait_until(lambda: session.player.playing and session.player.display_time > 0.3, message="the run to play")
     assert session.mechanism == view.design.to_mechanism()
+
+
+def test_an_impossible_drag_with_the_mouse_is_one_notice_and_undo_redo_buttons_step_back(start_lab):
+    lab = start_lab(preset="crank-rocker")
+    app = lab.open_page(viewport=VIEWPORT)
+    session = app.session
+    view = session.design_view
+    # the four-bar drawn through the view's own methods (the first test draws it with the mouse)
+    view.add_ground("O2", (0.0, 0.0))
+    view.add_ground("O4", GROUND_2)
+    view.add_bar("crank", ("A0", (0.0, 0.0)), ("A", CRANK))
+    view.add_bar("coupler", ("A", CRANK), ("B", COUPLER_END))
+    view.add_bar("rocker", ("B", COUPLER_END), ("B0", GROUND_2))
+    for name, a, b in (("O2p", "ground.O2", "crank.A0"), ("Ap", "crank.A", "coupler.A"),
+                       ("Bp", "coupler.B", "rocker.B"), ("O4p", "rocker.B0", "ground.O4")):
+        view.add_pin(name, a, b)
+    app.open_tab("Design")
+    app.page.get_by_text("Design in the scene", exact=True).click()
+    wait_until(lambda: view.on and session.camera.view == "front", message="designing, seen from the front")
+    snap.wait_for_drawn_frames(app.page)
+    app.page.wait_for_timeout(800)
+    built = view.design
+    mouse = app.page.mouse
+
+    def drag(from_xy, to_xy) -> None:
+        mouse.move(*on_page(app, from_xy))
+        mouse.down()
+        mouse.move(*on_page(app, to_xy), steps=12)
+        mouse.up()
+
+    drag(GROUND_2, (0.42, 0.0))
+    wait_until(lambda: view.design != built, message="the valid drag to apply")
+    valid = view.design
+    drag((0.42, 0.0), (1.2, 0.0))  # the rocker and coupler cannot reach: refused, the last valid design kept
+    wait_until(lambda: any("cannot be assembled" in text for text in app.notification_texts()),
+               message="the refusal's notice")
+    app.page.wait_for_timeout(500)  # the drag's end is handled
+    refusals = [text for text in app.notification_texts() if "cannot be assembled" in text]
+    assert len(refusals) == 1, refusals
+    # kept: the last design the mouse reached that assembles (the drag's moves within reach applied)
+    after = view.design
+    assert view.shown == after and topology_of(after).mobility == 1
+    assert 0.42 - 1e-9 <= after.point("ground.O4")[0] <= 0.1 + 0.43 + math.hypot(0.05, 0.25)
+    app.page.get_by_role("button", name="Undo", exact=True).click()
+    expected = valid if after != valid else built  # a drag that changed nothing is no edit
+    wait_until(lambda: view.design == expected, message="Undo to the design before the drag")
+    app.page.get_by_role("button", name="Redo", exact=True).click()
+    wait_until(lambda: view.design == after, message="Redo to the dragged design")
