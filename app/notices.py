@@ -34,11 +34,14 @@ class Notices:
         self._until = 0.0
         self.text: str | None = None  # the notice on the status line (None when there is none)
         self.closed = False
+        self.serial = 0  # notices asked for so far: an action that raised none is told apart from one that did
+        self._on_screen: str | None = None  # the title of the notification in the browser(s), until taken down
 
     def show(self, title: str, body: str, color: str = "yellow", seconds: float | None = NOTICE_SECONDS) -> None:
         """Replace the current notice with this one (unless it is the same and still on screen)."""
         with self._lock:
             self.text = f"{title}: {body}"
+            self.serial += 1
             now = time.monotonic()
             if self._shown == (title, body) and now < self._until and self._handles:
                 return  # the same notice is still showing: not piled up again
@@ -54,6 +57,7 @@ class Notices:
                     )
                 quietly(add, "sending a notification")
             self._shown = (title, body)
+            self._on_screen = title
             self._until = now + (seconds if seconds is not None else float("inf"))
         self._on_change()
 
@@ -66,21 +70,29 @@ class Notices:
             self._shown = None
             if self._until == float("inf"):
                 old, self._handles = self._handles, []
-                self._until = 0.0
+                self._until, self._on_screen = 0.0, None
                 for handle in old:
                     quietly(handle.remove, "removing a notification")
 
     def withdraw(self, title: str) -> None:
-        """Take down the notice titled ``title`` (its notification and its status line) if it is the one shown:
-        what it said is over (a compilation has finished). Any other notice stays."""
+        """Take down the notice titled ``title`` (its notification and its status line) if it is the one on
+        screen, even after :meth:`clear` forgot its status line: what it said is over (a compilation has
+        finished, a refused value has been followed by one applied). Any other notice stays."""
         with self._lock:
-            if self._shown is None or self._shown[0] != title:
+            if self._on_screen != title:  # another notice is up (or none): it stays
                 return
             old, self._handles = self._handles, []
-            self.text, self._shown, self._until = None, None, 0.0
+            self.text, self._shown, self._until, self._on_screen = None, None, 0.0, None
             for handle in old:
                 quietly(handle.remove, "removing a notification")
         self._on_change()
+
+    @property
+    def showing(self) -> str | None:
+        """The title of the notification sent to the browser(s) and not taken down (a notice that closes by
+        itself counts until taken down or replaced), or None."""
+        with self._lock:
+            return self._on_screen
 
     @property
     def sticky(self) -> bool:

@@ -121,6 +121,7 @@ SETTING_KNOBS = tuple(knob.name for knob in settings_knobs(MechanismSettings()))
 PLOT_SECONDS = 20.0
 PLOT_EVERY = 12  # frames between plot updates (5 Hz, as the chain panel)
 STATUS_EVERY = 15
+REFUSED = "Not applied"  # the title of a refused value's notice (taken down by the next action applied)
 ARROW_FRACTION = 0.25  # at the default arrow scale the largest pin force is drawn this fraction of the size long
 RESIDUAL_TITLE = "Constraint residual (largest |Φ(q)|)"
 PREPARED_HERE: set[tuple] = set()  # what _prepare has made ready for the chains this process runs itself
@@ -374,8 +375,9 @@ class Session(SessionBase):
         self._gui.append(self.drift_plot.handle)
         self.residual_plot = panel_rows.add_residual_plot(gui, RESIDUAL_TITLE, "|Φ|", "")
         self._gui.append(self.residual_plot.handle)
-        # the tabs: what applies to the linkage shown in each
-        self.tabs = keep(gui.add_tab_group())
+        # the tabs: what applies to the linkage shown in each; drawn above the Plot menu and its charts, so that at
+        # 1280x720 the open tab's first controls show without scrolling past two charts (issue 26)
+        self.tabs = keep(gui.add_tab_group(order=self.plot_choice.order - 0.5))
         with self.tabs.add_tab("Mechanism"):
             self.menu = gui.add_dropdown("Mechanism", self._menu_entries(), initial_value=self.label,
                                          hint="A chain preset or a planar mechanism")
@@ -706,13 +708,19 @@ class Session(SessionBase):
 
     # ------------------------------------------------------------------ boundary and notices
     def guard(self, action: Callable[[], object]) -> object:
-        """Run one GUI action; a refused value is a notice and the controls go back to the values in force."""
+        """Run one GUI action; a refused value is a notice and the controls go back to the values in force. An
+        action that is applied and says nothing takes down the refusal still shown ("Not applied"): it was about
+        a value that is no longer the one in question."""
         if self._syncing:
             return None
+        serial = self.notices.serial
         try:
-            return action()
+            result = action()
+            if self.notices.serial == serial:
+                self.notices.withdraw(REFUSED)
+            return result
         except LinkageError as error:  # a hosted chain's in its menu's words (``method = Lagrange``)
-            self.show_notice("Not applied", in_menu_words(str(error)) if self.chain is not None else str(error),
+            self.show_notice(REFUSED, in_menu_words(str(error)) if self.chain is not None else str(error),
                              color="yellow")
             quietly(self.sync_all, "putting the controls back")
         except Exception as error:  # the boundary: nothing escapes into viser's callback thread
@@ -723,7 +731,7 @@ class Session(SessionBase):
         return None
 
     def _refuse_update(self, handle, problem: str) -> None:
-        self.show_notice("Not applied", f"{handle.label}: {problem}", color="yellow")
+        self.show_notice(REFUSED, f"{handle.label}: {problem}", color="yellow")
         quietly(self.sync_all, "putting the controls back after a refused value")
 
     # ------------------------------------------------------------------ edits

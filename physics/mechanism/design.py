@@ -174,6 +174,22 @@ class Design:
             self.point(reference)
         return replace(self, trace=reference)
 
+    def set_mass(self, body: str, mass: float | None, inertia: float | None = None,
+                 com: Point | None = None) -> Design:
+        """Give body ``body`` its own mass (kg), centroidal inertia (kg m^2) and centre of mass (a sketch point;
+        None: the mean of its points), checked as a file's body is; ``mass=None`` returns it to the density
+        model. Moving one of its points later returns it to the density model too."""
+        found = self.body(body)
+        if mass is None:
+            own = replace(found, mass=None, com=None, inertia=None)
+        else:
+            if inertia is None:
+                raise LinkageError(f"body {body!r}: inertia: give the centroidal inertia (kg m^2) with the mass")
+            checked = _built(f"body {body!r}", Body, name=body, points=dict(found.points), mass=mass,
+                             com=com, inertia=inertia)
+            own = replace(found, mass=checked.mass, com=checked.com, inertia=checked.inertia)
+        return replace(self, bodies=tuple(own if b.name == body else b for b in self.bodies))
+
     def delete(self, name: str) -> Design:
         """Delete a ground point, a body, a joint or (``motor:PIN``) a motor; joints on a deleted body or ground
         point go with it, and their motors with them."""

@@ -689,3 +689,21 @@ def test_the_report_tab_replays_the_seed_reports_figures_for_chains_and_mechanis
     session.choose("slider-crank")  # the course's figures stay: the report is the course's, whatever is shown
     assert wait_until(lambda: session.chain is None, timeout=60)
     assert session.seed_report.figure.content == picture
+
+
+def test_the_next_value_applied_takes_down_a_refusal_and_leaves_other_notices(host):
+    """Issue 26: a refusal's notice stayed on after the next valid value. A value applied after it takes it down;
+    a notice of another kind (here a study's "Done") stays, and so does a refusal raised by the action itself."""
+    session = host("triple-a")
+    session.guard(lambda: session.set_typed("L1", "-1"))
+    assert session.notices.text.startswith("Not applied: ") and "L1" in session.notices.text
+    assert session.notices.showing == "Not applied"  # the notification in the browser
+    session.guard(lambda: session.set_typed("L1", "1.2"))
+    assert session.chain.chain.bars[0].L == pytest.approx(1.2)
+    assert session.notices.text is None and session.notices.showing is None  # the status line and the browser
+    session.guard(lambda: session.set_typed("m2", "1,5"))  # refused again: the new refusal is shown
+    assert session.notices.text.startswith("Not applied: ") and "m2" in session.notices.text
+    session.show_notice("Done", "work-precision chart of triple-a", color="green")
+    session.guard(session.pause)  # an action applied that says nothing: only a refusal is taken down
+    assert session.notices.text == "Done: work-precision chart of triple-a"
+    _played(session, 0.2)

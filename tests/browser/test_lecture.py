@@ -119,6 +119,9 @@ def test_lecture_mode_makes_every_panel_and_chart_text_18px_at_1920(start_lab):
     page.wait_for_timeout(1500)  # the charts redraw at the panel's new width
     sizes = text_sizes(page)
     keep_picture(page, "lecture-1920")
+    # the charts sit under the tabs (tests/browser/test_layout.py): scrolled to, and measured there too
+    page.locator(f"{snap.CONTROL_PANEL} canvas").first.scroll_into_view_if_needed()
+    sizes += text_sizes(page)
     drawn = [item for item in sizes if item["kind"] == "CANVAS"]
     assert len(drawn) >= 8, f"the charts' canvas text was not measured: {drawn}"
     small = [item for item in sizes if item["px"] < 18.0]

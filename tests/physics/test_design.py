@@ -114,6 +114,38 @@ def test_a_design_of_the_four_bar_preset_runs_as_the_preset_does(tmp_path, capsy
     assert from_design.count("\n") == 12 and from_design == from_preset
 
 
+def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_names_and_the_coupler_mass():
+    """Drawn edit by edit from the preset's own points: the same ground, bodies' points, pins, motor and traced
+    point, the bars' masses from the same density, and the same coupler curve. Two differences are by design: a
+    design's names are unique across ground points and joints (the preset names a pin and its ground point both
+    "O2"), and a three-point coupler drawn as a plate gets the plate's frame mass, not the preset's bar with a
+    point riding on it."""
+    preset = MECHANISM_PRESETS["crank-rocker"]()
+    design = Design()
+    for name, xy in preset.ground.items():
+        design = design.add_ground(name, xy)
+    for body in preset.bodies:
+        corners = list(body.points.items())
+        design = design.add_bar(body.name, *corners) if len(corners) == 2 else design.add_plate(body.name, corners)
+    pin_names = {joint.name: f"{joint.name}pin" for joint in preset.joints}
+    for joint in preset.joints:
+        design = design.add_pin(pin_names[joint.name], joint.a, joint.b)
+    (driver,) = preset.drivers
+    design = design.add_motor(pin_names[driver.joint], speed=driver.speed).set_trace(preset.trace)
+    drawn = design.to_mechanism()
+    assert drawn.ground == preset.ground and drawn.trace == preset.trace
+    assert [(b.name, b.points) for b in drawn.bodies] == [(b.name, b.points) for b in preset.bodies]
+    assert [(j.kind, j.a, j.b) for j in drawn.joints] == [(j.kind, j.a, j.b) for j in preset.joints]
+    assert [(d.joint, d.speed, d.torque) for d in drawn.drivers] == [
+        (pin_names[d.joint], d.speed, d.torque) for d in preset.drivers]
+    for name in ("crank", "rocker"):
+        mine, theirs = drawn.body(name), preset.body(name)
+        assert (mine.mass, mine.inertia) == pytest.approx((theirs.mass, theirs.inertia), rel=1e-12)
+        assert mine.centre == pytest.approx(theirs.centre, abs=1e-12)
+    assert topology_of(design).text() == topology_of(design_from_mechanism(preset)).text()
+    np.testing.assert_allclose(coupler_curve(design), coupler_curve(design_from_mechanism(preset)), atol=1e-9)
+
+
 def test_edits_name_what_they_refuse():
     design = four_bar()
     with pytest.raises(LinkageError, match="ground point 'O2': that name is taken"):
@@ -124,6 +156,21 @@ def test_edits_name_what_they_refuse():
         design.add_motor("nope", speed=1.0)
     with pytest.raises(LinkageError, match="grid"):
         design.move_point("ground.O2", (0.1, 0.1), grid=0.0)
+
+
+def test_a_body_given_its_own_mass_keeps_it_in_the_file_until_a_point_moves():
+    design = four_bar().set_mass("coupler", 2.5, inertia=0.04, com=(0.3, 0.1))
+    coupler = design.to_mechanism().body("coupler")
+    assert (coupler.mass, coupler.inertia, coupler.com) == (2.5, 0.04, (0.3, 0.1))
+    assert design_from_text(design_to_text(design), "d.toml") == design
+    drawn = four_bar().to_mechanism().body("coupler")
+    for back in (design.set_mass("coupler", None), design.move_point("coupler.B", design.point("coupler.B"))):
+        body = back.to_mechanism().body("coupler")
+        assert (body.mass, body.inertia, body.centre) == (drawn.mass, drawn.inertia, drawn.centre)
+    with pytest.raises(LinkageError, match="body 'coupler': mass"):
+        design.set_mass("coupler", -1.0, inertia=0.1)
+    with pytest.raises(LinkageError, match="body 'coupler': inertia"):
+        design.set_mass("coupler", 1.0)
 
 
 def test_a_point_of_a_body_not_yet_joined_to_the_ground_drags_freely():
@@ -169,7 +216,7 @@ def references(design: Design) -> list[str]:
 def edit(draw, design: Design):
     refs = references(design)
     which = draw(st.sampled_from(["ground", "bar", "plate", "pin", "slider", "motor", "delete", "rename", "move",
-                                  "trace", "drag"]))
+                                  "trace", "drag", "mass"]))
     if which == "ground":
         return lambda d: d.add_ground(draw(NAMES), draw(XY))
     if which == "bar":
@@ -192,6 +239,10 @@ def edit(draw, design: Design):
         return lambda d: d.set_trace(draw(st.sampled_from(refs)))
     if which == "drag":
         return lambda d: drag(d, draw(st.sampled_from(refs)), draw(XY))
+    if which == "mass":
+        bodies = st.sampled_from([b.name for b in design.bodies] + ["nobody"])
+        amount = st.one_of(st.none(), st.just(float("nan")), st.floats(-1.0, 2e6))
+        return lambda d: d.set_mass(draw(bodies), draw(amount), draw(amount), draw(st.one_of(st.none(), XY)))
     return lambda d: d.move_point(draw(st.sampled_from(refs)), draw(XY), draw(st.one_of(st.none(), st.just(0.05))))
 
 
