@@ -29,8 +29,9 @@ from typing import Any, Callable
 import numpy as np
 
 from physics import LinkageError
-from physics.mechanism.design import Design, History, design_from_mechanism
+from physics.mechanism.design import Design, History, default_mass_properties, design_from_mechanism
 from physics.mechanism.design_analysis import coupler_curve, design_from_text, design_to_text, drag, topology_of
+from physics.mechanism.presets import LINEAR_DENSITY
 
 from .drag_start import plane_point
 from .logs import quietly
@@ -117,6 +118,19 @@ def snapped(xy, grid: float | None) -> tuple[float, float]:
     if grid:
         x, y = round(x / grid) * grid, round(y / grid) * grid
     return (x, y)
+
+
+def masses_text(design: Design) -> str:
+    """Each body's mass and inertia, and whose they are: ``bar1 0.1 kg, 8.33e-05 kg m² (density model)``."""
+    rows = []
+    for body in design.bodies:
+        if body.mass is not None and body.inertia is not None:
+            mass, inertia, whose = body.mass, body.inertia, "own"
+        else:
+            mass, _, inertia = default_mass_properties(tuple(xy for _, xy in body.points))
+            whose = f"density model, {LINEAR_DENSITY:g} kg/m"
+        rows.append(f"{body.name} {mass:.4g} kg, {inertia:.3g} kg m² ({whose})")
+    return "Masses: " + "; ".join(rows) if rows else ""
 
 
 def parse_pair(text: object, what: str) -> tuple[float, float]:
@@ -206,6 +220,16 @@ class DesignView:
             self.new_name_box = gui.add_text("New name", "")
             self.item_buttons = gui.add_button_group("Item", ("Delete", "Rename", "Trace"))
             bind(self.item_buttons, lambda event: self.item_action(str(self.item_buttons.value)))
+            self.mass_box = gui.add_number("Mass (kg)", 1.0, min=0.0, max=1e6, step=0.001,
+                                           hint="The Item body's own mass")
+            self.inertia_box = gui.add_number("Inertia (kg m²)", 0.01, min=0.0, max=1e6, step=0.0001,
+                                              hint="The Item body's own centroidal inertia")
+            self.mass_buttons = gui.add_button_group("Body mass", ("Set", "Density model"),
+                                                     hint=f"Set: the Item body's own mass and inertia (centre: "
+                                                     f"the mean of its points); Density model: uniform rods of "
+                                                     f"{LINEAR_DENSITY:g} kg/m along its outline")
+            bind(self.mass_buttons, lambda event: self.mass_action(str(self.mass_buttons.value)))
+            self.masses_line = gui.add_markdown("")
             self.history_buttons = gui.add_button_group("Edits", ("Undo", "Redo"))
             bind(self.history_buttons, lambda event: self.undo() if self.history_buttons.value == "Undo"
                  else self.redo())
@@ -345,6 +369,16 @@ class DesignView:
         if str(self.motor_kind.value).startswith("torque"):
             return self.add_motor(pin, torque=value)
         return self.add_motor(pin, speed=value)
+
+    def set_mass(self, body: str, mass: float | None, inertia: float | None = None) -> Design | None:
+        """Body ``body``'s own mass and centroidal inertia, or (``mass=None``) the density model again."""
+        return self.edit(lambda d: d.set_mass(body, mass, inertia))
+
+    def mass_action(self, action: str) -> Design | None:
+        body = str(self.item_box.value).strip()
+        if action == "Set":
+            return self.set_mass(body, float(self.mass_box.value), float(self.inertia_box.value))
+        return self.set_mass(body, None)
 
     def item_action(self, action: str) -> Design | None:
         item = str(self.item_box.value).strip()
@@ -581,8 +615,16 @@ class DesignView:
                         with self._lock:
                             if self._events:
                                 continue
-                quietly(lambda: self.session.guard(
-                    lambda: self.handle(phase, instance, end_world, camera, client_id)), "dragging a design point")
+                # not through the session's guard: a move that is refused again says nothing (one notice per
+                # drag), and the guard would take the drag's refusal down as if a value had been applied
+                quietly(lambda: self._handle_quietly(phase, instance, end_world, camera, client_id),
+                        "dragging a design point")
+
+    def _handle_quietly(self, phase: str, instance: int | None, end_world, camera, client_id: int | None) -> None:
+        try:
+            self.handle(phase, instance, end_world, camera, client_id)
+        except LinkageError as error:
+            self.refuse(str(error))
 
     def handle(self, phase: str, instance: int | None, end_world, camera=None, client_id: int | None = None) -> None:
         """One drag event of the design's point ``instance`` (the order of :func:`handles_of`); ``end_world``
@@ -649,6 +691,7 @@ class DesignView:
             line = f"**{counts}: {topology.text()}.**"
         self.topology = topology
         self.topology_line.content = line
+        self.masses_line.content = masses_text(design)
 
     def _draw(self) -> None:
         if not self.on or self._closed:

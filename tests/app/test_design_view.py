@@ -288,3 +288,33 @@ def test_play_while_designing_shows_the_run_again(session):
     session.press("Play")
     assert not view.on and view._run_frame.visible is True
     assert wait_until(lambda: session.player.playing, timeout=30)
+
+
+def test_a_bodys_own_mass_is_set_stated_and_given_back_to_the_density_model(session):
+    view = build_four_bar(session)
+    assert "bar1 0.1 kg" in view.masses_line.content and "density model, 1 kg/m" in view.masses_line.content
+    view.set_mass("bar2", 2.5, 0.04)
+    body = view.design.body("bar2")
+    assert (body.mass, body.inertia) == (2.5, 0.04)
+    assert "bar2 2.5 kg, 0.04 kg m² (own)" in view.masses_line.content
+    assert view.design.to_mechanism().body("bar2").mass == 2.5
+    notices = count_notices(session)
+    view.set_mass("bar2", -1.0, 0.04)
+    assert len(notices) == 1 and "bar2" in notices[0] and view.design.body("bar2").mass == 2.5, notices
+    view.set_mass("bar2", None)
+    assert view.design.body("bar2").mass is None and "(own)" not in view.masses_line.content
+
+
+def test_the_refusal_of_a_drag_through_the_worker_stays_on_screen_after_the_drag(session):
+    view = build_four_bar(session)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    before = view.design
+    notices = count_notices(session)
+    view.push("start", instance, to_world(np.array(GROUND_2)))
+    view.push("update", instance, to_world(np.array([2.0, 0.0])))
+    assert wait_until(lambda: len(notices) == 1, timeout=30), notices
+    view.push("end", instance, to_world(np.array([2.5, 0.0])))  # refused again: nothing more said
+    assert wait_until(lambda: view._grab is None, timeout=30)
+    assert len(notices) == 1, notices
+    assert "cannot be assembled" in notices[0] and session.notices.showing == "Not applied"
+    assert view.design == before
