@@ -171,7 +171,8 @@ class DragStart:
         follows every way of pausing or playing; only a change sends anything."""
         session = self.session
         scene = session.scene
-        paused = not (session.compare or session.closed or session.player.playing)
+        designing = getattr(session, "design_view", None) is not None and session.design_view.on
+        paused = not (session.compare or session.closed or session.player.playing or designing)
         nodes = (scene.bars, scene.spheres) if paused and scene.bars is not None else None
         if _same_nodes(nodes, self._bound):
             return

@@ -29,6 +29,7 @@ from . import processes as server_processes
 from . import warm as warm_up
 from .compile_notice import TITLE as COMPILE_TITLE
 from .compile_notice import CompileNotices
+from .design_view import design_flag_from
 from .lab_session import LabSession
 from .logs import quietly
 from .mechanism_runs import start_state
@@ -247,6 +248,8 @@ class LabServer:
             setup, refused = self._setup_of(client)
             setup, lecture_mode, refused_lecture = lecture_from(setup, self.lecture)
             refused += refused_lecture
+            setup, design_mode, refused_design = design_flag_from(setup)  # ?design=1 (app/design_view.py)
+            refused += refused_design
             preset, links, not_started = share.start_of(setup, self.preset, self.links, mechanisms=True)
             named = dict(setup).get("preset") == preset  # the link's own preset wins over the server's start
             session = self._start_session(client, preset, links, shared=False,
@@ -256,6 +259,8 @@ class LabServer:
             refused += not_started + share.apply_setup(setup, session.set_link_value)
             if lecture_mode:
                 session.set_lecture(True)
+            if design_mode and (designer := getattr(session, "design_view", None)) is not None:
+                designer.set_designing(True)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
             elif (compiling := self.compile_notices.line) is not None:  # arrived while the process compiles

@@ -46,6 +46,7 @@ from physics.model import FIXED_STEP_INTEGRATORS, INTEGRATOR_NAMES, validated
 from . import chain_contract, chain_knobs, commands, delivery, lecture, panel_rows, readout, share, viser_compat
 from .camera import CameraDirector
 from .commands import CONTROL, DISPLAY_NAMES, SI, TIMELINE, apply_display, parse_number, read_number
+from .design_view import DesignView
 from .divergence import VISIBLE_GAP
 from .drag_start import DragStart
 from .free_body_view import FreeBodyView, fbd_command
@@ -296,6 +297,7 @@ class Session(SessionBase):
             with self.tabs.add_tab("Report"):
                 self.seed_report = SeedReportPanel(
                     target.gui, panel_rows.guarded_bind(self.guard, self._muting.muted))
+            self.design_view = DesignView(self)  # the Design tab and its points in the scene (app/design_view.py)
             check_gui_updates(target.gui, self._refuse_update, self.may_change, ViewerRefusals(target, shared),
                               open_to_all=self._reading_only)
             viser_compat.guard_messages()  # malformed messages dropped before viser reads them (one log line)
@@ -1665,6 +1667,7 @@ class Session(SessionBase):
                        and self.player.display_time >= runs[0].ring.t_last - 1e-9)
         if stopped:
             raise LinkageError("the simulation stopped here; press Reset (or change a value) to go on")
+        self.design_view.set_designing(False)  # Play shows the run (app/design_view.py)
         self.player.play()
 
     def pause(self) -> None:
@@ -2086,6 +2089,7 @@ class Session(SessionBase):
             return
         POOL.release(self.worker)
         self.drag.close()
+        self.design_view.close()
         for timer in self._typing.values():
             timer.cancel()
         self.numbers.close()

@@ -1,0 +1,320 @@
+"""Design mode in the app (app/design_view.py, issue 27): a four-bar built by clicks in the plane through the view's
+own methods, its live mobility, a motor, Run (the session plays the design as a preset); undo and redo; save and
+open; a drag re-assembled on its branch, and an impossible drag that keeps the last valid design with one notice.
+
+The clicks and drags are fed as viser gives them (physics points for clicks, world points for drags); the browser
+test (tests/browser/test_design.py) drives the same with real mouse events.
+"""
+
+from __future__ import annotations
+
+import math
+import urllib.parse
+
+import numpy as np
+import pytest
+import viser
+
+from app import mechanism_workers
+from app.design_view import TOOLS, design_flag_from, handles_of
+from app.scene import to_world
+from app.server import LabServer
+from app.session import MECHANISM_PRESETS, Session
+from app.share import SETUP_PATH
+from conftest import BrowserStandIn, wait_until
+from physics.mechanism.design_analysis import design_from_text, topology_of
+
+CRANK, COUPLER_END, GROUND_2 = (0.1, 0.0), (0.45, 0.25), (0.4, 0.0)
+
+
+@pytest.fixture(scope="module")
+def in_process():
+    saved = mechanism_workers.POOL.count
+    mechanism_workers.POOL.count = 0
+    yield
+    mechanism_workers.POOL.count = saved
+
+
+@pytest.fixture
+def session(in_process):
+    """A paused crank-rocker session on a viser server of its own."""
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    opened = Session(server, MECHANISM_PRESETS["crank-rocker"](), label="crank-rocker", shared=True, autoplay=False)
+    assert opened.player.wait_idle(120), "the first start was not shown"
+    yield opened
+    opened.close(clean=True)
+    server.stop()
+
+
+def count_notices(session: Session) -> list[str]:
+    shown: list[str] = []
+    original = session.notices.show
+
+    def show(title, body, *args, **kwargs):
+        shown.append(f"{title}: {body}")
+        return original(title, body, *args, **kwargs)
+
+    session.notices.show = show  # type: ignore[method-assign]
+    return shown
+
+
+def build_four_bar(session: Session):
+    """A crank-rocker drawn by clicks (crank 0.1, coupler 0.43, rocker 0.25, ground 0.4): two ground pivots, then
+    three bars, each click on an existing point pinning the bar there."""
+    view = session.design_view
+    view.set_designing(True)
+    view.set_tool("Ground pivot")
+    view.click((0.001, -0.002))  # snapped to the grid: (0, 0)
+    view.click(GROUND_2)
+    view.set_tool("Bar")
+    for first, second in (((0.0, 0.0), CRANK), (CRANK, COUPLER_END), (COUPLER_END, GROUND_2)):
+        view.click(first)
+        view.click(second)
+    return view
+
+
+def test_a_four_bar_built_by_clicks_has_mobility_one_and_a_motor_runs_it(session):
+    notices = count_notices(session)
+    view = build_four_bar(session)
+    design = view.design
+    assert [name for name, _ in design.ground] == ["G1", "G2"] and design.point("ground.G1") == (0.0, 0.0)
+    assert [body.name for body in design.bodies] == ["bar1", "bar2", "bar3"]
+    pins = {(j.a, j.b) for j in design.joints}
+    assert pins == {("bar1.A", "ground.G1"), ("bar2.A", "bar1.B"), ("bar3.A", "bar2.B"), ("bar3.B", "ground.G2")}
+    topology = topology_of(design)
+    assert (topology.mobility, topology.grubler, len(topology.loops)) == (1, 1, 1)
+    assert "mobility 1" in view.topology_line.content and "no motor" in view.topology_line.content
+    pin = next(j.name for j in design.joints if "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=2 * math.pi)
+    assert "driven by 1 motor" in view.topology_line.content and "0 free" in view.topology_line.content
+    view.set_trace("bar2.B")
+    curve = view.curve
+    assert curve is not None and np.all(np.isfinite(curve)), "the coupler curve over the crank's full turn"
+    # the traced point swings on the rocker's circle about G2 (radius 0.255)
+    assert np.allclose(np.hypot(*(curve - GROUND_2).T), math.hypot(0.05, 0.25), atol=1e-9)
+    assert not notices, notices
+    # Run: the design is the session's mechanism, as any preset, and it plays
+    view.run()
+    assert session.mechanism == view.design.to_mechanism()
+    assert session.label == "design (design)" and session.menu.value == "design (design)"
+    assert not view.on and view.designing_box.value is False
+    assert session.player.wait_idle(120)
+    sent = session.frames_sent
+    assert wait_until(lambda: session.player.playing and session.frames_sent > sent + 3, 120), "the design plays"
+    assert not [n for n in notices if n.startswith(("Not applied", "Simulation stopped", "Session paused"))]
+
+
+def test_undo_and_redo_step_through_the_edits_exactly(session):
+    view = build_four_bar(session)
+    built = view.design
+    view.delete("bar2")
+    assert [b.name for b in view.design.bodies] == ["bar1", "bar3"] and len(view.design.joints) == 2
+    view.undo()
+    assert view.design == built
+    view.undo()  # the last bar's click pair was one edit: the bar and its two pins go together
+    assert [b.name for b in view.design.bodies] == ["bar1", "bar2"] and len(view.design.joints) == 2
+    view.redo()
+    view.redo()
+    assert "bar2" not in view.design.names()
+    notices = count_notices(session)
+    view.redo()
+    assert notices == ["Not applied: redo: nothing to redo"]
+
+
+def test_a_refused_edit_is_one_notice_naming_the_item_and_changes_nothing(session):
+    view = build_four_bar(session)
+    before = view.design
+    notices = count_notices(session)
+    view.add_pin("pin9", "bar1.B", "bar7.A")
+    view.rename("bar1", "bar2")
+    view.set_tool("Pin")
+    view.click((0.2, 0.3))  # no point near
+    assert len(notices) == 3, notices
+    assert "bar7" in notices[0] and "'bar2'" in notices[1] and "no point within" in notices[2]
+    assert view.design == before
+    with pytest.raises(Exception, match="tool"):
+        view.set_tool("Lasso")
+    assert view.tool in TOOLS
+
+
+def test_a_design_saved_and_opened_again_is_the_same_design(session):
+    view = build_four_bar(session)
+    pin = next(j.name for j in view.design.joints if "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=3.0)
+    view.set_trace("bar2.B")
+    saved = view.design
+    for fmt in ("toml", "json"):
+        name, content = view.save_file(fmt)
+        assert name == f"design.{fmt}"
+        assert design_from_text(content.decode("utf-8"), name) == saved
+        view.delete("bar3")
+        view.open_file(name, content)
+        assert view.design == saved
+    notices = count_notices(session)
+    session.guard(lambda: view.open_file("broken.toml", b"[[bodies]]\nname = 3\n"))
+    assert len(notices) == 1 and "broken.toml" in notices[0]
+    assert view.design == saved
+
+
+def test_a_drag_reassembles_and_an_impossible_one_keeps_the_last_valid_design_with_one_notice(session):
+    view = build_four_bar(session)
+    pin = next(j.name for j in view.design.joints if "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=2 * math.pi)
+    view.set_trace("bar2.B")
+    curve_before = view.curve
+    references = [reference for reference, _ in handles_of(view.design)]
+    instance = references.index("ground.G2")
+    edits = len(view.history.done)
+    notices = count_notices(session)
+    view.handle("start", instance, to_world(np.array(GROUND_2)))
+    view.handle("update", instance, to_world(np.array([0.42, 0.013])))
+    valid = view.shown
+    assert valid.point("ground.G2") == pytest.approx((0.42, 0.01))  # snapped to the 0.01 m grid
+    bar3 = valid.body("bar3")
+    assert math.dist(*(xy for _, xy in bar3.points)) == pytest.approx(math.hypot(0.05, 0.25), abs=1e-9)
+    assert valid.point("bar3.B") == pytest.approx((0.42, 0.01), abs=1e-9), "the rocker follows its pivot"
+    assert view.curve is not None and not np.allclose(view.curve, curve_before), "the coupler curve changed"
+    for x in (2.0, 2.5, 3.0):  # far beyond what the bars reach
+        view.handle("update", instance, to_world(np.array([x, 0.0])))
+    view.handle("end", instance, to_world(np.array([3.0, 0.0])))
+    assert len(notices) == 1 and "cannot be assembled" in notices[0] and "joint '" in notices[0], notices
+    assert view.design == valid and view.shown == valid
+    assert len(view.history.done) == edits + 1, "the drag is one edit"
+    view.undo()
+    assert view.design.point("ground.G2") == GROUND_2
+
+
+def test_start_from_preset_opens_the_shown_mechanism_as_a_design(session):
+    view = session.design_view
+    view.start_from_preset()
+    assert {b.name for b in view.design.bodies} == {b.name for b in session.mechanism.bodies}
+    topology = topology_of(view.design)
+    assert topology.mobility == 1 and "driven by 1 motor" in view.topology_line.content
+
+
+def test_a_link_asks_for_design_mode_with_design_1():
+    assert design_flag_from([("design", "1"), ("g", "9")]) == ([("g", "9")], True, [])
+    assert design_flag_from([("g", "9")]) == ([("g", "9")], False, [])
+    rest, on, refused = design_flag_from([("design", "yes please")])
+    assert rest == [] and not on and "design" in refused[0]
+
+
+def test_a_link_with_design_1_opens_the_session_designing(in_process):
+    server = LabServer(port=0, warm=False, preset="crank-rocker")
+    client = None
+    try:
+        client = BrowserStandIn(server.url + SETUP_PATH + urllib.parse.quote("preset=crank-rocker&design=1", safe=""))
+        assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+        (session,) = server.sessions.values()
+        assert wait_until(lambda: session.design_view.on, timeout=60), "the page opens designing"
+        assert session.camera.view == "front" and not session.player.playing
+        assert session.design_view.designing_box.value is True
+    finally:
+        if client is not None:
+            client.close()
+        server.stop()
+
+
+def test_a_slider_crank_drawn_by_clicks_with_the_slider_tool_strokes_twice_its_crank(session):
+    view = session.design_view
+    view.set_designing(True)
+    view.set_tool("Ground pivot")
+    view.click((0.0, 0.0))
+    view.click((0.5, 0.0))  # the guide's point on the ground
+    view.set_tool("Bar")  # crank, rod, and a piston pinned to the rod (a slider holds its body's angle too)
+    for first, second in (((0.0, 0.0), (0.05, 0.0)), ((0.05, 0.0), (0.25, 0.0)), ((0.25, 0.0), (0.3, 0.0))):
+        view.click(first)
+        view.click(second)
+    view.set_tool("Slider")
+    view.click((0.3, 0.0))  # the piston's far end: the sliding point
+    view.click((0.5, 0.0))  # a point of its guide, along the default direction 1, 0
+    design = view.design
+    slider = next(j for j in design.joints if j.kind == "prismatic")
+    assert (slider.body, slider.point, slider.on, slider.through) == ("bar3", "B", "ground", "G2")
+    assert topology_of(design).mobility == 1, view.topology_line.content
+    pin = next(j.name for j in design.joints if j.kind == "revolute" and "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=3.0)
+    view.set_trace("bar3.B")
+    assert view.curve is not None and np.all(np.isfinite(view.curve))
+    assert np.ptp(view.curve[:, 0]) == pytest.approx(0.1, rel=1e-6) and np.ptp(view.curve[:, 1]) < 1e-9
+    assert {"bodies", "curve", "points"} <= set(view._nodes)
+
+
+def test_a_viewer_of_a_presenters_session_cannot_click_or_drag_the_design(session):
+    view = build_four_bar(session)
+    before = view.design
+    session.is_presenter = lambda client_id: client_id == 1
+    notices = count_notices(session)
+    view.set_tool("Ground pivot")
+    view.click((0.2, 0.2), client_id=2)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    view.handle("start", instance, to_world(np.array(GROUND_2)), client_id=2)
+    view.handle("end", instance, to_world(np.array([0.42, 0.0])), client_id=2)
+    assert view.design == before and len(notices) == 2 and all("presenter" in n for n in notices), notices
+    with pytest.raises(Exception, match="presenter"):
+        view.open_upload(2, "design.toml", view.save_file("toml")[1])
+    view.click((0.2, 0.2), client_id=1)
+    assert view.design.point("ground.G3") == (0.2, 0.2)
+
+
+def test_a_burst_of_drag_moves_is_coalesced_and_ends_as_one_edit(session):
+    view = build_four_bar(session)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    edits = len(view.history.done)
+    view.push("start", instance, to_world(np.array(GROUND_2)))
+    for k in range(40):  # viser sends ~20 a second; here all at once
+        view.push("update", instance, to_world(np.array([0.4 + 0.001 * k, 0.0])))
+    view.push("end", instance, to_world(np.array([0.45, 0.02])))
+    assert wait_until(lambda: len(view.history.done) == edits + 1, timeout=30), "the drag ends as one edit"
+    assert view.design.point("ground.G2") == pytest.approx((0.45, 0.02))
+    assert 1 <= view.drags_applied <= 5, "the moves in between were coalesced (the newest wins)"
+
+
+def test_run_of_a_design_that_cannot_close_is_one_notice_and_designing_goes_on(session):
+    view = build_four_bar(session)
+    view.add_ground("far", (2.0, 0.0))
+    view.add_pin("stretch", "bar2.B", "ground.far")  # the coupler's end cannot reach 2 m
+    label, mechanism = session.label, session.mechanism
+    notices = count_notices(session)
+    session.guard(view.run)  # what the Run button does
+    assert len(notices) == 1 and "Not applied" in notices[0], notices
+    assert view.on and session.label == label and session.mechanism == mechanism
+
+
+def test_play_while_designing_shows_the_run_again(session):
+    view = session.design_view
+    view.set_designing(True)
+    assert view.on and not session.player.playing and view._run_frame.visible is False
+    session.press("Play")
+    assert not view.on and view._run_frame.visible is True
+    assert wait_until(lambda: session.player.playing, timeout=30)
+
+
+def test_a_bodys_own_mass_is_set_stated_and_given_back_to_the_density_model(session):
+    view = build_four_bar(session)
+    assert "bar1 0.1 kg" in view.masses_line.content and "density model, 1 kg/m" in view.masses_line.content
+    view.set_mass("bar2", 2.5, 0.04)
+    body = view.design.body("bar2")
+    assert (body.mass, body.inertia) == (2.5, 0.04)
+    assert "bar2 2.5 kg, 0.04 kg m² (own)" in view.masses_line.content
+    assert view.design.to_mechanism().body("bar2").mass == 2.5
+    notices = count_notices(session)
+    view.set_mass("bar2", -1.0, 0.04)
+    assert len(notices) == 1 and "bar2" in notices[0] and view.design.body("bar2").mass == 2.5, notices
+    view.set_mass("bar2", None)
+    assert view.design.body("bar2").mass is None and "(own)" not in view.masses_line.content
+
+
+def test_the_refusal_of_a_drag_through_the_worker_stays_on_screen_after_the_drag(session):
+    view = build_four_bar(session)
+    instance = [reference for reference, _ in handles_of(view.design)].index("ground.G2")
+    before = view.design
+    notices = count_notices(session)
+    view.push("start", instance, to_world(np.array(GROUND_2)))
+    view.push("update", instance, to_world(np.array([2.0, 0.0])))
+    assert wait_until(lambda: len(notices) == 1, timeout=30), notices
+    view.push("end", instance, to_world(np.array([2.5, 0.0])))  # refused again: nothing more said
+    assert wait_until(lambda: view._grab is None, timeout=30)
+    assert len(notices) == 1, notices
+    assert "cannot be assembled" in notices[0] and session.notices.showing == "Not applied"
+    assert view.design == before
