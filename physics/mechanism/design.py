@@ -391,8 +391,9 @@ def _opened_body(body: Body) -> DesignBody:
     """A file's body as a design body: its own mass properties, unless they are exactly the density model's
     (a saved design's body), so a design saved and opened again is the same design."""
     points = tuple(body.points.items())
-    mass, centre, inertia = default_mass_properties(tuple(xy for _, xy in points))
-    if (body.mass, body.com, body.inertia) == (mass, centre, inertia):
+    sketch = tuple(xy for _, xy in points)
+    # a body of one point (the slider-crank's piston) has no outline, so no density model: its own mass stays
+    if _outline_length(sketch) > 0.0 and (body.mass, body.com, body.inertia) == default_mass_properties(sketch):
         return DesignBody(name=body.name, points=points)
     return DesignBody(name=body.name, points=points, mass=body.mass, com=body.com, inertia=body.inertia)
 
