@@ -20,9 +20,15 @@ onto an existing point near it, which the new body is then pinned to).
 
 from __future__ import annotations
 
+import base64
+import binascii
+import json
 import math
+import re
 import threading
 import time
+import urllib.parse
+import zlib
 from pathlib import Path
 from typing import Any, Callable
 
@@ -31,12 +37,15 @@ import numpy as np
 from physics import LinkageError
 from physics.mechanism.design import Design, History, default_mass_properties, design_from_mechanism
 from physics.mechanism.design_analysis import coupler_curve, design_from_text, design_to_text, drag, topology_of
+from physics.mechanism.files import mechanism_from_document
 from physics.mechanism.presets import LINEAR_DENSITY
+from physics.mechanism.writer import to_document
 
 from .drag_start import plane_point
 from .logs import quietly
 from .scene import BAR_COLORS, GROUND_COLOR, instance_colors, pose_disc, to_world
 from .shapes import UNIT_SPHERE
+from .share import MAX_SKETCH_CHARS  # the compressed design's length in a link (a page's address stays short)
 from .viser_compat import connection_open, update_node_props
 
 TOOLS = ("Drag points", "Ground pivot", "Bar", "Plate", "Pin", "Slider")
@@ -56,6 +65,9 @@ MIN_INTERVAL = 0.05  # s between two re-assemblies of one drag (viser sends ~20 
 POINT_NAMES = "ABCDEFGHIJKLMNOP"  # a new body's points, in the order clicked
 DESIGN_ROOT = "/design"
 RUN_ROOT = "/linkage"  # the session's drawing of the run (app/mechanism_scene.py, trace, arrows): hidden as one
+SKETCH = "sketch"  # a design's share link: ?sketch=<the design, compressed>
+MAX_SKETCH_BYTES = 256 * 1024  # the decompressed design's size: a larger one is refused before it is read
+SKETCH_ALPHABET = re.compile(r"^[A-Za-z0-9_-]*$")  # base64url without padding
 
 
 def design_flag_from(setup: list[tuple[str, str]]) -> tuple[list[tuple[str, str]], bool, list[str]]:
@@ -71,6 +83,62 @@ def design_flag_from(setup: list[tuple[str, str]]) -> tuple[list[tuple[str, str]
     if value in ("0", "false", "off"):
         return rest, False, []
     return rest, False, [f"design: {values[-1][:20]!r} is not 0 or 1 (design=1 opens the page in Design mode)"]
+
+
+def sketch_of(design: Design) -> str:
+    """The design as a link's ``sketch=`` value: its mechanism file's JSON (compact), zlib-compressed, base64url
+    without padding; LinkageError when it is incomplete (no body or no joint) or too long for a link."""
+    text = json.dumps(to_document(design.to_mechanism()), separators=(",", ":"))
+    value = base64.urlsafe_b64encode(zlib.compress(text.encode("utf-8"), 9)).rstrip(b"=").decode("ascii")
+    if len(value) > MAX_SKETCH_CHARS:
+        raise LinkageError(f"design link: the design compressed is {len(value)} characters; a link carries at "
+                           f"most {MAX_SKETCH_CHARS}: save the design as a file instead (Save the design: TOML "
+                           f"or JSON) and open it with 'Open a design file'")
+    return value
+
+
+def design_from_sketch(value: str) -> Design:
+    """A link's ``sketch=`` value read back as a design: decoded, decompressed to at most MAX_SKETCH_BYTES (a
+    small value that inflates to more is refused), parsed as JSON and validated by the file format's models
+    (never evaluated); LinkageError naming ``sketch`` and what is wrong otherwise."""
+    if len(value) > MAX_SKETCH_CHARS:
+        raise LinkageError(f"{SKETCH}: {len(value)} characters; at most {MAX_SKETCH_CHARS}")
+    if not value or not SKETCH_ALPHABET.match(value):
+        raise LinkageError(f"{SKETCH}: not a design link's value (expected base64url letters, digits, - and _)")
+    try:
+        packed = base64.urlsafe_b64decode(value + "=" * (-len(value) % 4))
+    except (binascii.Error, ValueError):
+        raise LinkageError(f"{SKETCH}: not a design link's value (its base64url is cut short)") from None
+    inflate = zlib.decompressobj()
+    try:
+        data = inflate.decompress(packed, MAX_SKETCH_BYTES + 1)
+    except zlib.error:
+        raise LinkageError(f"{SKETCH}: not a design link's value (not compressed data)") from None
+    if len(data) > MAX_SKETCH_BYTES or inflate.unconsumed_tail:
+        raise LinkageError(f"{SKETCH}: decompresses to over {MAX_SKETCH_BYTES // 1024} KB; a design is at most "
+                           f"{MAX_SKETCH_BYTES // 1024} KB")
+    if not inflate.eof:
+        raise LinkageError(f"{SKETCH}: not a design link's value (its compressed data is cut short)")
+    try:
+        document = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        raise LinkageError(f"{SKETCH}: not a design link's value (not a mechanism's JSON)") from None
+    except RecursionError:
+        raise LinkageError(f"{SKETCH}: nested too deeply") from None
+    return design_from_mechanism(mechanism_from_document(document, SKETCH))
+
+
+def sketch_from(setup: list[tuple[str, str]]) -> tuple[list[tuple[str, str]], Design | None, list[str]]:
+    """A link's ``sketch=`` taken out of its setup: the setup without it, the design it carries (None: none, or
+    refused) and the reason it is refused (one line naming ``sketch``)."""
+    values = [value for key, value in setup if key == SKETCH]
+    rest = [(key, value) for key, value in setup if key != SKETCH]
+    if not values:
+        return rest, None, []
+    try:
+        return rest, design_from_sketch(values[-1]), []
+    except LinkageError as error:
+        return rest, None, [str(error)]
 
 
 def handles_of(design: Design) -> list[tuple[str, tuple[float, float]]]:
@@ -242,6 +310,10 @@ class DesignView:
                                                      hint="The file format of docs/mechanisms.md (--mechanism)")
             bind(self.save_buttons, lambda event: self.save(str(self.save_buttons.value).lower(),
                                                             getattr(event, "client", None)))
+            self.link_button = gui.add_button("Link to this design",
+                                              hint="A link that opens this design, designing, in a new page")
+            bind(self.link_button, lambda event: self.show_link())
+            self.link_line = gui.add_markdown("")
             self.open_button = gui.add_upload_button("Open a design file (TOML or JSON)",
                                                      hint="A mechanism file; at most 1 MB")
             bind(self.open_button, lambda event: self.open_upload(getattr(event, "client_id", None),
@@ -491,6 +563,24 @@ class DesignView:
     def save(self, fmt: str, client=None) -> None:
         name, content = self.save_file(fmt)
         (client or self.session.target).send_file_download(name, content)
+
+    def link_query(self) -> str:
+        """The query of the design's share link (``?sketch=...``); LinkageError when it cannot be one."""
+        return "?" + urllib.parse.urlencode([(SKETCH, sketch_of(self.design))])
+
+    def show_link(self) -> str:
+        """The design's link under the button, from the server's root (``/``): it never carries the address of
+        the page that asked (a presenter's secret one)."""
+        query = self.link_query()
+        self.link_line.content = (f"[Open this design](/{query}) (right-click to copy the link): it opens this "
+                                  f"design in Design mode, in a new session on this server.")
+        return query
+
+    def open_design(self, design: Design) -> Design:
+        """A design from elsewhere (a link) made current: one edit of the history, framed while designing."""
+        self._apply(design)
+        self._frame()
+        return design
 
     def open_upload(self, client_id: int | None, name: object, content: object) -> Design | None:
         """A file chosen in the browser (an upload finishes after its sender may have gone: the sender is

@@ -29,7 +29,7 @@ from . import processes as server_processes
 from . import warm as warm_up
 from .compile_notice import TITLE as COMPILE_TITLE
 from .compile_notice import CompileNotices
-from .design_view import design_flag_from
+from .design_view import design_flag_from, sketch_from
 from .lab_session import LabSession
 from .logs import quietly
 from .mechanism_runs import start_state
@@ -250,6 +250,8 @@ class LabServer:
             refused += refused_lecture
             setup, design_mode, refused_design = design_flag_from(setup)  # ?design=1 (app/design_view.py)
             refused += refused_design
+            setup, sketch, refused_sketch = sketch_from(setup)  # ?sketch=: a design's link (app/design_view.py)
+            refused += refused_sketch
             preset, links, not_started = share.start_of(setup, self.preset, self.links, mechanisms=True)
             named = dict(setup).get("preset") == preset  # the link's own preset wins over the server's start
             session = self._start_session(client, preset, links, shared=False,
@@ -259,7 +261,9 @@ class LabServer:
             refused += not_started + share.apply_setup(setup, session.set_link_value)
             if lecture_mode:
                 session.set_lecture(True)
-            if design_mode and (designer := getattr(session, "design_view", None)) is not None:
+            if (design_mode or sketch is not None) and (designer := getattr(session, "design_view", None)):
+                if sketch is not None:
+                    designer.open_design(sketch)
                 designer.set_designing(True)
             if refused:
                 session.show_notice("Not applied from the link", "; ".join(refused))
@@ -362,9 +366,15 @@ class LabServer:
                 "presenter's session, set up from the presenter's page.", color="blue", auto_close_seconds=None),
                 "telling a viewer the presenter controls the setup")
             return
-        session.guard(lambda: session.open_setup(share.SavedSetup(pairs, where="the link")))
-        if not self.autoplay:
-            session.wait_at_start()
+        pairs, sketch, refused_sketch = sketch_from(pairs)  # a design's link (app/design_view.py)
+        if refused_sketch:
+            session.show_notice("Not applied from the link", "; ".join(refused_sketch))
+        if pairs:
+            session.guard(lambda: session.open_setup(share.SavedSetup(pairs, where="the link")))
+            if not self.autoplay:
+                session.wait_at_start()
+        if sketch is not None and (designer := getattr(session, "design_view", None)) is not None:
+            session.guard(lambda: (designer.open_design(sketch), designer.set_designing(True)))
 
     def _setup_of(self, client) -> tuple[list[tuple[str, str]], list[str]]:
         """The setup a share link carries (app/share.py), and why it cannot be read if so."""

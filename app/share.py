@@ -28,6 +28,7 @@ from .parameters import SessionParameters, driving_count
 
 SETUP_PATH = "/setup/"
 MAX_SETUP_CHARS = 4000  # a share link a person could paste; anything longer is refused, not parsed
+MAX_SKETCH_CHARS = 6000  # a design's link (sketch=, app/design_view.py): its compressed design, counted apart
 MAX_SETUP_NAMES = 80  # 12 bars x (L, d, m, I, theta, omega) and the settings
 FIRST = ("preset", "links")  # the mechanism comes first: the other names are its bars and settings
 SETTINGS = ("method", "integrator", "rtol", "step", "stabilization", "baumgarte_alpha", "baumgarte_beta", "damping")
@@ -39,9 +40,14 @@ def setup_from_path(path: str | None) -> list[tuple[str, str]] | None:
     if not path or not path.startswith(SETUP_PATH):
         return None
     encoded = path[len(SETUP_PATH):]
-    if len(encoded) > MAX_SETUP_CHARS:
-        raise LinkageError(f"link: {len(encoded)} characters; at most {MAX_SETUP_CHARS}")
+    if len(encoded) > MAX_SETUP_CHARS + MAX_SKETCH_CHARS + 100:  # not parsed: over any link's length
+        raise LinkageError(f"link: {len(encoded)} characters; at most {MAX_SETUP_CHARS} (a design's link: "
+                           f"sketch= up to {MAX_SKETCH_CHARS} more)")
     pairs = urllib.parse.parse_qsl(urllib.parse.unquote(encoded), keep_blank_values=True)
+    # a design's sketch is bounded by its reader (it names it); the rest of the link as any link is
+    sketch_chars = sum(len(value) for name, value in pairs if name == "sketch")
+    if len(encoded) - sketch_chars > MAX_SETUP_CHARS:
+        raise LinkageError(f"link: {len(encoded)} characters; at most {MAX_SETUP_CHARS}")
     if len(pairs) > MAX_SETUP_NAMES:
         raise LinkageError(f"link: {len(pairs)} values; at most {MAX_SETUP_NAMES}")
     return pairs
