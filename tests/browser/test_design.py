@@ -145,3 +145,55 @@ def test_an_impossible_drag_with_the_mouse_is_one_notice_and_undo_redo_buttons_s
     wait_until(lambda: view.design == expected, message="Undo to the design before the drag")
     app.page.get_by_role("button", name="Redo", exact=True).click()
     wait_until(lambda: view.design == after, message="Redo to the dragged design")
+
+
+def test_a_slider_crank_drawn_with_the_mouse_and_the_slider_tool_runs(start_lab):
+    lab = start_lab(preset="crank-rocker")
+    app = lab.open_page(viewport=VIEWPORT)
+    session = app.session
+    view = session.design_view
+    app.open_tab("Design")
+    app.page.get_by_text("Design in the scene", exact=True).click()
+    wait_until(lambda: view.on and session.camera.view == "front", message="designing, seen from the front")
+    snap.wait_for_drawn_frames(app.page)
+    app.page.wait_for_timeout(800)  # the camera's move to the front view arrives and is drawn
+
+    def history() -> int:
+        return len(view.history.done)
+
+    app.choose("Tool", "Ground pivot")
+    wait_until(lambda: view.tool == "Ground pivot", message="the tool chosen")
+    for k, xy in enumerate(((0.0, 0.0), (0.4, 0.0))):  # the crank's pivot, a point of the piston's guide
+        app.page.mouse.click(*on_page(app, xy))
+        wait_until(lambda k=k: history() == k + 1, message=f"ground pivot {k + 1} placed")
+    app.choose("Tool", "Bar")
+    wait_until(lambda: view.tool == "Bar", message="the bar tool chosen")
+    # crank, rod, and a piston pinned to the rod, each drawn from the point the last one ended on
+    for k, (first, second) in enumerate((((0.0, 0.0), (0.05, 0.0)), ((0.05, 0.0), (0.25, 0.0)),
+                                         ((0.25, 0.0), (0.3, 0.0)))):
+        app.page.mouse.click(*on_page(app, first))
+        wait_until(lambda: len(view.pending) == 1, message="the bar's first point")
+        app.page.mouse.click(*on_page(app, second))
+        wait_until(lambda k=k: history() == 3 + k, message=f"bar {k + 1} drawn")
+    app.choose("Tool", "Slider")
+    wait_until(lambda: view.tool == "Slider", message="the slider tool chosen")
+    app.page.mouse.click(*on_page(app, (0.3, 0.0)))  # the piston's far end slides ...
+    wait_until(lambda: len(view.pending) == 1, message="the sliding point picked")
+    app.page.mouse.click(*on_page(app, (0.4, 0.0)))  # ... along the guide through the second ground pivot
+    wait_until(lambda: history() == 6, message="the slider added")
+    design = view.design
+    slider = next(j for j in design.joints if j.kind == "prismatic")
+    assert (slider.body, slider.point, slider.on, slider.through) == ("bar3", "B", "ground", "G2"), slider
+    app.page.get_by_text("3 bodies, 4 joints, 1 loop: mobility 1", exact=False).wait_for(timeout=30_000)
+
+    pin = next(j.name for j in design.joints if j.kind == "revolute" and "ground.G1" in (j.a, j.b))
+    view.add_motor(pin, speed=3.0)  # the panel's motor row is driven by the four-bar test
+    view.set_trace("bar3.B")
+    wait_until(lambda: "driven by 1 motor" in view.topology_line.content, message="the motor added")
+    assert view.curve is not None and np.ptp(view.curve[:, 0]) == pytest.approx(0.1, rel=1e-6), \
+        "the piston strokes twice the crank"
+
+    app.page.get_by_role("button", name="Run", exact=True).click()
+    wait_until(lambda: session.label == "design (design)" and not view.on, message="the design to run")
+    wait_until(lambda: session.player.playing and session.player.display_time > 0.3, message="the run to play")
+    assert session.mechanism == view.design.to_mechanism()
