@@ -561,6 +561,17 @@ class DesignView:
         return f"{stem}.{fmt}", text.encode("utf-8")
 
     def save(self, fmt: str, client=None) -> None:
+        """The design as a file sent to ``client``'s page (every page when None). A viewer of a lecture may save
+        too: the file and a refusal ("add a bar first") go to that viewer's page alone, nothing shared changes."""
+        client_id = getattr(client, "client_id", None)
+        if client is not None and not self.session.may_change(client_id):
+            try:
+                name, content = self.save_file(fmt)
+            except LinkageError as error:
+                client.add_notification("Not saved", str(error), auto_close_seconds=8.0, color="yellow")
+                return
+            client.send_file_download(name, content)
+            return
         name, content = self.save_file(fmt)
         (client or self.session.target).send_file_download(name, content)
 

@@ -1277,8 +1277,10 @@ class Session(SessionBase):
 
     def _reading_only(self, handle) -> bool:
         """The controls any browser of a presenter's session may press: they read, for the sender's page alone
-        (the equations, their LaTeX), and change nothing shared."""
-        return handle is self.equations_button or handle is self.equations_tex
+        (the equations, their LaTeX, the design saved to the sender's machine), and change nothing shared."""
+        design_view = getattr(self, "design_view", None)
+        return (handle is self.equations_button or handle is self.equations_tex
+                or (design_view is not None and handle is design_view.save_buttons))
 
     def _equations_asked(self, client) -> None:
         """The Equations button: the presenter's (or a lone browser's) press shows them in the panel everyone

@@ -129,3 +129,32 @@ def test_the_presenters_press_shows_the_equations_to_everyone(shared):
     assert wait_until(lambda: session._equations_shown and "Deriving" not in session.equations.content, timeout=120)
     assert "<math" in session.equations.content or "\\(" in session.equations.content or "A x = b" in \
         session.equations.content
+
+
+def test_a_viewer_saves_the_design_to_its_own_machine_and_changes_nothing_shared(shared):
+    """Issue 27: in a lecture the viewers can save the presenter's design. A viewer's "Save the design" sends the
+    file to that viewer's page alone; the design, the notices and the other viewers' pages stay as they were."""
+    session = shared.shared_session
+    reader, other = BackgroundClient(shared.url), BackgroundClient(shared.url)
+    try:
+        assert wait_until(lambda: len(shared.viser.get_clients()) >= 2, timeout=30)
+        notice = session.notices.text
+        told, others_told = (client.counts.by_type["NotificationShowMessage"] for client in (reader, other))
+        # with nothing designed yet, the refusal goes to the viewer's page alone
+        reader.send_value(viser_compat.control_id(session.design_view.save_buttons), "TOML")
+        assert reader.wait_for(lambda counts: counts.by_type["NotificationShowMessage"] > told, timeout=60), \
+            "the viewer was not told why nothing was saved"
+        time.sleep(0.5)
+        assert session.notices.text == notice and other.counts.by_type["NotificationShowMessage"] == others_told
+        session.design_view.start_from_preset()  # the presenter opens the linkage shown as a design
+        design, notice = session.design_view.design, session.notices.text
+        assert design.bodies
+        reader.send_value(viser_compat.control_id(session.design_view.save_buttons), "TOML")
+        assert reader.wait_for(lambda counts: counts.by_type["FileTransferStartDownload"] >= 1, timeout=60), \
+            "the viewer who pressed Save got no file"
+        time.sleep(0.5)
+        assert other.counts.by_type["FileTransferStartDownload"] == 0, "another viewer's page got the file too"
+        assert session.design_view.design == design and session.notices.text == notice
+    finally:
+        reader.close()
+        other.close()
