@@ -366,15 +366,19 @@ class LabServer:
                 "presenter's session, set up from the presenter's page.", color="blue", auto_close_seconds=None),
                 "telling a viewer the presenter controls the setup")
             return
+        pairs, design_mode, refused_design = design_flag_from(pairs)  # ?design=1: the presenter designs
         pairs, sketch, refused_sketch = sketch_from(pairs)  # a design's link (app/design_view.py)
-        if refused_sketch:
-            session.show_notice("Not applied from the link", "; ".join(refused_sketch))
+        if refused_design + refused_sketch:
+            session.show_notice("Not applied from the link", "; ".join(refused_design + refused_sketch))
         if pairs:
             session.guard(lambda: session.open_setup(share.SavedSetup(pairs, where="the link")))
             if not self.autoplay:
                 session.wait_at_start()
-        if sketch is not None and (designer := getattr(session, "design_view", None)) is not None:
-            session.guard(lambda: (designer.open_design(sketch), designer.set_designing(True)))
+        if (designer := getattr(session, "design_view", None)) is not None:
+            if sketch is not None:
+                session.guard(lambda: (designer.open_design(sketch), designer.set_designing(True)))
+            elif design_mode:
+                session.guard(lambda: designer.set_designing(True))
 
     def _setup_of(self, client) -> tuple[list[tuple[str, str]], list[str]]:
         """The setup a share link carries (app/share.py), and why it cannot be read if so."""

@@ -205,3 +205,25 @@ def test_in_a_lecture_the_presenters_design_link_opens_it_for_everyone_and_no_li
             if client is not None:
                 client.close()
         server.stop()
+
+
+def test_in_a_lecture_the_presenters_design_1_link_opens_design_mode_for_everyone(in_process):
+    """``?design=1`` on the presenter's address opens the shared session designing (it was read as a control
+    name and refused); a bad value is one notice naming ``design``."""
+    server = LabServer(port=0, warm=False, shared=True, preset="triple-a", autoplay=False)
+    presenter = None
+    try:
+        session = server.shared_session
+        assert session.player.wait_idle(120)
+        presenter = BrowserStandIn(server.presenter_url + SETUP_PATH + "design%3D1")
+        assert wait_until(lambda: session.design_view.on, timeout=60), "the presenter's design=1 opens Design mode"
+        assert session.notices.text is None or not session.notices.text.startswith("Not applied"), \
+            session.notices.text
+        presenter.close()
+        presenter = BrowserStandIn(server.presenter_url + SETUP_PATH + "design%3Dmaybe")
+        assert wait_until(lambda: (session.notices.text or "").startswith("Not applied from the link: design:"),
+                          timeout=60), session.notices.text
+    finally:
+        if presenter is not None:
+            presenter.close()
+        server.stop()
