@@ -10,19 +10,23 @@ from __future__ import annotations
 
 import math
 import urllib.parse
+from typing import Callable
 
 import numpy as np
 import pytest
 import viser
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app import mechanism_workers
-from app.design_view import TOOLS, design_flag_from, handles_of
+from app.design_view import TOOLS, design_flag_from, free_name, handles_of
 from app.scene import to_world
 from app.server import LabServer
 from app.session import MECHANISM_PRESETS, Session
 from app.share import SETUP_PATH
 from conftest import BrowserStandIn, wait_until
 from physics.cli import main
+from physics.mechanism.design import Design
 from physics.mechanism.design_analysis import design_from_text, topology_of
 
 CRANK, COUPLER_END, GROUND_2 = (0.1, 0.0), (0.45, 0.25), (0.4, 0.0)
@@ -413,3 +417,85 @@ def test_a_design_saved_and_run_gives_the_same_csv_as_the_file_written_by_hand(s
                          "--out", str(out)]) == 0
             runs.append(out.read_bytes())
         assert len(runs[0]) > 1000 and runs[0] == runs[1], fmt
+
+
+FOUR_BAR = (Design().add_ground("O2", (0.0, 0.0)).add_ground("O4", GROUND_2)
+            .add_bar("crank", ("A0", (0.0, 0.0)), ("A", CRANK)).add_bar("coupler", ("A", CRANK), ("B", COUPLER_END))
+            .add_bar("rocker", ("B", COUPLER_END), ("B0", GROUND_2))
+            .add_pin("O2p", "ground.O2", "crank.A0").add_pin("Ap", "crank.A", "coupler.A")
+            .add_pin("Bp", "coupler.B", "rocker.B").add_pin("O4p", "rocker.B0", "ground.O4"))
+COORD = st.floats(-0.6, 0.6, allow_nan=False).map(lambda v: round(v, 3))
+NAME = st.sampled_from(["a", "b", "bar1", "ground.G1", "pin1", "x y", "", "motor:pin1"])
+
+
+def _one_action(data, view) -> Callable[[], object]:
+    """One thing a designer does in the tab, drawn at random: a click with any tool, a pin or slider between named
+    points, a motor, a delete, a rename, a mass, a drag of any point, undo, redo (some of them refused)."""
+    references = [reference for reference, _ in handles_of(view.design)] + ["nowhere.P"]
+    kind = data.draw(st.sampled_from(["click", "click", "pin", "slider", "motor", "delete", "rename", "mass",
+                                      "drag", "undo", "redo"]))
+    if kind == "click":
+        tool, xy = data.draw(st.sampled_from(TOOLS)), (data.draw(COORD), data.draw(COORD))
+        return lambda: (view.set_tool(tool), view.click(xy))
+    if kind == "pin":
+        a, b = data.draw(st.sampled_from(references)), data.draw(st.sampled_from(references))
+        return lambda: view.add_pin(free_name(view.design, "pin"), a, b)
+    if kind == "slider":
+        a, b = data.draw(st.sampled_from(references)), data.draw(st.sampled_from(references))
+        direction = (data.draw(COORD), data.draw(COORD))
+        return lambda: view.add_slider(free_name(view.design, "slider"), a, b, direction)
+    if kind == "motor":
+        pins = [joint.name for joint in view.design.joints] + ["nopin"]
+        pin, speed = data.draw(st.sampled_from(pins)), data.draw(st.floats(-50.0, 50.0))
+        return lambda: view.add_motor(pin, speed=speed)
+    if kind == "delete":
+        name = data.draw(st.one_of(NAME, st.sampled_from([body.name for body in view.design.bodies] or ["-"])))
+        return lambda: view.delete(name)
+    if kind == "rename":
+        old = data.draw(st.one_of(NAME, st.sampled_from([body.name for body in view.design.bodies] or ["-"])))
+        new = data.draw(NAME)
+        return lambda: view.rename(old, new)
+    if kind == "mass":
+        body = data.draw(st.sampled_from([body.name for body in view.design.bodies] + ["nobody"]))
+        mass = data.draw(st.one_of(st.none(), st.just(math.nan), st.floats(-1.0, 10.0)))
+        return lambda: view.set_mass(body, mass, None if mass is None else 0.01)
+    if kind == "drag":
+        handles = handles_of(view.design)
+        if not handles:
+            return lambda: None
+        instance = data.draw(st.integers(0, len(handles) - 1))
+        start = np.asarray(handles[instance][1], dtype=float)
+        target = start + np.array([data.draw(COORD), data.draw(COORD)]) * 0.5
+        return lambda: (view.handle("start", instance, to_world(start)),
+                        view.handle("end", instance, to_world(target)))
+    return view.undo if kind == "undo" else view.redo
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_random_sequences_of_the_tabs_edits_are_applied_or_one_notice_and_undo_is_exact(session, data):
+    """Issue 27's property, through the tab (what a click, a drag or a button does), not the model alone: each
+    action changes the design to a valid one or is refused with at most one notice and leaves it as it was;
+    nothing raises; undo after an applied edit gives back exactly the design before it, redo the one after."""
+    view = session.design_view
+    view.set_designing(True)
+    view.edit(lambda design: data.draw(st.sampled_from([Design(), FOUR_BAR])))
+    notices = count_notices(session)
+    for _ in range(data.draw(st.integers(1, 8))):
+        before, told = view.design, len(notices)
+        action = _one_action(data, view)
+        action()  # never raises: a refusal is a notice
+        after = view.design
+        assert len(notices) - told <= 1, notices[told:]
+        if after != before and action not in (view.undo, view.redo):
+            assert len(notices) == told, f"applied and refused at once: {notices[told:]}"
+            if after.is_complete():
+                after.to_mechanism()  # a valid mechanism
+            view.undo()
+            assert view.design == before
+            view.redo()
+            assert view.design == after
+        elif len(notices) > told:
+            assert notices[-1].startswith("Not applied"), notices[-1]
+            assert after == before, "a refused action changed the design"
