@@ -237,7 +237,10 @@ def status_markdown(
     drift: float | None,
     constraint: float | None,
     notice: str | None,
+    warning: bool = True,
 ) -> str:
+    """The status line; ``notice`` is prefixed with a warning sign when ``warning`` (a refusal, a failure), not
+    when it is news (a study's "Done", "Computing")."""
     state = "playing" if playing else "paused"
     # Scrubbing back moves the shown time backwards: a negative "factor" says nothing about the run's speed.
     pace = f"real-time factor {rtf:4.2f}×" if math.isfinite(rtf) and rtf >= 0 else "scrubbing"
@@ -248,5 +251,5 @@ def status_markdown(
         parts.append(f"constraint error {constraint:.2e}")
     text = " · ".join(parts)
     if notice:
-        text += f"\n\n⚠ {markdown_literal(notice)}"
+        text += f"\n\n{'⚠ ' if warning else ''}{markdown_literal(notice)}"
     return text
