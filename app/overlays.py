@@ -23,9 +23,12 @@ REACTION_COLOR = (220, 60, 20)
 # mechanism is drawn (the reach is framed in the part of the canvas the panel leaves free).
 TRACE_PIXELS = 4.0
 
+# compare mode's runs (the scene's mechanisms, its key and its divergence charts all take them from here): hues far
+# apart, each with a contrast ratio of at least 3 against white and against the dark panel (26, 27, 30); Lagrange's
+# orange was (255, 127, 14), 2.4 against white: pale, and hard to tell from the green on a projector
 METHOD_COLORS = {
     "newton_euler": (31, 119, 180),
-    "lagrange": (255, 127, 14),
+    "lagrange": (200, 82, 0),
     "dae": (44, 160, 44),
     "reduced": (148, 103, 189),
 }
