@@ -8,6 +8,7 @@ import itertools
 
 from app.mechanism_compare import COMPARE_METHODS
 from app.overlays import ENERGY_COLORS, METHOD_COLORS
+from conftest import lab_of, wait_until
 
 BACKGROUNDS = {"light": (255, 255, 255), "dark": (26, 27, 30)}  # the panel's white and Mantine's dark body
 MIN_CONTRAST = 3.0  # WCAG's ratio for graphics
@@ -42,3 +43,28 @@ def test_compare_runs_are_told_apart_by_hue():
     close = [(a, b, round(_hue_apart(METHOD_COLORS[a], METHOD_COLORS[b]))) for a, b in
              itertools.combinations(COMPARE_METHODS, 2) if _hue_apart(METHOD_COLORS[a], METHOD_COLORS[b]) < MIN_HUE_APART]
     assert not close, f"compare-mode runs whose hues lie closer than {MIN_HUE_APART}°: {close}"
+
+
+slider_lab = lab_of("slider-crank")
+
+
+def _strokes(plot) -> list[str]:
+    return [s["stroke"] for s in plot.handle.series[1:]]
+
+
+def _rgb(color) -> str:
+    return "rgb({}, {}, {})".format(*color)
+
+
+def test_every_energy_chart_and_compare_chart_draws_the_one_palette(connect, slider_lab):
+    """A chain's and a mechanism's Energy chart draw kinetic, potential and total in ENERGY_COLORS; compare mode's
+    divergence chart draws each run in METHOD_COLORS (as its scene and key do, tests/app/test_compare_key.py)."""
+    for server in (None, slider_lab):
+        _, session = connect(server)
+        session.player.pause()
+        assert _strokes(session.energy_plot) == [_rgb(c) for c in ENERGY_COLORS]
+    _, session = connect()
+    session.player.pause()
+    session.set_compare(True)
+    assert wait_until(lambda: session.compare_view is not None and session.compare_view.between is not None, 60)
+    assert _strokes(session.compare_view.between) == [_rgb(METHOD_COLORS[m]) for m in COMPARE_METHODS[1:]]
