@@ -16,8 +16,10 @@ from .scene import REFRAME_TOLERANCE, camera_pose, mechanism_reach
 ASPECT_TOLERANCE = 0.05
 # The control panel floats over the canvas's right side: viser's "large" width, 24 em of 16 px, plus its margin.
 PANEL_PX = 400.0
-# Below this canvas width (a phone) the panel is folded away or fills the screen: frame the whole canvas.
-PANEL_MIN_CANVAS_PX = 600.0
+# Below this canvas width (a phone: viser's mobile layout below Mantine's xs breakpoint, 36 em) the panel is a
+# full-width bottom sheet, not beside the canvas: folded it leaves the whole canvas free, opened the canvas shrinks
+# to the part above it (static/page.html), so the whole canvas is framed either way.
+PANEL_MIN_CANVAS_PX = 576.0
 VIEWS = ("3d", "front")
 
 

@@ -16,6 +16,9 @@ from .logs import quietly
 from .viser_compat import resend_value
 
 NOTICE_SECONDS = 8.0
+# The notification colours that mean something went wrong or was not done (a refusal, a stopped run): the status
+# line marks those with a warning sign; a green "Done" or a blue "Computing" is news, not a warning.
+WARNING_COLORS = frozenset({"yellow", "orange", "red"})
 VIEWER_NOTICE_SECONDS = 4.0
 
 
@@ -33,6 +36,7 @@ class Notices:
         self._shown: tuple[str, str] | None = None
         self._until = 0.0
         self.text: str | None = None  # the notice on the status line (None when there is none)
+        self.warning = False  # whether that notice is a warning (WARNING_COLORS): the status line marks it so
         self.closed = False
         self.serial = 0  # notices asked for so far: an action that raised none is told apart from one that did
         self._on_screen: str | None = None  # the title of the notification in the browser(s), until taken down
@@ -41,6 +45,7 @@ class Notices:
         """Replace the current notice with this one (unless it is the same and still on screen)."""
         with self._lock:
             self.text = f"{title}: {body}"
+            self.warning = color in WARNING_COLORS
             self.serial += 1
             now = time.monotonic()
             if self._shown == (title, body) and now < self._until and self._handles:

@@ -23,9 +23,12 @@ REACTION_COLOR = (220, 60, 20)
 # mechanism is drawn (the reach is framed in the part of the canvas the panel leaves free).
 TRACE_PIXELS = 4.0
 
+# compare mode's runs (the scene's mechanisms, its key and its divergence charts all take them from here): hues far
+# apart, each with a contrast ratio of at least 3 against white and against the dark panel (26, 27, 30); Lagrange's
+# orange was (255, 127, 14), 2.4 against white: pale, and hard to tell from the green on a projector
 METHOD_COLORS = {
     "newton_euler": (31, 119, 180),
-    "lagrange": (255, 127, 14),
+    "lagrange": (200, 82, 0),
     "dae": (44, 160, 44),
     "reduced": (148, 103, 189),
 }
@@ -237,7 +240,10 @@ def status_markdown(
     drift: float | None,
     constraint: float | None,
     notice: str | None,
+    warning: bool = True,
 ) -> str:
+    """The status line; ``notice`` is prefixed with a warning sign when ``warning`` (a refusal, a failure), not
+    when it is news (a study's "Done", "Computing")."""
     state = "playing" if playing else "paused"
     # Scrubbing back moves the shown time backwards: a negative "factor" says nothing about the run's speed.
     pace = f"real-time factor {rtf:4.2f}×" if math.isfinite(rtf) and rtf >= 0 else "scrubbing"
@@ -248,5 +254,5 @@ def status_markdown(
         parts.append(f"constraint error {constraint:.2e}")
     text = " · ".join(parts)
     if notice:
-        text += f"\n\n⚠ {markdown_literal(notice)}"
+        text += f"\n\n{'⚠ ' if warning else ''}{markdown_literal(notice)}"
     return text

@@ -2016,7 +2016,7 @@ class Session(SessionBase):
             label = ("compare: " + ", ".join(METHOD_LABELS[m] for m in COMPARE_METHODS) if self.compare
                      else f"{METHOD_LABELS.get(self.settings.method, self.settings.method)} · {integrator}")
         text = status_markdown(t, self.player.playing, self.player.real_time_factor(), label, drift, residual,
-                               self.notices.text)
+                               self.notices.text, warning=self.notices.warning)
         condition = spec.condition_at(ring, index)  # this pose's alone (MechanismSpec.chunk leaves it)
         if condition > NEAR_SINGULAR_CONDITION:  # a change point or a dead centre is close
             text += f"\n\nnear a singular pose: Jacobian condition {condition:.2g}"

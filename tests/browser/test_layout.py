@@ -66,3 +66,35 @@ def test_at_1280x720_play_the_method_menu_and_the_first_slider_show_without_scro
     assert page.evaluate(SCROLLED) == 0
     box = method.bounding_box()
     assert _on_screen(box, panel, LAPTOP), f"the Method menu is below the fold at 1280x720: {box} (panel {panel})"
+
+
+# Every slider's end labels (Mantine's mark labels) and number box, with their right edges, and the panel's.
+SLIDER_LABELS = """
+() => {
+  const panel = document.querySelector('[data-testid="floating-panel"]');
+  const drawn = (e) => e.getBoundingClientRect().width > 0 && e.getBoundingClientRect().height > 0;
+  const labels = [...panel.querySelectorAll('.mantine-Slider-root')].filter(drawn).flatMap((slider) =>
+      [...slider.parentElement.querySelectorAll('.mantine-Slider-markLabel, input')].filter(drawn));
+  return {right: panel.getBoundingClientRect().right,
+          labels: labels.map((e) => [e.textContent || e.value, e.getBoundingClientRect().right])};
+}
+"""
+
+
+def test_at_1920x1080_no_slider_label_of_a_12_bar_chain_passes_the_panel_s_right_edge(start_lab):
+    """Issue 26 saw the 12-bar chain's slider end labels 17-19 px past the panel's right edge: every end label
+    and number box of every slider drawn, in every tab, ends inside the panel."""
+    lab = start_lab(preset="chain")
+    app_page = lab.open_page(viewport={"width": 1920, "height": 1080})
+    app_page.session.set_links(12)
+    page = app_page.page
+    page.get_by_text("bar 12: length L (m)", exact=True).first.wait_for(state="attached")
+    tabs = [tab.inner_text() for tab in page.get_by_role("tab").all() if tab.is_visible()]
+    checked = 0
+    for tab in tabs:
+        app_page.open_tab(tab)
+        shown = page.evaluate(SLIDER_LABELS)
+        past = [(text, right - shown["right"]) for text, right in shown["labels"] if right > shown["right"] + 0.5]
+        assert not past, f"slider labels past the panel's right edge in the {tab} tab (text, px past): {past}"
+        checked += len(shown["labels"])
+    assert checked >= 2 * 12, f"only {checked} slider labels drawn: the 12-bar panel did not show"
