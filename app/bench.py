@@ -23,6 +23,10 @@ the pose updates they receive. Nothing here is a test: tests/app assert, this me
   over J subprocesses) for S seconds, some leaving early;
   server CPU (every server process, and each one), resident memory over time (summed over the server's
   processes), sessions left, frames per second per client.
+* design-drag: in-process, one session per preset (``crank-rocker``, ``jansen-leg``) opened as a design in the
+  Design tab (app/design_view.py), a ground pivot grabbed and moved along a small circle: the server-side time
+  of each move, from the drag event to the re-assembled mechanism, its full-cycle coupler curve and the scene's
+  nodes sent (issue 27's 50 ms target). Not part of ``all``.
 * cycles: in-process server with ``--processes K``; ``--cycles C`` times, N clients (a subprocess) join, stay
   ``--cycle-seconds`` and leave; after each cycle, once every session has closed, the resident memory of every
   server process (issue 23: the last cycle's within 10 % of the first's). Not part of ``all``.
@@ -484,10 +488,70 @@ def measure_cycles(clients: int = 50, cycles: int = 6, processes: int = 3, secon
         server.stop()
 
 
+def measure_design_drag(presets: tuple[str, ...] = ("crank-rocker", "jansen-leg"), moves: int = 41) -> dict:
+    """Server-side time of a design's point dragged in the Design tab: each ``handle("update", ...)`` call does
+    what a browser's drag message does (re-assemble on the branch, coupler curve, nodes sent)."""
+    import math
+
+    import numpy as np
+    import viser
+
+    from .design_view import extent_of, handles_of
+    from .scene import to_world
+    from .session import MECHANISM_PRESETS, Session
+
+    out: dict = {}
+    for preset in presets:
+        server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+        session = Session(server, MECHANISM_PRESETS[preset](), label=preset, shared=True, autoplay=False)
+        try:
+            session.player.wait_idle(120)
+            view = session.design_view
+            view.set_designing(True)
+            design = view.start_from_preset()
+            if design is None:
+                raise RuntimeError(f"{preset}: could not be opened as a design")
+            if design.trace is None:  # a traced point: the curve is part of what each move draws
+                view.set_trace(f"{design.bodies[-1].name}.{design.bodies[-1].points[-1][0]}")
+            handles = [reference for reference, _ in handles_of(view.design)]
+            # the ground pivot the model's bench drags (physics/studies/design_bench.py): the first one no motor
+            # turns about
+            motor_pins = {driver.joint for driver in view.design.drivers}
+            driven = {ref for joint in view.design.joints if joint.name in motor_pins for ref in (joint.a, joint.b)}
+            grabbed = next(k for k, reference in enumerate(handles)
+                           if reference.startswith("ground.") and reference not in driven)
+            centre = np.array(view.design.point(handles[grabbed]), dtype=float)
+            radius = 0.01 * extent_of(view.design)
+            view.grid = None  # every move a new position (a grid would repeat some)
+            view.handle("start", grabbed, to_world(centre))
+            times, drawn_before = [], view.drags_applied
+            for k in range(moves):
+                angle = 2.0 * math.pi * k / moves
+                target = centre + radius * np.array([math.cos(angle) - 1.0, math.sin(angle)])
+                began = time.perf_counter()
+                view.handle("update", grabbed, to_world(target))
+                times.append(time.perf_counter() - began)
+            view.handle("end", grabbed, to_world(centre))
+            curve = view.curve
+            out[preset] = {
+                "moves": moves, "redrawn": view.drags_applied - drawn_before,
+                "grabbed": handles[grabbed], "curve_points": 0 if curve is None else int(len(curve)),
+                "median_ms": round(1e3 * statistics.median(times), 2),
+                "p90_ms": round(1e3 * sorted(times)[int(0.9 * (len(times) - 1))], 2),
+                "max_ms": round(1e3 * max(times), 2),
+                "load_average": round(os.getloadavg()[0], 2),
+            }
+        finally:
+            session.close(clean=True)
+            server.stop()
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("part", choices=["all", "start", "browser-start", "latency", "cpu", "load", "cycles"], nargs="?", default="all")
+    parser.add_argument("part", choices=["all", "start", "browser-start", "latency", "cpu", "load", "cycles",
+                                                  "design-drag"], nargs="?", default="all")
     parser.add_argument("--clients", type=int, default=30)
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--shared", action="store_true")
@@ -535,6 +599,8 @@ def main(argv: list[str] | None = None) -> int:
         load.pop("per_client")
         load.pop("samples")
         out["load"] = load
+    if args.part == "design-drag":  # not in "all": the Design tab's drag, server side
+        out["design_drag"] = measure_design_drag()
     if args.part == "cycles":  # not in "all": it measures memory over minutes of joining and leaving
         out["cycles"] = measure_cycles(args.clients, args.cycles, args.processes, seconds=args.cycle_seconds)
     print(json.dumps(out, indent=2))

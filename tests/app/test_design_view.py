@@ -499,3 +499,15 @@ def test_random_sequences_of_the_tabs_edits_are_applied_or_one_notice_and_undo_i
         elif len(notices) > told:
             assert notices[-1].startswith("Not applied"), notices[-1]
             assert after == before, "a refused action changed the design"
+
+
+def test_the_drag_bench_moves_a_free_pivot_and_times_each_redraw(in_process):
+    """``python -m app.bench design-drag`` (issue 27's latency figure): every move re-assembles and draws the
+    full coupler curve, for the presets' sizes (Jansen's leg included)."""
+    from app.bench import measure_design_drag
+
+    rows = measure_design_drag(("crank-rocker", "jansen-leg"), moves=4)
+    for preset, row in rows.items():
+        assert row["redrawn"] == 5, (preset, row)  # four moves and the release, each one redraw
+        assert row["curve_points"] == 121 and row["grabbed"].startswith("ground."), (preset, row)
+        assert 0 < row["median_ms"] <= row["max_ms"], (preset, row)
