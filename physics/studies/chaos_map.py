@@ -473,7 +473,7 @@ FRAME_TEXT_PX = 16
 """px: the framed picture's text. The picture is about 390 px wide and the app shows it at its panel's width
 (about 350 px at 1920 x 1080), so this text is shown at about 14.5 px; PIL's built-in bitmap font (about 11 px,
 digits 7 px tall) was shown 6 px tall."""
-FRAME_LEFT, FRAME_BOTTOM, FRAME_TOP, BAR_WIDTH, BAR_GAP, BAR_LABELS = 48, 44, 50, 14, 10, 60
+FRAME_LEFT, FRAME_BOTTOM, FRAME_TOP, BAR_WIDTH, BAR_GAP, BAR_LABELS = 48, 44, 50, 14, 10, 56  # 384 px wide at 256
 LEGEND_HEIGHT = 44
 
 
