@@ -7,7 +7,9 @@ opens at once and its numbers are the ones docs/seed-report.md quotes. Each verd
 with the numbers read from the JSON; the full reading is in docs/seed-report.md.
 
 The SVGs are shown as ``<img>`` with a data URI at 100 % of the panel's width: an image element runs no script
-and keeps the file's own proportions, whatever the panel's width.
+and keeps the file's own proportions, whatever the panel's width. They are drawn for the panel (about 380 px wide,
+text of 14 px: physics/studies/charts.py ``panel_line_chart``, physics/fbd.py ``fbd_svg(text_px=...)``), so their
+text is still at least 12 px there; a click shows one full-screen (static/page.html, in the page only).
 """
 
 from __future__ import annotations
@@ -144,7 +146,7 @@ def figure_html(figure: ReportFigure, folder: Path = SEED_REPORT_FOLDER, documen
         verdict = ""
     data = base64.b64encode(svg).decode("ascii")
     image = (f'<img class="{FIGURE_CLASS}" alt="{html_literal(figure.label)}" src="data:image/svg+xml;base64,{data}" '
-             'style="width:100%;height:auto;display:block;border:1px solid #ddd"/>')
+             'title="Click to see it full-screen" style="width:100%;height:auto;display:block;border:1px solid #ddd"/>')
     parts = [image]
     if verdict:
         parts.append(f'<p style="margin:6px 0;font-size:0.8em">{html_literal(verdict)}</p>')

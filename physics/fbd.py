@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import html
 import math
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
@@ -174,10 +175,31 @@ def _esc(text: str) -> str:
     return html.escape(text, quote=True)
 
 
-def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520) -> str:
+PANEL_WIDTH = 380
+"""px: the natural width of :func:`fbd_svg`'s panel layout (about the app's panel width, so it is shown at nearly
+1:1)."""
+
+
+def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520,
+            text_px: float | None = None) -> str:
     """The bar drawn where it is, each force an arrow from its point (length proportional to magnitude, the
-    largest one bar length long), and a table of the values and the balance check beside it."""
-    panel = width - 300  # drawing area on the left, table on the right
+    largest one bar length long), and a table of the values and the balance check beside it.
+
+    ``text_px``: the panel layout instead (``width`` :data:`PANEL_WIDTH` unless given, ``height`` as the text
+    needs): the table under the drawing and every text at least ``text_px``, so the figure stays readable shown
+    at a 384-px panel's width (the side-by-side layout shrunk there shows 5-px text)."""
+    narrow = text_px is not None
+    f = float(text_px) if text_px is not None else 12.0
+    small = f if narrow else 11.0  # the table's second lines and the check
+    line = 1.25 * f
+    heading = title or f"Free-body diagram of bar {body.bar} at t = {body.time:g} s"
+    if narrow:
+        width = PANEL_WIDTH if width == 720 else width
+        title_lines = textwrap.wrap(heading, max(8, int((width - 20) / (0.6 * (f + 1))))) or [""]
+        draw_left, draw_top, draw_w, draw_h = 0.0, 8 + len(title_lines) * line + 4, float(width), 0.8 * width
+    else:
+        title_lines = [heading]
+        draw_left, draw_top, draw_w, draw_h = 0.0, 40.0, float(width - 300), float(height - 40)
     ends = body.ends_xy
     length = float(np.hypot(*(ends[1] - ends[0]))) or 1.0
     largest = max(float(np.hypot(*f.force)) for f in body.forces) or 1.0
@@ -187,22 +209,49 @@ def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520
     lo, hi = points.min(axis=0), points.max(axis=0)
     span = max(float(np.max(hi - lo)), 1e-9)
     margin = 40
-    pixels = min(panel - 2 * margin, height - 2 * margin - 40) / span
+    pixels = min(draw_w - 2 * margin, draw_h - 2 * margin) / span
     centre = (lo + hi) / 2
 
     def px(xy) -> tuple[float, float]:
-        return (panel / 2 + (xy[0] - centre[0]) * pixels, 40 + (height - 40) / 2 - (xy[1] - centre[1]) * pixels)
+        return (draw_left + draw_w / 2 + (xy[0] - centre[0]) * pixels,
+                draw_top + draw_h / 2 - (xy[1] - centre[1]) * pixels)
 
+    rows = [("force", "at", "Fx", "Fy")] + [
+        (f.name, f.point, f"{f.force[0]:.5g}", f"{f.force[1]:.5g}") for f in body.forces]
+    net, m_a = body.net_force(), body.mass * body.com_acceleration
+    check = [
+        "balance (sum of the arrows):",
+        f"sum F = ({net[0]:.6g}, {net[1]:.6g})",
+        f"m a_G = ({m_a[0]:.6g}, {m_a[1]:.6g})",
+        f"sum M about G = {body.net_moment_about_com():.6g}",
+        f"I alpha = {body.inertia * body.alpha:.6g}",
+        f"theta = {math.degrees(body.theta):.2f} deg, omega = {body.omega:.4g} rad/s",
+    ]
+    footer = ("arrows to scale: the largest force is drawn one bar length long; R_k is the force ON bar k+1 BY bar "
+              "k (or the ground)")
+    if narrow:
+        tx, ty = 10.0, draw_top + draw_h + f
+        row_step, check_step = 2 * line + 4, line
+        footer_lines = textwrap.wrap(footer, max(8, int((width - 20) / (0.55 * f))))
+        base = ty + row_step * len(rows) + 4
+        footer_top = base + check_step * len(check) + 4
+        height = int(math.ceil(footer_top + line * len(footer_lines) + 4))
+    else:
+        tx, ty = float(width - 300 + 10), 54.0
+        row_step, check_step = 34.0, 16.0
+        footer_lines = [footer]
+        base = ty + row_step * len(rows) + 10
+        footer_top = float(height - 8)
     out = [
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" '
-        'font-family="Helvetica, Arial, sans-serif" font-size="12">',
+        f'font-family="Helvetica, Arial, sans-serif" font-size="{f:g}">',
         f'<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>',
         '<defs>' + "".join(
             f'<marker id="head{k}" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="7" markerHeight="7" '
             f'orient="auto-start-reverse"><path d="M0,0L10,5L0,10z" fill="{c}"/></marker>'
             for k, c in enumerate(_FORCE_COLOURS)) + '</defs>',
-        f'<text x="12" y="22" font-size="15" font-weight="bold">'
-        f'{_esc(title or f"Free-body diagram of bar {body.bar} at t = {body.time:g} s")}</text>',
+        _text_lines(title_lines, 12, 22 if not narrow else 8 + f, line,
+                    f' font-size="{(f + 1) if narrow else 15:g}" font-weight="bold"'),
     ]
     (x0, y0), (x1, y1) = px(ends[0]), px(ends[1])
     out.append(f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x1:.1f}" y2="{y1:.1f}" stroke="#bbbbbb" stroke-width="14" '
@@ -214,38 +263,33 @@ def fbd_svg(body: FreeBody, title: str = "", width: int = 720, height: int = 520
     gx, gy = px(body.com_xy)
     out.append(f'<circle cx="{gx:.1f}" cy="{gy:.1f}" r="4" fill="#444"><title>G{body.bar}</title></circle>')
     out.append(f'<text x="{gx + 7:.1f}" y="{gy - 7:.1f}" fill="#444">G{body.bar}</text>')
-    for k, (f, tip) in enumerate(zip(body.forces, tips)):
+    for k, (force, tip) in enumerate(zip(body.forces, tips)):
         colour = _FORCE_COLOURS[k % len(_FORCE_COLOURS)]
-        (ax, ay), (bx, by) = px(f.point_xy), px(tip)
-        label = f"{f.name}: |F| = {np.hypot(*f.force):.4g}"
+        (ax, ay), (bx, by) = px(force.point_xy), px(tip)
+        label = f"{force.name}: |F| = {np.hypot(*force.force):.4g}"
         head = f"url(#head{k % len(_FORCE_COLOURS)})"
         out.append(f'<line x1="{ax:.1f}" y1="{ay:.1f}" x2="{bx:.1f}" y2="{by:.1f}" stroke="{colour}" '
                    f'stroke-width="2.5" marker-end="{head}"><title>{_esc(label)}</title></line>')
-        out.append(f'<text x="{bx + 5:.1f}" y="{by + 4:.1f}" fill="{colour}">{_esc(f.name.split(" ")[0])}</text>')
+        out.append(f'<text x="{bx + 5:.1f}" y="{by + 4:.1f}" fill="{colour}">{_esc(force.name.split(" ")[0])}</text>')
     # Table of values.
-    tx, ty = panel + 10, 54
-    rows = [("force", "at", "Fx", "Fy")] + [
-        (f.name, f.point, f"{f.force[0]:.5g}", f"{f.force[1]:.5g}") for f in body.forces]
+    second = 15.0 if not narrow else line
     for r, row in enumerate(rows):
         colour = "#000" if r == 0 else _FORCE_COLOURS[(r - 1) % len(_FORCE_COLOURS)]
         weight = ' font-weight="bold"' if r == 0 else ""
-        out.append(f'<text x="{tx}" y="{ty + 34 * r}" fill="{colour}"{weight}>{_esc(row[0])}</text>')
-        out.append(f'<text x="{tx}" y="{ty + 34 * r + 15}" fill="{colour}" font-size="11"{weight}>'
-                   f'{_esc(row[1])}   Fx = {_esc(row[2])}   Fy = {_esc(row[3])}</text>' if r else
-                   f'<text x="{tx}" y="{ty + 15}" font-size="11">point, components</text>')
-    net, m_a = body.net_force(), body.mass * body.com_acceleration
-    check = [
-        "balance (sum of the arrows):",
-        f"sum F = ({net[0]:.6g}, {net[1]:.6g})",
-        f"m a_G = ({m_a[0]:.6g}, {m_a[1]:.6g})",
-        f"sum M about G = {body.net_moment_about_com():.6g}",
-        f"I alpha = {body.inertia * body.alpha:.6g}",
-        f"theta = {math.degrees(body.theta):.2f} deg, omega = {body.omega:.4g} rad/s",
-    ]
-    base = ty + 34 * len(rows) + 10
-    for r, line in enumerate(check):
-        out.append(f'<text x="{tx}" y="{base + 16 * r}" font-size="11">{_esc(line)}</text>')
-    out.append(f'<text x="12" y="{height - 8}" font-size="10" fill="#666">arrows to scale: the largest force is '
-               f'drawn one bar length long; R_k is the force ON bar k+1 BY bar k (or the ground)</text>')
+        out.append(f'<text x="{tx:g}" y="{ty + row_step * r:.1f}" fill="{colour}"{weight}>{_esc(row[0])}</text>')
+        out.append(f'<text x="{tx:g}" y="{ty + row_step * r + second:.1f}" fill="{colour}" font-size="{small:g}"'
+                   f'{weight}>{_esc(row[1])}   Fx = {_esc(row[2])}   Fy = {_esc(row[3])}</text>' if r else
+                   f'<text x="{tx:g}" y="{ty + second:.1f}" font-size="{small:g}">point, components</text>')
+    for r, text in enumerate(check):
+        out.append(f'<text x="{tx:g}" y="{base + check_step * r:.1f}" font-size="{small:g}">{_esc(text)}</text>')
+    out.append(_text_lines(footer_lines, 12, footer_top if not narrow else footer_top + f, line,
+                           f' font-size="{f if narrow else 10:g}" fill="#666"'))
     out.append("</svg>")
     return "\n".join(out) + "\n"
+
+
+def _text_lines(lines: list[str], x: float, y: float, step: float, attributes: str = "") -> str:
+    """Lines of text, one under the other (an SVG ``text`` with a ``tspan`` per line)."""
+    spans = "".join(f'<tspan x="{x:g}" dy="{0 if k == 0 else step:.1f}">{_esc(text)}</tspan>'
+                    for k, text in enumerate(lines))
+    return f'<text x="{x:g}" y="{y:.1f}"{attributes}>{spans}</text>'

@@ -41,7 +41,7 @@ from .simulate import Trajectory, simulate
 from .simulate.chain_prepared import stabilization_gains
 from .simulate.chain_system import chain_system
 from .status import Status
-from .studies.charts import DASHES, PALETTE, Series, line_chart
+from .studies.charts import DASHES, PALETTE, PANEL_TEXT_PX, Series, panel_line_chart
 
 # The report's settings: ode45 with odeset('RelTol', 1e-6, 'AbsTol', 1e-6) on tspan = linspace(0, dur, 200).
 REPORT_INTEGRATOR = "ode45"  # MATLAB's controller (physics/kernels/ode45.py): the report's own method
@@ -233,9 +233,9 @@ def figure_tip_path(label: str, number: int, case: dict, scipy_case: dict) -> st
     note = (f"off the converged curve by > {TIP_DEPARTURE:g}: {REPORT_INTEGRATOR} {_leaves(case)}, "
             f"{SCIPY_INTEGRATOR} {_leaves(scipy_case)}")
     theta = ", ".join(f"{v:.4g}" for v in case["theta0"])
-    return line_chart([converged, replayed, scipy_run],
-                      title=f"Figure {number}, case {label}: tip path over {case['t_end']:g} s (theta0 = {theta})",
-                      x_label="x", y_label="y", width=860, height=600, note=note)
+    return panel_line_chart([converged, replayed, scipy_run],
+                            title=f"Figure {number}, case {label}: tip path over {case['t_end']:g} s (theta0 = {theta})",
+                            x_label="x", y_label="y", plot_height=300, note=note)
 
 
 def figure_differences(label: str, case: dict, scipy_case: dict) -> str:
@@ -252,11 +252,11 @@ def figure_differences(label: str, case: dict, scipy_case: dict) -> str:
     series.append(Series(f"x_newton_euler - x_converged, {SCIPY_INTEGRATOR}", t,
                          _floor(_thin(scipy_case["series"]["x_error"]["newton_euler"])), color=PALETTE[6],
                          dash=DASHES[2 % len(DASHES)], marker=None))
-    return line_chart(series, title=f"Figures 12-13, case {label}: differences between methods vs error of each",
-                      x_label="t (s)", y_label="|difference in tip x|", log_y=True, width=900,
-                      hlines=[(TIP_DEPARTURE, f"{TIP_DEPARTURE:g}: visible on the report's plots")],
-                      note=f"all at {REPORT_INTEGRATOR} {REPORT_TOLERANCE:g} but the last; converged = "
-                           f"{REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g}; values below {FLOOR:g} drawn at {FLOOR:g}")
+    return panel_line_chart(series, title=f"Figures 12-13, case {label}: differences between methods vs error of each",
+                            x_label="t (s)", y_label="|difference in tip x|", log_y=True,
+                            hlines=[(TIP_DEPARTURE, f"{TIP_DEPARTURE:g}: visible on the report's plots")],
+                            note=f"all at {REPORT_INTEGRATOR} {REPORT_TOLERANCE:g} but the last; converged = "
+                                 f"{REFERENCE_INTEGRATOR} {REFERENCE_TOLERANCE:g}; values below {FLOOR:g} drawn at {FLOOR:g}")
 
 
 def figure_four_bar(case: dict, scipy_case: dict, quantity: str) -> str:
@@ -270,15 +270,15 @@ def figure_four_bar(case: dict, scipy_case: dict, quantity: str) -> str:
     if quantity == "theta1":
         series = [Series(label, t, _thin(run["series"]["theta1"]), color=colour, marker=None, dash=dash)
                   for run, label, colour, dash in runs]
-        return line_chart(series, title="Four-bar: crank angle theta1", x_label="t (s)", y_label="theta1 (rad)",
-                          width=900)
+        return panel_line_chart(series, title="Four-bar: crank angle theta1", x_label="t (s)",
+                                y_label="theta1 (rad)")
     y_label, title = {"pin_gap": ("|tip - pin|", "Four-bar: tip distance from its pin"),
                       "energy_error": ("|E - E0| / |E0|", "Four-bar: relative energy error")}[quantity]
     # The largest value so far: at rounding level the raw values flicker over decades and hide the curve.
     series = [Series(label, t, _floor(_thin(np.maximum.accumulate(run["series"][quantity]))), color=colour,
                      marker=None) for run, label, colour, _ in runs]
-    return line_chart(series, title=title, x_label="t (s)", y_label=f"{y_label}, largest so far", log_y=True,
-                      width=900, note=f"values below {FLOOR:g} drawn at {FLOOR:g}")
+    return panel_line_chart(series, title=title, x_label="t (s)", y_label=f"{y_label}, largest so far", log_y=True,
+                            note=f"values below {FLOOR:g} drawn at {FLOOR:g}")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -336,7 +336,7 @@ def write_study(out: Path, quick: bool = False) -> dict:
         for bar, number in enumerate(numbers, start=1):
             body = free_body_at(preset.chain, preset.theta0, preset.omega0, time, bar)
             title = f"{name}, bar {bar} at t = {time:g} s (the report's Figure {number})"
-            figures[f"fbd-{name}-bar-{bar}.svg"] = fbd_svg(body, title=title)
+            figures[f"fbd-{name}-bar-{bar}.svg"] = fbd_svg(body, title=title, text_px=PANEL_TEXT_PX)
     for name, svg in figures.items():
         write_atomically(out / name, svg.encode("utf-8"), mode=OUTPUT_MODE)
     numbers = _without_series(document)

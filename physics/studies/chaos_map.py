@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from ..arguments import Parser
 from ..chain_presets import get_preset, preset_names
@@ -469,8 +469,12 @@ def benchmark(out: Path, quick: bool = False, progress: bool = True) -> list[Pat
 # ------------------------------------------------------------------------------------------------
 # A framed picture: axes, ticks and a colour bar (the app's Analysis tab)
 
-FRAME_LEFT, FRAME_BOTTOM, FRAME_TOP, BAR_WIDTH, BAR_GAP, BAR_LABELS = 44, 34, 40, 14, 12, 58
-LEGEND_HEIGHT = 34
+FRAME_TEXT_PX = 16
+"""px: the framed picture's text. The picture is about 390 px wide and the app shows it at its panel's width
+(about 350 px at 1920 x 1080), so this text is shown at about 14.5 px; PIL's built-in bitmap font (about 11 px,
+digits 7 px tall) was shown 6 px tall."""
+FRAME_LEFT, FRAME_BOTTOM, FRAME_TOP, BAR_WIDTH, BAR_GAP, BAR_LABELS = 48, 44, 50, 14, 10, 56  # 384 px wide at 256
+LEGEND_HEIGHT = 44
 
 
 def _log_ticks(step: float, t_max: float) -> list[float]:
@@ -482,32 +486,53 @@ def _log_ticks(step: float, t_max: float) -> list[float]:
     return ticks
 
 
+def _frame_font() -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """The framed picture's font: Pillow's own scalable font at :data:`FRAME_TEXT_PX` (its bitmap font, far
+    smaller, only where Pillow was built without FreeType)."""
+    return ImageFont.load_default(size=FRAME_TEXT_PX)
+
+
 def framed_picture(rgb: np.ndarray, t_max: float, step: float, title: str = "first flip time of the double pendulum",
                    axes: tuple[str, str] = ("theta1", "theta2")) -> np.ndarray:
     """``rgb`` (a map from :func:`to_rgb`, any size) with its axes (``axes``: the first across, the second up, in
     degrees, ticks every 90), a colour bar of the first flip time on a log scale from ``step`` to ``t_max`` with
     ticks in seconds, and a key for the two colours that are not times. ``title`` and ``axes`` name another
-    mechanism's map (the app's for a general mechanism)."""
+    mechanism's map (the app's for a general mechanism). Its text is :data:`FRAME_TEXT_PX` px, for the app's
+    panel."""
     height, width = rgb.shape[:2]
     total_w = FRAME_LEFT + width + BAR_GAP + BAR_WIDTH + BAR_LABELS
     total_h = FRAME_TOP + height + FRAME_BOTTOM + LEGEND_HEIGHT
     image = Image.new("RGB", (total_w, total_h), (255, 255, 255))
     image.paste(Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)), (FRAME_LEFT, FRAME_TOP))
     draw = ImageDraw.Draw(image)
+    font = _frame_font()
+    scalable = isinstance(font, ImageFont.FreeTypeFont)
     ink = (40, 40, 40)
+
+    def text(xy: tuple[float, float], words: str, anchor: str = "la") -> None:
+        """``words`` placed by ``anchor`` (PIL's: l/m/r across, a/m top/middle): only a scalable font takes one."""
+        if scalable:
+            draw.text(xy, words, fill=ink, font=font, anchor=anchor)
+        else:
+            draw.text((xy[0] - (0 if anchor[0] == "l" else 12), xy[1] - (6 if anchor[1] == "m" else 0)), words,
+                      fill=ink, font=font)
+
     x0, y0, x1, y1 = FRAME_LEFT, FRAME_TOP, FRAME_LEFT + width, FRAME_TOP + height
     draw.rectangle([x0 - 1, y0 - 1, x1, y1], outline=ink)
-    draw.text((x0, 4), title, fill=ink)
+    shown = title
+    while scalable and len(shown) > 8 and draw.textlength(shown, font=font) > total_w - 8:
+        shown = shown.rstrip("\u2026")[:-1] + "\u2026"  # a long mechanism name: cut, not drawn past the edge
+    text((4, 4), shown)
     for degrees in (-180, -90, 0, 90, 180):
         fraction = (degrees + 180) / 360.0
         x = x0 + fraction * width
         draw.line([(x, y1), (x, y1 + 4)], fill=ink)
-        draw.text((x - 10, y1 + 6), f"{degrees}", fill=ink)
+        text((min(max(x, 20), total_w - 20), y1 + 6), f"{degrees}", "ma")
         y = y1 - fraction * height
         draw.line([(x0 - 5, y), (x0 - 1, y)], fill=ink)
-        draw.text((2, y - 6), f"{degrees}", fill=ink)
-    draw.text(((x0 + x1) / 2 - 40, y1 + 20), f"{axes[0]} (deg)", fill=ink)
-    draw.text((2, y0 - 22), f"{axes[1]} (deg)", fill=ink)
+        text((x0 - 7, y), f"{degrees}", "rm")
+    text(((x0 + x1) / 2, y1 + 8 + FRAME_TEXT_PX), f"{axes[0]} (deg)", "ma")
+    text((4, y0 - 6 - FRAME_TEXT_PX), f"{axes[1]} (deg)")
     # the colour bar: bottom = step, top = t_max, log scale (as to_rgb colours the map)
     bx0, bx1 = x1 + BAR_GAP, x1 + BAR_GAP + BAR_WIDTH
     bar = colormap(np.linspace(1.0, 0.0, height)[:, None].repeat(BAR_WIDTH, axis=1))
@@ -517,11 +542,11 @@ def framed_picture(rgb: np.ndarray, t_max: float, step: float, title: str = "fir
         fraction = math.log(seconds / step) / math.log(t_max / step)
         y = y1 - fraction * height
         draw.line([(bx1, y), (bx1 + 4, y)], fill=ink)
-        draw.text((bx1 + 6, y - 6), f"{seconds:g} s", fill=ink)
+        text((bx1 + 6, y), f"{seconds:g} s", "lm")
     ly = y1 + FRAME_BOTTOM
-    for i, (colour, text) in enumerate(((NOT_FLIPPED_RGB, f"no flip within {t_max:g} s"),
-                                        (FORBIDDEN_RGB, "too little energy to flip"))):
-        lx = x0 + i * (width // 2 + 10)
-        draw.rectangle([lx, ly, lx + 10, ly + 10], fill=colour, outline=ink)
-        draw.text((lx + 14, ly), text, fill=ink)
+    for i, (colour, words) in enumerate(((NOT_FLIPPED_RGB, f"no flip within {t_max:g} s"),
+                                         (FORBIDDEN_RGB, "too little energy to flip"))):
+        row = ly + i * (FRAME_TEXT_PX + 6)
+        draw.rectangle([x0, row, x0 + 12, row + 12], fill=colour, outline=ink)
+        text((x0 + 18, row + 6), words, "lm")
     return np.asarray(image)

@@ -13,6 +13,7 @@ import colorsys
 import html
 import io
 import math
+import textwrap
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
@@ -87,7 +88,10 @@ def _format_tick(value: float, log: bool) -> str:
     return f"{value:.6g}"
 
 
-def _make_axis(values: list[float], log: bool, pixel_lo: float, pixel_hi: float, limits=None) -> _Axis:
+def _make_axis(values: list[float], log: bool, pixel_lo: float, pixel_hi: float, limits=None,
+               most: int | None = None) -> _Axis:
+    """The axis over ``values`` (or ``limits``) with round ticks: about 6 steps (8 decades on a log axis), or at
+    most ``most`` when given (a narrow figure's ticks at a readable size must not touch)."""
     if limits is not None:
         lo, hi = limits
     elif values:
@@ -100,12 +104,12 @@ def _make_axis(values: list[float], log: bool, pixel_lo: float, pixel_hi: float,
         if hi <= lo:
             hi = lo * 10.0
         decades = int(round(math.log10(hi / lo)))
-        stride = max(1, int(math.ceil(decades / 8)))
+        stride = max(1, int(math.ceil(decades / (most or 8))))
         ticks = [lo * 10.0**k for k in range(0, decades + 1, stride)]
     else:
         if hi <= lo:
             lo, hi = lo - 0.5 * (abs(lo) or 1.0), hi + 0.5 * (abs(hi) or 1.0)
-        step = _nice_step(hi - lo, 6)
+        step = _nice_step(hi - lo, min(6, most or 6))
         lo = math.floor(lo / step + 1e-9) * step
         hi = math.ceil(hi / step - 1e-9) * step
         count = int(round((hi - lo) / step))
@@ -133,6 +137,39 @@ def _marker_svg(kind: str, x: float, y: float, color: str, tooltip: str | None) 
         d = f"M{x - r:.1f},{y - r:.1f}L{x + r:.1f},{y + r:.1f}M{x - r:.1f},{y + r:.1f}L{x + r:.1f},{y - r:.1f}"
         return f'<path d="{d}" stroke="{color}" stroke-width="1.8">{title}</path>'
     return f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" fill="{color}">{title}</circle>'
+
+
+def _curves_svg(series: Sequence[Series], x_axis: _Axis, y_axis: _Axis) -> list[str]:
+    """Each series as paths (broken where a point cannot be drawn) and markers, clipped to the plot (``#plot``)."""
+    log_x, log_y = x_axis.log, y_axis.log
+    out: list[str] = []
+    for index, s in enumerate(series):
+        color = s.color or PALETTE[index % len(PALETTE)]
+        segments, current, markers = [], [], []
+        labels: list[str | None] = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
+        for x_value, y_value, point_label in zip(s.x, s.y, labels):
+            xv, yv = float(x_value), float(y_value)
+            if _drawable(xv, log_x) and _drawable(yv, log_y):
+                point = (x_axis.to_pixel(xv), y_axis.to_pixel(yv))
+                current.append(point)
+                markers.append((point, point_label))
+            elif current:
+                segments.append(current)
+                current = []
+        if current:
+            segments.append(current)
+        group = [f'<g clip-path="url(#plot)"><title>{_esc(s.label)}</title>']
+        for segment in segments:
+            if len(segment) > 1:
+                d = "M" + "L".join(f"{px:.1f},{py:.1f}" for px, py in segment)
+                dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
+                group.append(f'<path d="{d}" fill="none" stroke="{color}" stroke-width="{s.width}"{dash}/>')
+        if s.marker and len(markers) <= 400:
+            for (px, py), point_label in markers:
+                group.append(_marker_svg(s.marker, px, py, color, point_label))
+        group.append("</g>")
+        out.extend(group)
+    return out
 
 
 def line_chart(
@@ -199,33 +236,7 @@ def line_chart(
         py = y_axis.to_pixel(float(value))
         out.append(f'<line x1="{left}" y1="{py:.1f}" x2="{right}" y2="{py:.1f}" stroke="#999" stroke-dasharray="4,4"/>')
         out.append(f'<text x="{right - 4}" y="{py - 4:.1f}" text-anchor="end" font-size="10" fill="#666">{_esc(label)}</text>')
-    # Curves.
-    for index, s in enumerate(series):
-        color = s.color or PALETTE[index % len(PALETTE)]
-        segments, current, markers = [], [], []
-        labels: list[str | None] = list(s.point_labels) if s.point_labels is not None else [None] * len(s.x)
-        for x_value, y_value, point_label in zip(s.x, s.y, labels):
-            xv, yv = float(x_value), float(y_value)
-            if _drawable(xv, log_x) and _drawable(yv, log_y):
-                point = (x_axis.to_pixel(xv), y_axis.to_pixel(yv))
-                current.append(point)
-                markers.append((point, point_label))
-            elif current:
-                segments.append(current)
-                current = []
-        if current:
-            segments.append(current)
-        group = [f'<g clip-path="url(#plot)"><title>{_esc(s.label)}</title>']
-        for segment in segments:
-            if len(segment) > 1:
-                d = "M" + "L".join(f"{px:.1f},{py:.1f}" for px, py in segment)
-                dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
-                group.append(f'<path d="{d}" fill="none" stroke="{color}" stroke-width="{s.width}"{dash}/>')
-        if s.marker and len(markers) <= 400:
-            for (px, py), point_label in markers:
-                group.append(_marker_svg(s.marker, px, py, color, point_label))
-        group.append("</g>")
-        out.extend(group)
+    out.extend(_curves_svg(series, x_axis, y_axis))
     # Legend.
     if series:
         lx = 12 if legend_below else right + 18
@@ -237,6 +248,114 @@ def line_chart(
             if s.marker:
                 out.append(_marker_svg(s.marker, lx + 13, ly, color, None))
             out.append(f'<text x="{lx + 32}" y="{ly + 4}" font-size="11">{_esc(s.label)}</text>')
+    out.append("</svg>")
+    return "\n".join(out) + "\n"
+
+
+PANEL_WIDTH = 380
+"""px: the natural width of a figure drawn for the app's panel (about the panel's width, 384 px at 1920 x 1080, so
+it is shown at nearly 1:1 and its text keeps its size)."""
+PANEL_TEXT_PX = 14
+"""px: the smallest text of a figure drawn for the panel, at :data:`PANEL_WIDTH` (shown a little narrower than
+drawn, it stays above 12 px)."""
+
+
+def _lines(text: str, text_px: float, room: float, bold: bool = False) -> list[str]:
+    """``text`` broken at spaces into lines that fit ``room`` px at ``text_px`` (a sans-serif character is about
+    0.55 em wide on average, 0.6 em in bold)."""
+    chars = max(8, int(room / ((0.6 if bold else 0.55) * text_px)))
+    return textwrap.wrap(str(text), chars) or [""]
+
+
+def _text_lines(lines: Sequence[str], x: float, y: float, step: float, attributes: str = "") -> str:
+    spans = "".join(f'<tspan x="{x:.1f}" dy="{0 if k == 0 else step:.1f}">{_esc(line)}</tspan>'
+                    for k, line in enumerate(lines))
+    return f'<text x="{x:.1f}" y="{y:.1f}"{attributes}>{spans}</text>'
+
+
+def panel_line_chart(
+    series: Sequence[Series],
+    *,
+    title: str,
+    x_label: str,
+    y_label: str,
+    log_x: bool = False,
+    log_y: bool = False,
+    width: int = PANEL_WIDTH,
+    plot_height: int = 260,
+    text_px: float = PANEL_TEXT_PX,
+    x_limits: Optional[tuple[float, float]] = None,
+    y_limits: Optional[tuple[float, float]] = None,
+    hlines: Sequence[tuple[float, str]] = (),
+    note: str = "",
+) -> str:
+    """:func:`line_chart` drawn for the app's panel: about the panel's width, every text at least ``text_px``,
+    the title, legend and note wrapped to the width and stacked under one another, and no more ticks than fit
+    side by side at that size. ``plot_height`` is the plot's frame; the figure is as tall as its text needs.
+
+    Why a layout of its own: a chart drawn 900 px wide with 10-13 px text and shrunk to a 384-px panel shows its
+    text 4-5 px tall; a figure is readable in the panel only if it is drawn for it."""
+    f = float(text_px)
+    line = 1.25 * f
+    title_lines = _lines(title, f + 1, width - 20, bold=True)
+    top = 8 + len(title_lines) * line + 0.7 * f + 6
+    left, right = 1.6 * f + 5 * 0.6 * f + 10, width - 1.6 * f
+    bottom = top + plot_height
+    xs = [float(v) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
+    ys = [float(w) for s in series for v, w in zip(s.x, s.y) if _drawable(float(v), log_x) and _drawable(float(w), log_y)]
+    ys += [float(v) for v, _ in hlines if _drawable(float(v), log_y)]
+    x_axis = _make_axis(xs, log_x, left, right, x_limits, most=max(2, int((right - left) // (4.2 * f))))
+    y_axis = _make_axis(ys, log_y, bottom, top, y_limits, most=max(2, int((bottom - top) // (2.2 * f))))
+    legend = [(k, s, _lines(s.label, f, width - 12 - 40)) for k, s in enumerate(series)]
+    legend_top = bottom + 2 * f + 14 + line
+    notes = _lines(note, f, width - 20) if note else []
+    notes_top = legend_top + sum(len(lines) for _, _, lines in legend) * line + 4
+    height = int(math.ceil(notes_top + len(notes) * line + 6))
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+        f'viewBox="0 0 {width} {height}" font-family="Helvetica, Arial, sans-serif" font-size="{f:g}">',
+        f'<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>',
+        _text_lines(title_lines, 10, 8 + f, line, f' font-size="{f + 1:g}" font-weight="bold"'),
+    ]
+    for tick in x_axis.ticks:
+        px = x_axis.to_pixel(tick)
+        out.append(f'<line x1="{px:.1f}" y1="{top:.1f}" x2="{px:.1f}" y2="{bottom:.1f}" stroke="#e3e3e3"/>')
+        out.append(f'<text x="{px:.1f}" y="{bottom + f + 3:.1f}" text-anchor="middle">'
+                   f'{_esc(_format_tick(tick, log_x))}</text>')
+    for tick in y_axis.ticks:
+        py = y_axis.to_pixel(tick)
+        out.append(f'<line x1="{left:.1f}" y1="{py:.1f}" x2="{right:.1f}" y2="{py:.1f}" stroke="#e3e3e3"/>')
+        out.append(f'<text x="{left - 4:.1f}" y="{py + 0.35 * f:.1f}" text-anchor="end">'
+                   f'{_esc(_format_tick(tick, log_y))}</text>')
+    out.append(f'<rect x="{left:.1f}" y="{top:.1f}" width="{right - left:.1f}" height="{bottom - top:.1f}" '
+               'fill="none" stroke="#444"/>')
+    out.append(f'<text x="{(left + right) / 2:.1f}" y="{bottom + 2 * f + 8:.1f}" text-anchor="middle">'
+               f'{_esc(x_label)}</text>')
+    middle = (top + bottom) / 2
+    out.append(f'<text x="{f + 1:.1f}" y="{middle:.1f}" text-anchor="middle" '
+               f'transform="rotate(-90 {f + 1:.1f} {middle:.1f})">{_esc(y_label)}</text>')
+    out.append(f'<clipPath id="plot"><rect x="{left:.1f}" y="{top:.1f}" width="{right - left:.1f}" '
+               f'height="{bottom - top:.1f}"/></clipPath>')
+    for value, label in hlines:
+        if not _drawable(float(value), log_y):
+            continue
+        py = y_axis.to_pixel(float(value))
+        out.append(f'<line x1="{left:.1f}" y1="{py:.1f}" x2="{right:.1f}" y2="{py:.1f}" stroke="#999" '
+                   'stroke-dasharray="4,4"/>')
+        out.append(f'<text x="{right - 4:.1f}" y="{py - 4:.1f}" text-anchor="end" fill="#555">{_esc(label)}</text>')
+    out.extend(_curves_svg(series, x_axis, y_axis))
+    y = legend_top
+    for index, s, lines in legend:
+        color = s.color or PALETTE[index % len(PALETTE)]
+        ly = y - 0.35 * f
+        dash = f' stroke-dasharray="{s.dash}"' if s.dash else ""
+        out.append(f'<line x1="10" y1="{ly:.1f}" x2="36" y2="{ly:.1f}" stroke="{color}" stroke-width="2"{dash}/>')
+        if s.marker:
+            out.append(_marker_svg(s.marker, 23, ly, color, None))
+        out.append(_text_lines(lines, 42, y, line))
+        y += len(lines) * line
+    if notes:
+        out.append(_text_lines(notes, 10, notes_top + f, line, ' fill="#555"'))
     out.append("</svg>")
     return "\n".join(out) + "\n"
 

@@ -7,7 +7,7 @@ the report writer (which saves one per case) can both draw it.
 from __future__ import annotations
 
 from ..registry import INTEGRATOR_NAMES
-from .charts import DASHES, MARKERS, PALETTE, Series, line_chart
+from .charts import DASHES, MARKERS, PALETTE, Series, line_chart, panel_line_chart
 
 SEED_BASELINE = "seed-baseline"  # the backend field of the seed-style baseline's curves
 
@@ -31,8 +31,9 @@ def _note(case: dict, narrow: bool) -> str:
 
 
 def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
-    """The SVG work-precision diagram of one case: every curve, the baseline's as black crosses. ``narrow``: a
-    380-px-wide version with the legend under the plot (the app's panel)."""
+    """The SVG work-precision diagram of one case: every curve, the baseline's as black crosses. ``narrow``: the
+    version drawn for the app's panel (:func:`~physics.studies.charts.panel_line_chart`: its width, text of at
+    least 14 px, the legend under the plot)."""
     series = []
     for curve in case["curves"] + case["baseline"]:
         points = [p for p in curve["points"] if p["error"] is not None]
@@ -52,17 +53,20 @@ def chart(case_name: str, case: dict, *, narrow: bool = False) -> str:
                              [max(p["error"], 1e-16) for p in points], color=color, dash=dash, marker=marker,
                              point_labels=labels))
     uncertainty = case["reference"]["uncertainty"]
+    hlines = [(max(uncertainty, 1e-16), "reference uncertainty")]
+    if narrow:
+        return panel_line_chart(series, title=f"Work-precision: {probe_name(case)} error at {case['horizon']:g} s",
+                                x_label="wall time per run (s), median", y_label=f"{probe_name(case)} position error",
+                                log_x=True, log_y=True, hlines=hlines, note=_note(case, narrow))
     return line_chart(
         series,
-        title=(f"Work-precision: {probe_name(case)} error at {case['horizon']:g} s" if narrow else
-               f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s"),
+        title=f"Work-precision: {case_name}, {probe_name(case)} error at t = {case['horizon']:g} s",
         x_label="wall time per run (s), median",
         y_label=f"{probe_name(case)} position error",
         log_x=True,
         log_y=True,
-        width=380 if narrow else 980,
-        height=330 if narrow else 560,
-        hlines=[(max(uncertainty, 1e-16), "reference uncertainty")],
+        width=980,
+        height=560,
+        hlines=hlines,
         note=_note(case, narrow),
-        legend_below=narrow,
     )

@@ -41,7 +41,7 @@ def test_work_precision_chart_appears_in_the_panel(connect):
     root = re.search(r"<svg [^>]*>", content).group(0)
     assert 'width="100%"' in root and 'viewBox="0 0 380 ' in root
     view_height = float(re.search(r'viewBox="0 0 380 ([\d.]+)"', root).group(1))
-    legend_y = [float(y) for y in re.findall(r'<text x="44" y="([\d.]+)" font-size="11"', content)]
+    legend_y = [float(y) for y in re.findall(r'<text x="42.0" y="([\d.]+)"><tspan', content)]  # panel_line_chart
     assert legend_y and max(legend_y) < view_height
     # the chain tab's chart: the chain's method with every integrator it had, not the mechanism's DOP853 alone
     method = session.params.method
