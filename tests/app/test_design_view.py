@@ -19,6 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app import mechanism_workers
+from app.bench import measure_design_drag
 from app.design_view import TOOLS, design_flag_from, free_name, handles_of
 from app.scene import to_world
 from app.server import LabServer
@@ -504,8 +505,6 @@ def test_random_sequences_of_the_tabs_edits_are_applied_or_one_notice_and_undo_i
 def test_the_drag_bench_moves_a_free_pivot_and_times_each_redraw(in_process):
     """``python -m app.bench design-drag`` (issue 27's latency figure): every move re-assembles and draws the
     full coupler curve, for the presets' sizes (Jansen's leg included)."""
-    from app.bench import measure_design_drag
-
     rows = measure_design_drag(("crank-rocker", "jansen-leg"), moves=4)
     for preset, row in rows.items():
         assert row["redrawn"] == 5, (preset, row)  # four moves and the release, each one redraw
