@@ -10,10 +10,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
-WIDTH, HEIGHT = 384, 260
-MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 56, 10, 24, 34
+WIDTH, HEIGHT = 384, 276
+MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 60, 10, 26, 44
+TEXT_PX = 14  # shown at the panel's width (about 1:1), every text at least 12 px (issue 26)
+LEGEND_STEP = 56  # across, between a chain's "bar k" entries
 # one colour per bar (up to 12), the matplotlib "tab" colours that the bars' own colours follow
 BAR_COLORS = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75),
               (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207), (57, 59, 121), (99, 121, 57)]
@@ -29,6 +31,12 @@ def _ticks(low: float, high: float, count: int = 5) -> list[float]:
     return [first + i * step for i in range(int((high - first) / step + 1e-9) + 1)]
 
 
+def _font() -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """Pillow's own scalable font at :data:`TEXT_PX` (its far smaller bitmap font only where Pillow was built
+    without FreeType)."""
+    return ImageFont.load_default(size=TEXT_PX)
+
+
 def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[str] | None = None,
                   title: str = "Phase portrait: omega (deg/s) against theta", x_label: str = "theta (deg)",
                   wrap: bool = True) -> np.ndarray:
@@ -38,9 +46,16 @@ def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[
     (default: a chain's bars)."""
     image = Image.new("RGB", (WIDTH, HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(image)
+    font = _font()
     x0, x1 = MARGIN_LEFT, WIDTH - MARGIN_RIGHT
     y0, y1 = MARGIN_TOP, HEIGHT - MARGIN_BOTTOM
-    draw.text((x0, 4), title, fill=(20, 20, 20))
+
+    def text(xy: tuple[float, float], words: str, fill, centred: bool = False, right: bool = False) -> None:
+        width = draw.textlength(words, font=font)
+        x = min(max(xy[0] - (width / 2 if centred else width if right else 0.0), 2.0), WIDTH - width - 2.0)
+        draw.text((x, xy[1]), words, fill=fill, font=font)
+
+    text((4, 4), title, (20, 20, 20))
     values = np.asarray(theta_deg, dtype=float)
     wrapped = (values + 180.0) % 360.0 - 180.0 if wrap else values
     omega = np.asarray(omega_deg, dtype=float)
@@ -63,13 +78,13 @@ def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[
     for value in x_ticks:
         x = x0 + (value - left) / (right - left) * (x1 - x0)
         draw.line([(x, y0), (x, y1)], fill=(235, 235, 235))
-        draw.text((x - 10, y1 + 4), f"{value:g}", fill=(60, 60, 60))
+        text((x, y1 + 4), f"{value:g}", (60, 60, 60), centred=True)
     for value in _ticks(-top, top):
         y = y1 - (value + top) / (2 * top) * (y1 - y0)
         draw.line([(x0, y), (x1, y)], fill=(235, 235, 235))
-        draw.text((4, y - 6), f"{value:g}", fill=(60, 60, 60))
+        text((x0 - 4, y - TEXT_PX / 2 - 1), f"{value:g}", (60, 60, 60), right=True)
     draw.rectangle([x0, y0, x1, y1], outline=(120, 120, 120))
-    draw.text(((x0 + x1) / 2 - 30, HEIGHT - 14), x_label, fill=(40, 40, 40))
+    text(((x0 + x1) / 2, HEIGHT - TEXT_PX - 6), x_label, (40, 40, 40), centred=True)
     if wrapped.ndim == 2 and len(wrapped) >= 2:
         for bar in range(wrapped.shape[1]):
             points = px(wrapped[:, bar], omega[:, bar])
@@ -78,6 +93,11 @@ def phase_picture(theta_deg: np.ndarray, omega_deg: np.ndarray, *, legend: list[
                 if len(segment) >= 2:
                     draw.line([tuple(p) for p in points[segment]], fill=BAR_COLORS[bar % len(BAR_COLORS)], width=2)
             name = legend[bar] if legend is not None else f"bar {bar + 1}"
-            draw.text((x1 - 44 - 44 * (wrapped.shape[1] - 1 - bar), y0 + 4) if legend is None
-                      else (x0 + 6, y1 - 16 - 12 * bar), name, fill=BAR_COLORS[bar % len(BAR_COLORS)])
+            if legend is None:  # a chain's bars along the plot's top, right to left, in rows when many
+                per_row = max(1, int((x1 - x0 - 8) // LEGEND_STEP))
+                slot = wrapped.shape[1] - 1 - bar
+                xy = (x1 - LEGEND_STEP * (slot % per_row + 1), y0 + 2 + (TEXT_PX + 3) * (slot // per_row))
+            else:
+                xy = (x0 + 6, y1 - TEXT_PX - 6 - (TEXT_PX + 3) * bar)
+            text(xy, name, BAR_COLORS[bar % len(BAR_COLORS)])
     return np.asarray(image)

@@ -67,3 +67,14 @@ def test_each_plot_is_chosen_and_drawn_from_the_run(connect):
     assert len(angles.labels) == 2 and not angles.handle.visible  # phase still chosen
     with pytest.raises(LinkageError, match="plot = 'bogus'"):
         session.choose_plot("bogus")
+
+
+def test_a_phase_pictures_text_is_at_least_12_px_tall_as_the_panel_shows_it():
+    """Issue 26: every figure in the panel readable at the panel's width. The picture is drawn at about the
+    panel's width (shown near 1:1), so its text's ink, ascenders to descenders, must span 12 px or more (the
+    bitmap font it had spans 10)."""
+    assert WIDTH <= 384
+    picture = phase_picture(np.zeros((3, 1)), np.zeros((3, 1)))
+    title = (picture.max(axis=2) < 120)[:MARGIN_TOP - 2, MARGIN_LEFT:250]  # "Phase portrait: omega (deg/s)"
+    rows = np.flatnonzero(title.any(axis=1))
+    assert rows.size and rows.max() - rows.min() + 1 >= 12, rows
