@@ -73,6 +73,8 @@ def test_work_precision_chart_has_points_for_every_method(slider_lab, connect):
     assert "**Computing**" in analysis.chart_status.content
     analysis.wait("chart")
     assert titles(analysis) == ["Computing", "Done"], analysis.notices
+    # issue 26: "Computing the work-precision chart" stayed on screen after the chart appeared
+    assert not (session.notices.text or "").startswith("Computing"), session.notices.text
     svg = analysis.chart_html.content
     assert svg.count("<svg") == 1 and 'width="100%"' in svg  # drawn at the panel's width, as the chain's
     # a curve per method of a mobility-1 mechanism, each with one marked point per tolerance swept

@@ -1,5 +1,6 @@
 """The Equations tab within the panel's width (issue 26, "Equations that fit"): for a 12-bar chain and every
-method, nothing of the equations runs past the panel's right edge, measured in Chromium."""
+method, nothing of the equations runs past the panel's right edge, and they keep a margin from its border,
+measured in Chromium."""
 
 from __future__ import annotations
 
@@ -56,3 +57,6 @@ def test_twelve_bar_equations_fit_the_panel(start_lab, method):
     assert measured["right"] <= measured["panelRight"] and measured["left"] >= measured["panelLeft"], (
         f"{method}: the equations run past the panel ({measured})")
     assert measured["overflow"] == 0, f"{method}: the Equations tab scrolls sideways ({measured})"
+    # and not flush against the panel's border (issue 26): a margin of at least 8 px on the left, 4 px on the right
+    assert measured["left"] - measured["panelLeft"] >= 8.0 and measured["panelRight"] - measured["right"] >= 4.0, (
+        f"{method}: the equations touch the panel's border ({measured})")

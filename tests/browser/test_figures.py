@@ -33,8 +33,18 @@ OVERLAY = "#linkage-lab-figure-overlay"
 
 # The SVG inside an <img src="data:image/svg+xml;base64,...">, laid out off screen at the image's drawn width:
 # [text, drawn px] for every text, and the width it was laid out at.
+# The texts that reach past the picture's edge (issue 26: the work-precision chart's x-axis label "0.1" was cut)
+TEXT_OUTSIDE = """(svg) => {
+  const box = svg.getBoundingClientRect();
+  return Array.from(svg.querySelectorAll("text")).filter((t) => t.textContent.trim()).filter((t) => {
+    const r = t.getBoundingClientRect();
+    return r.left < box.left - 0.5 || r.right > box.right + 0.5 || r.top < box.top - 0.5 || r.bottom > box.bottom + 0.5;
+  }).map((t) => t.textContent.trim().slice(0, 40));
+}"""
+
 IMAGE_SVG_TEXT_SIZES = """
 (img) => {
+  const TEXT_OUTSIDE = """ + TEXT_OUTSIDE + """;
   const source = atob(img.getAttribute("src").split(",")[1]);
   const width = img.getBoundingClientRect().width;
   const holder = document.createElement("div");
@@ -53,8 +63,9 @@ IMAGE_SVG_TEXT_SIZES = """
                 parseFloat(getComputedStyle(text).fontSize) * scale(text)]);
   }
   const drawn = svg.getBoundingClientRect().width;
+  const outside = TEXT_OUTSIDE(svg);
   holder.remove();
-  return {sizes: sizes, width: drawn};
+  return {sizes: sizes, width: drawn, outside: outside};
 }
 """
 
@@ -105,7 +116,9 @@ def test_every_seed_report_figure_has_text_of_12px_at_the_panel_width(start_lab)
         small = _too_small(measured["sizes"])
         if small:
             failures[figure.file] = small[:6]
-    assert not failures, f"text under {SMALLEST_PX:g} px at the panel's width: {failures}"
+        if measured["outside"]:
+            failures[f"{figure.file} (past the edge)"] = measured["outside"][:6]
+    assert not failures, f"text under {SMALLEST_PX:g} px at the panel's width, or cut at its edge: {failures}"
 
 
 def test_a_click_opens_a_report_figure_full_screen_and_escape_or_a_click_closes_it(start_lab):
@@ -162,6 +175,7 @@ def test_the_analysis_tabs_figures_have_text_of_12px_and_open_full_screen(start_
     sizes = chart.evaluate(INLINE_SVG_TEXT_SIZES)
     assert len(sizes) >= 10, sizes
     assert not _too_small(sizes), f"work-precision chart: text under {SMALLEST_PX:g} px: {_too_small(sizes)}"
+    assert not chart.evaluate(TEXT_OUTSIDE), "work-precision chart: text cut at the picture's edge"
     chart.click(position={"x": 30, "y": 30})
     overlay = page.locator(OVERLAY)
     overlay.locator("svg").first.wait_for(state="visible")
