@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,9 +20,12 @@ from .description import GROUND, Mechanism
 from .design import Design, DesignBody, design_from_mechanism
 from .files import mechanism_from_text
 from .joints import kind_of
-from .prepared import prepared
+from .prepared import Prepared, prepared
 from .topology import analyse
 from .writer import to_json, to_toml
+
+if TYPE_CHECKING:
+    from .pin_rows import PinRows
 
 CURVE_SAMPLES = 120  # poses over a motor's turn: 3 degrees apart
 STEP_DONE = 1e3  # a Newton step below this many assembly tolerances ends the iteration (its square is negligible)
@@ -168,8 +171,8 @@ def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
 
 def _predicted(poses: np.ndarray, k: int, run: int, start: np.ndarray) -> np.ndarray:
     """The guess for sample ``k`` after ``run`` samples in a row assembled: the parabola through the last three
-    poses (its error is third order in the 3-degree step, the straight line's second order: about one Newton
-    step fewer a sample), the straight line through the last two when only two assembled, else the last pose
+    poses (its error is third order in the 3-degree step, the straight line's second order: fewer Newton steps,
+    BENCHMARKS.md), the straight line through the last two when only two assembled, else the last pose
     that assembled (the start before any): after a break the guess is where the mechanism last was, so the
     curve resumes on its branch."""
     if run >= 3:
@@ -194,8 +197,10 @@ class _SweepNewton:
       a singular or non-square one (a dead point; more freedoms than motors) by least squares, the
       minimum-norm step."""
 
-    def __init__(self, mechanism: Mechanism, pieces: Any, start: np.ndarray) -> None:
-        from scipy.linalg import lapack  # noqa: PLC0415  (not on physics' import path: numba_start.py)
+    def __init__(self, mechanism: Mechanism, pieces: Prepared, start: np.ndarray) -> None:
+        # imported here: physics keeps scipy.linalg off its import path (physics/kernels/numba_start.py), and a
+        # sweep's assembly has loaded it already
+        from scipy.linalg import lapack  # noqa: PLC0415
 
         self.dgesv = lapack.dgesv
         bodies = [body.name for body in mechanism.bodies]
@@ -224,16 +229,15 @@ class _SweepNewton:
         self.square = self.matrix.shape[0] == self.matrix.shape[1]
         self.pins = pieces.pin_rows
         if self.pins is not None:
-            self._pin_layout(len(bodies))
+            self._pin_layout(self.pins, len(bodies))
 
-    def _pin_layout(self, body_count: int) -> None:
+    def _pin_layout(self, pins: PinRows, body_count: int) -> None:
         """A mechanism of pins in complex numbers, ``x + i y``: a pin end's point is its body's centre plus its
         arm turned, ``z + e^{i phi} s``, and the point's derivative by the body's angle is ``i e^{i phi} s``,
         whose real and imaginary parts are the x and y rows' entries in the angle column. Viewed as floats a
         complex array is its (x, y) pairs: the residual's order (each pin's x gap, then its y gap) and, written
         at ``angle_at``, the Jacobian's angle entries. The translation entries (``sign``: +1 on a pin's ``a``,
         -1 on its ``b``) are constant and written once; the ground's entries have no column and are dropped."""
-        pins = self.pins
         height = self.matrix.shape[0]
         row_x = np.tile(2 * np.arange(pins.pins), 2)[pins.ends != body_count]  # the ground: PinRows' body B
         ends = pins.ends[pins.ends != body_count]
