@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,9 +20,12 @@ from .description import GROUND, Mechanism
 from .design import Design, DesignBody, design_from_mechanism
 from .files import mechanism_from_text
 from .joints import kind_of
-from .prepared import prepared
+from .prepared import Prepared, prepared
 from .topology import analyse
 from .writer import to_json, to_toml
+
+if TYPE_CHECKING:
+    from .pin_rows import PinRows
 
 CURVE_SAMPLES = 120  # poses over a motor's turn: 3 degrees apart
 STEP_DONE = 1e3  # a Newton step below this many assembly tolerances ends the iteration (its square is negligible)
@@ -129,9 +132,13 @@ def _without_motors(mechanism: Mechanism) -> Mechanism:
 
 def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
     """The traced point over one full turn of the design's first speed motor, ``(samples + 1, 2)``: each pose
-    assembled from the one before (continuation: the branch is kept); a row of NaN where the mechanism cannot
+    assembled from the ones before (continuation: the branch is kept); a row of NaN where the mechanism cannot
     assemble (the curve breaks there, and the next pose starts again from the last one that did). LinkageError
-    when there is no traced point or no speed motor."""
+    when there is no traced point or no speed motor.
+
+    A drag redraws this curve on every move (issue 27: within 50 ms with the drag), so the sweep's Newton
+    iteration is :class:`_SweepNewton`, its constant pieces built once, and each guess is
+    :func:`_predicted` from the poses before."""
     if design.trace is None:
         raise LinkageError("coupler curve: choose a traced point first (trace = body.point)")
     motor = next((d for d in design.drivers if d.speed is not None and d.speed != 0.0), None)
@@ -142,76 +149,166 @@ def coupler_curve(design: Design, samples: int = CURVE_SAMPLES) -> np.ndarray:
     mechanism = design.to_mechanism()
     free = _without_motors(mechanism)  # the motors' angles are this sweep's own rows
     pieces = prepared(free)
-    constraints = pieces.constraints
     start = assemble(free).q
-    bodies = [body.name for body in mechanism.bodies]
-    joints = {joint.name: joint for joint in mechanism.joints}
-    driven = []  # (column of body a's angle or None, of body b's, speed)
-    for driver in mechanism.drivers:
-        if driver.speed is None:
-            continue
-        pin: Any = joints[driver.joint]  # a motor's joint is a pin (the description checks it)
-        ends = [pin.b.partition(".")[0], pin.a.partition(".")[0]]
-        columns = [3 * bodies.index(end) + 2 if end in bodies else None for end in ends]
-        driven.append((columns[0], columns[1], float(driver.speed)))
-    motor_rows = np.zeros((len(driven), start.size))  # each speed motor's angle row: +1 and -1 on two angles
-    for row, (a, b, _) in enumerate(driven):
-        if a is not None:
-            motor_rows[row, a] += 1.0
-        if b is not None:
-            motor_rows[row, b] -= 1.0
-    owner, _, point = design.trace.partition(".")
-    index = bodies.index(owner)
-    sketch_xy = mechanism.body(owner).points[point]
+    newton = _SweepNewton(mechanism, pieces, start)
     period = 2 * math.pi / abs(motor.speed or 1.0)
-    curve = np.full((samples + 1, 2), np.nan)
-    q = start
-    before = start
-    tolerance = ASSEMBLY_TOLERANCE * pieces.sketch_size
+    poses = np.full((samples + 1, start.size), np.nan)  # a row of NaN where the mechanism cannot assemble
+    base = newton.motor_rows @ start  # each motor's angle at the start; its target at t is this plus speed t
+    run = 0  # how many samples just before this one assembled
     for k, t in enumerate(np.linspace(0.0, period, samples + 1)):
-        targets = [_relative_angle(start, a, b) + speed * t for a, b, speed in driven]
-        guess = q + (q - before) if k > 1 else q  # a straight-line predictor along the curve
-        found = _closed(pieces, constraints, driven, motor_rows, targets, guess, tolerance)
-        if found is None:
-            continue
-        before, q = (q if k > 0 else found), found
-        curve[k] = constraints.body_point(q, index, sketch_xy)
-    return curve
+        found = newton.closed(base + newton.speeds * t, _predicted(poses, k, run, start))
+        run = 0 if found is None else run + 1
+        if found is not None:
+            poses[k] = found
+    owner, _, point = design.trace.partition(".")
+    index = [body.name for body in mechanism.bodies].index(owner)
+    arm = np.asarray(mechanism.body(owner).points[point], dtype=float) - pieces.constraints.centres[index]
+    angle = poses[:, 3 * index + 2]
+    cos, sin = np.cos(angle), np.sin(angle)  # the traced point at every pose at once (NaN rows stay NaN)
+    return np.column_stack([poses[:, 3 * index] + cos * arm[0] - sin * arm[1],
+                            poses[:, 3 * index + 1] + sin * arm[0] + cos * arm[1]])
 
 
-def _relative_angle(q: np.ndarray, a: int | None, b: int | None) -> float:
-    return (0.0 if a is None else float(q[a])) - (0.0 if b is None else float(q[b]))
+def _predicted(poses: np.ndarray, k: int, run: int, start: np.ndarray) -> np.ndarray:
+    """The guess for sample ``k`` after ``run`` samples in a row assembled: the parabola through the last three
+    poses (its error is third order in the 3-degree step, the straight line's second order: fewer Newton steps,
+    BENCHMARKS.md), the straight line through the last two when only two assembled, else the last pose
+    that assembled (the start before any): after a break the guess is where the mechanism last was, so the
+    curve resumes on its branch."""
+    if run >= 3:
+        return 3.0 * (poses[k - 1] - poses[k - 2]) + poses[k - 3]
+    if run == 2:
+        return 2.0 * poses[k - 1] - poses[k - 2]
+    done = np.flatnonzero(~np.isnan(poses[:k, 0]))
+    return poses[done[-1]].copy() if done.size else start.copy()
 
 
-def _closed(pieces, constraints: Constraints, driven, motor_rows: np.ndarray, targets, guess: np.ndarray,
-            tolerance: float):
-    """The pose near ``guess`` where every joint closes and each speed motor's angle is at its target
-    (Newton, minimum-norm steps), or None when it does not converge: the curve breaks there."""
-    q = guess.copy()
-    rows = pieces.pin_rows
-    weights = pieces.assembly_weights
-    for _ in range(NEWTON_STEPS):
-        residual, jacobian = rows.rows_at(q) if rows is not None else (constraints.residual(q, 0.0), None)
-        if jacobian is None:
-            jacobian = constraints.jacobian(q)
-        motor_residual = np.array([_relative_angle(q, a, b) - target for (a, b, _), target in zip(driven, targets)])
-        full = np.concatenate([residual, motor_residual])
-        if np.max(np.abs(full), initial=0.0) <= tolerance:
-            return q
-        matrix = np.vstack([jacobian, motor_rows]) * weights
-        try:  # square and regular away from a dead point: one solve, a third of a least-squares step's time
-            step = np.linalg.solve(matrix, -full) if matrix.shape[0] == matrix.shape[1] else None
-        except np.linalg.LinAlgError:
-            step = None
-        if step is None:
-            step = np.linalg.lstsq(matrix, -full, rcond=None)[0]
-        moved = weights * step
-        q = q + moved
-        if not np.all(np.isfinite(q)):
-            return None
-        if np.max(np.abs(moved)) <= STEP_DONE * tolerance:  # Newton converges quadratically: the residual after a
-            return q  # step this small is far below the tolerance, so it is not evaluated again
-    return None
+class _SweepNewton:
+    """Newton's method for a sweep's poses, its constant pieces built once. A sweep is a few hundred steps on a
+    few tens of numbers, where numpy's and LAPACK's per-call overhead, not arithmetic, is the cost; so:
+
+    * ``matrix``: ``[Phi_q; motor rows]`` with the assembly weights applied to its columns (rotations in
+      lengths), preallocated in Fortran order (LAPACK's, so the solve copies nothing more). The motor rows
+      (``+1`` and ``-1`` on the two angles a speed motor turns, weighted) are constant and written once; so
+      are a mechanism of pins' translation entries (:meth:`_pin_layout`), each step rewriting only the pins'
+      angle entries in place. Another mechanism (a slider) takes its generic rows from :class:`Constraints`.
+    * every motor's angle error is one product, ``motor_rows @ q - target``;
+    * a square matrix is solved by LAPACK's ``dgesv`` (a quarter of ``np.linalg.solve``'s time at this size);
+      a singular or non-square one (a dead point; more freedoms than motors) by least squares, the
+      minimum-norm step."""
+
+    def __init__(self, mechanism: Mechanism, pieces: Prepared, start: np.ndarray) -> None:
+        # imported here: physics keeps scipy.linalg off its import path (physics/kernels/numba_start.py), and a
+        # sweep's assembly has loaded it already
+        from scipy.linalg import lapack  # noqa: PLC0415
+
+        self.dgesv = lapack.dgesv
+        bodies = [body.name for body in mechanism.bodies]
+        joints = {joint.name: joint for joint in mechanism.joints}
+        rows, speeds = [], []
+        for driver in mechanism.drivers:
+            if driver.speed is None:
+                continue
+            pin: Any = joints[driver.joint]  # a motor's joint is a pin (the description checks it)
+            row = np.zeros(start.size)
+            for end, sign in ((pin.b, 1.0), (pin.a, -1.0)):  # b's angle minus a's (the ground's is none)
+                name = end.partition(".")[0]
+                if name in bodies:
+                    row[3 * bodies.index(name) + 2] += sign
+            rows.append(row)
+            speeds.append(float(driver.speed))
+        self.motor_rows = np.array(rows).reshape(len(rows), start.size)
+        self.speeds = np.array(speeds)
+        self.constraints = pieces.constraints
+        self.weights = pieces.assembly_weights
+        self.tolerance = ASSEMBLY_TOLERANCE * pieces.sketch_size
+        self.joint_rows = self.constraints.residual(start, 0.0).size
+        self.matrix = np.zeros((self.joint_rows + len(rows), start.size), order="F")
+        self.matrix[self.joint_rows:] = self.motor_rows * self.weights
+        self.residual = np.empty(self.matrix.shape[0])
+        self.square = self.matrix.shape[0] == self.matrix.shape[1]
+        self.pins = pieces.pin_rows
+        if self.pins is not None:
+            self._pin_layout(self.pins, len(bodies))
+
+    def _pin_layout(self, pins: PinRows, body_count: int) -> None:
+        """A mechanism of pins in complex numbers, ``x + i y``: a pin end's point is its body's centre plus its
+        arm turned, ``z + e^{i phi} s``, and the point's derivative by the body's angle is ``i e^{i phi} s``,
+        whose real and imaginary parts are the x and y rows' entries in the angle column. Viewed as floats a
+        complex array is its (x, y) pairs: the residual's order (each pin's x gap, then its y gap) and, written
+        at ``angle_at``, the Jacobian's angle entries. The translation entries (``sign``: +1 on a pin's ``a``,
+        -1 on its ``b``) are constant and written once; the ground's entries have no column and are dropped."""
+        height = self.matrix.shape[0]
+        row_x = np.tile(2 * np.arange(pins.pins), 2)[pins.ends != body_count]  # the ground: PinRows' body B
+        ends = pins.ends[pins.ends != body_count]
+        sign = pins.sign[pins.ends != body_count]
+        by_column = self.matrix.T.reshape(-1)  # a view (Fortran order): entry (row, column) at column * height + row
+        by_column[3 * ends * height + row_x] = sign * self.weights[3 * ends]
+        by_column[(3 * ends + 1) * height + row_x + 1] = sign * self.weights[3 * ends + 1]
+        angle_x = (3 * ends + 2) * height + row_x
+        self.by_column = by_column
+        self.angle_at = np.stack([angle_x, angle_x + 1], axis=1).reshape(-1)  # each end's x row, then its y row
+        self.angle_factor = 1j * sign * self.weights[3 * ends + 2]
+        self.on_body = np.flatnonzero(pins.ends != body_count)
+        self.ends = pins.ends
+        self.arm = pins.arm[0] + 1j * pins.arm[1]
+        self.count = pins.pins
+        self.pose = np.zeros((body_count + 1, 3))  # each body's x, y, angle; the ground's (a last row): zeros
+        self.to_complex = np.array([1.0, 1j])
+
+    def _evaluate(self, q: np.ndarray, target: np.ndarray) -> None:
+        """``residual`` and ``matrix`` at ``q`` (in place): the joints' gaps and the motors' angle errors, and
+        the weighted Jacobian."""
+        joint_rows = self.joint_rows
+        self.residual[joint_rows:] = self.motor_rows @ q - target
+        if self.pins is None:
+            self.residual[:joint_rows] = self.constraints.residual(q, 0.0)
+            self.matrix[:joint_rows] = self.constraints.jacobian(q) * self.weights
+            return
+        pose = self.pose
+        pose[:-1] = q.reshape(-1, 3)
+        turned = np.exp(1j * pose[:, 2]).take(self.ends) * self.arm
+        point = (pose[:, :2] @ self.to_complex).take(self.ends) + turned
+        count = self.count
+        self.residual[:joint_rows] = (point[:count] - point[count:]).view(float)
+        self.by_column[self.angle_at] = (turned.take(self.on_body) * self.angle_factor).view(float)
+
+    def _step(self) -> np.ndarray:
+        """The Newton step ``matrix^-1 residual`` (weighted back to ``q``'s units); minimum-norm by least
+        squares when the matrix is not square or is singular."""
+        if self.square:
+            step, info = self.dgesv(self.matrix, self.residual)[2:]
+            if info == 0:
+                return self.weights * step
+        return self.weights * np.linalg.lstsq(self.matrix, self.residual, rcond=None)[0]
+
+    def closed(self, target: np.ndarray, guess: np.ndarray) -> np.ndarray | None:
+        """The pose near ``guess`` where every joint closes and each speed motor's angle is at ``target``, or
+        None when Newton does not converge (the curve breaks there).
+
+        Converged when the residual is within the assembly tolerance, or, without evaluating it again, when
+        the last step was so small that the next residual is far below it: Newton's error squares each step
+        (``e' ~ K e^2``), and a step is about the error it removes, so a step below :data:`STEP_DONE`
+        tolerances, or one that the step before shows to be in that quadratic regime (``K`` read off the two:
+        ``step / before^2``) with its next error ``K step^2`` a thousandth of the tolerance, ends it."""
+        q = guess
+        tolerance = self.tolerance
+        done = STEP_DONE * tolerance
+        before = None  # the step before this one's size (None: this is the first)
+        for _ in range(NEWTON_STEPS):
+            self._evaluate(q, target)
+            if abs(self.residual).max() <= tolerance:
+                return q
+            moved = self._step()
+            q = q - moved
+            size = float(abs(moved).max())
+            if not math.isfinite(size):
+                return None
+            if size <= done or (before is not None and size <= 0.1 * before
+                                and size**3 <= 1e-3 * tolerance * before**2):
+                return q
+            before = size
+        return None
 
 
 def design_to_text(design: Design, fmt: str = "toml") -> str:

@@ -14,6 +14,8 @@ from hypothesis import strategies as st
 from physics.cli import main
 from physics.errors import LinkageError
 from physics.mechanism import MECHANISM_PRESETS
+from physics.mechanism.assembly import ASSEMBLY_TOLERANCE, assemble, sketch_size
+from physics.mechanism.constraints import Constraints
 from physics.mechanism.design import Design, History, design_from_mechanism
 from physics.mechanism.design_analysis import (
     check_assembles,
@@ -95,6 +97,70 @@ def test_a_drag_keeps_the_bars_lengths_and_the_branch_and_changes_the_coupler_cu
 def test_the_coupler_curve_closes_over_a_full_turn():
     curve = coupler_curve(four_bar().add_motor("O2p", speed=2 * math.pi).set_trace("coupler.B"))
     assert np.all(np.isfinite(curve)) and np.allclose(curve[0], curve[-1], atol=1e-9)
+
+
+def reference_curve(design: Design, samples: int) -> np.ndarray:
+    """The traced point swept the plain way, independent of coupler_curve's Newton: physics' own ``assemble`` of
+    the mechanism with its motor (generic rows, least-squares steps) at each motor angle, from the last pose
+    that assembled; NaN where it refuses."""
+    mechanism = design.to_mechanism()
+    free = mechanism.model_copy(update={"drivers": []})
+    start = assemble(free).q
+    (motor,) = mechanism.drivers
+    pin = next(joint for joint in mechanism.joints if joint.name == motor.joint)
+    bodies = [body.name for body in mechanism.bodies]
+
+    def angle(end: str) -> float:
+        name = end.partition(".")[0]
+        return float(start[3 * bodies.index(name) + 2]) if name in bodies else 0.0
+
+    offset = (angle(pin.b) - angle(pin.a)) / motor.speed  # the motor's row is zero at t = 0 at the sketch
+    constraints = Constraints(mechanism)
+    owner, _, point = mechanism.trace.partition(".")
+    curve = np.full((samples + 1, 2), np.nan)
+    q = start
+    for k, t in enumerate(np.linspace(0.0, 2 * math.pi / abs(motor.speed), samples + 1)):
+        try:
+            q = assemble(mechanism, q, t + offset).q
+        except LinkageError:
+            continue
+        curve[k] = constraints.body_point(q, bodies.index(owner), mechanism.body(owner).points[point])
+    return curve
+
+
+@pytest.mark.parametrize("preset", ["crank-rocker", "jansen-leg"])
+def test_the_coupler_curve_is_the_one_assembled_pose_by_pose(preset):
+    """coupler_curve's fast sweep (constant pieces built once, a parabola predicting each pose, LAPACK's solve)
+    gives the curve a pose-by-pose assembly gives, to within a thousand assembly tolerances (both stop within
+    the tolerance of the exact pose; the traced point is farther out than the joints), on the same branch: a
+    pivot dragged a little first, as the Design tab does."""
+    design = design_from_mechanism(MECHANISM_PRESETS[preset]())
+    pivot = "ground.O4" if preset == "crank-rocker" else "ground.P"
+    x, y = design.point(pivot)
+    for moved in (design, drag(design, pivot, (x + 0.002, y - 0.001))):
+        fast, reference = coupler_curve(moved, samples=120), reference_curve(moved, 120)
+        assert np.all(np.isfinite(reference))
+        size = sketch_size(moved.to_mechanism())
+        np.testing.assert_allclose(fast, reference, rtol=0, atol=1e3 * ASSEMBLY_TOLERANCE * size)
+
+
+def test_a_crank_that_cannot_turn_fully_breaks_the_curve_where_assembly_refuses():
+    """A four-bar whose crank cannot make a full turn (not Grashof: the longest bar 0.5 plus the crank 0.3
+    exceed the other two, 0.4 + 0.35): NaN rows exactly where pose-by-pose assembly refuses, the same points
+    elsewhere (the curve resumes on its branch after the break)."""
+    design = Design().add_ground("O2", (0.0, 0.0)).add_ground("O4", (0.5, 0.0))
+    design = design.add_bar("crank", ("A0", (0.0, 0.0)), ("A", (0.3, 0.0)))
+    design = design.add_bar("coupler", ("A", (0.3, 0.0)), ("B", (0.55, 0.3)))
+    design = design.add_bar("rocker", ("B", (0.55, 0.3)), ("B0", (0.5, 0.0)))
+    design = design.add_pin("O2p", "ground.O2", "crank.A0").add_pin("Ap", "crank.A", "coupler.A")
+    design = design.add_pin("Bp", "coupler.B", "rocker.B").add_pin("O4p", "rocker.B0", "ground.O4")
+    design = design.add_motor("O2p", speed=2 * math.pi).set_trace("coupler.B")
+    fast, reference = coupler_curve(design, samples=72), reference_curve(design, 72)
+    broken = np.isnan(reference[:, 0])
+    assert broken.any() and not broken.all()  # the case breaks the curve
+    np.testing.assert_array_equal(np.isnan(fast[:, 0]), broken)
+    np.testing.assert_allclose(fast[~broken], reference[~broken], rtol=0,
+                               atol=1e3 * ASSEMBLY_TOLERANCE * sketch_size(design.to_mechanism()))
 
 
 def test_save_and_load_give_the_same_design_in_toml_and_json():
