@@ -204,6 +204,19 @@ def test_every_chart_line_and_key_stands_out_in_both_schemes(start_lab, scheme):
             if line_contrast < 3.0 or text_contrast < 4.5:
                 poor.append((chart["title"], line["label"], round(line_contrast, 2), round(text_contrast, 2)))
     assert not poor, f"{scheme}: lines or keys too faint against their chart (title, line, contrast): {poor}"
+    # the drawn charts (uPlot's canvases, as the page shows them) hold pixels of each line's colour: the key's
+    # colours are the lines really drawn, not a key over lines of another colour
+    import numpy as np  # noqa: PLC0415
+
+    from . import pictures  # noqa: PLC0415
+
+    drawn = [pictures.decode_png(canvas.screenshot())[..., :3].reshape(-1, 3).astype(int)
+             for canvas in page.locator(f"{snap.CONTROL_PANEL} .uplot canvas").all() if canvas.is_visible()]
+    assert drawn, "no chart canvas shown"
+    pixels = np.unique(np.concatenate(drawn), axis=0)
+    missing = [(chart["title"], line["label"], line["marker"]) for chart in charts for line in chart["lines"]
+               if np.min(np.abs(pixels - np.array(line["marker"][:3])).sum(axis=1)) > 45]
+    assert not missing, f"{scheme}: lines of the key with no pixel of their colour in the drawn charts: {missing}"
 
 
 def _lightness(png: bytes) -> tuple[float, float]:
@@ -247,3 +260,24 @@ def test_figures_follow_the_scheme(start_lab, scheme):
         else:
             assert median > 200, f"{name}: not on white in light mode (median lightness {median:.0f})"
         assert drawn > 0.01, f"{name}: nothing drawn stands out ({100 * drawn:.2f} % of its pixels)"
+
+
+def test_every_tab_in_lecture_mode_has_no_text_under_18px_at_1920(start_lab):
+    """Issue 26's target holds for the whole panel, not the first tab alone: with ``?lecture=1`` at 1920x1080
+    each tab's visible text (labels, boxes, buttons, notes, tables, charts' canvas text, figures' SVG text) is at
+    least 18 px."""
+    lab = start_lab(preset="double")
+    page, session = open_with(lab, "&lecture=1")
+    assert session.lecture
+    tabs = page.locator(f"{snap.CONTROL_PANEL} [role=tab]").all_inner_texts()
+    assert {"Mechanism", "Simulation", "Display", "Equations", "Export", "Analysis", "Report", "Design"} <= set(tabs)
+    small = {}
+    for name in tabs:
+        page.get_by_role("tab", name=name, exact=True).click()
+        page.wait_for_timeout(1200)  # the tab drawn, its charts at the panel's width
+        sizes = text_sizes(page)
+        assert len(sizes) >= 10, f"{name}: its text was not measured ({sizes})"
+        under = [(item["kind"], round(item["px"], 1)) for item in sizes if item["px"] < 18.0]
+        if under:
+            small[name] = under[:8]
+    assert not small, f"text under 18 px in lecture mode at 1920x1080: {small}"
