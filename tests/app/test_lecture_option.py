@@ -1,9 +1,23 @@
-"""Lecture mode's switches that need no browser: a link's ``lecture=`` value and the ``--lecture`` flag."""
+"""Lecture mode's switches that need no browser: a link's ``lecture=`` value and the ``--lecture`` flag (parsed, and
+a server started with it)."""
 
 from __future__ import annotations
 
+import pytest
+
+from app import mechanism_workers
 from app.__main__ import build_parser
-from app.server import lecture_from
+from app.server import LabServer, lecture_from
+from conftest import BrowserStandIn, wait_until
+
+
+@pytest.fixture
+def in_process():
+    """Sessions without worker processes (this test is about the page's mode, not the workers)."""
+    saved = mechanism_workers.POOL.count
+    mechanism_workers.POOL.count = 0
+    yield
+    mechanism_workers.POOL.count = saved
 
 
 def test_a_link_lecture_value_is_taken_out_of_the_setup():
@@ -23,3 +37,18 @@ def test_a_bad_lecture_value_is_one_reason_naming_the_field():
 def test_the_lecture_flag():
     assert build_parser().parse_args(["--lecture"]).lecture is True
     assert build_parser().parse_args([]).lecture is False
+
+
+def test_a_server_started_with_lecture_opens_every_page_in_lecture_mode(in_process):
+    """``--lecture`` (``LabServer(lecture=True)``) puts every new page's session in lecture mode, without a link."""
+    server = LabServer(port=0, warm=False, preset="double", lecture=True)
+    client = None
+    try:
+        client = BrowserStandIn(server.url)
+        assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+        (session,) = server.sessions.values()
+        assert wait_until(lambda: session.lecture, timeout=60), "the page's session is not in lecture mode"
+    finally:
+        if client is not None:
+            client.close()
+        server.stop()

@@ -99,6 +99,12 @@ def test_a_slide_is_front_on_tight_and_labelled(chromium_executable, tmp_path):
     assert spread > 0.6 * height, f"the pose and its trace span only {spread} of {height} px: not framed tightly"
     band = image[height - 20:]
     assert np.all(band.reshape(-1, 3).max(axis=0) >= 240) and (band < 100).any()  # a light band with text on it
+    # issue 26: the caption's letters at least 3 % of the picture's height (they stayed ~11 px), measured in the
+    # band under the picture: "Triple pendulum A" spans ascenders to descenders
+    light_rows = np.flatnonzero((image[:, : width // 2].min(axis=2) > 200).mean(axis=1) > 0.5)
+    band_top = light_rows[light_rows > height // 2][0]
+    ink_rows = np.flatnonzero((image[band_top:, : width // 2].max(axis=2) < 100).any(axis=1))
+    assert ink_rows.size and ink_rows[-1] - ink_rows[0] + 1 >= 0.03 * height, (ink_rows, height)
     grey = np.all((image > 150) & (image < 215) & (np.ptp(image, axis=2)[..., None] < 8), axis=2)
     assert grey[: height - 24].mean() < 0.01, "the floor grid shows in a front view"
     assert snapshot_command("--preset", "single", "--out", str(out), "--caption", "x" * 201).returncode == 2
