@@ -85,7 +85,7 @@ def test_the_mechanism_panel_has_the_chain_panels_tabs_integrator_and_start(star
     assert isinstance(session, Session)
     tabs = page.page.get_by_role("tab").all_inner_texts()
     assert [tab.strip() for tab in tabs] == ["Mechanism", "Simulation", "Display", "Equations", "Export", "Help",
-                                            "Analysis", "Report"]  # Analysis, then Report after Help, as a chain's
+                                            "Analysis", "Report", "Design"]  # as a chain's, Design last
 
     page.open_tab("Simulation")
     page.choose("Integrator", "variational")
