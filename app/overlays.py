@@ -40,6 +40,30 @@ PLOT_POINTS = 300  # points per plotted series (downsampled), enough for a 300 p
 DIVERGENCE_FLOOR = 1e-16  # log-scale plots cannot show zero
 
 
+DARK_PANEL = (26, 27, 30)  # the dark scheme's panel behind the charts (viser's Mantine dark body)
+
+
+def _luminance(rgb) -> float:
+    """WCAG's relative luminance of an sRGB colour (0-255 channels)."""
+    linear = [c / 12.92 if c <= 0.03928 else ((c + 0.055) / 1.055) ** 2.4 for c in (v / 255.0 for v in rgb[:3])]
+    return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
+
+
+def chart_color(rgb) -> tuple[int, int, int]:
+    """A line colour a chart can draw on the light panel: ``rgb`` darkened, hue kept, only as far as a contrast
+    ratio of 3 against white needs (the tab palette's orange, olive, cyan and pink are 2.1-2.6). A colour this
+    dark still has a contrast above 5 against the dark panel; a colour too dark for the dark panel (the palette's
+    navy and brown) is lightened as far as a ratio of 3 against it needs, which keeps it above 5 against white.
+    So one palette serves both schemes, and each line keeps the hue of the bar it plots."""
+    color = tuple(float(c) for c in rgb[:3])
+    while 1.05 / (_luminance(color) + 0.05) < 3.0:
+        color = tuple(0.97 * c for c in color)
+    dark = _luminance(DARK_PANEL) + 0.05
+    while (_luminance(color) + 0.05) / dark < 3.0:  # a navy or brown, lightened towards white as far as needed
+        color = tuple(c + 0.04 * (255.0 - c) for c in color)
+    return (int(round(color[0])), int(round(color[1])), int(round(color[2])))
+
+
 def _rgb(color) -> str:
     return "rgb({}, {}, {})".format(*color)
 

@@ -90,6 +90,7 @@ from .overlays import (
     Plot,
     ReactionArrows,
     TraceLine,
+    chart_color,
     relative_drift,
     status_markdown,
 )
@@ -552,7 +553,7 @@ class Session(SessionBase):
             self.coordinate_plot.remove()
         units = {coordinate_unit(c) for c in self._plotted}
         self.coordinate_plot = Plot(self.target.gui, "Angles" if self.chain is not None else "Coordinates", labels,
-                                    [BAR_COLORS[k % len(BAR_COLORS)] for k in range(len(labels))],
+                                    [chart_color(BAR_COLORS[k % len(BAR_COLORS)]) for k in range(len(labels))],
                                     y_label=units.pop() if len(units) == 1 else "",
                                     order=self.energy_plot.handle.order - 0.5)
         self._show_chosen_plot()

@@ -7,7 +7,8 @@ import colorsys
 import itertools
 
 from app.mechanism_compare import COMPARE_METHODS
-from app.overlays import ENERGY_COLORS, METHOD_COLORS
+from app.overlays import DARK_PANEL, ENERGY_COLORS, METHOD_COLORS, chart_color
+from app.phase_view import BAR_COLORS
 from conftest import lab_of, wait_until
 
 BACKGROUNDS = {"light": (255, 255, 255), "dark": (26, 27, 30)}  # the panel's white and Mantine's dark body
@@ -68,3 +69,16 @@ def test_every_energy_chart_and_compare_chart_draws_the_one_palette(connect, sli
     session.set_compare(True)
     assert wait_until(lambda: session.compare_view is not None and session.compare_view.between is not None, 60)
     assert _strokes(session.compare_view.between) == [_rgb(METHOD_COLORS[m]) for m in COMPARE_METHODS[1:]]
+
+
+def test_every_bar_colour_drawn_in_a_chart_stands_out_on_both_panels_with_its_hue():
+    """Issue 26: the Angles chart drew each bar's line in the bar's tab colour, and the orange, olive, cyan and pink
+    have a contrast of 2.1-2.6 on the light panel (the navy 1.7 on the dark one). A chart draws them through
+    ``chart_color``: at least 3 against both panels, the hue kept."""
+    contrast = _contrast
+    assert min(contrast(color, (255, 255, 255)) for color in BAR_COLORS) < 3.0  # the palette alone fails
+    for color in BAR_COLORS:
+        drawn = chart_color(color)
+        assert contrast(drawn, (255, 255, 255)) >= 3.0 and contrast(drawn, DARK_PANEL) >= 3.0, (color, drawn)
+        hue, hue_drawn = (colorsys.rgb_to_hsv(*(c / 255 for c in rgb))[0] for rgb in (color, drawn))
+        assert min(abs(hue - hue_drawn), 1 - abs(hue - hue_drawn)) < 0.02, (color, drawn)

@@ -184,16 +184,41 @@ CHART_COLOURS = """
 def test_every_chart_line_and_key_stands_out_in_both_schemes(start_lab, scheme):
     """Every chart's lines (the colours of its key's markers, which are the series' strokes) have a contrast ratio
     of at least 3 against the chart's background, and the key's text at least 4.5, in dark and light mode; the
-    drawn chart really has pixels of each line's colour."""
+    drawn chart really has pixels of each line's colour. Each chart the panel can show: the energy charts, the
+    Angles chart, and compare mode's charts."""
+    from app.panel_rows import CHAIN_PLOT_CHOICES  # noqa: PLC0415
+
     lab = start_lab(preset="four-bar")
     page, session = open_with(lab, "", viewport={"width": 1280, "height": 900}, scheme=scheme)
     session.play()
     wait_until(lambda: session.player.display_time > 1.0, message="a second of motion")
     session.pause()
     page.wait_for_timeout(1000)
-    charts = page.evaluate(CHART_COLOURS)
+    titles = _check_charts(page, scheme, "energy")
     keep_picture(page, f"charts-{scheme}")
-    assert len(charts) >= 2, charts
+    session.plot_choice.value = CHAIN_PLOT_CHOICES[1]  # "Angles θ(t)", as the browser sends it
+    wait_until(lambda: session.coordinate_plot.handle.visible, message="the Angles chart shown")
+    page.wait_for_timeout(1500)
+    titles |= _check_charts(page, scheme, "angles")
+    session.plot_choice.value = CHAIN_PLOT_CHOICES[0]
+    session.set_compare(True)
+    session.play()
+    wait_until(lambda: session.player.display_time > 2.0, message="compare mode's motion")
+    session.pause()
+    page.wait_for_timeout(1500)
+    titles |= _check_charts(page, scheme, "compare")
+    assert len(titles) >= 3, f"{scheme}: the charts checked: {titles}"
+
+
+def _check_charts(page, scheme: str, what: str) -> set:
+    """The contrast of every shown chart's lines and key, and its key's colours among its drawn pixels; the
+    charts' titles."""
+    import numpy as np  # noqa: PLC0415
+
+    from . import pictures  # noqa: PLC0415
+
+    charts = page.evaluate(CHART_COLOURS)
+    assert charts, f"{scheme}, {what}: no chart shown"
     if scheme == "dark":
         assert all(sum(chart["background"]) < 3 * 80 for chart in charts), charts
     poor = []
@@ -203,20 +228,17 @@ def test_every_chart_line_and_key_stands_out_in_both_schemes(start_lab, scheme):
             text_contrast = _contrast(line["text"], chart["background"])
             if line_contrast < 3.0 or text_contrast < 4.5:
                 poor.append((chart["title"], line["label"], round(line_contrast, 2), round(text_contrast, 2)))
-    assert not poor, f"{scheme}: lines or keys too faint against their chart (title, line, contrast): {poor}"
+    assert not poor, f"{scheme}, {what}: lines or keys too faint against their chart (title, line, contrast): {poor}"
     # the drawn charts (uPlot's canvases, as the page shows them) hold pixels of each line's colour: the key's
     # colours are the lines really drawn, not a key over lines of another colour
-    import numpy as np  # noqa: PLC0415
-
-    from . import pictures  # noqa: PLC0415
-
     drawn = [pictures.decode_png(canvas.screenshot())[..., :3].reshape(-1, 3).astype(int)
              for canvas in page.locator(f"{snap.CONTROL_PANEL} .uplot canvas").all() if canvas.is_visible()]
-    assert drawn, "no chart canvas shown"
+    assert drawn, f"{scheme}, {what}: no chart canvas shown"
     pixels = np.unique(np.concatenate(drawn), axis=0)
     missing = [(chart["title"], line["label"], line["marker"]) for chart in charts for line in chart["lines"]
                if np.min(np.abs(pixels - np.array(line["marker"][:3])).sum(axis=1)) > 45]
-    assert not missing, f"{scheme}: lines of the key with no pixel of their colour in the drawn charts: {missing}"
+    assert not missing, f"{scheme}, {what}: key colours with no pixel of their colour in the drawn charts: {missing}"
+    return {chart["title"] for chart in charts}
 
 
 def _lightness(png: bytes) -> tuple[float, float]:
