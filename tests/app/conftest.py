@@ -42,6 +42,18 @@ def wait_until(predicate, timeout: float = 120.0, interval: float = 0.02) -> boo
 
 
 @pytest.fixture(scope="module")
+def in_process():
+    """A module's sessions without worker processes: their chunks run in this interpreter, so the systems a test
+    inspects are the ones loaded here (app/mechanism_workers.py)."""
+    from app import mechanism_workers  # noqa: PLC0415 - the app's pool, only for the modules that ask
+
+    saved = mechanism_workers.POOL.count
+    mechanism_workers.POOL.count = 0
+    yield
+    mechanism_workers.POOL.count = saved
+
+
+@pytest.fixture(scope="module")
 def lab():
     server = LabServer(port=0, warm=False)
     yield server

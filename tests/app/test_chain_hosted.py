@@ -18,7 +18,7 @@ import pytest
 import viser
 
 import physics
-from app import commands, export, mechanism_workers, share
+from app import commands, export, share
 from app.chain_knobs import BAR_SLIDERS, chain_angles, hosted_start, reach_text
 from app.commands import CONTROL, QUANTITIES
 from app.panel_rows import CHAIN_PLOT_CHOICES, MECHANISM_PLOT_CHOICES
@@ -31,14 +31,6 @@ from physics import LinkageError, Settings
 from physics.codegen import cache as codegen_cache
 from physics.mechanism.parameters import structure_key
 from physics.model import MAX_LINKS
-
-
-@pytest.fixture(scope="module")
-def in_process():
-    saved = mechanism_workers.POOL.count
-    mechanism_workers.POOL.count = 0  # chunks in this interpreter: its loaded systems are what a test inspects
-    yield
-    mechanism_workers.POOL.count = saved
 
 
 @pytest.fixture

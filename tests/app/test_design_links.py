@@ -15,7 +15,6 @@ import zlib
 import pytest
 import viser
 
-from app import mechanism_workers
 from app.design_view import MAX_SKETCH_BYTES, MAX_SKETCH_CHARS, design_from_sketch, sketch_from, sketch_of
 from app.server import LabServer
 from app.session import MECHANISM_PRESETS, Session
@@ -24,14 +23,6 @@ from conftest import BrowserStandIn, wait_until
 from physics import LinkageError
 from physics.mechanism.design import Design, design_from_mechanism
 from physics.mechanism.writer import to_document
-
-
-@pytest.fixture(scope="module")
-def in_process():
-    saved = mechanism_workers.POOL.count
-    mechanism_workers.POOL.count = 0
-    yield
-    mechanism_workers.POOL.count = saved
 
 
 @pytest.fixture

@@ -18,7 +18,6 @@ import viser
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app import mechanism_workers
 from app.bench import measure_design_drag
 from app.design_view import TOOLS, design_flag_from, free_name, handles_of
 from app.scene import to_world
@@ -31,14 +30,6 @@ from physics.mechanism.design import Design
 from physics.mechanism.design_analysis import design_from_text, topology_of
 
 CRANK, COUPLER_END, GROUND_2 = (0.1, 0.0), (0.45, 0.25), (0.4, 0.0)
-
-
-@pytest.fixture(scope="module")
-def in_process():
-    saved = mechanism_workers.POOL.count
-    mechanism_workers.POOL.count = 0
-    yield
-    mechanism_workers.POOL.count = saved
 
 
 @pytest.fixture

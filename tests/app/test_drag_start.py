@@ -16,20 +16,12 @@ import pytest
 import viser
 
 import physics
-from app import drag_start, mechanism_workers
+from app import drag_start
 from app.mechanism_runs import points_at
 from app.parameters import SessionParameters
 from app.scene import to_world
 from app.session import MECHANISM_PRESETS, Session
 from conftest import wait_until
-
-
-@pytest.fixture(scope="module")
-def in_process():
-    saved = mechanism_workers.POOL.count
-    mechanism_workers.POOL.count = 0
-    yield
-    mechanism_workers.POOL.count = saved
 
 
 @pytest.fixture

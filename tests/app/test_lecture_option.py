@@ -3,21 +3,9 @@ a server started with it)."""
 
 from __future__ import annotations
 
-import pytest
-
-from app import mechanism_workers
 from app.__main__ import build_parser
 from app.server import LabServer, lecture_from
 from conftest import BrowserStandIn, wait_until
-
-
-@pytest.fixture
-def in_process():
-    """Sessions without worker processes (this test is about the page's mode, not the workers)."""
-    saved = mechanism_workers.POOL.count
-    mechanism_workers.POOL.count = 0
-    yield
-    mechanism_workers.POOL.count = saved
 
 
 def test_a_link_lecture_value_is_taken_out_of_the_setup():
