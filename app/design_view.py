@@ -45,7 +45,7 @@ from .drag_start import plane_point
 from .logs import quietly
 from .scene import BAR_COLORS, GROUND_COLOR, instance_colors, pose_disc, to_world
 from .shapes import UNIT_SPHERE
-from .share import MAX_SKETCH_CHARS  # the compressed design's length in a link (a page's address stays short)
+from .share import MAX_SKETCH_CHARS, flag_from  # a design link's length bound; the links' on/off switches
 from .viser_compat import connection_open, update_node_props
 
 TOOLS = ("Drag points", "Ground pivot", "Bar", "Plate", "Pin", "Slider")
@@ -71,18 +71,9 @@ SKETCH_ALPHABET = re.compile(r"^[A-Za-z0-9_-]*$")  # base64url without padding
 
 
 def design_flag_from(setup: list[tuple[str, str]]) -> tuple[list[tuple[str, str]], bool, list[str]]:
-    """A link's ``design=1`` (or ``0``) taken out of its setup: the setup without it, whether the session opens
-    designing, and the reason a value other than 0 or 1 is not applied (as ``lecture=`` is read)."""
-    values = [value for key, value in setup if key == "design"]
-    rest = [(key, value) for key, value in setup if key != "design"]
-    if not values:
-        return rest, False, []
-    value = values[-1].strip().lower()
-    if value in ("1", "true", "on", ""):
-        return rest, True, []
-    if value in ("0", "false", "off"):
-        return rest, False, []
-    return rest, False, [f"design: {values[-1][:20]!r} is not 0 or 1 (design=1 opens the page in Design mode)"]
+    """A link's ``design=1`` (or ``0``) taken out of its setup: whether the session opens designing; see
+    :func:`app.share.flag_from`."""
+    return flag_from(setup, "design", False, "opens the page in Design mode")
 
 
 def sketch_of(design: Design) -> str:

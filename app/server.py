@@ -91,18 +91,9 @@ VIEWER_STYLE = """<style>
 
 
 def lecture_from(setup: list[tuple[str, str]], default: bool) -> tuple[list[tuple[str, str]], bool, list[str]]:
-    """A link's ``lecture=1`` (or ``0``) taken out of its setup: the setup without it, whether the session starts
-    in lecture mode (``default``: ``--lecture``), and the reason a value other than 0 or 1 is not applied."""
-    values = [value for key, value in setup if key == "lecture"]
-    rest = [(key, value) for key, value in setup if key != "lecture"]
-    if not values:
-        return rest, default, []
-    value = values[-1].strip().lower()
-    if value in ("1", "true", "on", ""):
-        return rest, True, []
-    if value in ("0", "false", "off"):
-        return rest, False, []
-    return rest, default, [f"lecture: {values[-1][:20]!r} is not 0 or 1 (lecture=1 opens the page in lecture mode)"]
+    """A link's ``lecture=1`` (or ``0``) taken out of its setup: whether the session starts in lecture mode
+    (``default``: ``--lecture``); see :func:`share.flag_from`."""
+    return share.flag_from(setup, "lecture", default, "opens the page in lecture mode")
 
 
 class LabServer:

@@ -34,6 +34,23 @@ FIRST = ("preset", "links")  # the mechanism comes first: the other names are it
 SETTINGS = ("method", "integrator", "rtol", "step", "stabilization", "baumgarte_alpha", "baumgarte_beta", "damping")
 
 
+def flag_from(setup: list[tuple[str, str]], key: str, default: bool,
+              meaning: str) -> tuple[list[tuple[str, str]], bool, list[str]]:
+    """A link's on/off switch ``key=1`` (or ``0``) taken out of its setup: the setup without it, whether it is on
+    (``default`` when the link does not say), and the reason a value other than 0 or 1 is not applied, which
+    says what ``key=1`` does (``meaning``)."""
+    values = [value for name, value in setup if name == key]
+    rest = [(name, value) for name, value in setup if name != key]
+    if not values:
+        return rest, default, []
+    value = values[-1].strip().lower()
+    if value in ("1", "true", "on", ""):
+        return rest, True, []
+    if value in ("0", "false", "off"):
+        return rest, False, []
+    return rest, default, [f"{key}: {values[-1][:20]!r} is not 0 or 1 ({key}=1 {meaning})"]
+
+
 def setup_from_path(path: str | None) -> list[tuple[str, str]] | None:
     """The ``(name, value)`` pairs a websocket path carries (None: not a setup path); LinkageError if the link is
     too long or has too many names."""
