@@ -7,6 +7,7 @@ the chosen plot.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -31,9 +32,10 @@ def _ticks(low: float, high: float, count: int = 5) -> list[float]:
     return [first + i * step for i in range(int((high - first) / step + 1e-9) + 1)]
 
 
+@functools.lru_cache(maxsize=1)
 def _font() -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
     """Pillow's own scalable font at :data:`TEXT_PX` (its far smaller bitmap font only where Pillow was built
-    without FreeType)."""
+    without FreeType); loaded once, not with each picture (drawn a few times a second while shown)."""
     return ImageFont.load_default(size=TEXT_PX)
 
 
