@@ -441,11 +441,11 @@ def _wait_for_specialisation() -> None:
 
 
 def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
-                methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae")) -> dict:
+                methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae"), block: int = 1) -> dict:
     """Seed case C end to end (arrays in, sampled ``(t, y)`` out) after a warm-up call: timings, step counts and
     the tip check against ``physics.simulate``. ``include_physics``: also time ``physics.simulate`` (compiled
-    RK45, same settings) for each of ``methods``, interleaved with the anchor in a rotating order, and report
-    each ratio."""
+    RK45, same settings) for each of ``methods``, interleaved with the anchor in a rotating order (``block``
+    calls of each in a row per turn), and report each ratio."""
     import physics
 
     from . import closed_form_three
@@ -487,9 +487,10 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     for round_index in range(repeats):
         shift = round_index % len(names)
         for name in names[shift:] + names[:shift]:
-            wall, cpu = _time_once(runners[name])
-            times[name].append(wall)
-            cpu_times[name].append(cpu)
+            for _ in range(block):  # block > 1: the runner's calls in a row, as a loop of runs meets them
+                wall, cpu = _time_once(runners[name])
+                times[name].append(wall)
+                cpu_times[name].append(cpu)
 
     tip_closed = tip_xy(params[:n], y[:, :n])
     tip_difference = np.max(np.abs(tip_closed - ours.tip_xy), axis=1)
@@ -501,6 +502,7 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
         "settings": {"integrator": "RK45", "rtol": CASE_C_RTOL, "atol": CASE_C_ATOL, "t_end": CASE_C_T_END,
                      "samples": CASE_C_SAMPLES},
         "repeats": repeats,
+        "block": block,
         "closed_form": _summary(times["closed_form"], cpu_times["closed_form"]),
         "closed_form_three": _summary(times["closed_form_three"], cpu_times["closed_form_three"]),
         "closed_form_n_steps": n_steps,
@@ -544,14 +546,14 @@ def _physics_from(tree: str) -> None:
     sys.path.insert(0, os.path.abspath(tree))
 
 
-def _child(tree: str | None, repeats: int, cache: str | None = None) -> dict:
+def _child(tree: str | None, repeats: int, cache: str | None = None, block: int = 1) -> dict:
     """One run of this command in a fresh process, ``physics`` from ``tree`` (None: this checkout), with
     ``cache`` (when given) as its ``LINKAGE_LAB_CACHE``: a generated system's file name carries its generator's
     digest, so two trees sharing one folder remove each other's files as stale and derive them again."""
     import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415
 
-    command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats)]
+    command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats), "--block", str(block)]
     if tree is not None:
         command += ["--physics-from", tree]
     import pathlib  # noqa: PLC0415
@@ -566,7 +568,7 @@ def _child(tree: str | None, repeats: int, cache: str | None = None) -> dict:
     return json.loads(done.stdout)
 
 
-def compare_before(before: str, rounds: int, repeats: int) -> dict:
+def compare_before(before: str, rounds: int, repeats: int, block: int = 1) -> dict:
     """This checkout's ``physics.simulate`` and ``before``'s, each in its own process against the same two
     closed forms (this checkout's), the order alternating per round; medians over the rounds of each round's
     medians, and each tree's ratios. Each tree has a cache folder of its own, ``closed-form-after`` and
@@ -583,10 +585,10 @@ def compare_before(before: str, rounds: int, repeats: int) -> dict:
         if round_index % 2:
             order.reverse()
         for label, tree in order:
-            result = _child(tree, repeats, caches[label])
+            result = _child(tree, repeats, caches[label], block)
             result["load_average"] = os.getloadavg()[0]
             runs[label].append(result)
-    summary: dict = {"rounds": rounds, "repeats": repeats, "before": os.path.abspath(before)}
+    summary: dict = {"rounds": rounds, "repeats": repeats, "block": block, "before": os.path.abspath(before)}
     for label, results in runs.items():
         methods = list(results[0]["physics_simulate"])
         row = {
@@ -627,18 +629,24 @@ def main(argv=None) -> int:
                         help="also time the checkout DIR's physics.simulate (e.g. a `git worktree add` of the base "
                              "commit), each tree in its own process, alternating per round")
     parser.add_argument("--rounds", type=int, default=3, help="rounds of --before (each runs both trees once)")
+    parser.add_argument("--block", type=int, default=1,
+                        help="calls of each runner in a row per turn (default 1: every call after the other "
+                             "runners' calls, its caches and branch history cold; e.g. 10: as a loop of runs, a "
+                             "study or timeit meets them; every call timed)")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats: must be at least 1")
     if args.rounds < 1:
         parser.error("--rounds: must be at least 1")
+    if args.block < 1:
+        parser.error("--block: must be at least 1")
     if args.before:
-        summary = compare_before(args.before, args.rounds, args.repeats)
+        summary = compare_before(args.before, args.rounds, args.repeats, args.block)
         print(json.dumps(summary, indent=2))
         return 0 if summary["after"]["agree"] and summary["before"]["agree"] else 1
     if args.physics_from:
         _physics_from(args.physics_from)
-    result = time_case_c(args.repeats, include_physics=not args.no_physics)
+    result = time_case_c(args.repeats, include_physics=not args.no_physics, block=args.block)
     print(json.dumps(result, indent=2))
     return 0 if result["agree"] and result["three_agree"] else 1
 

@@ -30,8 +30,8 @@ _NO_CONDITION = np.empty(0)
 
 class _Offsets:
     """Where each part of a run's buffer starts (in doubles) for one shape of run: ``[counts (3 int64),
-    t_reached, y0, t_eval, params (the driver's copy), the driver's scratch, y_out, x, v, zeros (the kinematics'
-    times), params (the solve's copy), params (the kinematics' copy: its time slot is written), the solve's
+    t_reached, y0, t_eval, params (the driver's copy), params (the solve's copy), params (the kinematics' copy:
+    its time slot is written), the driver's scratch, y_out, x, v, zeros (the kinematics' times), the solve's
     scratch, full, condition, d pose, pose|bias, matrices, right-hand sides, points, velocities, energies,
     reactions, the observables' scratch]``; the per-sample parts sized for every sample."""
 
@@ -40,14 +40,15 @@ class _Offsets:
         self.y0 = 4
         self.t_eval = self.y0 + 2 * n
         self.params = self.t_eval + samples
-        self.driver_scratch = self.params + n_params
+        self.solve_params = self.params + n_params
+        self.kinematics_params = self.solve_params + n_params
+        # the inputs end here: [counts, t_reached, y0, t_eval, params x 3] (PreparedRun copies them as one block)
+        self.driver_scratch = self.kinematics_params + n_params
         self.y_out = self.driver_scratch + integrator_scratch_length(method, 2 * n, r, k)
         self.x = self.y_out + samples * 2 * n
         self.v = self.x + samples * n
         self.zeros = self.v + samples * n
-        self.solve_params = self.zeros + samples
-        self.kinematics_params = self.solve_params + n_params
-        self.solve_scratch = self.kinematics_params + n_params
+        self.solve_scratch = self.zeros + samples
         self.full = self.solve_scratch + samples_scratch_length(n, k, r_solve)
         self.condition = self.full + samples * k
         self.pose_jacobian = self.condition + samples
@@ -261,7 +262,7 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
             beta, project, max_steps, g: float):
     """:func:`integrate_and_observe` of a shape :func:`run_shape` gave for these arguments' system, layout, plan,
     method, sizes (``t_eval``'s, ``params``') and ``matrices`` (the arguments' shapes are checked again)."""
-    n, k, samples, at, matrices = entry.n, entry.k, entry.samples, entry.at, entry.matrices
+    n, samples, at = entry.n, entry.samples, entry.at
     values = np.empty(at.length)
     y_out = values[at.y_out:at.x].reshape(samples, 2 * n)
     # check_arguments' tests (:class:`_Run` made them for the shape): the sizes this shape was made for, forward
@@ -272,9 +273,7 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     values[:4] = 0.0  # the driver's three int64 counts (zero: the same bits as 0.0) and t_reached
     values[at.y0:at.t_eval] = y0
     values[at.t_eval:at.params] = t_eval
-    values[at.params:at.driver_scratch] = params
-    values[at.solve_params:at.kinematics_params] = params
-    values[at.kinematics_params:at.solve_scratch] = params
+    values[at.params:at.driver_scratch].reshape(3, entry.n_params)[:] = params  # the driver's, solve's, kinematics'
     y_out.fill(np.nan)
     base = _address_of(_bytes_of(values))
     if ONE_CALL:
@@ -286,6 +285,60 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     else:
         status, rows, states = _observe_from_python(entry, driver, solve, values, base, y_out, t0, t_end, rtol, atol,
                                                     alpha, beta, project, max_steps, g)
+    out = run_observables(entry, values, rows)
+    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
+    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
+
+
+class PreparedRun:
+    """A run of one shape (:func:`run_shape`) whose sample times, parameters, tolerances, gains, step limit and
+    gravity are fixed, only its start changing from call to call (a request repeated, as a benchmark's, a
+    study's or a sweep's runs from other starts): the buffer's inputs but ``y0`` made once (:attr:`head`, copied
+    as one block), the native call's numbers converted once. :meth:`run` is :func:`observe`'s one native call,
+    the same arguments (so the same bits) with less Python around it."""
+
+    __slots__ = ("entry", "driver", "solve", "head", "numbers", "samples")
+
+    def __init__(self, entry: _Run, driver, solve, t_eval: np.ndarray, params: np.ndarray, rtol, atol, alpha, beta,
+                 project, max_steps, g: float) -> None:
+        at = entry.at
+        t0, t_end = float(t_eval[0]), float(t_eval[-1])
+        if t_eval.shape[0] != entry.samples or params.shape[0] != entry.n_params or not t_end >= t0:
+            raise ValueError("t_eval's or params' length is not the one of this run's shape")
+        self.entry, self.driver, self.solve, self.samples = entry, driver, solve, entry.samples
+        head = np.zeros(at.driver_scratch)  # counts and t_reached zero (the same bits as int64 0), y0 written later
+        head[at.t_eval:at.params] = t_eval
+        head[at.params:at.driver_scratch].reshape(3, entry.n_params)[:] = params
+        self.head = head
+        self.numbers = (t0, t_end, float(rtol), float(atol), float(alpha), float(beta),
+                        int(bool(project) and entry.constraints != 0), int(max_steps), float(g))
+
+    def run(self, theta: np.ndarray, omega: np.ndarray, index: np.ndarray | None):
+        """``(status, n_steps, n_rhs, t_reached, rows, values)``: the run from the state ``y0 = [theta, omega]``
+        in the system's coordinates (``index``: where each of ``theta``'s entries goes among ``y0``'s first
+        half, None for in order), its buffer ``values`` and the rows filled (read them with
+        :func:`run_observables`, or at the :class:`_Offsets`)."""
+        entry = self.entry
+        at = entry.at
+        values = np.empty(at.length)
+        values[:at.driver_scratch] = self.head
+        if index is None:
+            values[at.y0:at.y0 + entry.n] = theta
+            values[at.y0 + entry.n:at.t_eval] = omega
+        else:
+            values[index] = theta
+            values[index + entry.n] = omega
+        values[at.y_out:at.x].fill(np.nan)
+        base = _address_of(_bytes_of(values))
+        status = _run_function()(entry.plan_address(self.driver, self.solve), base, *self.numbers)
+        n_steps, n_rhs = _counts.from_address(base)[:]
+        return int(status), n_steps, n_rhs, values.item(3), int(values.item(at.rows)), values
+
+
+def run_observables(entry: _Run, values: np.ndarray, rows: int) -> RunObservables:
+    """The :class:`RunObservables` of a run's buffer ``values`` of shape ``entry`` whose first ``rows`` rows were
+    filled: views, no copy."""
+    at, k, matrices = entry.at, entry.k, entry.matrices
     plan = entry.plan
     count, reactions = plan.count, plan.reactions
     out = RunObservables()
@@ -298,8 +351,7 @@ def observe(entry: _Run, driver, solve, y0: np.ndarray, t_eval: np.ndarray, para
     out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
     out.runs = tuple(values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)
                      for start, (_, run_count) in zip(at.runs, entry.runs))
-    n_steps, n_rhs = _counts.from_address(base)[:]  # the driver's counts (int64), read while values lives
-    return int(status), n_steps, n_rhs, values.item(3), values[at.t_eval:at.t_eval + rows], states, out
+    return out
 
 
 def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: int, y_out: np.ndarray, t0: float,

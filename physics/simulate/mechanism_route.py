@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..codegen import native_integrators
+from ..codegen import mechanism_run, native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
 from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
 from ..codegen.mechanism_samples import generic_solve, mechanism_samples
@@ -284,6 +284,9 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
 
         return simulate_reduced_trajectory(chain, theta0.copy(), omega0.copy(), settings, t_start,
                                            build=reduced_samples_trajectory)
+    request = _requests.get((id(chain), id(settings)))
+    if request is not None and request.answers(chain, settings, t_start):
+        return request.trajectory(chain, settings, theta0, omega0)
     route = chain_route(chain, settings.method, settings.damping)
     params = route.parameters_at(t_start)  # engine.run_parameters without weights: the integration's layout
     layout = route.compiled.integration_layout
@@ -291,7 +294,7 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
     t_eval = sample_times(t_start, settings.t_end, settings.samples)  # the chain's sample times
     if ONE_BUFFER_RUN and layout is route.compiled.integration_layout:
         trajectory = _run_in_one_buffer(chain, settings, route, params, theta0, omega0, t_eval, alpha, beta,
-                                        project)
+                                        project, t_start)
         if trajectory is not None:
             return trajectory
     from ..mechanism import engine  # noqa: PLC0415  (scipy's back end, another integrator: the engine's own)
@@ -327,7 +330,7 @@ _NO_CONDITION = np.empty(0)
 
 def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism, params: np.ndarray,
                        theta0: np.ndarray, omega0: np.ndarray, t_eval: np.ndarray, alpha: float, beta: float,
-                       project: bool) -> Trajectory | None:
+                       project: bool, t_start: float) -> Trajectory | None:
     """The run of :func:`simulate_on_mechanism` by :func:`~physics.codegen.mechanism_run.integrate_and_observe`
     (the IR driver engine.integrate would call, the system's specialised one where it has it, then the samples
     as :func:`chain_trajectory` reads them), or None for a run the IR drivers do not answer (other integrators,
@@ -343,6 +346,13 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     call = _calls.get(key)
     if call is None or call.route is not route:
         call = _one_buffer_call(key, chain, settings, route, spec.name, t_eval.shape[0], params.shape[0])
+    elif mechanism_run.ONE_CALL:  # remembered: the system's specialised functions are in place
+        request = _Request(chain, settings, t_start, call, t_eval, params, alpha, beta, project)
+        with _plans_lock:
+            if len(_requests) >= MAX_ROUTES:
+                _requests.pop(next(iter(_requests)))
+            _requests[(id(chain), id(settings))] = request
+        return request.trajectory(chain, settings, theta0, omega0)
     columns = call.columns
     y0 = np.concatenate((theta0, omega0))
     if not call.in_order:
@@ -366,6 +376,114 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     trajectory.n_rhs = n_rhs
     trajectory.stats["t_reached"] = t_reached
     return trajectory
+
+
+class _Request:
+    """A request repeated (the same chain object with the same bars, the same Settings object, the same
+    ``t_start``; only the start may change): its :class:`_OneBufferCall` and the run prepared
+    (:class:`~physics.codegen.mechanism_run.PreparedRun`: sample times, parameters and the native call's numbers
+    made once), so a run is a buffer, one native call and the Trajectory's views. A benchmark's repeated runs, a
+    study's or a sweep's runs from many starts take it; the same request made anew takes the path above, and
+    both give the same bits (tests/physics/test_route_call_cache.py). Holds the chain and the settings, so their
+    ids are not reused while remembered."""
+
+    __slots__ = ("chain", "bars", "settings", "t_start", "call", "prepared", "index", "states", "open_chain")
+
+    def __init__(self, chain: Chain, settings: Settings, t_start: float, call: _OneBufferCall, t_eval: np.ndarray,
+                 params: np.ndarray, alpha: float, beta: float, project: bool) -> None:
+        self.chain, self.bars, self.settings, self.t_start, self.call = chain, tuple(chain.bars), settings, t_start, call
+        self.prepared = mechanism_run.PreparedRun(call.shape, call.driver, call.solve, t_eval, params, settings.rtol,
+                                                  settings.atol, alpha, beta, project, settings.max_steps, chain.g)
+        at = call.shape.at
+        # where theta's entries go in y0 (tree coordinate inverse[j] is bar j), None in the chain's own order
+        self.index = None if call.in_order else at.y0 + call.route.inverse
+        self.states = (at.y_out, at.x)
+        # an open chain's run of every sample, read straight off the buffer (a pinned chain's or a short run's
+        # Trajectory by _trajectory_from)
+        self.open_chain = (_OpenChainRun(chain, call, settings.trace is not None)
+                           if not chain.pinned and call.in_order and call.shape.runs else None)
+
+    def answers(self, chain: Chain, settings: Settings, t_start: float) -> bool:
+        """Whether a run of ``chain`` with ``settings`` from ``t_start`` is this request (its chain and settings
+        objects, its bars, its start time: ``-0.0`` is not ``0.0`` here, a sample time's sign shows)."""
+        bars = chain.bars
+        return (chain is self.chain and settings is self.settings and t_start == self.t_start
+                and math.copysign(1.0, t_start) == math.copysign(1.0, self.t_start) and len(bars) == len(self.bars)
+                and all(map(_is, bars, self.bars)) and ONE_BUFFER_RUN and mechanism_run.ONE_CALL)
+
+    def trajectory(self, chain: Chain, settings: Settings, theta0: np.ndarray, omega0: np.ndarray) -> Trajectory:
+        """The run from ``(theta0, omega0)`` (checked by :func:`physics.simulate`): what
+        :func:`_run_in_one_buffer` returns for it."""
+        call, prepared = self.call, self.prepared
+        status, n_steps, n_rhs, t_reached, rows, values = prepared.run(theta0, omega0, self.index)
+        entry = call.shape
+        at = entry.at
+        if status == Status.OK and rows < prepared.samples:
+            status = int(Status.NOT_FINITE)
+        if not rows:
+            trajectory = _empty_trajectory(chain, settings, call.route, call.n)
+        elif rows == prepared.samples and self.open_chain is not None:
+            trajectory = self.open_chain.trajectory(settings, values)
+        else:
+            arrays = mechanism_run.run_observables(entry, values, rows)
+            t = values[at.t_eval:at.t_eval + rows]
+            n = call.n
+            if call.in_order:  # the states split into x and v by the native call: the chain's own columns
+                theta = values[at.x:at.x + rows * n].reshape(rows, n)
+                omega = values[at.v:at.v + rows * n].reshape(rows, n)
+            else:
+                start, end = self.states
+                states = values[start:end].reshape(prepared.samples, 2 * n)[:rows]
+                columns = call.columns
+                theta, omega = states[:, columns[1]], states[:, columns[2]]
+            trajectory = _trajectory_from(chain, settings, call.route, t, theta, omega, arrays)
+        trajectory.status = status
+        trajectory.message = "ok" if status == Status.OK else Status.describe(status, t_reached, "")
+        trajectory.n_steps = n_steps
+        trajectory.n_rhs = n_rhs
+        trajectory.stats["t_reached"] = t_reached
+        return trajectory
+
+
+class _OpenChainRun:
+    """An open chain's Trajectory of a run that filled every sample, its fields views of the run's buffer at
+    offsets worked out once: what :func:`_trajectory_from` gives for it (an open chain: no tip reaction, no
+    constraint, the kernel's condition estimate; tree order = the chain's order), with a dozen fewer numpy
+    calls a run."""
+
+    __slots__ = ("explicit", "own_reactions", "n", "samples", "t", "x", "v", "joints",
+                 "trace", "energies", "reactions", "condition")
+
+    def __init__(self, chain: Chain, call: _OneBufferCall, explicit: bool) -> None:
+        entry = call.shape
+        at, samples, n = entry.at, entry.samples, chain.n
+        if entry.runs[0][1] != n + 1 or entry.runs[1][1] != 1 or entry.plan.reactions != 2 * n:
+            raise AssertionError("an open chain's run without its joints, traced point and joint reactions")
+        self.explicit, self.own_reactions, self.n, self.samples = explicit, call.route.own_reactions, n, samples
+        self.t = (at.t_eval, at.t_eval + samples)
+        self.x, self.v = (at.x, at.x + samples * n), (at.v, at.v + samples * n)
+        self.joints = (at.runs[0], at.runs[0] + samples * 2 * (n + 1))
+        self.trace = (at.runs[1], at.runs[1] + samples * 2)
+        self.energies = (at.energies, at.energies + 3 * samples)
+        self.reactions = (at.reactions, at.reactions + samples * 2 * n)
+        self.condition = (at.condition, at.condition + samples)
+
+    def trajectory(self, settings: Settings, values: np.ndarray) -> Trajectory:
+        count, n = self.samples, self.n
+        joints = values[self.joints[0]:self.joints[1]].reshape(count, n + 1, 2)
+        kinetic, potential, energy = values[self.energies[0]:self.energies[1]].reshape(3, count)
+        joint_reactions = values[self.reactions[0]:self.reactions[1]].reshape(count, n, 2)
+        return Trajectory.of_chain(
+            settings.method, settings.integrator, values[self.t[0]:self.t[1]],
+            values[self.trace[0]:self.trace[1]].reshape(count, 2), kinetic, potential, energy,
+            values[self.condition[0]:self.condition[1]], values[self.x[0]:self.x[1]].reshape(count, n),
+            values[self.v[0]:self.v[1]].reshape(count, n), joints, joints[:, -1, :],
+            joint_reactions if self.own_reactions else np.zeros((count, 0, 2)), np.zeros((count, 0)), np.zeros((count, 0)),
+            np.zeros((count, 0)), joint_reactions, self.explicit)
+
+
+# (id(chain), id(settings)) -> the request (it holds both, and checks the bars and t_start)
+_requests: dict[tuple[int, int], _Request] = {}
 
 
 class _OneBufferCall:
