@@ -59,3 +59,13 @@ def test_three_bar_baseline_refuses_another_number_of_bars():
     chain = physics.make_chain([1.0, 1.0], [0.5, 0.5], [1.0, 1.0], [0.1, 0.1])
     with pytest.raises(ValueError, match="three-bar"):
         closed_form_three.run_with_counts(chain.params(), [0.1, 0.2], [0.0, 0.0], 1.0, 11, RTOL, ATOL)
+
+
+def test_the_case_c_timing_runs_each_runner_in_blocks_when_asked():
+    """``python -m benchmarks.closed_form --block K``: every runner's calls K at a time, each call timed (so each
+    runner has ``repeats * K`` times), and the states and tips still checked. Not a timing."""
+    result = closed_form.time_case_c(repeats=2, methods=("lagrange",), block=3)
+    assert result["block"] == 3
+    assert result["closed_form_three"]["count"] == 6
+    assert result["physics_simulate"]["lagrange"]["count"] == 6
+    assert result["agree"] and result["three_agree"] and result["same_steps"]
