@@ -26,7 +26,6 @@ import json
 import math
 import re
 import threading
-import time
 import urllib.parse
 import zlib
 from pathlib import Path
@@ -41,6 +40,7 @@ from physics.mechanism.files import mechanism_from_document
 from physics.mechanism.presets import LINEAR_DENSITY
 from physics.mechanism.writer import to_document
 
+from .coalesce import CoalescingWorker
 from .drag_start import plane_point
 from .logs import quietly
 from .scene import BAR_COLORS, GROUND_COLOR, instance_colors, pose_disc, to_world
@@ -224,12 +224,14 @@ class DesignView:
         self._disc_before: tuple | None = None
         self._run_frame: Any = None
         self._lock = threading.RLock()
-        self._events: list[tuple] = []
-        self._wake = threading.Event()
-        self._thread: threading.Thread | None = None
+        # (phase, instance, end world, camera, client id), handled on a thread of its own; not through the session's
+        # guard: a move that is refused again says nothing (one notice per drag), and the guard would take the
+        # drag's refusal down as if a value had been applied
+        self._worker: CoalescingWorker[tuple] = CoalescingWorker(
+            lambda event: self._handle_quietly(*event), lambda event: event[0] == "update", name="design-drag",
+            what="dragging a design point", min_interval=MIN_INTERVAL)
         self._closed = False
         self._quiet = False
-        self._last_apply = 0.0
         self._build_tab()
         self._show_topology()
 
@@ -677,40 +679,7 @@ class DesignView:
 
     def push(self, phase: str, instance: int | None, end_world, camera=None, client_id: int | None = None) -> None:
         """One drag event, queued for the worker (the newest update wins)."""
-        with self._lock:
-            event = (phase, instance, end_world, camera, client_id)
-            if phase == "update" and self._events and self._events[-1][0] == "update":
-                self._events[-1] = event
-            else:
-                self._events.append(event)
-            if self._thread is None and not self._closed:
-                self._thread = threading.Thread(target=self._work, name="design-drag", daemon=True)
-                self._thread.start()
-        self._wake.set()
-
-    def _work(self) -> None:
-        while not self._closed:
-            self._wake.wait(0.5)
-            self._wake.clear()
-            while not self._closed:
-                with self._lock:
-                    if not self._events:
-                        break
-                    phase, instance, end_world, camera, client_id = self._events.pop(0)
-                    pending = bool(self._events)
-                if phase == "update" and pending:
-                    continue  # an end or a newer drag follows
-                if phase == "update":
-                    wait = self._last_apply + MIN_INTERVAL - time.monotonic()
-                    if wait > 0:
-                        time.sleep(wait)
-                        with self._lock:
-                            if self._events:
-                                continue
-                # not through the session's guard: a move that is refused again says nothing (one notice per
-                # drag), and the guard would take the drag's refusal down as if a value had been applied
-                quietly(lambda: self._handle_quietly(phase, instance, end_world, camera, client_id),
-                        "dragging a design point")
+        self._worker.submit((phase, instance, end_world, camera, client_id))
 
     def _handle_quietly(self, phase: str, instance: int | None, end_world, camera, client_id: int | None) -> None:
         try:
@@ -748,7 +717,7 @@ class DesignView:
         grab = self._grab
         if grab is None:
             return
-        self._last_apply = time.monotonic()
+        self._worker.mark()
         try:
             moved = drag(self.shown, grab["reference"], (float(xy[0]), float(xy[1])), self.grid)
         except LinkageError as error:
@@ -873,7 +842,7 @@ class DesignView:
         """Stop the drag worker, remove the design's nodes and show the run's frame again (removing it would
         remove the run's nodes under it before the session does: viser warns of every second removal)."""
         self._closed = True
-        self._wake.set()
+        self._worker.close()
         self._remove_nodes()
         frame = self._run_frame
         if frame is not None and not frame.visible and (self.session.shared or connection_open(self.session.target)):

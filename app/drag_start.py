@@ -21,14 +21,13 @@ same validation, same notices, same restart at t = 0, paused):
 The mouse's point is where its ray from the camera meets the plane of the motion (the world's x-z plane,
 app/scene.py ``to_world``), so a drag works in the 3D view too. Drag updates are coalesced: the newest wins, at
 most one start every MIN_INTERVAL seconds (the end of a drag always applies), and a value equal to the one last
-set does nothing. The work runs on a thread of its own: never in viser's event loop, never under the player's lock.
+set does nothing. The work runs on a thread of its own (app/coalesce.py): never in viser's event loop, never under
+the player's lock.
 """
 
 from __future__ import annotations
 
 import math
-import threading
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,6 +37,7 @@ from physics import LinkageError
 from physics.mechanism import Constraints
 from physics.mechanism.assembly import sketch_size
 
+from .coalesce import CoalescingWorker
 from .commands import CONTROL
 from .logs import quietly
 from .mechanism_edits import START_NAMES
@@ -155,14 +155,12 @@ class DragStart:
     def __init__(self, session) -> None:
         self.session = session
         self._bound: Any = None  # the bars and spheres nodes the drag callbacks are on (None: not bound)
-        self._lock = threading.Lock()
-        self._wake = threading.Event()
-        self._events: list[tuple] = []  # (phase, instance, start xy, end world, camera, client id)
+        # (phase, instance, start world, end world, camera, client id, node), handled on a thread of its own
+        self._worker: CoalescingWorker[tuple] = CoalescingWorker(
+            lambda event: self.handle(*event), lambda event: event[0] == "update", name="drag-start",
+            what="dragging the start", min_interval=MIN_INTERVAL)
         self._grab: Grab | None = None
-        self._last_apply = 0.0
-        self._closed = False
         self.applied = 0  # starts set by drags (tests)
-        self._thread: threading.Thread | None = None
 
     # ------------------------------------------------------------------ binding (the player's thread)
     def follow(self) -> None:
@@ -211,44 +209,10 @@ class DragStart:
              client_id: int | None = None, node: str = "bars") -> None:
         """One drag event (``phase`` start, update or end; world coordinates as viser gives them) of an instance
         of ``node`` (``bars`` or ``spheres``)."""
-        with self._lock:
-            event = (phase, instance, start_world, end_world, camera, client_id, node)
-            if phase == "update" and self._events and self._events[-1][0] == "update":
-                self._events[-1] = event  # newest wins
-            else:
-                self._events.append(event)
-            if self._thread is None and not self._closed:
-                self._thread = threading.Thread(target=self._work, name="drag-start", daemon=True)
-                self._thread.start()
-        self._wake.set()
+        self._worker.submit((phase, instance, start_world, end_world, camera, client_id, node))
 
     def close(self) -> None:
-        self._closed = True
-        self._wake.set()
-
-    # ------------------------------------------------------------------ the worker
-    def _work(self) -> None:
-        while not self._closed:
-            self._wake.wait(0.5)
-            self._wake.clear()
-            while not self._closed:
-                with self._lock:
-                    if not self._events:
-                        break
-                    event = self._events.pop(0)
-                    pending = bool(self._events)
-                phase, instance, start_world, end_world, camera, client_id, node = event
-                if phase == "update" and not pending:
-                    wait = self._last_apply + MIN_INTERVAL - time.monotonic()
-                    if wait > 0:  # coalesce: a newer update (or the end) may come meanwhile
-                        time.sleep(wait)
-                        with self._lock:
-                            if self._events:
-                                continue
-                elif phase == "update":
-                    continue  # an end or a new drag follows: that one counts
-                quietly(lambda: self.handle(phase, instance, start_world, end_world, camera, client_id, node),
-                        "dragging the start")
+        self._worker.close()
 
     def handle(self, phase: str, instance: int | None, start_world, end_world, camera=None,
                client_id: int | None = None, node: str = "bars") -> None:
@@ -360,7 +324,7 @@ class DragStart:
             return
         grab.last = tuple(changes)
         session = self.session
-        self._last_apply = time.monotonic()
+        self._worker.mark()
         try:
             for name, value in changes:
                 session.set(name, value, CONTROL)
