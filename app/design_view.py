@@ -276,8 +276,9 @@ class DesignView:
             self.motor_value = gui.add_number("Motor value", 6.283, min=-1e4, max=1e4, step=0.001)
             self.motor_button = gui.add_button("Add motor")
             bind(self.motor_button, lambda event: self.add_motor_from_panel())
-            self.item_box = gui.add_text("Item", "", hint="A ground point, body or joint (a motor: motor:PIN); "
-                                         "a body's point to trace")
+            self.item_box = gui.add_text("Item", "", hint="A ground point (ground.NAME), body or joint (a name "
+                                         "two hold: body:NAME, joint:NAME; a motor: motor:PIN); a body's "
+                                         "point to trace")
             self.new_name_box = gui.add_text("New name", "")
             self.item_buttons = gui.add_button_group("Item", ("Delete", "Rename", "Trace"))
             bind(self.item_buttons, lambda event: self.item_action(str(self.item_buttons.value)))

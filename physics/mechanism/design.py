@@ -30,6 +30,9 @@ from .presets import rods_mass_properties
 
 Point = tuple[float, float]
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,39}$")
+NAME_FORM = "a letter then up to 39 letters, digits, _ or -"  # NAME in words, for refusals
+# An item's kinds and the written form that names one of its kind alone (a motor is ``motor:PIN``)
+ITEM_FORMS = {"ground point": "ground.{}", "body": "body:{}", "joint": "joint:{}"}
 MAX_COORDINATE = 1e3  # metres: a sketch point's largest |x| or |y|
 
 
@@ -64,9 +67,27 @@ class Design:
 
     # -- reading ------------------------------------------------------------------------------------------
     def names(self) -> set[str]:
-        """Every name an item holds (ground points, bodies, joints): names are unique across all three, so a
-        delete or a rename names one item."""
-        return {name for name, _ in self.ground} | {body.name for body in self.bodies} | {j.name for j in self.joints}
+        """Every name an item holds (ground points, bodies, joints). As in the file format, each kind is a
+        namespace of its own (a pin may share its ground point's name, as the crank-rocker's ``O2``); a name
+        free in all three (:func:`app.design_view.free_name`) names one item wherever it is written."""
+        return set(self._names_of("ground point")) | set(self._names_of("body")) | set(self._names_of("joint"))
+
+    def item(self, written: str, action: str) -> tuple[str, str]:
+        """``(kind, name)`` of the ground point, body or joint ``written`` names: ``ground.NAME``, ``body:NAME``
+        or ``joint:NAME`` one of that kind, a bare name the one item of any kind holding it. LinkageError (one
+        line with the forms to write) when none holds it or more than one does (the crank-rocker's ``O2`` names
+        a ground point and a pin)."""
+        for kind, form in ITEM_FORMS.items():
+            prefix = form.format("")
+            if written.startswith(prefix) and written.removeprefix(prefix) in self._names_of(kind):
+                return kind, written.removeprefix(prefix)
+        held = [kind for kind in ITEM_FORMS if written in self._names_of(kind)]
+        if not held:
+            raise LinkageError(f"{action} {written!r}: no ground point, body or joint of that name")
+        if len(held) > 1:
+            forms = " or ".join(ITEM_FORMS[kind].format(written) for kind in held)
+            raise LinkageError(f"{action} {written!r}: names a {' and a '.join(held)}; write {forms}")
+        return held[0], written
 
     def body(self, name: str) -> DesignBody:
         for body in self.bodies:
@@ -113,7 +134,7 @@ class Design:
     # -- edits: each returns a new design or raises one LinkageError ---------------------------------------
     def add_ground(self, name: str, xy: Point) -> Design:
         """A fixed pivot point ``ground.name`` at ``xy``."""
-        self._new_name(name, "ground point")
+        self._new_name(name, "ground point", "ground point")
         return replace(self, ground=(*self.ground, (name, _point(xy, f"ground point {name!r}"))))
 
     def add_bar(self, name: str, first: tuple[str, Point], second: tuple[str, Point]) -> Design:
@@ -128,7 +149,7 @@ class Design:
 
     def add_pin(self, name: str, a: str, b: str) -> Design:
         """A pin holding point ``a`` on point ``b`` (``body.point`` or ``ground.point``)."""
-        self._new_name(name, "pin")
+        self._new_name(name, "pin", "joint")
         self.point(a)
         self.point(b)
         if a.partition(".")[0] == b.partition(".")[0]:
@@ -140,7 +161,7 @@ class Design:
     def add_slider(self, name: str, point: str, through: str, direction: Point) -> Design:
         """A slider: ``point`` (``body.point``) slides on the line through ``through`` (a point of the ground or
         of another body) along ``direction``."""
-        self._new_name(name, "slider")
+        self._new_name(name, "slider", "joint")
         self.point(point)
         self.point(through)
         body, _, point_name = point.partition(".")
@@ -190,38 +211,39 @@ class Design:
             own = replace(found, mass=checked.mass, com=checked.com, inertia=checked.inertia)
         return replace(self, bodies=tuple(own if b.name == body else b for b in self.bodies))
 
-    def delete(self, name: str) -> Design:
-        """Delete a ground point, a body, a joint or (``motor:PIN``) a motor; joints on a deleted body or ground
-        point go with it, and their motors with them."""
-        if name.startswith("motor:"):
-            pin = name.removeprefix("motor:")
+    def delete(self, written: str) -> Design:
+        """Delete a ground point, a body, a joint (named as :meth:`item` reads it) or (``motor:PIN``) a motor;
+        joints on a deleted body or ground point go with it, and their motors with them."""
+        if written.startswith("motor:"):
+            pin = written.removeprefix("motor:")
             if not any(driver.joint == pin for driver in self.drivers):
                 raise LinkageError(f"motor on {pin!r}: no such motor")
             return replace(self, drivers=tuple(d for d in self.drivers if d.joint != pin))
-        if name not in self.names():
-            raise LinkageError(f"delete {name!r}: no ground point, body or joint of that name")
-        ground = tuple((n, xy) for n, xy in self.ground if n != name)
-        bodies = tuple(body for body in self.bodies if body.name != name)
-        gone_owner = GROUND + "." + name if len(ground) < len(self.ground) else name + "."
-        joints = tuple(j for j in self.joints if j.name != name and not _touches(j, gone_owner))
+        kind, name = self.item(written, "delete")
+        ground = tuple((n, xy) for n, xy in self.ground if kind != "ground point" or n != name)
+        bodies = tuple(body for body in self.bodies if kind != "body" or body.name != name)
+        gone_owner = {"ground point": GROUND + "." + name, "body": name + "."}.get(kind)
+        joints = tuple(j for j in self.joints if not (kind == "joint" and j.name == name)
+                       and (gone_owner is None or not _touches(j, gone_owner)))
         joints = _without_orphan_gears(joints)
         kept = {j.name for j in joints}
         drivers = tuple(d for d in self.drivers if d.joint in kept)
-        trace = self.trace if self.trace is None or self.trace.partition(".")[0] != name else None
-        return replace(self, ground=ground, bodies=bodies, joints=joints, drivers=drivers, trace=trace)
+        gone_trace = kind == "body" and self.trace is not None and self.trace.partition(".")[0] == name
+        return replace(self, ground=ground, bodies=bodies, joints=joints, drivers=drivers,
+                       trace=None if gone_trace else self.trace)
 
-    def rename(self, old: str, new: str) -> Design:
-        """Rename a ground point, a body or a joint; every reference to it follows."""
-        if old not in self.names():
-            raise LinkageError(f"rename {old!r}: no ground point, body or joint of that name")
+    def rename(self, written: str, new: str) -> Design:
+        """Rename a ground point, a body or a joint (named as :meth:`item` reads it); every reference to it
+        follows. The new name must be free among items of its kind only."""
+        kind, old = self.item(written, "rename")
         if old == new:
             return self
-        self._new_name(new, "new name")
-        if old in {n for n, _ in self.ground}:
+        self._new_name(new, f"rename {written!r}: new name", kind)
+        if kind == "ground point":
             ground = tuple((new if n == old else n, xy) for n, xy in self.ground)
             joints = tuple(_renamed_reference(j, GROUND, old, new) for j in self.joints)
             return replace(self, ground=ground, joints=joints)
-        if old in {body.name for body in self.bodies}:
+        if kind == "body":
             bodies = tuple(replace(b, name=new) if b.name == old else b for b in self.bodies)
             joints = tuple(_renamed_body(j, old, new) for j in self.joints)
             trace = self.trace
@@ -257,16 +279,29 @@ class Design:
     def _pins(self) -> list[str]:
         return [j.name for j in self.joints if j.kind == "revolute"]
 
-    def _new_name(self, name: str, what: str) -> None:
+    def _names_of(self, kind: str) -> list[str]:
+        """The names of the items of ``kind`` (a key of ITEM_FORMS): one namespace of the file format."""
+        if kind == "ground point":
+            return [name for name, _ in self.ground]
+        if kind == "body":
+            return [body.name for body in self.bodies]
+        return [joint.name for joint in self.joints]
+
+    def _new_name(self, name: str, what: str, kind: str) -> None:
+        """A new ``kind``'s name: of NAME's form (one every field of the file format takes and a pin's
+        ``body.point`` can name), ``ground`` for no body (the file format's reserved word: ``ground.X`` is a
+        ground point), and free among the items of its kind (the file format's namespaces)."""
         if not isinstance(name, str) or not NAME.match(name):
-            raise LinkageError(f"{what} {name!r}: a name is a letter then up to 39 letters, digits, _ or -")
-        if name == GROUND:
-            raise LinkageError(f"{what} {name!r}: the name {GROUND!r} is reserved for the fixed frame")
-        if name in self.names():
-            raise LinkageError(f"{what} {name!r}: that name is taken")
+            raise LinkageError(f"{what} {name!r}: name: allowed {NAME_FORM}")
+        if kind == "body" and name == GROUND:
+            raise LinkageError(f"{what} {name!r}: name: {GROUND!r} is reserved for the fixed frame; allowed "
+                               f"{NAME_FORM}, not {GROUND!r}")
+        if name in self._names_of(kind):
+            raise LinkageError(f"{what} {name!r}: name: a {kind} of that name exists (names are unique among "
+                               f"{'bodies' if kind == 'body' else kind + 's'})")
 
     def _add_body(self, name: str, points: tuple[tuple[str, Point], ...], what: str) -> Design:
-        self._new_name(name, what)
+        self._new_name(name, what, "body")
         if len(self.bodies) >= MAX_BODIES:
             raise LinkageError(f"{what} {name!r}: a design holds at most {MAX_BODIES} bodies")
         if len(points) > MAX_POINTS_PER_BODY:
@@ -274,8 +309,7 @@ class Design:
         checked = []
         for point_name, xy in points:
             if not isinstance(point_name, str) or not NAME.match(point_name):
-                raise LinkageError(f"{what} {name!r}: point {point_name!r}: a name is a letter then letters, "
-                                   "digits, _ or -")
+                raise LinkageError(f"{what} {name!r}: point {point_name!r}: name: allowed {NAME_FORM}")
             checked.append((point_name, _point(xy, f"{what} {name!r}: point {point_name!r}")))
         if len({n for n, _ in checked}) != len(checked):
             raise LinkageError(f"{what} {name!r}: two points have the same name")

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.bench import measure_design_drag
-from app.design_view import TOOLS, design_flag_from, free_name, handles_of
+from app.design_view import TOOLS, design_flag_from, design_from_sketch, free_name, handles_of, sketch_of
 from app.scene import to_world
 from app.server import LabServer
 from app.session import MECHANISM_PRESETS, Session
@@ -28,6 +28,8 @@ from conftest import BrowserStandIn, wait_until
 from physics.cli import main
 from physics.mechanism.design import Design
 from physics.mechanism.design_analysis import design_from_text, topology_of
+from physics.mechanism.files import mechanism_from_text
+from physics.mechanism.writer import to_toml
 
 CRANK, COUPLER_END, GROUND_2 = (0.1, 0.0), (0.45, 0.25), (0.4, 0.0)
 
@@ -151,6 +153,42 @@ def test_a_design_saved_and_opened_again_is_the_same_design(session):
     session.guard(lambda: view.open_file("broken.toml", b"[[bodies]]\nname = 3\n"))
     assert len(notices) == 1 and "broken.toml" in notices[0]
     assert view.design == saved
+
+
+def test_a_file_with_a_pin_named_as_its_ground_point_opens_edits_and_saves_back(session, tmp_path):
+    """The crank-rocker's file names its pin on ground point ``O2`` ``O2`` too (the file format's namespaces):
+    the command line runs it, Open and a ``?sketch=`` link open it as a design, it saves back as the same
+    mechanism; a bare ``O2`` in the Item row is one notice with the forms that name one item, and those act; a
+    name the file format refuses is one notice naming the field and the allowed form."""
+    preset = MECHANISM_PRESETS["crank-rocker"]()
+    text = to_toml(preset)
+    path = tmp_path / "crank-rocker.toml"
+    path.write_text(text)
+    assert main(["simulate", "--mechanism", str(path), "--t-end", "0.1", "--samples", "3"]) == 0
+    view = session.design_view
+    view.open_file("crank-rocker.toml", text.encode("utf-8"))
+    opened = view.design
+    assert design_from_sketch(sketch_of(opened)) == opened
+    for fmt in ("toml", "json"):
+        name, content = view.save_file(fmt)
+        assert mechanism_from_text(content.decode("utf-8"), name) == preset
+    notices = count_notices(session)
+    view.item_box.value = "O2"
+    view.item_action("Delete")
+    view.new_name_box.value = "drive"
+    view.item_action("Rename")
+    view.add_pin("pin 1", "ground.O4", "coupler.A")
+    assert view.design == opened and len(notices) == 3, notices
+    assert all("write ground.O2 or joint:O2" in notice for notice in notices[:2]), notices
+    assert "pin 'pin 1': name: allowed a letter then up to 39 letters, digits, _ or -" in notices[2]
+    view.item_box.value = "joint:O2"
+    view.item_action("Rename")
+    assert [j.name for j in view.design.joints] == ["drive", "A", "B", "O4"] and len(notices) == 3
+    assert view.design.drivers[0].joint == "drive" and view.design.point("ground.O2") == preset.ground["O2"]
+    view.item_box.value, view.new_name_box.value = "ground.O4", "A"  # joint A's name, free among ground points
+    view.item_action("Rename")
+    assert [n for n, _ in view.design.ground] == ["O2", "A"] and view.design.joints[3].a == "ground.A"
+    assert len(notices) == 3 and topology_of(view.design).mobility == 1
 
 
 def test_a_drag_reassembles_and_an_impossible_one_keeps_the_last_valid_design_with_one_notice(session):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -25,6 +26,8 @@ from physics.mechanism.design_analysis import (
     drag,
     topology_of,
 )
+from physics.mechanism.files import mechanism_from_text
+from physics.mechanism.writer import to_document
 from physics.studies.design_bench import drag_latency
 
 
@@ -180,12 +183,11 @@ def test_a_design_of_the_four_bar_preset_runs_as_the_preset_does(tmp_path, capsy
     assert from_design.count("\n") == 12 and from_design == from_preset
 
 
-def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_names_and_the_coupler_mass():
-    """Drawn edit by edit from the preset's own points: the same ground, bodies' points, pins, motor and traced
-    point, the bars' masses from the same density, and the same coupler curve. Two differences are by design: a
-    design's names are unique across ground points and joints (the preset names a pin and its ground point both
-    "O2"), and a three-point coupler drawn as a plate gets the plate's frame mass, not the preset's bar with a
-    point riding on it."""
+def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_the_coupler_mass():
+    """Drawn edit by edit from the preset's own points and names (a pin named as its ground point, "O2", as the
+    file format allows): the same ground, bodies' points, pins, motor and traced point, the bars' masses from the
+    same density, and the same coupler curve. One difference is by design: a three-point coupler drawn as a
+    plate gets the plate's frame mass, not the preset's bar with a point riding on it."""
     preset = MECHANISM_PRESETS["crank-rocker"]()
     design = Design()
     for name, xy in preset.ground.items():
@@ -193,7 +195,7 @@ def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_na
     for body in preset.bodies:
         corners = list(body.points.items())
         design = design.add_bar(body.name, *corners) if len(corners) == 2 else design.add_plate(body.name, corners)
-    pin_names = {joint.name: f"{joint.name}pin" for joint in preset.joints}
+    pin_names = {joint.name: joint.name for joint in preset.joints}
     for joint in preset.joints:
         design = design.add_pin(pin_names[joint.name], joint.a, joint.b)
     (driver,) = preset.drivers
@@ -201,7 +203,7 @@ def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_na
     drawn = design.to_mechanism()
     assert drawn.ground == preset.ground and drawn.trace == preset.trace
     assert [(b.name, b.points) for b in drawn.bodies] == [(b.name, b.points) for b in preset.bodies]
-    assert [(j.kind, j.a, j.b) for j in drawn.joints] == [(j.kind, j.a, j.b) for j in preset.joints]
+    assert [(j.name, j.kind, j.a, j.b) for j in drawn.joints] == [(j.name, j.kind, j.a, j.b) for j in preset.joints]
     assert [(d.joint, d.speed, d.torque) for d in drawn.drivers] == [
         (pin_names[d.joint], d.speed, d.torque) for d in preset.drivers]
     for name in ("crank", "rocker"):
@@ -214,7 +216,7 @@ def test_the_crank_rocker_drawn_from_nothing_is_the_presets_mechanism_but_for_na
 
 def test_edits_name_what_they_refuse():
     design = four_bar()
-    with pytest.raises(LinkageError, match="ground point 'O2': that name is taken"):
+    with pytest.raises(LinkageError, match="ground point 'O2': name: a ground point of that name exists"):
         design.add_ground("O2", (1.0, 1.0))
     with pytest.raises(LinkageError, match="plate 'p': needs at least 3 points"):
         design.add_plate("p", [("a", (0.0, 0.0)), ("b", (1.0, 0.0))])
@@ -222,6 +224,129 @@ def test_edits_name_what_they_refuse():
         design.add_motor("nope", speed=1.0)
     with pytest.raises(LinkageError, match="grid"):
         design.move_point("ground.O2", (0.1, 0.1), grid=0.0)
+
+
+def test_a_joint_or_body_may_share_a_ground_points_name_as_in_the_file_format():
+    """Ground points, bodies and joints are three namespaces, as in the file format (a ground point is always
+    written ``ground.NAME``): the crank-rocker preset's pin ``O2`` on ground point ``O2`` opens, is drawn again and
+    edited; a bare name held by two items is refused naming the forms that name one."""
+    preset = MECHANISM_PRESETS["crank-rocker"]()
+    opened = design_from_mechanism(preset)
+    assert opened.to_mechanism() == preset
+    drawn = four_bar().rename("O2p", "O2").add_bar("O4", ("p", (1.0, 1.0)), ("q", (1.2, 1.0)))
+    assert {j.name for j in drawn.joints} >= {"O2"} and {b.name for b in drawn.bodies} >= {"O4"}
+    assert drawn.add_ground("Ap", (1.0, 0.0)).point("ground.Ap") == (1.0, 0.0)
+    with pytest.raises(LinkageError, match=r"delete 'O2': names a ground point and a joint; write ground\.O2 or "
+                                           r"joint:O2"):
+        opened.delete("O2")
+    with pytest.raises(LinkageError, match=r"rename 'O2': names a ground point and a joint"):
+        opened.rename("O2", "drive")
+    without_pivot = opened.delete("ground.O2")  # the pivot and the pin on it (and its motor) go; nothing else
+    assert [n for n, _ in without_pivot.ground] == ["O4"] and "O2" not in {j.name for j in without_pivot.joints}
+    without_pin = opened.delete("joint:O2")
+    assert [n for n, _ in without_pin.ground] == ["O2", "O4"] and without_pin.drivers == ()
+    assert {j.name for j in without_pin.joints} == {"A", "B", "O4"}
+    renamed = opened.rename("joint:O2", "drive").rename("ground.O2", "P")
+    assert renamed.joints[0].name == "drive" and renamed.joints[0].a == "ground.P"
+    assert renamed.drivers[0].joint == "drive" and topology_of(renamed).text() == topology_of(opened).text()
+    assert opened.rename("body:crank", "O2").delete("body:O2").trace == preset.trace  # a joint "O2" is kept
+    assert opened.delete("A").joints == opened.delete("joint:A").joints  # a bare name held once names it
+
+
+@pytest.mark.parametrize(("edit", "field"), [
+    (lambda d: d.add_bar("1bad", ("p", (0.0, 0.0)), ("q", (1.0, 0.0))), "bar '1bad': name: allowed a letter"),
+    (lambda d: d.add_bar("x" * 41, ("p", (0.0, 0.0)), ("q", (1.0, 0.0))), "name: allowed a letter then up to 39"),
+    (lambda d: d.add_bar("ground", ("p", (0.0, 0.0)), ("q", (1.0, 0.0))), "bar 'ground': name: 'ground' is reserved"),
+    (lambda d: d.add_bar("b", ("p", (0.0, 0.0)), ("p", (1.0, 0.0))), "bar 'b': two points have the same name"),
+    (lambda d: d.add_pin("", "crank.A", "rocker.B"), "pin '': name: allowed a letter"),
+    (lambda d: d.add_pin("p" * 41, "crank.A", "rocker.B"), "name: allowed a letter then up to 39"),
+    (lambda d: d.add_pin("Ap", "crank.A", "rocker.B"), "pin 'Ap': name: a joint of that name exists"),
+    (lambda d: d.rename("crank", "coupler"), "new name 'coupler': name: a body of that name exists"),
+    (lambda d: d.rename("crank", "ground"), "name: 'ground' is reserved for the fixed frame"),
+])
+def test_a_name_the_file_format_refuses_is_refused_naming_the_field_and_the_allowed_form(edit, field):
+    """Each of these names is one the file format refuses (a body's name out of its pattern, ``ground`` as a
+    body, more than 40 characters, an empty joint name, two points, bodies or joints of one name): the design
+    refuses it too, in one line naming the item, the field and what is allowed."""
+    with pytest.raises(LinkageError, match=re.escape(field)) as refused:
+        edit(four_bar())
+    assert "\n" not in str(refused.value)
+
+
+def body_names() -> st.SearchStrategy[str]:
+    """Any body name the file format takes: its pattern, at most 40 characters, not ``ground``."""
+    return st.from_regex(r"\A[A-Za-z][A-Za-z0-9_-]{0,39}\Z").filter(lambda name: name != "ground")
+
+
+@st.composite
+def renamed_crank_rocker(draw) -> dict:
+    """The crank-rocker preset's file with every name drawn from what the file format takes, names shared across
+    ground points, bodies, joints and points often: pinned points of the pin references' form, any other point,
+    ground point or joint of any text (a joint at most 40 characters)."""
+    document = to_document(MECHANISM_PRESETS["crank-rocker"]())
+    pinned = st.from_regex(r"\A[A-Za-z0-9_-]{1,12}\Z")
+    bodies = draw(st.lists(body_names(), min_size=3, max_size=3, unique=True))
+    shared = st.sampled_from(bodies)
+    ground = draw(st.lists(st.one_of(shared, pinned), min_size=2, max_size=2, unique=True))
+    joints = draw(st.lists(st.one_of(shared, st.sampled_from(ground), st.text(min_size=1, max_size=40)),
+                           min_size=4, max_size=4, unique=True))
+    pins = st.one_of(st.sampled_from([*ground, *bodies]), pinned).filter(lambda name: name not in ("O2", "O4", "P"))
+    point_of = dict(zip(("A", "B"), draw(st.lists(pins, min_size=2, max_size=2, unique=True))))
+    loose = draw(st.one_of(st.sampled_from([*ground, *joints]), st.text(max_size=20)).filter(
+        lambda name: name not in point_of.values()))  # a point of the coupler no pin holds
+    ground_of = dict(zip(document["ground"], ground))
+    body_of = dict(zip((body["name"] for body in document["bodies"]), bodies))
+
+    def reference(old: str) -> str:
+        owner, _, point = old.partition(".")
+        if owner == "ground":
+            return f"ground.{ground_of[point]}"
+        return f"{body_of[owner]}.{point_of.get(point, point)}"
+
+    document["ground"] = {ground_of[name]: xy for name, xy in document["ground"].items()}
+    for body in document["bodies"]:
+        body["name"] = body_of[body["name"]]
+        body["points"] = {point_of.get(name, name): xy for name, xy in body["points"].items()}
+    coupler = document["bodies"][1]["points"]
+    coupler[loose] = coupler.pop("P")
+    joint_of = {joint["name"]: new for joint, new in zip(document["joints"], joints)}
+    for joint in document["joints"]:
+        joint.update(name=joint_of[joint["name"]], a=reference(joint["a"]), b=reference(joint["b"]))
+    for driver in document["drivers"]:
+        driver["joint"] = joint_of[driver["joint"]]
+    document["trace"] = f"{document['bodies'][1]['name']}.{loose}"
+    return document
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(renamed_crank_rocker(), st.sampled_from(["toml", "json"]))
+def test_any_names_the_file_format_takes_open_as_a_design_and_save_back_the_same_mechanism(document, fmt):
+    """A file the command line's reader takes, whatever its names (a pin named as its ground point or as a body,
+    a ground point named as a body, a point of any text), opens as a design and saves back, TOML or JSON, as the
+    same mechanism; and every joint and ground point of it can be renamed by the form that names it alone."""
+    text = json.dumps(document)
+    mechanism = mechanism_from_text(text, "renamed.json")  # what simulate --mechanism reads
+    design = design_from_text(text, "renamed.json")
+    saved = design_to_text(design, fmt)
+    assert mechanism_from_text(saved, f"saved.{fmt}") == mechanism
+    assert design_from_text(saved, f"saved.{fmt}") == design
+    new = next(f"new{k}" for k in range(10) if f"new{k}" not in design.names())
+    for k, joint in enumerate(mechanism.joints):
+        renamed = design.rename(f"joint:{joint.name}", new)
+        assert renamed.joints[k].name == new and renamed.to_mechanism().joints[k].kind == joint.kind
+    for name, xy in mechanism.ground.items():
+        assert design.rename(f"ground.{name}", new).point(f"ground.{new}") == xy
+
+
+def test_a_name_beyond_u_ffff_saves_as_toml_that_reads_back():
+    """TOML escapes such a character ``\\UXXXXXXXX``; JSON's surrogate pair escapes, which the TOML writer wrote
+    before, are not TOML (the file was refused when read back)."""
+    document = to_document(MECHANISM_PRESETS["crank-rocker"]())
+    document["joints"][1]["name"] = "A \U0001f527 \u00e9\x7f"
+    design = design_from_text(json.dumps(document), "spanner.json")
+    saved = design_to_text(design, "toml")
+    assert "\\U0001f527 \\u00e9\\u007f" in saved and saved.isascii()
+    assert design_from_text(saved, "spanner.toml") == design
 
 
 def test_a_body_given_its_own_mass_keeps_it_in_the_file_until_a_point_moves():
@@ -265,6 +390,7 @@ def test_undo_and_redo_with_nothing_to_do_are_refused():
 
 NAMES = st.sampled_from(["a", "b", "c", "d", "e", "f", "g", "h", "O2", "crank", "Ap", "x-1", "1bad", "ground"])
 POINT_NAMES = st.sampled_from(["p", "q", "r"])
+ITEMS = st.one_of(NAMES, st.sampled_from(["ground.O2", "ground.a", "body:crank", "body:a", "joint:Ap", "joint:a"]))
 # one coordinate in ten is out of bounds (NaN or 1e9 m): most edits are valid, some must be refused
 COORDINATE = st.integers(0, 9).flatmap(
     lambda k: st.sampled_from([float("nan"), 1e9]) if k == 0 else st.floats(-2.0, 2.0, allow_nan=False))
@@ -298,9 +424,9 @@ def edit(draw, design: Design):
         speed = draw(st.one_of(st.none(), st.floats(-2e3, 2e3)))
         return lambda d: d.add_motor(draw(NAMES), speed=speed, torque=None if speed is not None else 1.0)
     if which == "delete":
-        return lambda d: d.delete(draw(st.one_of(NAMES, st.just("motor:a"))))
+        return lambda d: d.delete(draw(st.one_of(ITEMS, st.just("motor:a"))))
     if which == "rename":
-        return lambda d: d.rename(draw(NAMES), draw(NAMES))
+        return lambda d: d.rename(draw(ITEMS), draw(NAMES))
     if which == "trace":
         return lambda d: d.set_trace(draw(st.sampled_from(refs)))
     if which == "drag":
@@ -313,9 +439,10 @@ def edit(draw, design: Design):
 
 
 def well_formed(design: Design) -> None:
-    """A design's invariants: unique names, every joint's points exist; when complete it is a valid Mechanism."""
-    names = [n for n, _ in design.ground] + [b.name for b in design.bodies] + [j.name for j in design.joints]
-    assert len(names) == len(set(names))
+    """A design's invariants: names unique among each kind's (the file format's namespaces), every joint's
+    points exist; when complete it is a valid Mechanism."""
+    for names in ([n for n, _ in design.ground], [b.name for b in design.bodies], [j.name for j in design.joints]):
+        assert len(names) == len(set(names))
     if design.is_complete():
         design.to_mechanism()  # raises if any reference dangles
         topology_of(design)  # never raises: a notice at worst
