@@ -29,9 +29,9 @@ def on_page(app: AppPage, xy) -> list[float]:
     return point
 
 
-def test_a_four_bar_drawn_with_the_mouse_has_mobility_one_drags_and_runs(start_lab):
-    lab = start_lab(preset="crank-rocker")
-    app = lab.open_page(viewport=VIEWPORT)
+def draw_with_the_mouse(app: AppPage, pivots, bars) -> None:
+    """Design in the scene, seen from the front, then click two ground ``pivots`` and the ``bars`` (pairs of
+    points, each drawn from a point already there so it is pinned to it), each click's edit awaited."""
     session = app.session
     view = session.design_view
     app.open_tab("Design")
@@ -40,22 +40,36 @@ def test_a_four_bar_drawn_with_the_mouse_has_mobility_one_drags_and_runs(start_l
     wait_until(lambda: session.camera.view == "front", message="the camera in front")
     snap.wait_for_drawn_frames(app.page)
     app.page.wait_for_timeout(800)  # the camera's move to the front view arrives and is drawn
+    done = len(view.history.done)
+
+    def edits() -> int:
+        return len(view.history.done) - done
+
+    app.choose("Tool", "Ground pivot")
+    wait_until(lambda: view.tool == "Ground pivot", message="the tool chosen")
+    for k, xy in enumerate(pivots):
+        app.page.mouse.click(*on_page(app, xy))
+        wait_until(lambda k=k: edits() == k + 1, message=f"ground pivot {k + 1} placed")
+    app.choose("Tool", "Bar")
+    wait_until(lambda: view.tool == "Bar", message="the bar tool chosen")
+    for k, (first, second) in enumerate(bars):
+        app.page.mouse.click(*on_page(app, first))
+        wait_until(lambda: len(view.pending) == 1, message="the bar's first point")
+        app.page.mouse.click(*on_page(app, second))
+        wait_until(lambda k=k: edits() == len(pivots) + 1 + k, message=f"bar {k + 1} drawn")
+
+
+def test_a_four_bar_drawn_with_the_mouse_has_mobility_one_drags_and_runs(start_lab):
+    lab = start_lab(preset="crank-rocker")
+    app = lab.open_page(viewport=VIEWPORT)
+    session = app.session
+    view = session.design_view
 
     def history() -> int:
         return len(view.history.done)
 
-    app.choose("Tool", "Ground pivot")
-    wait_until(lambda: view.tool == "Ground pivot", message="the tool chosen")
-    for k, xy in enumerate(((0.0, 0.0), GROUND_2)):
-        app.page.mouse.click(*on_page(app, xy))
-        wait_until(lambda k=k: history() == k + 1, message=f"ground pivot {k + 1} placed")
-    app.choose("Tool", "Bar")
-    wait_until(lambda: view.tool == "Bar", message="the bar tool chosen")
-    for k, (first, second) in enumerate((((0.0, 0.0), CRANK), (CRANK, COUPLER_END), (COUPLER_END, GROUND_2))):
-        app.page.mouse.click(*on_page(app, first))
-        wait_until(lambda: len(view.pending) == 1, message="the bar's first point")
-        app.page.mouse.click(*on_page(app, second))
-        wait_until(lambda k=k: history() == 3 + k, message=f"bar {k + 1} drawn")
+    draw_with_the_mouse(app, ((0.0, 0.0), GROUND_2), (((0.0, 0.0), CRANK), (CRANK, COUPLER_END),
+                                                      (COUPLER_END, GROUND_2)))
     design = view.design
     assert len(design.bodies) == 3 and len(design.joints) == 4, design
     assert np.allclose([design.point("ground.G2"), design.point("bar3.B")], [GROUND_2, GROUND_2])
@@ -152,35 +166,16 @@ def test_a_slider_crank_drawn_with_the_mouse_and_the_slider_tool_runs(start_lab)
     app = lab.open_page(viewport=VIEWPORT)
     session = app.session
     view = session.design_view
-    app.open_tab("Design")
-    app.page.get_by_text("Design in the scene", exact=True).click()
-    wait_until(lambda: view.on and session.camera.view == "front", message="designing, seen from the front")
-    snap.wait_for_drawn_frames(app.page)
-    app.page.wait_for_timeout(800)  # the camera's move to the front view arrives and is drawn
-
-    def history() -> int:
-        return len(view.history.done)
-
-    app.choose("Tool", "Ground pivot")
-    wait_until(lambda: view.tool == "Ground pivot", message="the tool chosen")
-    for k, xy in enumerate(((0.0, 0.0), (0.4, 0.0))):  # the crank's pivot, a point of the piston's guide
-        app.page.mouse.click(*on_page(app, xy))
-        wait_until(lambda k=k: history() == k + 1, message=f"ground pivot {k + 1} placed")
-    app.choose("Tool", "Bar")
-    wait_until(lambda: view.tool == "Bar", message="the bar tool chosen")
-    # crank, rod, and a piston pinned to the rod, each drawn from the point the last one ended on
-    for k, (first, second) in enumerate((((0.0, 0.0), (0.05, 0.0)), ((0.05, 0.0), (0.25, 0.0)),
-                                         ((0.25, 0.0), (0.3, 0.0)))):
-        app.page.mouse.click(*on_page(app, first))
-        wait_until(lambda: len(view.pending) == 1, message="the bar's first point")
-        app.page.mouse.click(*on_page(app, second))
-        wait_until(lambda k=k: history() == 3 + k, message=f"bar {k + 1} drawn")
+    # the crank's pivot and a point of the piston's guide; crank, rod, and a piston pinned to the rod, each
+    # drawn from the point the last one ended on
+    draw_with_the_mouse(app, ((0.0, 0.0), (0.4, 0.0)), (((0.0, 0.0), (0.05, 0.0)), ((0.05, 0.0), (0.25, 0.0)),
+                                                        ((0.25, 0.0), (0.3, 0.0))))
     app.choose("Tool", "Slider")
     wait_until(lambda: view.tool == "Slider", message="the slider tool chosen")
     app.page.mouse.click(*on_page(app, (0.3, 0.0)))  # the piston's far end slides ...
     wait_until(lambda: len(view.pending) == 1, message="the sliding point picked")
     app.page.mouse.click(*on_page(app, (0.4, 0.0)))  # ... along the guide through the second ground pivot
-    wait_until(lambda: history() == 6, message="the slider added")
+    wait_until(lambda: len(view.history.done) == 6, message="the slider added")
     design = view.design
     slider = next(j for j in design.joints if j.kind == "prismatic")
     assert (slider.body, slider.point, slider.on, slider.through) == ("bar3", "B", "ground", "G2"), slider
