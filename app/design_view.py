@@ -36,7 +36,7 @@ import numpy as np
 from physics import LinkageError
 from physics.mechanism.design import Design, History, default_mass_properties, design_from_mechanism
 from physics.mechanism.design_analysis import coupler_curve, design_from_text, design_to_text, drag, topology_of
-from physics.mechanism.files import mechanism_from_document
+from physics.mechanism.files import check_unicode, mechanism_from_document
 from physics.mechanism.presets import LINEAR_DENSITY
 from physics.mechanism.writer import to_document
 
@@ -116,6 +116,7 @@ def design_from_sketch(value: str) -> Design:
         raise LinkageError(f"{SKETCH}: not a design link's value (not a mechanism's JSON)") from None
     except RecursionError:
         raise LinkageError(f"{SKETCH}: nested too deeply") from None
+    check_unicode(document, SKETCH)
     return design_from_mechanism(mechanism_from_document(document, SKETCH))
 
 

@@ -8,6 +8,7 @@ as a notice. Size is bounded before parsing.
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,8 @@ from .description import Body, Driver, Mechanism
 from .joints import KINDS
 
 MAX_FILE_BYTES = 1_000_000
+_SURROGATE = re.compile("[\ud800-\udfff]")
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")  # JSON's escape of one (a pair's halves included)
 
 
 def _element_name(document: Any, location: tuple) -> str:
@@ -44,6 +47,32 @@ def _element_name(document: Any, location: tuple) -> str:
         node = node.get(key) if isinstance(node, dict) else None
         index += 1
     return ": ".join(parts)
+
+
+def _lone_surrogate(node: Any, location: tuple = ()) -> tuple[tuple, str] | None:
+    """Where the first text (a key or a value) holding a lone surrogate is, and that text; None when none does.
+    JSON may escape one (``"\\ud800"``): it is no character, so no UTF-8 file, TOML or CSV can write it back."""
+    if isinstance(node, str):
+        return (location, node) if _SURROGATE.search(node) else None
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, value in items:
+        if isinstance(key, str) and _SURROGATE.search(key):
+            return location, key
+        found = _lone_surrogate(value, (*location, key))
+        if found is not None:
+            return found
+    return None
+
+
+def check_unicode(document: Any, source: str) -> None:
+    """LinkageError naming the element and the text when JSON's escapes put a lone surrogate in ``document``.
+    Called where JSON enters (a file, a design link), not for every document: a design's own are checked."""
+    surrogate = _lone_surrogate(document)
+    if surrogate is not None:
+        location, text = surrogate
+        where = _element_name(document, location)
+        raise LinkageError(f"{source}: {where + ': ' if where else ''}{text!r}: not Unicode text (a lone surrogate "
+                           "escape); a mechanism file is UTF-8 text")
 
 
 def mechanism_from_document(document: Any, source: str = "mechanism") -> Mechanism:
@@ -119,6 +148,8 @@ def mechanism_from_text(text: str, name: str) -> Mechanism:
     try:
         if suffix == ".json":
             document = json.loads(text)
+            if _SURROGATE_ESCAPE.search(text):
+                check_unicode(document, path)
         elif suffix == ".toml":
             if sys.version_info < (3, 11):
                 raise LinkageError(f"{path}: TOML files need Python 3.11 or newer; write it as JSON")

@@ -106,6 +106,9 @@ HOSTILE = {
     "over the length": "A" * (MAX_SKETCH_CHARS + 1),
     "a mechanism with an infinite coordinate": packed(json.dumps(to_document(four_bar().to_mechanism()))
                                                       .replace("0.45", "1e999").encode()),
+    "a ground point named by a lone surrogate": packed(json.dumps(
+        {**(document := to_document(four_bar().to_mechanism())), "ground": {**document["ground"], "G\ud800": [1, 1]}}
+    ).encode()),
 }
 
 

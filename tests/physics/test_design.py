@@ -349,6 +349,32 @@ def test_a_name_beyond_u_ffff_saves_as_toml_that_reads_back():
     assert design_from_text(saved, "spanner.toml") == design
 
 
+@pytest.mark.parametrize(("where", "refusal"), [
+    (("ground", "O\ud800"), "ground: 'O\\ud800': not Unicode text"),
+    (("joint", "A\udc00"), "joint 'A\\udc00': name: 'A\\udc00': not Unicode text"),
+    (("point", "P\udfff"), "body 'coupler': points: 'P\\udfff': not Unicode text"),
+])
+def test_a_json_name_of_a_lone_surrogate_is_refused_naming_where(where, refusal):
+    """JSON can escape half a surrogate pair, which is no character: no UTF-8 file, TOML or CSV could write such
+    a name back (the design saved it as another name), so a file holding one is refused where it is read."""
+    kind, name = where
+    document = to_document(MECHANISM_PRESETS["crank-rocker"]())
+    if kind == "ground":
+        document["ground"][name] = [1.0, 1.0]
+    elif kind == "joint":
+        document["joints"][1]["name"] = name
+    else:
+        document["bodies"][1]["points"][name] = document["bodies"][1]["points"].pop("P")
+        document["trace"] = f"coupler.{name}"
+    text = json.dumps(document)
+    for read in (lambda: mechanism_from_text(text, "odd.json"), lambda: design_from_text(text, "odd.json")):
+        with pytest.raises(LinkageError, match=re.escape(f"odd.json: {refusal} (a lone surrogate escape)")):
+            read()
+    fine = to_document(MECHANISM_PRESETS["crank-rocker"]())
+    fine["ground"]["\U0001f527"] = [2.0, 2.0]  # a whole pair beyond U+FFFF (escaped as two) is a character
+    assert "\U0001f527" in mechanism_from_text(json.dumps(fine), "fine.json").ground
+
+
 def test_a_body_given_its_own_mass_keeps_it_in_the_file_until_a_point_moves():
     design = four_bar().set_mass("coupler", 2.5, inertia=0.04, com=(0.3, 0.1))
     coupler = design.to_mechanism().body("coupler")
