@@ -66,6 +66,9 @@ def release_freed_memory() -> bool:
     return bool(_MALLOC_TRIM(0))
 
 
+FINISH_WAIT_SECONDS = 30.0  # the longest a trim waits for closed sessions' threads to end
+
+
 class Trimmer:
     """Collects and trims (:func:`release_freed_memory`) a moment after sessions close.
 
@@ -84,11 +87,17 @@ class Trimmer:
         self._stopping = False
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
+        self._finishing: list[threading.Thread] = []  # closed sessions' threads the next trim waits for
 
-    def request(self) -> None:
+    def request(self, finishing: threading.Thread | None = None) -> None:
+        """A session closed; ``finishing``: a thread of it still running (its player's, stopped but not yet
+        ended: a chunk waits for a busy worker), which the trim waits for (at most FINISH_WAIT_SECONDS) before it
+        collects, or the session's objects it still holds would stay until the next full collection."""
         with self._lock:
             if self._stopping:
                 return
+            if finishing is not None and finishing.is_alive():
+                self._finishing.append(finishing)
             self._requests += 1
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="memory-trim", daemon=True)
@@ -123,6 +132,10 @@ class Trimmer:
                 waited += self.settle
             with self._lock:
                 covered = self._requests
+                finishing, self._finishing = self._finishing, []
+            deadline = time.monotonic() + FINISH_WAIT_SECONDS
+            for thread in finishing:  # what they hold is garbage only once they end
+                thread.join(max(0.0, deadline - time.monotonic()))
             gc.collect()  # a closed session's objects hang in reference cycles until a full collection
             release_freed_memory()
             with self._lock:

@@ -247,6 +247,11 @@ class Player:
     def alive(self) -> bool:
         return self._thread.is_alive()
 
+    @property
+    def thread(self) -> threading.Thread:
+        """The player's thread (after :meth:`stop` it may still finish a chunk: the memory trim waits for it)."""
+        return self._thread
+
     def superseded(self) -> bool:
         """True while the restart being installed is no longer wanted: a newer one waits, or the player stops.
         ``prepare`` polls it to cancel a slow build (app/warm.py kills its worker)."""

@@ -277,7 +277,8 @@ class LabServer:
                     session.close()
                     with self._lock:
                         self.closed_sessions += 1
-                    self.trimmer.request()
+                    player = getattr(session, "player", None)
+                    self.trimmer.request(finishing=player.thread if player is not None else None)
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
@@ -412,7 +413,8 @@ class LabServer:
             self.seats.release()
             with self._lock:
                 self.closed_sessions += 1
-            self.trimmer.request()
+            player = getattr(session, "player", None)  # its thread may outlive close() (a chunk still in a worker)
+            self.trimmer.request(finishing=player.thread if player is not None else None)
         self._rebalance()
 
     def _open_sessions(self) -> list[LabSession]:
