@@ -13,6 +13,8 @@ from physics import Settings, get_preset, simulate
 from physics.codegen import cache
 from physics.simulate import mechanism_route
 
+from .test_route_call_cache import _assert_same  # the same byte-for-byte comparison
+
 
 @pytest.fixture(autouse=True)
 def _specialise_in_the_call(monkeypatch):
@@ -27,18 +29,9 @@ def _fields(run) -> dict:
             "t_reached": run.stats["t_reached"], **columns, **extra}
 
 
-def _assert_same(mine: dict, theirs: dict) -> None:
-    assert mine.keys() == theirs.keys()
-    for name, value in theirs.items():
-        if isinstance(value, np.ndarray):
-            assert mine[name].shape == value.shape, name
-            assert mine[name].tobytes() == value.tobytes(), name
-        else:
-            assert mine[name] == value, name
-
-
 def _reference(monkeypatch, chain, theta0, omega0, settings, t_start=0.0) -> dict:
-    """The same request by engine.integrate and the samples' functions (nothing remembered is used)."""
+    """The same request by engine.integrate and the samples' functions (nothing remembered is used), read with
+    this file's :func:`_fields` (more fields than test_route_call_cache's)."""
     with monkeypatch.context() as patched:
         patched.setattr(mechanism_route, "ONE_BUFFER_RUN", False)
         return _fields(simulate(chain, theta0, omega0, settings, t_start))
