@@ -497,6 +497,17 @@ class CompiledSystem:
         return int(getattr(self.module, "POSE_SIZE", 0))
 
     @property
+    def pose_vector_size(self) -> int:
+        """The length of the generated ``kinematics``' vector: every body's pose, the bias, then the cosine and
+        the sine of every body's angle (3 B, 3 B, B, B); 0 without tree coordinates."""
+        return self.pose_size * 2 + (self.pose_size // 3) * 2
+
+    @property
+    def pose_angle_index(self) -> np.ndarray:
+        """The coordinate that each body's angle is in the generated kinematics (-1: a sum of coordinates)."""
+        return np.array(getattr(self.module, "POSE_ANGLE_INDEX", ()), dtype=np.int64)
+
+    @property
     def constraint_count(self) -> int:
         return len(self.module.CONSTRAINT_ROWS)
 
@@ -523,10 +534,10 @@ class CompiledSystem:
         theta = np.atleast_2d(_c(theta))
         size = self.pose_size
         matrix = np.zeros((theta.shape[0], size, theta.shape[1]))
-        vector = np.zeros((theta.shape[0], 2 * size))
+        vector = np.zeros((theta.shape[0], self.pose_vector_size))
         native_states.native_states(self._native("kinematics"), self.layout, np.zeros(theta.shape[0]), theta,
                                     np.atleast_2d(_c(omega)), _c(params), matrix, vector)
-        return matrix, vector[:, :size], vector[:, size:]
+        return matrix, vector[:, :size], vector[:, size:2 * size]
 
     def project(self, theta, omega, params, t=0.0) -> float:
         """Project ``theta``, ``omega`` (n,) in place onto the held constraints (positions, then velocities) at

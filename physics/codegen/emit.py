@@ -8,6 +8,8 @@ singularity detector, every integrator) lives in :mod:`physics.kernels`, compile
 
 from __future__ import annotations
 
+import sympy as sp
+
 from ..derive.formulation import LinearSystem
 from . import llvm_ir
 
@@ -45,12 +47,20 @@ def emit_module(system: LinearSystem, header: str) -> str:
         pieces += [(("v", i), phi[i]) for i in range(len(rows))]
         pieces += [(("v", len(rows) + i), rate[i]) for i in range(len(rows))]
         functions.append(llvm_ir.function_ir("constraints", s, pieces, n, "J", "v"))
+    angle_index: list[int] = []
     if system.kinematics is not None:  # tree coordinates: every body's pose, d pose / d theta and the bias
         pose, pose_jacobian, bias = system.kinematics
         size = len(pose)
+        angles = [pose[3 * body + 2] for body in range(size // 3)]
         pieces = [((i, j), pose_jacobian[i, j]) for i in range(size) for j in range(n) if pose_jacobian[i, j] != 0]
         pieces += [(("v", i), pose[i]) for i in range(size)] + [(("v", size + i), bias[i]) for i in range(size)]
+        # each body's [cos, sin] of its angle: the generated code has them already (its rotations), and a run's
+        # observables read them here instead of evaluating them again at every sample
+        pieces += [(("v", 2 * size + body), sp.cos(angle)) for body, angle in enumerate(angles)]
+        pieces += [(("v", 2 * size + len(angles) + body), sp.sin(angle)) for body, angle in enumerate(angles)]
         functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v"))
+        theta_index = {symbol: k for k, symbol in enumerate(s.theta)}
+        angle_index = [theta_index.get(angle, -1) for angle in angles]
     order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
     rhs_functions = []  # a module of its own: compiled only by a process that integrates (the kernels' fast path)
     if order is not None:
@@ -73,6 +83,7 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append(f"N_PARAMETERS = {len(s.params)}")
     lines.append(f"MULTIPLIER_INDEX = {_index_literal(system.multiplier_index)}")
     lines.append(f"POSE_SIZE = {0 if system.kinematics is None else len(system.kinematics[0])}  # kinematics()'s 3 B")
+    lines.append(f"POSE_ANGLE_INDEX = {_index_literal(angle_index)}  # the coordinate each body's angle is, or -1")
     lines.append(f"HAS_LAGRANGIAN = {system.mass_matrix is not None}")
     # Lagrange's open-chain matrix is the mass matrix itself: symmetric positive definite, solved by Cholesky.
     symmetric = system.mass_matrix is not None and not system.pinned and system.A.is_symmetric(simplify=False)
@@ -87,7 +98,8 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("# rhs(y, params, dydt) for a sparse A: dydt = [omega, theta_ddot] at y = [theta, omega] by assemble and")
     lines.append("# solve in one function (returns solve's pivot ratio);")
     lines.append("# constraints(theta, omega, params, J, v): J (r x n) and v = [phi, phi_dot] of the held constraints;")
-    lines.append("# kinematics(theta, omega, params, J, v): tree coordinates' d pose/d theta (3B x n), v = [pose, bias].")
+    lines.append("# kinematics(theta, omega, params, J, v): tree coordinates' d pose/d theta (3B x n), v = [pose, bias,")
+    lines.append("# cos of each body's angle, sin of each body's angle] (3B, 3B, B, B).")
     lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")
     lines.append('LLVM_IR = """')
     lines.append(llvm_ir.module_ir(functions).rstrip("\n"))

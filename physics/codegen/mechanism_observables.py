@@ -75,7 +75,7 @@ class ObservablesPlan:
     term alone); ``points``: a :class:`PathPoints` whose first ``B`` points are the bodies' centres."""
 
     def __init__(self, rotation_index, acceleration_index, mass_diagonal, constant_force, damping, linear,
-                 unknowns_map, points: PathPoints, tree: bool) -> None:
+                 unknowns_map, points: PathPoints, tree: bool, turns_in_pose: bool = False) -> None:
         rotation_index = np.asarray(rotation_index, dtype=np.int64)
         acceleration_index = np.asarray(acceleration_index, dtype=np.int64)
         bodies, n = rotation_index.size, acceleration_index.size
@@ -101,6 +101,9 @@ class ObservablesPlan:
             [np.ravel(part) for part in (mass_diagonal, constant_force, origin)]
             + [weights for _, _, weights in matrices]), dtype=float)
         self.tree = bool(tree)
+        # the IR's ``tree`` argument: 0 not a tree formulation's; 1 a tree's, each body's cosine and sine
+        # evaluated from its rotation coordinate; 2 a tree's, read from the kinematics' vector instead
+        self.mode = 0 if not tree else 2 if turns_in_pose else 1
         self.bodies, self.count, self.reactions, self.unknowns, self.n = bodies, count, reactions, unknowns, n
         self.addresses = (self.shape.ctypes.data, self.indices.ctypes.data, self.constants.ctypes.data)
 
@@ -158,7 +161,7 @@ _specialised_lock = threading.Lock()
 
 
 def _structure(plan: ObservablesPlan) -> tuple:
-    return plan.shape.tobytes(), plan.indices.tobytes(), plan.tree
+    return plan.shape.tobytes(), plan.indices.tobytes(), plan.mode
 
 
 def specialised_key(plan: ObservablesPlan) -> str:
@@ -168,7 +171,7 @@ def specialised_key(plan: ObservablesPlan) -> str:
     from .machine_code import sources_digest  # noqa: PLC0415
 
     return (f"mechanism_observables specialised\n{sources_digest()}\nshape {plan.shape.tolist()}\n"
-            f"indices {plan.indices.tolist()}\ntree {int(plan.tree)}")
+            f"indices {plan.indices.tolist()}\ntree {plan.mode}")
 
 
 def specialised_observables(plan: ObservablesPlan) -> tuple | None:
@@ -199,7 +202,7 @@ def specialised_observables(plan: ObservablesPlan) -> tuple | None:
     cached = is_cached(key, SPECIALISED_VARIANT)
     if asked < 2 and not cached:
         return None
-    shape, indices, tree = plan.shape.tolist(), plan.indices.tolist(), plan.tree
+    shape, indices, tree = plan.shape.tolist(), plan.indices.tolist(), plan.mode
 
     def build() -> None:
         import ctypes  # noqa: PLC0415
@@ -237,7 +240,7 @@ def specialised_observables(plan: ObservablesPlan) -> tuple | None:
     return None
 
 
-def _specialised_text(shape: list, indices: list, tree: bool) -> str:
+def _specialised_text(shape: list, indices: list, tree: int) -> str:
     """The IR text of one structure's observables, built on a machine-code cache miss only (a warm process never
     imports the IR builders: tests/physics/test_lean_start.py)."""
     from .mechanism_observables_ir import specialised_observables_ir  # noqa: PLC0415

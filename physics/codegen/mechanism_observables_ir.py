@@ -16,8 +16,10 @@ the ``[cos phi, sin phi]`` entry), the dampers' force (``damping``, ``3 B x 3 B`
 then each matrix's outputs (E) and inputs (E)]``: where each coordinate's acceleration is among the unknowns,
 which coordinate is each body's rotation (absolute rotations), the triples' indices. ``constants =
 [mass_diagonal (3 B), constant_force (3 B), origin (P x 2), then each matrix's weights (E)]``. Per sample ``t``: row ``t`` of ``x``, ``v`` starts at ``t * state_stride`` (a run's
-states ``[x, v]`` read in place); ``full (rows, k)`` the solve's unknowns; for ``tree`` (a tree formulation)
-``pose_jacobian (rows, 3 B, n)`` and ``pose_vector (rows, 6 B)`` (pose, then bias) of the generated kinematics.
+states ``[x, v]`` read in place); ``full (rows, k)`` the solve's unknowns; for ``tree`` (a tree formulation:
+1, or 2 when the kinematics' cosines and sines are those of the rotation coordinates, which are then read rather
+than evaluated again) ``pose_jacobian (rows, 3 B, n)`` and ``pose_vector (rows, 8 B)`` (pose, bias, each body's
+cosine, each body's sine) of the generated kinematics.
 Outputs: ``points`` and ``velocities (rows, P, 2)``, ``energies (3, rows)`` (kinetic, potential, total) and
 ``reactions (rows, R)``. ``scratch``: :func:`~physics.codegen.mechanism_observables.scratch_length` doubles.
 
@@ -94,16 +96,25 @@ def _observables(module: ir.Module) -> None:
     cos = code.intrinsic("llvm.cos", [_DOUBLE])
     zero = _double(0.0)
     place_count = b.mul(count, _int(2))
+    pose_width = b.mul(bodies, _int(8))  # a row of the kinematics' vector: pose, bias (3 B each), cos, sin (B each)
+    read_turns = b.icmp_signed("==", tree, _int(2))
     with code.loop(rows, "sample") as t:
         x_row = code.at(x, b.mul(t, state_stride))
         v_row = code.at(v, b.mul(t, state_stride))
         full_row = code.at(full, b.mul(t, k))
-        with code.loop(bodies, "turn") as body:
-            coordinate = code.load(rotation_index, body)
-            angle, spin = code.load(x_row, coordinate), code.load(v_row, coordinate)
-            c, s = b.call(cos, [angle]), b.call(sin, [angle])
-            code.store(c, turns, body)
-            code.store(s, turns, b.add(bodies, body))
+        with b.if_else(read_turns) as (kinematics_turns, own_turns):
+            with kinematics_turns:  # the kinematics evaluated them at this sample: the same numbers
+                turned = code.at(pose_vector, b.add(b.mul(t, pose_width), b.mul(size, _int(2))))
+                with code.loop(turning, "read_turn") as j:
+                    code.store(code.load(turned, j), turns, j)
+            with own_turns:
+                with code.loop(bodies, "turn") as body:
+                    angle = code.load(x_row, code.load(rotation_index, body))
+                    code.store(b.call(cos, [angle]), turns, body)
+                    code.store(b.call(sin, [angle]), turns, b.add(bodies, body))
+        with code.loop(bodies, "rate") as body:
+            spin = code.load(v_row, code.load(rotation_index, body))
+            c, s = code.load(turns, body), code.load(turns, b.add(bodies, body))
             code.store(b.fmul(b.fneg(spin), s), rates, body)
             code.store(b.fmul(spin, c), rates, b.add(bodies, body))
         points_row = code.at(points, b.mul(t, place_count))
@@ -137,7 +148,7 @@ def _observables(module: ir.Module) -> None:
             code.store(zero, reactions_row, r)
         with b.if_then(b.icmp_signed("!=", tree, _int(0))):
             jacobian = code.at(pose_jacobian, b.mul(t, b.mul(size, n)))
-            bias = code.at(pose_vector, b.add(b.mul(t, b.mul(size, _int(2))), size))
+            bias = code.at(pose_vector, b.add(b.mul(t, pose_width), size))
             with code.loop(size, "qdot") as i:
                 def entry(j, i=i):
                     return code.load(jacobian, b.add(b.mul(i, n), j))
@@ -174,7 +185,7 @@ def _table(module: ir.Module, name: str, values) -> ir.Constant:
     return table.gep([_int(0), _int(0)])
 
 
-def specialised_observables_ir(shape, indices, tree: bool) -> str:
+def specialised_observables_ir(shape, indices, tree: int) -> str:
     """The IR text of :data:`SPECIALISED_NAME`: :data:`NAME` for one structure of plan (its integer ``shape``
     and ``indices`` and whether it is a ``tree``'s, constant tables in the module), of :data:`NAME`'s signature
     whose ``shape``, ``indices`` and ``tree`` arguments it ignores; the constants (masses, forces, weights)
@@ -192,7 +203,7 @@ def specialised_observables_ir(shape, indices, tree: bool) -> str:
     arguments = list(wrapper.args)
     arguments[0] = _table(module, "specialised_shape", shape)
     arguments[1] = _table(module, "specialised_indices", indices)
-    arguments[4] = _int(int(bool(tree)))
+    arguments[4] = _int(int(tree))
     builder.call(generic, arguments)
     builder.ret_void()
     return str(module)

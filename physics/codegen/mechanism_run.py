@@ -28,6 +28,12 @@ from .native_integrators import layout_address
 _NO_CONDITION = np.empty(0)
 
 
+def pose_width(size: int) -> int:
+    """The generated kinematics' vector for a pose of ``size`` (3 B) entries: the pose, the bias, each body's
+    cosine and sine (:attr:`physics.codegen.cache.CompiledSystem.pose_vector_size`)."""
+    return 2 * size + 2 * (size // 3)
+
+
 class _Offsets:
     """Where each part of a run's buffer starts (in doubles) for one shape of run: ``[counts (3 int64),
     t_reached, y0, t_eval, params (the driver's copy), params (the solve's copy), params (the kinematics' copy:
@@ -53,7 +59,7 @@ class _Offsets:
         self.condition = self.full + samples * k
         self.pose_jacobian = self.condition + samples
         self.pose_vector = self.pose_jacobian + samples * size * n
-        self.matrices = self.pose_vector + samples * 2 * size
+        self.matrices = self.pose_vector + samples * pose_width(size)
         self.rhs = self.matrices + samples * k * k * matrices
         self.points = self.rhs + samples * k * matrices
         self.velocities = self.points + samples * 2 * count
@@ -105,7 +111,7 @@ class _Run:
         # the observables specialised for the plan's structure, once there (the one call's; the calls from
         # Python keep the generic function, so the tests comparing the two hold the one to the other)
         self.observables_specialised: tuple | None = None
-        self.tree = int(plan.tree)
+        self.tree = plan.mode
         self._plans: dict[tuple[int, int, int], tuple] = {}
 
     def plan_address(self, driver, solve) -> int:
@@ -377,7 +383,7 @@ def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: i
     size = entry.size
     if size and rows:
         entry.kinematics_call(entry.kinematics, address, rows, base + 8 * at.zeros, base + 8 * at.x, base + 8 * at.v,
-                              base + 8 * at.kinematics_params, size * n, 2 * size, base + 8 * at.pose_jacobian,
+                              base + 8 * at.kinematics_params, size * n, pose_width(size), base + 8 * at.pose_jacobian,
                               base + 8 * at.pose_vector)
     if matrices and rows:
         entry.assemble_call(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,

@@ -95,7 +95,7 @@ def _run(module: ir.Module) -> None:
     with b.if_then(b.and_(b.icmp_signed("!=", size, _int(0)), has_rows)):
         b.call(function("states", _STATES), [
             slot("kinematics"), layout, filled, part("zeros"), part("x"), part("v"), part("kinematics_params"),
-            b.mul(size, n), b.mul(size, _int(2)), part("pose_jacobian"), part("pose_vector")])
+            b.mul(size, n), b.sdiv(b.mul(size, _int(8)), _int(3)), part("pose_jacobian"), part("pose_vector")])
     with b.if_then(b.and_(b.icmp_signed("!=", slot("matrices"), _int(0)), has_rows)):
         b.call(function("assemble_states", _ASSEMBLE), [
             slot("assemble"), layout, filled, part("x"), part("v"), part("solve_params"), part("matrices_at"),

@@ -93,6 +93,7 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     if x.shape != (rows, n) or v.shape != (rows, n) or np.shape(times) != (rows,):
         raise ValueError(f"expected states ({rows}, {n}) and times ({rows},)")
     size = compiled.pose_size if kinematics else 0
+    pose_width = compiled.pose_vector_size if kinematics else 0  # [pose, bias, cos, sin] of every body
     p = params.shape[0]
     # [x, v, times, zeros (the kinematics' times), params (the solve's), params (the constraints' copy: the
     # time slot is written), params (the kinematics' copy), scratch, full, condition, J, phi|phi_dot, dpose,
@@ -111,7 +112,7 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     at_vec = at_jac + rows * r * n
     at_pjac = at_vec + rows * 2 * r
     at_pvec = at_pjac + rows * size * n
-    at_matrices = at_pvec + rows * 2 * size
+    at_matrices = at_pvec + rows * pose_width
     at_rhs = at_matrices + rows * k * k * matrices
     at_points = at_rhs + rows * k * matrices
     plan = observables
@@ -140,17 +141,17 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     out.condition = values[at_cond:at_jac]
     out.jacobian, out.phi, out.phi_dot = _states_into(
         values, states, int(compiled._native("constraints")) if r and constraints else None, address,
-        (rows, r, n), (at_t, at_x, at_v, at_params_c), at_jac)
+        (rows, r, n), (at_t, at_x, at_v, at_params_c), at_jac, 2 * r)
     out.pose_jacobian, out.pose, out.bias = _states_into(
         values, states, int(compiled._native("kinematics")) if size and kinematics else None, address,
-        (rows, size, n), (at_zero, at_x, at_v, at_params_k), at_pjac)
+        (rows, size, n), (at_zero, at_x, at_v, at_params_k), at_pjac, pose_width)
     out.matrices = values[at_matrices:at_rhs].reshape(rows * matrices, k, k)
     if matrices and rows:
         _assemble_function()(int(compiled.assemble_function), address, rows, base + 8 * at_x, base + 8 * at_v,
                              base + 8 * at_params, base + 8 * at_matrices, base + 8 * at_rhs)
     if plan is not None:
         shape, indices, constants = plan.addresses
-        observables_function()(shape, indices, constants, rows, int(plan.tree), float(g), base + 8 * at_x,
+        observables_function()(shape, indices, constants, rows, plan.mode, float(g), base + 8 * at_x,
                                base + 8 * at_v, n, base + 8 * at_full, base + 8 * at_pjac, base + 8 * at_pvec,
                                base + 8 * at_observe, base + 8 * at_points, base + 8 * at_velocities,
                                base + 8 * at_energies, base + 8 * at_reactions)
@@ -162,21 +163,23 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
 
 
 def _states_into(values: np.ndarray, states, native: int | None, address: int, shape: tuple[int, int, int],
-                 inputs: tuple[int, int, int, int], at_jacobian: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 inputs: tuple[int, int, int, int], at_jacobian: int,
+                 vector_width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One ``native_states`` call (the held constraints' or the kinematics') into ``values``: its Jacobian
-    ``(T, w, n)`` at ``at_jacobian``, then its value and rate ``(T, 2 w)`` (``shape``: ``(T, w, n)``), from the
+    ``(T, w, n)`` at ``at_jacobian``, then its vector ``(T, vector_width)`` (``shape``: ``(T, w, n)``), whose
+    first ``2 w`` entries are the value and the rate (the kinematics' adds each body's cosine and sine), from the
     times, ``x``, ``v`` and parameters at the offsets ``inputs``; the views ``(jacobian, value, rate)``, left
     unset when ``native`` is None (not asked for, or no rows)."""
     rows, width, n = shape
     at_vector = at_jacobian + rows * width * n
     jacobian = values[at_jacobian:at_vector].reshape(rows, width, n)
-    vector = values[at_vector:at_vector + rows * 2 * width].reshape(rows, 2 * width)
+    vector = values[at_vector:at_vector + rows * vector_width].reshape(rows, vector_width)
     if native is not None:
         base = values.ctypes.data
         at_t, at_x, at_v, at_params = inputs
         states(native, address, rows, base + 8 * at_t, base + 8 * at_x, base + 8 * at_v, base + 8 * at_params,
-               width * n, 2 * width, base + 8 * at_jacobian, base + 8 * at_vector)
-    return jacobian, vector[:, :width], vector[:, width:]
+               width * n, vector_width, base + 8 * at_jacobian, base + 8 * at_vector)
+    return jacobian, vector[:, :width], vector[:, width:2 * width]
 
 
 def _assemble_function():

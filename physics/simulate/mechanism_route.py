@@ -668,7 +668,8 @@ def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> Ob
     acceleration_index = compiled.theta_ddot_index if not route.own_reactions else np.zeros(chain.n, dtype=np.int64)
     plan = ObservablesPlan(route.inverse, acceleration_index, route.mass_diagonal, route.constant_force,
                            route.damping_matrix, record.linear, record.unknowns_map, _chain_points(chain, trace, route),
-                           tree=not route.own_reactions)
+                           tree=not route.own_reactions,
+                           turns_in_pose=np.array_equal(compiled.pose_angle_index, route.inverse))
     with _plans_lock:
         if len(_plans) >= MAX_ROUTES:
             _plans.pop(next(iter(_plans)))
