@@ -246,6 +246,16 @@ class CompiledSystem:
         return self._native("assemble")
 
     @property
+    def sample_function(self) -> int:
+        """The address of the generated ``sample`` (a sample's solve and kinematics in one call), 0 without
+        one (no tree coordinates, or a module generated before it)."""
+        found = self._functions.get("sample address")
+        if found is None:
+            found = int(self._native("sample")) if self.pose_size and "@sample(" in self.module.LLVM_IR else 0
+            self._functions["sample address"] = found
+        return found
+
+    @property
     def mass_and_force_function(self):
         if not self.has_lagrangian:
             raise LinkageError(f"the variational integrator needs the Lagrange method, not {self.formulation}")
@@ -399,9 +409,10 @@ class CompiledSystem:
         (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms
         instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`specialised_driver`; None: the
         generic ones."""
-        layout = self.layout
-        return self._specialised("samples", layout, lambda digest: native_samples.specialised_solve(
-            layout, self.assemble_function, digest))
+        layout, sample = self.layout, self.sample_function
+        return self._specialised(native_samples.samples_kind(sample), layout,
+                                 lambda digest: native_samples.specialised_solve(
+                                     layout, self.assemble_function, digest, sample))
 
     def _specialised(self, what: str, layout, make, method: str | None = None, worth: bool | None = None):
         """``make(digest)``'s function, kept with its engine as long as this system, or None (the caller takes
@@ -501,6 +512,11 @@ class CompiledSystem:
         """The length of the generated ``kinematics``' vector: every body's pose, the bias, then the cosine and
         the sine of every body's angle (3 B, 3 B, B, B); 0 without tree coordinates."""
         return self.pose_size * 2 + (self.pose_size // 3) * 2
+
+    @property
+    def time_slot(self) -> int:
+        """The parameter vector's entry that holds the time (a speed motor's system), -1 when nothing reads it."""
+        return int(getattr(self.module, "TIME_INDEX", -1))
 
     @property
     def pose_angle_index(self) -> np.ndarray:

@@ -58,8 +58,16 @@ def emit_module(system: LinearSystem, header: str) -> str:
         # observables read them here instead of evaluating them again at every sample
         pieces += [(("v", 2 * size + body), sp.cos(angle)) for body, angle in enumerate(angles)]
         pieces += [(("v", 2 * size + len(angles) + body), sp.sin(angle)) for body, angle in enumerate(angles)]
-        functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v"))
-        theta_index = {symbol: k for k, symbol in enumerate(s.theta)}
+        kinematics_cse = llvm_ir.common_subexpressions([expr for _, expr in pieces])
+        functions.append(llvm_ir.function_ir("kinematics", s, pieces, n, "J", "v", cse=kinematics_cse))
+        # a sample's solve and kinematics in one call (the run's samples): assemble's A and b, then after b
+        # kinematics' J (row-major) and vector, each evaluated as its own function evaluates it
+        after_b: list[tuple[tuple[int | str, int], object]] = [
+            (("v", k + size * n + target[1]) if target[0] == "v" else ("v", k + int(target[0]) * n + target[1]), expr)
+            for target, expr in pieces]
+        functions.append(llvm_ir.fused_function_ir("sample", s, [(entries, shared), (after_b, kinematics_cse)],
+                                                   k, "A", "b"))
+        theta_index = {symbol: index for index, symbol in enumerate(s.theta)}
         angle_index = [theta_index.get(angle, -1) for angle in angles]
     order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
     rhs_functions = []  # a module of its own: compiled only by a process that integrates (the kernels' fast path)
@@ -99,7 +107,9 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("# solve in one function (returns solve's pivot ratio);")
     lines.append("# constraints(theta, omega, params, J, v): J (r x n) and v = [phi, phi_dot] of the held constraints;")
     lines.append("# kinematics(theta, omega, params, J, v): tree coordinates' d pose/d theta (3B x n), v = [pose, bias,")
-    lines.append("# cos of each body's angle, sin of each body's angle] (3B, 3B, B, B).")
+    lines.append("# cos of each body's angle, sin of each body's angle] (3B, 3B, B, B);")
+    lines.append("# sample(theta, omega, params, A, out): assemble's A and b = out[:k], then kinematics' J = out[k:k + 3Bn]")
+    lines.append("# and v = out[k + 3Bn:] in one call (a run's samples), each entry with its own function's bits.")
     lines.append("# Straight-line IEEE arithmetic, common subexpressions hoisted.")
     lines.append('LLVM_IR = """')
     lines.append(llvm_ir.module_ir(functions).rstrip("\n"))

@@ -21,12 +21,13 @@ SPECIALISED_NAMES = {method: f"{name}_specialised" for method, name in INTEGRATO
 # name from the machine-code cache without importing its IR builder)
 OBSERVABLES_SPECIALISED_NAME = "mechanism_observables_specialised"
 SAMPLES_SOLVE_NAME = "solve_states_specialised"
+SAMPLES_SOLVE_POSE_NAME = "solve_pose_states_specialised"
 
 
 def symbol_names(system_digest: str) -> dict[str, str]:
-    """The external symbols of a system whose IR texts have digest ``system_digest``: ``assemble`` and one per
-    address slot of the layout (keyed by the slot's number as text)."""
-    names = {"assemble": f"linkage_lab_{system_digest}_assemble"}
+    """The external symbols of a system whose IR texts have digest ``system_digest``: ``assemble``, ``sample``
+    and one per address slot of the layout (keyed by the slot's number as text)."""
+    names = {"assemble": f"linkage_lab_{system_digest}_assemble", "sample": f"linkage_lab_{system_digest}_sample"}
     names.update({str(slot): f"linkage_lab_{system_digest}_slot{slot}" for slot in ADDRESS_SLOTS})
     return names
 
@@ -55,6 +56,12 @@ def samples_scratch_length(n: int, n_unknowns: int, n_constraints: int) -> int:
     (r x n), ``v`` (2 r) and ``G`` (r x r), one constraint row at least."""
     k, r = n_unknowns, max(n_constraints, 1)
     return k * k + 3 * k + r * n + 2 * r + r * r
+
+
+def solve_pose_scratch_length(n: int, n_unknowns: int, n_constraints: int, pose_size: int) -> int:
+    """Doubles of ``solve_pose_states``' scratch: ``solve_states``' and, right after ``b``, the kinematics'
+    ``d pose/d theta`` (pose_size x n) and vector (pose, bias, each body's cosine and sine)."""
+    return samples_scratch_length(n, n_unknowns, n_constraints) + pose_size * n + 2 * pose_size + 2 * (pose_size // 3)
 
 
 def states_scratch_length(n: int, r: int) -> int:

@@ -150,6 +150,26 @@ def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vect
     return function.finish()
 
 
+def fused_function_ir(name: str, symbols, groups, matrix_size: int, matrix: str, vector: str) -> str:
+    """IR of ``name(theta, omega, params, matrix, vector)`` doing what :func:`function_ir` does for each group
+    ``(entries, cse)`` in turn, each as if alone (its own common subexpressions, nothing carried over from the
+    group before), so every entry gets the bits of the function that group makes by itself; LLVM's passes then
+    compute once what the groups have alike (the sines and cosines of the angles: pure calls on the same
+    loads)."""
+    function = _Function(name, ("theta", "omega", "params", matrix, vector))
+    for entries, cse in groups:
+        function.values = {}
+        exprs = [e for _, e in entries]
+        replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
+        function.bind_inputs(symbols, exprs, replacements, ("theta", 0), ("omega", 0))
+        for (target, _), expr in zip(entries, reduced):
+            if target[0] == "v":
+                function.store(vector, target[1], function.value(expr))
+            else:
+                function.store(matrix, target[0] * matrix_size + target[1], function.value(expr))
+    return function.finish()
+
+
 def module_ir(functions: list[str]) -> str:
     return _DECLARATIONS + "\n" + "\n\n".join(functions) + "\n"
 

@@ -72,7 +72,9 @@ class ObservablesPlan:
     ``mass_diagonal``, ``constant_force (3 B,)`` and ``damping (3 B, 3 B)``: ``M`` and ``Q = constant_force +
     damping @ qdot`` (gravity, torque motors; pin dampers); ``linear (3 B, R)`` and ``unknowns_map (k, R)``: the
     reaction rows reported, ``(M qddot - Q) @ linear + unknowns @ unknowns_map`` (``tree`` False: the second
-    term alone); ``points``: a :class:`PathPoints` whose first ``B`` points are the bodies' centres."""
+    term alone); ``points``: a :class:`PathPoints` whose first ``B`` points are the bodies' centres;
+    ``turns_in_pose``: the run's kinematics' vector holds the cosine and sine of each body's rotation
+    coordinate (:attr:`physics.codegen.cache.CompiledSystem.pose_angle_index`), read instead of evaluated."""
 
     def __init__(self, rotation_index, acceleration_index, mass_diagonal, constant_force, damping, linear,
                  unknowns_map, points: PathPoints, tree: bool, turns_in_pose: bool = False) -> None:
@@ -101,9 +103,11 @@ class ObservablesPlan:
             [np.ravel(part) for part in (mass_diagonal, constant_force, origin)]
             + [weights for _, _, weights in matrices]), dtype=float)
         self.tree = bool(tree)
-        # the IR's ``tree`` argument: 0 not a tree formulation's; 1 a tree's, each body's cosine and sine
-        # evaluated from its rotation coordinate; 2 a tree's, read from the kinematics' vector instead
-        self.mode = 0 if not tree else 2 if turns_in_pose else 1
+        # the IR's ``tree`` argument: 1 a tree formulation's (reactions by Newton's second law), each body's
+        # cosine and sine evaluated from its rotation coordinate; 2 the same, those read from the kinematics'
+        # vector instead; 0 not a tree formulation's (the unknowns' reactions), 3 the same, the kinematics'
+        # cosines and sines read
+        self.mode = (2 if turns_in_pose else 1) if tree else (3 if turns_in_pose else 0)
         self.bodies, self.count, self.reactions, self.unknowns, self.n = bodies, count, reactions, unknowns, n
         self.addresses = (self.shape.ctypes.data, self.indices.ctypes.data, self.constants.ctypes.data)
 

@@ -16,10 +16,11 @@ the ``[cos phi, sin phi]`` entry), the dampers' force (``damping``, ``3 B x 3 B`
 then each matrix's outputs (E) and inputs (E)]``: where each coordinate's acceleration is among the unknowns,
 which coordinate is each body's rotation (absolute rotations), the triples' indices. ``constants =
 [mass_diagonal (3 B), constant_force (3 B), origin (P x 2), then each matrix's weights (E)]``. Per sample ``t``: row ``t`` of ``x``, ``v`` starts at ``t * state_stride`` (a run's
-states ``[x, v]`` read in place); ``full (rows, k)`` the solve's unknowns; for ``tree`` (a tree formulation:
-1, or 2 when the kinematics' cosines and sines are those of the rotation coordinates, which are then read rather
-than evaluated again) ``pose_jacobian (rows, 3 B, n)`` and ``pose_vector (rows, 8 B)`` (pose, bias, each body's
-cosine, each body's sine) of the generated kinematics.
+states ``[x, v]`` read in place); ``full (rows, k)`` the solve's unknowns; ``pose_jacobian (rows, 3 B, n)`` and
+``pose_vector (rows, 8 B)`` (pose, bias, each body's cosine, each body's sine) of the generated kinematics, read
+when ``tree`` is 1 (a tree formulation: reactions by Newton's law), 2 (the same, and each body's cosine and sine
+read from them rather than evaluated again: they are those of its rotation coordinate) or 3 (not a tree
+formulation's reactions, the cosines and sines read); 0: neither.
 Outputs: ``points`` and ``velocities (rows, P, 2)``, ``energies (3, rows)`` (kinetic, potential, total) and
 ``reactions (rows, R)``. ``scratch``: :func:`~physics.codegen.mechanism_observables.scratch_length` doubles.
 
@@ -97,7 +98,8 @@ def _observables(module: ir.Module) -> None:
     zero = _double(0.0)
     place_count = b.mul(count, _int(2))
     pose_width = b.mul(bodies, _int(8))  # a row of the kinematics' vector: pose, bias (3 B each), cos, sin (B each)
-    read_turns = b.icmp_signed("==", tree, _int(2))
+    read_turns = b.or_(b.icmp_signed("==", tree, _int(2)), b.icmp_signed("==", tree, _int(3)))
+    newton = b.or_(b.icmp_signed("==", tree, _int(1)), b.icmp_signed("==", tree, _int(2)))
     with code.loop(rows, "sample") as t:
         x_row = code.at(x, b.mul(t, state_stride))
         v_row = code.at(v, b.mul(t, state_stride))
@@ -146,7 +148,7 @@ def _observables(module: ir.Module) -> None:
         reactions_row = code.at(reactions, b.mul(t, R))
         with code.loop(R, "clear") as r:
             code.store(zero, reactions_row, r)
-        with b.if_then(b.icmp_signed("!=", tree, _int(0))):
+        with b.if_then(newton):
             jacobian = code.at(pose_jacobian, b.mul(t, b.mul(size, n)))
             bias = code.at(pose_vector, b.add(b.mul(t, pose_width), size))
             with code.loop(size, "qdot") as i:

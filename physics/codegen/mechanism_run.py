@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from ..kernels.checks import check_arguments
-from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
-from .ir_shapes import integrator_scratch_length, samples_scratch_length
+from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_TIME, LAYOUT_UNKNOWNS
+from .ir_shapes import integrator_scratch_length, samples_scratch_length, solve_pose_scratch_length
 from .mechanism_observables import ObservablesPlan, observables_function, scratch_length, specialised_observables
 from .native_integrators import layout_address
+from .native_samples import pose_counterpart
 
 _NO_CONDITION = np.empty(0)
 
@@ -42,7 +43,8 @@ class _Offsets:
     reactions, the observables' scratch]``; the per-sample parts sized for every sample."""
 
     def __init__(self, method: str, n: int, k: int, r: int, r_solve: int, samples: int, n_params: int, size: int,
-                 matrices: bool, count: int, reactions: int, bodies: int, runs: tuple = ()) -> None:
+                 matrices: bool, count: int, reactions: int, bodies: int, runs: tuple = (),
+                 pose_in_solve: bool = False) -> None:
         self.y0 = 4
         self.t_eval = self.y0 + 2 * n
         self.params = self.t_eval + samples
@@ -55,7 +57,8 @@ class _Offsets:
         self.v = self.x + samples * n
         self.zeros = self.v + samples * n
         self.solve_scratch = self.zeros + samples
-        self.full = self.solve_scratch + samples_scratch_length(n, k, r_solve)
+        self.full = self.solve_scratch + (solve_pose_scratch_length(n, k, r_solve, size) if pose_in_solve
+                                          else samples_scratch_length(n, k, r_solve))
         self.condition = self.full + samples * k
         self.pose_jacobian = self.condition + samples
         self.pose_vector = self.pose_jacobian + samples * size * n
@@ -88,8 +91,8 @@ class _Run:
         self.compiled, self.integration_layout, self.plan = compiled, integration_layout, plan
         self.n, self.k = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS])
         self.constraints = int(integration_layout[LAYOUT_CONSTRAINTS])
-        self.size = compiled.pose_size if plan.tree else 0
-        if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.tree and not self.size):
+        self.size = compiled.pose_size if plan.mode else 0  # the kinematics: a tree's reactions, or the turns
+        if samples == 0 or plan.n != self.n or plan.unknowns != self.k or (plan.mode and not self.size):
             raise ValueError("expected at least one sample time and a plan that fits the system")
         self.samples, self.n_params, self.matrices = samples, n_params, int(bool(matrices))
         # check_arguments of this shape, once (observe checks what a call may change: the arrays' sizes)
@@ -99,8 +102,12 @@ class _Run:
                                            for first, count in runs):
             raise ValueError(f"expected at most {MAX_RUNS} runs of the plan's points")
         self.runs = tuple((int(first), int(count)) for first, count in runs)
+        # a sample's solve and kinematics in one generated call (each angle's sine and cosine evaluated once)
+        # where the system has it and nothing reads the time (the kinematics' copy of params keeps t = 0)
+        self.sample = compiled.sample_function if self.size and int(layout[LAYOUT_TIME]) < 0 else 0
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
-                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies, self.runs)
+                           n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies, self.runs,
+                           pose_in_solve=bool(self.sample))
         self.assemble = int(compiled.assemble_function)
         self.address = layout_address(layout)
         self.integration_address = layout_address(integration_layout)
@@ -129,7 +136,10 @@ class _Run:
         if kept is not None and kept[0] is driver and kept[1] is solve and kept[2] is observables_call:
             return kept[4]
         at = self.at
+        solve_pose = pose_counterpart(solve) if self.sample else None
         addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
+                     "solve_pose": _function_address(solve_pose) if solve_pose is not None else 0,
+                     "sample": self.sample if solve_pose is not None else 0,
                      "states": _function_address(self.kinematics_call),
                      "assemble_states": _function_address(self.assemble_call),
                      "observables": _function_address(observables_call), "assemble": self.assemble,
@@ -189,7 +199,8 @@ ONE_CALL = True
 
 # the slots of mechanism_run_ir's plan, in order (here, not there: a warm process never imports the IR builders)
 PLAN_SLOTS = (
-    "driver", "solve", "states", "assemble_states", "observables", "assemble", "integration_layout", "layout",
+    "driver", "solve", "solve_pose", "sample", "states", "assemble_states", "observables", "assemble",
+    "integration_layout", "layout",
     "kinematics", "shape", "indices", "constants", "samples", "n", "size", "tree", "matrices",
     "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
     "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",

@@ -10,8 +10,10 @@ Entry point (C calling convention)::
                       double beta, i64 project, i64 max_steps, double g)
 
 ``plan`` (:data:`~physics.codegen.mechanism_run.PLAN_SLOTS` int64, made once per run shape and functions by
-:mod:`physics.codegen.mechanism_run`): the functions (driver, solve, ``native_states``, ``assemble_states``,
-``mechanism_observables``), the system's ``assemble`` and kinematics functions, the layouts' and the
+:mod:`physics.codegen.mechanism_run`): the functions (driver, solve, ``solve_pose_states``, the system's
+``sample``, ``native_states``, ``assemble_states``, ``mechanism_observables``), the system's ``assemble`` and
+kinematics functions (a non-zero ``sample``: the solve and the kinematics of each sample in one call of it,
+``solve_pose_states``, instead of ``solve_states`` then ``native_states``; the same bits), the layouts' and the
 observables plan's addresses, the sizes, then the offsets (in doubles) of the buffer's parts. ``values``: the
 run's buffer, its inputs copied in and ``y_out`` filled with NaN. Returns the driver's status and writes the
 number of rows finite throughout (``physics.simulate.run``'s rule: NaN or an infinity anywhere in a row) as a
@@ -32,6 +34,8 @@ _DRIVER = ir.FunctionType(_I64, [_I64, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID
                                  _DOUBLE, _DOUBLE, _I64, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P])
 _SOLVE = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE, _VOID_P,
                                          _VOID_P, _VOID_P])
+_SOLVE_POSE = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _DOUBLE, _DOUBLE,
+                                              _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _I64, _I64])
 _STATES = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _I64, _I64,
                                           _VOID_P, _VOID_P])
 _ASSEMBLE = ir.FunctionType(ir.VoidType(), [_I64, _VOID_P, _I64, _VOID_P, _VOID_P, _VOID_P, _VOID_P, _VOID_P])
@@ -89,13 +93,22 @@ def _run(module: ir.Module) -> None:
             code.store(code.load(y_out, b.add(b.add(start, n), i)), v, at)
         code.store(_double(0.0), zeros, row)
     layout = address("layout")
-    b.call(function("solve", _SOLVE), [slot("assemble"), layout, filled, part("x"), part("v"), part("solve_params"),
-                                       alpha, beta, part("full"), part("condition"), part("solve_scratch")])
     has_rows = b.icmp_signed(">", filled, _int(0))
-    with b.if_then(b.and_(b.icmp_signed("!=", size, _int(0)), has_rows)):
-        b.call(function("states", _STATES), [
-            slot("kinematics"), layout, filled, part("zeros"), part("x"), part("v"), part("kinematics_params"),
-            b.mul(size, n), b.sdiv(b.mul(size, _int(8)), _int(3)), part("pose_jacobian"), part("pose_vector")])
+    pose_width = b.sdiv(b.mul(size, _int(8)), _int(3))  # pose, bias (3 B each), each body's cosine and sine
+    with b.if_else(b.icmp_signed("!=", slot("sample"), _int(0))) as (in_one_call, separately):
+        with in_one_call:  # the solve and the kinematics by the generated sample, one call per sample
+            b.call(function("solve_pose", _SOLVE_POSE), [
+                slot("sample"), layout, filled, part("x"), part("v"), part("solve_params"), alpha, beta, part("full"),
+                part("condition"), part("solve_scratch"), part("pose_jacobian"), part("pose_vector"),
+                b.mul(size, n), pose_width])
+        with separately:
+            b.call(function("solve", _SOLVE), [slot("assemble"), layout, filled, part("x"), part("v"),
+                                               part("solve_params"), alpha, beta, part("full"), part("condition"),
+                                               part("solve_scratch")])
+            with b.if_then(b.and_(b.icmp_signed("!=", size, _int(0)), has_rows)):
+                b.call(function("states", _STATES), [
+                    slot("kinematics"), layout, filled, part("zeros"), part("x"), part("v"),
+                    part("kinematics_params"), b.mul(size, n), pose_width, part("pose_jacobian"), part("pose_vector")])
     with b.if_then(b.and_(b.icmp_signed("!=", slot("matrices"), _int(0)), has_rows)):
         b.call(function("assemble_states", _ASSEMBLE), [
             slot("assemble"), layout, filled, part("x"), part("v"), part("solve_params"), part("matrices_at"),

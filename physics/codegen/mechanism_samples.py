@@ -116,7 +116,7 @@ def mechanism_samples(compiled, times: np.ndarray, x: np.ndarray, v: np.ndarray,
     at_rhs = at_matrices + rows * k * k * matrices
     at_points = at_rhs + rows * k * matrices
     plan = observables
-    if plan is not None and (plan.n != n or plan.unknowns != k or (plan.tree and not size)):
+    if plan is not None and (plan.n != n or plan.unknowns != k or (plan.mode and not size)):
         raise ValueError("the observables' plan does not fit this system (or needs its kinematics)")
     count, reactions = (plan.count, plan.reactions) if plan is not None else (0, 0)
     at_velocities = at_points + rows * 2 * count

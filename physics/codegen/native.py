@@ -12,7 +12,7 @@ import threading
 
 from .machine_code import compile_module, defined_functions, llvm_binding
 
-FUNCTION_NAMES = ("assemble", "mass_and_force", "solve", "rhs", "constraints", "kinematics")
+FUNCTION_NAMES = ("assemble", "mass_and_force", "solve", "rhs", "constraints", "kinematics", "sample")
 _lock = threading.Lock()  # one compilation at a time: LLVM's global state is not ours to share carelessly
 VARIANT = "system-O2"  # the passes of _optimize and code generation at level 2 (the object file's key)
 

@@ -132,7 +132,8 @@ def generic_driver(method: str):
 
 
 def specialised_key(method: str, layout: np.ndarray, system_digest: str) -> tuple[list[int], str]:
-    """For ``method`` ("RK45", "DOP853" or "samples", the samples' solve): the layout without its addresses (1 where the system has that function), all of the layout that shapes
+    """For ``method`` ("RK45", "DOP853", "samples", the samples' solve, or "samples pose", with the solve and
+    kinematics in one call too): the layout without its addresses (1 where the system has that function), all of the layout that shapes
     the specialised IR, and the machine-code cache's key of that IR."""
     shape = [1 if slot in SPECIALISED_ADDRESS_SLOTS and value != 0 else int(value) for slot, value in enumerate(layout)]
     return shape, f"specialised {method}\n{shape}\n{system_digest}\n{sources_digest()}"
@@ -150,10 +151,10 @@ def answers(layout: np.ndarray, alpha, beta, project, cond_out) -> bool:
     return cond_out.shape[0] == 0
 
 
-def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest: str, key: str):
+def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest: str, key: str, sample: int = 0):
     """An engine holding a module of :mod:`physics.codegen.specialised_ir` (``ir_text()`` builds it): the
-    system's symbols bound to its addresses, then compiled at O2 or loaded from the machine-code cache under
-    ``key`` (:func:`specialised_key`)."""
+    system's symbols bound to its addresses (``sample``: the generated ``sample``'s, when the module calls it),
+    then compiled at O2 or loaded from the machine-code cache under ``key`` (:func:`specialised_key`)."""
     from . import native  # noqa: PLC0415  (its O2 pipeline and target machine, as for the generated systems)
 
     names = specialised_names(system_digest)
@@ -163,6 +164,8 @@ def specialised_engine(ir_text, layout: np.ndarray, assemble: int, system_digest
     with _lock, native._lock:
         llvm = llvm_binding()
         llvm.add_symbol(names["assemble"], int(assemble))  # bound before linking, the module or its object file
+        if sample:
+            llvm.add_symbol(names["sample"], int(sample))
         for slot in SPECIALISED_ADDRESS_SLOTS:
             if layout[slot] != 0:
                 llvm.add_symbol(names[str(slot)], int(layout[slot]))

@@ -9,13 +9,14 @@ one is a programming error and raises ``ValueError`` before any pointer is hande
 from __future__ import annotations
 
 import ctypes
+import threading
 from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
 from ..kernels.layout import LAYOUT_CONSTRAINTS, LAYOUT_COORDINATES, LAYOUT_UNKNOWNS
-from .ir_shapes import SAMPLES_SOLVE_NAME
+from .ir_shapes import SAMPLES_SOLVE_NAME, SAMPLES_SOLVE_POSE_NAME
 from .ir_shapes import samples_scratch_length as scratch_length
 from .native_integrators import checked_address as _pointer
 from .native_integrators import ctypes_functions, ir_builder, specialised_engine, specialised_key
@@ -26,6 +27,7 @@ _D = ctypes.c_double
 _SIGNATURES = {
     "solve_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _D, _D, _P, _P, _P),
     "assemble_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _P, _P),
+    "solve_pose_states": ctypes.CFUNCTYPE(None, _I, _P, _I, _P, _P, _P, _D, _D, _P, _P, _P, _P, _P, _I, _I),
 }
 _BUILD = ir_builder("samples_ir", "samples_ir")
 
@@ -34,22 +36,61 @@ def _function(name: str):
     return ctypes_functions("samples", _BUILD, _SIGNATURES)[name]
 
 
-def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str):
+def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str, sample: int = 0):
     """``(functions, engine)``: ``solve_states`` specialised for one system (its ``layout``, the one for one
-    evaluation at a time), a :class:`SpecialisedSamples` of a ctypes function of the generic one's signature
-    valid while ``engine`` lives; the same bits as the generic one. Compiled at O2 or loaded
+    evaluation at a time), a :class:`SpecialisedSamples` of ctypes functions of the generic ones' signatures
+    valid while ``engine`` lives; the same bits as the generic ones. ``sample``: the address of the system's
+    generated ``sample`` (0: none), whose ``solve_pose_states`` is specialised too. Compiled at O2 or loaded
     from the machine-code cache."""
-    shape, key = specialised_key("samples", layout, system_digest)
+    shape, key = specialised_key(samples_kind(sample), layout, system_digest)
 
     def ir_text() -> str:
         from .specialised_ir import specialised_samples_ir  # noqa: PLC0415  (llvmlite.ir: only on a cache miss)
 
-        return specialised_samples_ir(shape, system_digest)
+        return specialised_samples_ir(shape, system_digest, pose=bool(sample))
 
-    engine = specialised_engine(ir_text, layout, assemble,
-                                system_digest, key)
-    functions = SpecialisedSamples(_SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)))
+    engine = specialised_engine(ir_text, layout, assemble, system_digest, key, sample=sample)
+    functions = SpecialisedSamples(
+        _SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)),
+        _SIGNATURES["solve_pose_states"](engine.get_function_address(SAMPLES_SOLVE_POSE_NAME)) if sample else None)
+    if functions.solve_pose is not None:
+        with _pose_lock:
+            if len(_pose_of) >= MAX_POSE_PAIRS:
+                _pose_of.clear()
+            _pose_of[id(functions.solve)] = (functions.solve, functions.solve_pose)
     return functions, engine
+
+
+# id(a samples' solve) -> (that solve, its solve_pose_states): the specialised pairs made, the generic one found
+_pose_of: dict[int, tuple] = {}
+_pose_lock = threading.Lock()
+MAX_POSE_PAIRS = 64
+
+
+def pose_counterpart(solve):
+    """The ``solve_pose_states`` that goes with the samples' solve ``solve`` (the generic ``solve_states`` or a
+    system's specialised one: the same per-row solve), or None when there is none (a system without a
+    generated ``sample``)."""
+    entry = _pose_of.get(id(solve))
+    if entry is not None and entry[0] is solve:
+        return entry[1]
+    if solve is _function("solve_states"):
+        pose = _function("solve_pose_states")
+        with _pose_lock:
+            _pose_of[id(solve)] = (solve, pose)
+        return pose
+    return None
+
+
+def samples_kind(sample: int) -> str:
+    """The name of a system's specialised samples' module in the machine-code cache's key: with the solve and
+    kinematics in one call when the system has a generated ``sample`` (its address non-zero)."""
+    return "samples pose" if sample else "samples"
+
+
+def generic_solve_pose():
+    """The generic ctypes function ``solve_pose_states`` (compiled or loaded once)."""
+    return _function("solve_pose_states")
 
 
 def solve_states(assemble: int, layout, theta, omega, params, alpha, beta, x_out, cond_out) -> None:
@@ -74,7 +115,8 @@ def assemble_states(assemble: int, layout, theta, omega, params, A_out, b_out) -
 
 
 class SpecialisedSamples(NamedTuple):
-    """A system's specialised samples' function (:func:`specialised_solve`): ``solve_states``, of its generic
-    function's signature."""
+    """A system's specialised samples' functions (:func:`specialised_solve`): ``solve_states`` and (a system
+    with a generated ``sample``) ``solve_pose_states``, of their generic functions' signatures."""
 
     solve: Callable
+    solve_pose: Callable | None = None

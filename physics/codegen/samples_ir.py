@@ -11,11 +11,15 @@ Entry points (C calling convention)::
 
     void solve_states(i64 assemble, i64* layout, i64 rows, double* theta, double* omega, double* params,
                       double alpha, double beta, double* x_out, double* cond_out, double* scratch)
+    void solve_pose_states(i64 sample, i64* layout, i64 rows, double* theta, double* omega, double* params,
+                           double alpha, double beta, double* x_out, double* cond_out, double* scratch,
+                           double* pose_jacobian_out, double* pose_vector_out, i64 jacobian_size, i64 vector_size)
     void assemble_states(i64 assemble, i64* layout, i64 rows, double* theta, double* omega, double* params,
                          double* A_out, double* b_out)
 
 Arrays are row-major and C-contiguous; ``scratch`` holds
-:func:`physics.codegen.ir_shapes.samples_scratch_length` doubles.
+:func:`physics.codegen.ir_shapes.samples_scratch_length` doubles (``solve_pose_states``: plus ``jacobian_size +
+vector_size``).
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ class _SolveScratch:
     """make_system's fresh arrays in ``scratch`` (``A`` zeroed and ``col_scale`` set to one, once for all rows, as
     the kernel makes them) and the sizes read from the layout."""
 
-    def __init__(self, code: _Code, layout, scratch) -> None:
+    def __init__(self, code: _Code, layout, scratch, after_b=None) -> None:
         b = code.b
         self.n = code.load(layout, _int(LAYOUT_COORDINATES))
         self.k = code.load(layout, _int(LAYOUT_UNKNOWNS))
@@ -45,7 +49,11 @@ class _SolveScratch:
         r_rows = b.select(b.icmp_signed(">", self.r, _int(1)), self.r, _int(1))
         self.A = scratch
         self.b_vector = code.at(self.A, b.mul(self.k, self.k))
-        self.x = code.at(self.b_vector, self.k)
+        # ``after_b`` doubles right after b (the kinematics' part of a generated ``sample``'s output), zeroed
+        after_b = _int(0) if after_b is None else after_b
+        self.after_b = code.at(self.b_vector, self.k)
+        _fill(code, self.after_b, after_b, 0.0, "zero_after_b")
+        self.x = code.at(self.after_b, after_b)
         self.col_scale = code.at(self.x, self.k)
         self.J = code.at(self.col_scale, self.k)
         self.v = code.at(self.J, b.mul(r_rows, self.n))
@@ -90,6 +98,38 @@ def add_solve_states(module: ir.Module, linear: LinearFunctions) -> None:
     _solve_states(module, linear)
 
 
+def _solve_pose_states(module: ir.Module, linear: LinearFunctions) -> None:
+    """``solve_states`` with a generated ``sample`` in place of ``assemble`` (its output: ``b``, then the
+    kinematics' ``d pose/d theta`` and vector, in scratch right after ``b``), each row's kinematics copied out to
+    row ``row`` of ``pose_jacobian_out (rows, jacobian_size)`` and ``pose_vector_out (rows, vector_size)``: a
+    sample's solve and kinematics in one generated call, which evaluates each angle's sine and cosine once
+    (:mod:`physics.codegen.emit`'s ``sample``; the same bits as ``solve_states`` then ``native_states`` with
+    ``kinematics``, for a system without a time slot)."""
+    code = _external(module, "solve_pose_states", [_I64, _I64_POINTER, _I64] + [_DOUBLE_POINTER] * 3
+                     + [_DOUBLE, _DOUBLE] + [_DOUBLE_POINTER] * 5 + [_I64, _I64])
+    (sample, layout, rows, theta, omega, params, alpha, beta, x_out, cond_out, scratch, jacobian_out, vector_out,
+     jacobian_size, vector_size) = code.function.args
+    b = code.b
+    parts = _SolveScratch(code, layout, scratch, b.add(jacobian_size, vector_size))
+    pose_vector = code.at(parts.after_b, jacobian_size)
+    with code.loop(rows, "row") as row:
+        _solve_row(code, linear, parts, sample, layout, row, code.at(theta, b.mul(row, parts.n)),
+                   code.at(omega, b.mul(row, parts.n)), params, alpha, beta, x_out, cond_out)
+        jacobian_row = code.at(jacobian_out, b.mul(row, jacobian_size))
+        with code.loop(jacobian_size, "copy_jacobian") as j:
+            code.store(code.load(parts.after_b, j), jacobian_row, j)
+        vector_row = code.at(vector_out, b.mul(row, vector_size))
+        with code.loop(vector_size, "copy_vector") as j:
+            code.store(code.load(pose_vector, j), vector_row, j)
+    b.ret_void()
+    code.seal()
+
+
+def add_solve_pose_states(module: ir.Module, linear: LinearFunctions) -> None:
+    """``solve_pose_states`` added to ``module`` (:mod:`physics.codegen.specialised_ir` specialises it)."""
+    _solve_pose_states(module, linear)
+
+
 def _assemble_states(module: ir.Module) -> None:
     """system.assemble_states: per row, ``A`` zeroed and the generated ``assemble`` (no Baumgarte terms),
     written straight into the row of ``A_out`` and ``b_out`` (the same numbers the kernel copies there)."""
@@ -113,5 +153,6 @@ def samples_ir() -> str:
     module = ir.Module(name="linkage_lab_samples")
     linear = LinearFunctions(module)
     _solve_states(module, linear)
+    _solve_pose_states(module, linear)
     _assemble_states(module)
     return str(module)

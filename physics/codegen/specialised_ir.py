@@ -24,18 +24,18 @@ from llvmlite import ir
 
 from .integrator_ir import FUNCTION_NAMES, integrators_module
 from .ir_code import _I64
-from .ir_shapes import ADDRESS_SLOTS, SAMPLES_SOLVE_NAME, SPECIALISED_NAMES, symbol_names
+from .ir_shapes import ADDRESS_SLOTS, SAMPLES_SOLVE_NAME, SAMPLES_SOLVE_POSE_NAME, SPECIALISED_NAMES, symbol_names
 from .linear_ir import LinearFunctions
-from .samples_ir import add_solve_states
+from .samples_ir import add_solve_pose_states, add_solve_states
 
 _OPAQUE = ir.FunctionType(ir.VoidType(), [])  # declared type of the external symbols: only their address is used
 
 
 def _specialise(module: ir.Module, generic: ir.Function, name: str, layout_values: list[int],
-                system_digest: str) -> None:
+                system_digest: str, first: str = "assemble") -> None:
     """Add ``name`` to ``module``: ``generic``'s signature (``i64 assemble, i64* layout, ...``), calling
     ``generic`` (made internal and always inlined) with the constant layout table and the symbols' addresses
-    instead of its first two arguments."""
+    instead of its first two arguments (the first: the system's function ``first``)."""
     generic.linkage = "internal"
     generic.attributes.add("alwaysinline")
     names = symbol_names(system_digest)
@@ -60,7 +60,7 @@ def _specialise(module: ir.Module, generic: ir.Function, name: str, layout_value
     wrapper = ir.Function(module, generic.function_type, name)
     builder = ir.IRBuilder(wrapper.append_basic_block("entry"))
     arguments = list(wrapper.args)
-    arguments[0] = address_of(names["assemble"])
+    arguments[0] = address_of(names[first])
     arguments[1] = table.gep([ir.Constant(_I64, 0), ir.Constant(_I64, 0)])
     call = builder.call(generic, arguments)
     if isinstance(generic.function_type.return_type, ir.VoidType):
@@ -82,13 +82,19 @@ def specialised_ir(method: str, layout_values: list[int], system_digest: str) ->
     return str(module)
 
 
-def specialised_samples_ir(layout_values: list[int], system_digest: str) -> str:
+def specialised_samples_ir(layout_values: list[int], system_digest: str, pose: bool = False) -> str:
     """The IR text of the samples' solve (:func:`physics.codegen.samples_ir`'s ``solve_states``) specialised
     as :func:`specialised_ir` specialises a driver (``layout_values``: the system's layout for one evaluation
     at a time, without the fused ``rhs``). Entry point ``SAMPLES_SOLVE_NAME``, of ``solve_states``' signature;
-    its ``assemble`` and ``layout`` arguments are ignored."""
+    its ``assemble`` and ``layout`` arguments are ignored. ``pose`` (a system with a generated ``sample``):
+    also ``SAMPLES_SOLVE_POSE_NAME``, ``solve_pose_states`` specialised the same way (its ``sample`` argument
+    ignored)."""
     module = ir.Module(name="linkage_lab_samples_specialised")
     linear = LinearFunctions(module)
     add_solve_states(module, linear)
     _specialise(module, module.get_global("solve_states"), SAMPLES_SOLVE_NAME, layout_values, system_digest)
+    if pose:
+        add_solve_pose_states(module, linear)
+        _specialise(module, module.get_global("solve_pose_states"), SAMPLES_SOLVE_POSE_NAME, layout_values,
+                    system_digest, first="sample")
     return str(module)

@@ -596,7 +596,7 @@ def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, pa
     specialised = compiled.samples_solve()
     plan = _chain_plan(chain, settings, route)
     arrays = mechanism_samples(compiled, t, s, sd, params, None if specialised is None else specialised.solve,
-                               alpha=alpha, beta=beta, constraints=False, kinematics=plan.tree,
+                               alpha=alpha, beta=beta, constraints=False, kinematics=plan.mode != 0,
                                matrices=chain.pinned, observables=plan, g=chain.g)
     return _trajectory_from(chain, settings, route, t, theta, omega, arrays)
 
@@ -653,6 +653,15 @@ _plans_lock = threading.Lock()
 _plans: dict[tuple, tuple[ChainAsMechanism, ObservablesPlan]] = {}
 
 
+def _turns_in_pose(compiled: CompiledSystem, route: ChainAsMechanism) -> bool:
+    """Whether the observables read each bar's cosine and sine from the run's kinematics: its angles are the
+    bars' rotation coordinates, and (the DAE, whose reactions need no kinematics) the kinematics comes with the
+    solve in one call (:attr:`~physics.codegen.cache.CompiledSystem.sample_function`), not as a call of its own."""
+    if not np.array_equal(compiled.pose_angle_index, route.inverse):
+        return False
+    return not route.own_reactions or (compiled.sample_function != 0 and compiled.time_slot < 0)
+
+
 def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:
     """What a chain's Trajectory reads of the mechanism's samples, as the generic observables' plan: the points
     of :func:`_chain_points`, the reaction rows of pins ``O``, ``J1 .. J(n-1)`` then ``H`` (a pinned chain), by
@@ -668,8 +677,7 @@ def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> Ob
     acceleration_index = compiled.theta_ddot_index if not route.own_reactions else np.zeros(chain.n, dtype=np.int64)
     plan = ObservablesPlan(route.inverse, acceleration_index, route.mass_diagonal, route.constant_force,
                            route.damping_matrix, record.linear, record.unknowns_map, _chain_points(chain, trace, route),
-                           tree=not route.own_reactions,
-                           turns_in_pose=np.array_equal(compiled.pose_angle_index, route.inverse))
+                           tree=not route.own_reactions, turns_in_pose=_turns_in_pose(compiled, route))
     with _plans_lock:
         if len(_plans) >= MAX_ROUTES:
             _plans.pop(next(iter(_plans)))
