@@ -246,14 +246,24 @@ class CompiledSystem:
         return self._native("assemble")
 
     @property
+    def has_sample(self) -> bool:
+        """Whether the generated module has ``sample`` (a sample's solve and kinematics in one call: every system
+        in tree coordinates), compiled or not."""
+        return bool(getattr(self.module, "LLVM_IR_SAMPLE", "").strip())
+
+    @property
     def sample_function(self) -> int:
-        """The address of the generated ``sample`` (a sample's solve and kinematics in one call), 0 without
-        one (no tree coordinates, or a module generated before it)."""
-        found = self._functions.get("sample address")
-        if found is None:
-            found = int(self._native("sample")) if self.pose_size and "@sample(" in self.module.LLVM_IR else 0
-            self._functions["sample address"] = found
-        return found
+        """The address of the generated ``sample``, its module (``LLVM_IR_SAMPLE``) compiled on first use; 0
+        without one. The specialised samples' pass asks for it (:meth:`samples_solve`), so a one-off run never
+        compiles it."""
+        return int(self._native("sample", "LLVM_IR_SAMPLE")) if self.has_sample else 0
+
+    @property
+    def compiled_sample_function(self) -> int:
+        """:attr:`sample_function` when its module is compiled already, else 0 (nothing compiled here)."""
+        with self._lock:
+            module = self._functions.get("LLVM_IR_SAMPLE")
+        return int(module.addresses["sample"]) if module is not None else 0
 
     @property
     def mass_and_force_function(self):
@@ -409,10 +419,10 @@ class CompiledSystem:
         (:class:`~physics.codegen.native_samples.SpecialisedSamples`: the same bits, the solve about 0.02 ms
         instead of 0.05 for seed case C's 200 samples), by the rule of :meth:`specialised_driver`; None: the
         generic ones."""
-        layout, sample = self.layout, self.sample_function
-        return self._specialised(native_samples.samples_kind(sample), layout,
+        layout = self.layout
+        return self._specialised(native_samples.samples_kind(self.has_sample), layout,
                                  lambda digest: native_samples.specialised_solve(
-                                     layout, self.assemble_function, digest, sample))
+                                     layout, self.assemble_function, digest, self.sample_function))
 
     def _specialised(self, what: str, layout, make, method: str | None = None, worth: bool | None = None):
         """``make(digest)``'s function, kept with its engine as long as this system, or None (the caller takes
@@ -428,7 +438,8 @@ class CompiledSystem:
             calls = self._functions.setdefault("specialised calls", {})
             calls[what] = calls.get(what, 0) + 1
             if "system digest" not in self._functions:
-                texts = (self.module.LLVM_IR, getattr(self.module, "LLVM_IR_RHS", ""))
+                texts = (self.module.LLVM_IR, getattr(self.module, "LLVM_IR_RHS", ""),
+                         getattr(self.module, "LLVM_IR_SAMPLE", ""))
                 self._functions["system digest"] = hashlib.sha256("\0".join(texts).encode()).hexdigest()[:24]
             digest = self._functions["system digest"]
             building = self._functions.setdefault("specialised building", set())

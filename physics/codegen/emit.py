@@ -48,6 +48,7 @@ def emit_module(system: LinearSystem, header: str) -> str:
         pieces += [(("v", len(rows) + i), rate[i]) for i in range(len(rows))]
         functions.append(llvm_ir.function_ir("constraints", s, pieces, n, "J", "v"))
     angle_index: list[int] = []
+    sample_functions: list[str] = []  # a module of its own: compiled with the system's specialised samples' pass
     if system.kinematics is not None:  # tree coordinates: every body's pose, d pose / d theta and the bias
         pose, pose_jacobian, bias = system.kinematics
         size = len(pose)
@@ -65,8 +66,8 @@ def emit_module(system: LinearSystem, header: str) -> str:
         after_b: list[tuple[tuple[int | str, int], object]] = [
             (("v", k + size * n + target[1]) if target[0] == "v" else ("v", k + int(target[0]) * n + target[1]), expr)
             for target, expr in pieces]
-        functions.append(llvm_ir.fused_function_ir("sample", s, [(entries, shared), (after_b, kinematics_cse)],
-                                                   k, "A", "b"))
+        sample_functions.append(llvm_ir.fused_function_ir("sample", s, [(entries, shared), (after_b, kinematics_cse)],
+                                                          k, "A", "b"))
         theta_index = {symbol: index for index, symbol in enumerate(s.theta)}
         angle_index = [theta_index.get(angle, -1) for angle in angles]
     order = llvm_ir.elimination_order(system.A, system.vanishing_parameters)
@@ -117,5 +118,9 @@ def emit_module(system: LinearSystem, header: str) -> str:
     lines.append("# rhs alone: compiled on the first integration (a driven mechanism's position analysis never calls it).")
     lines.append('LLVM_IR_RHS = """')
     lines.append(llvm_ir.module_ir(rhs_functions).rstrip("\n") if rhs_functions else "")
+    lines.append('"""')
+    lines.append("# sample alone: compiled with the system's specialised samples' pass (a one-off run never calls it).")
+    lines.append('LLVM_IR_SAMPLE = """')
+    lines.append(llvm_ir.module_ir(sample_functions).rstrip("\n") if sample_functions else "")
     lines.append('"""')
     return "\n".join(lines) + "\n"

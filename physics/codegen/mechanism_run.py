@@ -103,11 +103,12 @@ class _Run:
             raise ValueError(f"expected at most {MAX_RUNS} runs of the plan's points")
         self.runs = tuple((int(first), int(count)) for first, count in runs)
         # a sample's solve and kinematics in one generated call (each angle's sine and cosine evaluated once)
-        # where the system has it and nothing reads the time (the kinematics' copy of params keeps t = 0)
-        self.sample = compiled.sample_function if self.size and int(layout[LAYOUT_TIME]) < 0 else 0
+        # where the system has it and nothing reads the time (the kinematics' copy of params keeps t = 0): once
+        # its module is compiled, with the specialised samples' pass (plan_address looks)
+        self.pose_in_solve = bool(self.size and int(layout[LAYOUT_TIME]) < 0 and compiled.has_sample)
         self.at = _Offsets(method, self.n, self.k, self.constraints, int(layout[LAYOUT_CONSTRAINTS]), samples,
                            n_params, self.size, matrices, plan.count, plan.reactions, plan.bodies, self.runs,
-                           pose_in_solve=bool(self.sample))
+                           pose_in_solve=self.pose_in_solve)
         self.assemble = int(compiled.assemble_function)
         self.address = layout_address(layout)
         self.integration_address = layout_address(integration_layout)
@@ -119,7 +120,7 @@ class _Run:
         # Python keep the generic function, so the tests comparing the two hold the one to the other)
         self.observables_specialised: tuple | None = None
         self.tree = plan.mode
-        self._plans: dict[tuple[int, int, int], tuple] = {}
+        self._plans: dict[tuple[int, int, int, int], tuple] = {}
 
     def plan_address(self, driver, solve) -> int:
         """The address of :mod:`physics.codegen.mechanism_run_ir`'s plan for this shape with ``driver`` and
@@ -131,15 +132,16 @@ class _Run:
         if observables is None:
             observables = self.observables_specialised = specialised_observables(self.plan)
         observables_call = self.observables_call if observables is None else observables[0]
-        key = (id(driver), id(solve), id(observables_call))
+        sample = self.compiled.compiled_sample_function if self.pose_in_solve else 0
+        key = (id(driver), id(solve), id(observables_call), sample)
         kept = self._plans.get(key)
         if kept is not None and kept[0] is driver and kept[1] is solve and kept[2] is observables_call:
             return kept[4]
         at = self.at
-        solve_pose = pose_counterpart(solve) if self.sample else None
+        solve_pose = pose_counterpart(solve) if sample else None
         addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
                      "solve_pose": _function_address(solve_pose) if solve_pose is not None else 0,
-                     "sample": self.sample if solve_pose is not None else 0,
+                     "sample": sample if solve_pose is not None else 0,
                      "states": _function_address(self.kinematics_call),
                      "assemble_states": _function_address(self.assemble_call),
                      "observables": _function_address(observables_call), "assemble": self.assemble,

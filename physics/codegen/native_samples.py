@@ -82,9 +82,9 @@ def pose_counterpart(solve):
     return None
 
 
-def samples_kind(sample: int) -> str:
+def samples_kind(sample) -> str:
     """The name of a system's specialised samples' module in the machine-code cache's key: with the solve and
-    kinematics in one call when the system has a generated ``sample`` (its address non-zero)."""
+    kinematics in one call when the system has a generated ``sample`` (``sample``: true, or its address)."""
     return "samples pose" if sample else "samples"
 
 

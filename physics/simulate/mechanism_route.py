@@ -659,7 +659,7 @@ def _turns_in_pose(compiled: CompiledSystem, route: ChainAsMechanism) -> bool:
     solve in one call (:attr:`~physics.codegen.cache.CompiledSystem.sample_function`), not as a call of its own."""
     if not np.array_equal(compiled.pose_angle_index, route.inverse):
         return False
-    return not route.own_reactions or (compiled.sample_function != 0 and compiled.time_slot < 0)
+    return not route.own_reactions or (compiled.has_sample and compiled.time_slot < 0)
 
 
 def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:

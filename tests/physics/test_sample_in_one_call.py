@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from physics import Settings, get_preset, simulate
-from physics.codegen import mechanism_run, native_states
+from physics.codegen import cache, mechanism_run, native_states
 from physics.codegen.mechanism_samples import mechanism_samples
 from physics.codegen.native_samples import pose_counterpart
 from physics.simulate import mechanism_route
@@ -87,18 +87,22 @@ def test_observables_reading_the_kinematics_turns_give_the_bits_of_evaluating_th
 @pytest.mark.parametrize("preset, links", PRESETS)
 @pytest.mark.parametrize("method", METHODS)
 def test_a_chain_run_takes_the_one_call_and_gives_the_separate_calls_bits(monkeypatch, preset, links, method):
+    monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)  # the specialised pass in place by the third run
     chosen = get_preset(preset, links)
     settings = Settings(method=method, integrator="RK45", rtol=1e-6, atol=1e-6, t_end=1.5, samples=33)
     theta0, omega0 = np.asarray(chosen.theta0, float), np.asarray(chosen.omega0, float)
     for _ in range(3):  # the specialised functions in place by the third run
         fused = _fields(simulate(chosen.chain, theta0, omega0, settings))
-    runs = [entry for entry in mechanism_run._runs.values() if entry.plan.n == chosen.chain.n
-            and entry.compiled is mechanism_route.chain_route(chosen.chain, method, 0.0).compiled]
-    assert runs and all(entry.sample != 0 for entry in runs)
-    for entry in runs:
-        for kept in entry._plans.values():
-            plan = kept[3]
-            assert plan[mechanism_run.PLAN_SLOTS.index("sample")] == entry.sample
-            assert pose_counterpart(kept[1]) is not None
+    compiled = mechanism_route.chain_route(chosen.chain, method, 0.0).compiled
+    sample = compiled.compiled_sample_function
+    assert sample != 0  # compiled with the specialised samples' pass, from the second run on
+    runs = [entry for entry in mechanism_run._runs.values() if entry.compiled is compiled]
+    assert runs and all(entry.pose_in_solve for entry in runs)
+    latest = [kept for entry in runs for kept in entry._plans.values()
+              if kept[1] is compiled.samples_solve().solve]  # the plan the third run took
+    assert latest
+    for kept in latest:
+        assert kept[3][mechanism_run.PLAN_SLOTS.index("sample")] == sample
+        assert pose_counterpart(kept[1]) is not None
     monkeypatch.setattr(mechanism_run, "ONE_CALL", False)  # each native call from Python: solve, then kinematics
     _assert_same(fused, _fields(simulate(chosen.chain, theta0, omega0, settings)))
