@@ -260,10 +260,10 @@ class CompiledSystem:
 
     @property
     def compiled_sample_function(self) -> int:
-        """:attr:`sample_function` when its module is compiled already, else 0 (nothing compiled here)."""
-        with self._lock:
-            module = self._functions.get("LLVM_IR_SAMPLE")
-        return int(module.addresses["sample"]) if module is not None else 0
+        """:attr:`sample_function` when its module is compiled already, else 0 (nothing compiled here; one
+        dictionary look-up, as every run asks: the entry is set once, whole, under the lock)."""
+        module = self._functions.get("LLVM_IR_SAMPLE")
+        return module.addresses["sample"] if module is not None else 0
 
     @property
     def mass_and_force_function(self):
