@@ -178,7 +178,7 @@ class Trajectory:
         """A chain's run, the same object as ``Trajectory(...)`` with these fields (every one given with its
         ``T`` rows) gives, made without the dataclass's ``__init__``: its defaults, its default factories and
         ``__post_init__``'s check of twelve fields are a tenth of a short compiled run's time around its
-        native calls (the entries in the order ``__init__`` sets them; ``tests/physics/test_one_buffer.py``
+        native calls (the entries in the order ``__init__`` sets them; ``tests/physics/test_trajectory_of_chain.py``
         compares the two)."""
         count = t.shape[0]
         run = cls.__new__(cls)
