@@ -249,7 +249,10 @@ class CompiledSystem:
     def has_sample(self) -> bool:
         """Whether the generated module has ``sample`` (a sample's solve and kinematics in one call: every system
         in tree coordinates), compiled or not."""
-        return bool(getattr(self.module, "LLVM_IR_SAMPLE", "").strip())
+        found = self._functions.get("has sample")
+        if found is None:  # read once: every run's plan asks
+            found = self._functions["has sample"] = bool(getattr(self.module, "LLVM_IR_SAMPLE", "").strip())
+        return found
 
     @property
     def sample_function(self) -> int:
@@ -257,6 +260,12 @@ class CompiledSystem:
         without one. The specialised samples' pass asks for it (:meth:`samples_solve`), so a one-off run never
         compiles it."""
         return int(self._native("sample", "LLVM_IR_SAMPLE")) if self.has_sample else 0
+
+    def specialised_samples(self):
+        """The :class:`~physics.codegen.native_samples.SpecialisedSamples` :meth:`samples_solve` has made, or None
+        (nothing compiled or counted here: a run's plan asks which solve it holds)."""
+        made = self._functions.get(f"specialised {native_samples.samples_kind(self.has_sample)}")
+        return made[0] if made is not None else None
 
     @property
     def compiled_sample_function(self) -> int:

@@ -138,7 +138,7 @@ class _Run:
         if kept is not None and kept[0] is driver and kept[1] is solve and kept[2] is observables_call:
             return kept[4]
         at = self.at
-        solve_pose = pose_counterpart(solve) if sample else None
+        solve_pose = pose_counterpart(solve, self.compiled.specialised_samples()) if sample else None
         addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
                      "solve_pose": _function_address(solve_pose) if solve_pose is not None else 0,
                      "sample": sample if solve_pose is not None else 0,

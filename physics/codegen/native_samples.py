@@ -9,7 +9,6 @@ one is a programming error and raises ``ValueError`` before any pointer is hande
 from __future__ import annotations
 
 import ctypes
-import threading
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -53,32 +52,17 @@ def specialised_solve(layout: np.ndarray, assemble: int, system_digest: str, sam
     functions = SpecialisedSamples(
         _SIGNATURES["solve_states"](engine.get_function_address(SAMPLES_SOLVE_NAME)),
         _SIGNATURES["solve_pose_states"](engine.get_function_address(SAMPLES_SOLVE_POSE_NAME)) if sample else None)
-    if functions.solve_pose is not None:
-        with _pose_lock:
-            if len(_pose_of) >= MAX_POSE_PAIRS:
-                _pose_of.clear()
-            _pose_of[id(functions.solve)] = (functions.solve, functions.solve_pose)
     return functions, engine
 
 
-# id(a samples' solve) -> (that solve, its solve_pose_states): the specialised pairs made, the generic one found
-_pose_of: dict[int, tuple] = {}
-_pose_lock = threading.Lock()
-MAX_POSE_PAIRS = 64
-
-
-def pose_counterpart(solve):
-    """The ``solve_pose_states`` that goes with the samples' solve ``solve`` (the generic ``solve_states`` or a
-    system's specialised one: the same per-row solve), or None when there is none (a system without a
-    generated ``sample``)."""
-    entry = _pose_of.get(id(solve))
-    if entry is not None and entry[0] is solve:
-        return entry[1]
+def pose_counterpart(solve, specialised: SpecialisedSamples | None):
+    """The ``solve_pose_states`` that goes with the samples' solve ``solve``: the specialised one when ``solve``
+    is ``specialised``'s (a system's :meth:`~physics.codegen.cache.CompiledSystem.samples_solve`), the generic
+    one when ``solve`` is the generic ``solve_states``; None otherwise (no ``sample`` specialised with it)."""
+    if specialised is not None and solve is specialised.solve:
+        return specialised.solve_pose
     if solve is _function("solve_states"):
-        pose = _function("solve_pose_states")
-        with _pose_lock:
-            _pose_of[id(solve)] = (solve, pose)
-        return pose
+        return _function("solve_pose_states")
     return None
 
 

@@ -98,11 +98,13 @@ def test_a_chain_run_takes_the_one_call_and_gives_the_separate_calls_bits(monkey
     assert sample != 0  # compiled with the specialised samples' pass, from the second run on
     runs = [entry for entry in mechanism_run._runs.values() if entry.compiled is compiled]
     assert runs and all(entry.pose_in_solve for entry in runs)
-    latest = [kept for entry in runs for kept in entry._plans.values()
-              if kept[1] is compiled.samples_solve().solve]  # the plan the third run took
-    assert latest
-    for kept in latest:
+    specialised = compiled.specialised_samples()
+    assert specialised is not None and specialised.solve_pose is not None
+    assert pose_counterpart(specialised.solve, specialised) is specialised.solve_pose
+    for entry in runs:  # the plan a run with the specialised solve takes now
+        address = entry.plan_address(compiled.specialised_driver("RK45"), specialised.solve)
+        (kept,) = [kept for kept in entry._plans.values() if kept[4] == address]
         assert kept[3][mechanism_run.PLAN_SLOTS.index("sample")] == sample
-        assert pose_counterpart(kept[1]) is not None
+        assert kept[3][mechanism_run.PLAN_SLOTS.index("solve_pose")] != 0
     monkeypatch.setattr(mechanism_run, "ONE_CALL", False)  # each native call from Python: solve, then kinematics
     _assert_same(fused, _fields(simulate(chosen.chain, theta0, omega0, settings)))
