@@ -270,6 +270,7 @@ class Session(SessionBase):
         self.worker = POOL.acquire()  # where this session's chunks are computed (app/mechanism_workers.py)
         self.energy_ref: float | None = None
         self._equations_shown = False  # the Equations tab was asked for: it follows the method
+        self._equations_generation = 0  # how many times: only the latest derivation is shown (an older may end later)
         self._ran_from: SessionParameters | None = None  # a hosted chain's latest start that ran (Reset's way back)
         self.display = Display()  # playback speed, trace length, arrow scale: the chain panel's (app/panel_rows.py)
         self._segment_t0 = 0.0  # the time of the last change: the energy error is measured from there
@@ -1334,6 +1335,8 @@ class Session(SessionBase):
         mechanism in the Equations folder (a hosted chain's: the chain's, in its angles theta, as its LaTeX
         download gives them); shown once, they follow a change of method; ``wait``: return once shown (tests)."""
         self._equations_shown = True
+        self._equations_generation += 1
+        asked = self._equations_generation
         method, label = self.settings.method, self.label
         self.equations.content = (f"<p><i>Deriving the {html.escape(METHODS[method])} equations (the first time "
                                   f"for this mechanism and method: a few seconds)...</i></p>")
@@ -1341,7 +1344,9 @@ class Session(SessionBase):
 
         def derive() -> None:
             content = content_now()
-            if not self.closed and self.label == label:  # not another mechanism's meanwhile
+            # not shown when asked again meanwhile (another method or mechanism): a slower, older derivation
+            # (a method's sympy derivation the first time) must not replace the newer one's content
+            if not self.closed and asked == self._equations_generation and self.label == label:
                 self.equations.content = content
 
         worker = threading.Thread(target=derive, daemon=True, name="mechanism-equations")

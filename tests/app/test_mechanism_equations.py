@@ -28,3 +28,35 @@ def test_the_equations_are_the_methods_system_for_this_mechanism(crank_lab, conn
     session.guard(lambda: session.set_method("reduced"))
     session.show_equations(wait=True)
     assert "no symbolic system of its own" in session.equations.content
+
+
+def test_an_older_derivation_ending_later_does_not_replace_the_newer(crank_lab, connect):
+    """A change of method re-derives in a thread; the first derivation of a method (sympy) can end after the
+    next one asked for: what it finds is dropped, the folder shows the latest method's equations (the CI
+    rehearsal caught Newton-Euler's replacing the reduced model's notice)."""
+    import threading  # noqa: PLC0415
+
+    _, session = connect(crank_lab)
+    release, older_asked = threading.Event(), threading.Event()
+    contents = iter(["<p>older</p>", "<p>newer</p>"])
+
+    def slow_then_fast():
+        content = next(contents)
+        older_asked.set()
+
+        def content_now() -> str:
+            if content == "<p>older</p>":
+                assert release.wait(60)
+            return content
+        return content_now
+
+    session._equations_content = slow_then_fast
+    older = threading.Thread(target=lambda: session.show_equations(wait=True))
+    older.start()
+    assert older_asked.wait(60)  # the older one asked first
+    session.show_equations(wait=True)
+    assert session.equations.content == "<p>newer</p>"
+    release.set()
+    older.join(60)
+    assert not older.is_alive()
+    assert session.equations.content == "<p>newer</p>"
