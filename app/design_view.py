@@ -624,6 +624,8 @@ class DesignView:
         session = self.session
         scene = session.target.scene
         self.on = on
+        with session.player.lock:
+            session.player.held = on  # a start installed while designing stays paused (app/player.py)
         if on:
             if session.compare:
                 session.set_compare(False)

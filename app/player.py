@@ -141,6 +141,9 @@ class Player:
         self.generation = 0  # bumped at every restart; chunks of an older generation are dropped
         self.display_time = 0.0
         self.playing = False
+        # held (the session designing, app/design_view.py): a restart installed meanwhile stays paused, whatever
+        # its request said (a page's start can be installed after design mode paused the player)
+        self.held = False
         self.speed = 1.0
         self.frame_counter = 0
         self.frames_deferred = 0  # frame times skipped because the previous frame had not been delivered yet
@@ -414,7 +417,7 @@ class Player:
             self._restart_time = pending.requested_at
             self._rate_window.clear()
             if pending.play is not None:
-                self.playing = pending.play
+                self.playing = pending.play and not self.held
             self._last_frame_wall = time.monotonic()
 
     def _seed(self, spec: RunSpec, t0: float, theta0: np.ndarray, omega0: np.ndarray) -> tuple[dict, str | None]:

@@ -227,6 +227,20 @@ def test_start_from_preset_opens_the_shown_mechanism_as_a_design(session):
     assert topology.mobility == 1 and "driven by 1 motor" in view.topology_line.content
 
 
+def test_a_start_installed_while_designing_stays_paused(session):
+    """A page's start can be installed after design mode paused the player (CI rehearsal: ``?design=1`` opened
+    designing with the run playing): while designing, a restart that asked to play is installed paused; leaving
+    design mode and Play run it."""
+    session.design_view.set_designing(True)
+    with session._lock:
+        session._restart(0.0, session.q0, session.qdot0, keep_history=False, play=True)
+    assert session.player.wait_idle(120)
+    assert not session.player.playing
+    session.design_view.set_designing(False)
+    session.play()
+    assert session.player.playing
+
+
 def test_a_link_asks_for_design_mode_with_design_1():
     assert design_flag_from([("design", "1"), ("g", "9")]) == ([("g", "9")], True, [])
     assert design_flag_from([("g", "9")]) == ([("g", "9")], False, [])
