@@ -138,16 +138,7 @@ def function_ir(name: str, symbols, entries, matrix_size: int, matrix: str, vect
     """IR of ``name(theta, omega, params, matrix, vector)`` writing ``entries``: ``((row, col), expr)`` into the
     row-major matrix of size ``matrix_size``, or ``(("v", i), expr)`` into the vector. ``cse``: the
     :func:`common_subexpressions` of the entries' expressions when already computed."""
-    function = _Function(name, ("theta", "omega", "params", matrix, vector))
-    exprs = [e for _, e in entries]
-    replacements, reduced = cse if cse is not None else common_subexpressions(exprs)
-    function.bind_inputs(symbols, exprs, replacements, ("theta", 0), ("omega", 0))
-    for (target, _), expr in zip(entries, reduced):
-        if target[0] == "v":
-            function.store(vector, target[1], function.value(expr))
-        else:
-            function.store(matrix, target[0] * matrix_size + target[1], function.value(expr))
-    return function.finish()
+    return fused_function_ir(name, symbols, [(entries, cse)], matrix_size, matrix, vector)
 
 
 def fused_function_ir(name: str, symbols, groups, matrix_size: int, matrix: str, vector: str) -> str:
