@@ -82,7 +82,8 @@ class Drawing:
     the sketch. ``segments`` are pairs of point indices drawn as bars, with ``segment_body`` their body: a body
     with two points is one bar, a plate of three or more the edges of its outline (convex hull). ``joints``
     holds the points where a revolute joint sits (a body's side of it), ``ground`` the fixed points and the
-    sliders' guides on the ground (``guides``: pairs of world points)."""
+    sliders' guides on the ground (``guides``: pairs of world points; ``guide_points``: each guide's sliding
+    point, an index into ``labels``, whose travel the scene lengthens the guide to cover)."""
 
     labels: tuple[str, ...]
     owner: np.ndarray
@@ -95,6 +96,7 @@ class Drawing:
     size: float
     # pairs of point indices a coupling joint is drawn between (a gear pair: its two pins)
     meshes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
+    guide_points: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
 def _outline(points: np.ndarray) -> list[int]:
@@ -117,6 +119,11 @@ def _outline(points: np.ndarray) -> list[int]:
         upper.append(k)
     hull = lower[:-1] + upper[:-1]
     return hull if len(hull) >= 3 else order
+
+
+# of the sketch's size: how far a guide reaches past its slider where the slider is beyond the guide's first
+# extent (the scene lengthens a guide as its slider runs further: app/mechanism_scene.py)
+GUIDE_MARGIN_FRACTION = 0.1
 
 
 def drawing(mechanism: Mechanism) -> Drawing:
@@ -148,12 +155,18 @@ def drawing(mechanism: Mechanism) -> Drawing:
     joint_points = sorted({index[side] for joint in mechanism.joints if isinstance(joint, Revolute)
                            for side in (joint.a, joint.b) if side in index})
     guides = []
+    guide_points = []
     size = max(sketch_size(mechanism), 1e-3)
     for joint in mechanism.joints:
         if isinstance(joint, Prismatic) and joint.on == "ground":
             through = np.array(mechanism.ground[joint.through])
             u = np.array(joint.direction) / np.hypot(*joint.direction)
-            guides.append((through - 0.75 * size * u, through + 0.75 * size * u))
+            body = next(b for b in mechanism.bodies if b.name == joint.body)
+            at = float(np.dot(np.array(body.points[joint.point]) - through, u))  # the slider in the sketch
+            margin = GUIDE_MARGIN_FRACTION * size
+            first, last = min(-0.75 * size, at - margin), max(0.75 * size, at + margin)
+            guides.append((through + first * u, through + last * u))
+            guide_points.append(index[f"{joint.body}.{joint.point}"])
     meshes = [[index[end] for end in kind_of(joint).drawn_between(joint, mechanism)] for joint in mechanism.joints
               if kind_of(joint).drawing == "mesh"]
     return Drawing(
@@ -163,6 +176,7 @@ def drawing(mechanism: Mechanism) -> Drawing:
         joints=np.array(joint_points, dtype=int), ground=np.array(list(mechanism.ground.values()),
                                                                   dtype=float).reshape(-1, 2),
         guides=np.array(guides, dtype=float).reshape(-1, 2, 2), size=float(size),
+        guide_points=np.array(guide_points, dtype=int),
     )
 
 

@@ -24,7 +24,7 @@ import threading
 import numpy as np
 
 from .logs import quietly
-from .mechanism_runs import Drawing
+from .mechanism_runs import GUIDE_MARGIN_FRACTION, Drawing
 from .scene import (
     BAR_COLORS,
     BAR_WIDTH_FRACTION,
@@ -74,6 +74,8 @@ class MechanismScene:
         self._bar_wxyzs = np.zeros((0, 4), np.float32)
         self._sphere_positions = np.zeros((0, 3), np.float32)
         self._widths = np.zeros(0)
+        self._guides = None  # the guides' node, and their ends as drawn (each lengthened to its slider's travel)
+        self._guide_ends = np.zeros((0, 2, 2))
 
     @property
     def bars(self):
@@ -112,10 +114,13 @@ class MechanismScene:
             self._handles.append(scene.add_box(f"{self.root}/ground_{k}", color=GROUND_COLOR,
                                                dimensions=(2.5 * width, 1.5 * width, 2.5 * width),
                                                position=tuple(to_world(xy)), **common))
+        self._guide_ends = np.array(draw.guides, dtype=float).reshape(-1, 2, 2)
+        self._guides = None
         if len(draw.guides):
-            self._handles.append(scene.add_line_segments(
-                f"{self.root}/guides", points=to_world(draw.guides).astype(np.float32), colors=GROUND_COLOR,
-                thickness=0.4 * width))
+            self._guides = scene.add_line_segments(
+                f"{self.root}/guides", points=to_world(self._guide_ends).astype(np.float32), colors=GROUND_COLOR,
+                thickness=0.4 * width)
+            self._handles.append(self._guides)
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
         scales = self._scales(points_xy)
         box_vertices, box_faces = UNIT_BOX
@@ -197,6 +202,8 @@ class MechanismScene:
         """Move every part to one frame (two messages at most; bodies are rigid, so no bar changes length)."""
         if self.draw is None or self._spheres is None:
             return
+        if self._guides is not None:
+            self._cover_travel(points_xy)
         bar_positions, bar_wxyzs, sphere_positions = self._instances(points_xy, com_xy)
         if self._bars is not None:
             updates = {}
@@ -209,6 +216,27 @@ class MechanismScene:
         if not np.array_equal(sphere_positions, self._sphere_positions):
             self._sphere_positions = sphere_positions
             update_node_props(self._spheres, {"batched_positions": sphere_positions})
+
+    def _cover_travel(self, points_xy: np.ndarray) -> None:
+        """Lengthen a guide whose slider has run past one of its ends, to a little beyond the slider (a piston
+        travels further than the sketch's size suggests: the slider-crank's runs past its guide's end). One
+        message when a guide grows, none otherwise: a guide only grows, so it settles within a cycle."""
+        assert self.draw is not None
+        ends = self._guide_ends
+        start, end = ends[:, 0], ends[:, 1]
+        along = end - start
+        sliding = points_xy[self.draw.guide_points]
+        fraction = np.einsum("ij,ij->i", sliding - start, along) / np.einsum("ij,ij->i", along, along)
+        before, beyond = fraction < 0.0, fraction > 1.0
+        if not (before.any() or beyond.any()):
+            return
+        margin = GUIDE_MARGIN_FRACTION * self.draw.size * along / np.linalg.norm(along, axis=1, keepdims=True)
+        foot = start + fraction[:, None] * along  # the slider's place on the guide's line
+        ends = ends.copy()
+        ends[before, 0] = foot[before] - margin[before]
+        ends[beyond, 1] = foot[beyond] + margin[beyond]
+        self._guide_ends = ends
+        update_node_props(self._guides, {"points": to_world(ends).astype(np.float32)})
 
     @_locked
     def poses(self) -> dict[str, dict]:
@@ -264,5 +292,5 @@ class MechanismScene:
         for handle in self._handles:
             quietly(handle.remove, "removing a scene node")
         self._handles = []
-        self._bars = self._spheres = None
+        self._bars = self._spheres = self._guides = None
         self.draw = None
