@@ -206,7 +206,9 @@ def facts_line(params: SessionParameters) -> str:
     """The chain panel's words under the menu: bars, pinned or open, the degrees of freedom and, for a four-bar,
     where theta1 can be set (:func:`reach_text`, with its Grashof reading)."""
     kind = "closed loop, tip pinned at H" if params.pinned else "open chain"
-    line = markdown_literal(f"{params.n} bars, {kind}; {mobility(params)} degrees of freedom")
+    freedom = mobility(params)
+    bars = f"{params.n} bar{'' if params.n == 1 else 's'}"
+    line = markdown_literal(f"{bars}, {kind}; {freedom} degree{'' if freedom == 1 else 's'} of freedom")
     if params.pinned and params.n == 3:
         line += "\n\n" + reach_text(params)
     return line

@@ -244,3 +244,14 @@ def test_a_browser_reporting_a_narrow_canvas_gets_its_camera_reframed(connect):
     assert report.position is not None
     narrow = np.linalg.norm(np.asarray(report.position) - np.asarray(report.look_at))
     assert narrow == pytest.approx(2.0 * wide, rel=1e-9)
+
+
+@pytest.mark.parametrize(("preset", "links", "words"), [
+    ("four-bar", None, "3 bars, closed loop, tip pinned at H; 1 degree of freedom"),
+    ("triple-a", None, "3 bars, open chain; 3 degrees of freedom"),
+    ("chain", 1, "1 bar, open chain; 1 degree of freedom"),
+])
+def test_the_chain_panel_counts_its_degrees_of_freedom_in_words(preset, links, words):
+    from app.parameters import SessionParameters  # noqa: PLC0415
+
+    assert chain_knobs.facts_line(SessionParameters.from_preset(preset, links=links)).startswith(words)
