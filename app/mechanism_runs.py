@@ -164,8 +164,8 @@ def drawing(mechanism: Mechanism) -> Drawing:
             body = next(b for b in mechanism.bodies if b.name == joint.body)
             at = float(np.dot(np.array(body.points[joint.point]) - through, u))  # the slider in the sketch
             margin = GUIDE_MARGIN_FRACTION * size
-            first, last = min(-0.75 * size, at - margin), max(0.75 * size, at + margin)
-            guides.append((through + first * u, through + last * u))
+            low, high = min(-0.75 * size, at - margin), max(0.75 * size, at + margin)
+            guides.append((through + low * u, through + high * u))
             guide_points.append(index[f"{joint.body}.{joint.point}"])
     meshes = [[index[end] for end in kind_of(joint).drawn_between(joint, mechanism)] for joint in mechanism.joints
               if kind_of(joint).drawing == "mesh"]
