@@ -623,9 +623,10 @@ class DesignView:
             return
         session = self.session
         scene = session.target.scene
+        # paused at once and held before anything says designing: a start already installed (a page's first, about
+        # to be shown) stops now, and one installed later stays paused (app/player.py hold)
+        session.player.hold(on)
         self.on = on
-        with session.player.lock:
-            session.player.held = on  # a start installed while designing stays paused (app/player.py)
         if on:
             if session.compare:
                 session.set_compare(False)

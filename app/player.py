@@ -141,8 +141,9 @@ class Player:
         self.generation = 0  # bumped at every restart; chunks of an older generation are dropped
         self.display_time = 0.0
         self.playing = False
-        # held (the session designing, app/design_view.py): a restart installed meanwhile stays paused, whatever
-        # its request said (a page's start can be installed after design mode paused the player)
+        # held (the session designing, app/design_view.py; set by hold()): paused, and a restart installed meanwhile
+        # stays paused whatever its request said; only play() plays again (the session's Play
+        # leaves design mode first)
         self.held = False
         self.speed = 1.0
         self.frame_counter = 0
@@ -195,6 +196,17 @@ class Player:
     def pause(self) -> None:
         with self.lock:
             self.playing = False
+        self._wake.set()
+
+    def hold(self, on: bool) -> None:
+        """Hold the player paused (design mode) or let it go. Pausing and holding are one step under the lock: a
+        start already installed and playing is paused here at once, not when a later request is installed, and no
+        restart installed while held plays (see ``_install``). Letting go plays nothing: Play does."""
+        with self.lock:
+            self.held = bool(on)
+            if self.held:
+                self.playing = False
+                self._dirty = True  # the pose shown is redrawn paused
         self._wake.set()
 
     def touch(self) -> None:

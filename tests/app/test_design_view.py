@@ -9,6 +9,7 @@ test (tests/browser/test_design.py) drives the same with real mouse events.
 from __future__ import annotations
 
 import math
+import threading
 import urllib.parse
 from typing import Callable
 
@@ -239,6 +240,34 @@ def test_a_start_installed_while_designing_stays_paused(session):
     session.design_view.set_designing(False)
     session.play()
     assert session.player.playing
+
+
+def test_design_mode_pauses_at_once_while_a_playing_start_waits_to_be_shown(session, monkeypatch):
+    """A page's first start can be installed (playing) and not shown yet when ``?design=1`` turns design mode on
+    (CI: the page test found the player playing in design mode): designing then asks for a paused start at t = 0,
+    and the run must not play on until the player installs it (a loaded machine's player can take seconds)."""
+    player = session.player
+    gate = threading.Event()
+    prepare = player._prepare
+
+    def held_prepare(spec, theta0, omega0):  # the player's next install waits here, as on a busy machine
+        gate.wait(120)
+        prepare(spec, theta0, omega0)
+
+    session.play()
+    assert player.playing
+    monkeypatch.setattr(player, "_prepare", held_prepare)
+    try:
+        with session._lock:  # a start that plays, not installed yet (a page's first start, an edit while playing)
+            session._restart(0.0, session.q0, session.qdot0, keep_history=False, play=True)
+        assert player.restart_pending and player.playing
+        session.design_view.set_designing(True)
+        assert not player.playing, "design mode paused the run at once, not when its paused start is installed"
+    finally:
+        gate.set()
+    assert player.wait_idle(120)
+    assert not player.playing and session.design_view.on
+    session.design_view.set_designing(False)
 
 
 def test_a_link_asks_for_design_mode_with_design_1():
