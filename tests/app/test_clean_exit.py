@@ -26,10 +26,11 @@ EXIT_TIMEOUT = 30.0  # s: the stop itself is cut short after 8 s (app/lifetime.p
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups and SO_REUSEPORT siblings")
 @pytest.mark.parametrize("processes", [["--processes", "1"], []], ids=["one-process", "default-processes"])
+@pytest.mark.parametrize("preset", [[], ["--preset", "crank-rocker"]], ids=["chain", "mechanism"])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=lambda s: s.name)
-def test_a_signal_to_the_group_ends_the_server_without_warnings(sig, processes, tmp_path):
+def test_a_signal_to_the_group_ends_the_server_without_warnings(sig, preset, processes, tmp_path):
     env = {**os.environ, "LINKAGE_LAB_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
-    command = subprocess.Popen([sys.executable, "-m", "app", "--port", "0", *processes], cwd=ROOT, env=env,
+    command = subprocess.Popen([sys.executable, "-m", "app", "--port", "0", *processes, *preset], cwd=ROOT, env=env,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)  # its own group, as a terminal's foreground job
     client = None
