@@ -62,6 +62,27 @@ def watch_parent(parent: int, interval: float = PARENT_CHECK_SECONDS) -> threadi
 
 _stop_requested = threading.Event()
 _raise_on_signal = True  # False while :func:`wait_for_stop` waits: the signal only sets the flag it polls
+_before_forced_exit: list[Callable[[], None]] = []
+
+
+def before_forced_exit(release: Callable[[], None]) -> None:
+    """Have ``release()`` run when :func:`force_exit` ends the process, which skips the interpreter's exit
+    handlers. For what outlives the process unless released: multiprocessing's named semaphores
+    (app/processes.py), whose resource tracker otherwise warns "There appear to be N leaked semaphore objects"
+    at a second Ctrl+C or a stop cut short. ``release`` must be quick and may not wait on a lock a hung thread
+    could hold."""
+    _before_forced_exit.append(release)
+
+
+def force_exit(code: int) -> None:
+    """End the process at once with ``code`` (``os._exit``: a hung stop cannot hold it), after the releases
+    registered with :func:`before_forced_exit`."""
+    for release in list(_before_forced_exit):
+        try:
+            release()
+        except Exception:  # noqa: BLE001, S110 - ending anyway: a release that fails must not keep us alive
+            pass
+    os._exit(code)
 
 
 def end_on_signals(grace: float = STOP_GRACE_SECONDS, signals: tuple[int, ...] = ENDING_SIGNALS) -> None:
@@ -78,10 +99,10 @@ def end_on_signals(grace: float = STOP_GRACE_SECONDS, signals: tuple[int, ...] =
 
     def handler(signum, frame) -> None:
         if state["ending"]:
-            os._exit(128 + signum)
+            force_exit(128 + signum)
         state["ending"] = True
         _stop_requested.set()
-        timer = threading.Timer(grace, lambda: os._exit(128 + signum))
+        timer = threading.Timer(grace, lambda: force_exit(128 + signum))
         timer.daemon = True
         timer.start()
         if _raise_on_signal:

@@ -20,6 +20,7 @@ anything (including another Linkage Lab) is skipped, so two servers never share 
 
 from __future__ import annotations
 
+import _multiprocessing  # type: ignore[import-not-found]  # sem_unlink: the C module, no stubs
 import contextlib
 import multiprocessing
 import os
@@ -29,6 +30,7 @@ import socket
 import sys
 import threading
 import time
+from multiprocessing import resource_tracker
 
 import websockets.asyncio.server as ws_server
 
@@ -42,6 +44,7 @@ MAX_PROCESSES = 16  # more interpreters than this only adds memory (about 200 MB
 ORPHAN_CHECK_SECONDS = 1.0
 
 _spawn = multiprocessing.get_context("spawn")
+_GROUP_SIGNALS = {signal.SIGINT, signal.SIGHUP}  # what a terminal sends its foreground group
 _serve_patch_lock = threading.Lock()
 
 
@@ -86,6 +89,8 @@ class Seats:
 
     def __init__(self, shared: bool = False) -> None:
         self._value = _spawn.Value("i", 0) if shared else _LocalCount()
+        if shared:
+            release_if_forced_out(self._value.get_lock())
 
     def take(self, limit: int) -> bool:
         with self._value.get_lock():
@@ -101,6 +106,28 @@ class Seats:
     @property
     def count(self) -> int:
         return int(self._value.value)
+
+
+def release_if_forced_out(*locks) -> None:
+    """Unlink these multiprocessing locks' named semaphores if the process is ended by
+    :func:`app.lifetime.force_exit` (a second Ctrl+C, a stop cut short after the grace period).
+
+    Why: multiprocessing unlinks them, and tells its resource tracker so, in the interpreter's exit handlers,
+    which ``os._exit`` skips: the tracker then printed "There appear to be 4 leaked semaphore objects to clean
+    up at shutdown" (the seat count's lock and the sibling queue's three) and unlinked them itself. A name
+    already unlinked (the exit handlers ran first) is left alone: the tracker no longer knows it."""
+    names = [lock._semlock.name for lock in locks if getattr(getattr(lock, "_semlock", None), "name", None)]
+
+    def release() -> None:
+        for name in names:
+            try:
+                _multiprocessing.sem_unlink(name)
+            except OSError:
+                continue
+            resource_tracker.unregister(name, "semaphore")
+
+    if names:
+        lifetime.before_forced_exit(release)
 
 
 def reserve_port(host: str, port: int) -> int:
@@ -217,13 +244,22 @@ class Siblings:
 def start_siblings(count: int, port: int, options: dict, seats: Seats) -> Siblings:
     """Start ``count`` more server processes on ``port``; returns at once (see :class:`Siblings`)."""
     ready = _spawn.Queue()
+    release_if_forced_out(*(getattr(ready, lock, None) for lock in ("_rlock", "_wlock", "_sem")))
     processes = [
         _spawn.Process(target=_sibling_main, args=(port, options, seats, os.getpid(), ready),
                        name=f"linkage-lab-{i + 2}", daemon=True)
         for i in range(count)
     ]
-    for process in processes:
-        process.start()
+    # Ctrl+C and a closed terminal reach the whole group, also a sibling still importing (its traceback went
+    # to the terminal): started with them blocked (the mask is inherited), a sibling unblocks them once ignored
+    masking = hasattr(signal, "pthread_sigmask")
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _GROUP_SIGNALS) if masking else set()
+    try:
+        for process in processes:
+            process.start()
+    finally:
+        if masking:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
     return Siblings(processes, ready)
 
 
@@ -232,6 +268,8 @@ def _sibling_main(port: int, options: dict, seats: Seats, parent: int, ready) ->
     SIGTERM when its starting thread ends, app/lifetime.py, or the check below every second)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the first process decides
     signal.signal(signal.SIGHUP, signal.SIG_IGN)  # so does a closed terminal
+    if hasattr(signal, "pthread_sigmask"):  # blocked while it started (start_siblings): now ignored instead
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _GROUP_SIGNALS)
     lifetime.end_on_signals(signals=(signal.SIGTERM,))  # stop the sessions and workers, then end
     lifetime.die_with_parent(signal.SIGTERM, parent)
     try:
