@@ -65,6 +65,12 @@ _raise_on_signal = True  # False while :func:`wait_for_stop` waits: the signal o
 _before_forced_exit: list[Callable[[], None]] = []
 
 
+def stopping() -> bool:
+    """Whether an ending signal has arrived (:func:`end_on_signals`): work that fails now (a build worker that
+    got the terminal's Ctrl+C too) is the stop, not a fault to report or redo."""
+    return _stop_requested.is_set()
+
+
 def before_forced_exit(release: Callable[[], None]) -> None:
     """Have ``release()`` run when :func:`force_exit` ends the process, which skips the interpreter's exit
     handlers. For what outlives the process unless released: multiprocessing's named semaphores

@@ -21,6 +21,7 @@ from typing import Callable
 
 import physics
 
+from . import lifetime
 from .logs import log_once
 from .parameters import SessionParameters
 
@@ -145,6 +146,8 @@ def build_outside(method: str, n: int, pinned: bool, integrator: str,
         stderr = errors.read()
         errors.close()
     if worker.returncode != 0:
+        if lifetime.stopping():  # the terminal's Ctrl+C reached the worker too: the server stops, builds nothing
+            raise Cancelled(f"{method}, {n} bars: the server is stopping")
         reason = (stderr.strip().splitlines() or [f"exit {worker.returncode}"])[-1]
         print(f"linkage-lab: worker build failed ({reason}); building in the server", file=sys.stderr)
         return False
@@ -156,6 +159,8 @@ def warm_up(preset: str, links: int | None, method: str | None) -> None:
     try:
         params = SessionParameters.from_preset(preset, links=links, method=method)
         ensure_ready(params.chain, params.settings, params.theta0, params.omega0)
+    except Cancelled:  # the server is stopping: nothing to warm, nothing to say
+        return
     except Exception as error:  # an optimisation only: a session reports real problems itself
         print(f"linkage-lab: warm-up skipped: {error}", file=sys.stderr)
 

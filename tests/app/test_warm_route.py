@@ -95,6 +95,42 @@ def test_the_worker_command_is_the_four_argument_one(monkeypatch):
     assert prebuild_worker.main(["dae", "four", "open", "RK45"]) == 2
 
 
+class _InterruptedWorker:
+    """A build worker the terminal's Ctrl+C reached: ended by SIGINT, its traceback in its own stderr."""
+
+    returncode = -2
+
+    def __init__(self, command, stdout=None, stderr=None, **_keywords):
+        stderr.write("Traceback (most recent call last):\nKeyboardInterrupt\n")
+
+    def wait(self, timeout=None):
+        return self.returncode
+
+    def poll(self):
+        return self.returncode
+
+    def kill(self):
+        raise AssertionError("an ended worker is not killed")
+
+
+@pytest.mark.parametrize("stopping", [False, True], ids=["serving", "stopping"])
+def test_a_worker_interrupted_while_the_server_stops_is_no_build_failure(monkeypatch, capsys, stopping):
+    """Ctrl+C reaches the whole group, a build worker too. While the server serves, a worker that failed is
+    reported and the server builds in-process; while it stops (an ending signal arrived), the worker's end is
+    the stop: no line, no build in the server (it said "worker build failed ...; building in the server" and
+    began compiling as it stopped)."""
+    monkeypatch.setattr(physics, "code_missing", lambda *_arguments: True)
+    monkeypatch.setattr(warm.subprocess, "Popen", _InterruptedWorker)
+    monkeypatch.setattr(warm.lifetime, "stopping", lambda: stopping)
+    if stopping:
+        with pytest.raises(warm.Cancelled):
+            warm.build_outside("lagrange", 3, True, "DOP853")
+        assert capsys.readouterr().err == ""
+    else:
+        assert warm.build_outside("lagrange", 3, True, "DOP853") is False
+        assert capsys.readouterr().err == "linkage-lab: worker build failed (KeyboardInterrupt); building in the server\n"
+
+
 def test_the_worker_module_starts_without_a_runpy_warning():
     """``import physics`` imports physics.codegen.prebuild; the worker is a module of its own, so ``-m`` does not
     import it a second time (runpy's RuntimeWarning on every start, before)."""
