@@ -30,6 +30,7 @@ import gc
 import sys
 import threading
 import time
+import weakref
 from typing import Callable
 
 # Departures arrive over a fraction of a second when a class closes its tabs: wait this long after the last
@@ -66,7 +67,9 @@ def release_freed_memory() -> bool:
     return bool(_MALLOC_TRIM(0))
 
 
-FINISH_WAIT_SECONDS = 30.0  # the longest a trim waits for closed sessions' threads to end
+FINISH_WAIT_SECONDS = 30.0  # the longest a trim waits for closed sessions' threads to end, and for them to go
+RECOLLECT_FIRST_SECONDS = 0.05  # a closed session still held after a collection: the first wait before the next
+RECOLLECT_MAX_SECONDS = 1.0  # the waits double up to this (each collection walks the whole heap)
 
 
 class Trimmer:
@@ -88,16 +91,24 @@ class Trimmer:
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self._finishing: list[threading.Thread] = []  # closed sessions' threads the next trim waits for
+        self._closed: list[weakref.ref] = []  # the closed sessions the next trim sees gone
 
-    def request(self, finishing: threading.Thread | None = None) -> None:
+    def request(self, finishing: threading.Thread | None = None, closed: object = None) -> None:
         """A session closed; ``finishing``: a thread of it still running (its player's, stopped but not yet
         ended: a chunk waits for a busy worker), which the trim waits for (at most FINISH_WAIT_SECONDS) before it
-        collects, or the session's objects it still holds would stay until the next full collection."""
+        collects, or the session's objects it still holds would stay until the next full collection.
+        ``closed``: the session itself. Its closer may still hold it when the trim collects (the thread that
+        called this runs on: viser's disconnect callback, its pool's work item holding the client, whose
+        controls' callbacks hold the session), and what the collection could not free then would wait in its
+        cycles for the next full collection: the trim collects again (waits doubling, within
+        FINISH_WAIT_SECONDS in all) until every such session is gone, and only then counts as done."""
         with self._lock:
             if self._stopping:
                 return
             if finishing is not None and finishing.is_alive():
                 self._finishing.append(finishing)
+            if closed is not None:
+                self._closed.append(weakref.ref(closed))
             self._requests += 1
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="memory-trim", daemon=True)
@@ -133,14 +144,27 @@ class Trimmer:
             with self._lock:
                 covered = self._requests
                 finishing, self._finishing = self._finishing, []
+                closed, self._closed = self._closed, []
             deadline = time.monotonic() + FINISH_WAIT_SECONDS
             for thread in finishing:  # what they hold is garbage only once they end
                 thread.join(max(0.0, deadline - time.monotonic()))
-            gc.collect()  # a closed session's objects hang in reference cycles until a full collection
+            self._collect(closed, deadline)
             release_freed_memory()
             with self._lock:
                 self._covered = covered
                 self.trims += 1
+
+    def _collect(self, closed: list[weakref.ref], deadline: float) -> None:
+        """A full collection (a closed session's objects hang in reference cycles until one), again after
+        doubling waits while a ``closed`` session is still there (its closer had not let go), until ``deadline``."""
+        gc.collect()
+        wait = RECOLLECT_FIRST_SECONDS
+        while not self._stopping and any(ref() is not None for ref in closed):
+            if time.monotonic() + wait > deadline:
+                return
+            time.sleep(wait)
+            wait = min(2 * wait, RECOLLECT_MAX_SECONDS)
+            gc.collect()
 
     def stop(self) -> None:
         with self._lock:

@@ -272,13 +272,10 @@ class LabServer:
                     self.sessions[client.client_id] = session
                     kept = True
             if not kept:
-                self.seats.release()
                 if session is not None:  # the browser left while its session was being built
-                    session.close()
-                    with self._lock:
-                        self.closed_sessions += 1
-                    player = getattr(session, "player", None)
-                    self.trimmer.request(finishing=player.thread if player is not None else None)
+                    self._closed(session)
+                    session = None
+                self.seats.release()
             self._rebalance()
 
     def _start_session(self, target, preset: str, links: int | None, *, shared: bool,
@@ -409,13 +406,20 @@ class LabServer:
             session = self.sessions.pop(client.client_id, None)
             self.turned_away.discard(client.client_id)
         if session is not None:
-            session.close()
-            self.seats.release()
-            with self._lock:
-                self.closed_sessions += 1
-            player = getattr(session, "player", None)  # its thread may outlive close() (a chunk still in a worker)
-            self.trimmer.request(finishing=player.thread if player is not None else None)
+            self._closed(session)
+            session = None  # this frame runs on (_rebalance): it must not be what keeps the session
+            self.seats.release()  # a seat is free only once the trim that frees its session is asked for
         self._rebalance()
+
+    def _closed(self, session: LabSession) -> None:
+        """Close a session that has left ``sessions`` and ask the memory trim for it. The trim waits for what
+        may still hold it after this returns (its player's thread finishing a chunk; this very callback and
+        viser's pool item holding the client until they return) before it counts the session as released."""
+        session.close()
+        with self._lock:
+            self.closed_sessions += 1
+        player = getattr(session, "player", None)  # its thread may outlive close() (a chunk still in a worker)
+        self.trimmer.request(finishing=player.thread if player is not None else None, closed=session)
 
     def _open_sessions(self) -> list[LabSession]:
         """Every session of this process that browsers watch (own sessions and the shared one)."""
