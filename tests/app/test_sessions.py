@@ -173,6 +173,9 @@ def test_two_sessions_do_not_affect_each_other(connect):
 
 def test_closing_a_browser_releases_its_session(lab, connect):
     client, session = connect()
+    # an earlier test's browser may still be leaving: its session is counted closed before its seat is freed
+    # (app/server.py _disconnect), so once the seats match the sessions every departure is counted
+    assert wait_until(lambda: lab.seats.count == len(lab.sessions), timeout=30)
     closed_before = lab.closed_sessions
     assert session.id in {s.id for s in lab.sessions.values()}
     client.close()
