@@ -33,6 +33,8 @@ import time
 import weakref
 from typing import Callable
 
+from .logs import log_once
+
 # Departures arrive over a fraction of a second when a class closes its tabs: wait this long after the last
 # one before trimming (a later departure restarts the wait, up to MAX_TRIM_DELAY_SECONDS in all).
 TRIM_SETTLE_SECONDS = 0.5
@@ -160,7 +162,10 @@ class Trimmer:
         gc.collect()
         wait = RECOLLECT_FIRST_SECONDS
         while not self._stopping and any(ref() is not None for ref in closed):
-            if time.monotonic() + wait > deadline:
+            if time.monotonic() + wait > deadline:  # something keeps them: say so once, a leak to look for
+                held = sum(ref() is not None for ref in closed)
+                log_once("memory:closed sessions held", "%d closed session(s) still held after the memory trim's "
+                         "collections; their memory stays until whatever holds them lets go", held)
                 return
             time.sleep(wait)
             wait = min(2 * wait, RECOLLECT_MAX_SECONDS)

@@ -13,7 +13,7 @@ import gc
 import threading
 import weakref
 
-from app import memory
+from app import logs, memory
 from app.server import LabServer
 from conftest import BrowserStandIn, wait_until
 
@@ -76,3 +76,24 @@ def test_a_seat_is_freed_only_after_the_trim_for_its_session_was_asked_for():
         assert session() is None, "the closed session outlived the trim"
     finally:
         server.stop()
+
+
+def test_a_closed_session_held_past_the_trims_patience_is_reported_once(monkeypatch, caplog):
+    """A session something really keeps (a leak): the trim gives up after FINISH_WAIT_SECONDS and says so, once,
+    instead of settling in silence."""
+    class Held:
+        pass
+
+    monkeypatch.setattr(memory, "FINISH_WAIT_SECONDS", 0.3)
+    monkeypatch.setattr(logs, "_seen", set())  # log_once is once per process: this test's own
+    kept = Held()
+    trimmer = memory.Trimmer(settle=0.05, max_delay=5.0)
+    try:
+        with caplog.at_level("WARNING", logger="app"):
+            trimmer.request(closed=kept)
+            assert trimmer.wait_settled(TIMEOUT)
+        assert [r.getMessage() for r in caplog.records if "still held" in r.getMessage()] == [
+            "1 closed session(s) still held after the memory trim's collections; their memory stays until "
+            "whatever holds them lets go"]
+    finally:
+        trimmer.stop()
