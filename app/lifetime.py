@@ -14,6 +14,7 @@ PID 1 in a container a process without a handler does not even end on SIGTERM. S
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import os
@@ -86,8 +87,10 @@ def force_exit(code: int) -> None:
     for release in list(_before_forced_exit):
         try:
             release()
-        except Exception:  # noqa: BLE001, S110 - ending anyway: a release that fails must not keep us alive
-            pass
+        except Exception as error:  # noqa: BLE001 - ending anyway: a release that fails must not keep us alive
+            # one line straight to the file descriptor: no logging lock a hung thread could hold
+            with contextlib.suppress(OSError):
+                os.write(2, f"linkage-lab: at exit, a release failed: {type(error).__name__}: {error}\n".encode())
     os._exit(code)
 
 

@@ -154,3 +154,13 @@ def test_a_forced_exit_leaks_no_semaphore(how):
         if proc.poll() is None:
             proc.kill()
             proc.wait(30)
+
+
+def test_a_release_that_fails_at_a_forced_exit_is_one_line_and_the_process_still_ends():
+    code = ("from app import lifetime\n"
+            "lifetime.before_forced_exit(lambda: 1 / 0)\n"
+            "lifetime.force_exit(3)\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 3
+    assert done.stderr == "linkage-lab: at exit, a release failed: ZeroDivisionError: division by zero\n"
