@@ -29,10 +29,7 @@ EXIT_TIMEOUT = 30.0  # s: the stop itself is cut short after 8 s (app/lifetime.p
 @pytest.mark.parametrize("preset", [[], ["--preset", "crank-rocker"]], ids=["chain", "mechanism"])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=lambda s: s.name)
 def test_a_signal_to_the_group_ends_the_server_without_warnings(sig, preset, processes, tmp_path):
-    env = {**os.environ, "LINKAGE_LAB_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
-    command = subprocess.Popen([sys.executable, "-m", "app", "--port", "0", *processes, *preset], cwd=ROOT, env=env,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)  # its own group, as a terminal's foreground job
+    command = _start([*processes, *preset], tmp_path)  # its own group, as a terminal's foreground job
     client = None
     try:
         line = command.stdout.readline()  # the first line says where it serves (blocks until then)
@@ -41,10 +38,7 @@ def test_a_signal_to_the_group_ends_the_server_without_warnings(sig, preset, pro
         client = BrowserStandIn(url)
         assert wait_until(lambda: client.counts.bar_updates() >= 3, timeout=START_TIMEOUT), "no frames arrived"
         os.killpg(command.pid, sig)
-        try:
-            _, err = command.communicate(timeout=EXIT_TIMEOUT)
-        except subprocess.TimeoutExpired:
-            pytest.fail(f"still running {EXIT_TIMEOUT:.0f} s after {sig.name}")
+        err = _ended(command, sig.name)
         assert "leaked" not in err, err[-3000:]
         assert "Traceback" not in err, err[-3000:]
         assert command.returncode == 0, (command.returncode, err[-3000:])
