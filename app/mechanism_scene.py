@@ -76,6 +76,10 @@ class MechanismScene:
         self._widths = np.zeros(0)
         self._guides = None  # the guides' node, and their ends as drawn (each lengthened to its slider's travel)
         self._guide_ends = np.zeros((0, 2, 2))
+        # per guide, worked out once a build: its first end, unit direction and the reach [first, last] along it
+        self._guide_origin = np.zeros((0, 2))
+        self._guide_unit = np.zeros((0, 2))
+        self._guide_reach = np.zeros((0, 2))
 
     @property
     def bars(self):
@@ -115,6 +119,11 @@ class MechanismScene:
                                                dimensions=(2.5 * width, 1.5 * width, 2.5 * width),
                                                position=tuple(to_world(xy)), **common))
         self._guide_ends = np.array(draw.guides, dtype=float).reshape(-1, 2, 2)
+        self._guide_origin = self._guide_ends[:, 0].copy()
+        along = self._guide_ends[:, 1] - self._guide_origin
+        length = np.linalg.norm(along, axis=1)
+        self._guide_unit = along / length[:, None]
+        self._guide_reach = np.stack([np.zeros_like(length), length], axis=1)
         self._guides = None
         if len(draw.guides):
             self._guides = scene.add_line_segments(
@@ -220,23 +229,22 @@ class MechanismScene:
     def _cover_travel(self, points_xy: np.ndarray) -> None:
         """Lengthen a guide whose slider has run past one of its ends, to a little beyond the slider (a piston
         travels further than the sketch's size suggests: the slider-crank's runs past its guide's end). One
-        message when a guide grows, none otherwise: a guide only grows, so it settles within a cycle."""
+        product a frame; one message when a guide grows, none otherwise: a guide only grows, so it settles within
+        a cycle."""
         assert self.draw is not None
-        ends = self._guide_ends
-        start, end = ends[:, 0], ends[:, 1]
-        along = end - start
-        sliding = points_xy[self.draw.guide_points]
-        fraction = np.einsum("ij,ij->i", sliding - start, along) / np.einsum("ij,ij->i", along, along)
-        before, beyond = fraction < 0.0, fraction > 1.0
+        at = np.einsum("ij,ij->i", points_xy[self.draw.guide_points] - self._guide_origin, self._guide_unit)
+        reach = self._guide_reach
+        before, beyond = at < reach[:, 0], at > reach[:, 1]
         if not (before.any() or beyond.any()):
             return
-        margin = GUIDE_MARGIN_FRACTION * self.draw.size * along / np.linalg.norm(along, axis=1, keepdims=True)
-        foot = start + fraction[:, None] * along  # the slider's place on the guide's line
-        ends = ends.copy()
-        ends[before, 0] = foot[before] - margin[before]
-        ends[beyond, 1] = foot[beyond] + margin[beyond]
-        self._guide_ends = ends
-        update_node_props(self._guides, {"points": to_world(ends).astype(np.float32)})
+        margin = GUIDE_MARGIN_FRACTION * self.draw.size
+        reach = reach.copy()
+        reach[before, 0] = at[before] - margin
+        reach[beyond, 1] = at[beyond] + margin
+        self._guide_reach = reach
+        origin, unit = self._guide_origin[:, None, :], self._guide_unit[:, None, :]
+        self._guide_ends = origin + reach[:, :, None] * unit
+        update_node_props(self._guides, {"points": to_world(self._guide_ends).astype(np.float32)})
 
     @_locked
     def poses(self) -> dict[str, dict]:
