@@ -440,12 +440,19 @@ def _wait_for_specialisation() -> None:
             thread.join()
 
 
+def _read_solved(run):
+    """Read every field a chain's run computes when first read (physics.simulate.trajectory.OnRequest)."""
+    return run.reactions, run.joint_reactions, run.tip_reaction, run.condition
+
+
 def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
-                methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae"), block: int = 1) -> dict:
+                methods: tuple[str, ...] = ("lagrange", "newton_euler", "dae"), block: int = 1,
+                read_solved: bool = False) -> dict:
     """Seed case C end to end (arrays in, sampled ``(t, y)`` out) after a warm-up call: timings, step counts and
     the tip check against ``physics.simulate``. ``include_physics``: also time ``physics.simulate`` (compiled
     RK45, same settings) for each of ``methods``, interleaved with the anchor in a rotating order (``block``
-    calls of each in a row per turn), and report each ratio."""
+    calls of each in a row per turn), and report each ratio. ``read_solved``: each ``physics.simulate`` call also
+    reads the reactions, joint reactions, tip reaction and condition (what a reader of the reactions pays)."""
     import physics
 
     from . import closed_form_three
@@ -470,7 +477,10 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     runners = {"closed_form": run_closed_form, "closed_form_three": run_closed_form_three}
     if include_physics:
         for method in methods:
-            runners[method] = (lambda m=settings(method): physics.simulate(chain, theta0, omega0, m))
+            if read_solved:
+                runners[method] = (lambda m=settings(method): _read_solved(physics.simulate(chain, theta0, omega0, m)))
+            else:
+                runners[method] = (lambda m=settings(method): physics.simulate(chain, theta0, omega0, m))
             runners[f"{method}_integration"] = _integration_only(physics, method, chain, theta0, omega0)
     for _ in range(2):  # warm-up: kernels loaded (or compiled); a system's second run makes its specialised driver
         for call in runners.values():
@@ -499,6 +509,7 @@ def time_case_c(repeats: int = DEFAULT_REPEATS, include_physics: bool = True,
     result = {
         "case": "C",
         "preset": CASE_C_PRESET,
+        "read_solved": read_solved,
         "settings": {"integrator": "RK45", "rtol": CASE_C_RTOL, "atol": CASE_C_ATOL, "t_end": CASE_C_T_END,
                      "samples": CASE_C_SAMPLES},
         "repeats": repeats,
@@ -546,7 +557,7 @@ def _physics_from(tree: str) -> None:
     sys.path.insert(0, os.path.abspath(tree))
 
 
-def _child(tree: str | None, repeats: int, cache: str | None = None, block: int = 1) -> dict:
+def _child(tree: str | None, repeats: int, cache: str | None = None, block: int = 1, read_solved: bool = False) -> dict:
     """One run of this command in a fresh process, ``physics`` from ``tree`` (None: this checkout), with
     ``cache`` (when given) as its ``LINKAGE_LAB_CACHE``: a generated system's file name carries its generator's
     digest, so two trees sharing one folder remove each other's files as stale and derive them again."""
@@ -556,6 +567,8 @@ def _child(tree: str | None, repeats: int, cache: str | None = None, block: int 
     command = [sys.executable, "-m", "benchmarks.closed_form", "--repeats", str(repeats), "--block", str(block)]
     if tree is not None:
         command += ["--physics-from", tree]
+    if read_solved:
+        command.append("--read-solved")
     import pathlib  # noqa: PLC0415
 
     root = pathlib.Path(__file__).resolve().parent.parent  # this checkout: its benchmarks, the baselines
@@ -568,7 +581,7 @@ def _child(tree: str | None, repeats: int, cache: str | None = None, block: int 
     return json.loads(done.stdout)
 
 
-def compare_before(before: str, rounds: int, repeats: int, block: int = 1) -> dict:
+def compare_before(before: str, rounds: int, repeats: int, block: int = 1, read_solved: bool = False) -> dict:
     """This checkout's ``physics.simulate`` and ``before``'s, each in its own process against the same two
     closed forms (this checkout's), the order alternating per round; medians over the rounds of each round's
     medians, and each tree's ratios. Each tree has a cache folder of its own, ``closed-form-after`` and
@@ -585,10 +598,11 @@ def compare_before(before: str, rounds: int, repeats: int, block: int = 1) -> di
         if round_index % 2:
             order.reverse()
         for label, tree in order:
-            result = _child(tree, repeats, caches[label], block)
+            result = _child(tree, repeats, caches[label], block, read_solved)
             result["load_average"] = os.getloadavg()[0]
             runs[label].append(result)
-    summary: dict = {"rounds": rounds, "repeats": repeats, "block": block, "before": os.path.abspath(before)}
+    summary: dict = {"rounds": rounds, "repeats": repeats, "block": block, "read_solved": read_solved,
+                     "before": os.path.abspath(before)}
     for label, results in runs.items():
         methods = list(results[0]["physics_simulate"])
         row = {
@@ -633,6 +647,9 @@ def main(argv=None) -> int:
                         help="calls of each runner in a row per turn (default 1: every call after the other "
                              "runners' calls, its caches and branch history cold; e.g. 10: as a loop of runs, a "
                              "study or timeit meets them; every call timed)")
+    parser.add_argument("--read-solved", action="store_true",
+                        help="each physics.simulate call also reads the reactions, joint reactions, tip reaction "
+                             "and condition (computed when first read): what a reader of the reactions pays")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats: must be at least 1")
@@ -641,12 +658,13 @@ def main(argv=None) -> int:
     if args.block < 1:
         parser.error("--block: must be at least 1")
     if args.before:
-        summary = compare_before(args.before, args.rounds, args.repeats, args.block)
+        summary = compare_before(args.before, args.rounds, args.repeats, args.block, args.read_solved)
         print(json.dumps(summary, indent=2))
         return 0 if summary["after"]["agree"] and summary["before"]["agree"] else 1
     if args.physics_from:
         _physics_from(args.physics_from)
-    result = time_case_c(args.repeats, include_physics=not args.no_physics, block=args.block)
+    result = time_case_c(args.repeats, include_physics=not args.no_physics, block=args.block,
+                         read_solved=args.read_solved)
     print(json.dumps(result, indent=2))
     return 0 if result["agree"] and result["three_agree"] else 1
 

@@ -84,11 +84,18 @@ class _Run:
     call). Holds the system, its layout and the plan, so their ids are not reused while it is remembered."""
 
     def __init__(self, compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
-                 n_params: int, matrices: bool, runs: tuple = ()) -> None:
+                 n_params: int, matrices: bool, runs: tuple = (), eager: ObservablesPlan | None = None) -> None:
         from .mechanism_samples import _assemble_function, _functions  # noqa: PLC0415
 
         layout = compiled.layout
         self.compiled, self.integration_layout, self.plan = compiled, integration_layout, plan
+        # the plan the run's one call reads (its points and energies, no reaction row: the solve of the samples
+        # left to solve_samples, when a reader asks), or None: the run solves every sample itself
+        self.eager = eager
+        if eager is not None and (eager.n != plan.n or eager.unknowns != plan.unknowns or eager.reactions
+                                  or eager.count != plan.count or eager.bodies != plan.bodies
+                                  or eager.mode not in (0, 3)):
+            raise ValueError("expected an eager plan with the run's points and no reaction row")
         self.n, self.k = int(layout[LAYOUT_COORDINATES]), int(layout[LAYOUT_UNKNOWNS])
         self.constraints = int(integration_layout[LAYOUT_CONSTRAINTS])
         self.size = compiled.pose_size if plan.mode else 0  # the kinematics: a tree's reactions, or the turns
@@ -116,40 +123,55 @@ class _Run:
         self.kinematics_call = _functions()[1]
         self.assemble_call = _assemble_function()
         self.observables_call = observables_function()
-        # the observables specialised for the plan's structure, once there (the one call's; the calls from
-        # Python keep the generic function, so the tests comparing the two hold the one to the other)
-        self.observables_specialised: tuple | None = None
+        # the observables specialised for each plan's structure, once there (the one call's and the native
+        # solve_samples'; the calls from Python keep the generic function, so the tests comparing the two hold
+        # the one to the other)
+        self._observables_specialised: dict[int, tuple | None] = {}  # id(plan) -> its function, once there
         self.tree = plan.mode
-        self._plans: dict[tuple[int, int, int, int], tuple] = {}
+        # the kinematics in the one call: the eager plan's reading of the turns (mode 3), else every solve's
+        self.eager_size = (self.size if eager.mode else 0) if eager is not None else self.size
+        self._plans: dict[tuple[int, int, int, int, bool], tuple] = {}
 
     def plan_address(self, driver, solve) -> int:
         """The address of :mod:`physics.codegen.mechanism_run_ir`'s plan for this shape with ``driver`` and
         ``solve`` (made once per pair of functions: the system's generic ones until its specialised ones are in
         place; the entry holds the functions and the array) and the observables' function: the one specialised
         for the plan's structure once :func:`~physics.codegen.mechanism_observables.specialised_observables`
-        has it, the generic one until then."""
-        observables = self.observables_specialised
+        has it, the generic one until then. An eager shape's plan reads the eager plan and solves nothing."""
+        return self._plan_address(driver, solve, self.eager)
+
+    def solve_plan_address(self, solve) -> int:
+        """The plan of ``mechanism_solve_samples`` for an eager shape (:func:`solve_samples`): the plan this
+        shape's run would have had with ``solve``, had it solved its samples itself (no driver)."""
+        return self._plan_address(None, solve, None)
+
+    def _plan_address(self, driver, solve, eager: ObservablesPlan | None) -> int:
+        read = self.plan if eager is None else eager
+        observables = self._observables_specialised.get(id(read))
         if observables is None:
-            observables = self.observables_specialised = specialised_observables(self.plan)
+            observables = self._observables_specialised[id(read)] = specialised_observables(read)
         observables_call = self.observables_call if observables is None else observables[0]
-        sample = self.compiled.compiled_sample_function if self.pose_in_solve else 0
-        key = (id(driver), id(solve), id(observables_call), sample)
+        sample = self.compiled.compiled_sample_function if self.pose_in_solve and eager is None else 0
+        key = (id(driver), id(solve), id(observables_call), sample, eager is None)
         kept = self._plans.get(key)
         if kept is not None and kept[0] is driver and kept[1] is solve and kept[2] is observables_call:
             return kept[4]
         at = self.at
         solve_pose = pose_counterpart(solve, self.compiled.specialised_samples()) if sample else None
-        addresses = {"driver": _function_address(driver), "solve": _function_address(solve),
+        addresses = {"driver": _function_address(driver) if driver is not None else 0,
+                     "solve": _function_address(solve),
                      "solve_pose": _function_address(solve_pose) if solve_pose is not None else 0,
                      "sample": sample if solve_pose is not None else 0,
                      "states": _function_address(self.kinematics_call),
                      "assemble_states": _function_address(self.assemble_call),
                      "observables": _function_address(observables_call), "assemble": self.assemble,
                      "integration_layout": self.integration_address, "layout": self.address,
-                     "kinematics": self.kinematics, "samples": self.samples, "n": self.n, "size": self.size,
-                     "tree": self.tree, "matrices": self.matrices, "matrices_at": at.matrices}
-        shape, indices, constants = self.plan.addresses
-        addresses.update(shape=shape, indices=indices, constants=constants, count=self.plan.count)
+                     "kinematics": self.kinematics, "samples": self.samples, "n": self.n,
+                     "size": self.size if eager is None else self.eager_size, "tree": read.mode,
+                     "matrices": self.matrices if eager is None else 0, "matrices_at": at.matrices,
+                     "solve_samples": int(eager is None)}
+        shape, indices, constants = read.addresses
+        addresses.update(shape=shape, indices=indices, constants=constants, count=read.count)
         for number in range(MAX_RUNS):  # a run not asked for copies nothing (count 0)
             first, count = self.runs[number] if number < len(self.runs) else (0, 0)
             addresses.update({f"run_first_{number}": first, f"run_count_{number}": count,
@@ -169,29 +191,42 @@ def _function_address(function) -> int:
     return int(ctypes.cast(function, ctypes.c_void_p).value or 0)
 
 
-_one_call: list = []
+_one_call: list = []  # [mechanism_run, mechanism_solve_samples (ctypes functions), the engine of both]
 
 
 def _run_function():
-    """The ctypes function of :mod:`physics.codegen.mechanism_run_ir`, compiled once per installation at O2 as
-    the observables' function is (its loops over the rows and points: about 18 us a run of seed case C faster
-    than at the drivers' level; no floating-point arithmetic of its own, so the same bits) or loaded from the
-    machine-code cache."""
+    """The ctypes function of :mod:`physics.codegen.mechanism_run_ir`'s run, compiled once per installation at
+    O2 as the observables' function is (its loops over the rows and points: about 18 us a run of seed case C
+    faster than at the drivers' level; no floating-point arithmetic of its own, so the same bits) or loaded from
+    the machine-code cache."""
     if not _one_call:
-        from . import native  # noqa: PLC0415  (the O2 pipeline and target machine of the specialised code)
-        from .machine_code import compile_module, llvm_binding, sources_digest  # noqa: PLC0415
-        from .native_integrators import _lock as compile_lock  # noqa: PLC0415
-        from .native_integrators import ir_builder  # noqa: PLC0415
-
-        p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
-        signature = ctypes.CFUNCTYPE(i, p, p, d, d, d, d, d, d, i, i, d)
-        with compile_lock, native._lock:
-            if not _one_call:
-                llvm_binding()
-                engine = compile_module(ir_builder("mechanism_run_ir", "run_ir"), "driver-O2", native._optimize,
-                                        native._target_machine, key=f"mechanism_run\n{sources_digest()}")
-                _one_call.extend([signature(engine.get_function_address("mechanism_run")), engine])
+        _compile_one_call()
     return _one_call[0]
+
+
+def _solve_function():
+    """The ctypes function of the module's ``mechanism_solve_samples`` (:func:`solve_samples`)."""
+    if not _one_call:
+        _compile_one_call()
+    return _one_call[1]
+
+
+def _compile_one_call() -> None:
+    from . import native  # noqa: PLC0415  (the O2 pipeline and target machine of the specialised code)
+    from .machine_code import compile_module, llvm_binding, sources_digest  # noqa: PLC0415
+    from .native_integrators import _lock as compile_lock  # noqa: PLC0415
+    from .native_integrators import ir_builder  # noqa: PLC0415
+
+    p, i, d = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+    run_signature = ctypes.CFUNCTYPE(i, p, p, d, d, d, d, d, d, i, i, d)
+    solve_signature = ctypes.CFUNCTYPE(None, p, p, i, d, d, d, p)
+    with compile_lock, native._lock:
+        if not _one_call:
+            llvm_binding()
+            engine = compile_module(ir_builder("mechanism_run_ir", "run_ir"), "driver-O2", native._optimize,
+                                    native._target_machine, key=f"mechanism_run\n{sources_digest()}")
+            _one_call.extend([run_signature(engine.get_function_address("mechanism_run")),
+                              solve_signature(engine.get_function_address("mechanism_solve_samples")), engine])
 
 
 # True: the driver and the samples' calls in one native call (mechanism_run_ir); False: each from Python, the
@@ -207,7 +242,7 @@ PLAN_SLOTS = (
     "y0", "t_eval", "params", "driver_scratch", "y_out", "x", "v", "zeros", "solve_params", "kinematics_params",
     "solve_scratch", "full", "condition", "pose_jacobian", "pose_vector", "matrices_at", "rhs", "points",
     "velocities", "energies", "reactions", "scratch", "rows", "count",
-    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1",
+    "run_first_0", "run_count_0", "run_at_0", "run_first_1", "run_count_1", "run_at_1", "solve_samples",
 )
 MAX_RUNS = 2  # runs of points a run copies out on their own (the chain's joints and its traced point)
 _lock = threading.Lock()
@@ -222,7 +257,8 @@ class RunObservables:
     ``reactions (T, R)`` of the plan, and ``runs``: each run of points asked for, ``(T, count, 2)`` on its own
     (C-contiguous, no copy needed)."""
 
-    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions", "runs")
+    __slots__ = ("full", "condition", "matrices", "points", "velocities", "energies", "reactions", "runs", "buffer",
+                 "rows")
     full: np.ndarray
     condition: np.ndarray
     matrices: np.ndarray
@@ -231,19 +267,24 @@ class RunObservables:
     energies: np.ndarray
     reactions: np.ndarray
     runs: tuple
+    buffer: np.ndarray  # the run's buffer (solve_samples' ``values``) and its rows filled
+    rows: int
 
 
 def run_shape(compiled, integration_layout: np.ndarray, plan: ObservablesPlan, method: str, samples: int,
-              n_params: int, matrices: bool, runs: tuple = ()) -> _Run:
+              n_params: int, matrices: bool, runs: tuple = (), eager: ObservablesPlan | None = None) -> _Run:
     """The worked-out shape of a run of ``compiled`` (:class:`_Run`) for :func:`observe`: remembered per system,
     layout, plan and shape, so a caller that runs the same request again may keep it instead of asking again.
-    ``runs``: ``(first, count)`` of up to :data:`MAX_RUNS` runs of the plan's points to copy out on their own."""
+    ``runs``: ``(first, count)`` of up to :data:`MAX_RUNS` runs of the plan's points to copy out on their own.
+    ``eager``: the plan the run itself reads, ``plan``'s points without its reaction rows (mode 0 or 3); the
+    samples' solve, ``plan``'s reactions and ``matrices`` are then :func:`solve_samples`' work, for whoever reads
+    them (None: the run does all of it)."""
     runs = tuple((int(first), int(count)) for first, count in runs)
-    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices), runs)
+    key = (id(compiled), id(integration_layout), id(plan), method, samples, n_params, bool(matrices), runs, id(eager))
     entry = _runs.get(key)
     if entry is None or entry.compiled is not compiled or entry.integration_layout is not integration_layout \
-            or entry.plan is not plan:
-        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices), runs)
+            or entry.plan is not plan or entry.eager is not eager:
+        entry = _Run(compiled, integration_layout, plan, method, samples, n_params, bool(matrices), runs, eager)
         with _lock:
             if len(_runs) >= MAX_SHAPES:
                 _runs.clear()
@@ -370,15 +411,62 @@ def run_observables(entry: _Run, values: np.ndarray, rows: int) -> RunObservable
     out.reactions = values[at.reactions:at.reactions + rows * reactions].reshape(rows, reactions)
     out.runs = tuple(values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)
                      for start, (_, run_count) in zip(at.runs, entry.runs))
+    out.buffer, out.rows = values, rows
     return out
+
+
+def _samples_pass(entry: _Run, solve, plan: ObservablesPlan, base: int, rows: int, alpha, beta, g: float,
+                  points: int, velocities: int, energies: int) -> None:
+    """The samples' calls of a run's buffer at ``base`` whose ``rows`` rows of ``x``, ``v`` and zero times are
+    written: ``solve`` (None: no solve, nor the matrices), the kinematics (when ``plan`` reads it) and ``plan``'s
+    observables, its points, velocities and energies written at the given addresses."""
+    at = entry.at
+    address = entry.address
+    if solve is not None:
+        solve(entry.assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
+              float(alpha), float(beta), base + 8 * at.full, base + 8 * at.condition, base + 8 * at.solve_scratch)
+    size = entry.size if plan.mode else 0
+    n = entry.n
+    if size and rows:
+        entry.kinematics_call(entry.kinematics, address, rows, base + 8 * at.zeros, base + 8 * at.x, base + 8 * at.v,
+                              base + 8 * at.kinematics_params, size * n, pose_width(size), base + 8 * at.pose_jacobian,
+                              base + 8 * at.pose_vector)
+    if solve is not None and entry.matrices and rows:
+        entry.assemble_call(entry.assemble, address, rows, base + 8 * at.x, base + 8 * at.v,
+                            base + 8 * at.solve_params, base + 8 * at.matrices, base + 8 * at.rhs)
+    shape, indices, constants = plan.addresses
+    entry.observables_call(shape, indices, constants, rows, plan.mode, float(g), base + 8 * at.x, base + 8 * at.v,
+                           n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
+                           base + 8 * at.scratch, points, velocities, energies, base + 8 * at.reactions)
+
+
+def solve_samples(entry: _Run, solve, values: np.ndarray, rows: int, alpha, beta, g: float) -> None:
+    """What a run of an ``eager`` shape (:func:`run_shape`) left to its reader, done in its buffer ``values``
+    (the first ``rows`` rows filled): every sample's solve by ``solve`` (the run's), its kinematics and matrices
+    when the shape has them, and the full plan's reaction rows; :func:`run_observables`' ``full``,
+    ``condition``, ``matrices`` and ``reactions`` read them afterwards. The same functions with the same
+    arguments as a run that solves its samples itself (so the same bits); the points, velocities and energies
+    the run already wrote are left as they are (the full plan's go to a scratch array)."""
+    if entry.eager is None:
+        raise ValueError("this run's shape solves its samples itself")
+    if not rows:
+        return
+    count = entry.plan.count
+    spare = np.empty(4 * rows * count + 3 * rows)
+    spare_base = spare.ctypes.data
+    if ONE_CALL:  # one native call, the fused solve and kinematics where the system has them
+        _solve_function()(entry.solve_plan_address(solve), values.ctypes.data, int(rows), float(alpha), float(beta),
+                          float(g), spare_base)
+    else:
+        _samples_pass(entry, solve, entry.plan, values.ctypes.data, rows, alpha, beta, g, spare_base,
+                      spare_base + 8 * 2 * rows * count, spare_base + 8 * 4 * rows * count)
 
 
 def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: int, y_out: np.ndarray, t0: float,
                          t_end: float, rtol, atol, alpha, beta, project, max_steps, g: float):
     """What the one call does, a native call at a time from Python: ``(status, rows, states)``."""
-    n, samples, at, matrices = entry.n, entry.samples, entry.at, entry.matrices
-    assemble = entry.assemble
-    status = driver(assemble, entry.integration_address, base + 8 * at.y0, t0, t_end,
+    n, samples, at = entry.n, entry.samples, entry.at
+    status = driver(entry.assemble, entry.integration_address, base + 8 * at.y0, t0, t_end,
                     base + 8 * at.t_eval, samples, base + 8 * at.params, float(rtol), float(atol), float(alpha),
                     float(beta), int(bool(project) and entry.constraints != 0),  # the kernel's _projecting
                     int(max_steps), base + 8 * at.y_out, base + 8 * at.driver_scratch, base, base + 24)
@@ -390,23 +478,10 @@ def _observe_from_python(entry: _Run, driver, solve, values: np.ndarray, base: i
     # x then v (T, n) each, one after the other in the buffer: both from the states [x, v] in one copy
     values[at.x:at.zeros].reshape(2, samples, n)[:, :rows] = states.reshape(rows, 2, n).transpose(1, 0, 2)
     values[at.zeros:at.zeros + rows] = 0.0
-    address = entry.address
-    solve(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params, float(alpha),
-          float(beta), base + 8 * at.full, base + 8 * at.condition, base + 8 * at.solve_scratch)
-    size = entry.size
-    if size and rows:
-        entry.kinematics_call(entry.kinematics, address, rows, base + 8 * at.zeros, base + 8 * at.x, base + 8 * at.v,
-                              base + 8 * at.kinematics_params, size * n, pose_width(size), base + 8 * at.pose_jacobian,
-                              base + 8 * at.pose_vector)
-    if matrices and rows:
-        entry.assemble_call(assemble, address, rows, base + 8 * at.x, base + 8 * at.v, base + 8 * at.solve_params,
-                            base + 8 * at.matrices, base + 8 * at.rhs)
+    eager = entry.eager  # (an eager run: its plan's points and energies alone, the solve left to solve_samples)
+    _samples_pass(entry, solve if eager is None else None, entry.plan if eager is None else eager, base, rows, alpha,
+                  beta, g, base + 8 * at.points, base + 8 * at.velocities, base + 8 * at.energies)
     plan = entry.plan
-    shape, indices, constants = plan.addresses
-    entry.observables_call(shape, indices, constants, rows, entry.tree, float(g), base + 8 * at.x, base + 8 * at.v,
-                           n, base + 8 * at.full, base + 8 * at.pose_jacobian, base + 8 * at.pose_vector,
-                           base + 8 * at.scratch, base + 8 * at.points, base + 8 * at.velocities,
-                           base + 8 * at.energies, base + 8 * at.reactions)
     points = values[at.points:at.points + rows * 2 * plan.count].reshape(rows, plan.count, 2)
     for start, (first, run_count) in zip(at.runs, entry.runs):
         values[start:start + rows * 2 * run_count].reshape(rows, run_count, 2)[:] = points[:, first:first + run_count]

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable
 from operator import is_ as _is
 from typing import TYPE_CHECKING
 
@@ -51,6 +52,7 @@ import numpy as np
 from ..codegen import mechanism_run, native_integrators
 from ..codegen.cache import CompiledSystem, load_generated
 from ..codegen.mechanism_observables import ObservablesPlan, PathPoints
+from ..codegen.mechanism_run import solve_samples
 from ..codegen.mechanism_samples import generic_solve, mechanism_samples
 from ..model import Chain, Settings
 from ..registry import INTEGRATORS, METHODS, SCIPY
@@ -58,7 +60,7 @@ from ..status import Status
 from . import chain_record
 from .chain_prepared import chain_arrays, sample_times, stabilization_gains, trace_point
 from .chain_record import ChainRecord
-from .trajectory import Trajectory
+from .trajectory import OnRequest, Trajectory
 
 if TYPE_CHECKING:  # the mechanism package: loaded when a route is first derived, or its geometry asked for
     from ..mechanism.description import Mechanism
@@ -325,6 +327,10 @@ def simulate_on_mechanism(chain: Chain, theta0: np.ndarray, omega0: np.ndarray, 
 # tests compare the two).
 ONE_BUFFER_RUN = True
 _ONE_BUFFER_KERNELS = ("integrate_rk45", "integrate_dop853")
+# True: the one-buffer run integrates and computes the points and energies; every sample's solve (the reactions,
+# the condition) waits for a reader (_SolvedWhenRead: the same functions, the same bits). False: the run solves
+# every sample itself (the tests compare the two). A call made under one setting keeps it (clear _calls).
+SOLVE_WHEN_READ = True
 _NO_CONDITION = np.empty(0)
 
 
@@ -363,13 +369,16 @@ def _run_in_one_buffer(chain: Chain, settings: Settings, route: ChainAsMechanism
     if status == Status.OK and len(t) < len(t_eval):
         status = int(Status.NOT_FINITE)
     detail = _compiled_detail(settings, status)
+    solved = _SolvedWhenRead(call, arrays.buffer, arrays.rows, alpha, beta, chain.g) if call.shape.eager else None
     if not len(t):
         trajectory = _empty_trajectory(chain, settings, route, call.n)
     elif call.in_order:  # the tree's order is the chain's (an open chain): copies of the columns, no fancy index
         n = call.n
-        trajectory = _trajectory_from(chain, settings, route, t, states[:, :n].copy(), states[:, n:].copy(), arrays)
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, :n].copy(), states[:, n:].copy(), arrays,
+                                      solved)
     else:
-        trajectory = _trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays)
+        trajectory = _trajectory_from(chain, settings, route, t, states[:, columns[1]], states[:, columns[2]], arrays,
+                                      solved)
     trajectory.status = status
     trajectory.message = "ok" if status == Status.OK and not detail else Status.describe(status, t_reached, detail)
     trajectory.n_steps = n_steps
@@ -420,10 +429,13 @@ class _Request:
         at = entry.at
         if status == Status.OK and rows < prepared.samples:
             status = int(Status.NOT_FINITE)
+        numbers = prepared.numbers  # (t0, t_end, rtol, atol, alpha, beta, project, max_steps, g)
+        solved = (_SolvedWhenRead(call, values, rows, numbers[4], numbers[5], numbers[8]) if entry.eager is not None
+                  else None)
         if not rows:
             trajectory = _empty_trajectory(chain, settings, call.route, call.n)
         elif rows == prepared.samples and self.open_chain is not None:
-            trajectory = self.open_chain.trajectory(settings, values)
+            trajectory = self.open_chain.trajectory(settings, values, solved)
         else:
             arrays = mechanism_run.run_observables(entry, values, rows)
             t = values[at.t_eval:at.t_eval + rows]
@@ -436,7 +448,7 @@ class _Request:
                 states = values[start:end].reshape(prepared.samples, 2 * n)[:rows]
                 columns = call.columns
                 theta, omega = states[:, columns[1]], states[:, columns[2]]
-            trajectory = _trajectory_from(chain, settings, call.route, t, theta, omega, arrays)
+            trajectory = _trajectory_from(chain, settings, call.route, t, theta, omega, arrays, solved)
         trajectory.status = status
         trajectory.message = "ok" if status == Status.OK else Status.describe(status, t_reached, "")
         trajectory.n_steps = n_steps
@@ -468,18 +480,21 @@ class _OpenChainRun:
         self.reactions = (at.reactions, at.reactions + samples * 2 * n)
         self.condition = (at.condition, at.condition + samples)
 
-    def trajectory(self, settings: Settings, values: np.ndarray) -> Trajectory:
+    def trajectory(self, settings: Settings, values: np.ndarray, solved: _SolvedWhenRead | None) -> Trajectory:
         count, n = self.samples, self.n
         joints = values[self.joints[0]:self.joints[1]].reshape(count, n + 1, 2)
         kinetic, potential, energy = values[self.energies[0]:self.energies[1]].reshape(3, count)
-        joint_reactions = values[self.reactions[0]:self.reactions[1]].reshape(count, n, 2)
+        joint_view = values[self.reactions[0]:self.reactions[1]].reshape(count, n, 2)
+        condition_view = values[self.condition[0]:self.condition[1]]
+        joint_reactions = joint_view if solved is None else solved.view(joint_view)
+        condition = condition_view if solved is None else solved.view(condition_view)
         return Trajectory.of_chain(
             settings.method, settings.integrator, values[self.t[0]:self.t[1]],
             values[self.trace[0]:self.trace[1]].reshape(count, 2), kinetic, potential, energy,
-            values[self.condition[0]:self.condition[1]], values[self.x[0]:self.x[1]].reshape(count, n),
+            condition, values[self.x[0]:self.x[1]].reshape(count, n),
             values[self.v[0]:self.v[1]].reshape(count, n), joints, joints[:, -1, :],
-            joint_reactions if self.own_reactions else np.zeros((count, 0, 2)), np.zeros((count, 0)), np.zeros((count, 0)),
-            np.zeros((count, 0)), joint_reactions, self.explicit)
+            joint_reactions if self.own_reactions else np.zeros((count, 0, 2)), np.zeros((count, 0)),
+            np.zeros((count, 0)), np.zeros((count, 0)), joint_reactions, self.explicit)
 
 
 # (id(chain), id(settings)) -> the request (it holds both, and checks the bars and t_start)
@@ -524,7 +539,8 @@ def _one_buffer_call(key: tuple, chain: Chain, settings: Settings, route: ChainA
     plan = _chain_plan(chain, settings, route)
     n = chain.n  # the joints O, D_1 .. D_n and the traced point copied out on their own (_chain_points' order)
     call.shape = run_shape(compiled, compiled.integration_layout, plan, integrator, samples, n_params, chain.pinned,
-                           runs=((n, n + 1), (2 * n + 1, 1)))
+                           runs=((n, n + 1), (2 * n + 1, 1)),
+                           eager=_eager_plan(chain, settings, route) if SOLVE_WHEN_READ else None)
     if driver is not None and specialised is not None:
         with _plans_lock:
             if len(_calls) >= MAX_ROUTES:
@@ -602,13 +618,17 @@ def _trajectory_of(chain: Chain, settings: Settings, route: ChainAsMechanism, pa
 
 
 def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, t: np.ndarray, theta: np.ndarray,
-                     omega: np.ndarray, arrays) -> Trajectory:
+                     omega: np.ndarray, arrays, solved: _SolvedWhenRead | None = None) -> Trajectory:
     """The Trajectory of at least one sample from the samples' arrays (``full``, ``condition``, ``matrices``
     and the chain plan's ``points``, ``velocities``, ``energies`` and ``reactions``), the chain's names given
-    to the plan's rows and points."""
+    to the plan's rows and points. ``solved``: the samples are solved when a reader first asks (the reactions
+    and the condition given as OnRequest); None: they are solved."""
     count, n = theta.shape[0], chain.n
     rows = arrays.reactions  # pins O, J1 .. J(n-1), x then y each, then a pinned chain's H
-    joint_reactions = rows[:, :2 * n].reshape(count, n, 2)
+    joint_view = rows[:, :2 * n].reshape(count, n, 2)
+    joint_reactions = joint_view if solved is None else solved.view(joint_view)
+    tip_reaction: np.ndarray | OnRequest
+    condition: np.ndarray | OnRequest
     runs = getattr(arrays, "runs", ())
     if runs:  # the one-buffer run copied them out on their own (_one_buffer_call asks for these two runs)
         joints, trace_xy = runs[0], runs[1].reshape(count, 2)
@@ -618,21 +638,66 @@ def _trajectory_from(chain: Chain, settings: Settings, route: ChainAsMechanism, 
     kinetic, potential, energy = arrays.energies
     reactions = joint_reactions if route.own_reactions else np.zeros((count, 0, 2))
     if chain.pinned:
-        tip_reaction = rows[:, 2 * n:]
+        tip_reaction = rows[:, 2 * n:] if solved is None else solved.view(rows[:, 2 * n:])
         constraint_xy = joints[:, -1, :] - np.asarray(chain.pin)
         constraint_velocity = np.ascontiguousarray(arrays.velocities[:, 2 * n, :])
-        with np.errstate(all="ignore"):
-            condition = np.linalg.cond(arrays.matrices)
+        matrices = arrays.matrices
+        condition = _condition(matrices) if solved is None else solved.of(lambda: _condition(matrices))
     else:
         tip_reaction = np.zeros((count, 0))
         constraint_xy = np.zeros((count, 0))
         constraint_velocity = np.zeros((count, 0))
-        condition = arrays.condition
+        condition = arrays.condition if solved is None else solved.view(arrays.condition)
     return Trajectory.of_chain(
         settings.method, settings.integrator, t, trace_xy, kinetic, potential, energy, condition, theta, omega,
         joints, joints[:, -1, :], reactions, tip_reaction, constraint_xy, constraint_velocity, joint_reactions,
         settings.trace is not None,
     )
+
+
+def _condition(matrices: np.ndarray) -> np.ndarray:
+    """A pinned chain's condition: every sample's matrix's 2-norm condition number."""
+    with np.errstate(all="ignore"):
+        return np.linalg.cond(matrices)
+
+
+class _SolvedWhenRead:
+    """A compiled run's samples, solved when a reader first asks for what the solve gives (the reactions, the
+    joint reactions, a pinned chain's tip reaction, the condition): a run of an eager shape
+    (:func:`~physics.codegen.mechanism_run.run_shape`) integrates and computes the points and energies only, and
+    :func:`~physics.codegen.mechanism_run.solve_samples` then solves every sample in the run's buffer, by the
+    same functions with the same arguments, so the same bits as a run that solved them itself. One solve
+    serves every such field of the run (the first reader's, under a lock)."""
+
+    __slots__ = ("call", "values", "rows", "alpha", "beta", "g", "solved")
+
+    def __init__(self, call: _OneBufferCall, values: np.ndarray, rows: int, alpha: float, beta: float,
+                 g: float) -> None:
+        self.call, self.values, self.rows, self.alpha, self.beta, self.g = call, values, rows, alpha, beta, g
+        self.solved = False
+
+    def _solve(self) -> None:
+        with _solve_lock:
+            if not self.solved:
+                solve_samples(self.call.shape, self.call.solve, self.values, self.rows, self.alpha, self.beta, self.g)
+                self.solved = True
+
+    def view(self, part: np.ndarray) -> OnRequest:
+        """``part`` (a view of the run's buffer) once the samples are solved."""
+        def read() -> np.ndarray:
+            self._solve()
+            return part
+        return OnRequest(read)
+
+    def of(self, compute: Callable[[], np.ndarray]) -> OnRequest:
+        """``compute()`` once the samples are solved."""
+        def read() -> np.ndarray:
+            self._solve()
+            return compute()
+        return OnRequest(read)
+
+
+_solve_lock = threading.Lock()
 
 
 def _empty_trajectory(chain: Chain, settings: Settings, route: ChainAsMechanism, n: int) -> Trajectory:
@@ -678,6 +743,29 @@ def _chain_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> Ob
     plan = ObservablesPlan(route.inverse, acceleration_index, route.mass_diagonal, route.constant_force,
                            route.damping_matrix, record.linear, record.unknowns_map, _chain_points(chain, trace, route),
                            tree=not route.own_reactions, turns_in_pose=_turns_in_pose(compiled, route))
+    with _plans_lock:
+        if len(_plans) >= MAX_ROUTES:
+            _plans.pop(next(iter(_plans)))
+        _plans[key] = (route, plan)
+    return plan
+
+
+def _eager_plan(chain: Chain, settings: Settings, route: ChainAsMechanism) -> ObservablesPlan:
+    """:func:`_chain_plan` without its reaction rows, what a compiled run computes of every sample by itself: the
+    same points and energies, each bar's cosine and sine evaluated from its angle (the run calls neither the
+    solve nor the kinematics; the reactions and the condition are :func:`~physics.codegen.mechanism_run.
+    solve_samples`' work when a reader asks, :class:`_SolvedWhenRead`)."""
+    asked = settings.trace
+    key = (id(route), "eager") if asked is None else (id(route), "eager", asked.bar, asked.along, asked.across)
+    entry = _plans.get(key)
+    if entry is not None and entry[0] is route:
+        return entry[1]
+    full = _chain_plan(chain, settings, route)
+    trace = trace_point(chain, settings, chain_arrays(chain))
+    none = np.zeros((full.bodies * 3, 0))
+    plan = ObservablesPlan(route.inverse, np.zeros(chain.n, dtype=np.int64), route.mass_diagonal, route.constant_force,
+                           route.damping_matrix, none, np.zeros((full.unknowns, 0)), _chain_points(chain, trace, route),
+                           tree=False, turns_in_pose=False)
     with _plans_lock:
         if len(_plans) >= MAX_ROUTES:
             _plans.pop(next(iter(_plans)))

@@ -42,7 +42,10 @@ class OnRequest:
     A mechanism's run leaves two of its fields to whoever reads them (:mod:`physics.mechanism.engine`): the
     condition of every sample's constraint Jacobian (a batched SVD) and a tree formulation's reaction rows (a
     batched least-squares solve), together more than half of a warm short run's time; the integration and the
-    CSV/JSON columns do not need them until a reader asks. ``compute`` returns exactly the array the run would
+    CSV/JSON columns do not need them until a reader asks. A chain's compiled run leaves its reactions, joint
+    reactions, tip reaction and condition likewise (every sample's solve of its system, a sixth of seed case C's
+    run: :mod:`physics.simulate.mechanism_route`): a reader of the motion, the tip's path or the energy reads
+    none of them. ``compute`` returns exactly the array the run would
     have stored (the same function of the same inputs), so reading the field gives the same bits as before."""
 
     __slots__ = ("compute",)
@@ -134,14 +137,15 @@ class Trajectory:
     omega: np.ndarray = field(default_factory=_absent)
     joints: np.ndarray = field(default_factory=_absent)
     tip_xy: np.ndarray = field(default_factory=_absent)
-    reactions: np.ndarray = field(default_factory=_absent)
-    tip_reaction: np.ndarray = field(default_factory=_absent)
+    # (a chain's run on the compiled route gives these three as OnRequest: every sample's solve when first read)
+    reactions: _ComputedWhenRead = _ComputedWhenRead(empty=(0, 0))
+    tip_reaction: _ComputedWhenRead = _ComputedWhenRead(empty=(0, 0))
     constraint_xy: np.ndarray = field(default_factory=_absent)
     constraint_velocity: np.ndarray = field(default_factory=_absent)
     stats: dict = field(default_factory=dict)
     # (T, n, 2) for every method: from the accelerations by Newton's law per bar (physics/chain_reactions.py),
     # equal to the DAE's own ``reactions`` where it has them; not part of the CSV/JSON columns.
-    joint_reactions: np.ndarray = field(default_factory=_absent)
+    joint_reactions: _ComputedWhenRead = _ComputedWhenRead(empty=(0, 0))
     trace_is_explicit: bool = False  # open chains list trace_x/y only when a point other than the tip was asked
     # a general mechanism's
     q: np.ndarray = field(default_factory=_absent)
@@ -171,10 +175,10 @@ class Trajectory:
 
     @classmethod
     def of_chain(cls, method: str, integrator: str, t: np.ndarray, trace_xy: np.ndarray, kinetic: np.ndarray,
-                 potential: np.ndarray, energy: np.ndarray, condition: np.ndarray, theta: np.ndarray,
-                 omega: np.ndarray, joints: np.ndarray, tip_xy: np.ndarray, reactions: np.ndarray,
-                 tip_reaction: np.ndarray, constraint_xy: np.ndarray, constraint_velocity: np.ndarray,
-                 joint_reactions: np.ndarray, trace_is_explicit: bool) -> Trajectory:
+                 potential: np.ndarray, energy: np.ndarray, condition: np.ndarray | OnRequest, theta: np.ndarray,
+                 omega: np.ndarray, joints: np.ndarray, tip_xy: np.ndarray, reactions: np.ndarray | OnRequest,
+                 tip_reaction: np.ndarray | OnRequest, constraint_xy: np.ndarray, constraint_velocity: np.ndarray,
+                 joint_reactions: np.ndarray | OnRequest, trace_is_explicit: bool) -> Trajectory:
         """A chain's run, the same object as ``Trajectory(...)`` with these fields (every one given with its
         ``T`` rows) gives, made without the dataclass's ``__init__``: its defaults, its default factories and
         ``__post_init__``'s check of twelve fields are a tenth of a short compiled run's time around its
@@ -186,8 +190,9 @@ class Trajectory:
             "method": method, "integrator": integrator, "t": t, "trace_xy": trace_xy, "kinetic": kinetic,
             "potential": potential, "energy": energy, "_condition_value": condition, "status": Status.OK,
             "message": "ok", "n_steps": 0, "n_rhs": 0, "theta": theta, "omega": omega, "joints": joints,
-            "tip_xy": tip_xy, "reactions": reactions, "tip_reaction": tip_reaction, "constraint_xy": constraint_xy,
-            "constraint_velocity": constraint_velocity, "stats": {}, "joint_reactions": joint_reactions,
+            "tip_xy": tip_xy, "_reactions_value": reactions, "_tip_reaction_value": tip_reaction,
+            "constraint_xy": constraint_xy, "constraint_velocity": constraint_velocity, "stats": {},
+            "_joint_reactions_value": joint_reactions,
             "trace_is_explicit": trace_is_explicit, "q": np.zeros((count, 0)), "qdot": np.zeros((count, 0)),
             "coordinate_names": (), "_reaction_rows_value": np.zeros((count, 0)), "row_names": (),
             "residual": np.zeros(0), "stabilization": "", "coordinates": "", "integrated": True,
@@ -197,7 +202,7 @@ class Trajectory:
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled (a study's worker process, a copy) with every field computed: a computation is not data."""
-        for name in ("condition", "reaction_rows"):
+        for name in _ON_REQUEST:
             getattr(self, name)
         return self.__dict__
 
@@ -330,6 +335,10 @@ _EMPTY_FIELDS = tuple(
      width)
     for name, width in _EMPTY_WIDTH.items()
 )
+
+
+# the fields a run may give as OnRequest
+_ON_REQUEST = tuple(name for name, value in vars(Trajectory).items() if isinstance(value, _ComputedWhenRead))
 
 
 class _NamedPoints(Mapping[str, np.ndarray]):

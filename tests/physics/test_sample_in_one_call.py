@@ -86,13 +86,13 @@ def test_observables_reading_the_kinematics_turns_give_the_bits_of_evaluating_th
 
 @pytest.mark.parametrize("preset, links", PRESETS)
 @pytest.mark.parametrize("method", METHODS)
-def test_a_chain_run_takes_the_one_call_and_gives_the_separate_calls_bits(monkeypatch, preset, links, method):
+def test_a_chain_runs_solve_takes_the_one_call_and_gives_the_separate_calls_bits(monkeypatch, preset, links, method):
     monkeypatch.setattr(cache, "SPECIALISE_IN_BACKGROUND", False)  # the specialised pass in place by the third run
     chosen = get_preset(preset, links)
     settings = Settings(method=method, integrator="RK45", rtol=1e-6, atol=1e-6, t_end=1.5, samples=33)
     theta0, omega0 = np.asarray(chosen.theta0, float), np.asarray(chosen.omega0, float)
     for _ in range(3):  # the specialised functions in place by the third run
-        fused = _fields(simulate(chosen.chain, theta0, omega0, settings))
+        fused = _fields(simulate(chosen.chain, theta0, omega0, settings))  # (its columns read: the samples solved)
     compiled = mechanism_route.chain_route(chosen.chain, method, 0.0).compiled
     sample = compiled.compiled_sample_function
     assert sample != 0  # compiled with the specialised samples' pass, from the second run on
@@ -101,10 +101,11 @@ def test_a_chain_run_takes_the_one_call_and_gives_the_separate_calls_bits(monkey
     specialised = compiled.specialised_samples()
     assert specialised is not None and specialised.solve_pose is not None
     assert pose_counterpart(specialised.solve, specialised) is specialised.solve_pose
-    for entry in runs:  # the plan a run with the specialised solve takes now
-        address = entry.plan_address(compiled.specialised_driver("RK45"), specialised.solve)
+    for entry in runs:  # the plan of the samples' solve (a reader's, mechanism_run.solve_samples) takes it
+        address = entry.solve_plan_address(specialised.solve)
         (kept,) = [kept for kept in entry._plans.values() if kept[4] == address]
         assert kept[3][mechanism_run.PLAN_SLOTS.index("sample")] == sample
         assert kept[3][mechanism_run.PLAN_SLOTS.index("solve_pose")] != 0
+        assert kept[3][mechanism_run.PLAN_SLOTS.index("solve_samples")] == 1
     monkeypatch.setattr(mechanism_run, "ONE_CALL", False)  # each native call from Python: solve, then kinematics
     _assert_same(fused, _fields(simulate(chosen.chain, theta0, omega0, settings)))

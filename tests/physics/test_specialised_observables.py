@@ -1,7 +1,8 @@
 """The observables' function specialised for a plan's structure (physics/codegen/mechanism_observables_ir.py
 ``specialised_observables_ir``: the generic function inlined with the plan's sizes and indices as constant tables)
-gives the generic function's bits: every Trajectory field of a chain's run with it in the one native call equals
-the same run with the generic function, byte for byte; it is compiled only from a structure's second request (a
+gives the generic function's bits: every Trajectory field of a chain's run with it in the one native call (and in
+the samples' solve when a reader asks for the reactions) equals the same run with the generic function, byte for
+byte; it is compiled only from a structure's second request (a
 one-off run compiles nothing), one structure's machine code serves every set of its parameters, and its cache key
 names the structure."""
 
@@ -14,7 +15,8 @@ from physics import Settings, get_preset, simulate
 from physics.codegen import cache, machine_code, mechanism_observables
 from physics.simulate import mechanism_route
 
-from .test_route_call_cache import _assert_same, _fields  # every Trajectory field, compared byte for byte
+from .test_route_call_cache import _assert_same
+from .test_solved_when_read import every_field  # every Trajectory field, compared byte for byte
 
 
 @pytest.fixture(autouse=True)
@@ -41,13 +43,15 @@ def test_the_specialised_observables_give_the_generic_bits(monkeypatch, preset, 
                            "samples": 41, **extra})
     theta0, omega0 = np.asarray(chosen.theta0, float), np.asarray(chosen.omega0, float)
     for _ in range(3):  # the structure asked for twice: compiled (or loaded), in place by the third run
-        specialised = _fields(simulate(chosen.chain, theta0, omega0, settings))
+        specialised = every_field(simulate(chosen.chain, theta0, omega0, settings))  # (the samples solved too)
     kept = _kept_run(chosen.chain)
-    assert kept.observables_specialised is not None
+    # the run's plan (points and energies) and its samples' solve's (every reaction row), each specialised
+    assert len(kept._observables_specialised) == 2
+    assert all(made is not None for made in kept._observables_specialised.values())
     monkeypatch.setattr(mechanism_observables, "SPECIALISE_OBSERVABLES", False)
-    monkeypatch.setattr(kept, "observables_specialised", None)
-    generic = _fields(simulate(chosen.chain, theta0, omega0, settings))
-    assert kept.observables_specialised is None
+    monkeypatch.setattr(kept, "_observables_specialised", {})
+    generic = every_field(simulate(chosen.chain, theta0, omega0, settings))
+    assert list(kept._observables_specialised.values()) == [None, None]
     _assert_same(specialised, generic)
 
 
