@@ -127,7 +127,6 @@ class _Run:
         # solve_samples'; the calls from Python keep the generic function, so the tests comparing the two hold
         # the one to the other)
         self._observables_specialised: dict[int, tuple | None] = {}  # id(plan) -> its function, once there
-        self.tree = plan.mode
         # the kinematics in the one call: the eager plan's reading of the turns (mode 3), else every solve's
         self.eager_size = (self.size if eager.mode else 0) if eager is not None else self.size
         self._plans: dict[tuple[int, int, int, int, bool], tuple] = {}

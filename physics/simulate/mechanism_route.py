@@ -684,10 +684,7 @@ class _SolvedWhenRead:
 
     def view(self, part: np.ndarray) -> OnRequest:
         """``part`` (a view of the run's buffer) once the samples are solved."""
-        def read() -> np.ndarray:
-            self._solve()
-            return part
-        return OnRequest(read)
+        return self.of(lambda: part)
 
     def of(self, compute: Callable[[], np.ndarray]) -> OnRequest:
         """``compute()`` once the samples are solved."""

@@ -8,6 +8,7 @@ id that appeared when it connected.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import tempfile
 import time
@@ -39,6 +40,17 @@ def wait_until(predicate, timeout: float = 120.0, interval: float = 0.02) -> boo
             return True
         time.sleep(interval)
     return False
+
+
+def end_group(command, *clients) -> None:
+    """A test's ``finally``: close its websocket clients, then kill the command's whole process group (started
+    with ``start_new_session=True``) if the command still runs, so that a failed test leaves no server behind."""
+    for client in clients:
+        if client is not None:
+            client.close()
+    if command.poll() is None:
+        os.killpg(command.pid, signal.SIGKILL)
+        command.wait(10)
 
 
 @pytest.fixture(scope="module")

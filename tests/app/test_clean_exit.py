@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BrowserStandIn, wait_until
+from conftest import BrowserStandIn, end_group, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 180.0  # s: an empty cache compiles first
@@ -43,11 +43,7 @@ def test_a_signal_to_the_group_ends_the_server_without_warnings(sig, preset, pro
         assert "Traceback" not in err, err[-3000:]
         assert command.returncode == 0, (command.returncode, err[-3000:])
     finally:
-        if client is not None:
-            client.close()
-        if command.poll() is None:
-            os.killpg(command.pid, signal.SIGKILL)
-            command.wait(10)
+        end_group(command, client)
 
 
 def _start(args: list[str], tmp_path) -> subprocess.Popen:
@@ -79,9 +75,7 @@ def test_ctrl_c_while_the_sibling_processes_still_start_prints_no_traceback(tmp_
         assert "Traceback" not in err, err[-3000:]
         assert "leaked" not in err, err[-3000:]
     finally:
-        if command.poll() is None:
-            os.killpg(command.pid, signal.SIGKILL)
-            command.wait(10)
+        end_group(command)
 
 
 def _spawned_children(pid: int) -> list[int]:

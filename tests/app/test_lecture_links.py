@@ -22,7 +22,7 @@ from app.player import SAMPLE_DT
 from app.server import LabServer
 from app.session import VIEWERS_LINK
 from app.share import SETUP_PATH
-from conftest import BrowserStandIn, wait_until
+from conftest import BrowserStandIn, end_group, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 LINK = "preset=double&L1=1.5&theta1=60&method=dae"
@@ -187,8 +187,4 @@ def test_a_lone_sigint_to_the_main_process_of_three_stops_them_all():
         assert command.returncode == 0, (command.returncode, err[-2000:])  # an orderly stop, not the grace timer
         assert "Traceback" not in err, err[-2000:]
     finally:
-        for browser in browsers:
-            browser.close()
-        if command.poll() is None:
-            os.killpg(command.pid, signal.SIGKILL)
-            command.wait(10)
+        end_group(command, *browsers)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BrowserStandIn, wait_until
+from conftest import BrowserStandIn, end_group, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 GONE_WITHIN = 10.0  # s
@@ -90,11 +90,7 @@ def test_a_signal_to_the_command_ends_every_process_it_started(sig):
         assert "Traceback" not in err, err[-3000:]
         assert command.returncode == 0, (command.returncode, err[-2000:])  # an orderly stop, not killed
     finally:
-        if client is not None:
-            client.close()
-        if command.poll() is None:
-            os.killpg(command.pid, signal.SIGKILL)
-            command.wait(10)
+        end_group(command, client)
 
 
 def _pid_namespace_available() -> bool:
@@ -125,9 +121,7 @@ def test_as_pid_1_of_a_container_sigterm_stops_the_server():
         assert wait_until(lambda: _port_free(port), timeout=GONE_WITHIN), f"port {port} still held"
         assert runner.returncode == 0, (runner.returncode, runner.stderr.read()[-2000:])
     finally:
-        if runner.poll() is None:
-            os.killpg(runner.pid, signal.SIGKILL)
-            runner.wait(10)
+        end_group(runner)
 
 
 def _parent(pid: int) -> int:
@@ -157,11 +151,7 @@ def test_a_killed_command_leaves_no_worker_behind():
         assert wait_until(lambda: not any(_alive(p) for p in started), timeout=GONE_WITHIN), (
             [p for p in started if _alive(p)])
     finally:
-        if client is not None:
-            client.close()
-        if command.poll() is None:
-            os.killpg(command.pid, signal.SIGKILL)
-            command.wait(10)
+        end_group(command, client)
 
 
 def _tgkill(pid: int, tid: int, sig: int) -> None:
