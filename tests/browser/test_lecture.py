@@ -87,14 +87,17 @@ def text_sizes(page) -> list[dict]:
     return page.evaluate(PANEL_TEXT_SIZES)
 
 
-def wait_for_panel_width(page, at_least: float) -> float:
+def wait_for_panel_width(page, at_least: float = 0.0, back_to: float | None = None) -> float:
+    """The panel's width once it is at least ``at_least`` px (or within 2 px of ``back_to``): the session's
+    lecture flag changes at once, the page's panel when the browser has applied the server's message."""
     deadline = time.monotonic() + SERVER_TIMEOUT_S
     while time.monotonic() < deadline:
         width = page.locator(snap.CONTROL_PANEL).bounding_box()["width"]
-        if width >= at_least:
+        if (width >= at_least) if back_to is None else abs(width - back_to) <= 2:
             return width
         time.sleep(0.05)
-    raise AssertionError(f"the panel stayed {width:.0f} px wide (wanted at least {at_least:.0f} px)")
+    wanted = f"at least {at_least:.0f}" if back_to is None else f"{back_to:.0f} +- 2"
+    raise AssertionError(f"the panel stayed {width:.0f} px wide (wanted {wanted} px)")
 
 
 def keep_picture(page, name: str) -> None:
@@ -130,7 +133,7 @@ def test_lecture_mode_makes_every_panel_and_chart_text_18px_at_1920(start_lab):
     page.get_by_role("tab", name="Display", exact=True).click()
     page.get_by_label("Lecture mode").uncheck()
     wait_until(lambda: not session.lecture, message="lecture mode off")
-    assert page.locator(snap.CONTROL_PANEL).bounding_box()["width"] == pytest.approx(default_width, abs=2)
+    wait_for_panel_width(page, back_to=default_width)  # raises if it never comes back to the default width
 
 
 def test_a_lecture_link_opens_in_lecture_mode_and_text_follows_the_window(start_lab):
